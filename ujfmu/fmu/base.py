@@ -1,0 +1,177 @@
+"""FMI plumbing shared by every ujfmu FMU (runs inside the FMU: standard library and pythonfmu only).
+
+Each FMU class declares its variables once, as a tuple of :class:`Var` in ``VARIABLES``. That declaration drives
+the pythonfmu registration here and, in ``ujfmu.build``, the units, ranges, output dependencies and
+InitialUnknowns of modelDescription.xml and the FMU's documentation page.
+
+Error handling (pythonfmu maps a Python exception to fmi2Fatal and ``do_step`` returning False to fmi2Discard;
+it has no path to fmi2Error):
+- invalid parameters or start inputs: a log message at fmi2Error naming the variable and its allowed range, then an
+  exception from fmi2ExitInitializationMode, which the host receives as an error status (fmi2Fatal); the objects
+  pythonfmu then releases twice are pinned first (``_PINNED_AFTER_EXCEPTION``), so freeing the instance is safe;
+- a non-finite input or step size, or any exception while stepping: the message is logged at fmi2Error and the
+  step is refused (fmi2Discard); the instance and the host process stay alive.
+"""
+
+import math
+
+from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+from pythonfmu.enums import Fmi2Status
+from pythonfmu.default_experiment import DefaultExperiment
+
+_TYPES = {float: Real, int: Integer, bool: Boolean}
+
+#: Objects pythonfmu 0.7.0 releases twice after a Python exception (once when it turns the exception into
+#: fmi2Fatal, again in fmi2FreeInstance). References held here keep them valid so the host survives.
+_PINNED_AFTER_EXCEPTION = []
+
+
+class Var:
+    """One FMU variable: the single declaration of its name, causality, variability, unit, range and start."""
+
+    __slots__ = ("name", "causality", "variability", "unit", "description", "start", "min", "max",
+                 "depends_on", "type")
+
+    def __init__(self, name, causality, unit, description, start=None, min=None, max=None,
+                 variability=None, depends_on=(), type=float):
+        self.name, self.causality, self.unit, self.description = name, causality, unit, description
+        self.start, self.min, self.max, self.type = start, min, max, type
+        self.depends_on = tuple(depends_on)
+        if variability is None:
+            variability = {"parameter": "fixed"}.get(causality, "continuous" if type is float else "discrete")
+        self.variability = variability
+
+    def range_text(self):
+        """Allowed range in words, for error messages and documentation."""
+        if self.type is bool:
+            return "true or false"
+        lo = "-inf" if self.min is None else f"{self.min:.10g}"
+        hi = "+inf" if self.max is None else f"{self.max:.10g}"
+        unit = "" if self.unit in (None, "1") else f" {self.unit}"
+        return f"[{lo}, {hi}]{unit}"
+
+    def check(self, value):
+        """None if value is admissible, else a message naming the variable and its allowed range."""
+        if self.type is bool:
+            return None
+        if not math.isfinite(value) or (self.min is not None and value < self.min) or \
+                (self.max is not None and value > self.max):
+            return f"{self.name} = {value!r} is outside its allowed range {self.range_text()}"
+        return None
+
+
+def parameter(name, start, unit, description, min=None, max=None, type=float, variability="fixed"):
+    return Var(name, "parameter", unit, description, start, min, max, variability, type=type)
+
+
+def input_(name, start, unit, description, min=None, max=None):
+    return Var(name, "input", unit, description, start, min, max)
+
+
+def output(name, unit, description, depends_on=()):
+    """An output; depends_on names the inputs it depends on directly (its direct feedthrough)."""
+    return Var(name, "output", unit, description, depends_on=depends_on)
+
+
+class UjfmuSlave(Fmi2Slave):
+    """Base of every ujfmu FMU. Subclasses set VARIABLES, DEFAULT_EXPERIMENT, and implement
+    ``initialize(start_time)``, ``compute_outputs()`` and ``advance(t, h)``; ``check_parameters()`` is optional.
+
+    Outputs are computed lazily from the current inputs and state (``compute_outputs`` runs on the first output
+    read after any input changed or a step was taken), so outputs with direct feedthrough are exact at every
+    communication point whatever order the host sets inputs in.
+    """
+
+    PHYSICS = None  # the ujfmu.physics module holding the model's equations (documentation)
+    VARIABLES = ()
+    DEFAULT_EXPERIMENT = (0.0, 1.0, 1e-3)  # start, stop, step
+    author = "ujfmu"
+    license = "MIT"
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.description = next(c.__doc__ for c in type(self).__mro__ if c.__doc__).strip().splitlines()[0]
+        start, stop, step = self.DEFAULT_EXPERIMENT
+        self.default_experiment = DefaultExperiment(start_time=start, stop_time=stop, step_size=step)
+        self._stale = True
+        self._initialized = False  # initialize() has run with the current parameters
+        self._running = False      # past fmi2ExitInitializationMode
+        self._inputs = tuple(v for v in self.VARIABLES if v.causality == "input")
+        self._start_time = 0.0
+        for var in self.VARIABLES:
+            if var.causality == "output":
+                setattr(self, var.name, 0.0)
+                getter, setter = self._output_getter(var.name), None
+            else:
+                setattr(self, var.name, var.type(var.start))
+                getter, setter = None, self._input_setter(var.name, var.type)
+            self.register_variable(_TYPES[var.type](
+                var.name, causality=Fmi2Causality[var.causality],
+                variability=Fmi2Variability[var.variability], description=var.description,
+                getter=getter, setter=setter))
+
+    def _output_getter(self, name):
+        def get():
+            if self._stale:
+                if not self._initialized:  # an output read before fmi2ExitInitializationMode
+                    self.initialize(self._start_time)
+                    self._initialized = True
+                self.compute_outputs()
+                self._stale = False
+            return getattr(self, name)
+        return get
+
+    def _input_setter(self, name, cast):
+        def set_(value):
+            setattr(self, name, cast(value))
+            self._stale = True
+            if not self._running:
+                self._initialized = False
+        return set_
+
+    # --- hooks for the models ---
+    def check_parameters(self):
+        """Model-specific consistency checks; return a list of messages (empty when valid)."""
+        return []
+
+    def initialize(self, start_time):
+        raise NotImplementedError
+
+    def compute_outputs(self):
+        raise NotImplementedError
+
+    def advance(self, t, h):
+        raise NotImplementedError
+
+    # --- FMI life cycle ---
+    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+        self._start_time = start_time
+
+    def exit_initialization_mode(self):
+        problems = [m for m in (v.check(getattr(self, v.name)) for v in self.VARIABLES
+                                if v.causality in ("parameter", "input")) if m]
+        if not problems:
+            problems = self.check_parameters()
+        if problems:
+            message = f"{self.modelName} '{self.instance_name}': invalid parameters: " + "; ".join(problems)
+            self.log(message, Fmi2Status.error)
+            _PINNED_AFTER_EXCEPTION.extend((self, self, type(self), self.log_queue))
+            raise ValueError(message)
+        self.initialize(self._start_time)
+        self._initialized = self._running = self._stale = True
+
+    def do_step(self, current_time, step_size):
+        try:
+            if not (step_size > 0.0 and math.isfinite(step_size)):
+                raise ValueError(f"communication step size = {step_size!r} must be finite and > 0")
+            for var in self._inputs:
+                problem = var.check(getattr(self, var.name))
+                if problem:
+                    raise ValueError(problem)
+            self.advance(current_time, step_size)
+            self._stale = True
+            return True
+        except Exception as exc:  # reported to the host, never raised into it
+            self.log(f"{self.modelName} '{self.instance_name}': step at t = {current_time!r} refused: {exc}",
+                     Fmi2Status.error)
+            return False

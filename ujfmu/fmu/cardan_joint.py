@@ -1,0 +1,95 @@
+"""CardanJoint FMU: one universal joint between a driving and a driven shaft (Feng, Wang, Zhu)."""
+
+import math
+
+from ..physics import cardan
+from .base import UjfmuSlave, input_, output, parameter
+
+_ANGLE = dict(min=-cardan.MAX_ANGLE, max=cardan.MAX_ANGLE)
+_INERTIA = dict(min=0.0, max=1.0e3)
+
+
+class CardanJoint(UjfmuSlave):
+    """Universal (Cardan/Hooke) joint with structural and error misalignment, Feng, Wang, Zhu Eqs. (1)-(10).
+
+    The driving shaft follows the input speed omega_in; the driven shaft follows the joint's exact kinematics,
+    theta2 = theta2(theta1), omega2 = r(theta1)*omega1 with r = K_z/xi^2. The driven-side inertia J2 and the load
+    torque set the transmitted moment, M_z = tau_load + J2*alpha2, alpha2 = r*alpha1 + r'*omega1^2; Eq. (8)/(10)
+    then give the moment vector (M_x, M_y, M_z) in the driven xyz frame and the driving torque
+    tau_in = J1*alpha1 + M (e_n . K) that the joint demands from the driver.
+
+    Driving acceleration from the input speed history: alpha1 is the backward difference of omega_in over the
+    last communication step, (omega_in(t_k) - omega_in(t_k-1)) / h (zero before the first step). Over a step the
+    driving angle is advanced with the input extrapolated linearly, theta1 += omega_in*h + alpha1*h^2/2, which
+    is exact for constant speed and for constant acceleration (Feng's start-up).
+
+    Signs: omega_in, omega_out > 0 turn the shafts the same way; tau_in > 0 is the torque the driver applies in
+    the direction of rotation; tau_load > 0 opposes the driven shaft's rotation; M_z > 0 drives the driven shaft.
+    Lossless: tau_in*omega_in = M_z*omega_out when J1 = J2 = 0.
+    """
+
+    PHYSICS = cardan
+    VARIABLES = (
+        parameter("bend_angle", math.radians(30.0), "rad",
+                  "Structural misalignment phi, C_phi = R_x(phi) (Feng Eq. 1); laboratory model 30 deg", **_ANGLE),
+        parameter("bend_plane_angle", 0.0, "rad",
+                  "Structural misalignment delta, C_delta = R_y(delta) (Feng Eq. 1)", **_ANGLE),
+        parameter("error_angle_beta", math.radians(0.3), "rad",
+                  "Error misalignment beta, C_beta = R_x(-beta) (Feng Eq. 1); laboratory model 0.3 deg", **_ANGLE),
+        parameter("error_angle_gamma", math.radians(0.3), "rad",
+                  "Error misalignment gamma, C_gamma = R_y(-gamma) (Feng Eq. 1); laboratory model 0.3 deg",
+                  **_ANGLE),
+        parameter("J1", 2.0e-7, "kg.m2", "Driving shaft moment of inertia (Feng Eq. 8); laboratory model",
+                  **_INERTIA),
+        parameter("J2", 0.0, "kg.m2",
+                  "Driven-side moment of inertia carried by the joint (0: Feng's massless driven side)", **_INERTIA),
+        parameter("phi_in_start", 0.0, "rad", "Driving shaft angle theta1 at the start time", min=-1.0e6, max=1.0e6),
+        input_("omega_in", 0.0, "rad/s", "Driving shaft angular speed omega1"),
+        input_("tau_load", 0.0, "N.m", "Load torque on the driven shaft (positive opposes its rotation)"),
+        output("omega_out", "rad/s", "Driven shaft angular speed omega2 = r(theta1)*omega1", ("omega_in",)),
+        output("phi_out", "rad", "Driven shaft angle theta2, continuous over revolutions"),
+        output("tau_in", "N.m", "Driving torque T0 demanded from the driver (Feng Eq. 8)",
+               ("omega_in", "tau_load")),
+        output("M_x", "N.m", "Transmitted moment on the driven shaft, x component (Feng Eq. 10)",
+               ("omega_in", "tau_load")),
+        output("M_y", "N.m", "Transmitted moment on the driven shaft, y component (Feng Eq. 10)",
+               ("omega_in", "tau_load")),
+        output("M_z", "N.m", "Transmitted moment on the driven shaft, z (torsional) component (Feng Eq. 10)",
+               ("omega_in", "tau_load")),
+        output("phi_in", "rad", "Driving shaft angle theta1, continuous over revolutions"),
+        output("alpha_in", "rad/s2", "Driving shaft angular acceleration alpha1 estimated from omega_in",
+               ("omega_in",)),
+    )
+    DEFAULT_EXPERIMENT = (0.0, 1.0, 1.0e-3)
+
+    def check_parameters(self):
+        frame = cardan.joint_frame(self.bend_angle, self.bend_plane_angle, self.error_angle_beta,
+                                   self.error_angle_gamma)
+        angle = cardan.shaft_angle(frame)
+        if angle > cardan.MAX_ANGLE:
+            return [f"total shaft angle acos(K_z) = {angle!r} rad from bend_angle, bend_plane_angle, "
+                    f"error_angle_beta, error_angle_gamma is outside its allowed range [0, {cardan.MAX_ANGLE:.10g}] rad"]
+        return []
+
+    def initialize(self, start_time):
+        self._frame = cardan.joint_frame(self.bend_angle, self.bend_plane_angle, self.error_angle_beta,
+                                         self.error_angle_gamma)
+        self._theta1 = self.phi_in_start
+        self._omega_prev = None   # omega_in at the previous communication point
+        self._h_prev = 0.0
+
+    def _alpha1(self):
+        return 0.0 if self._omega_prev is None else (self.omega_in - self._omega_prev) / self._h_prev
+
+    def compute_outputs(self):
+        alpha1 = self._alpha1()
+        (self.tau_in, self.M_x, self.M_y, self.M_z, self.omega_out, _) = cardan.joint_torques(
+            self._frame, self._theta1, self.omega_in, alpha1, self.tau_load, self.J1, self.J2)
+        self.phi_in = self._theta1
+        self.phi_out = cardan.driven_angle(self._frame, self._theta1)
+        self.alpha_in = alpha1
+
+    def advance(self, t, h):
+        alpha1 = self._alpha1()
+        self._theta1 += h * (self.omega_in + 0.5 * alpha1 * h)
+        self._omega_prev, self._h_prev = self.omega_in, h

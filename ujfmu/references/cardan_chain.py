@@ -1,0 +1,174 @@
+"""Monolithic reference for Motor -> CardanJoint -> Load.
+
+Independent of the co-simulation and of ujfmu.physics.cardan:
+- joint kinematics from sympy: e1 = C (-sin t1, cos t1, 0) and K = C e_z with C = R_y(-gamma) R_x(-beta) R_y(delta)
+  R_x(phi) (the matrices that reproduce Feng's Eqs. (1), (9)); theta2 from atan2 of e1's projection (unwrapped),
+  the velocity ratio r = d(theta2)/d(theta1) and r' by symbolic differentiation (not the model's K_z/xi^2 identity);
+- the transmitted moment from numpy cross products, e_n = e1 x e2 (Eqs. 3-4, 10);
+- the coupled system as one ODE, Lagrange with T = (J_m + J1 + J2 r^2) omega1^2 / 2:
+      (J_m + J1 + J2 r^2) alpha1 = tau_motor - J2 r r' omega1^2 - r tau_load(r omega1)
+  with the driven angle integrated as a state (d theta2/dt = r omega1), the PI law with anti-windup written out
+  again here, solved with scipy DOP853 at rtol 1e-11 and split at profile corners;
+- with an ideal speed source, closed form: theta1, omega1, alpha1 from the profile.
+"""
+
+import functools
+
+import numpy as np
+import sympy as sp
+from scipy.integrate import solve_ivp
+
+RTOL, ATOL = 1e-11, 1e-12
+
+
+@functools.lru_cache(maxsize=None)
+def _kinematics():
+    t1, phi, delta, beta, gamma = sp.symbols("theta1 phi delta beta gamma", real=True)
+
+    def rx(a):
+        return sp.Matrix([[1, 0, 0], [0, sp.cos(a), -sp.sin(a)], [0, sp.sin(a), sp.cos(a)]])
+
+    def ry(a):
+        return sp.Matrix([[sp.cos(a), 0, sp.sin(a)], [0, 1, 0], [-sp.sin(a), 0, sp.cos(a)]])
+
+    c = ry(-gamma) * rx(-beta) * ry(delta) * rx(phi)
+    e1 = c * sp.Matrix([-sp.sin(t1), sp.cos(t1), 0])
+    k = c * sp.Matrix([0, 0, 1])
+    theta2 = sp.atan2(-e1[0], e1[1])
+    r = sp.diff(theta2, t1)
+    dr = sp.diff(r, t1)
+    args = (t1, phi, delta, beta, gamma)
+    return (sp.lambdify(args, list(e1), "numpy"), sp.lambdify(args, list(k), "numpy"),
+            sp.lambdify(args, r, "numpy"), sp.lambdify(args, dr, "numpy"))
+
+
+class JointKinematics:
+    def __init__(self, angles):
+        self.angles = angles
+        self._e1, self._k, self._r, self._dr = _kinematics()
+
+    def ratio(self, theta1):
+        return self._r(theta1, *self.angles), self._dr(theta1, *self.angles)
+
+    def driven_angle(self, theta1):
+        """theta2 by atan2 of the pin projection, unwrapped against theta1 (for the initial value)."""
+        e1 = self._e1(theta1, *self.angles)
+        raw = np.arctan2(-np.asarray(e1[0]), np.asarray(e1[1]))
+        return theta1 + (raw - theta1 + np.pi) % (2 * np.pi) - np.pi
+
+    def moment(self, theta1, m_z):
+        """(M_x, M_y) from Eq. (10): M = M_z / e_n,z along e_n = e1 x e2, e2 = e3 x e1 / |e3 x e1|."""
+        e1 = np.array(np.broadcast_arrays(*self._e1(theta1, *self.angles)))
+        e3 = np.array([0.0, 0.0, 1.0])[:, None] * np.ones_like(e1[0])
+        e2 = np.cross(e3, e1, axis=0)
+        e2 /= np.linalg.norm(e2, axis=0)
+        en = np.cross(e1, e2, axis=0)
+        m = m_z / en[2]
+        return m * en[0], m * en[1]
+
+
+def _profile(p, t):
+    """Speed reference (omega, alpha, angle) of the Motor FMU's profiles, written out independently."""
+    t = np.asarray(t, dtype=float)
+    prof, w_set, acc, t_step, w0 = p["profile"], p["omega_set"], p["accel"], p["t_step"], p["omega_initial"]
+    if prof == 1:
+        te = w_set / acc
+        up = t < te
+        return (np.where(up, acc * t, w_set), np.where(up, acc, 0.0),
+                np.where(up, 0.5 * acc * t**2, 0.5 * acc * te**2 + w_set * (t - te)))
+    if prof == 2:
+        before = t < t_step
+        return (np.where(before, w0, w_set), np.zeros_like(t),
+                np.where(before, w0 * t, w0 * t_step + w_set * (t - t_step)))
+    return np.full_like(t, w_set), np.zeros_like(t), w_set * t
+
+
+def _corners(p, t0, t1):
+    if p["profile"] == 1:
+        cuts = [p["omega_set"] / p["accel"]]
+    elif p["profile"] == 2:
+        cuts = [p["t_step"]]
+    else:
+        cuts = []
+    return [t0] + [c for c in cuts if t0 < c < t1] + [t1]
+
+
+def _load_torque(p, w):
+    mag = np.sqrt(w * w + p["omega_smooth"] ** 2)
+    return p["T0"] * w / mag + p["c1"] * w + p["c2"] * w * mag
+
+
+def generate(scenario):
+    """Reference for a scenario with components motor (Motor), joint (CardanJoint), load (Load)."""
+    pm, pj, pl = (scenario.parameters_with_defaults(c) for c in ("motor", "joint", "load"))
+    kin = JointKinematics((pj["bend_angle"], pj["bend_plane_angle"], pj["error_angle_beta"],
+                           pj["error_angle_gamma"]))
+    j1, j2, jm = pj["J1"], pj["J2"], pm["J_rotor"]
+    t = scenario.time_grid()
+    theta20 = float(kin.driven_angle(np.array(pj["phi_in_start"])))
+
+    if pm["ideal_speed_source"]:
+        w1, a1, ang = _profile(pm, t)
+        ang = ang - _profile(pm, t[:1])[2][0]
+        theta1 = pj["phi_in_start"] + ang
+        theta2 = kin.driven_angle(theta1)
+        phi_motor = ang
+        how = "closed form (ideal speed source): theta1 from the profile, theta2 by atan2 of the pin projection"
+    else:
+        kp, ki, tmax = pm["Kp"], pm["Ki"], pm["tau_max"]
+
+        def pi(time, w, integral):
+            e = _profile(pm, time)[0] - w
+            u = kp * e + ki * integral
+            tau = np.clip(u, -tmax, tmax)
+            di = np.where((u > tmax) & (e > 0) | (u < -tmax) & (e < 0), 0.0, e)
+            return tau, di
+
+        def rhs(time, y):
+            _, w, integral, _ = y
+            th1 = y[0] + pj["phi_in_start"]
+            r, dr = kin.ratio(th1)
+            tau_m, di = pi(time, w, integral)
+            a = (tau_m - j2 * r * dr * w * w - r * _load_torque(pl, r * w)) / (jm + j1 + j2 * r * r)
+            return [w, a, di, r * w]
+
+        y = [0.0, float(_profile(pm, t[:1])[0][0]), 0.0, theta20]
+        pieces = []
+        cuts = _corners(pm, t[0], t[-1])
+        for lo, hi in zip(cuts[:-1], cuts[1:]):
+            sel = (t >= lo) & (t <= hi) if hi == cuts[-1] else (t >= lo) & (t < hi)
+            sol = solve_ivp(rhs, (lo, hi), y, method="DOP853", rtol=RTOL, atol=ATOL, t_eval=t[sel],
+                            dense_output=True)
+            if not sol.success:
+                raise RuntimeError(f"reference solve failed: {sol.message}")
+            pieces.append(sol.y)
+            y = sol.sol(hi)
+        ys = np.concatenate(pieces, axis=1)
+        phi_motor, w1, integral, theta2 = ys
+        theta1 = pj["phi_in_start"] + phi_motor
+        r, dr = kin.ratio(theta1)
+        tau_m, _ = pi(t, w1, integral)
+        a1 = (tau_m - j2 * r * dr * w1 * w1 - r * _load_torque(pl, r * w1)) / (jm + j1 + j2 * r * r)
+        how = (f"monolithic ODE of motor+joint+load (Lagrange, sympy kinematics), scipy DOP853 "
+               f"rtol={RTOL:g} atol={ATOL:g}")
+
+    r, dr = kin.ratio(theta1)
+    w2 = r * w1
+    tau_load = _load_torque(pl, w2)
+    a2 = r * a1 + dr * w1 * w1
+    m_z = j2 * a2 + tau_load
+    tau_in = j1 * a1 + r * m_z
+    m_x, m_y = kin.moment(theta1, m_z)
+    if pm["ideal_speed_source"]:
+        tau_motor = jm * a1 + tau_in
+    else:
+        tau_motor = tau_m
+    columns = {
+        "motor.omega": w1, "motor.phi": phi_motor, "motor.tau_motor": tau_motor,
+        "joint.omega_out": w2, "joint.phi_out": theta2, "joint.tau_in": tau_in, "joint.phi_in": theta1,
+        "joint.M_x": m_x, "joint.M_y": m_y, "joint.M_z": m_z, "load.tau": tau_load,
+    }
+    names = ["time"] + [n for n in scenario.record if n in columns]
+    table = np.rec.fromarrays([t] + [np.asarray(columns[n], dtype=float) * np.ones_like(t) for n in names[1:]],
+                              names=names)
+    return table, f"ujfmu.references.cardan_chain: {how}. Regenerate: ujfmu references"

@@ -1,0 +1,123 @@
+"""Scenario files (TOML): components and their parameters, connections, experiment, records, reference.
+
+    title = "..."
+    [experiment]            stop_time, step_size [s]; start_time optional (0)
+    [components.NAME]       fmu = "CardanJoint" (fmus/CardanJoint.fmu), parameters = { name = value, ... }
+    [[connections]]         from = "comp.output", to = "comp.input"
+    [output]                record = ["comp.var", ...]; plot = [...] (default: the compared signals)
+    [reference]             file = "references/x.csv" (relative to the scenario), generator = "cardan_chain"
+    [reference.tolerance]   "comp.var" = { rel_range = 0.01, abs = 0.0 }
+      pass when max |result - reference| <= rel_range * (max - min of the reference) + abs
+"""
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .build import DEFAULT_FMU_DIR, FMUS, fmu_class
+from .master import Component, Connection
+
+
+class ScenarioError(ValueError):
+    """A scenario file is invalid; the message names the file and the field."""
+
+
+@dataclass
+class Tolerance:
+    rel_range: float = 0.0
+    abs: float = 0.0
+
+
+class Scenario:
+    def __init__(self, path):
+        self.path = Path(path)
+        try:
+            data = tomllib.loads(self.path.read_text())
+        except FileNotFoundError:
+            raise ScenarioError(f"{self.path}: scenario file not found") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise ScenarioError(f"{self.path}: {exc}") from None
+        self.name = self.path.stem
+        self.title = data.get("title", self.name)
+        self.description = data.get("description", "")
+        exp = self._table(data, "experiment")
+        self.start_time = self._number(exp, "experiment.start_time", 0.0)
+        self.stop_time = self._number(exp, "experiment.stop_time")
+        self.step_size = self._number(exp, "experiment.step_size")
+        if not self.step_size > 0 or not self.stop_time > self.start_time:
+            raise ScenarioError(f"{self.path}: [experiment] needs step_size > 0 and stop_time > start_time")
+
+        self.components = {}
+        for cname, comp in self._table(data, "components").items():
+            fmu = comp.get("fmu")
+            if fmu not in FMUS:
+                raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r} is not one of {list(FMUS)}")
+            params = comp.get("parameters", {})
+            declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
+            for pname, value in params.items():
+                if pname not in declared:
+                    raise ScenarioError(f"{self.path}: components.{cname}.parameters.{pname}: {fmu} has no "
+                                        f"parameter '{pname}' (it has {', '.join(declared)})")
+            self.components[cname] = (fmu, dict(params))
+
+        self.connections = []
+        for i, conn in enumerate(data.get("connections", [])):
+            src, dst = conn.get("from"), conn.get("to")
+            self._check_signal(src, f"connections[{i}].from", "output")
+            self._check_signal(dst, f"connections[{i}].to", "input")
+            self.connections.append(Connection(src, dst))
+
+        out = data.get("output", {})
+        self.record = list(out.get("record", []))
+        for i, name in enumerate(self.record):
+            self._check_signal(name, f"output.record[{i}]")
+        ref = data.get("reference", {})
+        self.reference_file = (self.path.parent / ref["file"]) if "file" in ref else None
+        self.reference_generator = ref.get("generator")
+        self.tolerances = {}
+        for name, tol in ref.get("tolerance", {}).items():
+            if name not in self.record:
+                raise ScenarioError(f"{self.path}: reference.tolerance.{name}: not a recorded signal")
+            self.tolerances[name] = Tolerance(**tol)
+        self.plot = list(out.get("plot", self.tolerances or self.record))
+
+    def _table(self, data, key):
+        if not isinstance(data.get(key), dict):
+            raise ScenarioError(f"{self.path}: missing table [{key}]")
+        return data[key]
+
+    def _number(self, table, field, default=None):
+        value = table.get(field.split(".")[-1], default)
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+            raise ScenarioError(f"{self.path}: {field} = {value!r} must be a finite number")
+        return float(value)
+
+    def _check_signal(self, name, field, causality=None):
+        comp, _, var = (name or "").partition(".")
+        if comp not in self.components:
+            raise ScenarioError(f"{self.path}: {field} = {name!r}: unknown component '{comp}'")
+        variables = {v.name: v for v in fmu_class(self.components[comp][0]).VARIABLES}
+        if var not in variables:
+            raise ScenarioError(f"{self.path}: {field} = {name!r}: {self.components[comp][0]} has no variable "
+                                f"'{var}'")
+        if causality and variables[var].causality != causality:
+            raise ScenarioError(f"{self.path}: {field} = {name!r} is an {variables[var].causality}, "
+                                f"not an {causality}")
+
+    def parameters_with_defaults(self, component):
+        """All parameter values of a component: the FMU's declared defaults updated by the scenario."""
+        fmu, params = self.components[component]
+        values = {v.name: v.start for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
+        values.update(params)
+        return values
+
+    def time_grid(self):
+        n = int(round((self.stop_time - self.start_time) / self.step_size))
+        return self.start_time + self.step_size * np.arange(n + 1)
+
+    def master_components(self, fmu_dir=DEFAULT_FMU_DIR):
+        return [Component(name, Path(fmu_dir) / f"{fmu}.fmu", params)
+                for name, (fmu, params) in self.components.items()]

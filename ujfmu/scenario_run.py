@@ -1,0 +1,126 @@
+"""Run scenarios, compare them with their references, write results, plots and JUnit reports."""
+
+import time
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from fmpy.util import validate_result, write_csv
+
+from .build import DEFAULT_FMU_DIR
+from .master import cosimulate
+from .references import read_reference
+from .scenario import Scenario
+
+DEFAULT_OUT_DIR = Path("results")
+
+
+@dataclass
+class SignalCheck:
+    name: str
+    max_error: float
+    allowed: float
+    reference_range: float
+
+    @property
+    def passed(self):
+        return bool(self.max_error <= self.allowed)
+
+    def __str__(self):
+        verdict = "ok  " if self.passed else "FAIL"
+        return (f"{verdict} {self.name:20s} max|err| = {self.max_error:.3e}  allowed {self.allowed:.3e}  "
+                f"({100 * self.max_error / self.reference_range if self.reference_range else 0:.4f}% of range)")
+
+
+@dataclass
+class ScenarioResult:
+    scenario: Scenario
+    table: np.ndarray
+    checks: list = field(default_factory=list)
+    fmpy_outlier_fraction: float = float("nan")
+    wall_time: float = 0.0
+    csv: Path = None
+    plot: Path = None
+
+    @property
+    def passed(self):
+        return all(c.passed for c in self.checks)
+
+    def summary(self):
+        head = (f"{'PASS' if self.passed else 'FAIL'} {self.scenario.name}: {self.scenario.title} "
+                f"({self.wall_time:.1f} s wall)")
+        lines = [head] + [f"  {c}" for c in self.checks]
+        lines.append(f"  fmpy.util.validate_result: fraction of samples outside fmpy's band = "
+                     f"{self.fmpy_outlier_fraction:.4f}")
+        return "\n".join(lines)
+
+
+def compare(table, reference, tolerances):
+    """Check each toleranced signal: max |result - reference| <= rel_range*(range of reference) + abs."""
+    checks = []
+    for name, tol in tolerances.items():
+        y_ref = np.interp(table["time"], reference["time"], reference[name])
+        span = float(np.ptp(reference[name]))
+        err = float(np.max(np.abs(table[name] - y_ref)))
+        checks.append(SignalCheck(name, err, tol.rel_range * span + tol.abs, span))
+    return checks
+
+
+def run_scenario(path, fmu_dir=DEFAULT_FMU_DIR, out_dir=DEFAULT_OUT_DIR, plot=True, progress=True):
+    """Co-simulate a scenario, compare with its reference; write CSV (and PNG) into out_dir.
+
+    Returns a ScenarioResult whose .table is the result (structured array, 'time' + 'comp.var' columns).
+    """
+    scenario = path if isinstance(path, Scenario) else Scenario(path)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=int(round((scenario.stop_time - scenario.start_time) / scenario.step_size)),
+                   desc=scenario.name, unit="step", leave=False)
+
+    def report(done, total):
+        bar.update(done - bar.n)
+
+    start = time.perf_counter()
+    try:
+        table = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
+                           scenario.step_size, scenario.record, scenario.start_time,
+                           progress=report if bar else None)
+    finally:
+        if bar:
+            bar.close()
+    result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start)
+    reference = None
+    if scenario.reference_file is not None:
+        reference, _ = read_reference(scenario.reference_file)
+        result.checks = compare(table, reference, scenario.tolerances)
+        compared = ["time"] + list(scenario.tolerances)
+        result.fmpy_outlier_fraction = float(validate_result(table[compared], reference[compared]))
+    if out_dir is not None:
+        out_dir = Path(out_dir)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        result.csv = out_dir / f"{scenario.name}.csv"
+        write_csv(result.csv, table)
+        if plot:
+            from .plotting import plot_scenario
+            result.plot = plot_scenario(result, reference, out_dir / f"{scenario.name}.png")
+    return result
+
+
+def write_junit(results, path):
+    """JUnit XML: one test case per scenario, a failure element carrying the error figures."""
+    suite = ET.Element("testsuite", name="ujfmu scenarios", tests=str(len(results)),
+                       failures=str(sum(not r.passed for r in results)), errors="0",
+                       time=f"{sum(r.wall_time for r in results):.3f}")
+    for r in results:
+        case = ET.SubElement(suite, "testcase", classname="ujfmu.scenarios", name=r.scenario.name,
+                             time=f"{r.wall_time:.3f}")
+        if not r.passed:
+            failure = ET.SubElement(case, "failure", message="signal outside tolerance of the reference")
+            failure.text = r.summary()
+        ET.SubElement(case, "system-out").text = r.summary()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)
+    return path
