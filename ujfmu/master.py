@@ -47,8 +47,8 @@ class Connection:
 _STATUS = ["ok", "warning", "discard", "error", "fatal", "pending"]
 
 
-class _Instance:
-    """One FMU instance with name -> (value reference, type) lookup and a log collector."""
+class FmuInstance:
+    """One FMU instance over fmpy's FMU2Slave: variables by name, FMU log messages collected in ``log``."""
 
     def __init__(self, component, unzip_dir, model_description, log):
         self.name = component.name
@@ -89,6 +89,22 @@ class _Instance:
             self.slave.setBoolean([var.valueReference], [bool(value)])
         else:
             self.slave.setString([var.valueReference], [str(value)])
+
+    def get(self, *names):
+        """Real values by name."""
+        return self.slave.getReal([self.vr(n) for n in names])
+
+    def set(self, **values):
+        for name, value in values.items():
+            self.set_value(name, value)
+
+    def initialize(self, parameters=None, start_time=0.0):
+        self.slave.setupExperiment(startTime=start_time)
+        self.slave.enterInitializationMode()
+        for name, value in (parameters or {}).items():
+            self.vr(name)
+            self.set_value(name, value)
+        self.slave.exitInitializationMode()
 
     def free(self):
         if self.instantiated:
@@ -158,16 +174,10 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
                     unzipped[fmu] = (extract(fmu, unzipdir=str(Path(tmp) / str(len(unzipped)))),
                                      read_model_description(fmu))
                 unzip_dir, md = unzipped[fmu]
-                instances[comp.name] = _Instance(comp, unzip_dir, md, log)
+                instances[comp.name] = FmuInstance(comp, unzip_dir, md, log)
 
             for comp in components:
-                inst = instances[comp.name]
-                inst.slave.setupExperiment(startTime=start_time, stopTime=stop_time)
-                inst.slave.enterInitializationMode()
-                for pname, value in comp.parameters.items():
-                    inst.vr(pname)
-                    inst.set_value(pname, value)
-                inst.slave.exitInitializationMode()
+                instances[comp.name].initialize(comp.parameters, start_time)
 
             ordered = _feedthrough_order(connections, instances)
             transfers = []
