@@ -67,7 +67,7 @@ class FmuInstance:
         self.slave = FMU2Slave(guid=model_description.guid, unzipDirectory=unzip_dir,
                                modelIdentifier=model_description.coSimulation.modelIdentifier,
                                instanceName=component.name)
-        self.slave.instantiate(callbacks=self._callbacks, loggingOn=False)
+        self.slave.instantiate(callbacks=self._callbacks, loggingOn=True)  # else pythonfmu drops errors too
         self.instantiated = True
 
     def vr(self, name):

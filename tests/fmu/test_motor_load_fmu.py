@@ -1,0 +1,49 @@
+"""Motor.fmu and Load.fmu through fmpy."""
+
+import math
+
+import pytest
+from fmpy.fmi1 import FMICallException
+
+
+def test_ideal_speed_source_follows_ramp_and_reports_its_torque(open_fmu):
+    m = open_fmu("Motor")
+    m.initialize(dict(ideal_speed_source=True, profile=1, accel=30.0, omega_set=150.0, J_rotor=2e-3))
+    h = 1e-3
+    for k in range(1000):
+        m.set(tau_load=0.4)
+        m.slave.doStep(k * h, h)
+    omega, phi, tau = m.get("omega", "phi", "tau_motor")
+    assert omega == pytest.approx(30.0, rel=1e-12) and phi == pytest.approx(15.0, rel=1e-12)
+    assert tau == pytest.approx(2e-3 * 30.0 + 0.4, rel=1e-12)
+
+
+def test_pi_motor_holds_speed_against_load_and_respects_torque_limit(open_fmu):
+    m = open_fmu("Motor")
+    m.initialize(dict(profile=0, omega_set=100.0, tau_max=0.5, J_rotor=1e-3, Kp=0.2, Ki=10.0))
+    h = 1e-3
+    for k in range(2000):
+        m.set(tau_load=0.3 if k < 1000 else 0.8)   # 0.8 N.m exceeds the 0.5 N.m limit
+        m.slave.doStep(k * h, h)
+        if k == 999:
+            assert m.get("omega")[0] == pytest.approx(100.0, abs=1e-3)
+    omega, tau = m.get("omega", "tau_motor")
+    assert tau == pytest.approx(0.5) and omega < 100.0 - 0.3 / 1e-3 * 0.5 * 0.9  # decelerating at the limit
+
+
+def test_load_torque_law_feeds_through(open_fmu):
+    ld = open_fmu("Load")
+    ld.initialize(dict(T0=0.2, c1=0.01, c2=0.017, omega_smooth=0.1))
+    for w in (-50.0, 0.0, 209.4):
+        ld.set(omega=w)   # no step needed: the output follows the input directly
+        mag = math.sqrt(w * w + 0.01)
+        assert ld.get("tau")[0] == pytest.approx(0.2 * w / mag + 0.01 * w + 0.017 * w * mag, rel=1e-14)
+
+
+@pytest.mark.parametrize("fmu, param, value", [("Motor", "J_rotor", 0.0), ("Motor", "profile", 7),
+                                               ("Motor", "Kp", float("nan")), ("Load", "omega_smooth", -1.0)])
+def test_bad_parameters_name_the_parameter(open_fmu, fmu, param, value):
+    inst = open_fmu(fmu)
+    with pytest.raises(FMICallException):
+        inst.initialize({param: value})
+    assert any(param in msg and "allowed range" in msg for msg in inst._log), inst._log
