@@ -1,0 +1,93 @@
+"""Every scenario against its reference; fmpy vs libcosim; references regenerate; step-size convergence."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ujfmu.libcosim_run import cosimulate_libcosim
+from ujfmu.references import generate, read_reference
+from ujfmu.scenario import Scenario
+from ujfmu.scenario_run import compare, run_scenario
+
+SCENARIOS = sorted((Path(__file__).parents[1] / "scenarios").glob("*.toml"))
+
+
+@pytest.fixture(scope="module")
+def results(fmu_dir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("results")
+    return {p.stem: run_scenario(p, fmu_dir=fmu_dir, out_dir=out, progress=False) for p in SCENARIOS}
+
+
+def test_there_are_scenarios():
+    assert {"cardan_startup", "cardan_constant_speed"} <= {p.stem for p in SCENARIOS}
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
+def test_scenario_passes_against_reference(results, path):
+    result = results[path.stem]
+    assert result.checks, "a scenario must compare at least one signal"
+    assert result.passed, result.summary()
+    assert result.fmpy_outlier_fraction == 0.0, result.summary()
+    assert result.csv.is_file() and result.plot.is_file()
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
+def test_committed_reference_regenerates(path):
+    """The reference file is what `ujfmu references` produces (same provenance, same numbers)."""
+    scenario = Scenario(path)
+    committed, provenance = read_reference(scenario.reference_file)
+    fresh, fresh_provenance = generate(scenario)
+    assert provenance == " ".join(fresh_provenance.split())
+    assert committed.dtype.names == fresh.dtype.names
+    for name in committed.dtype.names:
+        span = max(np.ptp(fresh[name]), 1e-300)
+        assert np.max(np.abs(committed[name] - fresh[name])) <= 1e-9 * span, name
+
+
+def test_reference_is_not_the_cosimulation(results):
+    """Guard against a reference produced by the code it checks: in the coupled start-up the co-simulation
+    must differ from the reference by a visible coupling error (O(h)), not agree to round-off."""
+    result = results["cardan_startup"]
+    assert all(c.max_error > 1e-6 for c in result.checks if c.name.startswith("joint.tau"))
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
+def test_libcosim_runs_the_same_fmus_and_agrees(results, fmu_dir, path):
+    """Second engine. libcosim transfers all connections after all steps (no feedthrough ordering), so its
+    result differs from ours by O(h): within 5% of each compared signal's range, 0.1% for speeds."""
+    scenario = Scenario(path)
+    ours = results[path.stem].table
+    theirs = cosimulate_libcosim(scenario, fmu_dir)
+    for name in scenario.tolerances:
+        y = np.interp(theirs["time"], ours["time"], ours[name])
+        span = np.ptp(ours[name]) or 1.0
+        limit = (0.001 if "omega" in name else 0.05) * span + scenario.tolerances[name].abs
+        assert np.max(np.abs(theirs[name] - y)) <= limit, name
+
+
+def test_libcosim_difference_shrinks_with_step_size(fmu_dir):
+    """The fmpy/libcosim difference in the coupled start-up is a first-order coupling error: halving h halves it."""
+    diffs = []
+    for h in (2e-3, 1e-3):
+        scenario = Scenario(SCENARIOS[0].parent / "cardan_startup.toml")
+        scenario.step_size, scenario.stop_time = h, 2.0
+        ours = run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, progress=False).table
+        theirs = cosimulate_libcosim(scenario, fmu_dir)
+        y = np.interp(theirs["time"], ours["time"], ours["joint.tau_in"])
+        diffs.append(np.max(np.abs(theirs["joint.tau_in"] - y)))
+    assert 1.6 < diffs[0] / diffs[1] < 2.6, diffs
+
+
+def test_cosimulation_error_converges_at_first_order(fmu_dir):
+    """Against the monolithic reference, the start-up's coupling error falls ~linearly with the step."""
+    errors = []
+    for h in (2e-3, 1e-3, 5e-4):
+        scenario = Scenario(SCENARIOS[0].parent / "cardan_startup.toml")
+        scenario.step_size, scenario.stop_time = h, 1.0
+        table = run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, progress=False).table
+        reference, _ = generate(scenario)
+        errors.append({c.name: c.max_error for c in compare(table, reference, scenario.tolerances)})
+    for name in ("joint.tau_in", "motor.omega"):
+        ratios = [errors[i][name] / errors[i + 1][name] for i in range(2)]
+        assert all(1.6 < r < 2.6 for r in ratios), (name, ratios)
