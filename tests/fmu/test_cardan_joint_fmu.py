@@ -91,3 +91,13 @@ def test_many_instances_after_failures_in_one_process(open_fmu):
         inst.slave.doStep(0.0, 1e-3)
     r = [inst.get("tau_in")[0] for inst in good]
     assert len(set(r)) == 5
+
+
+def test_output_read_in_initialization_mode_with_bad_parameters_is_an_error_not_a_crash(open_fmu):
+    inst = open_fmu("CardanJoint")
+    inst.slave.setupExperiment(startTime=0.0)
+    inst.slave.enterInitializationMode()
+    inst.set(bend_angle=math.pi / 2)  # cos(phi) = 0: the kinematics are singular
+    with pytest.raises(FMICallException):
+        inst.get("tau_in", "omega_out")
+    assert any("cannot compute" in m for m in inst._log), inst._log

@@ -54,8 +54,9 @@ class Var:
         """None if value is admissible, else a message naming the variable and its allowed range."""
         if self.type is bool:
             return None
-        if not math.isfinite(value) or (self.min is not None and value < self.min) or \
-                (self.max is not None and value > self.max):
+        if not math.isfinite(value):
+            return f"{self.name} = {value!r} is not a finite number (allowed range {self.range_text()})"
+        if (self.min is not None and value < self.min) or (self.max is not None and value > self.max):
             return f"{self.name} = {value!r} is outside its allowed range {self.range_text()}"
         return None
 
@@ -113,13 +114,25 @@ class UjfmuSlave(Fmi2Slave):
     def _output_getter(self, name):
         def get():
             if self._stale:
-                if not self._initialized:  # an output read before fmi2ExitInitializationMode
-                    self.initialize(self._start_time)
-                    self._initialized = True
-                self.compute_outputs()
+                try:
+                    if not self._initialized:  # an output read before fmi2ExitInitializationMode
+                        problems = self._problems()
+                        if problems:
+                            raise ValueError("invalid parameters: " + "; ".join(problems))
+                        self.initialize(self._start_time)
+                        self._initialized = True
+                    self.compute_outputs()
+                except Exception as exc:
+                    self._raise_to_host(f"{self.modelName} '{self.instance_name}': cannot compute {name}: {exc}")
                 self._stale = False
             return getattr(self, name)
         return get
+
+    def _raise_to_host(self, message):
+        """Log at error level, pin what pythonfmu will release twice, and raise (the host gets fmi2Fatal)."""
+        self.log(message, Fmi2Status.error)
+        _PINNED_AFTER_EXCEPTION.extend((self, self, type(self), self.log_queue))
+        raise ValueError(message)
 
     def _input_setter(self, name, cast):
         def set_(value):
@@ -147,16 +160,16 @@ class UjfmuSlave(Fmi2Slave):
     def setup_experiment(self, start_time, stop_time=None, tolerance=None):
         self._start_time = start_time
 
-    def exit_initialization_mode(self):
+    def _problems(self):
+        """Messages for every parameter or input outside its range, else the model's own checks."""
         problems = [m for m in (v.check(getattr(self, v.name)) for v in self.VARIABLES
                                 if v.causality in ("parameter", "input")) if m]
-        if not problems:
-            problems = self.check_parameters()
+        return problems or self.check_parameters()
+
+    def exit_initialization_mode(self):
+        problems = self._problems()
         if problems:
-            message = f"{self.modelName} '{self.instance_name}': invalid parameters: " + "; ".join(problems)
-            self.log(message, Fmi2Status.error)
-            _PINNED_AFTER_EXCEPTION.extend((self, self, type(self), self.log_queue))
-            raise ValueError(message)
+            self._raise_to_host(f"{self.modelName} '{self.instance_name}': invalid parameters: " + "; ".join(problems))
         self.initialize(self._start_time)
         self._initialized = self._running = self._stale = True
 
