@@ -9,15 +9,18 @@ import numpy as np
 
 def cosimulate_libcosim(scenario, fmu_dir):
     """Structured array 'time' + scenario.record, sampled after every communication step."""
+    from libcosimpy.CosimEnums import CosimVariableType
     from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
     from libcosimpy.CosimObserver import CosimObserver
     from libcosimpy.CosimSlave import CosimLocalSlave
-
-    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 
     log_output_level(CosimLogLevel.WARNING)
     step_ns = int(round(scenario.step_size * 1e9))
     execution = CosimExecution.from_step_size(step_ns)
+    set_initial = {CosimVariableType.REAL.value: (execution.real_initial_value, float),
+                   CosimVariableType.INTEGER.value: (execution.integer_initial_value, int),
+                   CosimVariableType.BOOLEAN.value: (execution.boolean_initial_value, bool)}
     index, variables = {}, {}
     for comp in scenario.master_components(fmu_dir):
         slave = CosimLocalSlave(fmu_path=str(comp.fmu.resolve()), instance_name=comp.name)
@@ -25,14 +28,9 @@ def cosimulate_libcosim(scenario, fmu_dir):
         variables[comp.name] = {v.name.decode(): (v.reference, v.type)
                                 for v in execution.slave_variables(index[comp.name])}
         for pname, value in comp.parameters.items():
-            vr, _ = variables[comp.name][pname]
-            if isinstance(value, bool):
-                ok = execution.boolean_initial_value(index[comp.name], vr, value)
-            elif isinstance(value, int) and not isinstance(value, bool) and _is_integer(scenario, comp.name, pname):
-                ok = execution.integer_initial_value(index[comp.name], vr, value)
-            else:
-                ok = execution.real_initial_value(index[comp.name], vr, float(value))
-            if not ok:
+            vr, vtype = variables[comp.name][pname]
+            setter, cast = set_initial[vtype]
+            if not setter(index[comp.name], vr, cast(value)):
                 raise RuntimeError(f"libcosim refused {comp.name}.{pname} = {value!r}")
     for conn in scenario.connections:
         (sc, sv), (dc, dv) = conn.source.split(".", 1), conn.target.split(".", 1)
@@ -43,13 +41,13 @@ def cosimulate_libcosim(scenario, fmu_dir):
     for name in scenario.record:
         comp, var = name.split(".", 1)
         groups.setdefault(comp, []).append((name, variables[comp][var][0]))
-    n_steps = int(round((scenario.stop_time - scenario.start_time) / scenario.step_size))
-    rows = np.empty((n_steps, len(scenario.record) + 1))
+    times = scenario.time_grid()[1:]
+    rows = np.empty((len(times), len(scenario.record) + 1))
     order = [name for comp in groups for name, _ in groups[comp]]
-    for k in range(n_steps):
+    for k, t in enumerate(times):
         if not execution.step(1):
             raise RuntimeError(f"libcosim step {k} failed")
-        row = [scenario.start_time + (k + 1) * scenario.step_size]
+        row = [t]
         for comp, items in groups.items():
             row += observer.last_real_values(index[comp], [vr for _, vr in items])
         rows[k] = row
@@ -57,7 +55,3 @@ def cosimulate_libcosim(scenario, fmu_dir):
     table = np.rec.fromarrays(rows.T, names=columns)
     return table[["time"] + list(scenario.record)]
 
-
-def _is_integer(scenario, comp, pname):
-    from .build import fmu_class
-    return next(v.type for v in fmu_class(scenario.components[comp][0]).VARIABLES if v.name == pname) is int

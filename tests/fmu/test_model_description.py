@@ -61,8 +61,7 @@ def test_model_description_follows_declaration(fmu_dir, name):
             assert float(v.min) == d.min and float(v.max) == d.max
         if d.causality == "output":
             assert outputs[v.name] == sorted(d.depends_on)
-    assert md.defaultExperiment.stepSize == str(fmu_class(name).DEFAULT_EXPERIMENT[2]) or \
-        float(md.defaultExperiment.stepSize) == fmu_class(name).DEFAULT_EXPERIMENT[2]
+    assert float(md.defaultExperiment.stepSize) == fmu_class(name).DEFAULT_EXPERIMENT[2]
 
 
 @pytest.mark.parametrize("name", NAMES)
