@@ -28,6 +28,7 @@ FMUS = {
     "CardanJoint": ("cardan_joint", "CardanJoint"),
     "Motor": ("motor", "Motor"),
     "Load": ("load", "Load"),
+    "DoubleCardanDriveline": ("double_cardan_driveline", "DoubleCardanDriveline"),
 }
 
 #: unit -> ((kg, m, s, rad) exponents, {display unit: factor})
@@ -42,6 +43,10 @@ UNITS = {
     "N.m.s/rad": ((1, 2, -1, -1), {}),
     "N.m/rad": ((1, 2, -2, -1), {}),
     "N.m.s2/rad2": ((1, 2, 0, -2), {}),
+    "kg": ((1, 0, 0, 0), {}),
+    "m": ((0, 1, 0, 0), {"mm": 1.0e3}),
+    "N/m": ((1, 0, -2, 0), {}),
+    "J": ((1, 2, -2, 0), {}),
 }
 _RUNTIME_DIRS = ("physics", "fmu")  # the only parts of ujfmu that go into an FMU
 

@@ -1,4 +1,4 @@
-"""Command line: ujfmu build | run SCENARIO | check | references."""
+"""Command line: ujfmu build | run SCENARIO | check | references | study omar."""
 
 import argparse
 import sys
@@ -63,6 +63,13 @@ def cmd_references(args):
     return 0
 
 
+def cmd_study(args):
+    from .studies import omar
+    path = omar.write_report(args.out, fmu_path=args.fmu_dir / "DoubleCardanDriveline.fmu")
+    print(f"wrote {path}")
+    return 0
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="ujfmu", description=__doc__)
     parser.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where the FMUs are (default: fmus/)")
@@ -84,6 +91,10 @@ def main(argv=None):
     p = sub.add_parser("references", help="regenerate the reference CSV files of the scenarios")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p.set_defaults(func=cmd_references)
+    p = sub.add_parser("study", help="re-run a paper's parameter studies on the FMUs and write the comparison")
+    p.add_argument("paper", choices=["omar"], help="omar: Omar, Rahim, Rejab (DoubleCardanDriveline)")
+    p.add_argument("--out", type=Path, default=REPO_DIR / "docs" / "omar_study.md", help="markdown file to write")
+    p.set_defaults(func=cmd_study)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

@@ -10,10 +10,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import cardan_chain
+from . import cardan_chain, double_cardan
 
 GENERATORS = {
     "cardan_chain": cardan_chain.generate,
+    "double_cardan": double_cardan.generate,
 }
 
 

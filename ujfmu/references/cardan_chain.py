@@ -18,6 +18,8 @@ import numpy as np
 import sympy as sp
 from scipy.integrate import solve_ivp
 
+from .common import corners, load_torque, pi_law, profile
+
 RTOL, ATOL = 1e-11, 1e-12
 
 
@@ -67,37 +69,6 @@ class JointKinematics:
         return m * en[0], m * en[1]
 
 
-def _profile(p, t):
-    """Speed reference (omega, alpha, angle) of the Motor FMU's profiles, written out independently."""
-    t = np.asarray(t, dtype=float)
-    prof, w_set, acc, t_step, w0 = p["profile"], p["omega_set"], p["accel"], p["t_step"], p["omega_initial"]
-    if prof == 1:
-        te = w_set / acc
-        up = t < te
-        return (np.where(up, acc * t, w_set), np.where(up, acc, 0.0),
-                np.where(up, 0.5 * acc * t**2, 0.5 * acc * te**2 + w_set * (t - te)))
-    if prof == 2:
-        before = t < t_step
-        return (np.where(before, w0, w_set), np.zeros_like(t),
-                np.where(before, w0 * t, w0 * t_step + w_set * (t - t_step)))
-    return np.full_like(t, w_set), np.zeros_like(t), w_set * t
-
-
-def _corners(p, t0, t1):
-    if p["profile"] == 1:
-        cuts = [p["omega_set"] / p["accel"]]
-    elif p["profile"] == 2:
-        cuts = [p["t_step"]]
-    else:
-        cuts = []
-    return [t0] + [c for c in cuts if t0 < c < t1] + [t1]
-
-
-def _load_torque(p, w):
-    mag = np.sqrt(w * w + p["omega_smooth"] ** 2)
-    return p["T0"] * w / mag + p["c1"] * w + p["c2"] * w * mag
-
-
 def generate(scenario):
     """Reference for a scenario with components motor (Motor), joint (CardanJoint), load (Load)."""
     pm, pj, pl = (scenario.parameters_with_defaults(c) for c in ("motor", "joint", "load"))
@@ -108,33 +79,24 @@ def generate(scenario):
     theta20 = float(kin.driven_angle(np.array(pj["phi_in_start"])))
 
     if pm["ideal_speed_source"]:
-        w1, a1, ang = _profile(pm, t)
-        ang = ang - _profile(pm, t[:1])[2][0]
+        w1, a1, ang = profile(pm, t)
+        ang = ang - profile(pm, t[:1])[2][0]
         theta1 = pj["phi_in_start"] + ang
         theta2 = kin.driven_angle(theta1)
         phi_motor = ang
         how = "closed form (ideal speed source): theta1 from the profile, theta2 by atan2 of the pin projection"
     else:
-        kp, ki, tmax = pm["Kp"], pm["Ki"], pm["tau_max"]
-
-        def pi(time, w, integral):
-            e = _profile(pm, time)[0] - w
-            u = kp * e + ki * integral
-            tau = np.clip(u, -tmax, tmax)
-            di = np.where((u > tmax) & (e > 0) | (u < -tmax) & (e < 0), 0.0, e)
-            return tau, di
-
         def rhs(time, y):
             _, w, integral, _ = y
             th1 = y[0] + pj["phi_in_start"]
             r, dr = kin.ratio(th1)
-            tau_m, di = pi(time, w, integral)
-            a = (tau_m - j2 * r * dr * w * w - r * _load_torque(pl, r * w)) / (jm + j1 + j2 * r * r)
+            tau_m, di = pi_law(pm, time, w, integral)
+            a = (tau_m - j2 * r * dr * w * w - r * load_torque(pl, r * w)) / (jm + j1 + j2 * r * r)
             return [w, a, di, r * w]
 
-        y = [0.0, float(_profile(pm, t[:1])[0][0]), 0.0, theta20]
+        y = [0.0, float(profile(pm, t[:1])[0][0]), 0.0, theta20]
         pieces = []
-        cuts = _corners(pm, t[0], t[-1])
+        cuts = corners(pm, t[0], t[-1])
         for lo, hi in zip(cuts[:-1], cuts[1:]):
             sel = (t >= lo) & (t <= hi) if hi == cuts[-1] else (t >= lo) & (t < hi)
             sol = solve_ivp(rhs, (lo, hi), y, method="DOP853", rtol=RTOL, atol=ATOL, t_eval=t[sel],
@@ -147,14 +109,14 @@ def generate(scenario):
         phi_motor, w1, integral, theta2 = ys
         theta1 = pj["phi_in_start"] + phi_motor
         r, dr = kin.ratio(theta1)
-        tau_m, _ = pi(t, w1, integral)
-        a1 = (tau_m - j2 * r * dr * w1 * w1 - r * _load_torque(pl, r * w1)) / (jm + j1 + j2 * r * r)
+        tau_m, _ = pi_law(pm, t, w1, integral)
+        a1 = (tau_m - j2 * r * dr * w1 * w1 - r * load_torque(pl, r * w1)) / (jm + j1 + j2 * r * r)
         how = (f"monolithic ODE of motor+joint+load (Lagrange, sympy kinematics), scipy DOP853 "
                f"rtol={RTOL:g} atol={ATOL:g}")
 
     r, dr = kin.ratio(theta1)
     w2 = r * w1
-    tau_load = _load_torque(pl, w2)
+    tau_load = load_torque(pl, w2)
     a2 = r * a1 + dr * w1 * w1
     m_z = j2 * a2 + tau_load
     tau_in = j1 * a1 + r * m_z

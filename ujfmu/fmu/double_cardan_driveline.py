@@ -1,0 +1,145 @@
+"""DoubleCardanDriveline FMU: two Cardan joints and an intermediate shaft (Brutti et al.; Omar, Rahim, Rejab)."""
+
+import math
+
+from ..physics import double_cardan as dc
+from .base import UjfmuSlave, input_, output, parameter
+
+_ANGLE = dict(min=-dc.MAX_ANGLE, max=dc.MAX_ANGLE)
+_PHASE = dict(min=-2.0 * math.pi, max=2.0 * math.pi)
+_INERTIA = dict(min=0.0, max=1.0e3)
+#: substep length times the fastest rate bound (classical RK4; see physics.double_cardan.flexible_rate_bound)
+_RATE_STEP = 0.15
+
+
+class DoubleCardanDriveline(UjfmuSlave):
+    """Input shaft, Cardan joint 1, intermediate shaft, Cardan joint 2, output shaft with the driven load.
+
+    The input shaft follows omega_in (angle advanced with the input extrapolated linearly over each step, its
+    acceleration alpha_in the backward difference of omega_in). Two modes (docs/double_cardan.md):
+    - rigid_intermediate_shaft = true (Brutti et al., section 4): one degree of freedom; the output follows the
+      joints' kinematics and tau_in = J_eq alpha1 + J_eq' omega1^2/2 + (dphi4/dphi1) tau_load from the kinetic
+      energy J_eq(phi1) omega1^2/2 of every inertia (input shaft, crosses, intermediate shaft, output and load).
+    - false (Omar et al., Eqs. 3-19 re-derived): a torsional spring-damper k_theta, c_theta = xi_theta k_theta in
+      the intermediate shaft and a suspended mass m_s on a lateral support k_phi, c_phi = xi_phi k_phi at lever
+      L_c give two degrees of freedom, the output angle and the dynamic misalignment phi that adds to both joint
+      angles; integrated with classical RK4 substeps sized from the fastest natural frequency and input speed.
+      The intermediate shaft's inertia is lumped half at each end. The driveline starts untwisted, phi = 0, with
+      the output at the kinematic speed of omega_in as it is at the first step.
+    Layout: yoke_phase = joint_plane_angle and beta1 = beta2 (Z) or beta1 = -beta2 (W) is constant velocity.
+    Signs: speeds > 0 the same way round; tau_in > 0 drives, tau_load > 0 opposes the output's rotation;
+    twist = phi2 - phi3 > 0 and shaft_torque > 0 while transmitting positive torque.
+    """
+
+    PHYSICS = dc
+    VARIABLES = (
+        parameter("beta1", math.radians(15.0), "rad",
+                  "Static angle of joint 1 between input and intermediate shaft (Omar beta0 = 15 deg)", **_ANGLE),
+        parameter("beta2", math.radians(15.0), "rad",
+                  "Static angle of joint 2 between intermediate and output shaft; same sign as beta1: Z layout, "
+                  "opposite: W layout", **_ANGLE),
+        parameter("yoke_phase", 0.0, "rad",
+                  "Angle of the intermediate shaft's joint-2 yoke from its joint-1 yoke (0: in phase)", **_PHASE),
+        parameter("joint_plane_angle", 0.0, "rad",
+                  "Angle from joint 1's plane to joint 2's plane about the intermediate shaft (0: W or Z)", **_PHASE),
+        parameter("I_input", 0.0, "kg.m2", "Input shaft moment of inertia (Brutti I_1x)", **_INERTIA),
+        parameter("I_cross_pin", 0.0, "kg.m2", "Each cross's moment of inertia about a pin axis (Brutti I_2y, I_2z)",
+                  **_INERTIA),
+        parameter("I_cross_normal", 0.0, "kg.m2",
+                  "Each cross's moment of inertia about the normal of its pins (Brutti I_2x)", **_INERTIA),
+        parameter("I_intermediate", 0.0, "kg.m2",
+                  "Intermediate shaft polar moment of inertia (Brutti I_3x; Omar: massless)", **_INERTIA),
+        parameter("J_load", 0.0045, "kg.m2",
+                  "Output shaft plus driven load moment of inertia (Omar J_load; Brutti I_5x)", **_INERTIA),
+        parameter("k_theta", 92.2, "N.m/rad", "Torsional stiffness of the intermediate shaft (Omar k_theta)",
+                  min=1.0e-6, max=1.0e9),
+        parameter("xi_theta", 0.002, "s", "Torsional damping coefficient, c_theta = xi_theta*k_theta (Omar)",
+                  min=0.0, max=1.0e3),
+        parameter("m_s", 4.09, "kg", "Suspended mass at the intermediate shaft (Omar m_s)", min=1.0e-6, max=1.0e6),
+        parameter("k_phi", 26331.0, "N/m", "Lateral stiffness of the support (Omar k_phi)", min=1.0e-6, max=1.0e12),
+        parameter("xi_phi", 0.002, "s", "Lateral damping coefficient, c_phi = xi_phi*k_phi (Omar)",
+                  min=0.0, max=1.0e3),
+        parameter("L_c", 0.325, "m", "Length of the intermediate shaft, lever of the suspended mass (Omar L_c)",
+                  min=1.0e-6, max=1.0e3),
+        parameter("rigid_intermediate_shaft", False, None,
+                  "True: rigid intermediate shaft, no support motion (Brutti's rigid-body analysis)", type=bool),
+        parameter("phi_in_start", 0.0, "rad", "Input shaft angle phi1 at the start time (0: yoke in joint 1's plane)",
+                  min=-1.0e6, max=1.0e6),
+        input_("omega_in", 0.0, "rad/s", "Input shaft angular speed omega1"),
+        input_("tau_load", 0.0, "N.m", "Load torque on the output shaft (positive opposes its rotation)"),
+        output("omega_out", "rad/s", "Output shaft angular speed omega4", ("omega_in",)),
+        output("phi_out", "rad", "Output shaft angle phi4, continuous over revolutions"),
+        output("tau_in", "N.m", "Torque demanded from the driver at the input shaft", ("omega_in", "tau_load")),
+        output("twist", "rad", "Angle of twist of the intermediate shaft phi2 - phi3 (Omar Eq. 1, sign reversed)"),
+        output("dynamic_misalignment", "rad", "Dynamic angular misalignment phi added to both joint angles (Omar Eq. 3)"),
+        output("omega_intermediate", "rad/s", "Intermediate shaft angular speed at its joint-1 end, dphi2/dt",
+               ("omega_in",)),
+        output("shaft_torque", "N.m", "Torque carried by the intermediate shaft, k_theta*twist + c_theta*dtwist/dt",
+               ("omega_in", "tau_load")),
+        output("phi_in", "rad", "Input shaft angle phi1, continuous over revolutions"),
+        output("alpha_in", "rad/s2", "Input shaft angular acceleration estimated from omega_in", ("omega_in",)),
+        output("stored_energy", "J", "Kinetic plus elastic energy of the driveline", ("omega_in",)),
+    )
+    DEFAULT_EXPERIMENT = (0.0, 3.0, 1.0e-3)
+
+    def check_parameters(self):
+        problems = []
+        if self.I_cross_normal > 2.0 * self.I_cross_pin:
+            problems.append(f"I_cross_normal = {self.I_cross_normal!r} kg.m2 exceeds 2*I_cross_pin = "
+                            f"{2.0 * self.I_cross_pin!r} kg.m2 (a rigid cross has I_normal <= I_pin + I_pin)")
+        if not self.rigid_intermediate_shaft and not self.J_load > 0.0:
+            problems.append(f"J_load = {self.J_load!r} kg.m2 must be > 0 with a flexible intermediate shaft "
+                            "(allowed range (0, 1000] kg.m2; 0 only with rigid_intermediate_shaft = true)")
+        return problems
+
+    def initialize(self, start_time):
+        self._p = dc.Driveline(self.beta1, self.beta2, self.yoke_phase, self.joint_plane_angle, self.I_input,
+                               self.I_cross_pin, self.I_cross_normal, self.I_intermediate, self.J_load,
+                               self.k_theta, self.xi_theta, self.m_s, self.k_phi, self.xi_phi, self.L_c)
+        self._phi1 = self.phi_in_start
+        self._omega_prev = None   # omega_in at the previous communication point
+        self._h_prev = 0.0
+        # flexible states (phi4, omega4, phi, dphi); omega4 follows the input kinematically until the first step
+        self._state = (dc.rigid_output_angle(self._p, self._phi1), 0.0, 0.0, 0.0)
+        self._started = False
+
+    def _alpha1(self):
+        return 0.0 if self._omega_prev is None else (self.omega_in - self._omega_prev) / self._h_prev
+
+    def _flexible_state(self):
+        if self._started:
+            return self._state
+        rigid = dc.rigid_state(self._p, self._phi1, self.omega_in, 0.0, 0.0)
+        return (self._state[0], rigid["omega4"], 0.0, 0.0)
+
+    def compute_outputs(self):
+        alpha1 = self._alpha1()
+        if self.rigid_intermediate_shaft:
+            out = dc.rigid_state(self._p, self._phi1, self.omega_in, alpha1, self.tau_load)
+            self.phi_out, self.omega_out = out["phi4"], out["omega4"]
+            self.twist = self.dynamic_misalignment = 0.0
+        else:
+            state = self._flexible_state()
+            out = dc.flexible_outputs(self._p, self._phi1, self.omega_in, alpha1, state)
+            self.phi_out, self.omega_out, self.dynamic_misalignment = state[0], state[1], state[2]
+            self.twist = out["twist"]
+        self.tau_in, self.shaft_torque = out["tau_in"], out["shaft_torque"]
+        self.omega_intermediate, self.stored_energy = out["omega2"], out["energy"]
+        self.phi_in, self.alpha_in = self._phi1, alpha1
+
+    def advance(self, t, h):
+        alpha1 = self._alpha1()
+        if not self.rigid_intermediate_shaft:
+            w_max = max(abs(self.omega_in), abs(self.omega_in + alpha1 * h))
+            n = max(1, math.ceil(h * dc.flexible_rate_bound(self._p, w_max) / _RATE_STEP))
+            state = dc.flexible_step(self._p, h, self._phi1, self.omega_in, alpha1, self._flexible_state(),
+                                     self.tau_load, n)
+            if not all(math.isfinite(x) for x in state):
+                raise ValueError(f"the state became non-finite over the step ({state!r})")
+            for name, angle in (("beta1", self.beta1 + state[2]), ("beta2", self.beta2 + self._p.cos_plane * state[2])):
+                if abs(angle) > dc.MAX_ANGLE:
+                    raise ValueError(f"joint angle {name} + dynamic misalignment = {angle!r} rad left its allowed "
+                                     f"range [{-dc.MAX_ANGLE:.10g}, {dc.MAX_ANGLE:.10g}] rad")
+            self._state, self._started = state, True
+        self._phi1 += h * (self.omega_in + 0.5 * alpha1 * h)
+        self._omega_prev, self._h_prev = self.omega_in, h

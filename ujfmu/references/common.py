@@ -1,0 +1,46 @@
+"""Pieces every monolithic reference shares: the Motor FMU's speed profiles and PI law and the Load FMU's torque
+law, written out again with numpy (independent of ujfmu.physics)."""
+
+import numpy as np
+
+
+def profile(p, t):
+    """Speed reference (omega, alpha, angle) of the Motor FMU's profiles, written out independently."""
+    t = np.asarray(t, dtype=float)
+    prof, w_set, acc, t_step, w0 = p["profile"], p["omega_set"], p["accel"], p["t_step"], p["omega_initial"]
+    if prof == 1:
+        te = w_set / acc
+        up = t < te
+        return (np.where(up, acc * t, w_set), np.where(up, acc, 0.0),
+                np.where(up, 0.5 * acc * t**2, 0.5 * acc * te**2 + w_set * (t - te)))
+    if prof == 2:
+        before = t < t_step
+        return (np.where(before, w0, w_set), np.zeros_like(t),
+                np.where(before, w0 * t, w0 * t_step + w_set * (t - t_step)))
+    return np.full_like(t, w_set), np.zeros_like(t), w_set * t
+
+
+def corners(p, t0, t1):
+    """Integration interval cut at the profile's corners (ramp end, step)."""
+    if p["profile"] == 1:
+        cuts = [p["omega_set"] / p["accel"]]
+    elif p["profile"] == 2:
+        cuts = [p["t_step"]]
+    else:
+        cuts = []
+    return [t0] + [c for c in cuts if t0 < c < t1] + [t1]
+
+
+def load_torque(p, w):
+    """Load FMU torque law tau = T0 s(w) + c1 w + c2 w |w|_s."""
+    mag = np.sqrt(w * w + p["omega_smooth"] ** 2)
+    return p["T0"] * w / mag + p["c1"] * w + p["c2"] * w * mag
+
+
+def pi_law(p, t, w, integral):
+    """(tau_motor, d integral/dt) of the PI speed controller with torque limit and conditional integration."""
+    e = profile(p, t)[0] - w
+    u = p["Kp"] * e + p["Ki"] * integral
+    tmax = p["tau_max"]
+    di = np.where((u > tmax) & (e > 0) | (u < -tmax) & (e < 0), 0.0, e)
+    return np.clip(u, -tmax, tmax), di

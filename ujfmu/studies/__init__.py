@@ -1,0 +1,1 @@
+"""Studies that re-run the papers' published results on the FMUs."""
