@@ -16,9 +16,8 @@ import functools
 
 import numpy as np
 import sympy as sp
-from scipy.integrate import solve_ivp
 
-from .common import corners, load_torque, pi_law, profile
+from .common import load_torque, pi_law, profile, solve_piecewise
 
 RTOL, ATOL = 1e-11, 1e-12
 
@@ -95,17 +94,7 @@ def generate(scenario):
             return [w, a, di, r * w]
 
         y = [0.0, float(profile(pm, t[:1])[0][0]), 0.0, theta20]
-        pieces = []
-        cuts = corners(pm, t[0], t[-1])
-        for lo, hi in zip(cuts[:-1], cuts[1:]):
-            sel = (t >= lo) & (t <= hi) if hi == cuts[-1] else (t >= lo) & (t < hi)
-            sol = solve_ivp(rhs, (lo, hi), y, method="DOP853", rtol=RTOL, atol=ATOL, t_eval=t[sel],
-                            dense_output=True)
-            if not sol.success:
-                raise RuntimeError(f"reference solve failed: {sol.message}")
-            pieces.append(sol.y)
-            y = sol.sol(hi)
-        ys = np.concatenate(pieces, axis=1)
+        ys = solve_piecewise(rhs, y, t, pm, RTOL, ATOL)
         phi_motor, w1, integral, theta2 = ys
         theta1 = pj["phi_in_start"] + phi_motor
         r, dr = kin.ratio(theta1)

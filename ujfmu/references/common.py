@@ -2,6 +2,7 @@
 law, written out again with numpy (independent of ujfmu.physics)."""
 
 import numpy as np
+from scipy.integrate import solve_ivp
 
 
 def profile(p, t):
@@ -44,3 +45,17 @@ def pi_law(p, t, w, integral):
     tmax = p["tau_max"]
     di = np.where((u > tmax) & (e > 0) | (u < -tmax) & (e < 0), 0.0, e)
     return np.clip(u, -tmax, tmax), di
+
+
+def solve_piecewise(rhs, y0, t, motor_params, rtol, atol):
+    """One DOP853 solve of rhs on the grid t, restarted at the speed profile's corners; returns y on t."""
+    pieces, y = [], y0
+    cuts = corners(motor_params, t[0], t[-1])
+    for lo, hi in zip(cuts[:-1], cuts[1:]):
+        sel = (t >= lo) & (t <= hi) if hi == cuts[-1] else (t >= lo) & (t < hi)
+        sol = solve_ivp(rhs, (lo, hi), y, method="DOP853", rtol=rtol, atol=atol, t_eval=t[sel], dense_output=True)
+        if not sol.success:
+            raise RuntimeError(f"reference solve failed: {sol.message}")
+        pieces.append(sol.y)
+        y = sol.sol(hi)
+    return np.concatenate(pieces, axis=1)

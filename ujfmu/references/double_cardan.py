@@ -17,9 +17,8 @@ import functools
 
 import numpy as np
 import sympy as sp
-from scipy.integrate import solve_ivp
 
-from .common import corners, load_torque, pi_law, profile
+from .common import load_torque, pi_law, profile, solve_piecewise
 
 RTOL, ATOL = 1e-10, 1e-11
 _PARAMS = ("beta1", "beta2", "yoke_phase", "joint_plane_angle", "I_input", "I_cross_pin", "I_cross_normal",
@@ -185,17 +184,7 @@ def generate(scenario):
                                            tau_load=load_torque(pl, y[4]))
                 return [y[1], acc[0], float(di), y[4], acc[1], y[6], acc[2]]
 
-        pieces = []
-        cuts = corners(pm, t[0], t[-1])
-        for lo, hi in zip(cuts[:-1], cuts[1:]):
-            sel = (t >= lo) & (t <= hi) if hi == cuts[-1] else (t >= lo) & (t < hi)
-            sol = solve_ivp(rhs, (lo, hi), y, method="DOP853", rtol=RTOL, atol=ATOL, t_eval=t[sel],
-                            dense_output=True)
-            if not sol.success:
-                raise RuntimeError(f"reference solve failed: {sol.message}")
-            pieces.append(sol.y)
-            y = sol.sol(hi)
-        ys = np.concatenate(pieces, axis=1)
+        ys = solve_piecewise(rhs, y, t, pm, RTOL, ATOL)
         if ideal:
             w1, a1, ang = profile(pm, t)
             phi_m = ang - ang0
