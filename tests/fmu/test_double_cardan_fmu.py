@@ -13,34 +13,23 @@ OUT = ("omega_out", "phi_out", "tau_in", "twist", "dynamic_misalignment", "omega
 DEG = math.pi / 180.0
 
 
-def run(inst, omega, tau_load, h, n, params=None):
-    inst.initialize(params)
-    rows = []
-    for k in range(n):
-        t = k * h
-        inst.set(omega_in=omega(t), tau_load=tau_load)
-        rows.append([t, omega(t)] + inst.get(*OUT))
-        inst.slave.doStep(t, h)
-    return np.rec.fromarrays(np.array(rows).T, names=("time", "omega_in") + OUT)
-
-
-def test_rigid_constant_velocity_layout_at_speed_keeps_angles_continuous(open_fmu):
+def test_rigid_constant_velocity_layout_at_speed_keeps_angles_continuous(open_fmu, drive):
     """Z layout, yokes in phase, rigid, 200 rad/s for 1 s (~32 revolutions): output angle = input angle."""
-    r = run(open_fmu("DoubleCardanDriveline"), lambda t: 200.0, 50.0, 1e-3, 1000,
-            dict(rigid_intermediate_shaft=True, J_load=0.0))
+    r = drive(open_fmu("DoubleCardanDriveline"), lambda t: 200.0, 50.0, 1e-3, 1000, OUT,
+              dict(rigid_intermediate_shaft=True, J_load=0.0))
     np.testing.assert_allclose(r.phi_out, r.phi_in, atol=1e-9)
     np.testing.assert_allclose(r.tau_in, 50.0, rtol=1e-12)
     assert np.all(np.diff(r.phi_out) > 0) and r.phi_out[-1] > 60 * math.pi
     assert np.ptp(r.omega_intermediate) > 5.0
 
 
-def test_flexible_outputs_follow_the_physics_module(open_fmu):
+def test_flexible_outputs_follow_the_physics_module(open_fmu, drive):
     h, w, n = 1e-3, 71.6, 300
-    r = run(open_fmu("DoubleCardanDriveline"), lambda t: w, 5.0, h, n)
+    r = drive(open_fmu("DoubleCardanDriveline"), lambda t: w, 5.0, h, n, OUT)
     p = dc.Driveline(15 * DEG, 15 * DEG, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0045, 92.2, 0.002, 4.09, 26331.0, 0.002,
                      0.325)
     phi1, state = 0.0, (0.0, w, 0.0, 0.0)
-    substeps = math.ceil(h * dc.flexible_rate_bound(p, w) / 0.15)
+    substeps = dc.flexible_substeps(dc.natural_rate_bound(p), h, w)
     for k in range(n):
         out = dc.flexible_outputs(p, phi1, w, 0.0, state)
         assert (r.phi_out[k], r.omega_out[k], r.dynamic_misalignment[k]) == pytest.approx(state[:3], abs=1e-12)
@@ -50,11 +39,11 @@ def test_flexible_outputs_follow_the_physics_module(open_fmu):
     assert np.max(r.twist) > 4.0 / 92.2          # the load twists the shaft (static twist 5/92.2 rad)
 
 
-def test_power_balance_through_the_fmu_outputs(open_fmu):
+def test_power_balance_through_the_fmu_outputs(open_fmu, drive):
     """Undamped, constant input speed and load: tau_in w1 - tau_load w4 = dE/dt (E the FMU's stored_energy)."""
     h = 2e-4
-    r = run(open_fmu("DoubleCardanDriveline"), lambda t: 60.0, 5.0, h, 2500, dict(xi_theta=0.0, xi_phi=0.0,
-                                                                               beta2=-15 * DEG))
+    r = drive(open_fmu("DoubleCardanDriveline"), lambda t: 60.0, 5.0, h, 2500, OUT,
+              dict(xi_theta=0.0, xi_phi=0.0, beta2=-15 * DEG))
     power = r.tau_in * r.omega_in - 5.0 * r.omega_out
     work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * h)])
     energy = r.stored_energy - r.stored_energy[0]

@@ -8,8 +8,6 @@ from .base import UjfmuSlave, input_, output, parameter
 _ANGLE = dict(min=-dc.MAX_ANGLE, max=dc.MAX_ANGLE)
 _PHASE = dict(min=-2.0 * math.pi, max=2.0 * math.pi)
 _INERTIA = dict(min=0.0, max=1.0e3)
-#: substep length times the fastest rate bound (classical RK4; see physics.double_cardan.flexible_rate_bound)
-_RATE_STEP = 0.15
 
 
 class DoubleCardanDriveline(UjfmuSlave):
@@ -102,6 +100,7 @@ class DoubleCardanDriveline(UjfmuSlave):
         # flexible states (phi4, omega4, phi, dphi); omega4 follows the input kinematically until the first step
         self._state = (dc.rigid_output_angle(self._p, self._phi1), 0.0, 0.0, 0.0)
         self._started = False
+        self._natural_rate = 0.0 if self.rigid_intermediate_shaft else dc.natural_rate_bound(self._p)
 
     def _alpha1(self):
         return 0.0 if self._omega_prev is None else (self.omega_in - self._omega_prev) / self._h_prev
@@ -131,7 +130,7 @@ class DoubleCardanDriveline(UjfmuSlave):
         alpha1 = self._alpha1()
         if not self.rigid_intermediate_shaft:
             w_max = max(abs(self.omega_in), abs(self.omega_in + alpha1 * h))
-            n = max(1, math.ceil(h * dc.flexible_rate_bound(self._p, w_max) / _RATE_STEP))
+            n = dc.flexible_substeps(self._natural_rate, h, w_max)
             state = dc.flexible_step(self._p, h, self._phi1, self.omega_in, alpha1, self._flexible_state(),
                                      self.tau_load, n)
             if not all(math.isfinite(x) for x in state):

@@ -28,6 +28,8 @@ import math
 #: Largest admissible magnitude of a joint angle (static plus dynamic) [rad].
 MAX_ANGLE = math.radians(89.0)
 HALF_PI = 0.5 * math.pi
+#: RK4 substep length times the fastest rate (flexible_substeps)
+RATE_STEP = 0.15
 
 
 def joint_error(x, b):
@@ -142,8 +144,8 @@ def rigid_state(p, phi1, omega1, alpha1, tau_load):
 def flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi):
     """Twist, twist rate and the partials the equations need.
 
-    Returns (twist, dtwist, r1, r2, g): twist = phi2 - phi3, r1 = dphi2/dphi1, r2 = dphi3/dphi4,
-    g = d(twist)/d(phi) = dphi2/db1 - cos(plane) dphi3/db2 (Omar eta_1A - eta_2A), and
+    Returns (twist, dtwist, r1, r2, g, e1): twist = phi2 - phi3, r1 = dphi2/dphi1, r2 = dphi3/dphi4,
+    e1 = dphi2/db1, g = d(twist)/d(phi) = e1 - cos(plane) dphi3/db2 (Omar eta_1A - eta_2A), and
     dtwist = r1 w1 - r2 w4 + g dphi (Omar Eq. 18 with theta_s = -twist).
     """
     b1 = p.beta1 + phi
@@ -153,7 +155,7 @@ def flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi):
     r2, _, e2 = joint_ratio(u4, b2)
     g = e1 - p.cos_plane * e2
     twist = (phi1 + joint_error(phi1, b1)) - (phi4 + joint_error(u4, b2))
-    return twist, r1 * omega1 - r2 * omega4 + g * dphi, r1, r2, g
+    return twist, r1 * omega1 - r2 * omega4 + g * dphi, r1, r2, g, e1
 
 
 def flexible_derivatives(p, phi1, omega1, state, tau_load):
@@ -163,7 +165,7 @@ def flexible_derivatives(p, phi1, omega1, state, tau_load):
         M_lat d2phi/dt2 = -(L_c cos beta1)^2 (c_phi dphi + k_phi phi) - g (k_theta twist + c_theta dtwist)
     """
     phi4, omega4, phi, dphi = state
-    twist, dtwist, _, r2, g = flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi)
+    twist, dtwist, _, r2, g, _ = flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi)
     shaft = p.k_theta * twist + p.c_theta * dtwist
     j_out, dj_out = output_inertia(p, phi4)
     return (omega4,
@@ -179,7 +181,7 @@ def flexible_outputs(p, phi1, omega1, alpha1, state):
     power balance: tau_in w1 - tau_load w4 = dE/dt + c_theta dtwist^2 + c_phi (L_c cos beta1)^2 dphi^2.
     """
     phi4, omega4, phi, dphi = state
-    twist, dtwist, r1, _, g = flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi)
+    twist, dtwist, r1, _, _, e1 = flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi)
     shaft = p.k_theta * twist + p.c_theta * dtwist
     j_in, dj_in = input_inertia(p, phi1)
     j_out, _ = output_inertia(p, phi4)
@@ -188,18 +190,24 @@ def flexible_outputs(p, phi1, omega1, alpha1, state):
     # joint-1 end of the intermediate shaft: phi2 depends on phi1 and, through b1, on phi
     return {"twist": twist, "dtwist": dtwist, "shaft_torque": shaft,
             "tau_in": j_in * alpha1 + 0.5 * dj_in * omega1 * omega1 + r1 * shaft,
-            "omega2": r1 * omega1 + joint_ratio(phi1, p.beta1 + phi)[2] * dphi, "energy": energy}
+            "omega2": r1 * omega1 + e1 * dphi, "energy": energy}
 
 
-def flexible_rate_bound(p, omega1_max):
-    """An upper bound of the fastest rate [1/s] in the flexible equations (oscillation + decay + forcing)."""
+def natural_rate_bound(p):
+    """An upper bound [1/s] of the fastest free motion of the flexible equations (oscillation + decay)."""
     r_max = 1.0 / min(math.cos(p.beta1), math.cos(p.beta2))  # dy/dx <= 1/cos b
     g_max = 0.5 * (  # |dy/db| <= tan b / (2 cos b)
                    abs(math.tan(p.beta1)) / math.cos(p.beta1) + abs(math.tan(p.beta2)) / math.cos(p.beta2))
     j_min = p.j_load
     oscillation = math.sqrt(p.k_theta * r_max * r_max / j_min + p.k_phi / p.m_s + p.k_theta * g_max ** 2 / p.m_lat)
     decay = p.c_theta * r_max * r_max / j_min + p.c_phi / p.m_s + p.c_theta * g_max ** 2 / p.m_lat
-    return oscillation + decay + 4.0 * omega1_max
+    return oscillation + decay
+
+
+def flexible_substeps(natural_rate, h, omega1_max):
+    """RK4 substeps for a step h: each at most RATE_STEP / (natural_rate + 4 |omega1|) long (the kinematics carry
+    harmonics 2x, 4x, ... of the input angle with amplitudes q, q^2, ...)."""
+    return max(1, math.ceil(h * (natural_rate + 4.0 * omega1_max) / RATE_STEP))
 
 
 def flexible_step(p, t_span, phi1, omega1, alpha1, state, tau_load, substeps):
