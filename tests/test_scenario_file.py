@@ -38,6 +38,10 @@ def test_good_file_loads(tmp_path):
     ('from = "j.omega_out"', 'from = "j.omega_in"', "not an output"),
     ('step_size = 1e-3', 'step_size = "fast"', "experiment.step_size"),
     ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { J3 = 1 }', "parameters.J3"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]\norbits = [["j.tau_in"]]', "output.orbits[0]"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]\nspectra = ["j.M_x"]', "output.spectra"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]\nplot = ["j.phi_out"]', "output.plot"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]\nsteady_from = "late"', "output.steady_from"),
 ])
 def test_bad_field_is_named(tmp_path, old, new, field):
     path = write(tmp_path, GOOD.replace(old, new))

@@ -29,6 +29,7 @@ FMUS = {
     "Motor": ("motor", "Motor"),
     "Load": ("load", "Load"),
     "DoubleCardanDriveline": ("double_cardan_driveline", "DoubleCardanDriveline"),
+    "TwinJeffcottRotor": ("twin_jeffcott_rotor", "TwinJeffcottRotor"),
 }
 
 #: unit -> ((kg, m, s, rad) exponents, {display unit: factor})
@@ -46,6 +47,7 @@ UNITS = {
     "kg": ((1, 0, 0, 0), {}),
     "m": ((0, 1, 0, 0), {"mm": 1.0e3}),
     "N/m": ((1, 0, -2, 0), {}),
+    "N.s/m": ((1, 0, -1, 0), {}),
     "J": ((1, 2, -2, 0), {}),
 }
 _RUNTIME_DIRS = ("physics", "fmu")  # the only parts of ujfmu that go into an FMU
@@ -139,6 +141,8 @@ def _rewrite_model_description(fmu_path, cls):
             for attr in ("min", "max"):
                 if getattr(var, attr) is not None:
                     typed.set(attr, repr(var.type(getattr(var, attr))))
+        if var.type is float and typed.get("start") is not None:
+            typed.set("start", repr(float(var.start)))   # pythonfmu writes 16 digits; repr round-trips exactly
 
     structure = root.find("ModelStructure")
     for child in list(structure):

@@ -33,6 +33,8 @@ def cmd_run(args):
     result = run_scenario(args.scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=not args.no_plot)
     print(result.summary())
     print(f"  results: {result.csv}" + (f"\n  plot:    {result.plot}" if result.plot else ""))
+    for extra in result.extra_plots:
+        print(f"  plot:    {extra}")
     return 0 if result.passed else 1
 
 

@@ -34,3 +34,55 @@ def plot_scenario(result, reference, path):
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def _steady(result):
+    table = result.table
+    return table[table["time"] >= result.scenario.steady_from - 1e-12]
+
+
+def plot_orbits(result, path):
+    """One panel per [x, y] pair of the scenario's output.orbits (from steady_from on), in mm. Returns path."""
+    scenario, table = result.scenario, _steady(result)
+    pairs = scenario.orbits
+    fig, axes = plt.subplots(1, len(pairs), figsize=(4.2 * len(pairs), 4.4), squeeze=False)
+    for ax, (x, y) in zip(axes[0], pairs):
+        ax.plot(1e3 * table[x], 1e3 * table[y], lw=0.7)
+        ax.plot(1e3 * table[x][-1:], 1e3 * table[y][-1:], "o", ms=4, color="tab:red")
+        ax.set_xlabel(f"{x} [mm]")
+        ax.set_ylabel(f"{y} [mm]")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"{scenario.title}\norbits, t >= {scenario.steady_from:g} s (dot: last sample)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_spectra(result, path):
+    """Amplitude spectrum of each of the scenario's output.spectra (from steady_from on), frequency in orders of
+    the running speed when output.running_speed is given. Returns path."""
+    from .analysis import amplitude_spectrum
+
+    scenario, table = result.scenario, _steady(result)
+    names = scenario.spectra
+    fig, axes = plt.subplots(len(names), 1, figsize=(9, 1.9 * len(names) + 0.8), sharex=True, squeeze=False)
+    scale, unit = 1.0, "Hz"
+    if scenario.running_speed:
+        scale = 2.0 * np.pi / float(np.mean(table[scenario.running_speed]))
+        unit = f"orders of the running speed ({1.0 / scale:.2f} Hz)"
+    for ax, name in zip(axes[:, 0], names):
+        freq, amp = amplitude_spectrum(table["time"], table[name])
+        ax.semilogy(freq * scale, np.maximum(amp, 1e-30), lw=0.9)
+        top = amp.max() if amp.max() > 0 else 1.0
+        ax.set_ylim(top * 1e-6, top * 3.0)
+        ax.set_title(name, fontsize=9, loc="left")
+        ax.grid(alpha=0.3, which="both")
+    axes[-1, 0].set_xlim(0, 6 if scenario.running_speed else None)
+    axes[-1, 0].set_xlabel(f"frequency [{unit}]")
+    fig.suptitle(f"{scenario.title}\namplitude spectra (Hann window), t >= {scenario.steady_from:g} s", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -4,7 +4,10 @@
     [experiment]            stop_time, step_size [s]; start_time optional (0)
     [components.NAME]       fmu = "CardanJoint" (fmus/CardanJoint.fmu), parameters = { name = value, ... }
     [[connections]]         from = "comp.output", to = "comp.input"
-    [output]                record = ["comp.var", ...]; plot = [...] (default: the compared signals)
+    [output]                record = ["comp.var", ...]; plot = [...] (default: the compared signals);
+                            orbits = [["comp.X", "comp.Y"], ...], spectra = ["comp.var", ...] (recorded signals),
+                            running_speed = "comp.omega" (spectra in running-speed orders), steady_from [s]
+                            (orbits and spectra from that time on)
     [reference]             file = "references/x.csv" (relative to the scenario), generator = "cardan_chain"
     [reference.tolerance]   "comp.var" = { rel_range = 0.01, abs = 0.0 }
       pass when max |result - reference| <= rel_range * (max - min of the reference) + abs
@@ -83,6 +86,19 @@ class Scenario:
                 raise ScenarioError(f"{self.path}: reference.tolerance.{name}: not a recorded signal")
             self.tolerances[name] = Tolerance(**tol)
         self.plot = list(out.get("plot", self.tolerances or self.record))
+        self.orbits = [tuple(pair) for pair in out.get("orbits", [])]
+        for i, pair in enumerate(self.orbits):
+            if len(pair) != 2:
+                raise ScenarioError(f"{self.path}: output.orbits[{i}] = {list(pair)!r} must be [x, y] signals")
+        self.spectra = list(out.get("spectra", []))
+        self.running_speed = out.get("running_speed")
+        for field, names in (("plot", self.plot), ("orbits", [n for pair in self.orbits for n in pair]),
+                             ("spectra", self.spectra),
+                             ("running_speed", [self.running_speed] if self.running_speed else [])):
+            for name in names:
+                if name not in self.record:
+                    raise ScenarioError(f"{self.path}: output.{field}: {name!r} is not a recorded signal")
+        self.steady_from = self._number(out, "output.steady_from", self.start_time)
 
     def _table(self, data, key):
         if not isinstance(data.get(key), dict):

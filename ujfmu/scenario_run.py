@@ -42,6 +42,7 @@ class ScenarioResult:
     wall_time: float = 0.0
     csv: Path = None
     plot: Path = None
+    extra_plots: list = field(default_factory=list)   # orbits and spectra, when the scenario asks for them
 
     @property
     def passed(self):
@@ -105,8 +106,12 @@ def run_scenario(path, fmu_dir=DEFAULT_FMU_DIR, out_dir=DEFAULT_OUT_DIR, plot=Tr
         result.csv = out_dir / f"{scenario.name}.csv"
         write_csv(result.csv, table)
         if plot:
-            from .plotting import plot_scenario
+            from .plotting import plot_orbits, plot_scenario, plot_spectra
             result.plot = plot_scenario(result, reference, out_dir / f"{scenario.name}.png")
+            if scenario.orbits:
+                result.extra_plots.append(plot_orbits(result, out_dir / f"{scenario.name}_orbits.png"))
+            if scenario.spectra:
+                result.extra_plots.append(plot_spectra(result, out_dir / f"{scenario.name}_spectra.png"))
     return result
 
 

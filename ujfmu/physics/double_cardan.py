@@ -25,11 +25,11 @@ J_in, J_out: the inertias kinematically tied to phi1 / phi4, evaluated at the st
 
 import math
 
+from . import rk4
+
 #: Largest admissible magnitude of a joint angle (static plus dynamic) [rad].
 MAX_ANGLE = math.radians(89.0)
 HALF_PI = 0.5 * math.pi
-#: RK4 substep length times the fastest rate (flexible_substeps)
-RATE_STEP = 0.15
 
 
 def joint_error(x, b):
@@ -207,7 +207,7 @@ def natural_rate_bound(p):
 def flexible_substeps(natural_rate, h, omega1_max):
     """RK4 substeps for a step h: each at most RATE_STEP / (natural_rate + 4 |omega1|) long (the kinematics carry
     harmonics 2x, 4x, ... of the input angle with amplitudes q, q^2, ...)."""
-    return max(1, math.ceil(h * (natural_rate + 4.0 * omega1_max) / RATE_STEP))
+    return rk4.substeps(natural_rate + 4.0 * omega1_max, h)
 
 
 def flexible_step(p, t_span, phi1, omega1, alpha1, state, tau_load, substeps):
@@ -215,22 +215,6 @@ def flexible_step(p, t_span, phi1, omega1, alpha1, state, tau_load, substeps):
 
     Returns the new state; tau_load is held over the step.
     """
-    h = t_span / substeps
-    y = state
-    t = 0.0
-    for _ in range(substeps):
-        k1 = flexible_derivatives(p, phi1 + t * (omega1 + 0.5 * alpha1 * t), omega1 + alpha1 * t, y, tau_load)
-        tm = t + 0.5 * h
-        p1m, w1m = phi1 + tm * (omega1 + 0.5 * alpha1 * tm), omega1 + alpha1 * tm
-        k2 = flexible_derivatives(p, p1m, w1m, _axpy(y, 0.5 * h, k1), tau_load)
-        k3 = flexible_derivatives(p, p1m, w1m, _axpy(y, 0.5 * h, k2), tau_load)
-        te = t + h
-        k4 = flexible_derivatives(p, phi1 + te * (omega1 + 0.5 * alpha1 * te), omega1 + alpha1 * te,
-                                  _axpy(y, h, k3), tau_load)
-        y = tuple(yi + h / 6.0 * (a + 2.0 * b + 2.0 * c + d) for yi, a, b, c, d in zip(y, k1, k2, k3, k4))
-        t = te
-    return y
-
-
-def _axpy(y, a, k):
-    return (y[0] + a * k[0], y[1] + a * k[1], y[2] + a * k[2], y[3] + a * k[3])
+    def derivatives(phi, w, y):
+        return flexible_derivatives(p, phi, w, y, tau_load)
+    return tuple(rk4.integrate(derivatives, state, t_span, substeps, phi1, omega1, alpha1))

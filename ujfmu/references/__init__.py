@@ -10,11 +10,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import cardan_chain, double_cardan
+from . import cardan_chain, double_cardan, twin_jeffcott
 
 GENERATORS = {
     "cardan_chain": cardan_chain.generate,
     "double_cardan": double_cardan.generate,
+    "twin_jeffcott": twin_jeffcott.generate,
 }
 
 

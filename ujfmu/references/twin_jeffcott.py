@@ -1,0 +1,185 @@
+"""Monolithic reference for Motor -> TwinJeffcottRotor(s) -> Load(s).
+
+Independent of the co-simulation and of ujfmu.physics.twin_jeffcott, it starts again from geometry and energy:
+- the joint from exact rotation matrices (sympy): the primary end section R_x(v1) R_y(-u1), the secondary frame
+  R_y(beta) R_x(-v2) R_y(u2), with the bending end slopes u = 3 X / L, v = 3 Y / L as rotation angles (the FMU
+  linearises these small rotations); the driving pin e1 = R_a R_z(theta1) (0, 1, 0), the driven pin normal to e1
+  and to the secondary axis, and the output angle psi read off in the secondary frame;
+- the kinetic energy from the velocities of disc centres and unbalance masses, the potential and the Rayleigh
+  function of docs/twin_jeffcott.md as sympy expressions, and Lagrange's equations M(q) q'' = f(q, q', t) formed by
+  sympy's differentiation (q = theta1, X1, Y1, theta2, X2, Y2; the input angle prescribed for an ideal speed
+  source, else the motor's angle as a further coordinate);
+- the input work and the dissipated energy as two more ODE states, the motor's PI law and the load's torque
+  written out again (references.common); one scipy DOP853 solve of the whole system, split at the speed
+  profile's corners.
+"""
+
+import functools
+
+import numpy as np
+import sympy as sp
+
+from .common import load_torque, pi_law, profile, solve_piecewise
+
+RTOL, ATOL = 1e-9, 1e-12
+_PARAMS = ("beta", "M1", "M2", "J_M1", "J_M2", "J_gb", "m_u1", "m_u2", "e", "phase_u1", "phase_u2",
+           "K1X", "K1Y", "K2X", "K2Y", "C1X", "C1Y", "C2X", "C2Y", "K1T", "K2T", "C1T", "C2T", "L1", "L2")
+
+
+def _rx(a):
+    return sp.Matrix([[1, 0, 0], [0, sp.cos(a), -sp.sin(a)], [0, sp.sin(a), sp.cos(a)]])
+
+
+def _ry(a):
+    return sp.Matrix([[sp.cos(a), 0, sp.sin(a)], [0, 1, 0], [-sp.sin(a), 0, sp.cos(a)]])
+
+
+def _rz(a):
+    return sp.Matrix([[sp.cos(a), -sp.sin(a), 0], [sp.sin(a), sp.cos(a), 0], [0, 0, 1]])
+
+
+@functools.lru_cache(maxsize=None)
+def _equations():
+    """Lambdified (M, f) of Lagrange's equations and the output expressions."""
+    q = th1, x1, y1, th2, x2, y2 = sp.symbols("theta1 X1 Y1 theta2 X2 Y2", real=True)
+    qd = sp.symbols("w1 vx1 vy1 w2 vx2 vy2", real=True)
+    phi_in, w_in, tau_load = sp.symbols("phi_in w_in tau_load", real=True)
+    params = sp.symbols(" ".join(_PARAMS), real=True)
+    pr = dict(zip(_PARAMS, params))
+    t = sp.Symbol("t")
+    # kinetic energy: disc centres and unbalance masses (positions in each shaft's frame; the mid-span disc does
+    # not tilt)
+    kinetic = 0
+    for i, (th, x, y) in enumerate(((th1, x1, y1), (th2, x2, y2)), start=1):
+        path = {s: sp.Function(f"{s}_t")(t) for s in (th, x, y)}
+        r_disc = sp.Matrix([path[x], path[y]])
+        angle = path[th] + pr[f"phase_u{i}"]
+        r_unb = r_disc + pr["e"] * sp.Matrix([sp.cos(angle), sp.sin(angle)])
+        v_disc, v_unb = r_disc.diff(t), r_unb.diff(t)
+        to_symbols = {path[s].diff(t): v for s, v in zip((th, x, y), qd[3 * (i - 1):3 * i])}
+        to_symbols.update({path[s]: s for s in (th, x, y)})
+        energy = (pr[f"J_M{i}"] * path[th].diff(t) ** 2 + pr[f"M{i}"] * v_disc.dot(v_disc)
+                  + pr[f"m_u{i}"] * v_unb.dot(v_unb)) / 2
+        kinetic += energy.subs(to_symbols)
+    # joint output angle from rotation matrices
+    u1, v1 = 3 * x1 / pr["L1"], 3 * y1 / pr["L1"]
+    u2, v2 = 3 * x2 / pr["L2"], 3 * y2 / pr["L2"]
+    e1 = _rx(v1) * _ry(-u1) * _rz(th1) * sp.Matrix([0, 1, 0])
+    p = (_ry(pr["beta"]) * _rx(-v2) * _ry(u2)).T * e1
+    c, s = sp.cos(th1), sp.sin(th1)
+    psi = th1 + sp.atan2(-p[0] * c - p[1] * s, p[1] * c - p[0] * s)
+    dpsi = sum(sp.diff(psi, qi) * wi for qi, wi in zip(q, qd))
+    twist1, twist2 = phi_in - th1, psi - th2
+    potential = (pr["K1T"] * twist1 ** 2 + pr["K2T"] * twist2 ** 2 + pr["K1X"] * x1 ** 2 + pr["K1Y"] * y1 ** 2
+                 + pr["K2X"] * x2 ** 2 + pr["K2Y"] * y2 ** 2) / 2
+    rayleigh = (pr["C1T"] * (w_in - qd[0]) ** 2 + pr["C2T"] * (dpsi - qd[3]) ** 2 + pr["C1X"] * qd[1] ** 2
+                + pr["C1Y"] * qd[2] ** 2 + pr["C2X"] * qd[4] ** 2 + pr["C2Y"] * qd[5] ** 2) / 2
+    n = len(q)
+    mass = sp.Matrix(n, n, lambda i, j: sp.diff(kinetic, qd[i], qd[j]))
+    external = [0, 0, 0, -tau_load, 0, 0]
+    force = sp.Matrix([-sum(sp.diff(kinetic, qd[i], q[j]) * qd[j] for j in range(n)) + sp.diff(kinetic, q[i])
+                       - sp.diff(potential, q[i]) - sp.diff(rayleigh, qd[i]) + external[i] for i in range(n)])
+    shaft1 = sp.diff(potential, phi_in) + sp.diff(rayleigh, w_in)   # generalised force the input must apply
+    shaft2 = pr["K2T"] * twist2 + pr["C2T"] * (dpsi - qd[3])
+    args = (q, qd, phi_in, w_in, tau_load, params)
+    outputs = [shaft1, shaft2, kinetic + potential, 2 * rayleigh]
+    return (sp.lambdify(args, [mass, force], "numpy", cse=True), sp.lambdify(args, outputs, "numpy", cse=True))
+
+
+class RotorReference:
+    """The rotor's equations for one parameter set (a dict with the FMU's parameter names)."""
+
+    def __init__(self, pr):
+        self.pr = pr
+        self.params = tuple(float(pr[n]) for n in _PARAMS)
+        self._mass_force, self._outputs = _equations()
+
+    def accelerations(self, q, qd, phi_in, w_in, tau_load):
+        m, f = self._mass_force(q, qd, phi_in, w_in, tau_load, self.params)
+        return np.linalg.solve(np.array(m, dtype=float), np.array(f, dtype=float).ravel())
+
+    def outputs(self, q, qd, phi_in, w_in):
+        """(primary shaft torque, secondary shaft torque, energy without the gearbox flange, dissipated power)."""
+        return self._outputs(q, qd, phi_in, w_in, 0.0, self.params)
+
+
+def _rotor_rhs(ref, y, phi_in, w_in, alpha_in, tau_load):
+    """d/dt of (q, q', input work, dissipated energy) for the rotor."""
+    q, qd = y[:6], y[6:12]
+    acc = ref.accelerations(q, qd, phi_in, w_in, tau_load)
+    shaft1, _, _, dissipation = ref.outputs(q, qd, phi_in, w_in)
+    return np.concatenate([qd, acc, [(ref.pr["J_gb"] * alpha_in + shaft1) * w_in, dissipation]])
+
+
+def _initial(ref, phi_in, w_in):
+    """Untwisted, centred, turning with the input: psi(theta1) and dpsi/dtheta1 from the exact joint."""
+    c, s, cb = np.cos(phi_in), np.sin(phi_in), np.cos(ref.pr["beta"])
+    psi = phi_in + np.arctan2(-(-cb * s) * c - c * s, c * c + cb * s * s)
+    ratio = cb / (c * c + cb * cb * s * s)
+    return np.array([phi_in, 0, 0, psi, 0, 0, w_in, 0, 0, ratio * w_in, 0, 0, 0, 0], dtype=float)
+
+
+def scenario_feeds(scenario, source, target):
+    return any(cn.source == source and cn.target == target for cn in scenario.connections)
+
+
+def generate(scenario):
+    """Reference for a motor driving one or more TwinJeffcottRotor components, each with a Load on its output
+    (a PI motor drives a single rotor; an ideal speed source any number)."""
+    pm = scenario.parameters_with_defaults("motor")
+    rotors = [c for c, (fmu, _) in scenario.components.items() if fmu == "TwinJeffcottRotor"]
+    load_of = {cn.source.split(".")[0]: cn.target.split(".")[0] for cn in scenario.connections
+               if cn.source.endswith(".omega_out") and cn.target.endswith(".omega")}
+    ideal = pm["ideal_speed_source"]
+    if not ideal and len(rotors) != 1:
+        raise ValueError(f"{scenario.path}: a PI motor reference drives exactly one rotor")
+    t = scenario.time_grid()
+    w_m, a_m, ang = profile(pm, t)
+    ang0 = float(ang[0])
+    cols = {}
+    for name in rotors:
+        pr = scenario.parameters_with_defaults(name)
+        pl = scenario.parameters_with_defaults(load_of[name])
+        ref = RotorReference(pr)
+        phi0 = pr["phi_in_start"]
+        y0 = _initial(ref, phi0, float(w_m[0]))
+        if ideal:
+            def rhs(time, y, ref=ref, pl=pl, phi0=phi0):
+                w, a, angle = profile(pm, time)
+                return _rotor_rhs(ref, y, phi0 + float(angle) - ang0, float(w), float(a), load_torque(pl, y[9]))
+            ys = solve_piecewise(rhs, y0, t, pm, RTOL, ATOL)
+            phi_m, w_in, a_in = ang - ang0, w_m, a_m
+        else:
+            def rhs(time, y, ref=ref, pl=pl, phi0=phi0):
+                phi_m, w, integral = y[14:]
+                tau_m, di = pi_law(pm, time, w, integral)
+                shaft1 = ref.outputs(y[:6], y[6:12], phi0 + phi_m, w)[0]
+                a = (float(tau_m) - shaft1) / (pm["J_rotor"] + ref.pr["J_gb"])
+                rot = _rotor_rhs(ref, y[:14], phi0 + phi_m, w, a, load_torque(pl, y[9]))
+                return np.concatenate([rot, [w, a, float(di)]])
+            ys = solve_piecewise(rhs, np.concatenate([y0, [0.0, float(w_m[0]), 0.0]]), t, pm, RTOL, ATOL)
+            phi_m, w_in, integral = ys[14:]
+            tau_m, _ = pi_law(pm, t, w_in, integral)
+        q, qd = ys[:6], ys[6:12]
+        phi_in = phi0 + phi_m
+        shaft1, shaft2, energy, _ = ref.outputs(q, qd, phi_in, w_in)
+        if not ideal:
+            a_in = (tau_m - shaft1) / (pm["J_rotor"] + pr["J_gb"])
+            cols["motor.tau_motor"] = tau_m
+        tau_in = pr["J_gb"] * a_in + shaft1
+        tau_l = load_torque(pl, qd[3])
+        cols.update({f"{name}.{k}": v for k, v in dict(
+            phi_disc1=q[0], X1=q[1], Y1=q[2], phi_out=q[3], X2=q[4], Y2=q[5], omega_disc1=qd[0], omega_out=qd[3],
+            tau_in=tau_in, primary_shaft_torque=shaft1, secondary_shaft_torque=shaft2,
+            stored_energy=energy + 0.5 * pr["J_gb"] * w_in ** 2, input_work=ys[12], dissipated_energy=ys[13],
+            phi_in=phi_in).items()})
+        cols[f"{load_of[name]}.tau"] = tau_l
+        if ideal and scenario_feeds(scenario, f"{name}.tau_in", "motor.tau_load"):
+            cols["motor.tau_motor"] = pm["J_rotor"] * a_in + tau_in
+    cols.update({"motor.omega": w_in, "motor.phi": phi_m})
+    names = ["time"] + [n for n in scenario.record if n in cols]
+    table = np.rec.fromarrays([t] + [np.asarray(cols[n], dtype=float) * np.ones_like(t) for n in names[1:]],
+                              names=names)
+    how = (f"monolithic ODE of {'ideal speed source' if ideal else 'PI motor'} + rotor + load, Lagrange's "
+           f"equations formed by sympy from rotation matrices and energies, scipy DOP853 rtol={RTOL:g} atol={ATOL:g}")
+    return table, f"ujfmu.references.twin_jeffcott: {how}. Regenerate: ujfmu references"
