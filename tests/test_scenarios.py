@@ -21,7 +21,8 @@ def results(fmu_dir, tmp_path_factory):
 
 def test_there_are_scenarios():
     assert {"cardan_startup", "cardan_constant_speed", "twin_jeffcott_steady", "twin_jeffcott_runup",
-            "twin_jeffcott_aligned_vs_misaligned"} <= {p.stem for p in SCENARIOS}
+            "twin_jeffcott_aligned_vs_misaligned", "ring_coupling_fig3", "ring_coupling_speed_study",
+            "ring_coupling_startup"} <= {p.stem for p in SCENARIOS}
 
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)

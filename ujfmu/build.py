@@ -30,6 +30,7 @@ FMUS = {
     "Load": ("load", "Load"),
     "DoubleCardanDriveline": ("double_cardan_driveline", "DoubleCardanDriveline"),
     "TwinJeffcottRotor": ("twin_jeffcott_rotor", "TwinJeffcottRotor"),
+    "RingCoupling": ("ring_coupling", "RingCoupling"),
 }
 
 #: unit -> ((kg, m, s, rad) exponents, {display unit: factor})
@@ -48,6 +49,7 @@ UNITS = {
     "m": ((0, 1, 0, 0), {"mm": 1.0e3}),
     "N/m": ((1, 0, -2, 0), {}),
     "N.s/m": ((1, 0, -1, 0), {}),
+    "Pa": ((1, -1, -2, 0), {"GPa": 1.0e-9}),
     "J": ((1, 2, -2, 0), {}),
 }
 _RUNTIME_DIRS = ("physics", "fmu")  # the only parts of ujfmu that go into an FMU

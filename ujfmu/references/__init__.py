@@ -10,12 +10,14 @@ from pathlib import Path
 
 import numpy as np
 
-from . import cardan_chain, double_cardan, twin_jeffcott
+from . import cardan_chain, double_cardan, ring_coupling, twin_jeffcott
 
 GENERATORS = {
     "cardan_chain": cardan_chain.generate,
     "double_cardan": double_cardan.generate,
     "twin_jeffcott": twin_jeffcott.generate,
+    "ring_coupling": ring_coupling.generate,
+    "ring_coupling_pendulum": ring_coupling.generate_pendulum,
 }
 
 
