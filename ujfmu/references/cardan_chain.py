@@ -17,7 +17,7 @@ import functools
 import numpy as np
 import sympy as sp
 
-from .common import load_torque, pi_law, profile, solve_piecewise
+from .common import load_torque, pi_law, profile, record_table, solve_piecewise
 
 RTOL, ATOL = 1e-11, 1e-12
 
@@ -119,7 +119,5 @@ def generate(scenario):
         "joint.omega_out": w2, "joint.phi_out": theta2, "joint.tau_in": tau_in, "joint.phi_in": theta1,
         "joint.M_x": m_x, "joint.M_y": m_y, "joint.M_z": m_z, "load.tau": tau_load,
     }
-    names = ["time"] + [n for n in scenario.record if n in columns]
-    table = np.rec.fromarrays([t] + [np.asarray(columns[n], dtype=float) * np.ones_like(t) for n in names[1:]],
-                              names=names)
+    table = record_table(scenario, t, columns)
     return table, f"ujfmu.references.cardan_chain: {how}. Regenerate: ujfmu references"

@@ -59,3 +59,18 @@ def solve_piecewise(rhs, y0, t, motor_params, rtol, atol):
         pieces.append(sol.y)
         y = sol.sol(hi)
     return np.concatenate(pieces, axis=1)
+
+
+def record_table(scenario, t, columns):
+    """Structured array 'time' + every recorded signal the reference computes, on the grid t."""
+    names = ["time"] + [n for n in scenario.record if n in columns]
+    return np.rec.fromarrays([t] + [np.asarray(columns[n], dtype=float) * np.ones_like(t) for n in names[1:]],
+                             names=names)
+
+
+def components_with_loads(scenario, fmu):
+    """[(component, its Load component or None)] for every component of the given FMU, the load being the
+    component whose omega input is fed from the component's omega_out."""
+    load_of = {cn.source.split(".")[0]: cn.target.split(".")[0] for cn in scenario.connections
+               if cn.source.endswith(".omega_out") and cn.target.endswith(".omega")}
+    return [(c, load_of.get(c)) for c, (name, _) in scenario.components.items() if name == fmu]

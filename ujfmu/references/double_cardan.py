@@ -18,7 +18,7 @@ import functools
 import numpy as np
 import sympy as sp
 
-from .common import load_torque, pi_law, profile, solve_piecewise
+from .common import load_torque, pi_law, profile, record_table, solve_piecewise
 
 RTOL, ATOL = 1e-10, 1e-11
 _PARAMS = ("beta1", "beta2", "yoke_phase", "joint_plane_angle", "I_input", "I_cross_pin", "I_cross_normal",
@@ -214,7 +214,5 @@ def generate(scenario):
                f"atol={ATOL:g}")
     cols.update({"motor.omega": w1, "motor.phi": phi_m, "load.tau": tau_l, "driveline.phi_in": phi1})
     cols["motor.tau_motor"] = (pm["J_rotor"] * a1 + cols["driveline.tau_in"]) if ideal else tau_m
-    names = ["time"] + [n for n in scenario.record if n in cols]
-    table = np.rec.fromarrays([t] + [np.asarray(cols[n], dtype=float) * np.ones_like(t) for n in names[1:]],
-                              names=names)
+    table = record_table(scenario, t, cols)
     return table, f"ujfmu.references.double_cardan: {how}. Regenerate: ujfmu references"

@@ -15,17 +15,10 @@ import numpy as np
 import sympy as sp
 from scipy import special
 
-from .common import load_torque, pi_law, profile, solve_piecewise
+from .common import components_with_loads, load_torque, pi_law, profile, record_table, solve_piecewise
 
 RTOL, ATOL = 1e-11, 1e-12
 _PARAMS = ("R", "d", "E", "e", "I1", "I2", "c_s", "c_d", "phi_in_start", "phi_out_start")
-
-
-def _rings(scenario):
-    """[(coupling component, its load component or None)]."""
-    load_of = {cn.source.split(".")[0]: cn.target.split(".")[0] for cn in scenario.connections
-               if cn.source.endswith(".omega_out") and cn.target.endswith(".omega")}
-    return [(c, load_of.get(c)) for c, (fmu, _) in scenario.components.items() if fmu == "RingCoupling"]
 
 
 def _mp_amplitude(pr):
@@ -52,7 +45,7 @@ def generate(scenario):
     pm = scenario.parameters_with_defaults("motor")
     force2, drive, potential = _equations()
     ideal = pm["ideal_speed_source"]
-    rings = _rings(scenario)
+    rings = components_with_loads(scenario, "RingCoupling")
     if not ideal and len(rings) != 1:
         raise ValueError(f"{scenario.path}: a PI motor reference drives exactly one coupling")
     t = scenario.time_grid()
@@ -105,7 +98,7 @@ def generate(scenario):
     cols.update({"motor.omega": w1, "motor.phi": phi_m})
     how = (f"monolithic ODE of {'ideal speed source' if ideal else 'PI motor'} + coupling + load, Lagrange's "
            f"equations formed by sympy from the ring's potential, scipy DOP853 rtol={RTOL:g} atol={ATOL:g}")
-    return _table(scenario, t, cols), f"ujfmu.references.ring_coupling: {how}. Regenerate: ujfmu references"
+    return record_table(scenario, t, cols), f"ujfmu.references.ring_coupling: {how}. Regenerate: ujfmu references"
 
 
 def pendulum_angle(a_e, y0, v0, t):
@@ -138,7 +131,7 @@ def generate_pendulum(scenario):
     t = scenario.time_grid()
     w1 = pm["omega_set"]
     cols = {"motor.omega": np.full_like(t, w1), "motor.phi": w1 * (t - t[0])}
-    for name, load in _rings(scenario):
+    for name, load in components_with_loads(scenario, "RingCoupling"):
         pr = scenario.parameters_with_defaults(name)
         pl = scenario.parameters_with_defaults(load) if load else {"T0": 0.0, "c1": 0.0, "c2": 0.0}
         if pr["c_s"] != 0 or pr["c_d"] != 0 or pl["T0"] != 0 or pl["c1"] != 0 or pl["c2"] != 0:
@@ -158,10 +151,4 @@ def generate_pendulum(scenario):
             cols[f"{load}.tau"] = np.zeros_like(t)
     how = ("closed form: the pendulum y'' + A_e sin y = 0 of Eq. (12) solved with Jacobi elliptic functions "
            "(scipy.special.ellipj, ellipkinc)")
-    return _table(scenario, t, cols), f"ujfmu.references.ring_coupling: {how}. Regenerate: ujfmu references"
-
-
-def _table(scenario, t, cols):
-    names = ["time"] + [n for n in scenario.record if n in cols]
-    return np.rec.fromarrays([t] + [np.asarray(cols[n], dtype=float) * np.ones_like(t) for n in names[1:]],
-                             names=names)
+    return record_table(scenario, t, cols), f"ujfmu.references.ring_coupling: {how}. Regenerate: ujfmu references"

@@ -19,7 +19,7 @@ import functools
 import numpy as np
 import sympy as sp
 
-from .common import load_torque, pi_law, profile, solve_piecewise
+from .common import components_with_loads, load_torque, pi_law, profile, record_table, solve_piecewise
 
 RTOL, ATOL = 1e-9, 1e-12
 _PARAMS = ("beta", "M1", "M2", "J_M1", "J_M2", "J_gb", "m_u1", "m_u2", "e", "phase_u1", "phase_u2",
@@ -127,9 +127,8 @@ def generate(scenario):
     """Reference for a motor driving one or more TwinJeffcottRotor components, each with a Load on its output
     (a PI motor drives a single rotor; an ideal speed source any number)."""
     pm = scenario.parameters_with_defaults("motor")
-    rotors = [c for c, (fmu, _) in scenario.components.items() if fmu == "TwinJeffcottRotor"]
-    load_of = {cn.source.split(".")[0]: cn.target.split(".")[0] for cn in scenario.connections
-               if cn.source.endswith(".omega_out") and cn.target.endswith(".omega")}
+    load_of = dict(components_with_loads(scenario, "TwinJeffcottRotor"))
+    rotors = list(load_of)
     ideal = pm["ideal_speed_source"]
     if not ideal and len(rotors) != 1:
         raise ValueError(f"{scenario.path}: a PI motor reference drives exactly one rotor")
@@ -177,9 +176,7 @@ def generate(scenario):
         if ideal and scenario_feeds(scenario, f"{name}.tau_in", "motor.tau_load"):
             cols["motor.tau_motor"] = pm["J_rotor"] * a_in + tau_in
     cols.update({"motor.omega": w_in, "motor.phi": phi_m})
-    names = ["time"] + [n for n in scenario.record if n in cols]
-    table = np.rec.fromarrays([t] + [np.asarray(cols[n], dtype=float) * np.ones_like(t) for n in names[1:]],
-                              names=names)
+    table = record_table(scenario, t, cols)
     how = (f"monolithic ODE of {'ideal speed source' if ideal else 'PI motor'} + rotor + load, Lagrange's "
            f"equations formed by sympy from rotation matrices and energies, scipy DOP853 rtol={RTOL:g} atol={ATOL:g}")
     return table, f"ujfmu.references.twin_jeffcott: {how}. Regenerate: ujfmu references"
