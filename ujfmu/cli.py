@@ -1,4 +1,4 @@
-"""Command line: ujfmu build | run SCENARIO | check | references | study omar."""
+"""Command line: ujfmu build | run SCENARIO | check | references | sweep SCENARIO | report | bench."""
 
 import argparse
 import sys
@@ -65,10 +65,49 @@ def cmd_references(args):
     return 0
 
 
-def cmd_study(args):
-    from .studies import omar
-    path = omar.write_report(args.out, fmu_path=args.fmu_dir / "DoubleCardanDriveline.fmu")
-    print(f"wrote {path}")
+def cmd_sweep(args):
+    from .scenario import Scenario, ScenarioError
+    from .sweep import Sweep, SweepSettings, parse_axis
+    scenario = Scenario(args.scenario)
+    specs = args.param or scenario.sweep.get("params", [])
+    if not specs:
+        raise ScenarioError(f"{scenario.path}: nothing to sweep: give --param comp.par=START:STOP:STEP "
+                            "or [sweep] params in the scenario")
+    axes = [parse_axis(spec, scenario) for spec in specs]
+    settings = SweepSettings.from_scenario(scenario, outputs=args.output, running_speed=args.running_speed,
+                                           settle_time=args.settle, revolutions=args.revolutions,
+                                           orders=args.orders)
+    sweep = Sweep(scenario, axes, settings, out_dir=args.out, name=args.name, fmu_dir=args.fmu_dir)
+    print(f"{sweep.name}: {len(sweep.points)} points ({' x '.join(str(len(a.values)) for a in axes)}), "
+          f"settle {settings.settle_time:g} s, {settings.revolutions:g} revolutions measured")
+    sweep.run(workers=args.workers, scheduler=args.scheduler, progress=not args.no_progress)
+    print(f"  table: {sweep.csv}\n  journal: {sweep.journal}")
+    if not args.no_plot:
+        for path in sweep.plot():
+            print(f"  plot:  {path}")
+    failed = sweep.failed()
+    for record in failed[:10]:
+        print(f"  point {record['point']} {record['status']}: {record['error']}", file=sys.stderr)
+    if failed:
+        print(f"{len(failed)} of {len(sweep.points)} points failed (recorded in the table; rerun to retry them)",
+              file=sys.stderr)
+    return 1 if failed else 0
+
+
+def cmd_bench(args):
+    from .bench import render, run_bench, write
+    result = run_bench(_scenarios(args.scenarios), fmu_dir=args.fmu_dir, sweep=not args.no_sweep,
+                       progress=lambda msg: print(msg, file=sys.stderr))
+    print(render(result))
+    print(f"\nwrote {write(result, args.out)}")
+    return 0
+
+
+def cmd_report(args):
+    from .report import write_report
+    path = write_report(args.out, fmu_dir=args.fmu_dir, work_dir=args.work_dir, workers=args.workers,
+                        progress=not args.no_progress).path
+    print(f"wrote {path} (figures in {path.parent / 'figures'})")
     return 0
 
 
@@ -93,10 +132,35 @@ def main(argv=None):
     p = sub.add_parser("references", help="regenerate the reference CSV files of the scenarios")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p.set_defaults(func=cmd_references)
-    p = sub.add_parser("study", help="re-run a paper's parameter studies on the FMUs and write the comparison")
-    p.add_argument("paper", choices=["omar"], help="omar: Omar, Rahim, Rejab (DoubleCardanDriveline)")
-    p.add_argument("--out", type=Path, default=REPO_DIR / "docs" / "omar_study.md", help="markdown file to write")
-    p.set_defaults(func=cmd_study)
+    p = sub.add_parser("sweep", help="co-simulate a scenario over a parameter grid to steady state (dask)")
+    p.add_argument("scenario", type=Path)
+    p.add_argument("--param", action="append", metavar="COMP.PAR[,COMP.PAR]=START:STOP:STEP[rpm|deg]",
+                   help="an axis (inclusive range, or V1,V2,... values; several --param make a grid; "
+                        "default: the scenario's [sweep] params)")
+    p.add_argument("--output", action="append", help="signal to reduce per point (default: [sweep] outputs)")
+    p.add_argument("--running-speed", help="speed signal whose revolutions are measured [rad/s]")
+    p.add_argument("--settle", type=float, help="settle time before measuring [s]")
+    p.add_argument("--revolutions", type=float, help="measurement window in revolutions")
+    p.add_argument("--orders", type=lambda s: tuple(int(k) for k in s.split(",")), help="orders, e.g. 1,2,4")
+    p.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: no dask)")
+    p.add_argument("--scheduler", help="address of a running dask.distributed scheduler, e.g. tcp://host:8786")
+    p.add_argument("--name", help="output name (default: <scenario>_sweep)")
+    p.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: results/)")
+    p.add_argument("--no-plot", action="store_true")
+    p.add_argument("--no-progress", action="store_true")
+    p.set_defaults(func=cmd_sweep)
+    p = sub.add_parser("bench", help="speed figures as ratios in one run: FMI floor, monolithic solve, sweeps")
+    p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
+    p.add_argument("--no-sweep", action="store_true", help="skip the sweep figures (1 and 2 workers)")
+    p.add_argument("--out", type=Path, default=Path("results"), help="writes bench.md and bench.json here")
+    p.set_defaults(func=cmd_bench)
+    p = sub.add_parser("report", help="re-create the papers' published results with sweeps; write docs/validation.md")
+    p.add_argument("--out", type=Path, default=REPO_DIR / "docs" / "validation.md", help="markdown file to write")
+    p.add_argument("--work-dir", type=Path, help="where the sweeps keep their points (default: results/report; "
+                                                  "a rerun resumes from them)")
+    p.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: no dask)")
+    p.add_argument("--no-progress", action="store_true")
+    p.set_defaults(func=cmd_report)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

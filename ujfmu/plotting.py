@@ -86,3 +86,70 @@ def plot_spectra(result, path):
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def plot_sweep(sweep, out_dir):
+    """Sweep figures against the first axis (in the unit it was given in): results/<name>.png with max and min of
+    every output, one curve per combination of the other axes; results/<name>_orders.png with the order
+    amplitudes (order tracks, log scale) and a Campbell-style diagram (frequency of each order against the
+    swept value, marker area by amplitude) of the first output. Returns the paths."""
+    first, others = sweep.axes[0], sweep.axes[1:]
+    records = [r for r in sweep.table() if r["status"] == "ok"]
+    groups = {}
+    for r in records:
+        key = tuple(r["point"][ax.names[0]] for ax in others)
+        groups.setdefault(key, []).append(r)
+
+    def label(key):
+        return ", ".join(f"{ax.label} = {ax.display(v):.4g}{' ' + ax.unit if ax.unit else ''}"
+                         for ax, v in zip(others, key)) or None
+
+    xlabel = f"{first.label} [{first.unit or 'SI'}]"
+    outputs, orders = sweep.settings.outputs, sweep.settings.orders
+    fig, axes = plt.subplots(len(outputs), 1, figsize=(9, 2.4 * len(outputs) + 0.8), sharex=True, squeeze=False)
+    for ax, out in zip(axes[:, 0], outputs):
+        for i, (key, rows) in enumerate(sorted(groups.items())):
+            rows = sorted(rows, key=lambda r: r["point"][first.names[0]])
+            x = [first.display(r["point"][first.names[0]]) for r in rows]
+            color = f"C{i % 10}"
+            ax.plot(x, [r[f"{out}.max"] for r in rows], ".-", color=color, ms=3, label=label(key))
+            ax.plot(x, [r[f"{out}.min"] for r in rows], ".--", color=color, ms=3)
+        ax.set_title(f"{out}: max (solid), min (dashed) in steady state", fontsize=9, loc="left")
+        ax.grid(alpha=0.3)
+    if others:
+        axes[0, 0].legend(fontsize=7)
+    axes[-1, 0].set_xlabel(xlabel)
+    fig.suptitle(f"{sweep.scenario.title}: sweep of {first.label}", fontsize=10)
+    fig.tight_layout()
+    main = out_dir / f"{sweep.name}.png"
+    fig.savefig(main, dpi=110)
+    plt.close(fig)
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.2))
+    out = outputs[0]
+    key0, rows = sorted(groups.items())[0] if groups else ((), [])
+    rows = sorted(rows, key=lambda r: r["point"][first.names[0]])
+    x = np.array([first.display(r["point"][first.names[0]]) for r in rows])
+    for k in orders:
+        amp = np.array([r[f"{out}.h{k}"] for r in rows])
+        ax1.semilogy(x, np.maximum(amp, 1e-300), ".-", ms=3, label=f"{k}x")
+    ax1.set_xlabel(xlabel)
+    ax1.set_ylabel(f"{out} order amplitude")
+    ax1.legend(fontsize=8)
+    ax1.grid(alpha=0.3, which="both")
+    ax1.set_title("order tracks" + (f" ({label(key0)})" if label(key0) else ""), fontsize=9, loc="left")
+    speed_hz = np.array([abs(r["speed_mean"]) / (2 * np.pi) for r in rows])
+    top = max((r[f"{out}.h{k}"] for r in rows for k in orders), default=1.0) or 1.0
+    for k in orders:
+        amp = np.array([r[f"{out}.h{k}"] for r in rows])
+        ax2.scatter(x, k * speed_hz, s=2 + 200 * amp / top, alpha=0.6, label=f"{k}x")
+    ax2.set_xlabel(xlabel)
+    ax2.set_ylabel("frequency [Hz]")
+    ax2.set_title(f"Campbell diagram of {out} (marker area ~ amplitude)", fontsize=9, loc="left")
+    ax2.grid(alpha=0.3)
+    ax2.legend(fontsize=8)
+    fig.tight_layout()
+    orders_path = out_dir / f"{sweep.name}_orders.png"
+    fig.savefig(orders_path, dpi=110)
+    plt.close(fig)
+    return [main, orders_path]

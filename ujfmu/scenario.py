@@ -8,6 +8,8 @@
                             orbits = [["comp.X", "comp.Y"], ...], spectra = ["comp.var", ...] (recorded signals),
                             running_speed = "comp.omega" (spectra in running-speed orders), steady_from [s]
                             (orbits and spectra from that time on)
+    [sweep]                 defaults of `ujfmu sweep`: params = ["comp.par=START:STOP:STEP[rpm|deg]", ...],
+                            outputs = [...], running_speed, settle_time [s], revolutions, orders = [1, 2, 4]
     [reference]             file = "references/x.csv" (relative to the scenario), generator = "cardan_chain"
     [reference.tolerance]   "comp.var" = { rel_range = 0.01, abs = 0.0 }
       pass when max |result - reference| <= rel_range * (max - min of the reference) + abs
@@ -22,6 +24,10 @@ import numpy as np
 
 from .build import DEFAULT_FMU_DIR, FMUS, fmu_class
 from .master import Component, Connection
+
+
+#: fields of the optional [sweep] table (defaults of `ujfmu sweep`, see ujfmu.sweep)
+SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions", "orders"}
 
 
 class ScenarioError(ValueError):
@@ -99,6 +105,18 @@ class Scenario:
                 if name not in self.record:
                     raise ScenarioError(f"{self.path}: output.{field}: {name!r} is not a recorded signal")
         self.steady_from = self._number(out, "output.steady_from", self.start_time)
+        self.sweep = data.get("sweep", {})
+        unknown = set(self.sweep) - SWEEP_KEYS if isinstance(self.sweep, dict) else {"(not a table)"}
+        if unknown:
+            raise ScenarioError(f"{self.path}: [sweep]: unknown field(s) {', '.join(sorted(unknown))}; "
+                                f"known: {', '.join(sorted(SWEEP_KEYS))}")
+        for key in ("settle_time", "revolutions"):
+            if key in self.sweep:
+                self._number(self.sweep, f"sweep.{key}")
+        speed = [self.sweep["running_speed"]] if "running_speed" in self.sweep else []
+        for name in list(self.sweep.get("outputs", [])) + speed:
+            if name not in self.record:
+                raise ScenarioError(f"{self.path}: sweep: {name!r} is not a recorded signal")
 
     def _table(self, data, key):
         if not isinstance(data.get(key), dict):

@@ -91,21 +91,31 @@ def test_disc_accelerations_solve_the_mass_matrix():
     np.testing.assert_allclose(tj._disc_accelerations(d, angle, w, *q), np.linalg.solve(mass, rhs), rtol=1e-12)
 
 
-@pytest.mark.parametrize("beta_deg", [0.0, 10.0])
-def test_energy_balance_over_a_run_up(beta_deg):
-    """Input work - load work - dissipation = change of stored energy along an RK4 run through the criticals."""
-    p = rotor(beta=beta_deg * DEG, m_u1=0.01, m_u2=0.01)
-    h, alpha, tau = 1e-3, 60.0, 2.0
+def _energy_audit_error(p, h, alpha=60.0, tau=2.0, duration=3.0):
+    """(|input work - load work - dissipation - change of stored energy|, input work) of an RK4 run-up."""
     y, phi, w = tj.initial_state(p, 0.0, 0.0), 0.0, 0.0
     e0, load_work = tj.stored_energy(p, phi, w, y), 0.0
     rate = tj.natural_rate_bound(p)
-    for _ in range(3000):
+    for _ in range(int(round(duration / h))):
         y_next = tj.step(p, h, phi, w, alpha, y, tau, rate)
         load_work += tau * (y_next[6] - y[6])
         y, phi, w = y_next, phi + h * (w + 0.5 * alpha * h), w + alpha * h
     change = tj.stored_energy(p, phi, w, y) - e0
     assert y[12] > 1e-3 * y[13] and change > 0.1 * y[13]
-    assert abs(y[13] - load_work - y[12] - change) < 1e-8 * y[13]
+    return abs(y[13] - load_work - y[12] - change), y[13]
+
+
+@pytest.mark.parametrize("beta_deg", [0.0, 10.0])
+def test_energy_balance_over_a_run_up(beta_deg):
+    """Input work - load work - dissipation = change of stored energy along an RK4 run through the criticals:
+    exact but for the integrator's truncation error, which is tiny and falls as a fourth-order method's should
+    (a bookkeeping error would not fall with the step)."""
+    p = rotor(beta=beta_deg * DEG, m_u1=0.01, m_u2=0.01)
+    error, work = _energy_audit_error(p, 1e-3)
+    assert error < 1e-7 * work
+    if error > 1e-12 * work:
+        finer, _ = _energy_audit_error(p, 2.5e-4)
+        assert finer < error / 16
 
 
 def test_linearised_natural_frequencies_are_the_jeffcott_and_torsional_chain_ones():

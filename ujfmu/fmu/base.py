@@ -14,6 +14,7 @@ it has no path to fmi2Error):
 """
 
 import math
+import sys
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Status
@@ -110,6 +111,13 @@ class UjfmuSlave(Fmi2Slave):
                 var.name, causality=Fmi2Causality[var.causality],
                 variability=Fmi2Variability[var.variability], description=var.description,
                 getter=getter, setter=setter))
+        # the per-step hot path: Real getters/setters by value reference, input bounds (+-DBL_MAX: inf fails too)
+        reals = {vr: var for vr, var in self.vars.items() if isinstance(var, Real)}
+        self._real_getters = {vr: var.getter for vr, var in reals.items()}
+        self._real_setters = {vr: var.setter for vr, var in reals.items() if var.setter is not None}
+        big = sys.float_info.max
+        self._input_bounds = tuple((v.name, -big if v.min is None else v.min, big if v.max is None else v.max, v)
+                                   for v in self._inputs)
 
     def _output_getter(self, name):
         def get():
@@ -128,6 +136,22 @@ class UjfmuSlave(Fmi2Slave):
             return getattr(self, name)
         return get
 
+    def get_real(self, vrs):
+        """fmi2GetReal without pythonfmu's per-variable type dispatch (its own version reports a wrong type)."""
+        try:
+            getters = self._real_getters
+            return [getters[vr]() for vr in vrs]
+        except KeyError:
+            return super().get_real(vrs)
+
+    def set_real(self, vrs, values):
+        try:
+            setters = self._real_setters
+            for vr, value in zip(vrs, values):
+                setters[vr](value)
+        except KeyError:
+            super().set_real(vrs, values)
+
     def _raise_to_host(self, message):
         """Log at error level, pin what pythonfmu will release twice, and raise (the host gets fmi2Fatal)."""
         self.log(message, Fmi2Status.error)
@@ -136,7 +160,10 @@ class UjfmuSlave(Fmi2Slave):
 
     def _input_setter(self, name, cast):
         def set_(value):
-            setattr(self, name, cast(value))
+            value = cast(value)
+            if value == getattr(self, name):   # unchanged (a constant load, a held speed): outputs stay valid
+                return
+            setattr(self, name, value)
             self._stale = True
             if not self._running:
                 self._initialized = False
@@ -177,10 +204,9 @@ class UjfmuSlave(Fmi2Slave):
         try:
             if not (step_size > 0.0 and math.isfinite(step_size)):
                 raise ValueError(f"communication step size = {step_size!r} must be finite and > 0")
-            for var in self._inputs:
-                problem = var.check(getattr(self, var.name))
-                if problem:
-                    raise ValueError(problem)
+            for name, lo, hi, var in self._input_bounds:
+                if not lo <= getattr(self, name) <= hi:   # NaN and inf fail too
+                    raise ValueError(var.check(getattr(self, name)))
             self.advance(current_time, step_size)
             self._stale = True
             return True

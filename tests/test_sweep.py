@@ -1,0 +1,145 @@
+"""Sweeps: axis parsing, per-point figures against closed forms, resuming, failing points, dask (local cluster
+and scheduler address), and the command line."""
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from ujfmu.cli import main
+from ujfmu.scenario import Scenario, ScenarioError
+from ujfmu.sweep import Sweep, SweepSettings, parse_axis
+
+SCENARIOS = Path(__file__).parents[1] / "scenarios"
+RPM = math.pi / 30.0
+
+
+@pytest.fixture
+def brutti():
+    return Scenario(SCENARIOS / "double_cardan_brutti_rigid.toml")
+
+
+def brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=1000:3000:1000rpm", name=None):
+    settings = SweepSettings.from_scenario(brutti, outputs=["driveline.tau_in"], running_speed="motor.omega",
+                                           settle_time=0.01, revolutions=2)
+    return Sweep(brutti, [parse_axis(spec, brutti)], settings, out_dir=tmp_path, name=name, fmu_dir=fmu_dir)
+
+
+def without_timing(record):
+    return {k: v for k, v in record.items() if k != "wall_s"}
+
+
+def test_axis_ranges_are_inclusive_and_units_convert_to_si(brutti):
+    axis = parse_axis("motor.omega_set=100:1500:10rpm", brutti)
+    assert len(axis.values) == 141 and axis.values[0] == pytest.approx(100 * RPM)
+    assert axis.values[-1] == pytest.approx(1500 * RPM) and axis.display(axis.values[-1]) == pytest.approx(1500)
+    linked = parse_axis("driveline.beta1,driveline.beta2=5,10deg", brutti)
+    assert linked.names == ("driveline.beta1", "driveline.beta2")
+    assert linked.values == pytest.approx([math.radians(5), math.radians(10)])
+
+
+@pytest.mark.parametrize("spec, words", [
+    ("nope.omega_set=1:2:1", "no component 'nope'"),
+    ("motor.speed=1:2:1", "Motor has no parameter 'speed'"),
+    ("motor.omega_set=1:x:1", "bad values"),
+    ("motor.omega_set=10:1:1", "STOP >= START"),
+    ("driveline.beta1=0,95deg", "driveline.beta1 = 1.658"),   # beyond its allowed range, named with the range
+    ("motor.omega_set", "expected component.parameter"),
+])
+def test_bad_axes_are_rejected_before_anything_runs(brutti, spec, words):
+    with pytest.raises(ScenarioError, match="--param") as err:
+        parse_axis(spec, brutti)
+    assert words in str(err.value)
+
+
+def test_points_reproduce_the_fan_load_and_the_inertia_torque_scaling(brutti, tmp_path, fmu_dir):
+    """Rigid double Cardan, yokes in phase: mean input torque = c w^2 (output at constant speed, power balance);
+    the crosses' inertia torque fluctuates at 2x and grows as w^2, and odd orders vanish by symmetry."""
+    sweep = brutti_sweep(brutti, tmp_path, fmu_dir)
+    sweep.run(workers=0, progress=False)
+    rows = sweep.table()
+    assert [r["status"] for r in rows] == ["ok"] * 3
+    for r in rows:
+        w = r["point"]["motor.omega_set"]
+        assert r["speed_mean"] == pytest.approx(w, rel=1e-12)
+        # the sample mean over 2 revolutions (whole to within one 0.1 ms step) of a 0.7% 2x fluctuation
+        assert r["driveline.tau_in.mean"] == pytest.approx(0.017 * w * w, rel=2e-5)
+        assert r["driveline.tau_in.h1"] < 1e-6 * r["driveline.tau_in.h2"]
+        assert r["driveline.tau_in.p2p"] == pytest.approx(r["driveline.tau_in.max"] - r["driveline.tau_in.min"])
+    fluct = [r["driveline.tau_in.p2p"] for r in rows]
+    assert fluct[1] / fluct[0] == pytest.approx(4.0, rel=1e-3) and fluct[2] / fluct[0] == pytest.approx(9.0, rel=1e-3)
+    with open(sweep.csv) as f:
+        table = list(csv.DictReader(f))
+    assert len(table) == 3 and table[0]["status"] == "ok"
+    assert float(table[2]["driveline.tau_in.mean"]) == rows[2]["driveline.tau_in.mean"]
+
+
+def test_an_interrupted_sweep_resumes_without_recomputing(brutti, tmp_path, fmu_dir):
+    sweep = brutti_sweep(brutti, tmp_path, fmu_dir)
+    sweep.run(workers=0, progress=False)
+    first = sweep.table()
+    lines = sweep.journal.read_text().splitlines()
+    # interrupted while writing the third point: two whole lines and half a line on disk
+    sweep.journal.write_text("\n".join(lines[:2]) + "\n" + lines[2][:40])
+    again = brutti_sweep(brutti, tmp_path, fmu_dir)
+    assert len(again.done()) == 2
+    again.run(workers=0, progress=False)
+    records = [json.loads(line) for line in again.journal.read_text().splitlines()[2:] if line.endswith("}")]
+    assert [r["point"] for r in records] == [first[2]["point"]]   # only the missing point ran
+    assert [without_timing(r) for r in again.table()] == [without_timing(r) for r in first]
+
+
+def test_changed_settings_do_not_reuse_old_points(brutti, tmp_path, fmu_dir):
+    brutti_sweep(brutti, tmp_path, fmu_dir).run(workers=0, progress=False)
+    scenario = Scenario(SCENARIOS / "double_cardan_brutti_rigid.toml")
+    settings = SweepSettings.from_scenario(scenario, outputs=["driveline.tau_in"], running_speed="motor.omega",
+                                           settle_time=0.02, revolutions=2)
+    other = Sweep(scenario, [parse_axis("motor.omega_set=1000:3000:1000rpm", scenario)], settings,
+                  out_dir=tmp_path, fmu_dir=fmu_dir)
+    assert other.done() == {}
+
+
+def test_a_failing_point_is_recorded_and_the_sweep_goes_on(tmp_path, fmu_dir):
+    """RingCoupling needs e < R: the point with e = R fails at initialization with the model's message."""
+    scenario = Scenario(SCENARIOS / "ring_coupling_fig3.toml")
+    settings = SweepSettings.from_scenario(scenario, outputs=["coupling.x_e"], running_speed="motor.omega",
+                                           settle_time=0.0, revolutions=1)
+    sweep = Sweep(scenario, [parse_axis("coupling.e=0.001,0.1", scenario)], settings, out_dir=tmp_path,
+                  fmu_dir=fmu_dir)
+    sweep.run(workers=0, progress=False)
+    ok, bad = sweep.table()
+    assert ok["status"] == "ok" and ok["coupling.x_e.h2"] > 0
+    assert bad["status"] == "error" and "e" in bad["error"] and "R" in bad["error"]
+    assert sweep.failed() == [bad]
+
+
+def test_dask_local_cluster_and_scheduler_address_give_the_in_process_results(brutti, tmp_path, fmu_dir):
+    """The distributed path on a real LocalCluster with two worker processes, reached by its address as
+    `--scheduler` does; each worker receives the FMUs (no shared folder needed) and runs points independently."""
+    from distributed import Client, LocalCluster
+    serial = brutti_sweep(brutti, tmp_path / "serial", fmu_dir)
+    serial.run(workers=0, progress=False)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        distributed = brutti_sweep(brutti, tmp_path / "dask", fmu_dir)
+        distributed.run(scheduler=cluster.scheduler_address, progress=False)
+        with Client(cluster) as client:
+            ran_on = {w["id"] for w in client.scheduler_info()["workers"].values()}
+    assert len(ran_on) == 2
+    assert [without_timing(r) for r in distributed.table()] == [without_timing(r) for r in serial.table()]
+
+
+def test_cli_sweep_writes_table_and_plots_and_reports_bad_parameters(fmu_dir, tmp_path, capsys):
+    args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_brutti_rigid.toml"),
+            "--param", "motor.omega_set=1000,2000rpm", "--param", "driveline.beta1,driveline.beta2=5,10deg",
+            "--output", "driveline.tau_in", "--running-speed", "motor.omega", "--settle", "0.01",
+            "--revolutions", "1", "--workers", "0", "--out", str(tmp_path), "--no-progress"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "4 points (2 x 2)" in out
+    for name in ("double_cardan_brutti_rigid_sweep.csv", "double_cardan_brutti_rigid_sweep.png",
+                 "double_cardan_brutti_rigid_sweep_orders.png"):
+        assert (tmp_path / name).is_file()
+    assert main(args[:4] + ["--param", "motor.nope=1:2:1"]) == 2
+    assert "Motor has no parameter 'nope'" in capsys.readouterr().err

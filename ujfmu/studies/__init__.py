@@ -1,1 +1,0 @@
-"""Studies that re-run the papers' published results on the FMUs."""

@@ -1,0 +1,355 @@
+"""Parameter sweeps: every point a full co-simulation of a scenario's FMUs run to steady state and reduced to
+per-point figures, run on dask.distributed (a local pool of worker processes, or an existing cluster).
+
+A point sets the swept parameters, co-simulates ``settle_time`` seconds, reads the running speed, then records
+``revolutions`` whole revolutions of the outputs and reduces each to max, min, peak-to-peak, mean, RMS and the
+amplitudes of chosen running-speed orders (least squares on the running angle, ``analysis.order_amplitudes``).
+
+The FMUs go to each dask worker once (a WorkerPlugin writes them to a local folder), so a cluster needs no
+shared file system; the workers need ujfmu installed. Resumable: every finished point is appended at once to
+``<name>.jsonl`` next to the CSV; a rerun with the same settings skips the points already there (failed points are tried again), so an interrupted sweep loses nothing.
+A failing point is recorded with its error and the sweep goes on.
+"""
+
+import csv
+import hashlib
+import itertools
+import json
+import math
+import os
+import re
+import tempfile
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .analysis import order_amplitudes
+from .build import DEFAULT_FMU_DIR, fmu_class
+from .master import Component, Connection, Cosimulation
+from .scenario import Scenario, ScenarioError
+
+#: human units accepted after a --param range, and their factor to SI
+UNITS = {"rpm": math.pi / 30.0, "deg": math.pi / 180.0, "": 1.0}
+FIGURES = ("max", "min", "p2p", "mean", "rms")
+
+
+@dataclass
+class Axis:
+    """One sweep axis: the parameters it sets together (``component.parameter``) and their SI values."""
+    names: tuple
+    values: list
+    unit: str = ""      # the human unit the values were given in ("rpm", "deg" or "")
+
+    @property
+    def label(self):
+        return ",".join(self.names)
+
+    def display(self, value):
+        """value in the unit it was given in."""
+        return value / UNITS[self.unit]
+
+
+def parse_axis(text, scenario):
+    """``comp.par[,comp.par...]=START:STOP:STEP[unit]`` (inclusive) or ``=V1,V2,...[unit]``; unit rpm or deg.
+
+    Values are checked against the parameters' declared ranges; a ScenarioError names the argument otherwise.
+    """
+    names_text, sep, values_text = text.partition("=")
+    if not sep:
+        raise ScenarioError(f"--param {text!r}: expected component.parameter=START:STOP:STEP")
+    match = re.fullmatch(r"\s*(.*?)\s*(rpm|deg)?\s*", values_text)
+    body, unit = match.group(1), match.group(2) or ""
+    try:
+        if ":" in body:
+            start, stop, step = (float(x) for x in body.split(":"))
+            if not step > 0 or stop < start:
+                raise ValueError("need STEP > 0 and STOP >= START")
+            count = int(math.floor((stop - start) / step + 1e-9)) + 1
+            values = [start + k * step for k in range(count)]
+        else:
+            values = [float(x) for x in body.split(",")]
+    except ValueError as exc:
+        raise ScenarioError(f"--param {text!r}: bad values {values_text!r} ({exc})") from None
+    values = [v * UNITS[unit] for v in values]
+    names = tuple(n.strip() for n in names_text.split(","))
+    for name in names:
+        comp, _, par = name.partition(".")
+        if comp not in scenario.components:
+            raise ScenarioError(f"--param {text!r}: {scenario.path} has no component '{comp}' "
+                                f"(it has {', '.join(scenario.components)})")
+        fmu = scenario.components[comp][0]
+        declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
+        if par not in declared:
+            raise ScenarioError(f"--param {text!r}: {fmu} has no parameter '{par}' (it has {', '.join(declared)})")
+        for value in values:
+            problem = declared[par].check(declared[par].type(value))
+            if problem:
+                raise ScenarioError(f"--param {text!r}: {comp}.{problem}")
+    return Axis(names, values, unit)
+
+
+@dataclass
+class SweepSettings:
+    """What each point does; from the scenario's [sweep] table, overridden by the command line."""
+    outputs: list
+    running_speed: str
+    settle_time: float
+    revolutions: float = 4.0
+    orders: tuple = (1, 2, 4)
+
+    @classmethod
+    def from_scenario(cls, scenario, **overrides):
+        table = dict(scenario.sweep)
+        table.update({k: v for k, v in overrides.items() if v is not None})
+        where = f"{scenario.path}: [sweep]"
+        outputs = list(table.get("outputs") or scenario.tolerances or scenario.record)
+        running_speed = table.get("running_speed") or scenario.running_speed
+        if not running_speed:
+            raise ScenarioError(f"{where} running_speed (or output.running_speed, or --running-speed) is needed "
+                                "to measure whole revolutions")
+        for name in outputs + [running_speed]:
+            scenario._check_signal(name, "sweep signal")
+        settle = table.get("settle_time")
+        if settle is None:
+            raise ScenarioError(f"{where} settle_time (or --settle) is needed: the time to reach steady state")
+        settings = cls(outputs, running_speed, float(settle), float(table.get("revolutions", 4.0)),
+                       tuple(int(k) for k in table.get("orders", (1, 2, 4))))
+        if not (settings.settle_time >= 0 and settings.revolutions > 0 and all(k > 0 for k in settings.orders)):
+            raise ScenarioError(f"{where} needs settle_time >= 0, revolutions > 0 and positive orders")
+        return settings
+
+    def columns(self):
+        return [f"{out}.{fig}" for out in self.outputs for fig in FIGURES + tuple(f"h{k}" for k in self.orders)]
+
+
+@dataclass
+class PointJob:
+    """Everything a worker needs for the points of one sweep (picklable; no paths of the submitting machine)."""
+    components: list      # (name, fmu name, parameters)
+    connections: list     # (from, to)
+    step_size: float
+    settings: SweepSettings
+    fmu_hashes: dict = field(default_factory=dict)
+
+
+def run_point(job, point, fmu_blobs=None):
+    """One sweep point: returns a record dict (status 'ok' with figures, or 'error' with the message).
+
+    point: {"comp.par": value}. The FMUs come from fmu_blobs ({fmu name: bytes}) when given, else from the
+    folder this worker process received them in (``FmuInstaller``).
+    """
+    started = time.perf_counter()
+    record = {"point": point, "status": "ok", "error": ""}
+    try:
+        fmu_dir = _worker_fmu_dir(job.fmu_hashes, fmu_blobs)
+        params = {}
+        for name, value in point.items():
+            comp, par = name.split(".", 1)
+            params.setdefault(comp, {})[par] = value
+        components = [Component(name, fmu_dir / f"{fmu}.fmu", {**parameters, **params.get(name, {})})
+                      for name, fmu, parameters in job.components]
+        s = job.settings
+        signals = list(dict.fromkeys(s.outputs + [s.running_speed]))
+        with Cosimulation(components, [Connection(a, b) for a, b in job.connections], job.step_size,
+                          signals) as cosim:
+            cosim.advance(int(round(s.settle_time / job.step_size)))
+            now = np.empty(len(signals))
+            cosim.read(now)
+            speed = now[signals.index(s.running_speed)]
+            if not (math.isfinite(speed) and abs(speed) > 1e-9):
+                raise ValueError(f"running speed {s.running_speed} = {speed!r} rad/s after settling: no revolutions "
+                                 "to measure over")
+            n = max(8, int(math.ceil(s.revolutions * 2.0 * math.pi / abs(speed) / job.step_size)))
+            rows = np.empty((n + 1, len(signals)))
+            rows[0] = now
+            cosim.advance(n, rows[1:])
+        w = rows[:, signals.index(s.running_speed)]
+        angle = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * job.step_size)))
+        record["speed_mean"] = float(w.mean())
+        for out in s.outputs:
+            y = rows[:, signals.index(out)]
+            amps, _ = order_amplitudes(angle, y, s.orders)
+            figures = dict(max=y.max(), min=y.min(), p2p=np.ptp(y), mean=y.mean(), rms=math.sqrt(np.mean(y * y)))
+            figures.update({f"h{k}": a for k, a in zip(s.orders, amps)})
+            record.update({f"{out}.{k}": float(v) for k, v in figures.items()})
+    except Exception as exc:  # a failing point is data, not the end of the sweep
+        record.update(status="error", error=f"{type(exc).__name__}: {exc}".replace("\n", " | ")[:2000])
+    record["wall_s"] = time.perf_counter() - started
+    return record
+
+
+_WORKER_DIRS = {}
+
+
+def _worker_fmu_dir(hashes, fmu_blobs=None):
+    """The FMUs in this process: written once per content hash into a temporary folder, reused across points."""
+    key = json.dumps(hashes, sort_keys=True)
+    if key not in _WORKER_DIRS:
+        if fmu_blobs is None:
+            raise RuntimeError("this worker has not received the sweep's FMUs (FmuInstaller plugin missing)")
+        folder = Path(tempfile.mkdtemp(prefix="ujfmu_worker_fmus_"))
+        for name, blob in fmu_blobs.items():
+            (folder / f"{name}.fmu").write_bytes(blob)
+        _WORKER_DIRS[key] = folder
+    return _WORKER_DIRS[key]
+
+
+def fmu_installer(blobs, hashes):
+    """A dask WorkerPlugin that writes the FMUs on every worker of the cluster, present and future, once."""
+    from distributed import WorkerPlugin
+
+    class FmuInstaller(WorkerPlugin):
+        name = "ujfmu-fmus-" + hashlib.sha256(json.dumps(hashes, sort_keys=True).encode()).hexdigest()[:16]
+
+        def setup(self, worker):
+            _worker_fmu_dir(hashes, blobs)
+
+    return FmuInstaller()
+
+
+class Sweep:
+    """A sweep of one scenario over a grid of axes; ``run()`` computes what the journal lacks, ``table()``."""
+
+    def __init__(self, scenario, axes, settings, out_dir=Path("results"), name=None, fmu_dir=DEFAULT_FMU_DIR):
+        self.scenario = scenario if isinstance(scenario, Scenario) else Scenario(scenario)
+        self.axes, self.settings = list(axes), settings
+        self.name = name or f"{self.scenario.name}_sweep"
+        self.out_dir = Path(out_dir)
+        self.fmu_dir = Path(fmu_dir)
+        self.csv = self.out_dir / f"{self.name}.csv"
+        self.journal = self.out_dir / f"{self.name}.jsonl"
+        self.points = [dict(zip([n for ax in self.axes for n in ax.names],
+                                [v for v, ax in zip(combo, self.axes) for _ in ax.names]))
+                       for combo in itertools.product(*(ax.values for ax in self.axes))]
+        fmus = sorted({fmu for fmu, _ in self.scenario.components.values()})
+        missing = [f for f in fmus if not (self.fmu_dir / f"{f}.fmu").is_file()]
+        if missing:
+            raise FileNotFoundError(f"FMU {', '.join(missing)} not found in {self.fmu_dir} (run `ujfmu build` first)")
+        self.fmu_blobs = {f: (self.fmu_dir / f"{f}.fmu").read_bytes() for f in fmus}
+        hashes = {f: hashlib.sha256(b).hexdigest()[:16] for f, b in self.fmu_blobs.items()}
+        self.job = PointJob([(n, fmu, dict(p)) for n, (fmu, p) in self.scenario.components.items()],
+                            [(c.source, c.target) for c in self.scenario.connections], self.scenario.step_size,
+                            settings, hashes)
+        # results are only reused for the same FMUs, scenario setup and settings
+        self.config = hashlib.sha256(json.dumps([asdict(settings), self.job.components, self.job.connections,
+                                                 self.job.step_size, hashes], sort_keys=True,
+                                                default=str).encode()).hexdigest()[:16]
+
+    @staticmethod
+    def key(point):
+        return json.dumps({k: float(v) for k, v in sorted(point.items())})
+
+    def done(self):
+        """{point key: record} of the finished points in the journal made with the same configuration."""
+        records = {}
+        if self.journal.is_file():
+            for line in self.journal.read_text().splitlines():
+                try:
+                    record = json.loads(line)
+                except json.JSONDecodeError:   # a line cut by an interruption
+                    continue
+                if record.get("config") == self.config:
+                    records[self.key(record["point"])] = record
+        return records
+
+    def run(self, workers=None, scheduler=None, progress=True, client=None):
+        """Run the missing points; returns the path of the CSV. workers: local worker processes (default: the
+        number of cores); 0 runs the points in this process without dask. scheduler: address of an existing
+        dask.distributed scheduler (its workers need ujfmu installed; the FMUs are sent to them). client: a
+        dask.distributed Client to use instead (kept open)."""
+        from tqdm import tqdm
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        finished = {k for k, r in self.done().items() if r["status"] == "ok"}
+        todo = [p for p in self.points if self.key(p) not in finished]
+        bar = tqdm(total=len(self.points), initial=len(self.points) - len(todo), desc=self.name, unit="point",
+                   disable=not progress, smoothing=0.1)
+        with open(self.journal, "a+b") as journal:
+            journal.seek(0, os.SEEK_END)
+            if journal.tell():
+                journal.seek(-1, os.SEEK_END)
+                if journal.read(1) != b"\n":   # a line cut by an interruption: end it, keep it unreadable
+                    journal.write(b"\n")
+
+            def keep(record):
+                record["config"] = self.config
+                journal.write((json.dumps(record) + "\n").encode())
+                journal.flush()
+                bar.update(1)
+
+            if todo and workers == 0 and scheduler is None and client is None:
+                for point in todo:
+                    keep(run_point(self.job, point, self.fmu_blobs))
+            elif todo:
+                self._run_dask(todo, keep, workers, scheduler, client)
+        bar.close()
+        self.write_csv()
+        return self.csv
+
+    def _run_dask(self, todo, keep, workers, scheduler, client=None):
+        from distributed import as_completed
+        own = client is None
+        if own:
+            client = dask_client(workers, scheduler)
+        try:
+            # the FMUs travel once per worker in a plugin (not as scattered data, whose lifetime a shared client
+            # and a long sweep make fragile); points then carry only their parameters
+            client.register_plugin(fmu_installer(self.fmu_blobs, self.job.fmu_hashes))
+            futures = {client.submit(run_point, self.job, point, pure=False): point for point in todo}
+            for future in as_completed(futures):
+                try:
+                    record = future.result()
+                except Exception as exc:   # the worker itself died
+                    record = {"point": futures[future], "status": "error", "wall_s": float("nan"),
+                              "error": f"worker failed: {type(exc).__name__}: {exc}"}
+                keep(record)
+        finally:
+            if own:
+                close_client(client)
+
+    def table(self):
+        """Structured rows (dicts) of the current grid, in grid order; missing points have status 'missing'."""
+        done = self.done()
+        return [done.get(self.key(p), {"point": p, "status": "missing", "error": ""}) for p in self.points]
+
+    def write_csv(self):
+        """The tidy CSV: one row a point; swept parameters in SI units, then the figures of every output."""
+        param_cols = [n for ax in self.axes for n in ax.names]
+        cols = ["speed_mean"] + self.settings.columns()
+        with open(self.csv, "w", newline="") as f:
+            writer = csv.writer(f)
+            writer.writerow(param_cols + ["status"] + cols + ["wall_s", "error"])
+            for record in self.table():
+                writer.writerow([repr(float(record["point"][n])) for n in param_cols] + [record["status"]]
+                                + [repr(record[c]) if c in record else "" for c in cols]
+                                + [f"{record.get('wall_s', float('nan')):.3f}", record["error"]])
+        return self.csv
+
+    def failed(self):
+        return [r for r in self.table() if r["status"] != "ok"]
+
+    def plot(self, out_dir=None):
+        """Figures against the first axis: max/min of every output (one curve per combination of the other axes)
+        and the running-speed order amplitudes (order tracks and a Campbell-style diagram), written to out_dir
+        (default: next to the CSV). Returns the paths."""
+        from .plotting import plot_sweep
+        return plot_sweep(self, Path(out_dir or self.out_dir))
+
+
+def dask_client(workers=None, scheduler=None):
+    """A dask.distributed Client: on the scheduler at that address, else on a new local cluster of worker
+    processes (one thread each; default one per core)."""
+    from distributed import Client, LocalCluster
+    if scheduler:
+        return Client(scheduler)
+    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=40)
+    return Client(cluster)
+
+
+def close_client(client):
+    cluster = client.cluster
+    client.close()
+    if cluster is not None:
+        cluster.close()
