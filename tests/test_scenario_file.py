@@ -42,9 +42,30 @@ def test_good_file_loads(tmp_path):
     ('record = ["j.tau_in"]', 'record = ["j.tau_in"]\nspectra = ["j.M_x"]', "output.spectra"),
     ('record = ["j.tau_in"]', 'record = ["j.tau_in"]\nplot = ["j.phi_out"]', "output.plot"),
     ('record = ["j.tau_in"]', 'record = ["j.tau_in"]\nsteady_from = "late"', "output.steady_from"),
+    # connections between mismatched units, or an input fed twice
+    ('from = "j.omega_out"', 'from = "j.tau_in"', "units differ"),
+    ('to = "l.omega"', 'to = "l.omega"\n[[connections]]\nfrom = "j.omega_out"\nto = "l.omega"', "already fed"),
+    # bad numbers: out of range (named with the range), wrong type, non-finite
+    ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { J1 = -1.0 }', "outside its allowed range"),
+    ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { J1 = "heavy" }', "must be a number"),
+    ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { J1 = nan }', "not a finite number"),
+    ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { J2 = true }', "must be a number"),
+    # misspelt tables and fields
+    ('[experiment]', '[experimment]', "unknown top-level field(s) experimment"),
+    ('fmu = "Load"', 'fmu = "Load"\nparameter = { T0 = 1.0 }', "components.l: fields are fmu and parameters"),
+    ('stop_time = 1.0', 'stop_time = 1.0\nstop_time = 2.0', "line 4"),
 ])
 def test_bad_field_is_named(tmp_path, old, new, field):
     path = write(tmp_path, GOOD.replace(old, new))
     with pytest.raises(ScenarioError) as err:
         Scenario(path)
     assert str(path) in str(err.value) and field in str(err.value)
+
+
+def test_missing_fmu_is_named_before_anything_runs(tmp_path):
+    from ujfmu.scenario_run import run_scenario
+    path = write(tmp_path, GOOD)
+    with pytest.raises(ScenarioError) as err:
+        run_scenario(path, fmu_dir=tmp_path / "nowhere", out_dir=tmp_path / "out", progress=False)
+    assert str(path) in str(err.value) and "components.j.fmu" in str(err.value) and "ujfmu build" in str(err.value)
+    assert not (tmp_path / "out").exists()

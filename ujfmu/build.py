@@ -140,6 +140,9 @@ def _rewrite_model_description(fmu_path, cls):
         for dname, factor in display.items():
             ET.SubElement(u, "DisplayUnit", name=dname, factor=repr(factor))
     root.insert(list(root).index(root.find("CoSimulation")) + 1, unit_defs)
+    cs = root.find("CoSimulation")   # UjfmuSlave saves, restores and serializes its whole state
+    cs.set("canGetAndSetFMUstate", "true")
+    cs.set("canSerializeFMUstate", "true")
 
     index = {}
     for i, sv in enumerate(root.find("ModelVariables"), start=1):

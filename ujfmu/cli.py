@@ -1,4 +1,4 @@
-"""Command line: ujfmu build | run SCENARIO | check | references | sweep SCENARIO | report | bench."""
+"""Command line: ujfmu build | run | check | references | sweep | report | bench | export-ssp."""
 
 import argparse
 import sys
@@ -94,6 +94,14 @@ def cmd_sweep(args):
     return 1 if failed else 0
 
 
+def cmd_export_ssp(args):
+    from .scenario import Scenario
+    from .ssp import export_ssp
+    for path in _scenarios(args.scenarios):
+        print(f"wrote {export_ssp(Scenario(path), args.out, args.fmu_dir)}")
+    return 0
+
+
 def cmd_bench(args):
     from .bench import render, run_bench, write
     result = run_bench(_scenarios(args.scenarios), fmu_dir=args.fmu_dir, sweep=not args.no_sweep,
@@ -149,6 +157,10 @@ def main(argv=None):
     p.add_argument("--no-plot", action="store_true")
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(func=cmd_sweep)
+    p = sub.add_parser("export-ssp", help="write scenarios as SSP packages (SystemStructure.ssd + FMUs)")
+    p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
+    p.add_argument("--out", type=Path, default=Path("results"), help="writes <scenario>.ssp here")
+    p.set_defaults(func=cmd_export_ssp)
     p = sub.add_parser("bench", help="speed figures as ratios in one run: FMI floor, monolithic solve, sweeps")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p.add_argument("--no-sweep", action="store_true", help="skip the sweep figures (1 and 2 workers)")

@@ -12,7 +12,6 @@ def cosimulate_libcosim(scenario, fmu_dir):
     from libcosimpy.CosimEnums import CosimVariableType
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
-    from libcosimpy.CosimObserver import CosimObserver
     from libcosimpy.CosimSlave import CosimLocalSlave
 
     log_output_level(CosimLogLevel.WARNING)
@@ -35,6 +34,13 @@ def cosimulate_libcosim(scenario, fmu_dir):
     for conn in scenario.connections:
         (sc, sv), (dc, dv) = conn.source.split(".", 1), conn.target.split(".", 1)
         execution.connect_real_variables(index[sc], variables[sc][sv][0], index[dc], variables[dc][dv][0])
+    return record(execution, scenario, index, variables)
+
+
+def record(execution, scenario, index, variables):
+    """Step the execution over the scenario's grid; structured array 'time' + scenario.record, sampled after
+    every communication step. index: component -> slave index; variables: component -> {name: (vr, type)}."""
+    from libcosimpy.CosimObserver import CosimObserver
     observer = CosimObserver.create_last_value()
     execution.add_observer(observer)
     groups = {}

@@ -26,6 +26,8 @@ from .build import DEFAULT_FMU_DIR, FMUS, fmu_class
 from .master import Component, Connection
 
 
+TOP_LEVEL_KEYS = {"title", "description", "experiment", "components", "connections", "output", "reference",
+                  "sweep"}
 #: fields of the optional [sweep] table (defaults of `ujfmu sweep`, see ujfmu.sweep)
 SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions", "orders"}
 
@@ -50,6 +52,10 @@ class Scenario:
         except tomllib.TOMLDecodeError as exc:
             raise ScenarioError(f"{self.path}: {exc}") from None
         self.name = self.path.stem
+        unknown = set(data) - TOP_LEVEL_KEYS
+        if unknown:
+            raise ScenarioError(f"{self.path}: unknown top-level field(s) {', '.join(sorted(unknown))}; "
+                                f"known: {', '.join(sorted(TOP_LEVEL_KEYS))}")
         self.title = data.get("title", self.name)
         self.description = data.get("description", "")
         exp = self._table(data, "experiment")
@@ -61,22 +67,42 @@ class Scenario:
 
         self.components = {}
         for cname, comp in self._table(data, "components").items():
+            if not isinstance(comp, dict) or set(comp) - {"fmu", "parameters"}:
+                raise ScenarioError(f"{self.path}: components.{cname}: fields are fmu and parameters, got "
+                                    f"{sorted(comp) if isinstance(comp, dict) else comp!r}")
             fmu = comp.get("fmu")
             if fmu not in FMUS:
                 raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r} is not one of {list(FMUS)}")
             params = comp.get("parameters", {})
             declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
             for pname, value in params.items():
+                field = f"components.{cname}.parameters.{pname}"
                 if pname not in declared:
-                    raise ScenarioError(f"{self.path}: components.{cname}.parameters.{pname}: {fmu} has no "
+                    raise ScenarioError(f"{self.path}: {field}: {fmu} has no "
                                         f"parameter '{pname}' (it has {', '.join(declared)})")
+                var = declared[pname]
+                kinds = (bool,) if var.type is bool else (int,) if var.type is int else (int, float)
+                if not isinstance(value, kinds) or (var.type is not bool and isinstance(value, bool)):
+                    raise ScenarioError(f"{self.path}: {field} = {value!r} must be "
+                                        f"{'true or false' if var.type is bool else 'a number'}")
+                problem = var.check(var.type(value))
+                if problem:
+                    raise ScenarioError(f"{self.path}: {field}: {problem}")
             self.components[cname] = (fmu, dict(params))
 
         self.connections = []
+        fed = {}
         for i, conn in enumerate(data.get("connections", [])):
             src, dst = conn.get("from"), conn.get("to")
-            self._check_signal(src, f"connections[{i}].from", "output")
-            self._check_signal(dst, f"connections[{i}].to", "input")
+            out = self._check_signal(src, f"connections[{i}].from", "output")
+            inp = self._check_signal(dst, f"connections[{i}].to", "input")
+            if (out.type, out.unit) != (inp.type, inp.unit):
+                raise ScenarioError(f"{self.path}: connections[{i}]: {src} [{out.unit or out.type.__name__}] "
+                                    f"cannot feed {dst} [{inp.unit or inp.type.__name__}]: units differ")
+            if dst in fed:
+                raise ScenarioError(f"{self.path}: connections[{i}].to = {dst!r} is already fed by "
+                                    f"connections[{fed[dst]}]")
+            fed[dst] = i
             self.connections.append(Connection(src, dst))
 
         out = data.get("output", {})
@@ -140,6 +166,15 @@ class Scenario:
         if causality and variables[var].causality != causality:
             raise ScenarioError(f"{self.path}: {field} = {name!r} is an {variables[var].causality}, "
                                 f"not an {causality}")
+        return variables[var]
+
+    def check_fmus(self, fmu_dir=DEFAULT_FMU_DIR):
+        """ScenarioError naming the component if an FMU file is missing (before anything runs)."""
+        for cname, (fmu, _) in self.components.items():
+            path = Path(fmu_dir) / f"{fmu}.fmu"
+            if not path.is_file():
+                raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path} not found "
+                                    "(run `ujfmu build` first)")
 
     def parameters_with_defaults(self, component):
         """All parameter values of a component: the FMU's declared defaults updated by the scenario."""

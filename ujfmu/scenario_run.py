@@ -74,6 +74,7 @@ def run_scenario(path, fmu_dir=DEFAULT_FMU_DIR, out_dir=DEFAULT_OUT_DIR, plot=Tr
     Returns a ScenarioResult whose .table is the result (structured array, 'time' + 'comp.var' columns).
     """
     scenario = path if isinstance(path, Scenario) else Scenario(path)
+    scenario.check_fmus(fmu_dir)
     bar = None
     if progress:
         from tqdm import tqdm

@@ -3,13 +3,13 @@
 import math
 
 from ..physics import cardan
-from .base import UjfmuSlave, input_, output, parameter
+from .base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
 
 _ANGLE = dict(min=-cardan.MAX_ANGLE, max=cardan.MAX_ANGLE)
 _INERTIA = dict(min=0.0, max=1.0e3)
 
 
-class CardanJoint(UjfmuSlave):
+class CardanJoint(PrescribedInputSlave):
     """Universal (Cardan/Hooke) joint with structural and error misalignment, Feng, Wang, Zhu Eqs. (1)-(10).
 
     The driving shaft follows the input speed omega_in; the driven shaft follows the joint's exact kinematics,
@@ -44,8 +44,9 @@ class CardanJoint(UjfmuSlave):
         parameter("J2", 0.0, "kg.m2",
                   "Driven-side moment of inertia carried by the joint (0: Feng's massless driven side)", **_INERTIA),
         parameter("phi_in_start", 0.0, "rad", "Driving shaft angle theta1 at the start time", min=-1.0e6, max=1.0e6),
-        input_("omega_in", 0.0, "rad/s", "Driving shaft angular speed omega1"),
-        input_("tau_load", 0.0, "N.m", "Load torque on the driven shaft (positive opposes its rotation)"),
+        input_("omega_in", 0.0, "rad/s", "Driving shaft angular speed omega1", **SPEED_RANGE),
+        input_("tau_load", 0.0, "N.m", "Load torque on the driven shaft (positive opposes its rotation)",
+               **TORQUE_RANGE),
         output("omega_out", "rad/s", "Driven shaft angular speed omega2 = r(theta1)*omega1", ("omega_in",)),
         output("phi_out", "rad", "Driven shaft angle theta2, continuous over revolutions"),
         output("tau_in", "N.m", "Driving torque T0 demanded from the driver (Feng Eq. 8)",
@@ -74,22 +75,15 @@ class CardanJoint(UjfmuSlave):
     def initialize(self, start_time):
         self._frame = cardan.joint_frame(self.bend_angle, self.bend_plane_angle, self.error_angle_beta,
                                          self.error_angle_gamma)
-        self._theta1 = self.phi_in_start
-        self._omega_prev = None   # omega_in at the previous communication point
-        self._h_prev = 0.0
-
-    def _alpha1(self):
-        return 0.0 if self._omega_prev is None else (self.omega_in - self._omega_prev) / self._h_prev
+        self.start_input(self.phi_in_start)
 
     def compute_outputs(self):
-        alpha1 = self._alpha1()
+        alpha1 = self.input_acceleration()
         (self.tau_in, self.M_x, self.M_y, self.M_z, self.omega_out, _) = cardan.joint_torques(
-            self._frame, self._theta1, self.omega_in, alpha1, self.tau_load, self.J1, self.J2)
-        self.phi_in = self._theta1
-        self.phi_out = cardan.driven_angle(self._frame, self._theta1)
+            self._frame, self._phi_in, self.omega_in, alpha1, self.tau_load, self.J1, self.J2)
+        self.phi_in = self._phi_in
+        self.phi_out = cardan.driven_angle(self._frame, self._phi_in)
         self.alpha_in = alpha1
 
     def advance(self, t, h):
-        alpha1 = self._alpha1()
-        self._theta1 += h * (self.omega_in + 0.5 * alpha1 * h)
-        self._omega_prev, self._h_prev = self.omega_in, h
+        self.advance_input(h, self.input_acceleration())

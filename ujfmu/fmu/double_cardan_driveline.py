@@ -3,14 +3,14 @@
 import math
 
 from ..physics import double_cardan as dc
-from .base import UjfmuSlave, input_, output, parameter
+from .base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
 
 _ANGLE = dict(min=-dc.MAX_ANGLE, max=dc.MAX_ANGLE)
 _PHASE = dict(min=-2.0 * math.pi, max=2.0 * math.pi)
 _INERTIA = dict(min=0.0, max=1.0e3)
 
 
-class DoubleCardanDriveline(UjfmuSlave):
+class DoubleCardanDriveline(PrescribedInputSlave):
     """Input shaft, Cardan joint 1, intermediate shaft, Cardan joint 2, output shaft with the driven load.
 
     The input shaft follows omega_in (angle advanced with the input extrapolated linearly over each step, its
@@ -63,8 +63,9 @@ class DoubleCardanDriveline(UjfmuSlave):
                   "True: rigid intermediate shaft, no support motion (Brutti's rigid-body analysis)", type=bool),
         parameter("phi_in_start", 0.0, "rad", "Input shaft angle phi1 at the start time (0: yoke in joint 1's plane)",
                   min=-1.0e6, max=1.0e6),
-        input_("omega_in", 0.0, "rad/s", "Input shaft angular speed omega1"),
-        input_("tau_load", 0.0, "N.m", "Load torque on the output shaft (positive opposes its rotation)"),
+        input_("omega_in", 0.0, "rad/s", "Input shaft angular speed omega1", **SPEED_RANGE),
+        input_("tau_load", 0.0, "N.m", "Load torque on the output shaft (positive opposes its rotation)",
+               **TORQUE_RANGE),
         output("omega_out", "rad/s", "Output shaft angular speed omega4", ("omega_in",)),
         output("phi_out", "rad", "Output shaft angle phi4, continuous over revolutions"),
         output("tau_in", "N.m", "Torque demanded from the driver at the input shaft", ("omega_in", "tau_load")),
@@ -84,7 +85,8 @@ class DoubleCardanDriveline(UjfmuSlave):
         problems = []
         if self.I_cross_normal > 2.0 * self.I_cross_pin:
             problems.append(f"I_cross_normal = {self.I_cross_normal!r} kg.m2 exceeds 2*I_cross_pin = "
-                            f"{2.0 * self.I_cross_pin!r} kg.m2 (a rigid cross has I_normal <= I_pin + I_pin)")
+                            f"{2.0 * self.I_cross_pin!r} kg.m2 (allowed range [0, 2*I_cross_pin] kg.m2: a rigid "
+                            "cross has I_normal <= I_pin + I_pin)")
         if not self.rigid_intermediate_shaft and not self.J_load > 0.0:
             problems.append(f"J_load = {self.J_load!r} kg.m2 must be > 0 with a flexible intermediate shaft "
                             "(allowed range (0, 1000] kg.m2; 0 only with rigid_intermediate_shaft = true)")
@@ -94,44 +96,39 @@ class DoubleCardanDriveline(UjfmuSlave):
         self._p = dc.Driveline(self.beta1, self.beta2, self.yoke_phase, self.joint_plane_angle, self.I_input,
                                self.I_cross_pin, self.I_cross_normal, self.I_intermediate, self.J_load,
                                self.k_theta, self.xi_theta, self.m_s, self.k_phi, self.xi_phi, self.L_c)
-        self._phi1 = self.phi_in_start
-        self._omega_prev = None   # omega_in at the previous communication point
-        self._h_prev = 0.0
+        self.start_input(self.phi_in_start)
         # flexible states (phi4, omega4, phi, dphi); omega4 follows the input kinematically until the first step
-        self._state = (dc.rigid_output_angle(self._p, self._phi1), 0.0, 0.0, 0.0)
+        self._state = (dc.rigid_output_angle(self._p, self._phi_in), 0.0, 0.0, 0.0)
         self._started = False
         self._natural_rate = 0.0 if self.rigid_intermediate_shaft else dc.natural_rate_bound(self._p)
-
-    def _alpha1(self):
-        return 0.0 if self._omega_prev is None else (self.omega_in - self._omega_prev) / self._h_prev
 
     def _flexible_state(self):
         if self._started:
             return self._state
-        rigid = dc.rigid_state(self._p, self._phi1, self.omega_in, 0.0, 0.0)
+        rigid = dc.rigid_state(self._p, self._phi_in, self.omega_in, 0.0, 0.0)
         return (self._state[0], rigid["omega4"], 0.0, 0.0)
 
     def compute_outputs(self):
-        alpha1 = self._alpha1()
+        alpha1 = self.input_acceleration()
         if self.rigid_intermediate_shaft:
-            out = dc.rigid_state(self._p, self._phi1, self.omega_in, alpha1, self.tau_load)
+            out = dc.rigid_state(self._p, self._phi_in, self.omega_in, alpha1, self.tau_load)
             self.phi_out, self.omega_out = out["phi4"], out["omega4"]
             self.twist = self.dynamic_misalignment = 0.0
         else:
             state = self._flexible_state()
-            out = dc.flexible_outputs(self._p, self._phi1, self.omega_in, alpha1, state)
+            out = dc.flexible_outputs(self._p, self._phi_in, self.omega_in, alpha1, state)
             self.phi_out, self.omega_out, self.dynamic_misalignment = state[0], state[1], state[2]
             self.twist = out["twist"]
         self.tau_in, self.shaft_torque = out["tau_in"], out["shaft_torque"]
         self.omega_intermediate, self.stored_energy = out["omega2"], out["energy"]
-        self.phi_in, self.alpha_in = self._phi1, alpha1
+        self.phi_in, self.alpha_in = self._phi_in, alpha1
 
     def advance(self, t, h):
-        alpha1 = self._alpha1()
+        alpha1 = self.input_acceleration()
         if not self.rigid_intermediate_shaft:
             w_max = max(abs(self.omega_in), abs(self.omega_in + alpha1 * h))
             n = dc.flexible_substeps(self._natural_rate, h, w_max)
-            state = dc.flexible_step(self._p, h, self._phi1, self.omega_in, alpha1, self._flexible_state(),
+            state = dc.flexible_step(self._p, h, self._phi_in, self.omega_in, alpha1, self._flexible_state(),
                                      self.tau_load, n)
             if not all(math.isfinite(x) for x in state):
                 raise ValueError(f"the state became non-finite over the step ({state!r})")
@@ -140,5 +137,4 @@ class DoubleCardanDriveline(UjfmuSlave):
                     raise ValueError(f"joint angle {name} + dynamic misalignment = {angle!r} rad left its allowed "
                                      f"range [{-dc.MAX_ANGLE:.10g}, {dc.MAX_ANGLE:.10g}] rad")
             self._state, self._started = state, True
-        self._phi1 += h * (self.omega_in + 0.5 * alpha1 * h)
-        self._omega_prev, self._h_prev = self.omega_in, h
+        self.advance_input(h, alpha1)

@@ -1,7 +1,7 @@
 """Load FMU: speed-dependent resisting torque."""
 
 from ..physics import load
-from .base import UjfmuSlave, input_, output, parameter
+from .base import SPEED_RANGE, UjfmuSlave, input_, output, parameter
 
 
 class Load(UjfmuSlave):
@@ -21,7 +21,7 @@ class Load(UjfmuSlave):
         parameter("c2", 0.0, "N.m.s2/rad2", "Quadratic (fan) coefficient", min=-1.0e6, max=1.0e6),
         parameter("omega_smooth", 0.1, "rad/s", "Regularisation speed of the smooth sign and absolute value",
                   min=1.0e-9, max=1.0e6),
-        input_("omega", 0.0, "rad/s", "Speed of the driven shaft"),
+        input_("omega", 0.0, "rad/s", "Speed of the driven shaft", **SPEED_RANGE),
         output("tau", "N.m", "Resisting torque (positive opposes positive rotation)", ("omega",)),
     )
     DEFAULT_EXPERIMENT = (0.0, 1.0, 1.0e-3)

@@ -1,9 +1,9 @@
 """Motor FMU: rotor inertia with a PI speed controller and torque limit, or an ideal speed source."""
 
 from ..physics import motor
-from .base import UjfmuSlave, input_, output, parameter
+from .base import SPEED_RANGE, TORQUE_RANGE, UjfmuSlave, input_, output, parameter
 
-_SPEED = dict(min=-1.0e4, max=1.0e4)
+_SPEED = SPEED_RANGE
 
 
 class Motor(UjfmuSlave):
@@ -34,7 +34,8 @@ class Motor(UjfmuSlave):
         parameter("omega_initial", 0.0, "rad/s", "Speed before the step", **_SPEED),
         parameter("ideal_speed_source", False, None, "True: follow the profile exactly (ideal speed source)",
                   type=bool),
-        input_("tau_load", 0.0, "N.m", "Reaction torque of the driven machine (positive opposes rotation)"),
+        input_("tau_load", 0.0, "N.m", "Reaction torque of the driven machine (positive opposes rotation)",
+               **TORQUE_RANGE),
         output("omega", "rad/s", "Rotor speed"),
         output("phi", "rad", "Rotor angle, continuous over revolutions"),
         output("tau_motor", "N.m", "Drive torque on the rotor", ("tau_load",)),
@@ -44,7 +45,8 @@ class Motor(UjfmuSlave):
 
     def check_parameters(self):
         if self.profile == motor.RAMP and self.omega_set < 0.0:
-            return [f"omega_set = {self.omega_set!r} must be >= 0 rad/s for the ramp profile (profile = 1)"]
+            return [f"omega_set = {self.omega_set!r} rad/s is outside its allowed range [0, 1e+04] rad/s for the "
+                    "ramp profile (profile = 1)"]
         return []
 
     def _reference(self, t):

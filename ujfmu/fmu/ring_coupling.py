@@ -3,13 +3,13 @@
 import math
 
 from ..physics import ring_coupling as rc
-from .base import UjfmuSlave, input_, output, parameter
+from .base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
 
 #: the paper's Fig. 3 set: steel wire d = 3 mm, R = 0.1 m, e = 3 mm, I2 = 0.05 kg.m^2
 _E, _D, _R = 2.1e11, 0.003, 0.1
 
 
-class RingCoupling(UjfmuSlave):
+class RingCoupling(PrescribedInputSlave):
     """Elastic centrifugal ring coupling between radially misaligned shafts, Turla and Iljin Eqs. (5)-(22).
 
     Shaft 1 follows omega_in (angle advanced with the input extrapolated linearly over each step, alpha_in the
@@ -48,8 +48,9 @@ class RingCoupling(UjfmuSlave):
                   type=bool),
         parameter("omega_out_start", 0.0, "rad/s", "Shaft 2 speed at the start when start_at_input_speed is false",
                   min=-1.0e5, max=1.0e5),
-        input_("omega_in", 0.0, "rad/s", "Shaft 1 angular speed"),
-        input_("tau_load", 0.0, "N.m", "Load torque on shaft 2 (positive opposes its rotation)"),
+        input_("omega_in", 0.0, "rad/s", "Shaft 1 angular speed", **SPEED_RANGE),
+        input_("tau_load", 0.0, "N.m", "Load torque on shaft 2 (positive opposes its rotation)",
+               **TORQUE_RANGE),
         output("omega_out", "rad/s", "Shaft 2 angular speed", ("omega_in",)),
         output("phi_out", "rad", "Shaft 2 angle phi2, continuous over revolutions"),
         output("tau_in", "N.m", "Torque demanded from the driver, I1 alpha_in - M_p - c_s x_e - c_d x_e'",
@@ -73,15 +74,10 @@ class RingCoupling(UjfmuSlave):
 
     def initialize(self, start_time):
         self._p = rc.Coupling(**{n: getattr(self, n) for n in rc.Coupling.PARAMETERS})
-        self._phi1 = self.phi_in_start
-        self._omega_prev = None
-        self._h_prev = 0.0
+        self.start_input(self.phi_in_start)
         self._state = (self.phi_out_start, self.omega_out_start)
         self._started = False
         self._rate = rc.natural_rate(self._p)
-
-    def _alpha_in(self):
-        return 0.0 if self._omega_prev is None else (self.omega_in - self._omega_prev) / self._h_prev
 
     def _current_state(self):
         if self._started or not self.start_at_input_speed:
@@ -89,20 +85,19 @@ class RingCoupling(UjfmuSlave):
         return (self._state[0], self.omega_in)
 
     def compute_outputs(self):
-        alpha = self._alpha_in()
+        alpha = self.input_acceleration()
         y = self._current_state()
-        out = rc.outputs(self._p, self._phi1, self.omega_in, alpha, y)
+        out = rc.outputs(self._p, self._phi_in, self.omega_in, alpha, y)
         self.phi_out, self.omega_out = y
         self.tau_in, self.x_e, self.M_p = out["tau_in"], out["x_e"], out["M_p"]
         self.transmitted_torque, self.stored_energy = out["transmitted_torque"], out["stored_energy"]
-        self.phi_in, self.alpha_in = self._phi1, alpha
+        self.phi_in, self.alpha_in = self._phi_in, alpha
 
     def advance(self, t, h):
-        alpha = self._alpha_in()
-        state = rc.step(self._p, h, self._phi1, self.omega_in, alpha, self._current_state(), self.tau_load,
+        alpha = self.input_acceleration()
+        state = rc.step(self._p, h, self._phi_in, self.omega_in, alpha, self._current_state(), self.tau_load,
                         self._rate)
         if not all(math.isfinite(x) for x in state):
             raise ValueError(f"the state became non-finite over the step ({state!r})")
         self._state, self._started = tuple(state), True
-        self._phi1 += h * (self.omega_in + 0.5 * alpha * h)
-        self._omega_prev, self._h_prev = self.omega_in, h
+        self.advance_input(h, alpha)

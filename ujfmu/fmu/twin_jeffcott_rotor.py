@@ -3,7 +3,7 @@
 import math
 
 from ..physics import twin_jeffcott as tj
-from .base import UjfmuSlave, input_, output, parameter
+from .base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
 
 _RIG = tj.rig_parameters()
 _MASS = dict(min=1.0e-6, max=1.0e6)
@@ -37,7 +37,7 @@ def _disc_parameters(i, shaft):
     )
 
 
-class TwinJeffcottRotor(UjfmuSlave):
+class TwinJeffcottRotor(PrescribedInputSlave):
     """Two unbalanced Jeffcott rotors coupled through a Hooke joint, Tchomeni, Alugongo, Masu Eqs. (1)-(11).
 
     Input (gearbox output flange, inertia J_gb) -> primary shaft (torsion K1T, C1T) -> disc 1 (lateral X1, Y1) ->
@@ -64,8 +64,9 @@ class TwinJeffcottRotor(UjfmuSlave):
                   min=0.0, max=1.0e3),
         parameter("phi_in_start", 0.0, "rad", "Input angle at the start time (0: driving pin normal to the plane "
                   "of the shafts)", min=-1.0e6, max=1.0e6),
-        input_("omega_in", 0.0, "rad/s", "Input (gearbox output) angular speed"),
-        input_("tau_load", 0.0, "N.m", "Load torque on disc 2 (positive opposes its rotation)"),
+        input_("omega_in", 0.0, "rad/s", "Input (gearbox output) angular speed", **SPEED_RANGE),
+        input_("tau_load", 0.0, "N.m", "Load torque on disc 2 (positive opposes its rotation)",
+               **TORQUE_RANGE),
         output("omega_out", "rad/s", "Disc 2 angular speed theta2'", ("omega_in",)),
         output("phi_out", "rad", "Disc 2 angle theta2, continuous over revolutions"),
         output("tau_in", "N.m", "Torque demanded from the driver, J_gb alpha_in + primary shaft torque",
@@ -89,21 +90,16 @@ class TwinJeffcottRotor(UjfmuSlave):
 
     def initialize(self, start_time):
         self._p = tj.TwinRotor(**{n: getattr(self, n) for n in tj.TwinRotor.PARAMETERS})
-        self._phi_in = self.phi_in_start
-        self._omega_prev = None   # omega_in at the previous communication point
-        self._h_prev = 0.0
+        self.start_input(self.phi_in_start)
         self._state = tj.initial_state(self._p, self._phi_in, 0.0)
         self._started = False     # before the first step the discs turn with the input
         self._natural_rate = tj.natural_rate_bound(self._p)
-
-    def _alpha_in(self):
-        return 0.0 if self._omega_prev is None else (self.omega_in - self._omega_prev) / self._h_prev
 
     def _current_state(self):
         return self._state if self._started else tj.initial_state(self._p, self._phi_in, self.omega_in)
 
     def compute_outputs(self):
-        alpha = self._alpha_in()
+        alpha = self.input_acceleration()
         y = self._current_state()
         out = tj.outputs(self._p, self._phi_in, self.omega_in, alpha, y)
         self.phi_disc1, self.omega_disc1, self.X1, self.Y1 = y[0], y[1], y[2], y[4]
@@ -114,11 +110,10 @@ class TwinJeffcottRotor(UjfmuSlave):
         self.phi_in, self.alpha_in = self._phi_in, alpha
 
     def advance(self, t, h):
-        alpha = self._alpha_in()
+        alpha = self.input_acceleration()
         state = tj.step(self._p, h, self._phi_in, self.omega_in, alpha, self._current_state(), self.tau_load,
                         self._natural_rate)
         if not all(math.isfinite(x) for x in state):
             raise ValueError(f"the state became non-finite over the step ({state!r})")
         self._state, self._started = state, True
-        self._phi_in += h * (self.omega_in + 0.5 * alpha * h)
-        self._omega_prev, self._h_prev = self.omega_in, h
+        self.advance_input(h, alpha)

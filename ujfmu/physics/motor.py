@@ -45,7 +45,11 @@ def controller_substeps(step, inertia, kp, ki):
     """RK4 substeps per communication step: keep |lambda| h_sub <= 0.2 for the closed PI loop's fastest pole."""
     # closed loop: J s^2 + Kp s + Ki = 0; |lambda| <= Kp/J + sqrt(Ki/J) bounds both roots
     lam = kp / inertia + math.sqrt(ki / inertia)
-    return max(1, math.ceil(step * lam / 0.2))
+    n = step * lam / 0.2
+    if not n <= 100_000:
+        raise ValueError(f"a step of {step!r} s needs {n:.3g} RK4 substeps for the PI loop's fastest pole "
+                         f"{lam:.6g} 1/s (allowed at most 100000): reduce the step, Kp or Ki, or raise J_rotor")
+    return max(1, math.ceil(n))
 
 
 def pi_motor_step(t, h, state, tau_load, p):

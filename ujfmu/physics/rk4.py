@@ -15,9 +15,20 @@ import math
 RATE_STEP = 0.5
 
 
-def substeps(rate, h):
-    """Number of RK4 substeps for a step h so that each is at most RATE_STEP / rate long."""
-    return max(1, math.ceil(h * rate / RATE_STEP))
+#: more substeps than this in one communication step means parameters far outside any real driveline (or a huge
+#: step): the step is refused with a message instead of keeping the host busy for hours
+MAX_SUBSTEPS = 100_000
+
+
+def substeps(rate, h, max_substeps=MAX_SUBSTEPS):
+    """Number of RK4 substeps for a step h so that each is at most RATE_STEP / rate long; ValueError above
+    max_substeps (or for a non-finite rate)."""
+    n = h * rate / RATE_STEP
+    if not n <= max_substeps:
+        raise ValueError(f"a step of {h!r} s needs {n:.3g} RK4 substeps for the model's fastest rate {rate:.6g} 1/s "
+                         f"(allowed at most {max_substeps}): reduce the communication step, or check the "
+                         "stiffness, damping and inertia parameters")
+    return max(1, math.ceil(n))
 
 
 def integrate(derivatives, y, t_span, n, phi0, w0, alpha):

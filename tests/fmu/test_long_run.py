@@ -1,0 +1,79 @@
+"""Long runs: 10^6 communication steps of 1 ms (10,000 revolutions at 600 rpm) per FMU, in ten chunks of exactly
+1000 revolutions. In the periodic steady state every chunk must end in the same state: the torques and
+displacements repeat, the continuous angles advance by exactly 1000 turns (only round-off growth allowed), the
+time per chunk does not grow, and neither does the process's memory."""
+
+import math
+import time
+from pathlib import Path
+
+import pytest
+
+from ujfmu.build import FMUS
+from ujfmu.master import Component, FmuInstance, extracted
+
+from fmpy.fmi2 import fmi2Real, fmi2ValueReference
+
+OMEGA = 20.0 * math.pi            # 600 rpm: 10 turns per second
+H, CHUNK, CHUNKS = 1e-3, 100_000, 10
+TURNS_PER_CHUNK = OMEGA * CHUNK * H / (2.0 * math.pi)   # 1000
+EPS = 2.0 ** -52
+INPUTS = {"omega_in": OMEGA, "omega": OMEGA, "tau_load": 0.2}
+#: parameters for a steady periodic state: the motor holds 600 rpm, the ring coupling is damped (10%)
+PARAMETERS = {"Motor": {"omega_set": OMEGA, "tau_max": 50.0},
+              "RingCoupling": {"c_d": 0.2 * math.sqrt(726.4294875418636 * 0.1)}}
+
+
+def rss_mb():
+    return int(Path("/proc/self/statm").read_text().split()[1]) * 4096 / 2**20
+
+
+@pytest.mark.parametrize("name", list(FMUS))
+def test_a_million_steps_repeat_the_steady_state_without_drift_slowdown_or_growth(fmu_dir, name):
+    path = fmu_dir / f"{name}.fmu"
+    unzip, md = extracted(path)
+    inst = FmuInstance(Component("long", path), unzip, md, [])
+    try:
+        inst.initialize(PARAMETERS.get(name, {}))
+        inputs = [v for v in md.modelVariables if v.causality == "input"]
+        outputs = [v for v in md.modelVariables if v.causality == "output"]
+        in_vr = (fmi2ValueReference * len(inputs))(*[v.valueReference for v in inputs])
+        in_val = (fmi2Real * len(inputs))(*[INPUTS[v.name] for v in inputs])
+        out_vr = (fmi2ValueReference * len(outputs))(*[v.valueReference for v in outputs])
+        out_val = (fmi2Real * len(outputs))()
+        set_real, do_step, get_real = (inst.raw(f) for f in ("fmi2SetReal", "fmi2DoStep", "fmi2GetReal"))
+        comp = inst.slave.component
+        ends, seconds, memory = [], [], []
+        k = 0
+        for _ in range(CHUNKS):
+            started = time.perf_counter()
+            for _ in range(CHUNK):
+                assert set_real(comp, in_vr, len(inputs), in_val) == 0
+                assert do_step(comp, k * H, H, 1) == 0, inst._log[-3:]
+                k += 1
+            assert get_real(comp, out_vr, len(outputs), out_val) == 0
+            seconds.append(time.perf_counter() - started)
+            memory.append(rss_mb())
+            ends.append(list(out_val))
+    finally:
+        inst.free()
+
+    names = [v.name for v in outputs]
+    for i, out in enumerate(names):
+        values = [end[i] for end in ends[1:]]   # from 1000 turns on: steady
+        assert all(math.isfinite(v) for v in values), out
+        if out.startswith("phi"):
+            # continuous angles: exactly 1000 turns per chunk, but for round-off growth: a plain sum of 10^5
+            # steps (up to 8 integrator additions each) at |phi| up to 6.3e4 rad may drift by N eps |phi|
+            growth = 8 * CHUNK * EPS * max(abs(v) for v in values) / (2.0 * math.pi)
+            turns = [(b - a) / (2.0 * math.pi) for a, b in zip(values, values[1:])]
+            assert max(abs(t - TURNS_PER_CHUNK) for t in turns) < growth, (out, turns, growth)
+        elif out not in ("dissipated_energy", "input_work"):   # accumulating by design
+            # the state repeats; what differs is the round-off of 6e4 rad angles (eps |phi| = 1.4e-11 rad) times
+            # the shaft stiffnesses: 1e-7 of the signal at most (TwinJeffcottRotor's tau_in)
+            scale = max(abs(v) for v in values) or 1.0
+            assert max(values) - min(values) <= 1e-6 * scale + 1e-12, (out, values)
+    # no slowdown (chunks of this run against each other; the fastest of each group, as noise only adds time)
+    # and flat memory
+    assert min(seconds[-3:]) < 1.5 * min(seconds[1:4]), seconds
+    assert memory[-1] - memory[1] < 5.0, memory

@@ -1,0 +1,61 @@
+"""SSP export: every scenario as a .ssp that libcosim's CosimExecution.from_ssp_file runs, carrying exactly the
+scenario (bitwise the same as libcosim run by hand), and agreeing with our fmpy master."""
+
+import xml.etree.ElementTree as ET
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ujfmu.cli import main
+from ujfmu.libcosim_run import cosimulate_libcosim
+from ujfmu.scenario import Scenario
+from ujfmu.scenario_run import run_scenario
+from ujfmu.ssp import NS, cosimulate_ssp, export_ssp
+
+SCENARIOS = sorted((Path(__file__).parents[1] / "scenarios").glob("*.toml"))
+#: libcosim transfers every connection after all steps (Jacobi, no feedthrough ordering): a first-order
+#: coupling difference from our master (tests/test_scenarios.py shows it halving with the step). It stays inside
+#: the scenarios' tolerances except in the PI start-up through Feng's joint, where it is 4x the 1% band.
+JACOBI_GAP = {"cardan_startup": 0.05}
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
+def test_exported_ssp_runs_in_libcosim_and_agrees_with_fmpy(fmu_dir, tmp_path, path):
+    scenario = Scenario(path)
+    ssp = export_ssp(scenario, tmp_path, fmu_dir)
+    theirs = cosimulate_ssp(ssp, scenario)
+    by_hand = cosimulate_libcosim(scenario, fmu_dir)
+    ours = run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, plot=False, progress=False).table
+    for name, tol in scenario.tolerances.items():
+        np.testing.assert_array_equal(theirs[name], by_hand[name])   # the .ssp carries the whole scenario
+        y = np.interp(theirs["time"], ours["time"], ours[name])
+        span = np.ptp(ours[name])
+        allowed = JACOBI_GAP.get(scenario.name, tol.rel_range) * span + tol.abs
+        assert np.max(np.abs(theirs[name] - y)) <= allowed, name
+
+
+def test_ssd_lists_components_connectors_parameters_and_experiment(fmu_dir, tmp_path):
+    scenario = Scenario(SCENARIOS[0].parent / "double_cardan_brutti_rigid.toml")
+    path = export_ssp(scenario, tmp_path, fmu_dir)
+    with zipfile.ZipFile(path) as zf:
+        names = set(zf.namelist())
+        root = ET.fromstring(zf.read("SystemStructure.ssd"))
+    assert names == {"SystemStructure.ssd", "resources/Motor.fmu", "resources/DoubleCardanDriveline.fmu",
+                     "resources/Load.fmu"}
+    comps = {c.get("name"): c for c in root.iter(f"{{{NS['ssd']}}}Component")}
+    assert set(comps) == set(scenario.components)
+    params = {p.get("name"): p[0].get("value") for p in comps["driveline"].iter(f"{{{NS['ssv']}}}Parameter")}
+    assert float(params["beta1"]) == scenario.components["driveline"][1]["beta1"]
+    assert params["rigid_intermediate_shaft"] == "true"
+    units = {c.get("name"): c[0].get("unit") for c in comps["driveline"].iter(f"{{{NS['ssd']}}}Connector")}
+    assert units["omega_in"] == "rad/s" and units["tau_in"] == "N.m"
+    assert len(list(root.iter(f"{{{NS['ssd']}}}Connection"))) == len(scenario.connections)
+    step = next(root.iter(f"{{{NS['osp']}}}FixedStepAlgorithm")).get("baseStepSize")
+    assert float(step) == scenario.step_size
+
+
+def test_cli_export_ssp(fmu_dir, tmp_path, capsys):
+    assert main(["--fmu-dir", str(fmu_dir), "export-ssp", str(SCENARIOS[0]), "--out", str(tmp_path)]) == 0
+    assert (tmp_path / f"{SCENARIOS[0].stem}.ssp").is_file() and "wrote" in capsys.readouterr().out
