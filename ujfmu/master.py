@@ -199,8 +199,9 @@ class Cosimulation:
 
     The stepping loop calls the FMUs' fmi2DoStep/GetReal/SetReal directly (fmpy's FMU2Slave loads them) on value
     buffers allocated once, so a communication point costs the FMI calls themselves and little else: a
-    connection is one fmi2GetReal into a buffer and one fmi2SetReal from that same buffer, and the recorded
-    signals are one fmi2GetReal per component. Use as a context manager, or call ``close``.
+    connection is one fmi2GetReal into a buffer and one fmi2SetReal from that same buffer, and recorded signals
+    ride along on those reads where the feedthrough order allows (else one fmi2GetReal per component). Use as a
+    context manager, or call ``close``.
     """
 
     def __init__(self, components, connections, step_size, record, start_time=0.0):

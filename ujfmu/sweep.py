@@ -7,8 +7,9 @@ amplitudes of chosen running-speed orders (least squares on the running angle, `
 
 The FMUs go to each dask worker once (a WorkerPlugin writes them to a local folder), so a cluster needs no
 shared file system; the workers need ujfmu installed. Resumable: every finished point is appended at once to
-``<name>.jsonl`` next to the CSV; a rerun with the same settings skips the points already there (failed points are tried again), so an interrupted sweep loses nothing.
-A failing point is recorded with its error and the sweep goes on.
+``<name>.jsonl`` next to the CSV; a rerun with the same settings skips the points already there (failed points
+are tried again), so an interrupted sweep loses nothing. A failing point is recorded with its error and the
+sweep goes on.
 """
 
 import csv

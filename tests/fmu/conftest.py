@@ -1,5 +1,4 @@
 import tempfile
-from contextlib import contextmanager
 
 import numpy as np
 import pytest

@@ -8,11 +8,10 @@ import time
 from pathlib import Path
 
 import pytest
+from fmpy.fmi2 import fmi2Real, fmi2ValueReference
 
 from ujfmu.build import FMUS
 from ujfmu.master import Component, FmuInstance, extracted
-
-from fmpy.fmi2 import fmi2Real, fmi2ValueReference
 
 OMEGA = 20.0 * math.pi            # 600 rpm: 10 turns per second
 H, CHUNK, CHUNKS = 1e-3, 100_000, 10
