@@ -17,7 +17,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 
 from .build import DEFAULT_FMU_DIR, REPO_DIR, build_fmu
 from .master import Component, Cosimulation
@@ -36,13 +35,8 @@ def _stepping_time(components, scenario, n_steps):
     started = time.perf_counter()
     with Cosimulation(components, scenario.connections, STEP, scenario.record, scenario.start_time) as cosim:
         ready = time.perf_counter()
-        values = np.empty((n_steps + 1, len(cosim.columns)))
-        cosim.read(values[0])
-        cosim.advance(n_steps, values[1:])
+        table = cosim.run(n_steps)
         done = time.perf_counter()
-        columns = cosim.columns
-    t = scenario.start_time + STEP * np.arange(n_steps + 1)
-    table = np.rec.fromarrays([t] + list(values.T), names=["time"] + columns)
     return ready - started, done - ready, table
 
 

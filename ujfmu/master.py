@@ -86,12 +86,9 @@ class FmuInstance:
             return [name]
         if var.causality != "output":
             return []
-        for unknown in self.md.outputs:
-            if unknown.variable.name == name:
-                if unknown.dependencies is None:
-                    return [v.name for v in self.md.modelVariables if v.causality == "input"]
-                return [v.name for v in unknown.dependencies if v.causality == "input"]
-        return [v.name for v in self.md.modelVariables if v.causality == "input"]
+        declared = next((u.dependencies for u in self.md.outputs if u.variable.name == name), None)
+        candidates = self.md.modelVariables if declared is None else declared   # undeclared: every input
+        return [v.name for v in candidates if v.causality == "input"]
 
     def vr(self, name):
         try:
@@ -308,6 +305,17 @@ class Cosimulation:
             if progress is not None and (k + 1) % every == 0:
                 progress(k + 1, n_steps)
 
+    def run(self, n_steps, progress=None):
+        """Record the current point, take n_steps steps recording after each; a structured array with 'time'
+        and one column per recorded 'comp.var'."""
+        values = np.empty((n_steps + 1, len(self.columns)))
+        t0 = self.time
+        self.read(values[0])
+        self.advance(n_steps, values[1:], progress)
+        time = t0 + self.step_size * np.arange(n_steps + 1)
+        dtype = np.dtype([("time", np.float64)] + [(c, np.float64) for c in self.columns])
+        return np.rec.fromarrays([time] + list(values.T), dtype=dtype)
+
     def close(self):
         for inst in self.instances.values():
             inst.free()
@@ -334,10 +342,4 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
         raise CosimulationError(f"stop_time - start_time = {stop_time - start_time} is not a whole number of "
                                 f"communication steps of {step_size}")
     with Cosimulation(components, connections, step_size, record, start_time) as cosim:
-        values = np.empty((n_steps + 1, len(cosim.columns)))
-        cosim.read(values[0])
-        cosim.advance(n_steps, values[1:], progress)
-        columns = cosim.columns
-    time = start_time + step_size * np.arange(n_steps + 1)
-    dtype = np.dtype([("time", np.float64)] + [(c, np.float64) for c in columns])
-    return np.rec.fromarrays([time] + list(values.T), dtype=dtype)
+        return cosim.run(n_steps, progress)

@@ -156,21 +156,18 @@ def run_point(job, point, fmu_blobs=None):
         with Cosimulation(components, [Connection(a, b) for a, b in job.connections], job.step_size,
                           signals) as cosim:
             cosim.advance(int(round(s.settle_time / job.step_size)))
-            now = np.empty(len(signals))
+            now = np.empty(len(cosim.columns))
             cosim.read(now)
-            speed = now[signals.index(s.running_speed)]
+            speed = now[cosim.columns.index(s.running_speed)]
             if not (math.isfinite(speed) and abs(speed) > 1e-9):
                 raise ValueError(f"running speed {s.running_speed} = {speed!r} rad/s after settling: no revolutions "
                                  "to measure over")
-            n = max(8, int(math.ceil(s.revolutions * 2.0 * math.pi / abs(speed) / job.step_size)))
-            rows = np.empty((n + 1, len(signals)))
-            rows[0] = now
-            cosim.advance(n, rows[1:])
-        w = rows[:, signals.index(s.running_speed)]
+            table = cosim.run(max(8, int(math.ceil(s.revolutions * 2.0 * math.pi / abs(speed) / job.step_size))))
+        w = table[s.running_speed]
         angle = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * job.step_size)))
         record["speed_mean"] = float(w.mean())
         for out in s.outputs:
-            y = rows[:, signals.index(out)]
+            y = table[out]
             amps, _ = order_amplitudes(angle, y, s.orders)
             figures = dict(max=y.max(), min=y.min(), p2p=np.ptp(y), mean=y.mean(), rms=math.sqrt(np.mean(y * y)))
             figures.update({f"h{k}": a for k, a in zip(s.orders, amps)})

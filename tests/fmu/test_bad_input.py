@@ -8,13 +8,11 @@ import math
 
 import pytest
 from fmpy.fmi1 import FMICallException
-from hypothesis import HealthCheck, given, settings
+from fmu_helpers import INPUTS, inputs_of, open_instance, outputs_of
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from ujfmu.build import FMUS, fmu_class
-from ujfmu.master import Component, FmuInstance, extracted
-
-from test_fmu_state import INPUTS  # tests/fmu is on sys.path (pytest prepend mode)
 
 EXAMPLES = 150
 CASES = {"parameter": 0, "input": 0, "step": 0}
@@ -24,23 +22,13 @@ SETTINGS = settings(max_examples=EXAMPLES, deadline=None, database=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 
-def open_instance(fmu_dir, name, log):
-    path = fmu_dir / f"{name}.fmu"
-    unzip_dir, md = extracted(path)
-    return FmuInstance(Component("probe", path), unzip_dir, md, log)
-
-
 def real_parameters(name):
     return [v for v in fmu_class(name).VARIABLES if v.causality == "parameter" and v.type is float]
 
 
-def inputs_of(inst):
-    return [v.name for v in inst.md.modelVariables if v.causality == "input"]
-
-
 def step_some(inst, log, n=5, h=1e-3):
     """n steps with good inputs: each is refused with a logged message, or leaves every output finite."""
-    outputs = [v.name for v in inst.md.modelVariables if v.causality == "output"]
+    outputs = outputs_of(inst)
     for k in range(n):
         t = k * h
         inst.set(**{name: INPUTS[name](t) for name in inputs_of(inst)})
@@ -80,10 +68,44 @@ def test_bad_parameters(fmu_dir, name):
     case()
 
 
+#: hand-picked boundaries hypothesis rarely hits (an exclusive minimum exactly, a joint angle of 90 deg)
+BOUNDARY_PARAMETERS = [
+    ("CardanJoint", "J1", -1e-6), ("CardanJoint", "J2", -1.0), ("CardanJoint", "bend_angle", math.radians(90)),
+    ("CardanJoint", "bend_angle", math.radians(120)), ("CardanJoint", "error_angle_beta", math.nan),
+    ("CardanJoint", "bend_plane_angle", math.inf),
+    ("DoubleCardanDriveline", "beta1", math.radians(90.0)), ("DoubleCardanDriveline", "beta2", -math.radians(95.0)),
+    ("DoubleCardanDriveline", "k_theta", 0.0), ("DoubleCardanDriveline", "k_phi", -1.0),
+    ("DoubleCardanDriveline", "m_s", 0.0), ("DoubleCardanDriveline", "J_load", -1.0),
+    ("DoubleCardanDriveline", "I_cross_pin", -1e-3), ("DoubleCardanDriveline", "L_c", math.nan),
+    ("DoubleCardanDriveline", "xi_theta", math.inf),
+    ("TwinJeffcottRotor", "beta", math.radians(90.0)), ("TwinJeffcottRotor", "M1", 0.0),
+    ("TwinJeffcottRotor", "J_M2", -1.0), ("TwinJeffcottRotor", "K1X", math.nan), ("TwinJeffcottRotor", "C2T", -0.1),
+    ("TwinJeffcottRotor", "L1", 0.0), ("TwinJeffcottRotor", "e", math.inf), ("TwinJeffcottRotor", "m_u2", -1e-3),
+    ("TwinJeffcottRotor", "K2T", 0.0),
+    ("RingCoupling", "d", 0.0), ("RingCoupling", "d", -1e-3), ("RingCoupling", "I2", 0.0), ("RingCoupling", "R", 0.0),
+    ("RingCoupling", "R", -0.1), ("RingCoupling", "e", math.nan), ("RingCoupling", "E", math.nan),
+    ("RingCoupling", "c_s", -1.0),
+]
+
+
+@pytest.mark.parametrize("name, param, value", BOUNDARY_PARAMETERS)
+def test_boundary_parameters_are_errors_naming_them(fmu_dir, name, param, value):
+    log = []
+    inst = open_instance(fmu_dir, name, log)
+    try:
+        with pytest.raises(FMICallException, match="fmi2ExitInitializationMode"):
+            inst.initialize({param: value})
+    finally:
+        inst.free()
+    assert any(param in m and "allowed range" in m for m in log), log
+
+
 @pytest.mark.parametrize("name", list(FMUS))
 def test_bad_inputs(fmu_dir, name):
     @SETTINGS
     @given(index=st.integers(min_value=0, max_value=7), value=BAD)
+    @example(index=0, value=math.nan)     # always tried: a NaN on each port, then recovery
+    @example(index=1, value=math.nan)
     def case(index, value):
         CASES["input"] += 1
         log = []
@@ -99,8 +121,7 @@ def test_bad_inputs(fmu_dir, name):
                 assert status == 2 and named_with_range(log[-1], target), (target, value, log[-2:])
                 step_some(inst, log)  # the instance stays usable once the input is good again
             else:
-                outputs = [v.name for v in inst.md.modelVariables if v.causality == "output"]
-                assert all(math.isfinite(v) for v in inst.get(*outputs)), (target, value)
+                assert all(math.isfinite(v) for v in inst.get(*outputs_of(inst))), (target, value)
         finally:
             inst.free()
 

@@ -5,10 +5,7 @@ import math
 import random
 
 import pytest
-
-from ujfmu.master import Component, FmuInstance, extracted
-
-from test_fmu_state import INPUTS, outputs_of  # tests/fmu is on sys.path (pytest prepend mode)
+from fmu_helpers import INPUTS, inputs_of, open_instance, outputs_of
 
 #: one parameter per FMU to vary across instances: name, value for instance i
 VARIED = {
@@ -21,16 +18,10 @@ VARIED = {
 }
 
 
-def instance(fmu_dir, name, instance_name, log):
-    path = fmu_dir / f"{name}.fmu"
-    unzip_dir, md = extracted(path)
-    return FmuInstance(Component(instance_name, path), unzip_dir, md, log)
-
-
 def step_all(insts, times):
     """Step every instance over the given communication points, interleaved; the outputs after each step."""
     names = outputs_of(insts[0])
-    inputs = [v.name for v in insts[0].md.modelVariables if v.causality == "input"]
+    inputs = inputs_of(insts[0])
     rows = [[] for _ in insts]
     for t0, t1 in zip(times[:-1], times[1:]):
         for inst, out in zip(insts, rows):
@@ -44,7 +35,7 @@ def step_all(insts, times):
 def test_fifty_interleaved_instances_each_match_a_lone_instance(fmu_dir, name):
     par, value = VARIED[name]
     log, times = [], [k * 1e-3 for k in range(31)]
-    many = [instance(fmu_dir, name, f"{name.lower()}{i}", log) for i in range(50)]
+    many = [open_instance(fmu_dir, name, log, f"{name.lower()}{i}") for i in range(50)]
     try:
         for i, inst in enumerate(many):
             inst.initialize({par: value(i)})
@@ -55,7 +46,7 @@ def test_fifty_interleaved_instances_each_match_a_lone_instance(fmu_dir, name):
     assert not [m for m in log if "[error]" in m or "[fatal]" in m]
     assert len({rows[-1] for rows in together}) == 50 or name == "Load"   # the parameters do matter
     for i in range(50):
-        lone = instance(fmu_dir, name, "lone", log)
+        lone = open_instance(fmu_dir, name, log, "lone")
         try:
             lone.initialize({par: value(i)})
             assert step_all([lone], times)[0] == together[i], f"instance {i}"
@@ -81,7 +72,7 @@ def test_randomly_varying_steps_converge_to_the_fixed_step_result(fmu_dir, name)
     stop, log = 0.3, []
 
     def final(times):
-        inst = instance(fmu_dir, name, "run", log)
+        inst = open_instance(fmu_dir, name, log, "run")
         try:
             inst.initialize()
             return step_all([inst], times)[0][-1]

@@ -1,30 +1,18 @@
 """FMU state, for every FMU: get state, step on, set state, step again gives bitwise the same outputs; the same
 through serialize / deserialize into a fresh instance; fmi2Reset returns to the initial state."""
 
-import math
-
 import pytest
+from fmu_helpers import INPUTS, inputs_of, outputs_of
 
 from ujfmu.build import FMUS
 
-#: inputs as functions of time: a ramping, wavering speed and a varying load exercise the input history
-#: (backward-difference acceleration) that the state must carry
-INPUTS = {
-    "omega_in": lambda t: 40.0 + 30.0 * t + 3.0 * math.sin(17.0 * t),
-    "tau_load": lambda t: 0.2 + 0.1 * math.cos(11.0 * t),
-    "omega": lambda t: 40.0 + 30.0 * t,
-}
 H = 1e-3
-
-
-def outputs_of(inst):
-    return [v.name for v in inst.md.modelVariables if v.causality == "output"]
 
 
 def run(inst, k0, n, h=H):
     """n steps from communication point k0; the outputs read after every step, as a list of tuples."""
     names = outputs_of(inst)
-    inputs = [v.name for v in inst.md.modelVariables if v.causality == "input"]
+    inputs = inputs_of(inst)
     rows = []
     for k in range(k0, k0 + n):
         t = k * h

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 from fmpy.fmi2 import fmi2Real, fmi2ValueReference
+from fmu_helpers import open_instance
 
 from ujfmu.build import FMUS
-from ujfmu.master import Component, FmuInstance, extracted
 
 OMEGA = 20.0 * math.pi            # 600 rpm: 10 turns per second
 H, CHUNK, CHUNKS = 1e-3, 100_000, 10
@@ -29,9 +29,8 @@ def rss_mb():
 
 @pytest.mark.parametrize("name", list(FMUS))
 def test_a_million_steps_repeat_the_steady_state_without_drift_slowdown_or_growth(fmu_dir, name):
-    path = fmu_dir / f"{name}.fmu"
-    unzip, md = extracted(path)
-    inst = FmuInstance(Component("long", path), unzip, md, [])
+    inst = open_instance(fmu_dir, name, [], "long")
+    md = inst.md
     try:
         inst.initialize(PARAMETERS.get(name, {}))
         inputs = [v for v in md.modelVariables if v.causality == "input"]

@@ -1,7 +1,6 @@
 """Non-Python host: a small FMI 2.0 host in C (tests/c_host/fmi2_host.c, fmi2 headers from fmpy) compiled with gcc
 at test time runs every FMU with libpython preloaded; its outputs equal the fmpy run's."""
 
-import math
 import os
 import shutil
 import subprocess
@@ -10,16 +9,13 @@ from pathlib import Path
 
 import fmpy
 import pytest
-from fmpy import extract, read_model_description
+from fmu_helpers import INPUTS, open_instance
 
 from ujfmu.build import FMUS
-from ujfmu.master import Component, FmuInstance
+from ujfmu.master import extracted
 
-HOST_SOURCE = Path(__file__).parent / "c_host" / "fmi2_host.c"
+HOST_SOURCE = Path(__file__).parents[1] / "c_host" / "fmi2_host.c"
 H, STEPS = 1e-3, 200
-INPUTS = {"omega_in": lambda t: 40.0 + 30.0 * t + 3.0 * math.sin(17.0 * t),
-          "tau_load": lambda t: 0.2 + 0.1 * math.cos(11.0 * t),
-          "omega": lambda t: 40.0 + 30.0 * t}
 
 
 def libpython():
@@ -42,12 +38,11 @@ def host(tmp_path_factory):
 
 
 @pytest.mark.parametrize("name", list(FMUS))
-def test_c_host_runs_the_fmu_like_fmpy(host, fmu_dir, tmp_path, name):
+def test_c_host_runs_the_fmu_like_fmpy(host, fmu_dir, name):
     lib = libpython()
     assert lib is not None, "this Python has no shared libpython to preload"
-    path = fmu_dir / f"{name}.fmu"
-    md = read_model_description(str(path))
-    unzip = Path(extract(str(path), unzipdir=str(tmp_path / "fmu")))
+    unzip, md = extracted(fmu_dir / f"{name}.fmu")
+    unzip = Path(unzip)
     inputs = [v for v in md.modelVariables if v.causality == "input"]
     outputs = [v for v in md.modelVariables if v.causality == "output"]
     plan = [f"{len(inputs)} " + " ".join(str(v.valueReference) for v in inputs),
@@ -60,7 +55,7 @@ def test_c_host_runs_the_fmu_like_fmpy(host, fmu_dir, tmp_path, name):
     assert run.returncode == 0, run.stderr[-2000:]
     theirs = [[float(x) for x in line.split()] for line in run.stdout.splitlines()]
 
-    inst = FmuInstance(Component("fmpy", path), str(unzip), md, [])
+    inst = open_instance(fmu_dir, name, [], "fmpy")
     try:
         inst.initialize()
         ours = []
