@@ -29,13 +29,27 @@ def cmd_build(args):
 
 
 def cmd_run(args):
+    from . import stepsize
+    from .scenario import Scenario
     from .scenario_run import run_scenario
-    result = run_scenario(args.scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=not args.no_plot)
+    scenario = Scenario(args.scenario)
+    if args.step == "auto":
+        scenario.check_fmus(args.fmu_dir)
+        scenario.step_size, _ = stepsize.choose(scenario, args.fmu_dir, progress=print)
+        print(f"--step auto: step_size = {scenario.step_size:g} s")
+    elif args.step is not None:
+        scenario.step_size = float(args.step)
+    result = run_scenario(scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=not args.no_plot)
     print(result.summary())
     print(f"  results: {result.csv}" + (f"\n  plot:    {result.plot}" if result.plot else ""))
     for extra in result.extra_plots:
         print(f"  plot:    {extra}")
-    return 0 if result.passed else 1
+    step_ok = True
+    if args.check_step:
+        estimate = stepsize.estimate(scenario, fmu_dir=args.fmu_dir, coarse=result.table)
+        print("\n".join(estimate.lines()))
+        step_ok = estimate.passed
+    return 0 if result.passed and step_ok else 1
 
 
 def cmd_check(args):
@@ -131,6 +145,12 @@ def main(argv=None):
         p = sub.add_parser(name, help=helptext)
         if name == "run":
             p.add_argument("scenario", type=Path)
+            p.add_argument("--step", metavar="SECONDS|auto",
+                           help="communication step instead of the scenario's; auto: halve it until the coupling "
+                                "error estimated by step halving is within the tolerances")
+            p.add_argument("--check-step", action="store_true",
+                           help="rerun at half the step and report the estimated coupling error per signal "
+                                "(exit status 1 if above the tolerance)")
         else:
             p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")

@@ -1,7 +1,8 @@
 """Scenario files (TOML): components and their parameters, connections, experiment, records, reference.
 
     title = "..."
-    [experiment]            stop_time, step_size [s]; start_time optional (0)
+    [experiment]            stop_time, step_size [s]; start_time optional (0); coupling = "implicit" (default,
+                            iterated to convergence every step) or "explicit" (docs/cosimulation.md)
     [components.NAME]       fmu = "CardanJoint" (fmus/CardanJoint.fmu), parameters = { name = value, ... }
     [[connections]]         from = "comp.output", to = "comp.input"
     [output]                record = ["comp.var", ...]; plot = [...] (default: the compared signals);
@@ -23,11 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from .build import DEFAULT_FMU_DIR, FMUS, fmu_class
-from .master import Component, Connection
+from .master import COUPLINGS, DEFAULT_COUPLING, Component, Connection
 
 
 TOP_LEVEL_KEYS = {"title", "description", "experiment", "components", "connections", "output", "reference",
                   "sweep"}
+EXPERIMENT_KEYS = {"start_time", "stop_time", "step_size", "coupling"}
 #: fields of the optional [sweep] table (defaults of `ujfmu sweep`, see ujfmu.sweep)
 SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions", "orders"}
 
@@ -64,6 +66,14 @@ class Scenario:
         self.step_size = self._number(exp, "experiment.step_size")
         if not self.step_size > 0 or not self.stop_time > self.start_time:
             raise ScenarioError(f"{self.path}: [experiment] needs step_size > 0 and stop_time > start_time")
+        unknown = set(exp) - EXPERIMENT_KEYS
+        if unknown:
+            raise ScenarioError(f"{self.path}: [experiment]: unknown field(s) {', '.join(sorted(unknown))}; "
+                                f"known: {', '.join(sorted(EXPERIMENT_KEYS))}")
+        self.coupling = exp.get("coupling", DEFAULT_COUPLING)
+        if self.coupling not in COUPLINGS:
+            raise ScenarioError(f"{self.path}: experiment.coupling = {self.coupling!r} must be one of "
+                                f"{', '.join(repr(c) for c in COUPLINGS)} (docs/cosimulation.md)")
 
         self.components = {}
         for cname, comp in self._table(data, "components").items():

@@ -35,6 +35,20 @@ _LIFECYCLE = ("_stale", "_initialized", "_running", "_start_time")
 _PINNED_AFTER_EXCEPTION = []
 
 
+_IMMUTABLE = (float, int, bool, str, type(None))
+
+
+def _snapshot(value):
+    """value itself when it cannot change (numbers, strings, tuples of them), else a deep copy."""
+    if type(value) in _IMMUTABLE:
+        return value
+    if type(value) is tuple and all(type(v) in _IMMUTABLE or (type(v) is tuple and all(type(w) in _IMMUTABLE
+                                                                                         for w in v))
+                                    for v in value):
+        return value
+    return copy.deepcopy(value)
+
+
 class Var:
     """One FMU variable: the single declaration of its name, causality, variability, unit, range and start."""
 
@@ -134,7 +148,7 @@ class UjfmuSlave(Fmi2Slave):
                                    for v in self._inputs)
         # FMU state = the variables, the life-cycle flags, and every attribute the model adds after this point
         # (its integrator state, derived parameters, input history): nothing model-specific to forget
-        self._plumbing = frozenset(self.__dict__) - {v.name for v in self.VARIABLES} - set(_LIFECYCLE)
+        self._plumbing = frozenset(self.__dict__) - {v.name for v in self.VARIABLES} - set(_LIFECYCLE) | {"_plumbing"}
 
     def _output_getter(self, name):
         def get():
@@ -171,12 +185,13 @@ class UjfmuSlave(Fmi2Slave):
 
     # --- FMU state (fmi2GetFMUstate / SetFMUstate / Serialize; canGetAndSetFMUstate in the modelDescription) ---
     def _get_fmu_state(self):
-        """A deep copy of everything that evolves: variables, life-cycle flags and the model's own attributes."""
-        return {k: copy.deepcopy(v) for k, v in self.__dict__.items() if k not in self._plumbing}
+        """A copy of everything that evolves: variables, life-cycle flags and the model's own attributes
+        (immutable values shared, anything else deep-copied)."""
+        return {k: _snapshot(v) for k, v in self.__dict__.items() if k not in self._plumbing}
 
     def _set_fmu_state(self, state):
         for key, value in state.items():   # a copy again: one saved state can be restored many times
-            setattr(self, key, copy.deepcopy(value))
+            setattr(self, key, _snapshot(value))
 
     @staticmethod
     def _fmu_state_to_bytes(state):
