@@ -118,11 +118,35 @@ def cmd_export_ssp(args):
 
 def cmd_bench(args):
     from .bench import render, run_bench, write
+    from .battery import paths as battery_paths
     result = run_bench(_scenarios(args.scenarios), fmu_dir=args.fmu_dir, sweep=not args.no_sweep,
-                       progress=lambda msg: print(msg, file=sys.stderr))
+                       progress=lambda msg: print(msg, file=sys.stderr),
+                       battery=() if args.no_battery else battery_paths())
     print(render(result))
     print(f"\nwrote {write(result, args.out)}")
     return 0
+
+
+def cmd_battery(args):
+    from . import battery
+    if args.regenerate:
+        battery.regenerate(progress=print)
+        return 0
+    runs = []
+    print("| set-up | joint | " + " | ".join(f"{c}: worst error / range" for c in args.coupling) + " |")
+    print("| --- | --- | " + " | ".join("---" for _ in args.coupling) + " |")
+    for path in battery.paths():
+        row = [battery.run_one(path, c, args.fmu_dir) for c in args.coupling]
+        runs += row
+        kind = "double Cardan" if "driveline" in path.read_text() else "Cardan"
+        cells = [r.error.split(":")[0][:60] + " (failed)" if r.error else
+                 f"{100 * max(r.worst.values()):.2f}% {'ok' if r.passed else 'FAIL'}" for r in row]
+        print(f"| {path.stem} | {kind} | " + " | ".join(cells) + " |", flush=True)
+    for c in args.coupling:
+        mine = [r for r in runs if r.coupling == c]
+        print(f"{c}: {sum(r.passed for r in mine)} of {len(mine)} within {100 * battery.TOLERANCE:g}%, "
+              f"{sum(bool(r.error) for r in mine)} stopped")
+    return 0 if all(r.passed for r in runs) else 1
 
 
 def cmd_report(args):
@@ -184,8 +208,16 @@ def main(argv=None):
     p = sub.add_parser("bench", help="speed figures as ratios in one run: FMI floor, monolithic solve, sweeps")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p.add_argument("--no-sweep", action="store_true", help="skip the sweep figures (1 and 2 workers)")
+    p.add_argument("--no-battery", action="store_true",
+                   help="skip the coupling battery's cost per scheme (scenarios/battery, about 2 minutes)")
     p.add_argument("--out", type=Path, default=Path("results"), help="writes bench.md and bench.json here")
     p.set_defaults(func=cmd_bench)
+    p = sub.add_parser("battery", help="run the coupling battery (scenarios/battery) in each scheme against its "
+                                       "monolithic references")
+    p.add_argument("--coupling", action="append", choices=["explicit", "implicit"],
+                   help="scheme(s) to run (default: both)")
+    p.add_argument("--regenerate", action="store_true", help="redraw the set-ups and re-solve their references")
+    p.set_defaults(func=cmd_battery)
     p = sub.add_parser("report", help="re-create the papers' published results with sweeps; write docs/validation.md")
     p.add_argument("--out", type=Path, default=REPO_DIR / "docs" / "validation.md", help="markdown file to write")
     p.add_argument("--work-dir", type=Path, help="where the sweeps keep their points (default: results/report; "
@@ -194,6 +226,8 @@ def main(argv=None):
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(func=cmd_report)
     args = parser.parse_args(argv)
+    if args.command == "battery" and not args.coupling:
+        args.coupling = ["explicit", "implicit"]
     try:
         return args.func(args)
     except Exception as exc:  # a clear message, not a traceback, for user errors

@@ -49,7 +49,7 @@ THETA = 0.6
 #: instability detection: a torn connection whose step-to-step change alternates in sign for at least
 #: GROWTH_STEPS steps while growing GROWTH_FACTOR-fold, to at least GROWTH_FLOOR of its largest |value|; a step
 #: refused after 2 or more alternations growing 1.5-fold each is blamed on the coupling too
-GROWTH_STEPS, GROWTH_FACTOR, GROWTH_FLOOR = 4, 8.0, 1e-3
+GROWTH_STEPS, GROWTH_FACTOR, GROWTH_FLOOR = 3, 8.0, 1e-3
 
 
 class CosimulationError(RuntimeError):
