@@ -81,3 +81,16 @@ def test_check_step_reports_every_signal(fmu_dir, tmp_path, capsys):
     assert code == 0
     for name in Scenario(LIGHT).tolerances:
         assert f"ok   {name}" in out
+
+
+def test_open_loop_runs_explicitly_and_bitwise_like_explicit(fmu_dir):
+    """An ideal speed source ignores its tau_load: the implicit scheme finds dG/du = 0 at its first Jacobian and
+    steps explicitly from then on, giving the explicit result bit for bit."""
+    s = Scenario(battery.BATTERY_DIR.parent / "double_cardan_omar_torsional.toml")
+    tables = {}
+    for coupling in ("explicit", "implicit"):
+        with Cosimulation(s.master_components(fmu_dir), s.connections, 1e-3, s.record, coupling=coupling) as cosim:
+            tables[coupling] = cosim.run(300)
+            assert cosim.open_loop == (coupling == "implicit")
+    for name in s.record:
+        np.testing.assert_array_equal(tables["implicit"][name], tables["explicit"][name])

@@ -3,13 +3,15 @@
 Drawn with a fixed seed from the ranges of heavy and stiff drivelines met in practice:
 - a PI motor, rotor inertia J_m log-uniform in [0.03, 2] kg.m^2, tuned to the total inertia
   J_tot = J_m + J_driven (closed-loop poles at -OMEGA_N twice: Kp = 2 OMEGA_N J_tot, Ki = OMEGA_N^2 J_tot),
-  ramping from rest in 0.3-0.8 s to 60-250 rad/s, torque limit 1.5 (J_tot accel + load);
+  ramping from rest in 0.3-0.8 s to 60-250 rad/s and holding it for 0.3 s more, torque limit
+  1.5 (J_tot accel + load) + 2 J_driven (omega_set sin(largest joint angle))^2, a drive sized for the joints'
+  inertia torque ripple (a limit the ripple hits twice a revolution makes the PI slide along it);
 - every even set-up a CardanJoint bent 5-30 deg carrying a driven inertia J2 log-uniform in [0.01, 1] kg.m^2,
   every odd one a flexible DoubleCardanDriveline with joints of 5-25 deg (Z layout), yoke phase 0-90 deg,
   k_theta log-uniform in [1e3, 5e4] N.m/rad and J_load log-uniform in [0.05, 1] kg.m^2;
 - a load of constant plus fan torque, 5-60 N.m in all at full speed.
 
-Each set-up is written as a scenario file (scenarios/battery/*.toml) whose reference is the monolithic scipy solve
+Each set-up (but the EXCLUDED ones) is written as a scenario file (scenarios/battery/*.toml) whose reference is the monolithic scipy solve
 of the same system (ujfmu.references.cardan_chain or double_cardan), never a co-simulation. Regenerate both with
 ``ujfmu battery --regenerate``; ``ujfmu battery`` runs every set-up in each coupling scheme and tabulates the worst
 error against the reference, as a fraction of each signal's range.
@@ -29,6 +31,8 @@ OMEGA_N = 30.0          # closed-loop speed-control bandwidth the PI is tuned fo
 TOLERANCE = 0.02        # fraction of each signal's reference range
 REFERENCE_RTOL, REFERENCE_ATOL = 1e-8, 1e-10
 BATTERY_DIR = REPO_DIR / "scenarios" / "battery"
+#: drawn set-ups left out, with the reason (listed in docs/cosimulation.md)
+EXCLUDED = {"battery_11": "its monolithic reference did not finish in 15 min of DOP853 at rtol 1e-8 (nor LSODA in 5)"}
 SIGNALS = {"CardanJoint": ("motor.omega", "motor.tau_motor", "joint.omega_out", "joint.tau_in", "load.tau"),
            "DoubleCardanDriveline": ("motor.omega", "motor.tau_motor", "driveline.omega_out", "driveline.tau_in",
                                      "driveline.shaft_torque", "load.tau")}
@@ -58,13 +62,15 @@ def draw(count: int = COUNT, seed: int = SEED) -> list[dict]:
         load_total, constant_share = rng.uniform(5.0, 60.0), rng.uniform(0.2, 0.8)
         j_tot = j_m + j_driven
         accel = omega_set / ramp
+        bend = max(joint.get(k, 0.0) for k in ("bend_angle", "beta1", "beta2"))
+        ripple = 2.0 * j_driven * (omega_set * math.sin(bend)) ** 2   # bound of the joints' inertia ripple
         motor = dict(J_rotor=j_m, Kp=2.0 * OMEGA_N * j_tot, Ki=OMEGA_N ** 2 * j_tot,
-                     tau_max=1.5 * (j_tot * accel + load_total), profile=1, accel=accel, omega_set=omega_set,
-                     ideal_speed_source=False)
+                     tau_max=1.5 * (j_tot * accel + load_total) + ripple, profile=1, accel=accel,
+                     omega_set=omega_set, ideal_speed_source=False)
         load = dict(T0=constant_share * load_total, c1=0.0, c2=(1.0 - constant_share) * load_total / omega_set ** 2,
                     omega_smooth=1.0)
         setups.append(dict(name=f"battery_{i:02d}", kind=kind, motor=motor, joint=joint, load=load,
-                           stop_time=round(ramp + 0.5, 1)))
+                           stop_time=round(ramp + 0.3, 1)))
     return setups
 
 
@@ -110,6 +116,8 @@ def regenerate(battery_dir: Path = BATTERY_DIR, progress=None, missing_only: boo
     battery_dir.mkdir(parents=True, exist_ok=True)
     written = []
     for setup in draw():
+        if setup["name"] in EXCLUDED:
+            continue
         path = battery_dir / f"{setup['name']}.toml"
         path.write_text(scenario_text(setup))
         scenario = Scenario(path)

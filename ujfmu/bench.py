@@ -135,9 +135,10 @@ def bench_sweep(fmu_dir, workers):
     return seconds, len(sweep.points)
 
 
-def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, battery=()):
+def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, battery=(), schemes=True):
     """All figures of one run: {'scenarios': [rows], 'schemes': {...}, 'battery': {...}, 'sweep': {...}};
-    battery: the coupling battery's scenario files (ujfmu.battery.paths()) to cost in each scheme."""
+    battery: the coupling battery's scenario files (ujfmu.battery.paths()) to cost in each scheme; schemes: cost
+    each scheme on the scenarios too."""
     with tempfile.TemporaryDirectory(prefix="ujfmu_floor_") as floor_dir:
         names = sorted({fmu for p in scenarios for fmu, _ in Scenario(p).components.values()})
         for name in names:
@@ -146,8 +147,9 @@ def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, ba
         for path in scenarios:
             progress(f"bench {Path(path).stem}")
             rows.append(bench_scenario(path, fmu_dir, floor_dir))
-    result = {"step_size": STEP, "scenarios": rows, "targets": TARGETS,
-              "schemes": bench_schemes(scenarios, fmu_dir, REPEATS, progress)}
+    result = {"step_size": STEP, "scenarios": rows, "targets": TARGETS}
+    if schemes:
+        result["schemes"] = bench_schemes(scenarios, fmu_dir, REPEATS, progress)
     if battery:
         result["battery"] = bench_schemes(battery, fmu_dir, 1, progress)
     if sweep:

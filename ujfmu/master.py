@@ -241,6 +241,7 @@ class Cosimulation:
         self.iterations = 0          # implicit coupling: evaluations of the torn inputs' fixed point, in all
         self.jacobian_builds = 0     # implicit coupling: finite-difference interface Jacobians
         self.stalled_steps = 0       # implicit coupling: steps taken at their best iterate (see STALL_FACTOR)
+        self.open_loop = False       # implicit coupling found the torn values independent of the torn inputs
         self.step_size, self.time, self.steps_done = step_size, start_time, 0
         self.start_time = start_time
         self.log = []
@@ -365,6 +366,7 @@ class Cosimulation:
             t = start + self.steps_done * h
             if implicit:
                 self._implicit_step(t, h)
+                implicit = not self.open_loop
             else:
                 self._step(steppers, t, h)
             self.steps_done += 1
@@ -468,6 +470,8 @@ class Cosimulation:
             while best[0] > 1.0:
                 if self._jacobian is None or rebuilds:
                     self._jacobian = self._fd_jacobian(u, r, t, h, states, tol)
+                    # G independent of u (an ideal speed source): no loop to iterate; explicit from the next step on
+                    self.open_loop = bool(np.allclose(self._jacobian, -np.eye(len(u)), rtol=0.0, atol=1e-9))
                 for _ in range(MAX_ITERATIONS):
                     du = -np.linalg.solve(self._jacobian, r)
                     r_new = self._evaluate(u + du, t, h, states)

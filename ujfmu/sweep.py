@@ -133,6 +133,7 @@ class PointJob:
     step_size: float
     settings: SweepSettings
     fmu_hashes: dict = field(default_factory=dict)
+    coupling: str = "implicit"   # the scenario's [experiment] coupling
 
 
 def run_point(job, point, fmu_blobs=None):
@@ -154,7 +155,7 @@ def run_point(job, point, fmu_blobs=None):
         s = job.settings
         signals = list(dict.fromkeys(s.outputs + [s.running_speed]))
         with Cosimulation(components, [Connection(a, b) for a, b in job.connections], job.step_size,
-                          signals) as cosim:
+                          signals, coupling=job.coupling) as cosim:
             cosim.advance(int(round(s.settle_time / job.step_size)))
             now = np.empty(len(cosim.columns))
             cosim.read(now)
@@ -229,10 +230,10 @@ class Sweep:
         hashes = {f: hashlib.sha256(b).hexdigest()[:16] for f, b in self.fmu_blobs.items()}
         self.job = PointJob([(n, fmu, dict(p)) for n, (fmu, p) in self.scenario.components.items()],
                             [(c.source, c.target) for c in self.scenario.connections], self.scenario.step_size,
-                            settings, hashes)
+                            settings, hashes, self.scenario.coupling)
         # results are only reused for the same FMUs, scenario setup and settings
         self.config = hashlib.sha256(json.dumps([asdict(settings), self.job.components, self.job.connections,
-                                                 self.job.step_size, hashes], sort_keys=True,
+                                                 self.job.step_size, hashes, self.job.coupling], sort_keys=True,
                                                 default=str).encode()).hexdigest()[:16]
 
     @staticmethod

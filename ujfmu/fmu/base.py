@@ -42,10 +42,9 @@ def _snapshot(value):
     """value itself when it cannot change (numbers, strings, tuples of them), else a deep copy."""
     if type(value) in _IMMUTABLE:
         return value
-    if type(value) is tuple and all(type(v) in _IMMUTABLE or (type(v) is tuple and all(type(w) in _IMMUTABLE
-                                                                                         for w in v))
-                                    for v in value):
-        return value
+    if type(value) in (tuple, list) and all(type(v) in _IMMUTABLE or (type(v) is tuple and all(
+            type(w) in _IMMUTABLE for w in v)) for v in value):
+        return value if type(value) is tuple else list(value)
     return copy.deepcopy(value)
 
 
@@ -113,6 +112,9 @@ class UjfmuSlave(Fmi2Slave):
     """
 
     PHYSICS = None  # the ujfmu.physics module holding the model's equations (documentation)
+    #: attributes that initialize() builds and nothing changes in place afterwards (derived parameters): FMU
+    #: states share them instead of copying them
+    SHARED_STATE = frozenset({"_p", "_frame"})
     VARIABLES = ()
     DEFAULT_EXPERIMENT = (0.0, 1.0, 1e-3)  # start, stop, step
     author = "ujfmu"
@@ -186,12 +188,14 @@ class UjfmuSlave(Fmi2Slave):
     # --- FMU state (fmi2GetFMUstate / SetFMUstate / Serialize; canGetAndSetFMUstate in the modelDescription) ---
     def _get_fmu_state(self):
         """A copy of everything that evolves: variables, life-cycle flags and the model's own attributes
-        (immutable values shared, anything else deep-copied)."""
-        return {k: _snapshot(v) for k, v in self.__dict__.items() if k not in self._plumbing}
+        (immutable values and the SHARED_STATE objects shared, anything else deep-copied)."""
+        shared = self.SHARED_STATE
+        return {k: v if k in shared else _snapshot(v) for k, v in self.__dict__.items() if k not in self._plumbing}
 
     def _set_fmu_state(self, state):
+        shared = self.SHARED_STATE
         for key, value in state.items():   # a copy again: one saved state can be restored many times
-            setattr(self, key, _snapshot(value))
+            setattr(self, key, value if key in shared else _snapshot(value))
 
     @staticmethod
     def _fmu_state_to_bytes(state):
