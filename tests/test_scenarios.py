@@ -59,14 +59,16 @@ def test_reference_is_not_the_cosimulation(results):
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
 def test_libcosim_runs_the_same_fmus_and_agrees(results, fmu_dir, path):
     """Second engine. libcosim transfers all connections after all steps (no feedthrough ordering), so its
-    result differs from ours by O(h): within 5% of each compared signal's range, 0.1% for speeds."""
+    result differs from ours by O(h): within 5% of each compared signal's range, 0.1% for speeds, plus one step's
+    change of the signal (a feedthrough output such as the ideal source's tau_motor lags one step)."""
     scenario = Scenario(path)
     ours = results[path.stem].table
     theirs = cosimulate_libcosim(scenario, fmu_dir)
     for name in scenario.tolerances:
         y = np.interp(theirs["time"], ours["time"], ours[name])
         span = np.ptp(ours[name]) or 1.0
-        limit = (0.001 if "omega" in name else 0.05) * span + scenario.tolerances[name].abs
+        limit = ((0.001 if "omega" in name else 0.05) * span + np.max(np.abs(np.diff(ours[name])))
+                 + scenario.tolerances[name].abs)
         assert np.max(np.abs(theirs[name] - y)) <= limit, name
 
 
