@@ -85,6 +85,7 @@ BOUNDARY_PARAMETERS = [
     ("RingCoupling", "d", 0.0), ("RingCoupling", "d", -1e-3), ("RingCoupling", "I2", 0.0), ("RingCoupling", "R", 0.0),
     ("RingCoupling", "R", -0.1), ("RingCoupling", "e", math.nan), ("RingCoupling", "E", math.nan),
     ("RingCoupling", "c_s", -1.0),
+    ("Load", "omega_smooth", 0.0), ("Load", "omega_smooth", -1e-12), ("Load", "omega_smooth", math.nan),
 ]
 
 

@@ -40,6 +40,22 @@ def test_load_torque_law_feeds_through(open_fmu):
         assert ld.get("tau")[0] == pytest.approx(0.2 * w / mag + 0.01 * w + 0.017 * w * mag, rel=1e-14)
 
 
+@pytest.mark.parametrize("smooth", [0.1, 1e-9])
+def test_load_at_rest_is_smooth_and_odd(open_fmu, smooth):
+    """omega = 0: no torque and no division by zero, whatever the (allowed, > 0) regularisation speed; the
+    slope there is T0/omega_smooth + c1 + c2 omega_smooth; at omega = omega_smooth the smooth sign is 1/sqrt(2)."""
+    ld = open_fmu("Load")
+    ld.initialize(dict(T0=0.2, c1=0.01, c2=0.017, omega_smooth=smooth))
+    ld.set(omega=0.0)
+    assert ld.get("tau")[0] == 0.0
+    dw = 1e-6 * smooth
+    ld.set(omega=dw)
+    assert ld.get("tau")[0] / dw == pytest.approx(0.2 / smooth + 0.01 + 0.017 * smooth, rel=1e-6)
+    ld.set(omega=-smooth)
+    assert ld.get("tau")[0] == pytest.approx(-(0.2 / math.sqrt(2) + 0.01 * smooth + 0.017 * smooth ** 2 * math.sqrt(2)),
+                                             rel=1e-12)
+
+
 @pytest.mark.parametrize("fmu, param, value", [("Motor", "J_rotor", 0.0), ("Motor", "profile", 7),
                                                ("Motor", "Kp", float("nan")), ("Load", "omega_smooth", -1.0)])
 def test_bad_parameters_name_the_parameter(open_fmu, fmu, param, value):

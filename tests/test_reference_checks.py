@@ -1,0 +1,103 @@
+"""The reference generators' self-checks (ujfmu.references.*.self_check / energy_audit): each committed
+reference satisfies its own conservation law and closed-form limits, and a plausible bug in a reference (a
+dropped inertia term, swapped moment components, a sign) makes the check fail before anything is written.
+`test_committed_reference_regenerates` (tests/test_scenarios.py) runs every check inside every generator."""
+
+import ast
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ujfmu.references import cardan_chain, double_cardan, read_reference, ring_coupling, twin_jeffcott
+from ujfmu.references.common import ReferenceCheckError
+from ujfmu.scenario import Scenario
+
+SCENARIOS = Path(__file__).parents[1] / "scenarios"
+
+
+def committed(name):
+    scenario = Scenario(SCENARIOS / f"{name}.toml")
+    table, _ = read_reference(scenario.reference_file)
+    return scenario, table["time"], {n: np.array(table[n]) for n in table.dtype.names}
+
+
+def test_twin_rotor_energy_audit_catches_a_reference_without_the_gearbox_inertia():
+    """The input torque without J_gb*alpha hides under a loose run-up tolerance, not under the audit."""
+    scenario, t, cols = committed("twin_jeffcott_runup")
+    twin_jeffcott.energy_audit(scenario, t, cols, "rotor", "load")
+    j_gb = scenario.parameters_with_defaults("rotor")["J_gb"]
+    cols["rotor.tau_in"] = cols["rotor.tau_in"] - j_gb * np.gradient(cols["motor.omega"], t)
+    with pytest.raises(ReferenceCheckError, match="input_work against the integral"):
+        twin_jeffcott.energy_audit(scenario, t, cols, "rotor", "load")
+
+
+def test_twin_rotor_energy_audit_catches_a_dissipation_sign():
+    scenario, t, cols = committed("twin_jeffcott_steady")
+    twin_jeffcott.energy_audit(scenario, t, cols, "rotor", "load")
+    cols["rotor.dissipated_energy"] = -cols["rotor.dissipated_energy"]
+    with pytest.raises(ReferenceCheckError, match="stored energy against"):
+        twin_jeffcott.energy_audit(scenario, t, cols, "rotor", "load")
+
+
+@pytest.mark.parametrize("bug, law", [
+    (lambda c: c.update({"joint.M_x": c["joint.M_y"], "joint.M_y": c["joint.M_x"]}), "torque balance"),
+    (lambda c: c.update({"load.tau": -c["load.tau"]}), "kinetic energy"),
+    (lambda c: c.update({"joint.omega_out": c["motor.omega"] * 1.2}), "kinetic energy"),
+])
+def test_cardan_reference_checks(bug, law):
+    scenario, t, cols = committed("cardan_constant_speed")
+    cols["joint.alpha_in"] = np.zeros_like(t)          # ideal constant speed source
+    cardan_chain.self_check(scenario, t, cols)
+    bug(cols)
+    with pytest.raises(ReferenceCheckError, match=law):
+        cardan_chain.self_check(scenario, t, cols)
+
+
+def test_cardan_velocity_ratio_limit():
+    """cos(theta) <= omega2/omega1 <= 1/cos(theta): a ratio past 1/cos(theta) is caught even when the energy
+    balance is kept (driven side massless, load scaled to match)."""
+    scenario, t, cols = committed("cardan_constant_speed")
+    cols["joint.alpha_in"] = np.zeros_like(t)
+    scenario.components["joint"][1].update(J2=0.0)
+    cols["joint.omega_out"] = cols["joint.omega_out"] * 1.2
+    cols["load.tau"] = cols["load.tau"] / 1.2
+    with pytest.raises(ReferenceCheckError, match="velocity ratio"):
+        cardan_chain.self_check(scenario, t, cols)
+
+
+@pytest.mark.parametrize("bug, law", [
+    (lambda c: c.update({"driveline.tau_in": 0.999 * c["driveline.tau_in"]}), "stored energy"),
+    (lambda c: c.update({"driveline.omega_out": c["driveline.omega_out"] * (1 + 1e-9)}), "constant-velocity"),
+])
+def test_double_cardan_reference_checks(bug, law):
+    scenario, t, cols = committed("double_cardan_brutti_rigid")
+    double_cardan.self_check(scenario, t, cols)
+    bug(cols)
+    with pytest.raises(ReferenceCheckError, match=law):
+        double_cardan.self_check(scenario, t, cols)
+
+
+@pytest.mark.parametrize("name, bug", [
+    ("ring_coupling_fig3", lambda c: c.update({"coupling.tau_in": -c["coupling.tau_in"]})),
+    ("ring_coupling_startup", lambda c: c.update({"load.tau": 0.99 * c["load.tau"]})),
+])
+def test_ring_coupling_energy_balance(name, bug):
+    """For the pendulum closed form the balance is the first integral of y'' + A_e sin y = 0."""
+    scenario, t, cols = committed(name)
+    load = "load" if "load" in scenario.components else None
+    ring_coupling.self_check(scenario, t, cols, "coupling", load)
+    bug(cols)
+    with pytest.raises(ReferenceCheckError, match="energy against"):
+        ring_coupling.self_check(scenario, t, cols, "coupling", load)
+
+
+def test_references_do_not_import_the_code_they_check():
+    """References stay independent: no generator imports ujfmu.physics or ujfmu.fmu (or anything from ujfmu
+    outside ujfmu.references)."""
+    for path in (Path(__file__).parents[1] / "ujfmu" / "references").glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                assert node.level <= 1 and not (node.module or "").startswith("ujfmu"), (path, node.module)
+            elif isinstance(node, ast.Import):
+                assert not any(a.name.startswith("ujfmu") for a in node.names), path
