@@ -18,6 +18,24 @@ def test_ideal_speed_source_follows_ramp_and_reports_its_torque(open_fmu):
     assert tau == pytest.approx(2e-3 * 30.0 + 0.4, rel=1e-12)
 
 
+def test_pi_motor_torque_output_is_the_pi_law(open_fmu):
+    """Proportional only (Ki = 0), speed step of 10 rad/s at t = 0.5 s onto a motor at rest, no load: at every
+    communication point tau_motor = Kp (omega_ref - omega), and the speed rises as the first-order response
+    10 (1 - exp(-Kp (t - 0.5) / J))."""
+    m = open_fmu("Motor")
+    kp, j = 0.2, 1.0
+    m.initialize(dict(profile=2, t_step=0.5, omega_initial=0.0, omega_set=10.0, Kp=kp, Ki=0.0, tau_max=1e3,
+                      J_rotor=j))
+    h = 1e-3
+    for k in range(1500):
+        m.set(tau_load=0.0)
+        m.slave.doStep(k * h, h)
+        t = (k + 1) * h
+        omega, omega_ref, tau = m.get("omega", "omega_ref", "tau_motor")
+        assert tau == pytest.approx(kp * (omega_ref - omega), rel=1e-12, abs=1e-15)
+    assert omega == pytest.approx(10.0 * (1.0 - math.exp(-kp * (t - 0.5) / j)), rel=1e-3)
+
+
 def test_pi_motor_holds_speed_against_load_and_respects_torque_limit(open_fmu):
     m = open_fmu("Motor")
     m.initialize(dict(profile=0, omega_set=100.0, tau_max=0.5, J_rotor=1e-3, Kp=0.2, Ki=10.0))

@@ -32,6 +32,11 @@ def test_pendulum_case_conserves_the_first_integral_and_has_the_elliptic_period(
                   omega_out_start=-dy0 - omega_in)
     h, n = 1e-3, 12000
     r = drive(open_fmu("RingCoupling"), lambda t: omega_in, 0.0, h, n, OUT, params)
+    # Eq. (5): M_p = 157 (EI/R^3) e^2 cos(phi1 + phi2) = A_e I2 cos(phi1 + phi2); the driver holds its reaction
+    m_p = A_E * I2 * np.cos(r.phi_in + r.phi_out)
+    np.testing.assert_allclose(r.M_p, m_p, rtol=1e-9, atol=1e-12 * A_E * I2)
+    np.testing.assert_allclose(r.transmitted_torque, m_p, rtol=1e-9, atol=1e-12 * A_E * I2)
+    np.testing.assert_allclose(r.tau_in, -m_p, rtol=1e-9, atol=1e-12 * A_E * I2)
     energy = first_integral(r)
     scale = max(abs(energy[0]), A_E)
     assert np.max(np.abs(energy - energy[0])) < 1e-6 * scale
