@@ -101,3 +101,25 @@ def test_references_do_not_import_the_code_they_check():
                 assert node.level <= 1 and not (node.module or "").startswith("ujfmu"), (path, node.module)
             elif isinstance(node, ast.Import):
                 assert not any(a.name.startswith("ujfmu") for a in node.names), path
+
+
+def test_references_motor_and_load_laws_written_out_again():
+    """The references' own copies of the Motor and Load laws (references.common), at the branches the committed
+    scenarios never reach: the step profile, and the PI law in saturation with conditional integration."""
+    from ujfmu.references.common import load_torque, pi_law, profile
+    p = dict(profile=2, omega_set=10.0, accel=1.0, t_step=0.5, omega_initial=2.0, Kp=2.0, Ki=10.0, tau_max=5.0)
+    w, a, angle = profile(p, np.array([0.25, 0.75]))
+    np.testing.assert_array_equal(w, [2.0, 10.0])
+    np.testing.assert_array_equal(a, [0.0, 0.0])
+    np.testing.assert_allclose(angle, [0.5, 2.0 * 0.5 + 10.0 * 0.25], rtol=1e-15)
+    t = np.full(6, 0.75)                                   # reference speed 10
+    speed = np.array([9.0, 0.0, 9.0, 11.0, 20.0, 9.0])     # errors 1, 10, 1, -1, -10, 1
+    integral = np.array([0.1, 0.0, 1.0, 1.0, 0.0, -1.0])   # u = 3, 20, 12, 8, -20, -8
+    tau, di = pi_law(p, t, speed, integral)
+    np.testing.assert_allclose(tau, [3.0, 5.0, 5.0, 5.0, -5.0, -5.0])
+    # integrate unless saturated with the error driving further into saturation
+    np.testing.assert_allclose(di, [1.0, 0.0, 0.0, -1.0, 0.0, 1.0])
+    law = dict(T0=0.2, c1=0.01, c2=0.017, omega_smooth=0.1)
+    w = np.array([-50.0, 0.0, 50.0])
+    mag = np.sqrt(w * w + 0.01)
+    np.testing.assert_allclose(load_torque(law, w), 0.2 * w / mag + 0.01 * w + 0.017 * w * mag, rtol=1e-15)

@@ -132,7 +132,8 @@ def cmd_mutate(args):
     journal = args.out / "mutate.jsonl"
     done = {}
     if args.resume and journal.is_file():
-        done = {r["id"]: r for r in map(json.loads, journal.read_text().splitlines())}
+        latest = {r["id"]: r for r in map(json.loads, journal.read_text().splitlines())}
+        done = {i: r for i, r in latest.items() if r["status"] in ("killed", "timeout", "equivalent")}
     elif journal.is_file():
         journal.unlink()
     todo = [m for m in mutants if m.id not in done]
@@ -147,7 +148,6 @@ def cmd_mutate(args):
     statuses += [o.status for o in outcomes]
     killed, judged, fraction = score(statuses)
     survivors = [m.id for m, o in zip(todo, outcomes) if o.status == "survived"]
-    survivors += [r["id"] for r in done.values() if r["status"] == "survived"]
     print(f"score: {killed} of {judged} non-equivalent mutants killed ({100 * fraction:.1f}%); "
           f"{statuses.count('equivalent')} equivalent, {statuses.count('error')} errors"
           + (f"; survivors: {', '.join(survivors)}" if survivors else ""))
@@ -211,7 +211,8 @@ def main(argv=None):
     p = sub.add_parser("mutate", help="mutation run: the curated mutants (mutants.toml) against their tests")
     p.add_argument("--list", type=Path, default=REPO_DIR / "mutants.toml", help="mutant list (default: mutants.toml)")
     p.add_argument("--only", nargs="+", metavar="ID", help="run only these mutants")
-    p.add_argument("--resume", action="store_true", help="keep the outcomes in results/mutate.jsonl, run the rest")
+    p.add_argument("--resume", action="store_true",
+                   help="keep the killed mutants of results/mutate.jsonl, run the others (survivors, errors, new)")
     p.add_argument("--timeout", type=float, default=900.0, help="seconds per mutant (default: 900)")
     p.add_argument("--nice", type=int, default=19, help="CPU niceness of the test runs (default: 19)")
     p.add_argument("--out", type=Path, default=Path("results"), help="writes mutate.jsonl here")

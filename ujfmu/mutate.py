@@ -132,8 +132,11 @@ def run_mutant(mutant: Mutant, src: Path, timeout: float = 900.0, niceness: int 
 def _tail(text, lines=6):
     kept = [line for line in text.strip().splitlines() if line.strip()]
     for line in kept:
-        if line.startswith(("FAILED", "ERROR")) or "self-check failed" in line:
+        if line.startswith(("FAILED", "ERROR")):
             return line[:300]
+    for line in reversed(kept):
+        if "Error: " in line:
+            return line.strip()[:300]
     return "\n".join(kept[-lines:])[-600:]
 
 
