@@ -76,7 +76,7 @@ def compare(table, reference, tolerances):
     return checks
 
 
-def extrapolate_step(scenario, fmu_dir=DEFAULT_FMU_DIR, coarse=None):
+def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.ndarray | None = None) -> np.ndarray:
     """Richardson extrapolation 2 y(h/2) - y(h) of the recorded signals on the scenario's grid (step h).
 
     It cancels a coupling error c*h + O(h^2) (inputs held over each step), leaving O(h^2). coarse: the run at h

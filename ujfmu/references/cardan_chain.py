@@ -128,7 +128,7 @@ def generate(scenario):
     return table, f"ujfmu.references.cardan_chain: {how}. Regenerate: ujfmu references"
 
 
-def self_check(scenario, t, columns):
+def self_check(scenario, t: np.ndarray, columns: dict) -> None:
     """The reference's own laws, checked before it is written (ReferenceCheckError otherwise):
 
     - energy: (J_m + J1) w1^2/2 + J2 w2^2/2 changes by the work of tau_motor on w1 less that of the load on w2

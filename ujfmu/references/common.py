@@ -106,13 +106,14 @@ class ReferenceCheckError(AssertionError):
     """A reference violates its own conservation law or closed-form limit (it is not written)."""
 
 
-def work(t, power):
+def work(t: np.ndarray, power: np.ndarray) -> np.ndarray:
     """Cumulative integral of power over the grid t from t[0] (Simpson's rule), e.g. the work of a torque."""
     return cumulative_simpson(np.asarray(power, dtype=float), x=t, initial=0.0)
 
 
-def check_close(scenario, what, actual, expected, scale, rtol):
-    """ReferenceCheckError naming the scenario and the law unless max |actual - expected| <= rtol * scale."""
+def check_close(scenario, what: str, actual, expected, scale: float, rtol: float) -> float:
+    """ReferenceCheckError naming the scenario and the law unless max |actual - expected| <= rtol * scale;
+    returns the deviation relative to scale."""
     deviation = float(np.max(np.abs(np.asarray(actual) - np.asarray(expected))))
     if not deviation <= rtol * scale:
         raise ReferenceCheckError(f"{scenario.path}: reference self-check failed: {what}: max deviation "
@@ -120,7 +121,7 @@ def check_close(scenario, what, actual, expected, scale, rtol):
     return deviation / scale
 
 
-def check_energy_balance(scenario, what, t, stored, power_in, power_out, rtol):
+def check_energy_balance(scenario, what: str, t: np.ndarray, stored, power_in, power_out, rtol: float) -> float:
     """Energy balance stored(t) - stored(t0) = integral of (power_in - power_out) dt; the scale is the larger of
     the largest stored energy and the largest work put in."""
     supplied = work(t, power_in)

@@ -221,7 +221,7 @@ def generate(scenario):
     return table, f"ujfmu.references.double_cardan: {how}. Regenerate: ujfmu references"
 
 
-def self_check(scenario, t, columns, dissipation=0.0):
+def self_check(scenario, t: np.ndarray, columns: dict, dissipation=0.0) -> None:
     """The reference's own laws, checked before it is written (ReferenceCheckError otherwise):
 
     - energy: stored_energy changes by the work of tau_in on the input less the load's work on the output and

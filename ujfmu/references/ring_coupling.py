@@ -159,7 +159,7 @@ def generate_pendulum(scenario):
     return record_table(scenario, t, cols), f"ujfmu.references.ring_coupling: {how}. Regenerate: ujfmu references"
 
 
-def self_check(scenario, t, columns, coupling, load):
+def self_check(scenario, t: np.ndarray, columns: dict, coupling: str, load: str | None) -> None:
     """Energy balance of one coupling, checked before the reference is written (ReferenceCheckError otherwise):
     E = I1 w1^2/2 + I2 w2^2/2 - 157 (EI/R^3) e^2 sin(phi1 + phi2) + c_s x_e^2/2 (Eqs. 5-9, written out again
     from the columns) changes by the work of tau_in on w1 less the load's work on w2 and the damping loss

@@ -185,7 +185,7 @@ def generate(scenario):
     return table, f"ujfmu.references.twin_jeffcott: {how}. Regenerate: ujfmu references"
 
 
-def energy_audit(scenario, t, columns, rotor, load, motor="motor"):
+def energy_audit(scenario, t: np.ndarray, columns: dict, rotor: str, load: str, motor: str = "motor") -> None:
     """The rotor's energy audit, checked before the reference is written (ReferenceCheckError otherwise):
 
     - input_work (an ODE state) = integral of tau_in * omega_in dt (tau_in with the gearbox flange's J_gb alpha);
