@@ -6,6 +6,7 @@ recorded signal as a fraction of the signal's range; ``choose`` halves the step 
 within its allowance. Both only rerun the scenario: no reference is needed.
 """
 
+import copy
 import math
 from dataclasses import dataclass
 
@@ -38,31 +39,31 @@ class StepEstimate:
             f"of range (allowed {100 * self.allowed[n]:.3g}%)" for n in self.errors]
 
 
-def _run(scenario, step, fmu_dir):
-    return cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time, step,
-                      scenario.record, scenario.start_time, coupling=scenario.coupling)
-
-
 def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coarse=None) -> StepEstimate:
-    """Estimated coupling error of the scenario at ``step`` (default its own), by a rerun at step/2.
+    """Estimated coupling error of the scenario at ``step`` (default its own), by a rerun at step/2: the
+    distance of y(h) from the step-halving extrapolation 2 y(h/2) - y(h) (scenario_run.extrapolate_step).
 
     Signals: the toleranced ones with their allowance rel_range (+ abs as a fraction of the range), else every
     recorded signal with DEFAULT_REL_RANGE. coarse: the result at ``step`` if already computed."""
-    step = scenario.step_size if step is None else step
+    from .scenario_run import extrapolate_step
+    run = copy.copy(scenario)
+    run.step_size = scenario.step_size if step is None else step
     names = list(scenario.tolerances) or list(scenario.record)
     try:
-        coarse = _run(scenario, step, fmu_dir) if coarse is None else coarse
-        fine = _run(scenario, step / 2.0, fmu_dir)
+        if coarse is None:
+            coarse = cosimulate(run.master_components(fmu_dir), run.connections, run.stop_time, run.step_size,
+                                run.record, run.start_time, coupling=run.coupling)
+        extrapolated = extrapolate_step(run, fmu_dir, coarse)
     except CosimulationError as exc:
-        return StepEstimate(step, {}, {}, str(exc).splitlines()[0])
+        return StepEstimate(run.step_size, {}, {}, str(exc).splitlines()[0])
     errors, allowed = {}, {}
     for name in names:
-        span = float(np.ptp(fine[name]))
-        diff = float(np.max(np.abs(coarse[name] - fine[name][::2][:len(coarse)])))
+        span = float(np.ptp(extrapolated[name]))
+        diff = float(np.max(np.abs(extrapolated[name] - coarse[name])))
         tol = scenario.tolerances.get(name)
-        errors[name] = 2.0 * diff / span if span > 0.0 else (0.0 if diff == 0.0 else math.inf)
+        errors[name] = diff / span if span > 0.0 else (0.0 if diff == 0.0 else math.inf)
         allowed[name] = (tol.rel_range + (tol.abs / span if span > 0.0 else math.inf)) if tol else DEFAULT_REL_RANGE
-    return StepEstimate(step, errors, allowed)
+    return StepEstimate(run.step_size, errors, allowed)
 
 
 def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, list[StepEstimate]]:
