@@ -1,23 +1,28 @@
-"""Fixed-step co-simulation master on fmpy's FMU2Slave.
+"""Fixed-step co-simulation master on fmpy's FMU2Slave, explicit or implicit coupling (docs/cosimulation.md).
 
-Coupling scheme (Jacobi with ordered output propagation):
+Set-up and transfer (both schemes):
 
 1. Instantiate every component, set its parameters in initialization mode, exit initialization mode.
 2. At every communication point t_k, transfer the connections in a topological order of the direct-feedthrough
    graph read from each modelDescription (ModelStructure/Outputs dependencies): a connection leaving output
    ``A.y`` is transferred only after every input of A that y depends on has been set. Outputs with direct
    feedthrough (the joint's omega_out and tau_in, the load's tau) are therefore consistent with their inputs at
-   t_k, with no one-step lag, and no FMU is stepped twice. A cycle in that graph (an algebraic loop) is an error.
-3. Record, then step every FMU from t_k to t_k + h with its inputs held (each FMU sees values at t_k), and repeat.
+   t_k, with no one-step lag. A cycle in that graph (an algebraic loop) is an error.
 
-The only coupling delay left is the held input over one step (first order in h), e.g. the motor sees the joint's
-tau_in(t_k) during [t_k, t_k+1]. Stable for explicit inertia coupling while the driven inertia reflected to the
-motor stays below the motor's own (see docs/cosimulation.md).
+Explicit: record, step every FMU from t_k to t_k + h with its inputs held, transfer, repeat. The held torn
+inputs (the driver's tau_load) lag by a step: unstable at any h when the driven inertia reflected to the driver
+exceeds the driver's own.
+
+Implicit (default): the torn inputs held over [t_k, t_k+1] are iterated to u = THETA G(t_k+1; u) +
+(1 - THETA) G(t_k) by a quasi-Newton method (finite-difference interface Jacobian, Broyden updates), the
+components owning them rolled back with fmi2GetFMUstate/fmi2SetFMUstate; see ``Cosimulation._implicit_step``.
+
+Both watch the torn connections for a diverging coupling (``CouplingInstabilityError``) and keep the recorded
+results up to a failure (``CosimulationError.partial``).
 """
 
 import atexit
 import math
-import os
 import shutil
 import tempfile
 from dataclasses import dataclass, field
@@ -43,6 +48,8 @@ STALL_FACTOR = 100.0
 #: implicit coupling: quasi-Newton iterations per step before the interface Jacobian is rebuilt by finite
 #: differences, and rebuilds per step before the step is declared not converging
 MAX_ITERATIONS, MAX_REBUILDS = 6, 2
+#: implicit coupling: the torn inputs are held at THETA G(t_k+1) + (1 - THETA) G(t_k); inertia amplification of
+#: the iterated loop at most (1 - THETA)/THETA (docs/cosimulation.md)
 THETA = 0.6
 
 
