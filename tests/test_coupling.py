@@ -94,3 +94,12 @@ def test_open_loop_runs_explicitly_and_bitwise_like_explicit(fmu_dir):
             assert cosim.open_loop == (coupling == "implicit")
     for name in s.record:
         np.testing.assert_array_equal(tables["implicit"][name], tables["explicit"][name])
+
+
+def test_battery_command_tabulates_each_scheme(fmu_dir, monkeypatch, capsys):
+    monkeypatch.setattr(battery, "paths", lambda: [LIGHT, HEAVY])
+    code = main(["--fmu-dir", str(fmu_dir), "battery"])
+    out = capsys.readouterr().out
+    assert code == 1   # explicit cannot run the heavy set-up
+    assert "| battery_04 | Cardan | coupling instability between 'joint' and 'motor' (failed) |" in out
+    assert "explicit: 1 of 2 within 2%, 1 stopped" in out and "implicit: 1 of 2 within 2%, 0 stopped" in out
