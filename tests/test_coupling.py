@@ -103,3 +103,10 @@ def test_battery_command_tabulates_each_scheme(fmu_dir, monkeypatch, capsys):
     assert code == 1   # explicit cannot run the heavy set-up
     assert "| battery_04 | Cardan | coupling instability between 'joint' and 'motor' (failed) |" in out
     assert "explicit: 1 of 2 within 2%, 1 stopped" in out and "implicit: 1 of 2 within 2%, 0 stopped" in out
+
+
+def test_a_speed_fed_forward_is_not_torn(fmu_dir):
+    """Rings driven by one speed source with nothing fed back: no loop, nothing to iterate, the explicit result."""
+    s = Scenario(battery.BATTERY_DIR.parent / "ring_coupling_speed_study.toml")
+    with Cosimulation(s.master_components(fmu_dir), s.connections, 1e-3, s.record) as cosim:
+        assert cosim._tears == [] and cosim._rolled == []

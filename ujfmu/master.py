@@ -317,23 +317,38 @@ class Cosimulation:
         self._growth = [[v[0], 0.0, 0, 0.0, abs(v[0])] for v in self._tear_views]
 
     def _plan_tearing(self, views):
-        """Torn inputs for implicit coupling: inputs on which no connected output of their component depends
-        directly.
+        """Torn inputs for implicit coupling: inputs on a loop of connections on which no connected output of
+        their component depends directly.
 
         Such an input reaches the connected outputs only through the component's state (the motor's tau_load
-        through its speed), so the value held over [t_k, t_k+1] is the coupling approximation; an input with
-        direct feedthrough to a connected output is made consistent at every communication point by the ordered
-        transfer. The components owning torn inputs are rolled back and
-        restepped while the torn values are iterated; the others step once per communication step.
+        through its speed), and they lead back to the input's source, so the value held over [t_k, t_k+1] is
+        the coupling approximation of a closed loop; an input with direct feedthrough to a connected output is
+        made consistent at every communication point by the ordered transfer, and one on no loop (a speed fed
+        forward) has nothing to iterate. The components owning torn inputs are rolled back and restepped while
+        the torn values are iterated; the others step once per communication step.
         """
         fed_through = {name: set() for name in self.instances}
+        feeds = {name: set() for name in self.instances}
         for transfer in self._transfers:
             comp, out = transfer[-1].source.split(".", 1)
             fed_through[comp].update(self.instances[comp].input_dependencies(out))
+            feeds[comp].add(transfer[-1].target.split(".", 1)[0])
+
+        def reaches(start, goal):
+            seen, todo = set(), [start]
+            while todo:
+                comp = todo.pop()
+                if comp == goal:
+                    return True
+                if comp not in seen:
+                    seen.add(comp)
+                    todo.extend(feeds[comp])
+            return False
+
         self._tears = []
         for i, transfer in enumerate(self._transfers):
             comp, inp = transfer[-1].target.split(".", 1)
-            if inp not in fed_through[comp]:
+            if inp not in fed_through[comp] and reaches(comp, transfer[-1].source.split(".", 1)[0]):
                 self._tears.append(i)
         self._tear_views = [views[i][:1] for i in self._tears]
         rolled = dict.fromkeys(self._transfers[i][-1].target.split(".", 1)[0] for i in self._tears)
