@@ -392,11 +392,14 @@ def build_digest():
 def encode_state(state):
     """Serialized state: MAGIC | u16 format version | u8 length + model name | u8 length + build digest |
     u32 length + JSON of the fields (sorted keys, floats written exactly) | SHA-256 of everything before it."""
-    model, build = state.origin[1].encode(), build_digest().encode()
     payload = json.dumps(state.fields, sort_keys=True, separators=(",", ":")).encode()
-    head = (STATE_MAGIC + struct.pack(">HB", STATE_FORMAT_VERSION, len(model)) + model
-            + struct.pack(">B", len(build)) + build + struct.pack(">I", len(payload)))
-    body = head + payload
+    return frame_state(state.origin[1].encode(), build_digest().encode(), payload)
+
+
+def frame_state(model, build, payload):
+    """The serialized state holding payload (bytes) for the model and build named (bytes)."""
+    body = (STATE_MAGIC + struct.pack(">HB", STATE_FORMAT_VERSION, len(model)) + model
+            + struct.pack(">B", len(build)) + build + struct.pack(">I", len(payload)) + payload)
     return body + hashlib.sha256(body).digest()
 
 
