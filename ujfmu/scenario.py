@@ -10,7 +10,8 @@
                             (orbits and spectra from that time on)
     [sweep]                 defaults of `ujfmu sweep`: params = ["comp.par=START:STOP:STEP[rpm|deg]", ...],
                             outputs = [...], running_speed, settle_time [s], revolutions, orders = [1, 2, 4]
-    [reference]             file = "references/x.csv" (relative to the scenario), generator = "cardan_chain"
+    [reference]             file = "references/x.csv" (relative to the scenario, inside its folder),
+                            generator = "cardan_chain"
     [reference.tolerance]   "comp.var" = { rel_range = 0.01, abs = 0.0 }
       pass when max |result - reference| <= rel_range * (max - min of the reference) + abs
 """
@@ -58,6 +59,9 @@ class Scenario:
                                 f"known: {', '.join(sorted(TOP_LEVEL_KEYS))}")
         self.title = data.get("title", self.name)
         self.description = data.get("description", "")
+        for field, value in (("title", self.title), ("description", self.description)):
+            if not isinstance(value, str):
+                raise ScenarioError(f"{self.path}: {field} = {value!r} must be a string")
         exp = self._table(data, "experiment")
         self.start_time = self._number(exp, "experiment.start_time", 0.0)
         self.stop_time = self._number(exp, "experiment.stop_time")
@@ -110,13 +114,17 @@ class Scenario:
         for i, name in enumerate(self.record):
             self._check_signal(name, f"output.record[{i}]")
         ref = data.get("reference", {})
-        self.reference_file = (self.path.parent / ref["file"]) if "file" in ref else None
+        self.reference_file = self._reference_path(ref["file"]) if "file" in ref else None
         self.reference_generator = ref.get("generator")
         self.tolerances = {}
         for name, tol in ref.get("tolerance", {}).items():
             if name not in self.record:
                 raise ScenarioError(f"{self.path}: reference.tolerance.{name}: not a recorded signal")
-            self.tolerances[name] = Tolerance(**tol)
+            if not isinstance(tol, dict) or set(tol) - {"rel_range", "abs"}:
+                raise ScenarioError(f"{self.path}: reference.tolerance.{name} = {tol!r}: fields are rel_range "
+                                    "and abs")
+            self.tolerances[name] = Tolerance(*(self._number(tol, f"reference.tolerance.{name}.{key}", 0.0)
+                                                for key in ("rel_range", "abs")))
         self.plot = list(out.get("plot", self.tolerances or self.record))
         self.orbits = [tuple(pair) for pair in out.get("orbits", [])]
         for i, pair in enumerate(self.orbits):
@@ -143,6 +151,18 @@ class Scenario:
         for name in list(self.sweep.get("outputs", [])) + speed:
             if name not in self.record:
                 raise ScenarioError(f"{self.path}: sweep: {name!r} is not a recorded signal")
+
+    def _reference_path(self, name):
+        """The reference CSV: a relative .csv path that stays inside the scenario's folder (`ujfmu references`
+        writes it, so a scenario file cannot make it write, or a run read, anywhere else)."""
+        folder = self.path.parent.resolve()
+        if not isinstance(name, str) or not name.endswith(".csv"):
+            raise ScenarioError(f"{self.path}: reference.file = {name!r} must be the path of a .csv file")
+        path = (folder / name).resolve()
+        if Path(name).is_absolute() or not path.is_relative_to(folder):
+            raise ScenarioError(f"{self.path}: reference.file = {name!r} is outside the scenario's folder "
+                                f"{folder}; give a relative path inside it (e.g. references/{self.name}.csv)")
+        return path
 
     def _table(self, data, key):
         if not isinstance(data.get(key), dict):
