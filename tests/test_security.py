@@ -1,5 +1,5 @@
 """What ujfmu takes from outside and acts on (docs/security.md): scenario files cannot make `ujfmu references`
-write, or a run read, outside the scenario's folder; sweep names cannot leave the output folder; a damaged or
+write outside the scenario's folder; sweep names cannot leave the output folder; a damaged or
 forged sweep journal is skipped line by line, never run or crashed on; FMU archives with escaping entries extract
 inside their folder; SSP packages hold only the SSD and known FMUs; dask clients get the dask config's TLS
 settings and refuse an unencrypted scheduler when encryption is required."""
@@ -48,15 +48,23 @@ def scenario_file(folder, file):
     return path
 
 
-@pytest.mark.parametrize("file", ["../outside.csv", "references/../../outside.csv", "/tmp/outside.csv",
-                                  "references/x.py", "."])
-def test_reference_files_outside_the_scenario_folder_are_refused(tmp_path, file, capsys):
+@pytest.mark.parametrize("file", ["../outside.csv", "references/../../outside.csv", "/tmp/outside.csv"])
+def test_references_are_never_written_outside_the_scenario_folder(tmp_path, file, capsys):
     path = scenario_file(tmp_path / "scenarios", file)
-    with pytest.raises(ScenarioError, match="reference.file"):
-        Scenario(path)
+    with pytest.raises(ScenarioError, match="outside the scenario's folder"):
+        Scenario(path).reference_output()
     assert main(["references", str(path)]) == 2          # the command says why and writes nothing
-    assert "reference.file" in capsys.readouterr().err
+    assert "writes only inside it" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.rglob("*")) == ["s.toml", "scenarios"]
+    assert not Path(file).is_absolute() or not Path(file).exists()
+
+
+@pytest.mark.parametrize("file", ["references/x.py", ".", 3])
+def test_reference_files_must_be_csv_paths(tmp_path, file):
+    path = scenario_file(tmp_path, "x.csv")
+    path.write_text(path.read_text().replace('"x.csv"', repr(file) if isinstance(file, int) else f'"{file}"'))
+    with pytest.raises(ScenarioError, match="must be the path of a .csv file"):
+        Scenario(path)
 
 
 def test_a_symlink_out_of_the_scenario_folder_is_refused(tmp_path):
@@ -66,12 +74,12 @@ def test_a_symlink_out_of_the_scenario_folder_is_refused(tmp_path):
     folder.mkdir()
     (folder / "references").symlink_to(outside, target_is_directory=True)
     with pytest.raises(ScenarioError, match="outside the scenario's folder"):
-        Scenario(scenario_file(folder, "references/x.csv"))
+        Scenario(scenario_file(folder, "references/x.csv")).reference_output()
 
 
-def test_reference_files_inside_the_scenario_folder_are_kept(tmp_path):
+def test_reference_files_inside_the_scenario_folder_are_written_there(tmp_path):
     scenario = Scenario(scenario_file(tmp_path / "scenarios", "references/deep/x.csv"))
-    assert scenario.reference_file == (tmp_path / "scenarios" / "references" / "deep" / "x.csv").resolve()
+    assert scenario.reference_output() == (tmp_path / "scenarios" / "references" / "deep" / "x.csv").resolve()
 
 
 def test_tolerance_tables_take_only_their_two_numbers(tmp_path):

@@ -59,8 +59,9 @@ def cmd_references(args):
         scenario = Scenario(path)
         if scenario.reference_generator is None:
             continue
+        target = scenario.reference_output()   # inside the scenario's folder, checked before any work
         table, provenance = generate(scenario)
-        write_reference(scenario.reference_file, table, provenance)
+        write_reference(target, table, provenance)
         print(f"wrote {scenario.reference_file}")
     return 0
 

@@ -10,8 +10,8 @@
                             (orbits and spectra from that time on)
     [sweep]                 defaults of `ujfmu sweep`: params = ["comp.par=START:STOP:STEP[rpm|deg]", ...],
                             outputs = [...], running_speed, settle_time [s], revolutions, orders = [1, 2, 4]
-    [reference]             file = "references/x.csv" (relative to the scenario, inside its folder),
-                            generator = "cardan_chain"
+    [reference]             file = "references/x.csv" (relative to the scenario; `ujfmu references` writes it
+                            only inside the scenario's folder), generator = "cardan_chain"
     [reference.tolerance]   "comp.var" = { rel_range = 0.01, abs = 0.0 }
       pass when max |result - reference| <= rel_range * (max - min of the reference) + abs
 """
@@ -114,7 +114,11 @@ class Scenario:
         for i, name in enumerate(self.record):
             self._check_signal(name, f"output.record[{i}]")
         ref = data.get("reference", {})
-        self.reference_file = self._reference_path(ref["file"]) if "file" in ref else None
+        self.reference_file = None
+        if "file" in ref:
+            if not isinstance(ref["file"], str) or not ref["file"].endswith(".csv"):
+                raise ScenarioError(f"{self.path}: reference.file = {ref['file']!r} must be the path of a .csv file")
+            self.reference_file = self.path.parent / ref["file"]
         self.reference_generator = ref.get("generator")
         self.tolerances = {}
         for name, tol in ref.get("tolerance", {}).items():
@@ -152,16 +156,15 @@ class Scenario:
             if name not in self.record:
                 raise ScenarioError(f"{self.path}: sweep: {name!r} is not a recorded signal")
 
-    def _reference_path(self, name):
-        """The reference CSV: a relative .csv path that stays inside the scenario's folder (`ujfmu references`
-        writes it, so a scenario file cannot make it write, or a run read, anywhere else)."""
+    def reference_output(self):
+        """Where `ujfmu references` writes the reference: the reference file if it resolves (symlinks followed)
+        inside the scenario's folder, else a ScenarioError, so a scenario file cannot make it write elsewhere."""
         folder = self.path.parent.resolve()
-        if not isinstance(name, str) or not name.endswith(".csv"):
-            raise ScenarioError(f"{self.path}: reference.file = {name!r} must be the path of a .csv file")
-        path = (folder / name).resolve()
-        if Path(name).is_absolute() or not path.is_relative_to(folder):
-            raise ScenarioError(f"{self.path}: reference.file = {name!r} is outside the scenario's folder "
-                                f"{folder}; give a relative path inside it (e.g. references/{self.name}.csv)")
+        path = self.reference_file.resolve()
+        if not path.is_relative_to(folder):
+            raise ScenarioError(f"{self.path}: reference.file = {str(self.reference_file)!r} is outside the "
+                                f"scenario's folder {folder}; `ujfmu references` writes only inside it (give a "
+                                f"relative path such as references/{self.name}.csv)")
         return path
 
     def _table(self, data, key):

@@ -200,13 +200,15 @@ class UjfmuSlave(Fmi2Slave):
         """The current FMU state, each value normalized to its kind (a tuple of floats for a float[n])."""
         undeclared = self.__dict__.keys() - self._known
         if undeclared:
-            self._raise_to_host(f"{self.modelName}: attributes {sorted(undeclared)} are neither in STATE nor in "
-                                "DERIVED; the FMU state cannot be saved")
+            raise ValueError(f"attributes {sorted(undeclared)} are neither in STATE nor in DERIVED")
         kinds = self.state_kinds(self._initialized)
         return FmuState(type(self), {k: _normalize(kind, getattr(self, k)) for k, kind in kinds.items()})
 
     def _get_fmu_state(self):
-        return self._capture()
+        try:
+            return self._capture()
+        except Exception as exc:   # a model that does not declare its state: an error status, never a crash
+            self._raise_to_host(f"{self.modelName} '{self.instance_name}': cannot save the FMU state: {exc}")
 
     def _set_fmu_state(self, state):
         """Restore a state of this FMU (values are immutable: one saved state can be restored many times)."""
@@ -229,8 +231,9 @@ class UjfmuSlave(Fmi2Slave):
         the only one (pythonfmu's fmi2Fatal message carries the reason in any case)."""
         try:
             return decode_state(cls, bytes(data))
-        except StateError as exc:
-            message = f"{cls.__name__}: FMU state rejected, the instance is unchanged: {exc}"
+        except Exception as exc:    # StateError; anything else is a bug, but must not reach pythonfmu unpinned
+            reason = exc if isinstance(exc, StateError) else repr(exc)
+            message = f"{cls.__name__}: FMU state rejected, the instance is unchanged: {reason}"
         callers = [inst for inst in list(_LIVE) if type(inst) is cls]
         for inst in callers:
             _PINNED_AFTER_EXCEPTION.extend((inst, inst, cls, inst.log_queue))
