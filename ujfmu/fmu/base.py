@@ -109,6 +109,12 @@ class UjfmuSlave(Fmi2Slave):
     """Base of every ujfmu FMU. Subclasses set VARIABLES, DEFAULT_EXPERIMENT, and implement
     ``initialize(start_time)``, ``compute_outputs()`` and ``advance(t, h)``; ``check_parameters()`` is optional.
 
+    Every attribute a model sets goes in one of two declarations (else saving the FMU state fails, and the tests):
+    ``STATE = {"_state": "float[4]", "_started": "bool"}`` for what ``initialize`` sets and ``advance`` changes
+    (saved with the FMU state; kinds in ``KINDS``), ``DERIVED = ("_p",)`` for what ``derive()`` computes from
+    the parameters alone (recomputed when a state is restored). PrescribedInputSlave.STATE holds the input angle
+    and history; extend it with ``{**PrescribedInputSlave.STATE, ...}``.
+
     Outputs are computed lazily from the current inputs and state (``compute_outputs`` runs on the first output
     read after any input changed or a step was taken), so outputs with direct feedthrough are exact at every
     communication point whatever order the host sets inputs in.
