@@ -201,6 +201,20 @@ def test_rejections_name_the_cause_and_leave_the_instance_usable(pair, blobs, na
     assert steps(inst, 20, 30) == steps(twin, 20, 30)
 
 
+def test_another_fmus_state_in_memory_is_refused(pair):
+    """fmi2SetFMUstate with a state pointer of another FMU: an error status, the instance unchanged and usable."""
+    inst, log, twin = pair("Motor")
+    other, _, _ = pair("Load")
+    foreign = other.slave.getFMUstate()
+    snapshot = serialized(inst)
+    with pytest.raises(FMICallException) as exc:
+        inst.slave.setFMUstate(foreign)
+    assert exc.value.status == FATAL and "not one of this FMU's" in "\n".join(log)
+    other.slave.freeFMUstate(foreign)
+    assert serialized(inst) == snapshot
+    assert steps(inst, 20, 30) == steps(twin, 20, 30)
+
+
 def test_state_sequences_must_have_their_length(pair, blobs):
     inst, log, _ = pair("TwinJeffcottRotor")
     short = forge("TwinJeffcottRotor", blobs["TwinJeffcottRotor"], lambda f: f.update(_state=f["_state"][:-1]))
