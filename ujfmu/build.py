@@ -63,8 +63,8 @@ def fmu_class(name):
 def source_hash():
     """Hash of everything an FMU ships (the version and the runtime sources' build digest, which also tags the
     FMU's serialized states), so a changed model never reuses an old module name."""
-    from .fmu.base import build_digest
-    return hashlib.sha256(f"{__version__} {build_digest()}".encode()).hexdigest()[:10]
+    from .fmu.base import sources_digest
+    return hashlib.sha256(f"{__version__} {sources_digest()}".encode()).hexdigest()[:10]
 
 
 def build_all(dest=DEFAULT_FMU_DIR, names=None):

@@ -42,7 +42,6 @@ from pythonfmu.default_experiment import DefaultExperiment
 _TYPES = {float: Real, int: Integer, bool: Boolean}
 #: life-cycle attributes of UjfmuSlave that are part of the FMU state
 _LIFECYCLE_KINDS = {"_stale": "bool", "_initialized": "bool", "_running": "bool", "_start_time": "float"}
-_LIFECYCLE = tuple(_LIFECYCLE_KINDS)
 
 #: Objects pythonfmu 0.7.0 releases twice after a Python exception (once when it turns the exception into
 #: fmi2Fatal, again in fmi2FreeInstance). References held here keep them valid so the host survives.
@@ -385,16 +384,21 @@ def _normalize(kind, value):
 _BUILD = []
 
 
+def sources_digest():
+    """SHA-256 (hex, 16 digits) of the runtime sources as they are now (ujfmu/fmu and ujfmu/physics, as shipped
+    in every FMU)."""
+    digest = hashlib.sha256()
+    root = Path(__file__).resolve().parent.parent
+    for sub in ("fmu", "physics"):
+        for path in sorted((root / sub).glob("*.py")):
+            digest.update(f"{sub}/{path.name}\0".encode() + path.read_bytes() + b"\0")
+    return digest.hexdigest()[:16]
+
+
 def build_digest():
-    """SHA-256 (hex, 16 digits) of the FMU's runtime sources (ujfmu/fmu and ujfmu/physics, as shipped in every
-    FMU): a state is restored only by the build that saved it."""
+    """The sources digest of this build, read once: a state is restored only by the build that saved it."""
     if not _BUILD:
-        digest = hashlib.sha256()
-        root = Path(__file__).resolve().parent.parent
-        for sub in ("fmu", "physics"):
-            for path in sorted((root / sub).glob("*.py")):
-                digest.update(f"{sub}/{path.name}\0".encode() + path.read_bytes() + b"\0")
-        _BUILD.append(digest.hexdigest()[:16])
+        _BUILD.append(sources_digest())
     return _BUILD[0]
 
 
