@@ -24,7 +24,7 @@ from ujfmu.fmu import base
 
 FATAL = 4
 H = 1e-3
-EXAMPLES = 150
+EXAMPLES = 300
 CASES = {"bytes": 0, "forged": 0, "accepted": 0}
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None, database=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture])

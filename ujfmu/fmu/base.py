@@ -112,7 +112,8 @@ class UjfmuSlave(Fmi2Slave):
     ``STATE = {"_state": "float[4]", "_started": "bool"}`` for what ``initialize`` sets and ``advance`` changes
     (saved with the FMU state; kinds in ``KINDS``), ``DERIVED = ("_p",)`` for what ``derive()`` computes from
     the parameters alone (recomputed when a state is restored). PrescribedInputSlave.STATE holds the input angle
-    and history; extend it with ``{**PrescribedInputSlave.STATE, ...}``.
+    and history; extend it with ``{**PrescribedInputSlave.STATE, ...}``. Attributes set in ``__init__`` before
+    ``UjfmuSlave.__init__`` returns are plumbing, outside the state.
 
     Outputs are computed lazily from the current inputs and state (``compute_outputs`` runs on the first output
     read after any input changed or a step was taken), so outputs with direct feedthrough are exact at every
