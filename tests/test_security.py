@@ -38,6 +38,8 @@ record = ["motor.omega"]
 [reference]
 file = "{file}"
 generator = "cardan_chain"
+[reference.tolerance]
+"motor.omega" = {{ rel_range = 0.01 }}
 """
 
 
@@ -84,8 +86,8 @@ def test_reference_files_inside_the_scenario_folder_are_written_there(tmp_path):
 
 def test_tolerance_tables_take_only_their_two_numbers(tmp_path):
     path = scenario_file(tmp_path, "r.csv")
-    path.write_text(path.read_text() + '[reference.tolerance]\n"motor.omega" = { rel_range = 0.01, __class__ = 1 }\n')
-    with pytest.raises(ScenarioError, match="fields are rel_range and abs"):
+    path.write_text(path.read_text().replace("rel_range = 0.01", "rel_range = 0.01, __class__ = 1"))
+    with pytest.raises(ScenarioError, match="must be { rel_range"):
         Scenario(path)
 
 
