@@ -138,8 +138,8 @@ class Scenario:
         self.reference_file = None
         if "file" in ref:
             if not isinstance(ref["file"], str) or not ref["file"].endswith((".csv", ".csv.gz")):
-                raise ScenarioError(f"{self.path}: reference.file = {ref['file']!r} must be the path of a .csv "
-                                    "(or gzipped .csv.gz) file")
+                raise ScenarioError(f"{self.path}: reference.file = {ref['file']!r} must be the path of a .csv file "
+                                    "(or a gzipped .csv.gz)")
             self.reference_file = self.path.parent / ref["file"]
         self.reference_generator = ref.get("generator")
         self.tolerances = self._tolerances(ref, "tolerance")
