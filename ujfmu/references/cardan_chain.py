@@ -1,4 +1,5 @@
-"""Monolithic reference for Motor -> CardanJoint -> Load.
+"""Monolithic reference for Motor -> CardanJoint -> Load, and for its torque-driven wiring
+MotorController -> CardanJointTorqueDriven -> Load (the same ODE, the rotor inertia taken from J_drive).
 
 Independent of the co-simulation and of ujfmu.physics.cardan:
 - joint kinematics from sympy: e1 = C (-sin t1, cos t1, 0) and K = C e_z with C = R_y(-gamma) R_x(-beta) R_y(delta)
@@ -17,7 +18,7 @@ import functools
 import numpy as np
 import sympy as sp
 
-from .common import load_torque, pi_law, profile, record_table, solve_piecewise
+from .common import drive, input_shaft_columns, load_torque, pi_law, profile, record_table, solve_piecewise
 
 RTOL, ATOL = 1e-11, 1e-12
 
@@ -69,11 +70,13 @@ class JointKinematics:
 
 
 def generate(scenario):
-    """Reference for a scenario with components motor (Motor), joint (CardanJoint), load (Load)."""
-    pm, pj, pl = (scenario.parameters_with_defaults(c) for c in ("motor", "joint", "load"))
+    """Reference for a scenario with components motor (Motor, or MotorController with the torque-driven
+    CardanJointTorqueDriven), joint (CardanJoint or CardanJointTorqueDriven), load (Load)."""
+    pl, pj = scenario.parameters_with_defaults("load"), scenario.parameters_with_defaults("joint")
+    pm, jm, w0, torque_driven = drive(scenario, "motor", "joint")
     kin = JointKinematics((pj["bend_angle"], pj["bend_plane_angle"], pj["error_angle_beta"],
                            pj["error_angle_gamma"]))
-    j1, j2, jm = pj["J1"], pj["J2"], pm["J_rotor"]
+    j1, j2 = pj["J1"], pj["J2"]
     t = scenario.time_grid()
     theta20 = float(kin.driven_angle(np.array(pj["phi_in_start"])))
 
@@ -93,7 +96,7 @@ def generate(scenario):
             a = (tau_m - j2 * r * dr * w * w - r * load_torque(pl, r * w)) / (jm + j1 + j2 * r * r)
             return [w, a, di, r * w]
 
-        y = [0.0, float(profile(pm, t[:1])[0][0]), 0.0, theta20]
+        y = [0.0, w0, 0.0, theta20]
         ys = solve_piecewise(rhs, y, t, pm, RTOL, ATOL)
         phi_motor, w1, integral, theta2 = ys
         theta1 = pj["phi_in_start"] + phi_motor
@@ -116,8 +119,9 @@ def generate(scenario):
         tau_motor = tau_m
     columns = {
         "motor.omega": w1, "motor.phi": phi_motor, "motor.tau_motor": tau_motor,
-        "joint.omega_out": w2, "joint.phi_out": theta2, "joint.tau_in": tau_in, "joint.phi_in": theta1,
+        "joint.omega_out": w2, "joint.phi_out": theta2,
         "joint.M_x": m_x, "joint.M_y": m_y, "joint.M_z": m_z, "load.tau": tau_load,
     }
+    columns.update(input_shaft_columns("joint", torque_driven, w1, theta1, a1, tau_in))
     table = record_table(scenario, t, columns)
     return table, f"ujfmu.references.cardan_chain: {how}. Regenerate: ujfmu references"

@@ -100,3 +100,28 @@ def components_with_loads(scenario, fmu):
     load_of = {cn.source.split(".")[0]: cn.target.split(".")[0] for cn in scenario.connections
                if cn.source.endswith(".omega_out") and cn.target.endswith(".omega")}
     return [(c, load_of.get(c)) for c, (name, _) in scenario.components.items() if name == fmu]
+
+
+def drive(scenario, motor, machine):
+    """(motor parameters, driver inertia, input speed at the start, torque_driven) of a motor driving machine.
+
+    Speed-driven wiring: a Motor with its rotor J_rotor, starting at its reference speed. Torque-driven wiring:
+    a MotorController, the rotor inertia lumped into the machine's J_drive, starting at its omega_in_start.
+    """
+    pm, pj = scenario.parameters_with_defaults(motor), scenario.parameters_with_defaults(machine)
+    if "J_drive" in pj:
+        return dict(pm, ideal_speed_source=False), pj["J_drive"], pj["omega_in_start"], True
+    t0 = np.array([scenario.start_time])
+    return pm, pm["J_rotor"], float(profile(pm, t0)[0][0]), False
+
+
+def input_shaft_columns(machine, torque_driven, omega, phi, alpha, tau_in):
+    """The machine's recorded input-shaft signals; in the torque-driven wiring tau_in (the torque into the input
+    shaft) is called tau_input_shaft."""
+    cols = {f"{machine}.phi_in": phi}
+    if torque_driven:
+        cols.update({f"{machine}.omega_in": omega, f"{machine}.alpha_in": alpha,
+                     f"{machine}.tau_input_shaft": tau_in})
+    else:
+        cols[f"{machine}.tau_in"] = tau_in
+    return cols
