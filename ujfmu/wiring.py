@@ -134,35 +134,33 @@ def measure(fmu_dir=DEFAULT_FMU_DIR, out=sys.stdout):
         for wiring, case in (("torque-driven", scenario), ("speed-driven", speed_driven_twin(scenario))):
             row(f"{scenario.name} {wiring}: speed / torque error", *(
                 accuracy(case, reference, e, fmu_dir) for e in engines))
-    # speed-driven CardanJoint: largest driven inertia J2, as the ratio J2 r_max^2 / J_rotor (r_max = 1/cos 20 deg)
-    j_rotor = cardan.parameters_with_defaults("joint")["J_drive"]
-    ratio = 1.0 / (math.cos(cardan.parameters_with_defaults("joint")["bend_angle"]) ** 2 * j_rotor)
+    def limits(scenario, parameter, lo, hi, step=None, stop=None, scale=1.0, **coupled):
+        """The stability limit of one parameter in each engine; coupled: {other parameter: factor}."""
+        def stable(value, engine):
+            changes = {parameter: value, **{k: f * value for k, f in coupled.items()}, **UNLIMITED}
+            return runs_stably(with_changes(scenario, changes, step, stop), engine, fmu_dir)
+        return [fmt(stability_limit(lambda v: stable(v, e), lo, hi), scale) for e in engines]
+
+    # CardanJoint: largest driven inertia J2, as the ratio J2 r_max^2 / J_rotor (r_max = 1/cos(bend))
+    pj = cardan.parameters_with_defaults("joint")
+    ratio = 1.0 / (math.cos(pj["bend_angle"]) ** 2 * pj["J_drive"])
     twin = speed_driven_twin(cardan)
     for h, stop in ((1e-3, 1.0), (1e-4, 0.2)):
-        row(f"speed-driven CardanJoint, h = {h:g} s: J2 r_max^2 / J_rotor", *(
-            fmt(stability_limit(lambda j2: runs_stably(with_changes(twin, {"joint.J2": j2, **UNLIMITED}, h, stop), e, fmu_dir),
-                                1e-4, 0.2), ratio) for e in engines))
-    # torque-driven CardanJoint: the same up to J2 = 20 kg.m2 (2000x the rotor)
-    row("torque-driven CardanJoint, h = 1 ms: J2 r_max^2 / J_rotor", *(
-        fmt(stability_limit(lambda j2: runs_stably(with_changes(cardan, {"joint.J2": j2, **UNLIMITED}, None, 1.0), e, fmu_dir),
-                            0.2, 20.0), ratio) for e in engines))
+        row(f"speed-driven CardanJoint, h = {h:g} s: J2 r_max^2 / J_rotor",
+            *limits(twin, "joint.J2", 1e-4, 0.2, h, stop, ratio))
+    row("torque-driven CardanJoint, h = 1 ms: J2 r_max^2 / J_rotor",
+        *limits(cardan, "joint.J2", 0.2, 20.0, None, 1.0, ratio))
     # torque-driven: the sampled controller, Kp h / J_input (J_input = J_drive + J1 + J2 r_min^2), Ki = 10 Kp
-    pj = cardan.parameters_with_defaults("joint")
     j_input = pj["J_drive"] + pj["J1"] + pj["J2"] * math.cos(pj["bend_angle"]) ** 2
-    row("torque-driven CardanJoint, h = 1 ms: Kp h / J_input", *(
-        fmt(stability_limit(lambda kp: runs_stably(with_changes(cardan, {"motor.Kp": kp, "motor.Ki": 10.0 * kp, **UNLIMITED},
-                                                                None, 1.0), e, fmu_dir), 8.8, 2000.0),
-            cardan.step_size / j_input) for e in engines))
-    # speed-driven DoubleCardanDriveline (elastic tau_in: a compliant input flange): largest k_theta
+    row("torque-driven CardanJoint, h = 1 ms: Kp h / J_input",
+        *limits(cardan, "motor.Kp", 8.8, 2000.0, None, 1.0, cardan.step_size / j_input, **{"motor.Ki": 10.0}))
+    # DoubleCardanDriveline: largest k_theta (speed-driven: an elastic tau_in, a compliant input flange)
     twin = speed_driven_twin(double)
     for h in (1e-3, 2.5e-4):
-        row(f"speed-driven DoubleCardanDriveline, h = {h:g} s: k_theta [N.m/rad]", *(
-            fmt(stability_limit(lambda k: runs_stably(with_changes(twin, {"driveline.k_theta": k, **UNLIMITED}, h, 0.6), e,
-                                                      fmu_dir), 100.0, 2e5)) for e in engines))
-    row("torque-driven DoubleCardanDriveline, h = 1 ms: k_theta [N.m/rad]", *(
-        fmt(stability_limit(lambda k: runs_stably(with_changes(double, {"driveline.k_theta": k, **UNLIMITED}, None, 0.6), e,
-                                                  fmu_dir), 2e4, 2e6)) for e in engines))
-
+        row(f"speed-driven DoubleCardanDriveline, h = {h:g} s: k_theta [N.m/rad]",
+            *limits(twin, "driveline.k_theta", 100.0, 2e5, h, 0.6))
+    row("torque-driven DoubleCardanDriveline, h = 1 ms: k_theta [N.m/rad]",
+        *limits(double, "driveline.k_theta", 2e4, 2e6, None, 0.6))
 
 if __name__ == "__main__":
     measure()

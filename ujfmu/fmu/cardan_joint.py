@@ -103,11 +103,7 @@ class CardanJointTorqueDriven(TorqueDrivenSlave):
     """
 
     PHYSICS = cardan
-    VARIABLES = driven_ports(CardanJoint, (
-        output("omega_out", "rad/s", "Driven shaft angular speed omega2 = r(theta1)*omega1 (a state)"),
-        output("phi_out", "rad", "Driven shaft angle theta2, continuous over revolutions"),
-    ), tuple(output(name, "N.m", f"Transmitted moment on the driven shaft, {axis} component (Feng Eq. 10)",
-                    ("tau_in", "tau_load")) for name, axis in (("M_x", "x"), ("M_y", "y"), ("M_z", "z (torsional)"))))
+    VARIABLES = driven_ports(CardanJoint)
     DEFAULT_EXPERIMENT = CardanJoint.DEFAULT_EXPERIMENT
 
     def check_parameters(self):

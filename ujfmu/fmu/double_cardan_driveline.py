@@ -150,17 +150,7 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
     """
 
     PHYSICS = dc
-    VARIABLES = driven_ports(DoubleCardanDriveline, (
-        output("omega_out", "rad/s", "Output shaft angular speed omega4 (a state)"),
-        output("phi_out", "rad", "Output shaft angle phi4, continuous over revolutions"),
-    ), (
-        output("twist", "rad", "Angle of twist of the intermediate shaft phi2 - phi3 (Omar Eq. 1, sign reversed)"),
-        output("dynamic_misalignment", "rad", "Dynamic angular misalignment phi added to both joint angles (Omar Eq. 3)"),
-        output("omega_intermediate", "rad/s", "Intermediate shaft angular speed at its joint-1 end, dphi2/dt"),
-        output("shaft_torque", "N.m", "Torque carried by the intermediate shaft, k_theta*twist + c_theta*dtwist/dt",
-               ("tau_in", "tau_load")),
-        output("stored_energy", "J", "Kinetic plus elastic energy of the driveline (J_drive not included)"),
-    ))
+    VARIABLES = driven_ports(DoubleCardanDriveline)
     DEFAULT_EXPERIMENT = DoubleCardanDriveline.DEFAULT_EXPERIMENT
 
     def check_parameters(self):

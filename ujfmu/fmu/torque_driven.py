@@ -18,11 +18,20 @@ from ..physics import rk4
 from .base import SPEED_RANGE, TORQUE_RANGE, UjfmuSlave, input_, output, parameter
 
 
-def driven_ports(speed_driven, first_outputs, joint_outputs):
-    """The VARIABLES of a torque-driven variant: speed_driven's parameters, then J_drive and omega_in_start, the
-    inputs tau_in and tau_load, the input shaft's outputs, then first_outputs and joint_outputs (Var tuples)."""
-    params = tuple(v for v in speed_driven.VARIABLES if v.causality == "parameter")
-    return params + (
+#: the input-shaft ports of the speed-driven originals, declared anew below with the other causality
+_INPUT_SHAFT = ("omega_in", "tau_in", "phi_in", "alpha_in")
+
+
+def driven_ports(speed_driven):
+    """The VARIABLES of the torque-driven variant of speed_driven (a UjfmuSlave class): its parameters, then
+    J_drive and omega_in_start, the inputs tau_in and tau_load, the input shaft's outputs, then its other outputs
+    as it declares them, with the direct feedthrough of this causality: an output that depends on tau_load in
+    speed_driven uses the acceleration and depends on tau_in and tau_load here; every other is a function of the
+    state (omega_in is a state)."""
+    declared = speed_driven.VARIABLES
+    others = tuple(output(v.name, v.unit, v.description, ("tau_in", "tau_load") if "tau_load" in v.depends_on else ())
+                   for v in declared if v.causality == "output" and v.name not in _INPUT_SHAFT)
+    return tuple(v for v in declared if v.causality == "parameter") + (
         parameter("J_drive", 1.0e-3, "kg.m2",
                   "Driver's rotor inertia lumped on the input shaft (e.g. the motor's J_rotor); tau_in acts on it",
                   min=0.0, max=1.0e3),
@@ -30,8 +39,7 @@ def driven_ports(speed_driven, first_outputs, joint_outputs):
         input_("tau_in", 0.0, "N.m",
                "Driving torque on the input shaft and the lumped rotor J_drive (e.g. the motor's air-gap torque)",
                **TORQUE_RANGE),
-        input_("tau_load", 0.0, "N.m", "Load torque on the output shaft (positive opposes its rotation)",
-               **TORQUE_RANGE),
+        next(v for v in declared if v.name == "tau_load"),
         output("omega_in", "rad/s", "Input shaft angular speed (a state: no direct feedthrough)"),
         output("phi_in", "rad", "Input shaft angle, continuous over revolutions"),
         output("alpha_in", "rad/s2", "Input shaft angular acceleration from the equations of motion",
@@ -39,7 +47,7 @@ def driven_ports(speed_driven, first_outputs, joint_outputs):
         output("tau_input_shaft", "N.m",
                "Torque the lumped rotor passes into the input shaft, tau_in - J_drive*alpha_in (what the "
                "speed-driven variant's tau_in output is)", ("tau_in", "tau_load")),
-    ) + first_outputs + joint_outputs
+    ) + others
 
 
 class TorqueDrivenSlave(UjfmuSlave):

@@ -2,6 +2,7 @@
 
 Over one communication step the input angle is phi(t) = phi0 + w0 t + alpha t^2 / 2 (speed extrapolated linearly
 from the host's omega_in and its backward difference); every other input is held.
+The torque-driven variants carry the input shaft in their state and use integrate_time with every input held.
 """
 
 import math
