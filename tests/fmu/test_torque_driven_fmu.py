@@ -93,3 +93,16 @@ def test_massless_input_shaft_is_refused(open_fmu, fmu, params, needle):
     with pytest.raises(FMICallException):
         inst.initialize(params)
     assert any(needle in msg and "allowed range" in msg for msg in inst._log), inst._log
+
+
+def test_a_torque_that_would_overspeed_the_input_shaft_within_the_step_is_refused(open_fmu):
+    """1e6 N.m on 1e-3 kg.m2 reaches 1e6 rad/s in 1 ms, past the 1e4 rad/s port range: fmi2Discard with a
+    message naming the cause, instead of 1e5 RK4 substeps of a meaningless motion."""
+    inst = open_fmu("CardanJointTorqueDriven")
+    inst.initialize(dict(J_drive=1e-3, J2=0.0))
+    inst.set(tau_in=1e6)
+    assert inst.raw("fmi2DoStep")(inst.slave.component, 0.0, H, 1) == 2
+    assert "tau_in = 1000000.0 N.m" in inst._log[-1] and "would reach" in inst._log[-1], inst._log[-1]
+    inst.set(tau_in=1.0)    # usable again with a sane torque
+    inst.slave.doStep(0.0, H)
+    assert inst.get("omega_in")[0] == pytest.approx(1.0 / (1e-3 + 2e-7) * H, rel=1e-12)

@@ -61,7 +61,13 @@ class TorqueDrivenSlave(UjfmuSlave):
 
     def advance(self, t, h):
         omega, alpha = self.rates(self._state)[:2]
-        n = rk4.substeps(self.rate_bound(abs(omega) + abs(alpha) * h), h)
+        reach = abs(omega) + abs(alpha) * h
+        if not reach <= SPEED_RANGE["max"]:
+            raise ValueError(f"tau_in = {self.tau_in!r} N.m and tau_load = {self.tau_load!r} N.m: the input shaft "
+                             f"would reach {reach:.6g} rad/s within the step (omega_in = {omega!r} rad/s, alpha_in = "
+                             f"{alpha!r} rad/s2), outside its allowed range [{SPEED_RANGE['min']:.10g}, "
+                             f"{SPEED_RANGE['max']:.10g}] rad/s: reduce the torques or the step, or check J_drive")
+        n = rk4.substeps(self.rate_bound(reach), h)
         state = tuple(rk4.integrate_time(lambda s, y: self.rates(y), self._state, h, n))
         if not all(math.isfinite(x) for x in state):
             raise ValueError(f"the state became non-finite over the step ({state!r})")
