@@ -113,9 +113,11 @@ class CardanJointTorqueDriven(TorqueDrivenSlave):
                             "kg.m2): the driving shaft needs an inertia to integrate")
         return problems
 
-    def initial_state(self):
+    def derive(self):
         self._frame = cardan.joint_frame(self.bend_angle, self.bend_plane_angle, self.error_angle_beta,
                                          self.error_angle_gamma)
+
+    def initial_state(self):
         return (self.phi_in_start, self.omega_in_start)
 
     def rates(self, state):

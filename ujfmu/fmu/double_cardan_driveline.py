@@ -160,30 +160,39 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
                             "(0, 2000] kg.m2): the input shaft needs an inertia to integrate")
         return problems
 
-    def initial_state(self):
+    def derive(self):
         self._p = DoubleCardanDriveline.driveline(self)
-        phi4 = dc.rigid_output_angle(self._p, self.phi_in_start)
+        self._natural_rate = 0.0 if self.rigid_intermediate_shaft else \
+            dc.natural_rate_bound(self._p, self.J_drive + self.I_input)
+
+    def initial_state(self):
+        """(phi1, omega1, phi4, omega4, phi, dphi); the last four stay 0 with a rigid shaft."""
         if self.rigid_intermediate_shaft:
-            self._natural_rate = 0.0
-            return (self.phi_in_start, self.omega_in_start)
-        self._natural_rate = dc.natural_rate_bound(self._p, self.J_drive + self.I_input)
+            return (self.phi_in_start, self.omega_in_start, 0.0, 0.0, 0.0, 0.0)
+        phi4 = dc.rigid_output_angle(self._p, self.phi_in_start)
         omega4 = dc.rigid_state(self._p, self.phi_in_start, self.omega_in_start, 0.0, 0.0)["omega4"]
         return (self.phi_in_start, self.omega_in_start, phi4, omega4, 0.0, 0.0)
 
     def rates(self, state):
+        if self.rigid_intermediate_shaft:
+            return dc.torque_driven_rates(self._p, self.J_drive, state[:2], self.tau_in, self.tau_load) + _AT_REST
         return dc.torque_driven_rates(self._p, self.J_drive, state, self.tau_in, self.tau_load)
 
     def rate_bound(self, omega_max):
         return self._natural_rate + 4.0 * omega_max
 
     def check_state(self, state):
-        if len(state) > 2:
-            _check_joint_angles(self, state[4])
+        _check_joint_angles(self, state[4])
 
     def compute_outputs(self):
         alpha1 = self.input_shaft_outputs()
         state = self._state
-        self.tau_input_shaft = _set_outputs(self, state[0], state[1], alpha1, state[2:] or None)
+        flexible = None if self.rigid_intermediate_shaft else state[2:]
+        self.tau_input_shaft = _set_outputs(self, state[0], state[1], alpha1, flexible)
+
+
+#: rates of the flexible entries of the torque-driven state, which a rigid shaft does not use
+_AT_REST = (0.0, 0.0, 0.0, 0.0)
 
 
 def _set_outputs(fmu, phi1, omega1, alpha1, state):

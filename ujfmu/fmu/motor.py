@@ -98,10 +98,13 @@ class MotorController(UjfmuSlave):
     check_parameters = Motor.check_parameters
     _reference = Motor._reference
 
-    def initialize(self, start_time):
-        self._time, self._integral = start_time, 0.0
+    def derive(self):
         self._params = (self.Kp, self.Ki, self.tau_max, self.profile, self.omega_set, self.accel, self.t_step,
                         self.omega_initial)
+
+    def initialize(self, start_time):
+        self.derive()
+        self._time, self._integral = start_time, 0.0
 
     def compute_outputs(self):
         self.omega_ref = self._reference(self._time)[0]

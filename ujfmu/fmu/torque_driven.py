@@ -51,12 +51,13 @@ def driven_ports(speed_driven):
 
 
 class TorqueDrivenSlave(UjfmuSlave):
-    """Base of the torque-driven FMUs. The model state is one tuple ``_state`` whose first two entries are the
-    input shaft's angle and speed; subclasses implement ``initial_state()``, ``rates(state)`` (its time
-    derivative at the current inputs), ``rate_bound(omega_max)`` (an upper bound of its fastest rate, for the
-    substeps) and ``compute_outputs()``."""
+    """Base of the torque-driven FMUs. The model state is one tuple of floats ``_state`` whose first two entries
+    are the input shaft's angle and speed; subclasses implement ``derive()`` (what follows from the parameters),
+    ``initial_state()``, ``rates(state)`` (its time derivative at the current inputs), ``rate_bound(omega_max)``
+    (an upper bound of its fastest rate, for the substeps) and ``compute_outputs()``."""
 
     def initialize(self, start_time):
+        self.derive()
         self._state = self.initial_state()
 
     def advance(self, t, h):
