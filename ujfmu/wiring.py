@@ -154,6 +154,14 @@ def measure(fmu_dir=DEFAULT_FMU_DIR, out=sys.stdout):
     j_input = pj["J_drive"] + pj["J1"] + pj["J2"] * math.cos(pj["bend_angle"]) ** 2
     row("torque-driven CardanJoint, h = 1 ms: Kp h / J_input",
         *limits(cardan, "motor.Kp", 8.8, 2000.0, None, 1.0, cardan.step_size / j_input, **{"motor.Ki": 10.0}))
+    # the heavy CardanJoint case behind a compliant flange: the flexible DoubleCardanDriveline with joint 2
+    # straight is joint 1, a torsional spring-damper (k_theta, c_theta = 0.002 s k_theta) and J2 as J_load
+    flange = with_changes(speed_driven_twin(double), {
+        "driveline.beta1": pj["bend_angle"], "driveline.beta2": 0.0, "driveline.yoke_phase": 0.0,
+        "driveline.J_load": pj["J2"], **{f"motor.{k}": v for k, v in cardan.components["motor"][1].items()},
+        "motor.J_rotor": pj["J_drive"], **{f"load.{k}": v for k, v in cardan.components["load"][1].items()}})
+    row("CardanJoint + compliant flange, h = 1 ms: k_theta [N.m/rad]",
+        *limits(flange, "driveline.k_theta", 10.0, 2e5, None, 1.0))
     # DoubleCardanDriveline: largest k_theta (speed-driven: an elastic tau_in, a compliant input flange)
     twin = speed_driven_twin(double)
     for h in (1e-3, 2.5e-4):
