@@ -92,7 +92,7 @@ def accuracy(scenario: Scenario, reference, engine: str, fmu_dir=DEFAULT_FMU_DIR
         return "diverged"
     errors = {"omega": 0.0, "tau": 0.0}
     for name in scenario.record:
-        ref_name = name.replace(".tau_in", ".tau_input_shaft")
+        ref_name = name[:-len(".tau_in")] + ".tau_input_shaft" if name.endswith(".tau_in") else name
         kind = next((k for k in errors if f".{k}" in name), None)
         if kind and ref_name in reference.dtype.names:
             y = np.interp(reference["time"], table["time"], table[name])
@@ -111,7 +111,7 @@ def stability_limit(stable, lo: float, hi: float, steps: int = 7) -> tuple:
     return lo, hi
 
 
-def measure(fmu_dir=DEFAULT_FMU_DIR, out=sys.stdout):
+def measure(fmu_dir=DEFAULT_FMU_DIR, out=sys.stdout) -> None:
     """Print the stability limits of docs/cosimulation.md, measured on the two bundled torque-driven scenarios
     and their speed-driven twins, in our master (ordered transfers) and libcosim (Jacobi)."""
     cardan = Scenario(SCENARIO_DIR / "cardan_heavy_torque_driven.toml")

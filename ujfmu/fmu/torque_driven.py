@@ -22,7 +22,7 @@ from .base import SPEED_RANGE, TORQUE_RANGE, UjfmuSlave, input_, output, paramet
 _INPUT_SHAFT = ("omega_in", "tau_in", "phi_in", "alpha_in")
 
 
-def driven_ports(speed_driven):
+def driven_ports(speed_driven: type) -> tuple:
     """The VARIABLES of the torque-driven variant of speed_driven (a UjfmuSlave class): its parameters, then
     J_drive and omega_in_start, the inputs tau_in and tau_load, the input shaft's outputs, then its other outputs
     as it declares them, with the direct feedthrough of this causality: an output that depends on tau_load in

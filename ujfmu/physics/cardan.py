@@ -116,7 +116,8 @@ def joint_torques(frame, theta1, omega1, alpha1, tau_load, j1, j2):
     return tau_in, m * en[0], m * en[1], m_z, r * omega1, alpha2
 
 
-def torque_driven_rates(frame, state, tau_drive, tau_load, j_drive, j1, j2):
+def torque_driven_rates(frame: tuple, state, tau_drive: float, tau_load: float, j_drive: float, j1: float,
+                        j2: float) -> tuple:
     """d/dt of (theta1, omega1) for the joint driven by a torque tau_drive on the driving shaft, which carries
     the driver's rotor inertia j_drive lumped with J1. Lagrange with T = (J_d + J1 + J2 r^2) omega1^2 / 2:
 

@@ -199,7 +199,7 @@ def flexible_outputs(p, phi1, omega1, alpha1, state):
             "omega2": r1 * omega1 + e1 * dphi, "energy": energy}
 
 
-def natural_rate_bound(p, input_inertia=math.inf):
+def natural_rate_bound(p: Driveline, input_inertia: float = math.inf) -> float:
     """An upper bound [1/s] of the fastest free motion of the flexible equations (oscillation + decay).
 
     input_inertia: a lower bound of the inertia on the input shaft when that shaft is free (torque-driven), which
@@ -232,7 +232,7 @@ def flexible_step(p, t_span, phi1, omega1, alpha1, state, tau_load, substeps):
 
 # --- torque-driven input shaft: phi1 is a state, the driver's rotor inertia J_d lumped on it -------------------
 
-def torque_driven_rates(p, j_drive, state, tau_drive, tau_load):
+def torque_driven_rates(p: Driveline, j_drive: float, state, tau_drive: float, tau_load: float) -> tuple:
     """d/dt of the state under a driving torque tau_drive on the input shaft (which carries J_d).
 
     Rigid shaft, state (phi1, w1): (J_d + J_eq) alpha1 = tau_drive - J_eq' w1^2 / 2 - rho tau_load, i.e.

@@ -80,7 +80,7 @@ def pi_motor_step(t, h, state, tau_load, p):
     return phi, omega, integral
 
 
-def controller_step(t, h, integral, omega, p):
+def controller_step(t: float, h: float, integral: float, omega: float, p: tuple) -> float:
     """Advance the PI controller's integral over [t, t+h] with the measured speed omega held (a sampled speed
     controller without a rotor of its own): dI/dt of :func:`pi_torque` with e = omega_ref(t) - omega, one RK4
     step (exact while unsaturated: e is linear in t between the profile's corners).

@@ -39,7 +39,7 @@ def integrate(derivatives, y, t_span, n, phi0, w0, alpha):
     return integrate_time(rates, y, t_span, n)
 
 
-def integrate_time(rates, y, t_span, n):
+def integrate_time(rates, y, t_span: float, n: int) -> list:
     """Advance y over t_span with n classical RK4 substeps of y' = rates(t, y), t counted from the step's start."""
     h = t_span / n
     t = 0.0

@@ -102,7 +102,7 @@ def components_with_loads(scenario, fmu):
     return [(c, load_of.get(c)) for c, (name, _) in scenario.components.items() if name == fmu]
 
 
-def drive(scenario, motor, machine):
+def drive(scenario, motor: str, machine: str) -> tuple:
     """(motor parameters, driver inertia, input speed at the start, torque_driven) of a motor driving machine.
 
     Speed-driven wiring: a Motor with its rotor J_rotor, starting at its reference speed. Torque-driven wiring:
@@ -115,7 +115,7 @@ def drive(scenario, motor, machine):
     return pm, pm["J_rotor"], float(profile(pm, t0)[0][0]), False
 
 
-def input_shaft_columns(machine, torque_driven, omega, phi, alpha, tau_in):
+def input_shaft_columns(machine: str, torque_driven: bool, omega, phi, alpha, tau_in) -> dict:
     """The machine's recorded input-shaft signals; in the torque-driven wiring tau_in (the torque into the input
     shaft) is called tau_input_shaft."""
     cols = {f"{machine}.phi_in": phi}
