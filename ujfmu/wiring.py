@@ -43,7 +43,7 @@ def speed_driven_twin(scenario: Scenario) -> Scenario:
     twin.connections = [c for c in scenario.connections if c.source not in drive] + [
         Connection(f"{motor}.omega", f"{joint}.omega_in"), Connection(f"{joint}.tau_in", f"{motor}.tau_load")]
     twin.record = [n.replace(".tau_input_shaft", ".tau_in") for n in scenario.record]
-    twin.tolerances, twin.reference_file = {}, None
+    twin.tolerances, twin.extrapolated_tolerances, twin.not_compared, twin.reference_file = {}, {}, {}, None
     return twin
 
 

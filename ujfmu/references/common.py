@@ -5,7 +5,7 @@ import time
 from contextlib import contextmanager
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy.integrate import cumulative_simpson, solve_ivp
 
 
 def profile(p, t):
@@ -115,13 +115,37 @@ def drive(scenario, motor: str, machine: str) -> tuple:
     return pm, pm["J_rotor"], float(profile(pm, t0)[0][0]), False
 
 
-def input_shaft_columns(machine: str, torque_driven: bool, omega, phi, alpha, tau_in) -> dict:
-    """The machine's recorded input-shaft signals; in the torque-driven wiring tau_in (the torque into the input
-    shaft) is called tau_input_shaft."""
-    cols = {f"{machine}.phi_in": phi}
-    if torque_driven:
-        cols.update({f"{machine}.omega_in": omega, f"{machine}.alpha_in": alpha,
-                     f"{machine}.tau_input_shaft": tau_in})
-    else:
-        cols[f"{machine}.tau_in"] = tau_in
-    return cols
+def torque_driven_names(machine: str, columns: dict) -> dict:
+    """columns (named as in the speed-driven wiring) with the torque-driven machine's names: its input speed
+    omega_in (the motor's speed) and tau_input_shaft (the torque into its input shaft, the speed-driven tau_in)."""
+    renamed = dict(columns)
+    renamed[f"{machine}.tau_input_shaft"] = renamed.pop(f"{machine}.tau_in")
+    renamed[f"{machine}.omega_in"] = columns["motor.omega"]
+    return renamed
+
+
+class ReferenceCheckError(AssertionError):
+    """A reference violates its own conservation law or closed-form limit (it is not written)."""
+
+
+def work(t: np.ndarray, power: np.ndarray) -> np.ndarray:
+    """Cumulative integral of power over the grid t from t[0] (Simpson's rule), e.g. the work of a torque."""
+    return cumulative_simpson(np.asarray(power, dtype=float), x=t, initial=0.0)
+
+
+def check_close(scenario, what: str, actual, expected, scale: float, rtol: float) -> float:
+    """ReferenceCheckError naming the scenario and the law unless max |actual - expected| <= rtol * scale;
+    returns the deviation relative to scale."""
+    deviation = float(np.max(np.abs(np.asarray(actual) - np.asarray(expected))))
+    if not deviation <= rtol * scale:
+        raise ReferenceCheckError(f"{scenario.path}: reference self-check failed: {what}: max deviation "
+                                  f"{deviation:.3g} > {rtol:g} x {scale:.3g}")
+    return deviation / scale
+
+
+def check_energy_balance(scenario, what: str, t: np.ndarray, stored, power_in, power_out, rtol: float) -> float:
+    """Energy balance stored(t) - stored(t0) = integral of (power_in - power_out) dt; the scale is the larger of
+    the largest stored energy and the largest work put in."""
+    supplied = work(t, power_in)
+    scale = max(float(np.max(np.abs(stored))), float(np.max(np.abs(supplied))), 1e-300)
+    return check_close(scenario, what, stored - stored[0], supplied - work(t, power_out), scale, rtol)
