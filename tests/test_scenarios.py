@@ -11,9 +11,10 @@ from ujfmu.scenario import Scenario
 from ujfmu.scenario_run import compare, run_scenario
 
 SCENARIOS = sorted((Path(__file__).parents[1] / "scenarios").glob("*.toml"))
-#: (speeds, other signals) libcosim-vs-ours bands of the torque-driven scenarios, measured 0.26% / 11% and
-#: 0.35% / 5.9% at 1 ms (one more step of controller delay in libcosim's Jacobi transfers)
-LIBCOSIM_GAP = {"cardan_heavy_torque_driven": (0.004, 0.13), "double_cardan_stiff_torque_driven": (0.005, 0.07)}
+#: (speeds, other signals) libcosim-vs-ours bands where the defaults do not hold: the torque-driven heavy Cardan
+#: case, where the sampled controller sees the speed one step later than in ours (torques 11% of their range at
+#: 1 ms, 5.3% beyond one step's change)
+LIBCOSIM_GAP = {"cardan_heavy_torque_driven": (0.001, 0.07)}
 
 
 @pytest.fixture(scope="module")

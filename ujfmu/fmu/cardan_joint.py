@@ -104,6 +104,8 @@ class CardanJointTorqueDriven(TorqueDrivenSlave):
 
     PHYSICS = cardan
     VARIABLES = driven_ports(CardanJoint)
+    STATE = {"_state": "float[2]"}   # (theta1, omega1)
+    DERIVED = ("_frame",)
     DEFAULT_EXPERIMENT = CardanJoint.DEFAULT_EXPERIMENT
 
     def check_parameters(self):

@@ -151,6 +151,8 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
 
     PHYSICS = dc
     VARIABLES = driven_ports(DoubleCardanDriveline)
+    STATE = {"_state": "float[6]"}   # (phi1, omega1, phi4, omega4, phi, dphi)
+    DERIVED = ("_p", "_natural_rate")
     DEFAULT_EXPERIMENT = DoubleCardanDriveline.DEFAULT_EXPERIMENT
 
     def check_parameters(self):

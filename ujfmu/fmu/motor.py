@@ -95,6 +95,8 @@ class MotorController(UjfmuSlave):
         output("omega_ref", "rad/s", "Reference speed of the profile"),
     )
     DEFAULT_EXPERIMENT = Motor.DEFAULT_EXPERIMENT
+    STATE = {"_time": "float", "_integral": "float"}
+    DERIVED = ("_params",)
     check_parameters = Motor.check_parameters
     _reference = Motor._reference
 

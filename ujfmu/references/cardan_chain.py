@@ -127,18 +127,18 @@ def generate(scenario):
         "joint.omega_out": w2, "joint.phi_out": theta2, "joint.tau_in": tau_in, "joint.phi_in": theta1,
         "joint.M_x": m_x, "joint.M_y": m_y, "joint.M_z": m_z, "load.tau": tau_load, "joint.alpha_in": a1,
     }
-    self_check(scenario, t, columns, jm)
+    self_check(scenario, t, columns)
     if torque_driven:
         columns = torque_driven_names("joint", columns)
     table = record_table(scenario, t, columns)
     return table, f"ujfmu.references.cardan_chain: {how}. Regenerate: ujfmu references"
 
 
-def self_check(scenario, t: np.ndarray, columns: dict, j_motor: float) -> None:
+def self_check(scenario, t: np.ndarray, columns: dict) -> None:
     """The reference's own laws, checked before it is written (ReferenceCheckError otherwise):
 
-    - energy: (J_m + J1) w1^2/2 + J2 w2^2/2 (J_m = j_motor, the rotor inertia) changes by the work of tau_motor
-      on w1 less that of the load on w2
+    - energy: (J_m + J1) w1^2/2 + J2 w2^2/2 (J_m the rotor inertia: Motor's J_rotor, or the torque-driven joint's
+      J_drive) changes by the work of tau_motor on w1 less that of the load on w2
       (checks the Lagrange equation, its r r' term and the solve);
     - torque balance about the driving axis: M . K = tau_in - J1 alpha1 (the moment vector of Eq. 10, built from
       cross products, against the torque built from the sympy velocity ratio);
@@ -146,7 +146,7 @@ def self_check(scenario, t: np.ndarray, columns: dict, j_motor: float) -> None:
     columns: 'motor.omega', 'motor.tau_motor', 'joint.omega_out', 'joint.phi_in', 'joint.alpha_in',
     'joint.tau_in', 'joint.M_x', 'joint.M_y', 'joint.M_z', 'load.tau' on the grid t.
     """
-    pj = scenario.parameters_with_defaults("joint")
+    pj, j_motor = scenario.parameters_with_defaults("joint"), drive(scenario, "motor", "joint")[1]
     c = columns
     w1, w2 = c["motor.omega"], c["joint.omega_out"]
     stored = 0.5 * (j_motor + pj["J1"]) * w1 ** 2 + 0.5 * pj["J2"] * w2 ** 2
