@@ -52,12 +52,11 @@ def driven_ports(speed_driven: type) -> tuple:
 
 class TorqueDrivenSlave(UjfmuSlave):
     """Base of the torque-driven FMUs. The model state is one tuple of floats ``_state`` whose first two entries
-    are the input shaft's angle and speed; subclasses implement ``derive()`` (what follows from the parameters),
+    are the input shaft's angle and speed (STATE); subclasses implement ``derive()`` (the DERIVED attributes),
     ``initial_state()``, ``rates(state)`` (its time derivative at the current inputs), ``rate_bound(omega_max)``
     (an upper bound of its fastest rate, for the substeps) and ``compute_outputs()``."""
 
     def initialize(self, start_time):
-        self.derive()
         self._state = self.initial_state()
 
     def advance(self, t, h):
