@@ -31,6 +31,9 @@ FMUS = {
     "DoubleCardanDriveline": ("double_cardan_driveline", "DoubleCardanDriveline"),
     "TwinJeffcottRotor": ("twin_jeffcott_rotor", "TwinJeffcottRotor"),
     "RingCoupling": ("ring_coupling", "RingCoupling"),
+    "CardanJointTorqueDriven": ("cardan_joint", "CardanJointTorqueDriven"),
+    "DoubleCardanDrivelineTorqueDriven": ("double_cardan_driveline", "DoubleCardanDrivelineTorqueDriven"),
+    "MotorController": ("motor", "MotorController"),
 }
 
 #: unit -> ((kg, m, s, rad) exponents, {display unit: factor})

@@ -10,6 +10,7 @@ INPUTS = {
     "omega_in": lambda t: 40.0 + 30.0 * t + 3.0 * math.sin(17.0 * t),
     "tau_load": lambda t: 0.2 + 0.1 * math.cos(11.0 * t),
     "omega": lambda t: 40.0 + 30.0 * t,
+    "tau_in": lambda t: 0.5 + 0.2 * math.sin(13.0 * t),   # driving torque of the torque-driven variants
 }
 
 

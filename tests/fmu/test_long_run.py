@@ -27,7 +27,13 @@ def rss_mb():
     return int(Path("/proc/self/statm").read_text().split()[1]) * 4096 / 2**20
 
 
-@pytest.mark.parametrize("name", list(FMUS))
+#: the torque-driven variants and their controller have no periodic steady state under constant inputs (the
+#: input shaft accelerates unless tau_in balances the load exactly); their integrated angles and states use the
+#: same RK4 and plain sums as the flexible models here, and 10^6 more steps each would cost ~30 s of suite time
+NO_STEADY_STATE = {"CardanJointTorqueDriven", "DoubleCardanDrivelineTorqueDriven", "MotorController"}
+
+
+@pytest.mark.parametrize("name", [n for n in FMUS if n not in NO_STEADY_STATE])
 def test_a_million_steps_repeat_the_steady_state_without_drift_slowdown_or_growth(fmu_dir, name):
     inst = open_instance(fmu_dir, name, [], "long")
     md = inst.md

@@ -4,6 +4,7 @@ import math
 
 from ..physics import cardan
 from .base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
+from .torque_driven import TorqueDrivenSlave, driven_ports
 
 _ANGLE = dict(min=-cardan.MAX_ANGLE, max=cardan.MAX_ANGLE)
 _INERTIA = dict(min=0.0, max=1.0e3)
@@ -90,3 +91,49 @@ class CardanJoint(PrescribedInputSlave):
 
     def advance(self, t, h):
         self.advance_input(h, self.input_acceleration())
+
+
+class CardanJointTorqueDriven(TorqueDrivenSlave):
+    """Torque-driven CardanJoint: driving torque tau_in in, input shaft speed omega_in out (stable in explicit hosts).
+
+    The same joint as CardanJoint (Feng, Wang, Zhu Eqs. 1-10), with the driving shaft free: its angle and speed
+    are a state integrated from (J_drive + J1 + J2 r^2) alpha1 = tau_in - J2 r r' omega1^2 - r tau_load
+    (ujfmu.physics.cardan.torque_driven_rates), J_drive the driver's rotor inertia lumped on the driving shaft,
+    tau_in and tau_load held over each step (classical RK4, substeps from the kinematic harmonics 4|omega1|).
+    Outputs as CardanJoint's; tau_input_shaft = tau_in - J_drive*alpha1 is what CardanJoint calls tau_in.
+    Wire it to MotorController (tau_motor -> tau_in, omega_in -> omega) and a Load (omega_out -> omega,
+    tau -> tau_load). Signs as CardanJoint's.
+    """
+
+    PHYSICS = cardan
+    VARIABLES = driven_ports(CardanJoint)
+    STATE = {"_state": "float[2]"}   # (theta1, omega1)
+    DERIVED = ("_frame",)
+    DEFAULT_EXPERIMENT = CardanJoint.DEFAULT_EXPERIMENT
+
+    def check_parameters(self):
+        problems = CardanJoint.check_parameters(self)
+        if not self.J_drive + self.J1 > 0.0:
+            problems.append(f"J_drive + J1 = {self.J_drive + self.J1!r} kg.m2 must be > 0 (allowed range (0, 2000] "
+                            "kg.m2): the driving shaft needs an inertia to integrate")
+        return problems
+
+    def derive(self):
+        self._frame = cardan.joint_frame(self.bend_angle, self.bend_plane_angle, self.error_angle_beta,
+                                         self.error_angle_gamma)
+
+    def initial_state(self):
+        return (self.phi_in_start, self.omega_in_start)
+
+    def rates(self, state):
+        return cardan.torque_driven_rates(self._frame, state, self.tau_in, self.tau_load, self.J_drive, self.J1,
+                                          self.J2)
+
+    def rate_bound(self, omega_max):
+        return 4.0 * omega_max
+
+    def compute_outputs(self):
+        alpha1 = self.input_shaft_outputs()
+        (self.tau_input_shaft, self.M_x, self.M_y, self.M_z, self.omega_out, _) = cardan.joint_torques(
+            self._frame, self.phi_in, self.omega_in, alpha1, self.tau_load, self.J1, self.J2)
+        self.phi_out = cardan.driven_angle(self._frame, self.phi_in)

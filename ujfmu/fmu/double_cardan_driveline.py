@@ -4,6 +4,7 @@ import math
 
 from ..physics import double_cardan as dc
 from .base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
+from .torque_driven import TorqueDrivenSlave, driven_ports
 
 _ANGLE = dict(min=-dc.MAX_ANGLE, max=dc.MAX_ANGLE)
 _PHASE = dict(min=-2.0 * math.pi, max=2.0 * math.pi)
@@ -94,10 +95,14 @@ class DoubleCardanDriveline(PrescribedInputSlave):
                             "(allowed range (0, 1000] kg.m2; 0 only with rigid_intermediate_shaft = true)")
         return problems
 
+    def driveline(self):
+        """The parameters as a ujfmu.physics.double_cardan.Driveline."""
+        return dc.Driveline(self.beta1, self.beta2, self.yoke_phase, self.joint_plane_angle, self.I_input,
+                            self.I_cross_pin, self.I_cross_normal, self.I_intermediate, self.J_load,
+                            self.k_theta, self.xi_theta, self.m_s, self.k_phi, self.xi_phi, self.L_c)
+
     def derive(self):
-        self._p = dc.Driveline(self.beta1, self.beta2, self.yoke_phase, self.joint_plane_angle, self.I_input,
-                               self.I_cross_pin, self.I_cross_normal, self.I_intermediate, self.J_load,
-                               self.k_theta, self.xi_theta, self.m_s, self.k_phi, self.xi_phi, self.L_c)
+        self._p = self.driveline()
         self._natural_rate = 0.0 if self.rigid_intermediate_shaft else dc.natural_rate_bound(self._p)
 
     def initialize(self, start_time):
@@ -114,17 +119,8 @@ class DoubleCardanDriveline(PrescribedInputSlave):
 
     def compute_outputs(self):
         alpha1 = self.input_acceleration()
-        if self.rigid_intermediate_shaft:
-            out = dc.rigid_state(self._p, self._phi_in, self.omega_in, alpha1, self.tau_load)
-            self.phi_out, self.omega_out = out["phi4"], out["omega4"]
-            self.twist = self.dynamic_misalignment = 0.0
-        else:
-            state = self._flexible_state()
-            out = dc.flexible_outputs(self._p, self._phi_in, self.omega_in, alpha1, state)
-            self.phi_out, self.omega_out, self.dynamic_misalignment = state[0], state[1], state[2]
-            self.twist = out["twist"]
-        self.tau_in, self.shaft_torque = out["tau_in"], out["shaft_torque"]
-        self.omega_intermediate, self.stored_energy = out["omega2"], out["energy"]
+        state = None if self.rigid_intermediate_shaft else self._flexible_state()
+        self.tau_in = _set_outputs(self, self._phi_in, self.omega_in, alpha1, state)
         self.phi_in, self.alpha_in = self._phi_in, alpha1
 
     def advance(self, t, h):
@@ -136,9 +132,93 @@ class DoubleCardanDriveline(PrescribedInputSlave):
                                      self.tau_load, n)
             if not all(math.isfinite(x) for x in state):
                 raise ValueError(f"the state became non-finite over the step ({state!r})")
-            for name, angle in (("beta1", self.beta1 + state[2]), ("beta2", self.beta2 + self._p.cos_plane * state[2])):
-                if abs(angle) > dc.MAX_ANGLE:
-                    raise ValueError(f"joint angle {name} + dynamic misalignment = {angle!r} rad left its allowed "
-                                     f"range [{-dc.MAX_ANGLE:.10g}, {dc.MAX_ANGLE:.10g}] rad")
+            _check_joint_angles(self, state[2])
             self._state, self._started = state, True
         self.advance_input(h, alpha1)
+
+
+class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
+    """Torque-driven DoubleCardanDriveline: driving torque tau_in in, input shaft speed omega_in out (stable in
+    explicit hosts).
+
+    The same driveline as DoubleCardanDriveline (rigid: Brutti et al.; flexible: Omar et al.), with the input
+    shaft free: its angle and speed join the state, integrated with the driver's rotor inertia J_drive lumped on
+    the input shaft (ujfmu.physics.double_cardan.torque_driven_rates): rigid, (J_drive + J_eq) alpha1 =
+    tau_in - J_eq' omega1^2/2 - rho tau_load; flexible, (J_drive + J_in) alpha1 = tau_in - J_in' omega1^2/2 -
+    r1 (k_theta twist + c_theta dtwist), with the output and lateral equations unchanged. tau_in and tau_load are
+    held over each step (classical RK4, substeps from the torsional mode of both shaft ends and 4|omega1|). The
+    driveline starts untwisted at omega_in_start, the output at the kinematic speed. Outputs as
+    DoubleCardanDriveline's; tau_input_shaft = tau_in - J_drive*alpha1 is what DoubleCardanDriveline calls tau_in.
+    Wire it to MotorController (tau_motor -> tau_in, omega_in -> omega) and a Load. Signs as
+    DoubleCardanDriveline's.
+    """
+
+    PHYSICS = dc
+    VARIABLES = driven_ports(DoubleCardanDriveline)
+    STATE = {"_state": "float[6]"}   # (phi1, omega1, phi4, omega4, phi, dphi)
+    DERIVED = ("_p", "_natural_rate")
+    DEFAULT_EXPERIMENT = DoubleCardanDriveline.DEFAULT_EXPERIMENT
+
+    def check_parameters(self):
+        problems = DoubleCardanDriveline.check_parameters(self)
+        if not self.J_drive + self.I_input > 0.0:
+            problems.append(f"J_drive + I_input = {self.J_drive + self.I_input!r} kg.m2 must be > 0 (allowed range "
+                            "(0, 2000] kg.m2): the input shaft needs an inertia to integrate")
+        return problems
+
+    def derive(self):
+        self._p = DoubleCardanDriveline.driveline(self)
+        self._natural_rate = 0.0 if self.rigid_intermediate_shaft else \
+            dc.natural_rate_bound(self._p, self.J_drive + self.I_input)
+
+    def initial_state(self):
+        """(phi1, omega1, phi4, omega4, phi, dphi); the last four stay 0 with a rigid shaft."""
+        if self.rigid_intermediate_shaft:
+            return (self.phi_in_start, self.omega_in_start, 0.0, 0.0, 0.0, 0.0)
+        phi4 = dc.rigid_output_angle(self._p, self.phi_in_start)
+        omega4 = dc.rigid_state(self._p, self.phi_in_start, self.omega_in_start, 0.0, 0.0)["omega4"]
+        return (self.phi_in_start, self.omega_in_start, phi4, omega4, 0.0, 0.0)
+
+    def rates(self, state):
+        if self.rigid_intermediate_shaft:
+            return dc.torque_driven_rates(self._p, self.J_drive, state[:2], self.tau_in, self.tau_load) + _AT_REST
+        return dc.torque_driven_rates(self._p, self.J_drive, state, self.tau_in, self.tau_load)
+
+    def rate_bound(self, omega_max):
+        return self._natural_rate + 4.0 * omega_max
+
+    def check_state(self, state):
+        _check_joint_angles(self, state[4])
+
+    def compute_outputs(self):
+        alpha1 = self.input_shaft_outputs()
+        state = self._state
+        flexible = None if self.rigid_intermediate_shaft else state[2:]
+        self.tau_input_shaft = _set_outputs(self, state[0], state[1], alpha1, flexible)
+
+
+#: rates of the flexible entries of the torque-driven state, which a rigid shaft does not use
+_AT_REST = (0.0, 0.0, 0.0, 0.0)
+
+
+def _set_outputs(fmu, phi1, omega1, alpha1, state):
+    """Set fmu's output-shaft and intermediate-shaft outputs at input motion (phi1, omega1, alpha1) and flexible
+    state (phi4, w4, phi, dphi), None for the rigid shaft; returns the torque at the input shaft (tau_in)."""
+    if state is None:
+        out = dc.rigid_state(fmu._p, phi1, omega1, alpha1, fmu.tau_load)
+        fmu.phi_out, fmu.omega_out = out["phi4"], out["omega4"]
+        fmu.twist = fmu.dynamic_misalignment = 0.0
+    else:
+        out = dc.flexible_outputs(fmu._p, phi1, omega1, alpha1, state)
+        fmu.phi_out, fmu.omega_out, fmu.dynamic_misalignment = state[0], state[1], state[2]
+        fmu.twist = out["twist"]
+    fmu.shaft_torque, fmu.omega_intermediate, fmu.stored_energy = out["shaft_torque"], out["omega2"], out["energy"]
+    return out["tau_in"]
+
+
+def _check_joint_angles(fmu, phi):
+    """ValueError when a joint angle plus the dynamic misalignment phi leaves [-MAX_ANGLE, MAX_ANGLE]."""
+    for name, angle in (("beta1", fmu.beta1 + phi), ("beta2", fmu.beta2 + fmu._p.cos_plane * phi)):
+        if abs(angle) > dc.MAX_ANGLE:
+            raise ValueError(f"joint angle {name} + dynamic misalignment = {angle!r} rad left its allowed "
+                             f"range [{-dc.MAX_ANGLE:.10g}, {dc.MAX_ANGLE:.10g}] rad")

@@ -78,3 +78,44 @@ class Motor(UjfmuSlave):
             n = motor.controller_substeps(h, self.J_rotor, self.Kp, self.Ki)
             self._state = motor.pi_motor_step(t, h, self._state, self.tau_load, self._params + (n,))
         self._time = t + h
+
+
+class MotorController(UjfmuSlave):
+    """Motor drive without its rotor, for the torque-driven joints: measured speed in, drive torque out.
+
+    The Motor's PI speed controller, torque limit and speed profiles (ujfmu.physics.motor):
+    tau_motor = clamp(Kp*e + Ki*I, -tau_max, tau_max), e = omega_ref(t) - omega, conditional-integration
+    anti-windup, with omega the speed the host passes in (held over a step: a sampled speed controller). The
+    rotor inertia belongs to the driven model: set the torque-driven joint's J_drive to the motor's J_rotor and
+    connect tau_motor -> tau_in, omega_in -> omega. The integral starts at 0.
+    Signs as Motor's: tau_motor > 0 drives in the direction of rotation.
+    """
+
+    PHYSICS = motor
+    VARIABLES = tuple(v for v in Motor.VARIABLES
+                      if v.causality == "parameter" and v.name not in ("J_rotor", "ideal_speed_source")) + (
+        input_("omega", 0.0, "rad/s", "Measured rotor speed (the torque-driven joint's omega_in)", **_SPEED),
+        output("tau_motor", "N.m", "Drive torque on the rotor", ("omega",)),
+        output("omega_ref", "rad/s", "Reference speed of the profile"),
+    )
+    DEFAULT_EXPERIMENT = Motor.DEFAULT_EXPERIMENT
+    STATE = {"_time": "float", "_integral": "float"}
+    DERIVED = ("_params",)
+    check_parameters = Motor.check_parameters
+    _reference = Motor._reference
+
+    def derive(self):
+        self._params = (self.Kp, self.Ki, self.tau_max, self.profile, self.omega_set, self.accel, self.t_step,
+                        self.omega_initial)
+
+    def initialize(self, start_time):
+        self._time, self._integral = start_time, 0.0
+
+    def compute_outputs(self):
+        self.omega_ref = self._reference(self._time)[0]
+        self.tau_motor = motor.pi_torque(self.omega_ref - self.omega, self._integral, self.Kp, self.Ki,
+                                         self.tau_max)[0]
+
+    def advance(self, t, h):
+        self._integral = motor.controller_step(t, h, self._integral, self.omega, self._params)
+        self._time = t + h

@@ -116,6 +116,21 @@ def joint_torques(frame, theta1, omega1, alpha1, tau_load, j1, j2):
     return tau_in, m * en[0], m * en[1], m_z, r * omega1, alpha2
 
 
+def torque_driven_rates(frame: tuple, state, tau_drive: float, tau_load: float, j_drive: float, j1: float,
+                        j2: float) -> tuple:
+    """d/dt of (theta1, omega1) for the joint driven by a torque tau_drive on the driving shaft, which carries
+    the driver's rotor inertia j_drive lumped with J1. Lagrange with T = (J_d + J1 + J2 r^2) omega1^2 / 2:
+
+        (J_d + J1 + J2 r^2) alpha1 = tau_drive - J2 r r' omega1^2 - r tau_load
+
+    i.e. tau_drive = J_d alpha1 + tau_in(alpha1) with tau_in of :func:`joint_torques`, which is affine in alpha1.
+    """
+    theta1, omega1 = state
+    r = velocity_ratio(frame, theta1)
+    tau_at_rest = joint_torques(frame, theta1, omega1, 0.0, tau_load, j1, j2)[0]
+    return omega1, (tau_drive - tau_at_rest) / (j_drive + j1 + j2 * r * r)
+
+
 def _rot_x(t):
     c, s = math.cos(t), math.sin(t)
     return ((1.0, 0.0, 0.0), (0.0, c, -s), (0.0, s, c))

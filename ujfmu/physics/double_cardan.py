@@ -120,7 +120,8 @@ def rigid_state(p, phi1, omega1, alpha1, tau_load):
         J_eq = J_in + J_out rho^2,   rho = dphi4/dphi1 = r1 / r2,
     and Lagrange with the load's virtual work (-tau_load dphi4):
         tau_in = J_eq alpha1 + J_eq' w1^2 / 2 + rho tau_load.
-    Returns dict: phi2, phi4, omega2, omega4, tau_in, shaft_torque (at the middle of the intermediate shaft), energy.
+    Returns dict: phi2, phi4, omega2, omega4, tau_in, shaft_torque (at the middle of the intermediate shaft), energy,
+    inertia (J_eq).
     """
     phi2 = phi1 + joint_error(phi1, p.beta1)
     phi4 = joint_inverse(phi2 + p.delta, p.beta2) - p.delta
@@ -136,7 +137,7 @@ def rigid_state(p, phi1, omega1, alpha1, tau_load):
     tau_in = j_eq * alpha1 + 0.5 * dj_eq * w2 + rho * tau_load
     shaft = (tau_in - j_in * alpha1 - 0.5 * dj_in * w2) / r1
     return {"phi2": phi2, "phi4": phi4, "omega2": r1 * omega1, "omega4": rho * omega1, "tau_in": tau_in,
-            "shaft_torque": shaft, "energy": 0.5 * j_eq * w2}
+            "shaft_torque": shaft, "energy": 0.5 * j_eq * w2, "inertia": j_eq}
 
 
 # --- flexible intermediate shaft (Omar, Eqs. 16-19 re-derived): states phi4, w4, phi, dphi ----------------------
@@ -164,14 +165,19 @@ def flexible_derivatives(p, phi1, omega1, state, tau_load):
         J_out dw4/dt = r2 (k_theta twist + c_theta dtwist) - J_out' w4^2 / 2 - tau_load
         M_lat d2phi/dt2 = -(L_c cos beta1)^2 (c_phi dphi + k_phi phi) - g (k_theta twist + c_theta dtwist)
     """
+    return _flexible_rates(p, phi1, omega1, state, tau_load)[0]
+
+
+def _flexible_rates(p, phi1, omega1, state, tau_load):
+    """(flexible_derivatives, r1, shaft torque k_theta twist + c_theta dtwist)."""
     phi4, omega4, phi, dphi = state
-    twist, dtwist, _, r2, g, _ = flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi)
+    twist, dtwist, r1, r2, g, _ = flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi)
     shaft = p.k_theta * twist + p.c_theta * dtwist
     j_out, dj_out = output_inertia(p, phi4)
     return (omega4,
             (r2 * shaft - 0.5 * dj_out * omega4 * omega4 - tau_load) / j_out,
             dphi,
-            -(p.c_phi * dphi + p.k_phi * phi) / p.m_s - g * shaft / p.m_lat)
+            -(p.c_phi * dphi + p.k_phi * phi) / p.m_s - g * shaft / p.m_lat), r1, shaft
 
 
 def flexible_outputs(p, phi1, omega1, alpha1, state):
@@ -193,14 +199,18 @@ def flexible_outputs(p, phi1, omega1, alpha1, state):
             "omega2": r1 * omega1 + e1 * dphi, "energy": energy}
 
 
-def natural_rate_bound(p):
-    """An upper bound [1/s] of the fastest free motion of the flexible equations (oscillation + decay)."""
+def natural_rate_bound(p: Driveline, input_inertia: float = math.inf) -> float:
+    """An upper bound [1/s] of the fastest free motion of the flexible equations (oscillation + decay).
+
+    input_inertia: a lower bound of the inertia on the input shaft when that shaft is free (torque-driven), which
+    adds its side of the torsional mode, k_theta r^2 (1/J_out + 1/J_in); inf for a prescribed input shaft.
+    """
     r_max = 1.0 / min(math.cos(p.beta1), math.cos(p.beta2))  # dy/dx <= 1/cos b
     g_max = 0.5 * (  # |dy/db| <= tan b / (2 cos b)
                    abs(math.tan(p.beta1)) / math.cos(p.beta1) + abs(math.tan(p.beta2)) / math.cos(p.beta2))
-    j_min = p.j_load
-    oscillation = math.sqrt(p.k_theta * r_max * r_max / j_min + p.k_phi / p.m_s + p.k_theta * g_max ** 2 / p.m_lat)
-    decay = p.c_theta * r_max * r_max / j_min + p.c_phi / p.m_s + p.c_theta * g_max ** 2 / p.m_lat
+    inv_j = 1.0 / p.j_load + 1.0 / input_inertia
+    oscillation = math.sqrt(p.k_theta * r_max * r_max * inv_j + p.k_phi / p.m_s + p.k_theta * g_max ** 2 / p.m_lat)
+    decay = p.c_theta * r_max * r_max * inv_j + p.c_phi / p.m_s + p.c_theta * g_max ** 2 / p.m_lat
     return oscillation + decay
 
 
@@ -218,3 +228,23 @@ def flexible_step(p, t_span, phi1, omega1, alpha1, state, tau_load, substeps):
     def derivatives(phi, w, y):
         return flexible_derivatives(p, phi, w, y, tau_load)
     return tuple(rk4.integrate(derivatives, state, t_span, substeps, phi1, omega1, alpha1))
+
+
+# --- torque-driven input shaft: phi1 is a state, the driver's rotor inertia J_d lumped on it -------------------
+
+def torque_driven_rates(p: Driveline, j_drive: float, state, tau_drive: float, tau_load: float) -> tuple:
+    """d/dt of the state under a driving torque tau_drive on the input shaft (which carries J_d).
+
+    Rigid shaft, state (phi1, w1): (J_d + J_eq) alpha1 = tau_drive - J_eq' w1^2 / 2 - rho tau_load, i.e.
+    tau_drive = J_d alpha1 + tau_in(alpha1) with tau_in of :func:`rigid_state`, affine in alpha1.
+    Flexible shaft, state (phi1, w1, phi4, w4, phi, dphi): Lagrange's phi1 equation of the T, P, D above,
+        (J_d + J_in) alpha1 = tau_drive - J_in' w1^2 / 2 - r1 (k_theta twist + c_theta dtwist),
+    and :func:`flexible_derivatives` for the rest.
+    """
+    phi1, omega1 = state[0], state[1]
+    if len(state) == 2:
+        rest = rigid_state(p, phi1, omega1, 0.0, tau_load)
+        return omega1, (tau_drive - rest["tau_in"]) / (j_drive + rest["inertia"])
+    rates, r1, shaft = _flexible_rates(p, phi1, omega1, state[2:], tau_load)
+    j_in, dj_in = input_inertia(p, phi1)
+    return (omega1, (tau_drive - 0.5 * dj_in * omega1 * omega1 - r1 * shaft) / (j_drive + j_in)) + rates

@@ -14,6 +14,8 @@ Standard library only: runs inside the Motor FMU.
 
 import math
 
+from . import rk4
+
 CONSTANT, RAMP, STEP = 0, 1, 2
 
 
@@ -76,3 +78,18 @@ def pi_motor_step(t, h, state, tau_load, p):
         omega += hs / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
         integral += hs / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2])
     return phi, omega, integral
+
+
+def controller_step(t: float, h: float, integral: float, omega: float, p: tuple) -> float:
+    """Advance the PI controller's integral over [t, t+h] with the measured speed omega held (a sampled speed
+    controller without a rotor of its own): dI/dt of :func:`pi_torque` with e = omega_ref(t) - omega, one RK4
+    step (exact while unsaturated: e is linear in t between the profile's corners).
+
+    p: (kp, ki, tau_max, profile, omega_set, accel, t_step, omega_initial).
+    """
+    kp, ki, tau_max, profile, omega_set, accel, t_step, omega_initial = p
+
+    def rates(s, y):
+        omega_ref = speed_reference(t + s, profile, omega_set, accel, t_step, omega_initial)[0]
+        return (pi_torque(omega_ref - omega, y[0], kp, ki, tau_max)[1],)
+    return rk4.integrate_time(rates, (integral,), h, 1)[0]

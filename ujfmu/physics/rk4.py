@@ -2,6 +2,7 @@
 
 Over one communication step the input angle is phi(t) = phi0 + w0 t + alpha t^2 / 2 (speed extrapolated linearly
 from the host's omega_in and its backward difference); every other input is held.
+The torque-driven variants carry the input shaft in their state and use integrate_time with every input held.
 """
 
 import math
@@ -33,15 +34,21 @@ def substeps(rate, h, max_substeps=MAX_SUBSTEPS):
 
 def integrate(derivatives, y, t_span, n, phi0, w0, alpha):
     """Advance y over t_span with n classical RK4 substeps of y' = derivatives(phi(t), w(t), y)."""
+    def rates(t, y):
+        return derivatives(phi0 + t * (w0 + 0.5 * alpha * t), w0 + alpha * t, y)
+    return integrate_time(rates, y, t_span, n)
+
+
+def integrate_time(rates, y, t_span: float, n: int) -> list:
+    """Advance y over t_span with n classical RK4 substeps of y' = rates(t, y), t counted from the step's start."""
     h = t_span / n
     t = 0.0
     for _ in range(n):
         tm, te = t + 0.5 * h, t + h
-        pm, wm = phi0 + tm * (w0 + 0.5 * alpha * tm), w0 + alpha * tm
-        k1 = derivatives(phi0 + t * (w0 + 0.5 * alpha * t), w0 + alpha * t, y)
-        k2 = derivatives(pm, wm, [a + 0.5 * h * b for a, b in zip(y, k1)])
-        k3 = derivatives(pm, wm, [a + 0.5 * h * b for a, b in zip(y, k2)])
-        k4 = derivatives(phi0 + te * (w0 + 0.5 * alpha * te), w0 + alpha * te, [a + h * b for a, b in zip(y, k3)])
+        k1 = rates(t, y)
+        k2 = rates(tm, [a + 0.5 * h * b for a, b in zip(y, k1)])
+        k3 = rates(tm, [a + 0.5 * h * b for a, b in zip(y, k2)])
+        k4 = rates(te, [a + h * b for a, b in zip(y, k3)])
         h6 = h / 6.0
         y = [a + h6 * (b + 2.0 * (c + d) + e) for a, b, c, d, e in zip(y, k1, k2, k3, k4)]
         t = te

@@ -1,4 +1,5 @@
-"""Monolithic reference for Motor -> CardanJoint -> Load.
+"""Monolithic reference for Motor -> CardanJoint -> Load, and for its torque-driven wiring
+MotorController -> CardanJointTorqueDriven -> Load (the same ODE, the rotor inertia taken from J_drive).
 
 Independent of the co-simulation and of ujfmu.physics.cardan:
 - joint kinematics from sympy: e1 = C (-sin t1, cos t1, 0) and K = C e_z with C = R_y(-gamma) R_x(-beta) R_y(delta)
@@ -17,7 +18,8 @@ import functools
 import numpy as np
 import sympy as sp
 
-from .common import check_close, check_energy_balance, load_torque, pi_law, profile, record_table, solve_piecewise
+from .common import (check_close, check_energy_balance, drive, load_torque, pi_law, profile, record_table,
+                     solve_piecewise, torque_driven_names)
 
 RTOL, ATOL = 1e-11, 1e-12
 
@@ -73,11 +75,13 @@ class JointKinematics:
 
 
 def generate(scenario):
-    """Reference for a scenario with components motor (Motor), joint (CardanJoint), load (Load)."""
-    pm, pj, pl = (scenario.parameters_with_defaults(c) for c in ("motor", "joint", "load"))
+    """Reference for a scenario with components motor (Motor, or MotorController with the torque-driven
+    CardanJointTorqueDriven), joint (CardanJoint or CardanJointTorqueDriven), load (Load)."""
+    pl, pj = scenario.parameters_with_defaults("load"), scenario.parameters_with_defaults("joint")
+    pm, jm, w0, torque_driven = drive(scenario, "motor", "joint")
     kin = JointKinematics((pj["bend_angle"], pj["bend_plane_angle"], pj["error_angle_beta"],
                            pj["error_angle_gamma"]))
-    j1, j2, jm = pj["J1"], pj["J2"], pm["J_rotor"]
+    j1, j2 = pj["J1"], pj["J2"]
     t = scenario.time_grid()
     theta20 = float(kin.driven_angle(np.array(pj["phi_in_start"])))
 
@@ -97,7 +101,7 @@ def generate(scenario):
             a = (tau_m - j2 * r * dr * w * w - r * load_torque(pl, r * w)) / (jm + j1 + j2 * r * r)
             return [w, a, di, r * w]
 
-        y = [0.0, float(profile(pm, t[:1])[0][0]), 0.0, theta20]
+        y = [0.0, w0, 0.0, theta20]
         ys = solve_piecewise(rhs, y, t, pm, RTOL, ATOL)
         phi_motor, w1, integral, theta2 = ys
         theta1 = pj["phi_in_start"] + phi_motor
@@ -124,6 +128,8 @@ def generate(scenario):
         "joint.M_x": m_x, "joint.M_y": m_y, "joint.M_z": m_z, "load.tau": tau_load, "joint.alpha_in": a1,
     }
     self_check(scenario, t, columns)
+    if torque_driven:
+        columns = torque_driven_names("joint", columns)
     table = record_table(scenario, t, columns)
     return table, f"ujfmu.references.cardan_chain: {how}. Regenerate: ujfmu references"
 
@@ -131,7 +137,8 @@ def generate(scenario):
 def self_check(scenario, t: np.ndarray, columns: dict) -> None:
     """The reference's own laws, checked before it is written (ReferenceCheckError otherwise):
 
-    - energy: (J_m + J1) w1^2/2 + J2 w2^2/2 changes by the work of tau_motor on w1 less that of the load on w2
+    - energy: (J_m + J1) w1^2/2 + J2 w2^2/2 (J_m the rotor inertia: Motor's J_rotor, or the torque-driven joint's
+      J_drive) changes by the work of tau_motor on w1 less that of the load on w2
       (checks the Lagrange equation, its r r' term and the solve);
     - torque balance about the driving axis: M . K = tau_in - J1 alpha1 (the moment vector of Eq. 10, built from
       cross products, against the torque built from the sympy velocity ratio);
@@ -139,10 +146,10 @@ def self_check(scenario, t: np.ndarray, columns: dict) -> None:
     columns: 'motor.omega', 'motor.tau_motor', 'joint.omega_out', 'joint.phi_in', 'joint.alpha_in',
     'joint.tau_in', 'joint.M_x', 'joint.M_y', 'joint.M_z', 'load.tau' on the grid t.
     """
-    pm, pj = scenario.parameters_with_defaults("motor"), scenario.parameters_with_defaults("joint")
+    pj, j_motor = scenario.parameters_with_defaults("joint"), drive(scenario, "motor", "joint")[1]
     c = columns
     w1, w2 = c["motor.omega"], c["joint.omega_out"]
-    stored = 0.5 * (pm["J_rotor"] + pj["J1"]) * w1 ** 2 + 0.5 * pj["J2"] * w2 ** 2
+    stored = 0.5 * (j_motor + pj["J1"]) * w1 ** 2 + 0.5 * pj["J2"] * w2 ** 2
     check_energy_balance(scenario, "kinetic energy against the work of motor and load", t, stored,
                          c["motor.tau_motor"] * w1, c["load.tau"] * w2, 1e-6)
     kin = JointKinematics((pj["bend_angle"], pj["bend_plane_angle"], pj["error_angle_beta"],

@@ -1,4 +1,5 @@
-"""Monolithic reference for Motor -> DoubleCardanDriveline -> Load.
+"""Monolithic reference for Motor -> DoubleCardanDriveline -> Load, and for its torque-driven wiring
+MotorController -> DoubleCardanDrivelineTorqueDriven -> Load (the same equations, the rotor inertia from J_drive).
 
 Independent of the co-simulation and of ujfmu.physics.double_cardan, it starts again from geometry and energy:
 - each joint from vectors (sympy): the driving pin e_A = R_x(b) (-sin x, cos x, 0) in the driven shaft's frame,
@@ -18,7 +19,8 @@ import functools
 import numpy as np
 import sympy as sp
 
-from .common import check_close, check_energy_balance, load_torque, pi_law, profile, record_table, solve_piecewise
+from .common import (check_close, check_energy_balance, drive, load_torque, pi_law, profile, record_table,
+                     solve_piecewise, torque_driven_names)
 
 RTOL, ATOL = 1e-10, 1e-11
 _PARAMS = ("beta1", "beta2", "yoke_phase", "joint_plane_angle", "I_input", "I_cross_pin", "I_cross_normal",
@@ -133,8 +135,10 @@ class DrivelineReference:
 
 
 def generate(scenario):
-    """Reference for a scenario with components motor (Motor), driveline (DoubleCardanDriveline), load (Load)."""
-    pm, pd, pl = (scenario.parameters_with_defaults(c) for c in ("motor", "driveline", "load"))
+    """Reference for a scenario with components motor (Motor, or MotorController with the torque-driven
+    DoubleCardanDrivelineTorqueDriven), driveline (DoubleCardanDriveline or its torque-driven variant), load."""
+    pd, pl = scenario.parameters_with_defaults("driveline"), scenario.parameters_with_defaults("load")
+    pm, jm, w1_0, torque_driven = drive(scenario, "motor", "driveline")
     ref = DrivelineReference(pd)
     t = scenario.time_grid()
     ideal = pm["ideal_speed_source"]
@@ -142,7 +146,7 @@ def generate(scenario):
     cols, tau_m, dissipation = {}, None, 0.0
 
     if pd["rigid_intermediate_shaft"]:
-        if not ideal:
+        if not ideal or torque_driven:
             raise ValueError(f"{scenario.path}: the rigid-shaft reference needs an ideal speed source")
         w1, a1, ang = profile(pm, t)
         phi_m = ang - profile(pm, t[:1])[2][0]
@@ -161,7 +165,6 @@ def generate(scenario):
         how = ("closed form along the prescribed input (rigid shaft): output angle by Newton on the vector "
                "kinematics, tau_in from d(T)/dt + tau_load w4 with T from the bodies' angular velocities (sympy)")
     else:
-        w1_0 = float(profile(pm, t[:1])[0][0])
         phi4_0 = float(ref.rigid_phi4(np.array(phi1_0)))
         rho_0 = float(ref.rigid(np.array(phi1_0))["rho"])
         y = [phi4_0, rho_0 * w1_0, 0.0, 0.0]
@@ -180,7 +183,7 @@ def generate(scenario):
             def rhs(time, y):
                 q, qd = (phi1_0 + y[0], y[3], y[5]), (y[1], y[4], y[6])
                 tau_m, di = pi_law(pm, time, y[1], y[2])
-                acc, _ = ref.accelerations(q, qd, tau_drive=float(tau_m), extra_inertia=pm["J_rotor"],
+                acc, _ = ref.accelerations(q, qd, tau_drive=float(tau_m), extra_inertia=jm,
                                            tau_load=load_torque(pl, y[4]))
                 return [y[1], acc[0], float(di), y[4], acc[1], y[6], acc[2]]
 
@@ -195,13 +198,16 @@ def generate(scenario):
         phi1 = phi1_0 + phi_m
         tau_l = load_torque(pl, w4)
         tau_in = np.empty_like(t)
+        if not ideal:
+            a1 = np.empty_like(t)
         for i in range(len(t)):
             q, qd = (phi1[i], phi4[i], f[i]), (w1[i], w4[i], v[i])
             if ideal:
                 _, tau_in[i] = ref.accelerations(q, qd, known_alpha1=float(a1[i]), tau_load=tau_l[i])
             else:
-                _, tau_in[i] = ref.accelerations(q, qd, tau_drive=float(tau_m[i]), extra_inertia=pm["J_rotor"],
-                                                 tau_load=tau_l[i])
+                acc, tau_in[i] = ref.accelerations(q, qd, tau_drive=float(tau_m[i]), extra_inertia=jm,
+                                                   tau_load=tau_l[i])
+                a1[i] = acc[0]
         twist, dtwist, w2, energy = ref.outputs((phi1, phi4, f), (w1, w4, v))
         dissipation = (pd["xi_theta"] * pd["k_theta"] * dtwist ** 2
                        + pd["xi_phi"] * pd["k_phi"] * (pd["L_c"] * np.cos(pd["beta1"])) ** 2 * v ** 2)
@@ -214,9 +220,12 @@ def generate(scenario):
         how = (f"monolithic ODE of {'ideal speed source' if ideal else 'PI motor'} + driveline + load, Lagrange's "
                f"equations formed by sympy from vector kinematics and energies, scipy DOP853 rtol={RTOL:g} "
                f"atol={ATOL:g}")
-    cols.update({"motor.omega": w1, "motor.phi": phi_m, "load.tau": tau_l, "driveline.phi_in": phi1})
-    cols["motor.tau_motor"] = (pm["J_rotor"] * a1 + cols["driveline.tau_in"]) if ideal else tau_m
+    cols.update({"motor.omega": w1, "motor.phi": phi_m, "load.tau": tau_l, "driveline.phi_in": phi1,
+                 "driveline.alpha_in": a1})
+    cols["motor.tau_motor"] = (jm * a1 + cols["driveline.tau_in"]) if ideal else tau_m
     self_check(scenario, t, cols, dissipation)
+    if torque_driven:
+        cols = torque_driven_names("driveline", cols)
     table = record_table(scenario, t, cols)
     return table, f"ujfmu.references.double_cardan: {how}. Regenerate: ujfmu references"
 

@@ -1,0 +1,108 @@
+"""Torque-driven FMUs (CardanJointTorqueDriven, DoubleCardanDrivelineTorqueDriven) and MotorController through
+fmpy: closed forms of the straight and constant-velocity layouts, the ports an explicit host needs."""
+
+import math
+
+import pytest
+from fmpy.fmi1 import FMICallException
+
+H = 1e-3
+
+
+def _run(inst, params, inputs, n, outputs):
+    inst.initialize(params)
+    for k in range(n):
+        inst.set(**inputs)
+        inst.slave.doStep(k * H, H)
+    return dict(zip(outputs, inst.get(*outputs)))
+
+
+def test_straight_cardan_joint_is_a_rigid_inertia(open_fmu):
+    """bend 0, no error angles: (J_drive + J1 + J2) alpha = tau_in - tau_load, output = input (closed form)."""
+    params = dict(bend_angle=0.0, error_angle_beta=0.0, error_angle_gamma=0.0, J_drive=0.02, J1=0.01, J2=0.07,
+                  omega_in_start=5.0, phi_in_start=0.3)
+    out = _run(open_fmu("CardanJointTorqueDriven"), params, dict(tau_in=3.0, tau_load=1.0), 500,
+               ("omega_in", "phi_in", "omega_out", "phi_out", "alpha_in", "tau_input_shaft", "M_z"))
+    alpha, t = 2.0 / 0.1, 500 * H
+    assert out["alpha_in"] == pytest.approx(alpha, rel=1e-12)
+    assert out["omega_in"] == pytest.approx(5.0 + alpha * t, rel=1e-12)
+    assert out["phi_in"] == pytest.approx(0.3 + 5.0 * t + 0.5 * alpha * t * t, rel=1e-12)
+    assert (out["omega_out"], out["phi_out"]) == pytest.approx((out["omega_in"], out["phi_in"]), rel=1e-12)
+    assert out["tau_input_shaft"] == pytest.approx(3.0 - 0.02 * alpha, rel=1e-12)   # what J1 + J2 + load take
+    assert out["M_z"] == pytest.approx(0.07 * alpha + 1.0, rel=1e-12)
+
+
+def test_constant_velocity_double_cardan_is_a_rigid_inertia(open_fmu):
+    """Z layout (beta1 = beta2, yokes in phase), rigid shaft, massless joints: (J_drive + J_load) alpha = tau_in -
+    tau_load and omega_out = omega_in."""
+    params = dict(beta1=0.3, beta2=0.3, rigid_intermediate_shaft=True, J_drive=0.05, J_load=0.45)
+    out = _run(open_fmu("DoubleCardanDrivelineTorqueDriven"), params, dict(tau_in=10.0, tau_load=4.0), 300,
+               ("omega_in", "omega_out", "alpha_in", "tau_input_shaft", "shaft_torque"))
+    alpha = 6.0 / 0.5
+    assert out["alpha_in"] == pytest.approx(alpha, rel=1e-10)
+    assert out["omega_in"] == pytest.approx(alpha * 300 * H, rel=1e-10)
+    assert out["omega_out"] == pytest.approx(out["omega_in"], rel=1e-10)
+    assert out["tau_input_shaft"] == pytest.approx(10.0 - 0.05 * alpha, rel=1e-10)
+
+
+def test_flexible_double_cardan_settles_to_the_transmitted_torque(open_fmu):
+    """Straight flexible driveline, held at speed by a load equal to the drive torque: the shaft carries tau_load
+    (twist = tau_load / k_theta) once the torsional mode has decayed."""
+    params = dict(beta1=0.0, beta2=0.0, J_drive=0.05, J_load=0.5, k_theta=2e4, xi_theta=0.01, omega_in_start=20.0)
+    out = _run(open_fmu("DoubleCardanDrivelineTorqueDriven"), params, dict(tau_in=40.0, tau_load=40.0), 1500,
+               ("omega_in", "omega_out", "shaft_torque", "twist"))
+    assert out["shaft_torque"] == pytest.approx(40.0, rel=1e-3)
+    assert out["twist"] == pytest.approx(40.0 / 2e4, rel=1e-3)
+    assert out["omega_out"] == pytest.approx(out["omega_in"], rel=1e-4)
+
+
+def test_speed_outputs_have_no_direct_feedthrough(fmu_dir):
+    """An explicit host can read omega_in before setting tau_in: no algebraic loop with the controller."""
+    from fmpy import read_model_description
+    for name in ("CardanJointTorqueDriven", "DoubleCardanDrivelineTorqueDriven"):
+        md = read_model_description(str(fmu_dir / f"{name}.fmu"))
+        deps = {u.variable.name: [d.name for d in u.dependencies] for u in md.outputs}
+        assert deps["omega_in"] == deps["omega_out"] == deps["phi_in"] == [], name
+        assert sorted(deps["alpha_in"]) == ["tau_in", "tau_load"], name
+    md = read_model_description(str(fmu_dir / "MotorController.fmu"))
+    assert [d.name for u in md.outputs if u.variable.name == "tau_motor" for d in u.dependencies] == ["omega"]
+
+
+def test_motor_controller_pi_law_and_anti_windup(open_fmu):
+    """Constant reference 100 rad/s, measured speed 90 held: I = 10 t, tau = Kp 10 + Ki I until the limit; then
+    the integral stops (conditional integration) and tau stays at tau_max."""
+    m = open_fmu("MotorController")
+    m.initialize(dict(profile=0, omega_set=100.0, Kp=0.5, Ki=2.0, tau_max=9.0))
+    for k in range(100):
+        m.set(omega=90.0)
+        m.slave.doStep(k * H, H)
+    assert m.get("tau_motor")[0] == pytest.approx(0.5 * 10.0 + 2.0 * 10.0 * 0.1, rel=1e-12)
+    for k in range(100, 400):
+        m.slave.doStep(k * H, H)
+    assert m.get("tau_motor")[0] == 9.0
+    m.set(omega=110.0)   # the error reverses: the integral, frozen near the limit, brings tau back at once
+    assert m.get("tau_motor")[0] == pytest.approx(0.5 * -10.0 + 2.0 * 10.0 * 0.2, abs=0.05)
+
+
+@pytest.mark.parametrize("fmu, params, needle", [
+    ("CardanJointTorqueDriven", dict(J_drive=0.0, J1=0.0), "J_drive + J1"),
+    ("DoubleCardanDrivelineTorqueDriven", dict(J_drive=0.0, I_input=0.0), "J_drive + I_input"),
+])
+def test_massless_input_shaft_is_refused(open_fmu, fmu, params, needle):
+    inst = open_fmu(fmu)
+    with pytest.raises(FMICallException):
+        inst.initialize(params)
+    assert any(needle in msg and "allowed range" in msg for msg in inst._log), inst._log
+
+
+def test_a_torque_that_would_overspeed_the_input_shaft_within_the_step_is_refused(open_fmu):
+    """1e6 N.m on 1e-3 kg.m2 reaches 1e6 rad/s in 1 ms, past the 1e4 rad/s port range: fmi2Discard with a
+    message naming the cause, instead of 1e5 RK4 substeps of a meaningless motion."""
+    inst = open_fmu("CardanJointTorqueDriven")
+    inst.initialize(dict(J_drive=1e-3, J2=0.0))
+    inst.set(tau_in=1e6)
+    assert inst.raw("fmi2DoStep")(inst.slave.component, 0.0, H, 1) == 2
+    assert "tau_in = 1000000.0 N.m" in inst._log[-1] and "would reach" in inst._log[-1], inst._log[-1]
+    inst.set(tau_in=1.0)    # usable again with a sane torque
+    inst.slave.doStep(0.0, H)
+    assert inst.get("omega_in")[0] == pytest.approx(1.0 / (1e-3 + 2e-7) * H, rel=1e-12)

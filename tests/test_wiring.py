@@ -1,0 +1,38 @@
+"""Wiring for explicit hosts: the speed-driven twin of each torque-driven scenario diverges where the
+torque-driven wiring runs (tests/test_scenarios.py and tests/test_ssp.py run the latter in our master, libcosim
+and SSP against the monolithic references), and it stays stable below the inertia ratio 1."""
+
+import math
+from pathlib import Path
+
+from ujfmu.scenario import Scenario
+from ujfmu.wiring import runs_stably, speed_driven_twin, with_changes
+
+SCENARIOS = Path(__file__).parents[1] / "scenarios"
+
+
+def test_twin_is_the_speed_driven_wiring_of_the_same_system():
+    scenario = Scenario(SCENARIOS / "cardan_heavy_torque_driven.toml")
+    twin = speed_driven_twin(scenario)
+    assert twin.components["motor"] == ("Motor", dict(scenario.components["motor"][1], J_rotor=0.01,
+                                                      ideal_speed_source=False))
+    assert twin.components["joint"] == ("CardanJoint", dict(bend_angle=math.radians(20), J2=0.2))
+    links = {(c.source, c.target) for c in twin.connections}
+    assert links == {("motor.omega", "joint.omega_in"), ("joint.tau_in", "motor.tau_load"),
+                     ("joint.omega_out", "load.omega"), ("load.tau", "joint.tau_load")}
+    assert "joint.tau_in" in twin.record and "joint.tau_input_shaft" not in twin.record
+
+
+def test_heavy_cardan_speed_driven_diverges_in_our_master_and_runs_below_the_inertia_ratio(fmu_dir):
+    """Speed-driven, J2 r^2 reflected to the input against J_rotor = 0.01: 20x (bundled) diverges at 1 ms; 0.56x
+    (J2 = 0.005) runs. The torque-driven wiring of the 20x case is the bundled scenario."""
+    twin = speed_driven_twin(Scenario(SCENARIOS / "cardan_heavy_torque_driven.toml"))
+    assert not runs_stably(with_changes(twin, {}, stop_time=0.5), "master", fmu_dir)
+    assert runs_stably(with_changes(twin, {"joint.J2": 0.005}, stop_time=0.5), "master", fmu_dir)
+
+
+def test_stiff_double_cardan_speed_driven_diverges_in_libcosim(fmu_dir):
+    """The issue's set-up (k_theta 2e4, J_load 0.5, rotor 0.05, 1 ms): speed-driven it diverges in libcosim's
+    Jacobi coupling within 0.2 s; torque-driven it is the bundled scenario."""
+    twin = speed_driven_twin(Scenario(SCENARIOS / "double_cardan_stiff_torque_driven.toml"))
+    assert not runs_stably(with_changes(twin, {}, stop_time=0.3), "libcosim", fmu_dir)
