@@ -20,8 +20,9 @@ from pathlib import Path
 from . import __version__
 
 PACKAGE_DIR = Path(__file__).resolve().parent
-REPO_DIR = PACKAGE_DIR.parent
-DEFAULT_FMU_DIR = REPO_DIR / "fmus"
+REPO_DIR = PACKAGE_DIR.parent   # the clone, for an editable install (the report and the benchmark use its files)
+#: relative: fmus/ of the current directory, like the scenarios/ and results/ folders
+DEFAULT_FMU_DIR = Path("fmus")
 
 #: FMU name -> (module in ujfmu.fmu, class name)
 FMUS = {
@@ -53,6 +54,13 @@ UNITS = {
     "J": ((1, 2, -2, 0), {}),
 }
 _RUNTIME_DIRS = ("physics", "fmu")  # the only parts of ujfmu that go into an FMU
+
+
+def build_hint(fmu_dir) -> str:
+    """The command that builds the FMUs into fmu_dir, for "not found" messages."""
+    if Path(fmu_dir).absolute() == DEFAULT_FMU_DIR.absolute():
+        return "run `ujfmu build` first"
+    return f"run `ujfmu build --fmu-dir {fmu_dir}` first"
 
 
 def fmu_class(name):

@@ -1,71 +1,143 @@
-"""Command line: ujfmu build | run | check | references | sweep | report | bench | export-ssp."""
+"""Command line: ujfmu build | run | check | references | sweep | report | bench | export-ssp.
+
+The folders fmus/, scenarios/ and results/ are those of the current directory. The common options (--fmu-dir,
+--out, --quiet) go before or after the command. The library reports progress through callbacks; this module
+alone draws progress bars (tqdm, on a terminal only)."""
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 
-from .build import DEFAULT_FMU_DIR, FMUS, REPO_DIR
+from .build import DEFAULT_FMU_DIR, FMUS
+from .extras import MissingExtraError, require
 
-DEFAULT_SCENARIO_DIR = REPO_DIR / "scenarios"
+DEFAULT_SCENARIO_DIR = Path("scenarios")
+DEFAULT_OUT_DIR = Path("results")
+
+
+class UsageError(Exception):
+    """A command-line mistake: printed as an error with exit status 2."""
 
 
 def _scenarios(paths):
     if paths:
         return [Path(p) for p in paths]
-    return sorted(DEFAULT_SCENARIO_DIR.glob("*.toml"))
+    found = sorted(DEFAULT_SCENARIO_DIR.glob("*.toml"))
+    if not found:
+        raise UsageError(f"no scenario files (*.toml) in {DEFAULT_SCENARIO_DIR.absolute()}: name scenario files, "
+                         "or run this in a folder that has a scenarios/ folder")
+    return found
+
+
+@contextlib.contextmanager
+def _progress(args, desc, unit):
+    """A progress callback(done, total) drawing a tqdm bar on stderr; None with --quiet or when stderr is not a
+    terminal (CI logs)."""
+    if args.quiet or not sys.stderr.isatty():
+        yield None
+        return
+    from tqdm import tqdm
+    bar = tqdm(desc=desc, unit=unit, leave=False, file=sys.stderr)
+
+    def update(done, total):
+        bar.total = total
+        bar.update(done - bar.n)
+
+    try:
+        yield update
+    finally:
+        bar.close()
+
+
+def _say(args, text):
+    if not args.quiet:
+        print(text)
 
 
 def cmd_build(args):
     from .build import build_all
-    from tqdm import tqdm
     unknown = [n for n in args.names if n not in FMUS]
     if unknown:
-        print(f"ujfmu: error: unknown FMU {', '.join(unknown)}; known: {', '.join(FMUS)}", file=sys.stderr)
-        return 2
-    for name in tqdm(args.names or list(FMUS), desc="building FMUs", unit="fmu", disable=None):
-        path = build_all(args.fmu_dir, [name])[0]
-        tqdm.write(f"built {path}")
+        raise UsageError(f"unknown FMU {', '.join(unknown)}; known: {', '.join(FMUS)}")
+    names = args.names or list(FMUS)
+    with _progress(args, "building FMUs", "fmu") as progress:
+        for i, name in enumerate(names):
+            path = build_all(args.fmu_dir, [name])[0]
+            _say(args, f"built {path}")
+            if progress:
+                progress(i + 1, len(names))
     return 0
 
 
-def cmd_run(args):
+def _run_one(args, path):
+    from .extras import available
     from .scenario_run import run_scenario
-    result = run_scenario(args.scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=not args.no_plot)
+    plot = not args.no_plot and available("matplotlib")
+    with _progress(args, Path(path).stem, "step") as progress:
+        result = run_scenario(path, fmu_dir=args.fmu_dir, out_dir=args.out, plot=plot, progress=progress)
     print(result.summary())
-    print(f"  results: {result.csv}" + (f"\n  plot:    {result.plot}" if result.plot else ""))
+    return result
+
+
+def _plots_missing(args):
+    from .extras import available
+    if not args.no_plot and not available("matplotlib"):
+        print("  no plots: matplotlib is not installed (pip install 'ujfmu[plot]'; --no-plot silences this)",
+              file=sys.stderr)
+
+
+def cmd_run(args):
+    result = _run_one(args, args.scenario)
+    _say(args, f"  results: {result.csv}" + (f"\n  plot:    {result.plot}" if result.plot else ""))
     for extra in result.extra_plots:
-        print(f"  plot:    {extra}")
-    return 0 if result.passed else 1
+        _say(args, f"  plot:    {extra}")
+    _plots_missing(args)
+    return 1 if result.failed else 0
 
 
 def cmd_check(args):
-    from .scenario_run import run_scenario, write_junit
-    results = []
-    for path in _scenarios(args.scenarios):
-        result = run_scenario(path, fmu_dir=args.fmu_dir, out_dir=args.out, plot=not args.no_plot)
-        print(result.summary())
-        results.append(result)
+    from .scenario_run import write_junit
+    results = [_run_one(args, path) for path in _scenarios(args.scenarios)]
+    _plots_missing(args)
     if args.junit:
         print(f"JUnit report: {write_junit(results, args.junit)}")
-    failed = [r.scenario.name for r in results if not r.passed]
-    print(f"{len(results) - len(failed)} passed, {len(failed)} failed")
+    failed = [r for r in results if r.failed]
+    unchecked = [r for r in results if not r.checked]
+    print(f"{len(results) - len(failed) - len(unchecked)} passed, {len(failed)} failed, "
+          f"{len(unchecked)} not checked")
+    if unchecked:
+        print(f"not checked (no [reference] with tolerances): {', '.join(r.scenario.name for r in unchecked)}",
+              file=sys.stderr)
+    if len(unchecked) == len(results):
+        print(f"ujfmu: error: nothing was checked: none of the {len(results)} scenario(s) compares a signal with a "
+              "reference (add [reference] file and [reference.tolerance] to a scenario)", file=sys.stderr)
+        return 1
     return 1 if failed else 0
 
 
 def cmd_references(args):
     from .references import generate, write_reference
     from .scenario import Scenario
+    wrote = 0
     for path in _scenarios(args.scenarios):
         scenario = Scenario(path)
         if scenario.reference_generator is None:
+            why = "no [reference]" if scenario.reference_file is None else "its [reference] names no generator"
+            print(f"{scenario.path}: skipped: {why}, so there is nothing to regenerate", file=sys.stderr)
             continue
         table, provenance = generate(scenario)
         write_reference(scenario.reference_file, table, provenance)
-        print(f"wrote {scenario.reference_file}")
+        _say(args, f"wrote {scenario.reference_file}")
+        wrote += 1
+    if not wrote:
+        print("ujfmu: error: no reference was regenerated", file=sys.stderr)
+        return 1
     return 0
 
 
 def cmd_sweep(args):
+    require("distributed", "sweep", "ujfmu sweep")
     from .scenario import Scenario, ScenarioError
     from .sweep import Sweep, SweepSettings, parse_axis
     scenario = Scenario(args.scenario)
@@ -80,9 +152,13 @@ def cmd_sweep(args):
     sweep = Sweep(scenario, axes, settings, out_dir=args.out, name=args.name, fmu_dir=args.fmu_dir)
     print(f"{sweep.name}: {len(sweep.points)} points ({' x '.join(str(len(a.values)) for a in axes)}), "
           f"settle {settings.settle_time:g} s, {settings.revolutions:g} revolutions measured")
-    sweep.run(workers=args.workers, scheduler=args.scheduler, progress=not args.no_progress)
+    with _progress(args, sweep.name, "point") as progress:
+        sweep.run(workers=args.workers, scheduler=args.scheduler, progress=progress)
+    if sweep.reused:
+        print(f"  reused {sweep.reused} of {len(sweep.points)} points from {sweep.journal}")
     print(f"  table: {sweep.csv}\n  journal: {sweep.journal}")
     if not args.no_plot:
+        require("matplotlib", "plot", "the sweep's figures (--no-plot skips them)")
         for path in sweep.plot():
             print(f"  plot:  {path}")
     failed = sweep.failed()
@@ -103,44 +179,72 @@ def cmd_export_ssp(args):
 
 
 def cmd_bench(args):
+    for module, extra in (("scipy", "references"), ("sympy", "references"), ("distributed", "sweep")):
+        require(module, extra, "ujfmu bench")
     from .bench import render, run_bench, write
     result = run_bench(_scenarios(args.scenarios), fmu_dir=args.fmu_dir, sweep=not args.no_sweep,
-                       progress=lambda msg: print(msg, file=sys.stderr))
+                       progress=(lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr)))
     print(render(result))
     print(f"\nwrote {write(result, args.out)}")
     return 0
 
 
 def cmd_report(args):
+    for module in ("distributed", "scipy", "sympy", "matplotlib"):
+        require(module, "report", "ujfmu report")
     from .report import write_report
-    path = write_report(args.out, fmu_dir=args.fmu_dir, work_dir=args.work_dir, workers=args.workers,
-                        progress=not args.no_progress).path
+    with _progress(args, "report sweep", "point") as progress:
+        path = write_report(args.out, fmu_dir=args.fmu_dir, work_dir=args.work_dir, workers=args.workers,
+                            progress=progress).path
     print(f"wrote {path} (figures in {path.parent / 'figures'})")
     return 0
 
 
+#: options every command accepts, before or after the command name
+def _common(parser, suppress):
+    default = (lambda value: argparse.SUPPRESS) if suppress else (lambda value: value)
+    parser.add_argument("--fmu-dir", type=Path, default=default(DEFAULT_FMU_DIR),
+                        help="where the FMUs are, or are built (default: fmus/ of the current directory)")
+    parser.add_argument("--quiet", "-q", action="store_true", default=default(False),
+                        help="no progress bars and no file listings (progress bars are off anyway when the "
+                             "output is not a terminal)")
+
+
+def _out(parser, default, helptext):
+    parser.add_argument("--out", type=Path, default=argparse.SUPPRESS, help=f"{helptext} (default: {default})")
+    parser.set_defaults(out_default=Path(default))
+
+
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="ujfmu", description=__doc__)
-    parser.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where the FMUs are (default: fmus/)")
+    parser = argparse.ArgumentParser(prog="ujfmu", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    _common(parser, suppress=False)
+    parser.add_argument("--out", type=Path, default=argparse.SUPPRESS,
+                        help="output folder or file of the command (see the command's --help)")
     sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("build", help="build all FMUs into fmus/")
+    common = argparse.ArgumentParser(add_help=False)
+    _common(common, suppress=True)
+
+    def command(name, func, helptext):
+        p = sub.add_parser(name, help=helptext, parents=[common])
+        p.set_defaults(func=func, out_default=None)
+        return p
+
+    p = command("build", cmd_build, "build all FMUs into fmus/ (or --fmu-dir)")
     p.add_argument("names", nargs="*", help=f"FMUs to build, of {', '.join(FMUS)} (default: all)")
-    p.set_defaults(func=cmd_build)
     for name, func, helptext in (("run", cmd_run, "co-simulate one scenario, write CSV and PNG, compare"),
                                  ("check", cmd_check, "run every scenario against its reference")):
-        p = sub.add_parser(name, help=helptext)
+        p = command(name, func, helptext)
         if name == "run":
             p.add_argument("scenario", type=Path)
         else:
             p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")
-        p.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: results/)")
+        _out(p, "results/", "output folder")
         p.add_argument("--no-plot", action="store_true")
-        p.set_defaults(func=func)
-    p = sub.add_parser("references", help="regenerate the reference CSV files of the scenarios")
+    p = command("references", cmd_references, "regenerate the reference CSV files of the scenarios")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
-    p.set_defaults(func=cmd_references)
-    p = sub.add_parser("sweep", help="co-simulate a scenario over a parameter grid to steady state (dask)")
+    p = command("sweep", cmd_sweep, "co-simulate a scenario over a parameter grid to steady state (dask)")
     p.add_argument("scenario", type=Path)
     p.add_argument("--param", action="append", metavar="COMP.PAR[,COMP.PAR]=START:STOP:STEP[rpm|deg]",
                    help="an axis (inclusive range, or V1,V2,... values; several --param make a grid; "
@@ -152,34 +256,39 @@ def main(argv=None):
     p.add_argument("--orders", type=lambda s: tuple(int(k) for k in s.split(",")), help="orders, e.g. 1,2,4")
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: no dask)")
     p.add_argument("--scheduler", help="address of a running dask.distributed scheduler, e.g. tcp://host:8786")
-    p.add_argument("--name", help="output name (default: <scenario>_sweep)")
-    p.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: results/)")
+    p.add_argument("--name", help="output name (default: <scenario>_sweep, plus a tag of the grid when the "
+                                  "grid is not the scenario's [sweep] params)")
+    _out(p, "results/", "output folder")
     p.add_argument("--no-plot", action="store_true")
-    p.add_argument("--no-progress", action="store_true")
-    p.set_defaults(func=cmd_sweep)
-    p = sub.add_parser("export-ssp", help="write scenarios as SSP packages (SystemStructure.ssd + FMUs)")
+    p.add_argument("--no-progress", action="store_true", help="same as --quiet for the progress bar")
+    p = command("export-ssp", cmd_export_ssp, "write scenarios as SSP packages (SystemStructure.ssd + FMUs)")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
-    p.add_argument("--out", type=Path, default=Path("results"), help="writes <scenario>.ssp here")
-    p.set_defaults(func=cmd_export_ssp)
-    p = sub.add_parser("bench", help="speed figures as ratios in one run: FMI floor, monolithic solve, sweeps")
+    _out(p, "results/", "writes <scenario>.ssp here")
+    p = command("bench", cmd_bench, "speed figures as ratios in one run: FMI floor, monolithic solve, sweeps")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p.add_argument("--no-sweep", action="store_true", help="skip the sweep figures (1 and 2 workers)")
-    p.add_argument("--out", type=Path, default=Path("results"), help="writes bench.md and bench.json here")
-    p.set_defaults(func=cmd_bench)
-    p = sub.add_parser("report", help="re-create the papers' published results with sweeps; write docs/validation.md")
-    p.add_argument("--out", type=Path, default=REPO_DIR / "docs" / "validation.md", help="markdown file to write")
+    _out(p, "results/", "writes bench.md and bench.json here")
+    p = command("report", cmd_report,
+                "re-create the papers' published results with sweeps; write docs/validation.md (in a clone)")
+    _out(p, "docs/validation.md", "markdown file to write")
     p.add_argument("--work-dir", type=Path, help="where the sweeps keep their points (default: results/report; "
                                                   "a rerun resumes from them)")
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: no dask)")
-    p.add_argument("--no-progress", action="store_true")
-    p.set_defaults(func=cmd_report)
+    p.add_argument("--no-progress", action="store_true", help="same as --quiet for the progress bar")
     args = parser.parse_args(argv)
+    if getattr(args, "no_progress", False):
+        args.quiet = True
+    if args.out_default is None and "out" in args:
+        parser.error(f"--out does not apply to `ujfmu {args.command}`" +
+                     (" (FMUs go to --fmu-dir)" if args.command == "build" else ""))
+    if "out" not in args:
+        args.out = args.out_default
     try:
         return args.func(args)
     except Exception as exc:  # a clear message, not a traceback, for user errors
         from .master import CosimulationError
         from .scenario import ScenarioError
-        if isinstance(exc, (ScenarioError, CosimulationError, FileNotFoundError)):
+        if isinstance(exc, (ScenarioError, CosimulationError, FileNotFoundError, UsageError, MissingExtraError)):
             print(f"ujfmu: error: {exc}", file=sys.stderr)
             return 2
         raise

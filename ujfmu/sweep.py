@@ -21,13 +21,14 @@ import os
 import re
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .analysis import order_amplitudes
-from .build import DEFAULT_FMU_DIR, fmu_class
+from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
 from .master import Component, Connection, Cosimulation
 from .scenario import Scenario, ScenarioError
 
@@ -224,10 +225,12 @@ class Sweep:
         fmus = sorted({fmu for fmu, _ in self.scenario.components.values()})
         missing = [f for f in fmus if not (self.fmu_dir / f"{f}.fmu").is_file()]
         if missing:
-            raise FileNotFoundError(f"FMU {', '.join(missing)} not found in {self.fmu_dir} (run `ujfmu build` first)")
+            raise FileNotFoundError(f"FMU {', '.join(missing)} not found in {self.fmu_dir.absolute()} "
+                                    f"({build_hint(self.fmu_dir)})")
         self.fmu_blobs = {f: (self.fmu_dir / f"{f}.fmu").read_bytes() for f in fmus}
         hashes = {f: hashlib.sha256(b).hexdigest()[:16] for f, b in self.fmu_blobs.items()}
-        self.job = PointJob([(n, fmu, dict(p)) for n, (fmu, p) in self.scenario.components.items()],
+        self.job = PointJob([(n, fmu, self.scenario.start_values(n)) for n, (fmu, _) in
+                             self.scenario.components.items()],
                             [(c.source, c.target) for c in self.scenario.connections], self.scenario.step_size,
                             settings, hashes)
         # results are only reused for the same FMUs, scenario setup and settings
@@ -252,17 +255,20 @@ class Sweep:
                     records[self.key(record["point"])] = record
         return records
 
-    def run(self, workers=None, scheduler=None, progress=True, client=None):
+    def run(self, workers=None, scheduler=None, progress: Callable[[int, int], None] | None = None,
+            client=None):
         """Run the missing points; returns the path of the CSV. workers: local worker processes (default: the
         number of cores); 0 runs the points in this process without dask. scheduler: address of an existing
         dask.distributed scheduler (its workers need ujfmu installed; the FMUs are sent to them). client: a
-        dask.distributed Client to use instead (kept open)."""
-        from tqdm import tqdm
+        dask.distributed Client to use instead (kept open). progress: optional callable(points_done,
+        points_total), called as points finish (points reused from the journal count as done)."""
         self.out_dir.mkdir(parents=True, exist_ok=True)
         finished = {k for k, r in self.done().items() if r["status"] == "ok"}
         todo = [p for p in self.points if self.key(p) not in finished]
-        bar = tqdm(total=len(self.points), initial=len(self.points) - len(todo), desc=self.name, unit="point",
-                   disable=not progress, smoothing=0.1)
+        self.reused = len(self.points) - len(todo)
+        count = [self.reused]
+        if progress:
+            progress(count[0], len(self.points))
         with open(self.journal, "a+b") as journal:
             journal.seek(0, os.SEEK_END)
             if journal.tell():
@@ -274,14 +280,15 @@ class Sweep:
                 record["config"] = self.config
                 journal.write((json.dumps(record) + "\n").encode())
                 journal.flush()
-                bar.update(1)
+                count[0] += 1
+                if progress:
+                    progress(count[0], len(self.points))
 
             if todo and workers == 0 and scheduler is None and client is None:
                 for point in todo:
                     keep(run_point(self.job, point, self.fmu_blobs))
             elif todo:
                 self._run_dask(todo, keep, workers, scheduler, client)
-        bar.close()
         self.write_csv()
         return self.csv
 
