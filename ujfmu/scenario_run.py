@@ -16,6 +16,7 @@ import numpy as np
 from fmpy.util import validate_result, write_csv
 
 from .build import DEFAULT_FMU_DIR
+from .extras import available
 from .master import cosimulate
 from .references import read_reference
 from .scenario import Scenario
@@ -103,6 +104,8 @@ class ScenarioResult:
         lines = [head] + [f"  {c}" for c in self.checks]
         if not self.checked:
             lines.append(f"  {self.not_checked_reason()}")
+        elif math.isnan(self.fmpy_outlier_fraction):
+            lines.append("  fmpy.util.validate_result: not computed (it needs scipy: pip install 'ujfmu[references]')")
         else:
             lines.append(f"  fmpy.util.validate_result: fraction of samples outside fmpy's band = "
                          f"{self.fmpy_outlier_fraction:.4f}")
@@ -142,7 +145,8 @@ def run_scenario(path, fmu_dir=DEFAULT_FMU_DIR, out_dir=DEFAULT_OUT_DIR, plot: b
         # fmpy's band scales with each signal's range: a signal constant to within its absolute tolerance (say the
         # output speed of a constant-velocity layout) is checked by compare() alone
         compared = ["time"] + [c.name for c in result.checks if c.reference_range > scenario.tolerances[c.name].abs]
-        result.fmpy_outlier_fraction = float(validate_result(table[compared], reference[compared]))
+        if available("scipy"):   # fmpy's band filter needs scipy (an extra); the verdict comes from compare()
+            result.fmpy_outlier_fraction = float(validate_result(table[compared], reference[compared]))
     if out_dir is not None:
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
