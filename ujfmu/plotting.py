@@ -94,7 +94,7 @@ def plot_sweep(sweep, out_dir):
     amplitudes (order tracks, log scale) and a Campbell-style diagram (frequency of each order against the
     swept value, marker area by amplitude) of the first output. Returns the paths."""
     first, others = sweep.axes[0], sweep.axes[1:]
-    records = [r for r in sweep.table() if r["status"] == "ok"]
+    records = [r for r in sweep.records() if r["status"] == "ok"]
     groups = {}
     for r in records:
         key = tuple(r["point"][ax.names[0]] for ax in others)
