@@ -187,6 +187,12 @@ class Scenario:
                 raise ScenarioError(f"{self.path}: {field}: {problem}")
         return dict(values)
 
+    def unit(self, name: str) -> str:
+        """The declared unit of a "component.variable" ("" when it has none)."""
+        comp, _, var = name.partition(".")
+        declared = {v.name: v for v in fmu_class(self.components[comp][0]).VARIABLES}
+        return declared[var].unit or ""
+
     def start_values(self, component):
         """What the scenario sets in a component before it runs: its parameters and its explicitly set inputs."""
         return {**self.components[component][1], **self.inputs.get(component, {})}
