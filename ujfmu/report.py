@@ -20,7 +20,7 @@ from .sweep import Sweep, SweepSettings, close_client, dask_client, parse_axis
 SCENARIOS = REPO_DIR / "scenarios"
 RPM = math.pi / 30.0
 
-#: Omar, Rahim, Rejab (paper 004): section 2.3, Fig. 4, Table 2, Fig. 8, Figs. 11-12
+#: Omar, Rahim, Rejab [Omar2023]: section 2.3, Fig. 4, Table 2, Fig. 8, Figs. 11-12
 OMAR = {
     "omega_torsional": 143.0, "omega_lateral": 80.0,                     # rad/s, section 2.3
     "critical_torsional_rpm": 684.0, "critical_lateral_rpm": 381.0,      # Fig. 4
