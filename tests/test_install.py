@@ -82,8 +82,12 @@ def test_installed_copy_builds_and_checks_the_project_folder(plain_install):
     # a missing extra is named, with the command that installs it
     swept = ujfmu(venv, project, "sweep", "scenarios/cardan_constant_speed.toml", "--param",
                   "load.T0=0.1,0.2", "--settle", "0.1", "--running-speed", "motor.omega")
-    assert swept.returncode == 2 and "ujfmu sweep needs distributed" in swept.stderr
-    assert "pip install 'ujfmu[sweep]'" in swept.stderr
+    assert swept.returncode == 2 and "pip install 'ujfmu[sweep]'" in swept.stderr
+    assert "ujfmu sweep (--workers 0 runs in this process without it) needs distributed" in swept.stderr
+    in_process = ujfmu(venv, project, "sweep", "scenarios/cardan_constant_speed.toml", "--param", "load.T0=0.1,0.2",
+                       "--settle", "0.1", "--running-speed", "motor.omega", "--workers", "0")
+    assert in_process.returncode == 0 and "pip install 'ujfmu[plot]'" in in_process.stderr, in_process.stderr
+    assert (project / "results" / "cardan_constant_speed_sweep.csv").is_file()
     regenerated = ujfmu(venv, project, "references")
     assert regenerated.returncode == 2 and "pip install 'ujfmu[references]'" in regenerated.stderr
 

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from .build import DEFAULT_FMU_DIR, FMUS
-from .extras import MissingExtraError, require
+from .extras import MissingExtraError, available, require
 
 DEFAULT_SCENARIO_DIR = Path("scenarios")
 DEFAULT_OUT_DIR = Path("results")
@@ -71,7 +71,6 @@ def cmd_build(args):
 
 
 def _run_one(args, path):
-    from .extras import available
     from .scenario_run import run_scenario
     plot = not args.no_plot and available("matplotlib")
     with _progress(args, Path(path).stem, "step") as progress:
@@ -81,7 +80,6 @@ def _run_one(args, path):
 
 
 def _plots_missing(args):
-    from .extras import available
     if not args.no_plot and not available("matplotlib"):
         print("  no plots: matplotlib is not installed (pip install 'ujfmu[plot]'; --no-plot silences this)",
               file=sys.stderr)
@@ -137,7 +135,8 @@ def cmd_references(args):
 
 
 def cmd_sweep(args):
-    require("distributed", "sweep", "ujfmu sweep")
+    if args.workers != 0 or args.scheduler:
+        require("distributed", "sweep", "ujfmu sweep (--workers 0 runs in this process without it)")
     from .scenario import Scenario, ScenarioError
     from .sweep import Sweep, SweepSettings, parse_axis
     scenario = Scenario(args.scenario)
@@ -157,10 +156,10 @@ def cmd_sweep(args):
     if sweep.reused:
         print(f"  reused {sweep.reused} of {len(sweep.points)} points from {sweep.journal}")
     print(f"  table: {sweep.csv}\n  journal: {sweep.journal}")
-    if not args.no_plot:
-        require("matplotlib", "plot", "the sweep's figures (--no-plot skips them)")
+    if not args.no_plot and available("matplotlib"):
         for path in sweep.plot():
             print(f"  plot:  {path}")
+    _plots_missing(args)
     failed = sweep.failed()
     for record in failed[:10]:
         print(f"  point {record['point']} {record['status']}: {record['error']}", file=sys.stderr)
