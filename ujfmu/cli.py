@@ -115,6 +115,8 @@ def cmd_check(args):
 
 
 def cmd_references(args):
+    for module in ("scipy", "sympy"):
+        require(module, "references", "ujfmu references")
     from .references import generate, write_reference
     from .scenario import Scenario
     wrote = 0

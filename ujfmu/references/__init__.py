@@ -11,8 +11,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..extras import require
-
 #: generator name -> (module in ujfmu.references, function); imported when used (they need scipy and sympy,
 #: the ``references`` extra; reading a reference CSV needs neither)
 GENERATORS = {
@@ -51,6 +49,10 @@ def generate(scenario):
     if name not in GENERATORS:
         raise KeyError(f"{scenario.path}: unknown reference generator '{name}' (known: {', '.join(GENERATORS)})")
     for dependency in ("scipy", "sympy"):
-        require(dependency, "references", "regenerating a reference solution")
+        try:
+            importlib.import_module(dependency)
+        except ImportError:
+            raise ModuleNotFoundError(f"regenerating a reference solution needs {dependency}, which is not installed: "
+                                      "pip install 'ujfmu[references]'", name=dependency) from None
     module, function = GENERATORS[name]
     return getattr(importlib.import_module(f"{__name__}.{module}"), function)(scenario)
