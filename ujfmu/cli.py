@@ -126,8 +126,9 @@ def cmd_references(args):
             why = "no [reference]" if scenario.reference_file is None else "its [reference] names no generator"
             print(f"{scenario.path}: skipped: {why}, so there is nothing to regenerate", file=sys.stderr)
             continue
+        target = scenario.reference_output()   # inside the scenario's folder, checked before any work
         table, provenance = generate(scenario)
-        write_reference(scenario.reference_file, table, provenance)
+        write_reference(target, table, provenance)
         _say(args, f"wrote {scenario.reference_file}")
         wrote += 1
     if not wrote:
@@ -291,9 +292,11 @@ def main(argv=None):
     p.add_argument("--revolutions", type=float, help="measurement window in revolutions")
     p.add_argument("--orders", type=lambda s: tuple(int(k) for k in s.split(",")), help="orders, e.g. 1,2,4")
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: no dask)")
-    p.add_argument("--scheduler", help="address of a running dask.distributed scheduler, e.g. tcp://host:8786")
-    p.add_argument("--name", help="output name (default: <scenario>_sweep, plus a tag of the grid when the "
-                                  "grid is not the scenario's [sweep] params)")
+    p.add_argument("--scheduler", help="address of a running dask.distributed scheduler, e.g. tls://host:8786; "
+                        "it must be a trusted cluster (it runs what its clients submit); TLS settings come from "
+                        "the dask config (docs/security.md)")
+    p.add_argument("--name", help="output name (default: <scenario>_sweep); a grid other than the one in the "
+                                  "journal under this name is refused")
     _out(p, "results/", "output folder")
     p.add_argument("--no-plot", action="store_true")
     p.add_argument("--no-progress", action="store_true", help="same as --quiet for the progress bar")
