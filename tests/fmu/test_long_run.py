@@ -114,5 +114,7 @@ def test_a_million_steps_repeat_the_steady_state_without_drift_slowdown_or_growt
     (early, early_state), (late, late_state) = work
     assert early["line"] > 20 * STEPS_PER_TURN, early   # the counter does see the FMU's code
     assert late == early, (early, late)
-    assert late_state == early_state, (early_state, late_state)
+    # the serialized state writes floats as text, whose length varies by a few characters per value; a history
+    # kept per step would add 900,000 entries
+    assert abs(late_state - early_state) <= 256, (early_state, late_state)
     assert memory[-1] - memory[1] < 5.0, memory
