@@ -3,6 +3,8 @@
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import pytest
+
 import ujfmu
 from ujfmu.cli import main
 
@@ -38,3 +40,123 @@ def test_run_reports_a_bad_scenario_without_traceback(tmp_path, capsys):
     bad.write_text("[experiment]\nstop_time = 1\n")
     assert main(["run", str(bad)]) == 2
     assert "bad.toml" in capsys.readouterr().err
+
+
+def _unchecked(tmp_path, name="unchecked"):
+    """cardan_constant_speed without its [reference]: a scenario that runs but compares nothing."""
+    text = (SCENARIOS / "cardan_constant_speed.toml").read_text()
+    path = tmp_path / f"{name}.toml"
+    path.write_text(text[:text.index("[reference]")])
+    return path
+
+
+def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_path, capsys):
+    unchecked = _unchecked(tmp_path)
+    common = ["--fmu-dir", str(fmu_dir), "--out", str(tmp_path / "out"), "--no-plot"]
+    # run: says NOT CHECKED (not PASS), exit 0 (nothing failed)
+    assert main(["run", str(unchecked)] + common) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("NOT CHECKED unchecked") and "PASS" not in out and "no [reference]" in out
+    # check of nothing but unchecked scenarios: exit 1, saying nothing was checked
+    junit = tmp_path / "only.xml"
+    assert main(["check", str(unchecked), "--junit", str(junit)] + common) == 1
+    captured = capsys.readouterr()
+    assert "0 passed, 0 failed, 1 not checked" in captured.out and "nothing was checked" in captured.err
+    case = ET.parse(junit).getroot().find("testcase")
+    assert case.find("skipped") is not None and case.find("failure") is None
+    # with a checked scenario beside it: exit 0, the unchecked one skipped in the JUnit report and listed
+    assert main(["check", str(SCENARIOS / "cardan_constant_speed.toml"), str(unchecked), "--junit", str(junit)]
+                + common) == 0
+    captured = capsys.readouterr()
+    assert "1 passed, 0 failed, 1 not checked" in captured.out and "unchecked" in captured.err
+    suite = ET.parse(junit).getroot()
+    assert suite.get("skipped") == "1" and suite.get("failures") == "0"
+    cases = {c.get("name"): c for c in suite.iter("testcase")}
+    assert cases["unchecked"].find("skipped") is not None and cases["cardan_constant_speed"].find("skipped") is None
+
+
+def test_result_names_compared_and_uncompared_signals(fmu_dir, tmp_path):
+    text = (SCENARIOS / "cardan_constant_speed.toml").read_text()
+    assert '"joint.M_z" = { abs = 1e-09 }' in text
+    partial = tmp_path / "partial.toml"   # M_z recorded but not compared
+    partial.write_text(text.replace('"joint.M_z" = { abs = 1e-09 }', "").replace(
+        "[reference]\n", '[reference]\nnot_compared = { "joint.M_z" = "left out by this test" }\n').replace(
+        'file = "references/', f'file = "{SCENARIOS}/references/'))
+    checked = ujfmu.run_scenario(partial, fmu_dir=fmu_dir, out_dir=None)
+    assert checked.checked and checked.passed and checked.verdict == "PASS"
+    assert checked.compared == list(checked.scenario.tolerances) and "joint.M_z" not in checked.compared
+    assert checked.uncompared == ["joint.M_z"]
+    unchecked = ujfmu.run_scenario(_unchecked(tmp_path), fmu_dir=fmu_dir, out_dir=None)
+    assert not unchecked.checked and not unchecked.passed and not unchecked.failed
+    assert unchecked.verdict == "NOT CHECKED" and unchecked.compared == []
+
+
+def test_error_is_reported_against_the_allowed_error_not_a_constant_range():
+    from ujfmu.scenario_run import SignalCheck
+    constant = str(SignalCheck("joint.M_z", 8.5e-14, 1e-9, 5.7e-14))   # a constant reference: range ~ round-off
+    assert "8.5e-05 of allowed" in constant and "range" not in constant
+    failing = str(SignalCheck("joint.M_z", 0.01, 1e-9, 5.7e-14))
+    assert failing.startswith("FAIL") and "1e+07 of allowed" in failing and "range" not in failing
+    varying = str(SignalCheck("joint.tau_in", 1e-4, 1e-3, 0.1))
+    assert "0.1 of allowed" in varying and "0.1% of the reference's range" in varying
+
+
+def test_common_options_go_before_or_after_the_command_and_hints_name_the_folder(tmp_path, capsys):
+    scenario = SCENARIOS / "cardan_constant_speed.toml"
+    custom = tmp_path / "my_fmus"
+    for argv in (["--fmu-dir", str(custom), "run", str(scenario)], ["run", str(scenario), "--fmu-dir", str(custom)],
+                 ["run", "--quiet", str(scenario), "--fmu-dir", str(custom), "--out", str(tmp_path)],
+                 ["-q", "--out", str(tmp_path), "run", str(scenario), "--fmu-dir", str(custom)]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert str(custom) in err and f"ujfmu build --fmu-dir {custom}" in err, err
+    assert main(["build", "NoSuchFMU", "--fmu-dir", str(custom), "-q"]) == 2
+    assert "unknown FMU NoSuchFMU" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["build", "--out", str(tmp_path)])   # --out means nothing to build: refused, not ignored
+    assert "unrecognized arguments: --out" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["--out", str(tmp_path), "build"])
+    assert "--out does not apply to `ujfmu build` (FMUs go to --fmu-dir)" in capsys.readouterr().err
+
+
+def test_default_folders_are_the_current_directorys(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["check"]) == 2   # no scenarios/ here: an error, not "0 passed"
+    assert f"no scenario files (*.toml) in {tmp_path / 'scenarios'}" in capsys.readouterr().err
+    (tmp_path / "scenarios").mkdir()
+    _unchecked(tmp_path / "scenarios", "mine")
+    assert main(["check"]) == 2   # finds ./scenarios/mine.toml, looks for ./fmus
+    err = capsys.readouterr().err
+    assert "mine.toml" in err and str(tmp_path / "fmus" / "Motor.fmu") in err and "run `ujfmu build` first" in err
+
+
+def test_progress_is_a_callback_and_the_cli_draws_no_bar_off_a_terminal(fmu_dir, tmp_path, capsys):
+    calls = []
+    ujfmu.run_scenario(SCENARIOS / "cardan_constant_speed.toml", fmu_dir=fmu_dir, out_dir=None,
+                       progress=lambda done, total: calls.append((done, total)))
+    assert calls[-1] == (500, 500) and all(b >= a for (a, _), (b, _) in zip(calls, calls[1:]))
+    # pytest's captured stderr is not a terminal: no progress bar (no carriage returns), in spite of no --quiet
+    assert main(["run", str(SCENARIOS / "cardan_constant_speed.toml"), "--fmu-dir", str(fmu_dir), "--out",
+                 str(tmp_path), "--no-plot"]) == 0
+    captured = capsys.readouterr()
+    assert "\r" not in captured.err + captured.out and "PASS cardan_constant_speed" in captured.out
+    assert main(["-q", "run", str(SCENARIOS / "cardan_constant_speed.toml"), "--fmu-dir", str(fmu_dir), "--out",
+                 str(tmp_path), "--no-plot"]) == 0
+    assert "results:" not in capsys.readouterr().out   # --quiet: the verdict only
+
+
+def test_missing_reference_file_names_the_scenario_and_field(fmu_dir, tmp_path, capsys):
+    text = (SCENARIOS / "cardan_constant_speed.toml").read_text()
+    path = tmp_path / "lost_reference.toml"
+    path.write_text(text)   # its reference path is relative to the scenario: not there
+    assert main(["run", str(path), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path), "--no-plot"]) == 2
+    err = capsys.readouterr().err
+    assert (f"{path}: [reference] file = 'references/cardan_constant_speed.csv'" in err and "not found" in err
+            and "Errno" not in err)
+
+
+def test_references_says_when_a_scenario_has_nothing_to_regenerate(tmp_path, capsys):
+    assert main(["references", str(_unchecked(tmp_path))]) == 1
+    captured = capsys.readouterr()
+    assert "unchecked.toml: skipped: no [reference]" in captured.err and "no reference was regenerated" in captured.err

@@ -10,6 +10,7 @@ stop_time = 1.0
 step_size = 1e-3
 [components.j]
 fmu = "CardanJoint"
+inputs = { omega_in = 10.0, tau_load = 0.1 }
 [components.l]
 fmu = "Load"
 [[connections]]
@@ -58,7 +59,19 @@ def test_good_file_loads(tmp_path):
     ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { J2 = true }', "must be a number"),
     # misspelt tables and fields
     ('[experiment]', '[experimment]', "unknown top-level field(s) experimment"),
-    ('fmu = "Load"', 'fmu = "Load"\nparameter = { T0 = 1.0 }', "components.l: fields are fmu and parameters"),
+    ('fmu = "Load"', 'fmu = "Load"\nparameter = { T0 = 1.0 }', "components.l: fields are fmu, parameters and inputs"),
+    # messages that say what to write instead
+    ('fmu = "Load"', 'fmu = "Load"\n[components.m]\nfmu = "Motor"\nparameters = { profile = 1.5 }\ninputs = { tau_load = 0.0 }',
+     "must be an integer in [0, 2] (Speed profile: 0 constant, 1 ramp from rest, 2 step)"),
+    ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { bend_angle = "20deg" }',
+     "must be a number in rad (TOML values are SI, so angles in rad and speeds in rad/s; `ujfmu sweep --param` "
+     "accepts deg and rpm suffixes)"),
+    ('stop_time = 1.0', 'stop_time = 1e-4', "must be a whole number (at least 1) of communication steps"),
+    ('stop_time = 1.0', 'stop_time = 1.0005', "must be a whole number (at least 1) of communication steps"),
+    ('inputs = { omega_in = 10.0, tau_load = 0.1 }', 'inputs = { omega = 1.0 }', "components.j.inputs.omega"),
+    # an input nothing feeds must be set explicitly (it would silently stay at its start value)
+    ('inputs = { omega_in = 10.0, tau_load = 0.1 }', 'inputs = { omega_in = 10.0 }',
+     "input(s) j.tau_load not connected"),
     ('stop_time = 1.0', 'stop_time = 1.0\nstop_time = 2.0', "line 4"),
     # coupling scheme: one of the known ones; misspelt experiment fields
     ('step_size = 1e-3', 'step_size = 1e-3\ncoupling = "implicitly"', "experiment.coupling"),

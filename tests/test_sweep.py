@@ -150,3 +150,33 @@ def test_cli_sweep_writes_table_and_plots_and_reports_bad_parameters(fmu_dir, tm
         assert (tmp_path / name).is_file()
     assert main(args[:4] + ["--param", "motor.nope=1:2:1"]) == 2
     assert "Motor has no parameter 'nope'" in capsys.readouterr().err
+
+
+def test_another_grid_under_the_same_name_is_refused_and_a_rerun_says_what_it_reused(fmu_dir, tmp_path, capsys):
+    args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_brutti_rigid.toml"),
+            "--output", "driveline.tau_in", "--running-speed", "motor.omega", "--settle", "0.01",
+            "--revolutions", "1", "--workers", "0", "--out", str(tmp_path), "--no-plot"]
+    assert main(args + ["--param", "motor.omega_set=1000,2000rpm"]) == 0
+    csv_text = (tmp_path / "double_cardan_brutti_rigid_sweep.csv").read_text()
+    capsys.readouterr()
+    assert main(args + ["--param", "motor.omega_set=1000,2000rpm"]) == 0
+    assert "reused 2 of 2 points" in capsys.readouterr().out
+    # another grid: refused, the first grid's table untouched; under its own name it runs beside it
+    assert main(args + ["--param", "motor.omega_set=1500rpm"]) == 2
+    err = capsys.readouterr().err
+    assert "over another grid" in err and "--name" in err
+    assert (tmp_path / "double_cardan_brutti_rigid_sweep.csv").read_text() == csv_text
+    assert main(args + ["--param", "motor.omega_set=1500rpm", "--name", "other"]) == 0
+    assert (tmp_path / "double_cardan_brutti_rigid_sweep.csv").read_text() == csv_text
+    with open(tmp_path / "other.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 1 and float(rows[0]["motor.omega_set"]) == pytest.approx(1500 * RPM)
+
+
+def test_table_is_flat_like_the_csv(brutti, tmp_path, fmu_dir):
+    sweep = brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=1000rpm")
+    sweep.run(workers=0)
+    with open(sweep.csv) as f:
+        header = next(csv.reader(f))
+    row = sweep.table()[0]
+    assert set(header) <= set(row) and row["motor.omega_set"] == pytest.approx(1000 * RPM)

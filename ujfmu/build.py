@@ -18,10 +18,12 @@ import zipfile
 from pathlib import Path
 
 from . import __version__
+from .bibliography import BY_KEY, FMU_SOURCES, REFERENCES
 
 PACKAGE_DIR = Path(__file__).resolve().parent
-REPO_DIR = PACKAGE_DIR.parent
-DEFAULT_FMU_DIR = REPO_DIR / "fmus"
+REPO_DIR = PACKAGE_DIR.parent   # the clone, for an editable install (the report and the benchmark use its files)
+#: relative: fmus/ of the current directory, like the scenarios/ and results/ folders
+DEFAULT_FMU_DIR = Path("fmus")
 
 #: FMU name -> (module in ujfmu.fmu, class name)
 FMUS = {
@@ -56,6 +58,13 @@ UNITS = {
     "J": ((1, 2, -2, 0), {}),
 }
 _RUNTIME_DIRS = ("physics", "fmu")  # the only parts of ujfmu that go into an FMU
+
+
+def build_hint(fmu_dir) -> str:
+    """The command that builds the FMUs into fmu_dir, for "not found" messages."""
+    if Path(fmu_dir).absolute() == DEFAULT_FMU_DIR.absolute():
+        return "run `ujfmu build` first"
+    return f"run `ujfmu build --fmu-dir {fmu_dir}` first"
 
 
 def fmu_class(name):
@@ -195,6 +204,11 @@ def documentation_html(name, cls):
     tables = "".join(f"<h2>{title}</h2><table>{head}{''.join(rows[key])}</table>"
                      for key, title in (("parameter", "Parameters"), ("input", "Inputs"), ("output", "Outputs")))
     start, stop, step = cls.DEFAULT_EXPERIMENT
+    keys = FMU_SOURCES.get(name.removesuffix("PassThrough"), ())
+    sources = ("<p>" + "; ".join(f"[{k}] {html.escape(BY_KEY[k].authors)} ({BY_KEY[k].year}): "
+                                 f"{html.escape(BY_KEY[k].used_for)}" for k in keys) + "</p>" if keys else
+               "<p>No paper: a generic component of the ujfmu library (see its equations above).</p>")
+    bibliography = "".join(f"<li>[{r.key}] {html.escape(r.text())}</li>" for r in REFERENCES)
     return f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>{name} (ujfmu {__version__})</title>
 <style>body{{font-family:sans-serif;max-width:60em}}table{{border-collapse:collapse}}
@@ -210,8 +224,29 @@ td,th{{border:1px solid #999;padding:2px 6px;vertical-align:top}}pre{{background
 <p>The FMU runs Python code: the host needs a Python 3 runtime (the FMU was built with Python
 {sys.version_info.major}.{sys.version_info.minor}). Python hosts (fmpy, libcosimpy) work as they are. On Linux a
 non-Python host must preload libpython, e.g. <code>LD_PRELOAD=/usr/lib/x86_64-linux-gnu/libpython3.11.so</code>.</p>
-<p>Error handling: an invalid parameter makes fmi2ExitInitializationMode fail with a log message naming the
-parameter and its allowed range; a non-finite input refuses the step (fmi2Discard) with a logged error.</p>
+<h2>Step size and stability</h2>
+<p>Inside each communication step the FMU integrates its own states with as many classical RK4 substeps as its
+fastest rate needs, so its internal accuracy does not depend on the host's step; the coupling with the other FMUs
+does. A drivetrain FMU is driven by the speed <code>omega_in</code> and answers with <code>tau_in</code>, which
+contains the inertia torques of what it drives (an inertia times the acceleration it estimates from the speed
+history). With an explicit master (Jacobi or Gauss-Seidel, no iteration) this is stable only when the inertia
+reflected through <code>tau_in</code> is smaller than the driver's own inertia (a motor rotor, say), whatever the
+step: give the driver the larger inertia, or use an iterating master. A stiff spring between two FMUs needs
+h well below 2/omega_n of that spring, and a load whose slope d(tau)/d(omega) is large compared with J/h (J the
+inertia it acts on) needs a smaller step. The default experiment's step ({step} s) is what the ujfmu scenarios use;
+they are checked against independent reference solutions at 1 ms. Check a new layout by halving the step: the
+results must not change beyond your tolerance.</p>
+<h2>Errors and logging</h2>
+<p>Errors appear only with FMU logging enabled: pythonfmu, which runs this FMU, drops every log message when
+logging is off, errors included. Turn on the FMU's logging in the host (fmi2Instantiate with loggingOn = true; in
+fmpy <code>debug_logging=True</code>) to see them. An invalid parameter makes fmi2ExitInitializationMode fail
+with a message naming the parameter and its allowed range; a non-finite or out-of-range input, a step size that
+is not finite and positive, or a step that would need more than 100000 RK4 substeps refuses the step
+(fmi2Discard) with a logged error naming the cause; the instance stays usable.</p>
+<h2>Sources</h2>
+{sources}
+<h2>Bibliography</h2>
+<ul>{bibliography}</ul>
 </body></html>
 """
 

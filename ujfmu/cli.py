@@ -1,86 +1,161 @@
-"""Command line: ujfmu build | run | check | references | sweep | report | bench | export-ssp."""
+"""Command line: ujfmu build | run | check | references | sweep | report | bench | export-ssp.
+
+The folders fmus/, scenarios/ and results/ are those of the current directory. The common options (--fmu-dir,
+--out, --quiet) go before or after the command. The library reports progress through callbacks; this module
+alone draws progress bars (tqdm, on a terminal only)."""
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 
 from .build import DEFAULT_FMU_DIR, FMUS, REPO_DIR
+from .extras import MissingExtraError, available, require
 
-DEFAULT_SCENARIO_DIR = REPO_DIR / "scenarios"
+DEFAULT_SCENARIO_DIR = Path("scenarios")
+DEFAULT_OUT_DIR = Path("results")
+
+
+class UsageError(Exception):
+    """A command-line mistake: printed as an error with exit status 2."""
 
 
 def _scenarios(paths):
     if paths:
         return [Path(p) for p in paths]
-    return sorted(DEFAULT_SCENARIO_DIR.glob("*.toml"))
+    found = sorted(DEFAULT_SCENARIO_DIR.glob("*.toml"))
+    if not found:
+        raise UsageError(f"no scenario files (*.toml) in {DEFAULT_SCENARIO_DIR.absolute()}: name scenario files, "
+                         "or run this in a folder that has a scenarios/ folder")
+    return found
+
+
+@contextlib.contextmanager
+def _progress(args, desc, unit):
+    """A progress callback(done, total) drawing a tqdm bar on stderr; None with --quiet or when stderr is not a
+    terminal (CI logs)."""
+    if args.quiet or not sys.stderr.isatty():
+        yield None
+        return
+    from tqdm import tqdm
+    bar = tqdm(desc=desc, unit=unit, leave=False, file=sys.stderr)
+
+    def update(done, total):
+        bar.total = total
+        bar.update(done - bar.n)
+
+    try:
+        yield update
+    finally:
+        bar.close()
+
+
+def _say(args, text):
+    if not args.quiet:
+        print(text)
 
 
 def cmd_build(args):
     from .build import build_all
-    from tqdm import tqdm
     unknown = [n for n in args.names if n not in FMUS]
     if unknown:
-        print(f"ujfmu: error: unknown FMU {', '.join(unknown)}; known: {', '.join(FMUS)}", file=sys.stderr)
-        return 2
-    for name in tqdm(args.names or list(FMUS), desc="building FMUs", unit="fmu", disable=None):
-        path = build_all(args.fmu_dir, [name])[0]
-        tqdm.write(f"built {path}")
+        raise UsageError(f"unknown FMU {', '.join(unknown)}; known: {', '.join(FMUS)}")
+    names = args.names or list(FMUS)
+    with _progress(args, "building FMUs", "fmu") as progress:
+        for i, name in enumerate(names):
+            path = build_all(args.fmu_dir, [name])[0]
+            _say(args, f"built {path}")
+            if progress:
+                progress(i + 1, len(names))
     return 0
+
+
+def _run_one(args, path, scenario=None):
+    from .scenario_run import run_scenario
+    plot = not args.no_plot and available("matplotlib")
+    with _progress(args, Path(path).stem, "step") as progress:
+        result = run_scenario(scenario if scenario is not None else path, fmu_dir=args.fmu_dir, out_dir=args.out,
+                              plot=plot, progress=progress)
+    print(result.summary())
+    return result
+
+
+def _plots_missing(args):
+    if not args.no_plot and not available("matplotlib"):
+        print("  no plots: matplotlib is not installed (pip install 'ujfmu[plot]'; --no-plot silences this)",
+              file=sys.stderr)
 
 
 def cmd_run(args):
     from . import stepsize
     from .scenario import Scenario
-    from .scenario_run import run_scenario
     scenario = Scenario(args.scenario)
     if args.step == "auto":
         scenario.check_fmus(args.fmu_dir)
-        scenario.step_size, _ = stepsize.choose(scenario, args.fmu_dir, progress=print)
+        scenario.step_size, _ = stepsize.choose(scenario, args.fmu_dir,
+                                                progress=(lambda *a: None) if args.quiet else print)
         print(f"--step auto: step_size = {scenario.step_size:g} s")
     elif args.step is not None:
         scenario.step_size = float(args.step)
-    result = run_scenario(scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=not args.no_plot)
-    print(result.summary())
-    print(f"  results: {result.csv}" + (f"\n  plot:    {result.plot}" if result.plot else ""))
+    result = _run_one(args, args.scenario, scenario)
+    _say(args, f"  results: {result.csv}" + (f"\n  plot:    {result.plot}" if result.plot else ""))
     for extra in result.extra_plots:
-        print(f"  plot:    {extra}")
+        _say(args, f"  plot:    {extra}")
+    _plots_missing(args)
     step_ok = True
     if args.check_step:
         estimate = stepsize.estimate(scenario, fmu_dir=args.fmu_dir, coarse=result.table)
         print("\n".join(estimate.lines()))
         step_ok = estimate.passed
-    return 0 if result.passed and step_ok else 1
+    return 1 if result.failed or not step_ok else 0
 
 
 def cmd_check(args):
-    from .scenario_run import run_scenario, write_junit
-    results = []
-    for path in _scenarios(args.scenarios):
-        result = run_scenario(path, fmu_dir=args.fmu_dir, out_dir=args.out, plot=not args.no_plot)
-        print(result.summary())
-        results.append(result)
+    from .scenario_run import write_junit
+    results = [_run_one(args, path) for path in _scenarios(args.scenarios)]
+    _plots_missing(args)
     if args.junit:
         print(f"JUnit report: {write_junit(results, args.junit)}")
-    failed = [r.scenario.name for r in results if not r.passed]
-    print(f"{len(results) - len(failed)} passed, {len(failed)} failed")
+    failed = [r for r in results if r.failed]
+    unchecked = [r for r in results if not r.checked]
+    print(f"{len(results) - len(failed) - len(unchecked)} passed, {len(failed)} failed, "
+          f"{len(unchecked)} not checked")
+    if unchecked:
+        print(f"not checked (no [reference] with tolerances): {', '.join(r.scenario.name for r in unchecked)}",
+              file=sys.stderr)
+    if len(unchecked) == len(results):
+        print(f"ujfmu: error: nothing was checked: none of the {len(results)} scenario(s) compares a signal with a "
+              "reference (add [reference] file and [reference.tolerance] to a scenario)", file=sys.stderr)
+        return 1
     return 1 if failed else 0
 
 
 def cmd_references(args):
+    for module in ("scipy", "sympy"):
+        require(module, "references", "ujfmu references")
     from .references import generate, write_reference
     from .scenario import Scenario
+    wrote = 0
     for path in _scenarios(args.scenarios):
         scenario = Scenario(path)
         if scenario.reference_generator is None:
+            why = "no [reference]" if scenario.reference_file is None else "its [reference] names no generator"
+            print(f"{scenario.path}: skipped: {why}, so there is nothing to regenerate", file=sys.stderr)
             continue
         target = scenario.reference_output()   # inside the scenario's folder, checked before any work
         table, provenance = generate(scenario)
         write_reference(target, table, provenance)
-        print(f"wrote {scenario.reference_file}")
+        _say(args, f"wrote {scenario.reference_file}")
+        wrote += 1
+    if not wrote:
+        print("ujfmu: error: no reference was regenerated", file=sys.stderr)
+        return 1
     return 0
 
 
 def cmd_sweep(args):
+    if args.workers != 0 or args.scheduler:
+        require("distributed", "sweep", "ujfmu sweep (--workers 0 runs in this process without it)")
     from .scenario import Scenario, ScenarioError
     from .sweep import Sweep, SweepSettings, parse_axis
     scenario = Scenario(args.scenario)
@@ -95,11 +170,15 @@ def cmd_sweep(args):
     sweep = Sweep(scenario, axes, settings, out_dir=args.out, name=args.name, fmu_dir=args.fmu_dir)
     print(f"{sweep.name}: {len(sweep.points)} points ({' x '.join(str(len(a.values)) for a in axes)}), "
           f"settle {settings.settle_time:g} s, {settings.revolutions:g} revolutions measured")
-    sweep.run(workers=args.workers, scheduler=args.scheduler, progress=not args.no_progress)
+    with _progress(args, sweep.name, "point") as progress:
+        sweep.run(workers=args.workers, scheduler=args.scheduler, progress=progress)
+    if sweep.reused:
+        print(f"  reused {sweep.reused} of {len(sweep.points)} points from {sweep.journal}")
     print(f"  table: {sweep.csv}\n  journal: {sweep.journal}")
-    if not args.no_plot:
+    if not args.no_plot and available("matplotlib"):
         for path in sweep.plot():
             print(f"  plot:  {path}")
+    _plots_missing(args)
     failed = sweep.failed()
     for record in failed[:10]:
         print(f"  point {record['point']} {record['status']}: {record['error']}", file=sys.stderr)
@@ -118,10 +197,12 @@ def cmd_export_ssp(args):
 
 
 def cmd_bench(args):
+    for module, extra in (("scipy", "references"), ("sympy", "references"), ("distributed", "sweep")):
+        require(module, extra, "ujfmu bench")
     from .bench import render, run_bench, write
     from .battery import paths as battery_paths
     result = run_bench(_scenarios(args.scenarios), fmu_dir=args.fmu_dir, sweep=not args.no_sweep,
-                       progress=lambda msg: print(msg, file=sys.stderr),
+                       progress=(lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr)),
                        battery=() if args.no_battery else battery_paths())
     print(render(result))
     print(f"\nwrote {write(result, args.out)}")
@@ -151,9 +232,12 @@ def cmd_battery(args):
 
 
 def cmd_report(args):
+    for module in ("distributed", "scipy", "sympy", "matplotlib"):
+        require(module, "report", "ujfmu report")
     from .report import write_report
-    path = write_report(args.out, fmu_dir=args.fmu_dir, work_dir=args.work_dir, workers=args.workers,
-                        progress=not args.no_progress).path
+    with _progress(args, "report sweep", "point") as progress:
+        path = write_report(args.out, fmu_dir=args.fmu_dir, work_dir=args.work_dir, workers=args.workers,
+                            progress=progress).path
     print(f"wrote {path} (figures in {path.parent / 'figures'})")
     return 0
 
@@ -193,16 +277,41 @@ def cmd_mutate(args):
     return 1 if survivors or "error" in statuses else 0
 
 
+#: options every command accepts, before or after the command name
+def _common(parser, suppress):
+    default = (lambda value: argparse.SUPPRESS) if suppress else (lambda value: value)
+    parser.add_argument("--fmu-dir", type=Path, default=default(DEFAULT_FMU_DIR),
+                        help="where the FMUs are, or are built (default: fmus/ of the current directory)")
+    parser.add_argument("--quiet", "-q", action="store_true", default=default(False),
+                        help="no progress bars and no file listings (progress bars are off anyway when the "
+                             "output is not a terminal)")
+
+
+def _out(parser, default, helptext):
+    parser.add_argument("--out", type=Path, default=argparse.SUPPRESS, help=f"{helptext} (default: {default})")
+    parser.set_defaults(out_default=Path(default))
+
+
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="ujfmu", description=__doc__)
-    parser.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where the FMUs are (default: fmus/)")
+    parser = argparse.ArgumentParser(prog="ujfmu", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    _common(parser, suppress=False)
+    parser.add_argument("--out", type=Path, default=argparse.SUPPRESS,
+                        help="output folder or file of the command (see the command's --help)")
     sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("build", help="build all FMUs into fmus/")
+    common = argparse.ArgumentParser(add_help=False)
+    _common(common, suppress=True)
+
+    def command(name, func, helptext):
+        p = sub.add_parser(name, help=helptext, parents=[common])
+        p.set_defaults(func=func, out_default=None)
+        return p
+
+    p = command("build", cmd_build, "build all FMUs into fmus/ (or --fmu-dir)")
     p.add_argument("names", nargs="*", help=f"FMUs to build, of {', '.join(FMUS)} (default: all)")
-    p.set_defaults(func=cmd_build)
     for name, func, helptext in (("run", cmd_run, "co-simulate one scenario, write CSV and PNG, compare"),
                                  ("check", cmd_check, "run every scenario against its reference")):
-        p = sub.add_parser(name, help=helptext)
+        p = command(name, func, helptext)
         if name == "run":
             p.add_argument("scenario", type=Path)
             p.add_argument("--step", metavar="SECONDS|auto",
@@ -214,13 +323,11 @@ def main(argv=None):
         else:
             p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")
-        p.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: results/)")
+        _out(p, "results/", "output folder")
         p.add_argument("--no-plot", action="store_true")
-        p.set_defaults(func=func)
-    p = sub.add_parser("references", help="regenerate the reference CSV files of the scenarios")
+    p = command("references", cmd_references, "regenerate the reference CSV files of the scenarios")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
-    p.set_defaults(func=cmd_references)
-    p = sub.add_parser("sweep", help="co-simulate a scenario over a parameter grid to steady state (dask)")
+    p = command("sweep", cmd_sweep, "co-simulate a scenario over a parameter grid to steady state (dask)")
     p.add_argument("scenario", type=Path)
     p.add_argument("--param", action="append", metavar="COMP.PAR[,COMP.PAR]=START:STOP:STEP[rpm|deg]",
                    help="an axis (inclusive range, or V1,V2,... values; several --param make a grid; "
@@ -234,53 +341,56 @@ def main(argv=None):
     p.add_argument("--scheduler", help="address of a running dask.distributed scheduler, e.g. tls://host:8786; "
                         "it must be a trusted cluster (it runs what its clients submit); TLS settings come from "
                         "the dask config (docs/security.md)")
-    p.add_argument("--name", help="output name (default: <scenario>_sweep)")
-    p.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: results/)")
+    p.add_argument("--name", help="output name (default: <scenario>_sweep); a grid other than the one in the "
+                                  "journal under this name is refused")
+    _out(p, "results/", "output folder")
     p.add_argument("--no-plot", action="store_true")
-    p.add_argument("--no-progress", action="store_true")
-    p.set_defaults(func=cmd_sweep)
-    p = sub.add_parser("export-ssp", help="write scenarios as SSP packages (SystemStructure.ssd + FMUs)")
+    p.add_argument("--no-progress", action="store_true", help="same as --quiet for the progress bar")
+    p = command("export-ssp", cmd_export_ssp, "write scenarios as SSP packages (SystemStructure.ssd + FMUs)")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
-    p.add_argument("--out", type=Path, default=Path("results"), help="writes <scenario>.ssp here")
-    p.set_defaults(func=cmd_export_ssp)
-    p = sub.add_parser("bench", help="speed figures as ratios in one run: FMI floor, monolithic solve, sweeps")
+    _out(p, "results/", "writes <scenario>.ssp here")
+    p = command("bench", cmd_bench, "speed figures as ratios in one run: FMI floor, monolithic solve, sweeps")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p.add_argument("--no-sweep", action="store_true", help="skip the sweep figures (1 and 2 workers)")
     p.add_argument("--no-battery", action="store_true",
                    help="skip the coupling battery's cost per scheme (scenarios/battery, about 2 minutes)")
-    p.add_argument("--out", type=Path, default=Path("results"), help="writes bench.md and bench.json here")
-    p.set_defaults(func=cmd_bench)
-    p = sub.add_parser("battery", help="run the coupling battery (scenarios/battery) in each scheme against its "
-                                       "monolithic references")
+    _out(p, "results/", "writes bench.md and bench.json here")
+    p = command("battery", cmd_battery, "run the coupling battery (scenarios/battery) in each scheme against its "
+                                        "monolithic references")
     p.add_argument("--coupling", action="append", choices=["explicit", "implicit"],
                    help="scheme(s) to run (default: both)")
     p.add_argument("--regenerate", action="store_true", help="redraw the set-ups and re-solve their references")
-    p.set_defaults(func=cmd_battery)
-    p = sub.add_parser("report", help="re-create the papers' published results with sweeps; write docs/validation.md")
-    p.add_argument("--out", type=Path, default=REPO_DIR / "docs" / "validation.md", help="markdown file to write")
+    p = command("report", cmd_report,
+                "re-create the papers' published results with sweeps; write docs/validation.md (in a clone)")
+    _out(p, "docs/validation.md", "markdown file to write")
     p.add_argument("--work-dir", type=Path, help="where the sweeps keep their points (default: results/report; "
                                                   "a rerun resumes from them)")
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: no dask)")
-    p.add_argument("--no-progress", action="store_true")
-    p.set_defaults(func=cmd_report)
-    p = sub.add_parser("mutate", help="mutation run: the curated mutants (mutants.toml) against their tests")
+    p.add_argument("--no-progress", action="store_true", help="same as --quiet for the progress bar")
+    p = command("mutate", cmd_mutate, "mutation run: the curated mutants (mutants.toml) against their tests")
     p.add_argument("--list", type=Path, default=REPO_DIR / "mutants.toml", help="mutant list (default: mutants.toml)")
     p.add_argument("--only", nargs="+", metavar="ID", help="run only these mutants")
     p.add_argument("--resume", action="store_true",
                    help="keep the killed mutants of results/mutate.jsonl, run the others (survivors, errors, new)")
     p.add_argument("--timeout", type=float, default=900.0, help="seconds per mutant (default: 900)")
     p.add_argument("--nice", type=int, default=19, help="CPU niceness of the test runs (default: 19)")
-    p.add_argument("--out", type=Path, default=Path("results"), help="writes mutate.jsonl here")
-    p.set_defaults(func=cmd_mutate)
+    _out(p, "results/", "writes mutate.jsonl here")
     args = parser.parse_args(argv)
     if args.command == "battery" and not args.coupling:
         args.coupling = ["explicit", "implicit"]
+    if getattr(args, "no_progress", False):
+        args.quiet = True
+    if args.out_default is None and "out" in args:
+        parser.error(f"--out does not apply to `ujfmu {args.command}`" +
+                     (" (FMUs go to --fmu-dir)" if args.command == "build" else ""))
+    if "out" not in args:
+        args.out = args.out_default
     try:
         return args.func(args)
     except Exception as exc:  # a clear message, not a traceback, for user errors
         from .master import CosimulationError
         from .scenario import ScenarioError
-        if isinstance(exc, (ScenarioError, CosimulationError, FileNotFoundError)):
+        if isinstance(exc, (ScenarioError, CosimulationError, FileNotFoundError, UsageError, MissingExtraError)):
             print(f"ujfmu: error: {exc}", file=sys.stderr)
             return 2
         raise

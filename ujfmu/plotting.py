@@ -1,36 +1,92 @@
-"""Plots of scenario results with their references overlaid (matplotlib, no screen needed)."""
+"""Plots of scenario results with their references overlaid, and of sweeps (matplotlib, no screen needed).
 
-import matplotlib
+Units: every axis carries one. A quantity has one display unit in every figure: SI, except lengths in mm
+(``DISPLAY_UNITS``); a sweep's first axis is shown in the unit it was given in (rpm, deg). Tick labels never use
+an offset (``1e-12+2.999999999e-2``): a signal constant to within round-off gets a readable band around its value.
+"""
+
+import textwrap
+
+from .extras import require
+
+require("matplotlib", "plot", "plotting results")
+import matplotlib  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+#: SI unit -> (unit shown in plots, factor from SI); units not listed are shown as they are
+DISPLAY_UNITS = {"m": ("mm", 1.0e3)}
+#: plot title width in characters (wrapped to stay inside the figure)
+TITLE_WIDTH = {9: 105, 12: 140}
+
+plt.rcParams.update({"axes.formatter.useoffset": False, "axes.formatter.limits": (-4, 5)})
+
+
+def display(unit):
+    """(label, factor): the unit a quantity in SI unit is shown in, and the factor from SI."""
+    shown, factor = DISPLAY_UNITS.get(unit, (unit, 1.0))
+    return shown or "1", factor
+
+
+def _title(fig, text, width_in):
+    fig.suptitle(textwrap.fill(text, TITLE_WIDTH.get(width_in, int(11.5 * width_in))), fontsize=9)
+
+
+def _readable_limits(ax, *series):
+    """No offset labels: a (nearly) constant signal gets a band of +-1e-6 of its value (or +-1e-12) around it."""
+    values = np.concatenate([np.asarray(s, dtype=float).ravel() for s in series])
+    values = values[np.isfinite(values)]
+    if values.size == 0:
+        return
+    lo, hi = values.min(), values.max()
+    floor = max(1e-6 * max(abs(lo), abs(hi)), 1e-12)
+    if hi - lo < floor:
+        mid = 0.5 * (lo + hi)
+        ax.set_ylim(mid - floor, mid + floor)
+
 
 def plot_scenario(result, reference, path):
-    """One panel per plotted signal: co-simulation and reference; error on a twin axis. Returns path."""
+    """Per plotted signal two panels: the co-simulation with the reference, and below it the error (result -
+    reference) with the allowed error when the signal is compared. Returns path."""
     scenario, table = result.scenario, result.table
     names = scenario.plot
-    fig, axes = plt.subplots(len(names), 1, figsize=(9, 2.2 * len(names) + 0.6), sharex=True, squeeze=False)
+    has_ref = [reference is not None and name in reference.dtype.names for name in names]
+    ratios = [r for name, ref in zip(names, has_ref) for r in ((3, 1.4) if ref else (3,))]
+    fig, axes = plt.subplots(len(ratios), 1, figsize=(9, 0.75 * sum(ratios) + 1.2), sharex=True, squeeze=False,
+                             gridspec_kw={"height_ratios": ratios}, layout="constrained")
+    axes = list(axes[:, 0])
     checks = {c.name: c for c in result.checks}
-    for ax, name in zip(axes[:, 0], names):
-        ax.plot(table["time"], table[name], lw=1.2, label="co-simulation (fmpy)")
-        if reference is not None and name in reference.dtype.names:
-            ax.plot(reference["time"], reference[name], "--", lw=1.0, label="reference")
-            err = table[name] - np.interp(table["time"], reference["time"], reference[name])
-            twin = ax.twinx()
-            twin.plot(table["time"], err, color="tab:red", lw=0.6, alpha=0.6)
-            twin.set_ylabel("error", color="tab:red", fontsize=8)
-            twin.tick_params(axis="y", labelsize=7, colors="tab:red")
+    t = table["time"]
+    for name, ref in zip(names, has_ref):
+        label, k = display(scenario.unit(name))
+        ax = axes.pop(0)
+        ax.plot(t, k * table[name], lw=1.2, label="co-simulation (fmpy)")
+        series = [k * table[name]]
+        if ref:
+            ax.plot(reference["time"], k * reference[name], "--", lw=1.0, label="reference")
+            series.append(k * reference[name])
+        _readable_limits(ax, *series)
+        ax.set_ylabel(f"[{label}]", fontsize=8)
         check = checks.get(name)
-        title = name + (f"  [{'ok' if check.passed else 'FAIL'}: max|err| {check.max_error:.2e} "
-                        f"<= {check.allowed:.2e}]" if check else "")
-        ax.set_title(title, fontsize=9, loc="left")
+        verdict = (f"  ({'ok' if check.passed else 'FAIL'}: max |error| {k * check.max_error:.3g} {label}, allowed "
+                   f"{k * check.allowed:.3g} {label})" if check else "  (not compared)" if ref else "")
+        ax.set_title(f"{name}{verdict}", fontsize=9, loc="left")
         ax.grid(alpha=0.3)
-    axes[0, 0].legend(fontsize=8, loc="upper left")
-    axes[-1, 0].set_xlabel("time [s]")
-    fig.suptitle(f"{scenario.title} — {'PASS' if result.passed else 'FAIL'}", fontsize=10)
-    fig.tight_layout()
+        ax.legend(fontsize=7, loc="best")
+        if ref:
+            err_ax = axes.pop(0)
+            err = table[name] - np.interp(t, reference["time"], reference[name])
+            err_ax.plot(t, k * err, color="tab:red", lw=0.8)
+            if check:
+                for sign in (1, -1):
+                    err_ax.axhline(sign * k * check.allowed, color="0.4", lw=0.8, ls=":")
+            err_ax.set_ylabel(f"error [{label}]", fontsize=8, color="tab:red")
+            err_ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4), useOffset=False)
+            err_ax.grid(alpha=0.3)
+    fig.axes[-1].set_xlabel("time [s]")
+    _title(fig, f"{scenario.title}: {result.verdict}" + ("  (dotted: allowed error)" if result.checks else ""), 9)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -42,19 +98,19 @@ def _steady(result):
 
 
 def plot_orbits(result, path):
-    """One panel per [x, y] pair of the scenario's output.orbits (from steady_from on), in mm. Returns path."""
+    """One panel per [x, y] pair of the scenario's output.orbits (from steady_from on). Returns path."""
     scenario, table = result.scenario, _steady(result)
     pairs = scenario.orbits
-    fig, axes = plt.subplots(1, len(pairs), figsize=(4.2 * len(pairs), 4.4), squeeze=False)
+    fig, axes = plt.subplots(1, len(pairs), figsize=(4.2 * len(pairs), 4.6), squeeze=False, layout="constrained")
     for ax, (x, y) in zip(axes[0], pairs):
-        ax.plot(1e3 * table[x], 1e3 * table[y], lw=0.7)
-        ax.plot(1e3 * table[x][-1:], 1e3 * table[y][-1:], "o", ms=4, color="tab:red")
-        ax.set_xlabel(f"{x} [mm]")
-        ax.set_ylabel(f"{y} [mm]")
+        (xl, kx), (yl, ky) = display(scenario.unit(x)), display(scenario.unit(y))
+        ax.plot(kx * table[x], ky * table[y], lw=0.7)
+        ax.plot(kx * table[x][-1:], ky * table[y][-1:], "o", ms=4, color="tab:red")
+        ax.set_xlabel(f"{x} [{xl}]")
+        ax.set_ylabel(f"{y} [{yl}]")
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(alpha=0.3)
-    fig.suptitle(f"{scenario.title}\norbits, t >= {scenario.steady_from:g} s (dot: last sample)", fontsize=9)
-    fig.tight_layout()
+    _title(fig, f"{scenario.title}: orbits, t >= {scenario.steady_from:g} s (dot: last sample)", 4 * len(pairs))
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -67,22 +123,25 @@ def plot_spectra(result, path):
 
     scenario, table = result.scenario, _steady(result)
     names = scenario.spectra
-    fig, axes = plt.subplots(len(names), 1, figsize=(9, 1.9 * len(names) + 0.8), sharex=True, squeeze=False)
+    fig, axes = plt.subplots(len(names), 1, figsize=(9, 1.9 * len(names) + 1.0), sharex=True, squeeze=False,
+                             layout="constrained")
     scale, unit = 1.0, "Hz"
     if scenario.running_speed:
         scale = 2.0 * np.pi / float(np.mean(table[scenario.running_speed]))
-        unit = f"orders of the running speed ({1.0 / scale:.2f} Hz)"
+        unit = f"orders of the running speed, 1 = {1.0 / scale:.2f} Hz"
     for ax, name in zip(axes[:, 0], names):
+        label, k = display(scenario.unit(name))
         freq, amp = amplitude_spectrum(table["time"], table[name])
+        amp = k * amp
         ax.semilogy(freq * scale, np.maximum(amp, 1e-30), lw=0.9)
         top = amp.max() if amp.max() > 0 else 1.0
         ax.set_ylim(top * 1e-6, top * 3.0)
+        ax.set_ylabel(f"amplitude [{label}]", fontsize=8)
         ax.set_title(name, fontsize=9, loc="left")
         ax.grid(alpha=0.3, which="both")
     axes[-1, 0].set_xlim(0, 6 if scenario.running_speed else None)
     axes[-1, 0].set_xlabel(f"frequency [{unit}]")
-    fig.suptitle(f"{scenario.title}\namplitude spectra (Hann window), t >= {scenario.steady_from:g} s", fontsize=9)
-    fig.tight_layout()
+    _title(fig, f"{scenario.title}: amplitude spectra (Hann window), t >= {scenario.steady_from:g} s", 9)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -91,64 +150,82 @@ def plot_spectra(result, path):
 def plot_sweep(sweep, out_dir):
     """Sweep figures against the first axis (in the unit it was given in): results/<name>.png with max and min of
     every output, one curve per combination of the other axes; results/<name>_orders.png with the order
-    amplitudes (order tracks, log scale) and a Campbell-style diagram (frequency of each order against the
-    swept value, marker area by amplitude) of the first output. Returns the paths."""
+    amplitudes of the first output (order tracks, log scale) and, when the first axis is a speed, a Campbell
+    diagram (frequency of each order against the swept speed, marker area by amplitude). Returns the paths."""
+    scenario = sweep.scenario
     first, others = sweep.axes[0], sweep.axes[1:]
-    records = [r for r in sweep.table() if r["status"] == "ok"]
+    records = [r for r in sweep.records() if r["status"] == "ok"]
     groups = {}
     for r in records:
         key = tuple(r["point"][ax.names[0]] for ax in others)
         groups.setdefault(key, []).append(r)
+    first_si = scenario.unit(first.names[0])
+
+    def axis_unit(ax):
+        return ax.unit or display(scenario.unit(ax.names[0]))[0]
+
+    def axis_value(ax, value):
+        return ax.display(value) if ax.unit else display(scenario.unit(ax.names[0]))[1] * value
 
     def label(key):
-        return ", ".join(f"{ax.label} = {ax.display(v):.4g}{' ' + ax.unit if ax.unit else ''}"
-                         for ax, v in zip(others, key)) or None
+        return ", ".join(f"{ax.label} = {axis_value(ax, v):.4g} {axis_unit(ax)}" for ax, v in zip(others, key)) or None
 
-    xlabel = f"{first.label} [{first.unit or 'SI'}]"
+    xlabel = f"{first.label} [{axis_unit(first)}]"
+
+    def xs(rows):
+        return np.array([axis_value(first, r["point"][first.names[0]]) for r in rows])
+
     outputs, orders = sweep.settings.outputs, sweep.settings.orders
-    fig, axes = plt.subplots(len(outputs), 1, figsize=(9, 2.4 * len(outputs) + 0.8), sharex=True, squeeze=False)
+    fig, axes = plt.subplots(len(outputs), 1, figsize=(9, 2.4 * len(outputs) + 1.0), sharex=True, squeeze=False,
+                             layout="constrained")
     for ax, out in zip(axes[:, 0], outputs):
+        unit, k = display(scenario.unit(out))
         for i, (key, rows) in enumerate(sorted(groups.items())):
             rows = sorted(rows, key=lambda r: r["point"][first.names[0]])
-            x = [first.display(r["point"][first.names[0]]) for r in rows]
             color = f"C{i % 10}"
-            ax.plot(x, [r[f"{out}.max"] for r in rows], ".-", color=color, ms=3, label=label(key))
-            ax.plot(x, [r[f"{out}.min"] for r in rows], ".--", color=color, ms=3)
-        ax.set_title(f"{out}: max (solid), min (dashed) in steady state", fontsize=9, loc="left")
+            ax.plot(xs(rows), [k * r[f"{out}.max"] for r in rows], ".-", color=color, ms=3, label=label(key))
+            ax.plot(xs(rows), [k * r[f"{out}.min"] for r in rows], ".--", color=color, ms=3)
+        ax.set_ylabel(f"[{unit}]", fontsize=8)
+        ax.set_title(f"{out}: max (solid), min (dashed) over the measured revolutions", fontsize=9, loc="left")
         ax.grid(alpha=0.3)
     if others:
         axes[0, 0].legend(fontsize=7)
     axes[-1, 0].set_xlabel(xlabel)
-    fig.suptitle(f"{sweep.scenario.title}: sweep of {first.label}", fontsize=10)
-    fig.tight_layout()
+    _title(fig, f"{scenario.title}: sweep of {first.label}", 9)
     main = out_dir / f"{sweep.name}.png"
     fig.savefig(main, dpi=110)
     plt.close(fig)
 
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.2))
+    campbell = first_si == "rad/s"   # a frequency axis only makes sense against a speed
+    fig, panels = plt.subplots(1, 2 if campbell else 1, figsize=(12 if campbell else 8, 4.4), squeeze=False,
+                               layout="constrained")
+    ax1 = panels[0, 0]
     out = outputs[0]
+    unit, k = display(scenario.unit(out))
     key0, rows = sorted(groups.items())[0] if groups else ((), [])
     rows = sorted(rows, key=lambda r: r["point"][first.names[0]])
-    x = np.array([first.display(r["point"][first.names[0]]) for r in rows])
-    for k in orders:
-        amp = np.array([r[f"{out}.h{k}"] for r in rows])
-        ax1.semilogy(x, np.maximum(amp, 1e-300), ".-", ms=3, label=f"{k}x")
+    x = xs(rows)
+    for order in orders:
+        amp = k * np.array([r[f"{out}.h{order}"] for r in rows])
+        ax1.semilogy(x, np.maximum(amp, 1e-300), ".-", ms=3, label=f"{order}x")
     ax1.set_xlabel(xlabel)
-    ax1.set_ylabel(f"{out} order amplitude")
+    ax1.set_ylabel(f"{out} order amplitude [{unit}]")
     ax1.legend(fontsize=8)
     ax1.grid(alpha=0.3, which="both")
     ax1.set_title("order tracks" + (f" ({label(key0)})" if label(key0) else ""), fontsize=9, loc="left")
-    speed_hz = np.array([abs(r["speed_mean"]) / (2 * np.pi) for r in rows])
-    top = max((r[f"{out}.h{k}"] for r in rows for k in orders), default=1.0) or 1.0
-    for k in orders:
-        amp = np.array([r[f"{out}.h{k}"] for r in rows])
-        ax2.scatter(x, k * speed_hz, s=2 + 200 * amp / top, alpha=0.6, label=f"{k}x")
-    ax2.set_xlabel(xlabel)
-    ax2.set_ylabel("frequency [Hz]")
-    ax2.set_title(f"Campbell diagram of {out} (marker area ~ amplitude)", fontsize=9, loc="left")
-    ax2.grid(alpha=0.3)
-    ax2.legend(fontsize=8)
-    fig.tight_layout()
+    if campbell:
+        ax2 = panels[0, 1]
+        speed_hz = np.array([abs(r["speed_mean"]) / (2 * np.pi) for r in rows])
+        top = max((r[f"{out}.h{order}"] for r in rows for order in orders), default=1.0) or 1.0
+        for order in orders:
+            amp = np.array([r[f"{out}.h{order}"] for r in rows])
+            ax2.scatter(x, order * speed_hz, s=2 + 200 * amp / top, alpha=0.6, label=f"{order}x")
+        ax2.set_xlabel(xlabel)
+        ax2.set_ylabel("frequency [Hz]")
+        ax2.set_title(f"Campbell diagram of {out} (marker area ~ amplitude)", fontsize=9, loc="left")
+        ax2.grid(alpha=0.3)
+        ax2.legend(fontsize=8)
+    _title(fig, f"{scenario.title}: running-speed orders of {out}", 12 if campbell else 8)
     orders_path = out_dir / f"{sweep.name}_orders.png"
     fig.savefig(orders_path, dpi=110)
     plt.close(fig)

@@ -20,7 +20,7 @@ from .sweep import Sweep, SweepSettings, close_client, dask_client, parse_axis
 SCENARIOS = REPO_DIR / "scenarios"
 RPM = math.pi / 30.0
 
-#: Omar, Rahim, Rejab (paper 004): section 2.3, Fig. 4, Table 2, Fig. 8, Figs. 11-12
+#: Omar, Rahim, Rejab [Omar2023]: section 2.3, Fig. 4, Table 2, Fig. 8, Figs. 11-12
 OMAR = {
     "omega_torsional": 143.0, "omega_lateral": 80.0,                     # rad/s, section 2.3
     "critical_torsional_rpm": 684.0, "critical_lateral_rpm": 381.0,      # Fig. 4
@@ -77,8 +77,8 @@ def peak(xs, ys):
 class Report:
     """Runs the sweeps (sharing one dask client) and collects the sections."""
 
-    def __init__(self, fmu_dir=DEFAULT_FMU_DIR, work_dir=REPO_DIR / "results" / "report", workers=None,
-                 progress=True):
+    def __init__(self, fmu_dir=DEFAULT_FMU_DIR, work_dir=Path("results") / "report", workers=None,
+                 progress=None):
         self.fmu_dir, self.work_dir = Path(fmu_dir), Path(work_dir)
         self.workers, self.progress = workers, progress
         self.client = None
@@ -351,13 +351,18 @@ def turla(rep):
 SECTIONS = (feng, brutti, omar, tchomeni, turla)
 
 
-def write_report(path=REPO_DIR / "docs" / "validation.md", fmu_dir=DEFAULT_FMU_DIR, work_dir=None, workers=None,
-                 progress=True):
+def write_report(path=Path("docs") / "validation.md", fmu_dir=DEFAULT_FMU_DIR, work_dir=None, workers=None,
+                 progress=None):
     """Run every section's sweeps and write the report (and its figures in docs/figures next to it).
 
-    Returns the Report, with ``.sections`` and ``.sweeps`` (name -> Sweep) for inspection."""
+    It runs the scenarios of the ujfmu clone (an editable install); paths are relative to the current directory.
+    progress: optional callable(points_done, points_total) of each sweep. Returns the Report, with ``.sections``
+    and ``.sweeps`` (name -> Sweep) for inspection."""
+    if not SCENARIOS.is_dir():
+        raise FileNotFoundError(f"the report runs the scenarios of a ujfmu clone ({SCENARIOS} not found): run it "
+                                "from a clone with an editable install (pip install -e '.[report]')")
     path = Path(path)
-    rep = Report(fmu_dir, work_dir or REPO_DIR / "results" / "report", workers, progress)
+    rep = Report(fmu_dir, work_dir or Path("results") / "report", workers, progress)
     rep.figure_dir = path.parent / "figures"
     rep.figure_dir.mkdir(parents=True, exist_ok=True)
     try:

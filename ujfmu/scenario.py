@@ -1,19 +1,23 @@
 """Scenario files (TOML): components and their parameters, connections, experiment, records, reference.
 
-    title = "..."
-    [experiment]            stop_time, step_size [s]; start_time optional (0); coupling = "implicit" (default,
-                            iterated to convergence every step) or "explicit" (docs/cosimulation.md)
-    [components.NAME]       fmu = "CardanJoint" (fmus/CardanJoint.fmu), parameters = { name = value, ... }
+    title = "..."           optional (default: the file name); description = "..." optional free text
+    [experiment]            stop_time, step_size [s]; start_time optional (0); stop_time - start_time a whole
+                            number (>= 1) of steps; coupling = "implicit" (default, iterated to convergence
+                            every step) or "explicit" (docs/cosimulation.md)
+    [components.NAME]       fmu = "CardanJoint" (fmus/CardanJoint.fmu), parameters = { name = value, ... } (SI
+                            units: rad, rad/s, ...), inputs = { name = value } (inputs no connection feeds, held
+                            constant: every input must be connected or set here)
     [[connections]]         from = "comp.output", to = "comp.input"
     [output]                record = ["comp.var", ...]; plot = [...] (default: the compared signals);
                             orbits = [["comp.X", "comp.Y"], ...], spectra = ["comp.var", ...] (recorded signals),
                             running_speed = "comp.omega" (spectra in running-speed orders), steady_from [s]
                             (orbits and spectra from that time on)
-    [sweep]                 defaults of `ujfmu sweep`: params = ["comp.par=START:STOP:STEP[rpm|deg]", ...],
+    [sweep]                 optional defaults of `ujfmu sweep`: params = ["comp.par=START:STOP:STEP[rpm|deg]", ...],
                             outputs = [...], running_speed, settle_time [s], revolutions, orders = [1, 2, 4]
-    [reference]             file = "references/x.csv" (relative to the scenario; `ujfmu references` writes it
-                            only inside the scenario's folder), generator = "cardan_chain",
-                            not_compared = { "comp.var" = "why this recorded signal is not compared", ... }
+    [reference]             optional: file = "references/x.csv" (relative to the scenario; `ujfmu references`
+                            writes it only inside the scenario's folder), generator = "cardan_chain",
+                            not_compared = { "comp.var" = "why this recorded signal is not compared", ... };
+                            without it (or without tolerances) the scenario is run, NOT CHECKED
     [reference.tolerance]   "comp.var" = { rel_range = 0.01, abs = 0.0 }
       pass when max |result - reference| <= rel_range * (max - min of the reference) + abs
     [reference.extrapolated] "comp.var" = { rel_range = 0.001 }: the same test on the step-halving (Richardson)
@@ -29,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .build import DEFAULT_FMU_DIR, FMUS, fmu_class
+from .build import DEFAULT_FMU_DIR, FMUS, build_hint, fmu_class
 from .master import COUPLINGS, DEFAULT_COUPLING, Component, Connection
 
 
@@ -40,6 +44,20 @@ EXPERIMENT_KEYS = {"start_time", "stop_time", "step_size", "coupling"}
 SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions", "orders"}
 REFERENCE_KEYS = {"file", "generator", "tolerance", "extrapolated", "not_compared"}
 TOLERANCE_KEYS = {"rel_range", "abs"}
+
+
+def _expected(var):
+    """What a TOML value of var must be, in words (scenario values are SI: no unit strings)."""
+    if var.type is bool:
+        return "true or false"
+    if var.type is int:
+        return f"an integer in {var.range_text()} ({var.description})"
+    unit = f" in {var.unit}" if var.unit not in (None, "1") else ""
+    hint = ""
+    if var.unit in ("rad", "rad/s"):
+        hint = (" (TOML values are SI, so angles in rad and speeds in rad/s; `ujfmu sweep --param` accepts deg and "
+                "rpm suffixes)")
+    return f"a number{unit}{hint}"
 
 
 class ScenarioError(ValueError):
@@ -85,31 +103,24 @@ class Scenario:
         if self.coupling not in COUPLINGS:
             raise ScenarioError(f"{self.path}: experiment.coupling = {self.coupling!r} must be one of "
                                 f"{', '.join(repr(c) for c in COUPLINGS)} (docs/cosimulation.md)")
+        steps = (self.stop_time - self.start_time) / self.step_size
+        if round(steps) < 1 or not math.isclose(round(steps), steps, rel_tol=1e-9, abs_tol=1e-9):
+            raise ScenarioError(f"{self.path}: [experiment] stop_time - start_time = "
+                                f"{self.stop_time - self.start_time:g} s must be a whole number (at least 1) of "
+                                f"communication steps of step_size = {self.step_size:g} s")
 
         self.components = {}
+        self.inputs = {}
         for cname, comp in self._table(data, "components").items():
-            if not isinstance(comp, dict) or set(comp) - {"fmu", "parameters"}:
-                raise ScenarioError(f"{self.path}: components.{cname}: fields are fmu and parameters, got "
+            if not isinstance(comp, dict) or set(comp) - {"fmu", "parameters", "inputs"}:
+                raise ScenarioError(f"{self.path}: components.{cname}: fields are fmu, parameters and inputs, got "
                                     f"{sorted(comp) if isinstance(comp, dict) else comp!r}")
             fmu = comp.get("fmu")
             if fmu not in FMUS:
                 raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r} is not one of {list(FMUS)}")
-            params = comp.get("parameters", {})
-            declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
-            for pname, value in params.items():
-                field = f"components.{cname}.parameters.{pname}"
-                if pname not in declared:
-                    raise ScenarioError(f"{self.path}: {field}: {fmu} has no "
-                                        f"parameter '{pname}' (it has {', '.join(declared)})")
-                var = declared[pname]
-                kinds = (bool,) if var.type is bool else (int,) if var.type is int else (int, float)
-                if not isinstance(value, kinds) or (var.type is not bool and isinstance(value, bool)):
-                    raise ScenarioError(f"{self.path}: {field} = {value!r} must be "
-                                        f"{'true or false' if var.type is bool else 'a number'}")
-                problem = var.check(var.type(value))
-                if problem:
-                    raise ScenarioError(f"{self.path}: {field}: {problem}")
-            self.components[cname] = (fmu, dict(params))
+            params = self._values(cname, fmu, comp, "parameters")
+            self.inputs[cname] = self._values(cname, fmu, comp, "inputs")
+            self.components[cname] = (fmu, params)
 
         self.connections = []
         fed = {}
@@ -126,11 +137,21 @@ class Scenario:
             fed[dst] = i
             self.connections.append(Connection(src, dst))
 
+        unfed = [f"{cname}.{v.name}" for cname, (fmu, _) in self.components.items()
+                 for v in fmu_class(fmu).VARIABLES
+                 if v.causality == "input" and f"{cname}.{v.name}" not in fed and v.name not in self.inputs[cname]]
+        if unfed:
+            first = unfed[0].split(".", 1)
+            raise ScenarioError(
+                f"{self.path}: input(s) {', '.join(unfed)} not connected: connect each ([[connections]] to = ...) "
+                f"or set it explicitly, held constant, e.g. [components.{first[0]}] inputs = {{ {first[1]} = 0.0 }}")
+
         out = data.get("output", {})
         self.record = list(out.get("record", []))
         for i, name in enumerate(self.record):
             self._check_signal(name, f"output.record[{i}]")
         ref = data.get("reference", {})
+        self.reference_file_text = ref.get("file")
         unknown = set(ref) - REFERENCE_KEYS if isinstance(ref, dict) else {"(not a table)"}
         if unknown:
             raise ScenarioError(f"{self.path}: [reference]: unknown field(s) {', '.join(sorted(unknown))}; "
@@ -185,6 +206,55 @@ class Scenario:
         for name in list(self.sweep.get("outputs", [])) + speed:
             if name not in self.record:
                 raise ScenarioError(f"{self.path}: sweep: {name!r} is not a recorded signal")
+
+    def _values(self, cname, fmu, comp, key):
+        """components.NAME.parameters or .inputs: declared names of that causality, values of the declared type
+        within range."""
+        causality = key[:-1]
+        values = comp.get(key, {})
+        if not isinstance(values, dict):
+            raise ScenarioError(f"{self.path}: components.{cname}.{key} must be a table {{ name = value, ... }}")
+        declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == causality}
+        for pname, value in values.items():
+            field = f"components.{cname}.{key}.{pname}"
+            if pname not in declared:
+                raise ScenarioError(f"{self.path}: {field}: {fmu} has no {causality} '{pname}' "
+                                    f"(it has {', '.join(declared) or 'none'})")
+            var = declared[pname]
+            kinds = (bool,) if var.type is bool else (int,) if var.type is int else (int, float)
+            if not isinstance(value, kinds) or (var.type is not bool and isinstance(value, bool)):
+                raise ScenarioError(f"{self.path}: {field} = {value!r} must be {_expected(var)}")
+            problem = var.check(var.type(value))
+            if problem:
+                raise ScenarioError(f"{self.path}: {field}: {problem}")
+        return dict(values)
+
+    def unit(self, name: str) -> str:
+        """The declared unit of a "component.variable" ("" when it has none)."""
+        comp, _, var = name.partition(".")
+        declared = {v.name: v for v in fmu_class(self.components[comp][0]).VARIABLES}
+        return declared[var].unit or ""
+
+    def start_values(self, component):
+        """What the scenario sets in a component before it runs: its parameters and its explicitly set inputs."""
+        return {**self.components[component][1], **self.inputs.get(component, {})}
+
+    def read_reference(self):
+        """The [reference] file as a structured array; ScenarioError naming the scenario and the field when it
+        cannot be read."""
+        from .references import read_reference
+        field = f"{self.path}: [reference] file = {self.reference_file_text!r}"
+        if not self.reference_file.is_file():
+            raise ScenarioError(f"{field}: {self.reference_file} not found (the path is relative to the scenario "
+                                "file; `ujfmu references` regenerates it when the scenario names a generator)")
+        try:
+            table, _ = read_reference(self.reference_file)
+        except (ValueError, IndexError, OSError) as exc:
+            raise ScenarioError(f"{field}: cannot read {self.reference_file}: {exc}") from None
+        missing = [n for n in ["time", *self.tolerances, *self.extrapolated_tolerances] if n not in table.dtype.names]
+        if missing:
+            raise ScenarioError(f"{field}: no column {', '.join(missing)} in {self.reference_file}")
+        return table
 
     def reference_output(self):
         """Where `ujfmu references` writes the reference: the reference file if it resolves (symlinks followed)
@@ -244,8 +314,8 @@ class Scenario:
         for cname, (fmu, _) in self.components.items():
             path = Path(fmu_dir) / f"{fmu}.fmu"
             if not path.is_file():
-                raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path} not found "
-                                    "(run `ujfmu build` first)")
+                raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path.absolute()} not found "
+                                    f"({build_hint(fmu_dir)})")
 
     def parameters_with_defaults(self, component):
         """All parameter values of a component: the FMU's declared defaults updated by the scenario."""
@@ -259,5 +329,5 @@ class Scenario:
         return self.start_time + self.step_size * np.arange(n + 1)
 
     def master_components(self, fmu_dir=DEFAULT_FMU_DIR):
-        return [Component(name, Path(fmu_dir) / f"{fmu}.fmu", params)
-                for name, (fmu, params) in self.components.items()]
+        return [Component(name, Path(fmu_dir) / f"{fmu}.fmu", self.start_values(name))
+                for name, (fmu, _) in self.components.items()]

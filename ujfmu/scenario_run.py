@@ -1,7 +1,14 @@
-"""Run scenarios, compare them with their references, write results, plots and JUnit reports."""
+"""Run scenarios, compare them with their references, write results, plots and JUnit reports.
 
+A scenario's verdict is one of three: ``PASS`` (every toleranced signal within its tolerance), ``FAIL`` (at least
+one outside), ``NOT CHECKED`` (nothing compared: no ``[reference]``, or no ``[reference.tolerance]`` entry). A
+scenario that was not checked never counts as passed: the JUnit report marks it skipped.
+"""
+
+import math
 import time
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -9,11 +16,13 @@ import numpy as np
 from fmpy.util import validate_result, write_csv
 
 from .build import DEFAULT_FMU_DIR
+from .extras import available, preload
 from .master import CosimulationError, cosimulate
 from .references import read_reference
 from .scenario import Scenario
 
 DEFAULT_OUT_DIR = Path("results")
+preload()   # before any FMU is loaded (see extras.preload)
 
 
 @dataclass
@@ -27,10 +36,23 @@ class SignalCheck:
     def passed(self):
         return bool(self.max_error <= self.allowed)
 
+    @property
+    def fraction_of_allowed(self):
+        """max |error| / allowed error: <= 1 passes."""
+        return self.max_error / self.allowed if self.allowed > 0 else (0.0 if self.max_error == 0 else math.inf)
+
     def __str__(self):
         verdict = "ok  " if self.passed else "FAIL"
-        return (f"{verdict} {self.name:20s} max|err| = {self.max_error:.3e}  allowed {self.allowed:.3e}  "
-                f"({100 * self.max_error / self.reference_range if self.reference_range else 0:.4f}% of range)")
+        text = (f"{verdict} {self.name:20s} max|err| = {self.max_error:.3e}  allowed {self.allowed:.3e}  "
+                f"({self.fraction_of_allowed:.3g} of allowed")
+        # the error relative to the reference's range means something only when the reference varies
+        if self.reference_range > RANGE_FLOOR * max(self.allowed, self.max_error):
+            text += f", {100 * self.max_error / self.reference_range:.3g}% of the reference's range"
+        return text + ")"
+
+
+#: a reference range below this multiple of the errors involved counts as constant (no "% of range" figure)
+RANGE_FLOOR = 10.0
 
 
 @dataclass
@@ -46,19 +68,53 @@ class ScenarioResult:
     extra_plots: list = field(default_factory=list)   # orbits and spectra, when the scenario asks for them
 
     @property
-    def passed(self):
-        return all(c.passed for c in self.checks + self.extrapolated_checks)
+    def checked(self) -> bool:
+        """True when at least one signal was compared with a reference."""
+        return bool(self.checks)
+
+    @property
+    def compared(self) -> list:
+        """Names of the signals compared with the reference."""
+        return [c.name for c in self.checks]
+
+    @property
+    def uncompared(self) -> list:
+        """Recorded signals that were not compared (no tolerance given for them)."""
+        done = set(self.compared)
+        return [name for name in self.scenario.record if name not in done]
+
+    @property
+    def passed(self) -> bool:
+        """Checked, and every compared signal within its tolerance."""
+        return self.checked and all(c.passed for c in self.checks + self.extrapolated_checks)
+
+    @property
+    def failed(self) -> bool:
+        return any(not c.passed for c in self.checks + self.extrapolated_checks)
+
+    @property
+    def verdict(self) -> str:
+        return "FAIL" if self.failed else "PASS" if self.passed else "NOT CHECKED"
+
+    def not_checked_reason(self) -> str:
+        if self.scenario.reference_file is None:
+            return "the scenario has no [reference]: nothing was compared"
+        return "the scenario's [reference.tolerance] names no signal: nothing was compared"
 
     def summary(self):
-        head = (f"{'PASS' if self.passed else 'FAIL'} {self.scenario.name}: {self.scenario.title} "
-                f"({self.wall_time:.1f} s wall)")
+        head = f"{self.verdict} {self.scenario.name}: {self.scenario.title} ({self.wall_time:.1f} s wall)"
         lines = [head] + [f"  {c}" for c in self.checks]
         if self.extrapolated_checks:
             lines.append(f"  step-halving extrapolation 2 y(h/2) - y(h), h = {self.scenario.step_size:g} s:")
             lines += [f"  {c}" for c in self.extrapolated_checks]
         lines += [f"  not compared: {name}: {why}" for name, why in self.scenario.not_compared.items()]
-        lines.append(f"  fmpy.util.validate_result: fraction of samples outside fmpy's band = "
-                     f"{self.fmpy_outlier_fraction:.4f}")
+        if not self.checked:
+            lines.append(f"  {self.not_checked_reason()}")
+        elif math.isnan(self.fmpy_outlier_fraction):
+            lines.append("  fmpy.util.validate_result: not computed (it needs scipy: pip install 'ujfmu[references]')")
+        else:
+            lines.append(f"  fmpy.util.validate_result: fraction of samples outside fmpy's band = "
+                         f"{self.fmpy_outlier_fraction:.4f}")
         return "\n".join(lines)
 
 
@@ -94,43 +150,36 @@ def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.nda
     return out
 
 
-def run_scenario(path, fmu_dir=DEFAULT_FMU_DIR, out_dir=DEFAULT_OUT_DIR, plot=True, progress=True):
-    """Co-simulate a scenario, compare with its reference; write CSV (and PNG) into out_dir.
+def run_scenario(path, fmu_dir=DEFAULT_FMU_DIR, out_dir=DEFAULT_OUT_DIR, plot: bool = True,
+                 progress: Callable[[int, int], None] | None = None) -> ScenarioResult:
+    """Co-simulate a scenario, compare with its reference; write CSV (and PNG) into out_dir (None: write nothing).
 
+    fmu_dir and out_dir default to fmus/ and results/ of the current directory. progress: optional
+    callable(steps_done, steps_total), called now and then (the command line draws a progress bar with it).
     Returns a ScenarioResult whose .table is the result (structured array, 'time' + 'comp.var' columns).
     """
     scenario = path if isinstance(path, Scenario) else Scenario(path)
     scenario.check_fmus(fmu_dir)
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=int(round((scenario.stop_time - scenario.start_time) / scenario.step_size)),
-                   desc=scenario.name, unit="step", leave=False)
-
-    def report(done, total):
-        bar.update(done - bar.n)
-
+    reference = None
+    if scenario.reference_file is not None:   # a missing reference file is an error before anything runs
+        reference = scenario.read_reference()
     start = time.perf_counter()
     try:
         table = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
-                           scenario.step_size, scenario.record, scenario.start_time,
-                           progress=report if bar else None, coupling=scenario.coupling)
+                           scenario.step_size, scenario.record, scenario.start_time, progress=progress or None,
+                           coupling=scenario.coupling)
     except CosimulationError as exc:
         if exc.partial is not None and out_dir is not None:
             _write_partial(scenario, exc, Path(out_dir), plot)
         raise
-    finally:
-        if bar:
-            bar.close()
     result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start)
-    reference = None
-    if scenario.reference_file is not None:
-        reference, _ = read_reference(scenario.reference_file)
+    if reference is not None and scenario.tolerances:
         result.checks = compare(table, reference, scenario.tolerances)
         # fmpy's band scales with each signal's range: a signal constant to within its absolute tolerance (say the
         # output speed of a constant-velocity layout) is checked by compare() alone
         compared = ["time"] + [c.name for c in result.checks if c.reference_range > scenario.tolerances[c.name].abs]
-        result.fmpy_outlier_fraction = float(validate_result(table[compared], reference[compared]))
+        if available("scipy"):   # fmpy's band filter needs scipy (an extra); the verdict comes from compare()
+            result.fmpy_outlier_fraction = float(validate_result(table[compared], reference[compared]))
         if scenario.extrapolated_tolerances:
             result.extrapolated_checks = compare(extrapolate_step(scenario, fmu_dir, table), reference,
                                                  scenario.extrapolated_tolerances)
@@ -162,16 +211,20 @@ def _write_partial(scenario, exc, out_dir, plot):
 
 
 def write_junit(results, path):
-    """JUnit XML: one test case per scenario, a failure element carrying the error figures."""
+    """JUnit XML: one test case per scenario, a failure element carrying the error figures; a scenario that
+    compared nothing is a skipped test case."""
     suite = ET.Element("testsuite", name="ujfmu scenarios", tests=str(len(results)),
-                       failures=str(sum(not r.passed for r in results)), errors="0",
+                       failures=str(sum(r.failed for r in results)), errors="0",
+                       skipped=str(sum(not r.checked for r in results)),
                        time=f"{sum(r.wall_time for r in results):.3f}")
     for r in results:
         case = ET.SubElement(suite, "testcase", classname="ujfmu.scenarios", name=r.scenario.name,
                              time=f"{r.wall_time:.3f}")
-        if not r.passed:
+        if r.failed:
             failure = ET.SubElement(case, "failure", message="signal outside tolerance of the reference")
             failure.text = r.summary()
+        elif not r.checked:
+            ET.SubElement(case, "skipped", message=f"not checked: {r.not_checked_reason()}")
         ET.SubElement(case, "system-out").text = r.summary()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

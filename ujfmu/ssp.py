@@ -32,7 +32,8 @@ def system_structure(scenario):
     root = ET.Element(f"{{{NS['ssd']}}}SystemStructureDescription", name=scenario.name, version="1.0")
     system = _el(root, "ssd:System", name=scenario.name, description=scenario.title)
     elements = _el(system, "ssd:Elements")
-    for name, (fmu, params) in scenario.components.items():
+    for name, (fmu, _) in scenario.components.items():
+        params = scenario.start_values(name)
         comp = _el(elements, "ssd:Component", name=name, source=f"resources/{fmu}.fmu",
                    type="application/x-fmu-sharedlibrary")
         connectors = _el(comp, "ssd:Connectors")

@@ -9,9 +9,19 @@ The FMUs go to each dask worker once (a WorkerPlugin writes them to a local fold
 shared file system; the workers need ujfmu installed. Resumable: every finished point is appended at once to
 ``<name>.jsonl`` next to the CSV; a rerun with the same settings skips the points already there (failed points
 are tried again), so an interrupted sweep loses nothing. A failing point is recorded with its error and the
-sweep goes on.
+sweep goes on. One journal holds one grid: a sweep of another grid under the same name is refused
+(``SweepGridConflict``), so results of different grids never mix.
+
+From Python (keyword arguments of ``SweepSettings.from_scenario`` override the scenario's [sweep] table)::
+
+    scenario = Scenario("scenarios/double_cardan_omar_torsional.toml")
+    sweep = Sweep(scenario, [parse_axis("motor.omega_set=600:700:50rpm", scenario)],
+                  SweepSettings.from_scenario(scenario, revolutions=2))
+    sweep.run()            # local dask workers; no ``if __name__ == "__main__":`` guard needed
+    rows = sweep.table()   # flat dicts, as the CSV
 """
 
+import contextlib
 import csv
 import hashlib
 import itertools
@@ -19,15 +29,17 @@ import json
 import math
 import os
 import re
+import sys
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .analysis import order_amplitudes
-from .build import DEFAULT_FMU_DIR, fmu_class
+from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
 from .master import Component, Connection, Cosimulation
 from .scenario import Scenario, ScenarioError
 
@@ -52,11 +64,13 @@ class Axis:
         return value / UNITS[self.unit]
 
 
-def parse_axis(text, scenario):
+def parse_axis(text: str, scenario) -> Axis:
     """``comp.par[,comp.par...]=START:STOP:STEP[unit]`` (inclusive) or ``=V1,V2,...[unit]``; unit rpm or deg.
 
-    Values are checked against the parameters' declared ranges; a ScenarioError names the argument otherwise.
+    scenario: a Scenario or the path of a scenario file. Values are checked against the parameters' declared
+    ranges; a ScenarioError names the argument otherwise.
     """
+    scenario = scenario if isinstance(scenario, Scenario) else Scenario(scenario)
     names_text, sep, values_text = text.partition("=")
     if not sep:
         raise ScenarioError(f"--param {text!r}: expected component.parameter=START:STOP:STEP")
@@ -101,20 +115,26 @@ class SweepSettings:
     orders: tuple = (1, 2, 4)
 
     @classmethod
-    def from_scenario(cls, scenario, **overrides):
+    def from_scenario(cls, scenario, **overrides) -> "SweepSettings":
+        """Settings from the scenario's [sweep] table (optional), overridden by keyword arguments of the same
+        names: outputs (default: the compared, else the recorded signals), running_speed (default: [output]
+        running_speed), settle_time [s] (needed), revolutions (default 4), orders (default (1, 2, 4)).
+        scenario: a Scenario or the path of a scenario file."""
+        scenario = scenario if isinstance(scenario, Scenario) else Scenario(scenario)
         table = dict(scenario.sweep)
         table.update({k: v for k, v in overrides.items() if v is not None})
         where = f"{scenario.path}: [sweep]"
         outputs = list(table.get("outputs") or scenario.tolerances or scenario.record)
         running_speed = table.get("running_speed") or scenario.running_speed
         if not running_speed:
-            raise ScenarioError(f"{where} running_speed (or output.running_speed, or --running-speed) is needed "
-                                "to measure whole revolutions")
+            raise ScenarioError(f"{where} running_speed (or output.running_speed; --running-speed on the command "
+                                "line, running_speed=... from Python) is needed to measure whole revolutions")
         for name in outputs + [running_speed]:
             scenario._check_signal(name, "sweep signal")
         settle = table.get("settle_time")
         if settle is None:
-            raise ScenarioError(f"{where} settle_time (or --settle) is needed: the time to reach steady state")
+            raise ScenarioError(f"{where} settle_time (--settle on the command line, settle_time=... from Python) "
+                                "is needed: the time to reach steady state")
         settings = cls(outputs, running_speed, float(settle), float(table.get("revolutions", 4.0)),
                        tuple(int(k) for k in table.get("orders", (1, 2, 4))))
         if not (settings.settle_time >= 0 and settings.revolutions > 0 and all(k > 0 for k in settings.orders)):
@@ -208,6 +228,10 @@ def fmu_installer(blobs, hashes):
     return FmuInstaller()
 
 
+class SweepGridConflict(ScenarioError):
+    """The sweep's journal holds points of another grid; the message says how to keep both."""
+
+
 class Sweep:
     """A sweep of one scenario over a grid of axes; ``run()`` computes what the journal lacks, ``table()``."""
 
@@ -228,12 +252,15 @@ class Sweep:
         fmus = sorted({fmu for fmu, _ in self.scenario.components.values()})
         missing = [f for f in fmus if not (self.fmu_dir / f"{f}.fmu").is_file()]
         if missing:
-            raise FileNotFoundError(f"FMU {', '.join(missing)} not found in {self.fmu_dir} (run `ujfmu build` first)")
+            raise FileNotFoundError(f"FMU {', '.join(missing)} not found in {self.fmu_dir.absolute()} "
+                                    f"({build_hint(self.fmu_dir)})")
         self.fmu_blobs = {f: (self.fmu_dir / f"{f}.fmu").read_bytes() for f in fmus}
         hashes = {f: hashlib.sha256(b).hexdigest()[:16] for f, b in self.fmu_blobs.items()}
-        self.job = PointJob([(n, fmu, dict(p)) for n, (fmu, p) in self.scenario.components.items()],
+        self.job = PointJob([(n, fmu, self.scenario.start_values(n)) for n, (fmu, _) in
+                             self.scenario.components.items()],
                             [(c.source, c.target) for c in self.scenario.connections], self.scenario.step_size,
                             settings, hashes, self.scenario.coupling)
+        self.grid = hashlib.sha256(json.dumps([[ax.names, ax.values] for ax in self.axes]).encode()).hexdigest()[:16]
         # results are only reused for the same FMUs, scenario setup and settings
         self.config = hashlib.sha256(json.dumps([asdict(settings), self.job.components, self.job.connections,
                                                  self.job.step_size, hashes, self.job.coupling], sort_keys=True,
@@ -257,17 +284,21 @@ class Sweep:
                     continue                                                # or not a point record: skipped
         return records
 
-    def run(self, workers=None, scheduler=None, progress=True, client=None):
+    def run(self, workers=None, scheduler=None, progress: Callable[[int, int], None] | None = None,
+            client=None):
         """Run the missing points; returns the path of the CSV. workers: local worker processes (default: the
         number of cores); 0 runs the points in this process without dask. scheduler: address of an existing
         dask.distributed scheduler (its workers need ujfmu installed; the FMUs are sent to them). client: a
-        dask.distributed Client to use instead (kept open)."""
-        from tqdm import tqdm
+        dask.distributed Client to use instead (kept open). progress: optional callable(points_done,
+        points_total), called as points finish (points reused from the journal count as done)."""
         self.out_dir.mkdir(parents=True, exist_ok=True)
+        self._check_grid()
         finished = {k for k, r in self.done().items() if r["status"] == "ok"}
         todo = [p for p in self.points if self.key(p) not in finished]
-        bar = tqdm(total=len(self.points), initial=len(self.points) - len(todo), desc=self.name, unit="point",
-                   disable=not progress, smoothing=0.1)
+        self.reused = len(self.points) - len(todo)
+        count = [self.reused]
+        if progress:
+            progress(count[0], len(self.points))
         with open(self.journal, "a+b") as journal:
             journal.seek(0, os.SEEK_END)
             if journal.tell():
@@ -276,17 +307,18 @@ class Sweep:
                     journal.write(b"\n")
 
             def keep(record):
-                record["config"] = self.config
+                record["config"], record["grid"] = self.config, self.grid
                 journal.write((json.dumps(record) + "\n").encode())
                 journal.flush()
-                bar.update(1)
+                count[0] += 1
+                if progress:
+                    progress(count[0], len(self.points))
 
             if todo and workers == 0 and scheduler is None and client is None:
                 for point in todo:
                     keep(run_point(self.job, point, self.fmu_blobs))
             elif todo:
                 self._run_dask(todo, keep, workers, scheduler, client)
-        bar.close()
         self.write_csv()
         return self.csv
 
@@ -311,10 +343,31 @@ class Sweep:
             if own:
                 close_client(client)
 
-    def table(self):
-        """Structured rows (dicts) of the current grid, in grid order; missing points have status 'missing'."""
+    def _check_grid(self):
+        """SweepGridConflict when the journal holds points of another grid (its CSV and plots would be replaced)."""
+        if not self.journal.is_file():
+            return
+        for line in self.journal.read_text().splitlines():
+            try:
+                grid = json.loads(line).get("grid", self.grid)
+            except json.JSONDecodeError:
+                continue
+            if grid != self.grid:
+                raise SweepGridConflict(
+                    f"{self.journal} holds a sweep of {self.scenario.name} over another grid: give this one another "
+                    f"name (--name, or Sweep(..., name=...)) to keep both, or delete {self.journal} to replace it")
+
+    def records(self) -> list:
+        """The journal records of the current grid, in grid order (axis values under "point"); missing points
+        have status 'missing'."""
         done = self.done()
         return [done.get(self.key(p), {"point": p, "status": "missing", "error": ""}) for p in self.points]
+
+    def table(self) -> list:
+        """One flat dict a point, in grid order, as the CSV: the swept parameters by name (SI), status, the
+        figures of every output, wall_s, error (the record's "point" is kept as well)."""
+        return [{**r["point"], **{k: v for k, v in r.items() if k not in ("config", "grid")}}
+                for r in self.records()]
 
     def write_csv(self):
         """The tidy CSV: one row a point; swept parameters in SI units, then the figures of every output."""
@@ -323,7 +376,7 @@ class Sweep:
         with open(self.csv, "w", newline="") as f:
             writer = csv.writer(f)
             writer.writerow(param_cols + ["status"] + cols + ["wall_s", "error"])
-            for record in self.table():
+            for record in self.records():
                 writer.writerow([repr(float(record["point"][n])) for n in param_cols] + [record["status"]]
                                 + [repr(record[c]) if c in record else "" for c in cols]
                                 + [f"{record.get('wall_s', float('nan')):.3f}", record["error"]])
@@ -352,9 +405,30 @@ def dask_client(workers=None, scheduler=None):
             raise ScenarioError(f"--scheduler {scheduler!r}: the dask config requires encryption "
                                 "(distributed.comm.require-encryption); give a tls:// address")
         return Client(scheduler, security=security)
-    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=40, security=security)
+    with _main_script_hidden():
+        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=40, security=security)
     return Client(cluster)
+
+
+@contextlib.contextmanager
+def _main_script_hidden():
+    """Start worker processes without re-running the calling script in them.
+
+    The workers start by "spawn", which imports the parent's main script (``__main__.__file__``) again in every
+    worker: a script that calls ``Sweep.run()`` without an ``if __name__ == "__main__":`` guard would then start
+    a sweep in each worker. The workers need nothing from the script (points run ``ujfmu.sweep.run_point``), so
+    the script's path is hidden from multiprocessing while they start."""
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if path is None or getattr(main, "__spec__", None) is not None:
+        yield
+        return
+    del main.__file__
+    try:
+        yield
+    finally:
+        main.__file__ = path
 
 
 def close_client(client):

@@ -1,7 +1,7 @@
 """Single Cardan (Hooke) joint: kinematics and transmitted moment.
 
-Source: Feng, Wang, Zhu, "Analysis of Moment Transmitted by Universal Joint in Varying Operating Condition"
-(../shared/papers/000_c416dc355e79f4d4.txt), Eqs. (1)-(10). Standard library only: this module runs inside FMUs.
+Source: Feng, Wang, Zhu, "Analysis of Moment Transmitted by Universal Joint in Varying Operating Condition",
+Advanced Engineering Forum, 2012 [Feng2012], Eqs. (1)-(10) (bibliography: docs/references.md). Standard library only: this module runs inside FMUs.
 
 Frames. ``xyz`` is fixed to the driven shaft's bearings, ``z`` along the driven shaft (Eq. 2). The driving shaft's
 frame is reached by ``C = C_gamma C_beta C_delta C_phi``. Expanding candidate elementary rotations and comparing term

@@ -1,7 +1,7 @@
 """Double Cardan driveline: input shaft -> joint 1 -> intermediate shaft -> joint 2 -> output shaft.
 
-Sources: Brutti, Pennestri, Biancolini (../shared/papers/001_12a674c408a0fc87.txt), rigid-body torque analysis;
-Omar, Rahim, Rejab (../shared/papers/004_f93d4d5feec412fe.txt), torsional-lateral model, Eqs. (1)-(19).
+Sources: Brutti, Pennestri, Biancolini, IFToMM World Congress 1999 [Brutti1999], rigid-body torque analysis;
+Omar, Rahim, Rejab, IJAME 2023 [Omar2023], torsional-lateral model, Eqs. (1)-(19) (bibliography: docs/references.md).
 Derivation and every interpretation: docs/double_cardan.md. Standard library only: this module runs inside FMUs.
 
 Angles (rad): phi1 input shaft, phi2 / phi3 the intermediate shaft at its joint-1 / joint-2 end, phi4 output shaft.

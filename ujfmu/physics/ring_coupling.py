@@ -1,4 +1,4 @@
-"""Elastic centrifugal ring coupling between radially misaligned shafts (Turla, Iljin; paper 003).
+"""Elastic centrifugal ring coupling between radially misaligned shafts (Turla, Iljin, Transport 2002 [Turla2002]).
 
 Derivation and every interpretation of the paper: docs/ring_coupling.md. Standard library only: this module runs
 inside the RingCoupling FMU.

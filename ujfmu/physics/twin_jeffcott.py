@@ -1,4 +1,5 @@
-"""Two unbalanced Jeffcott rotors coupled through a Hooke joint (Tchomeni, Alugongo, Masu; paper 002).
+"""Two unbalanced Jeffcott rotors coupled through a Hooke joint (Tchomeni, Alugongo,
+Masu, Vibroengineering Procedia 2019 [Tchomeni2019]).
 
 Derivation, every interpretation of the paper and the default rig: docs/twin_jeffcott.md. Standard library only:
 this module runs inside the TwinJeffcottRotor FMU.

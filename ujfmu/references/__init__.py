@@ -6,19 +6,20 @@ fmpy's cross-check CSV format. Regenerate all with ``ujfmu references``.
 """
 
 import gzip
+import importlib
 import io
 from pathlib import Path
 
 import numpy as np
 
-from . import cardan_chain, double_cardan, ring_coupling, twin_jeffcott
-
+#: generator name -> (module in ujfmu.references, function); imported when used (they need scipy and sympy,
+#: the ``references`` extra; reading a reference CSV needs neither)
 GENERATORS = {
-    "cardan_chain": cardan_chain.generate,
-    "double_cardan": double_cardan.generate,
-    "twin_jeffcott": twin_jeffcott.generate,
-    "ring_coupling": ring_coupling.generate,
-    "ring_coupling_pendulum": ring_coupling.generate_pendulum,
+    "cardan_chain": ("cardan_chain", "generate"),
+    "double_cardan": ("double_cardan", "generate"),
+    "twin_jeffcott": ("twin_jeffcott", "generate"),
+    "ring_coupling": ("ring_coupling", "generate"),
+    "ring_coupling_pendulum": ("ring_coupling", "generate_pendulum"),
 }
 
 
@@ -56,4 +57,11 @@ def generate(scenario):
     name = scenario.reference_generator
     if name not in GENERATORS:
         raise KeyError(f"{scenario.path}: unknown reference generator '{name}' (known: {', '.join(GENERATORS)})")
-    return GENERATORS[name](scenario)
+    for dependency in ("scipy", "sympy"):
+        try:
+            importlib.import_module(dependency)
+        except ImportError:
+            raise ModuleNotFoundError(f"regenerating a reference solution needs {dependency}, which is not installed: "
+                                      "pip install 'ujfmu[references]'", name=dependency) from None
+    module, function = GENERATORS[name]
+    return getattr(importlib.import_module(f"{__name__}.{module}"), function)(scenario)

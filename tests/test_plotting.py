@@ -1,0 +1,104 @@
+"""Figures: a unit on every axis, the error in a panel of its own, no offset tick labels, titles inside the
+figure, one display unit per quantity, a Campbell diagram only against a speed."""
+
+from pathlib import Path
+
+import matplotlib.figure
+import pytest
+
+from ujfmu.plotting import DISPLAY_UNITS
+from ujfmu.scenario import Scenario
+from ujfmu.scenario_run import run_scenario
+from ujfmu.sweep import Sweep, SweepSettings, parse_axis
+
+SCENARIOS = Path(__file__).parents[1] / "scenarios"
+
+
+@pytest.fixture
+def figures(monkeypatch):
+    """The figures the plotting functions save, drawn (so tick labels exist), by file name."""
+    saved = {}
+    original = matplotlib.figure.Figure.savefig
+
+    def savefig(fig, path, **kwargs):
+        original(fig, path, **kwargs)
+        saved[Path(path).name] = fig
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", savefig)
+    return saved
+
+
+def check_readable(fig):
+    """Every axis labelled with a unit in brackets (x on the bottom panels), no offset text, title inside."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    for ax in fig.axes:
+        assert "[" in ax.get_ylabel() and ax.get_ylabel().endswith("]"), ax.get_ylabel()
+        if ax.get_subplotspec().is_last_row():
+            assert "[" in ax.get_xlabel() and ax.get_xlabel().endswith("]"), ax.get_xlabel()
+        for axis in (ax.xaxis, ax.yaxis):
+            offset = axis.get_offset_text().get_text()   # a multiplier (1e-5) may be; an offset (+0.03) not
+            assert "+" not in offset, offset
+    title = fig._suptitle.get_window_extent(renderer)
+    box = fig.bbox
+    assert box.x0 <= title.x0 and title.x1 <= box.x1 and title.y1 <= box.y1, (title, box)
+
+
+def test_scenario_figures_have_units_an_error_panel_and_mm_for_lengths(fmu_dir, tmp_path, figures):
+    # the first 0.6 s of twin_jeffcott_steady (orbits, spectra, lengths)
+    text = (SCENARIOS / "twin_jeffcott_steady.toml").read_text()
+    short = tmp_path / "twin_jeffcott_steady.toml"
+    short.write_text(text.replace("stop_time = 5.0", "stop_time = 0.6").replace("steady_from = 3.0", "steady_from = 0.3")
+                     .replace('file = "references/', f'file = "{SCENARIOS}/references/'))
+    result = run_scenario(short, fmu_dir=fmu_dir, out_dir=tmp_path)
+    assert result.scenario.stop_time == 0.6 and result.checked
+    for name in ("twin_jeffcott_steady.png", "twin_jeffcott_steady_orbits.png", "twin_jeffcott_steady_spectra.png"):
+        check_readable(figures[name])
+    main = figures["twin_jeffcott_steady.png"]
+    plotted = result.scenario.plot
+    assert len(main.axes) == 2 * len(plotted)   # each signal, then its error below it in its own panel
+    for i, name in enumerate(plotted):
+        unit = DISPLAY_UNITS.get(result.scenario.unit(name), (result.scenario.unit(name),))[0]
+        signal, error = main.axes[2 * i], main.axes[2 * i + 1]
+        assert signal.get_title(loc="left").startswith(name) and signal.get_ylabel() == f"[{unit}]"
+        assert error.get_ylabel() == f"error [{unit}]"
+    # lengths in mm in every figure: time plots, orbits and spectra alike
+    assert main.axes[0].get_ylabel() == "[mm]"
+    assert all(ax.get_xlabel().endswith("[mm]") for ax in figures["twin_jeffcott_steady_orbits.png"].axes)
+    assert all(ax.get_ylabel() == "amplitude [mm]" for ax in figures["twin_jeffcott_steady_spectra.png"].axes)
+
+
+def test_a_constant_signal_has_readable_ticks():
+    """0.03 N.m to within round-off: ticks read 0.03, no '1e-12+2.999999999e-2' offset."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from ujfmu.plotting import _readable_limits
+    fig, ax = plt.subplots()
+    y = 0.03 + 1e-15 * np.sin(np.arange(100))
+    ax.plot(y)
+    _readable_limits(ax, y)
+    FigureCanvasAgg(fig).draw()
+    labels = [t.get_text() for t in ax.get_yticklabels()]
+    plt.close(fig)
+    assert ax.yaxis.get_offset_text().get_text() == "" and any(label.startswith("0.03") for label in labels), labels
+
+
+@pytest.mark.parametrize("spec, campbell", [("motor.omega_set=1000,2000rpm", True),
+                                            ("driveline.beta1,driveline.beta2=5,10deg", False)])
+def test_campbell_diagram_only_against_a_speed(fmu_dir, tmp_path, figures, spec, campbell):
+    scenario = Scenario(SCENARIOS / "double_cardan_brutti_rigid.toml")
+    settings = SweepSettings.from_scenario(scenario, outputs=["driveline.tau_in"], running_speed="motor.omega",
+                                           settle_time=0.01, revolutions=1)
+    sweep = Sweep(scenario, [parse_axis(spec, scenario)], settings, out_dir=tmp_path, fmu_dir=fmu_dir)
+    sweep.run(workers=0)
+    sweep.plot()
+    for name in (f"{sweep.name}.png", f"{sweep.name}_orders.png"):
+        check_readable(figures[name])
+    orders = figures[f"{sweep.name}_orders.png"]
+    assert len(orders.axes) == (2 if campbell else 1)
+    assert any("Campbell" in ax.get_title(loc="left") for ax in orders.axes) == campbell
+    assert figures[f"{sweep.name}.png"].axes[0].get_ylabel() == "[N.m]"

@@ -1,0 +1,37 @@
+"""The README's Python sweep recipe runs as written, as a plain script without a __main__ guard (its dask
+workers must not re-run the script), in a project folder of its own."""
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).parents[1]
+
+
+def readme_python_blocks():
+    return re.findall(r"```python\n(.*?)```", (REPO / "README.md").read_text(), re.S)
+
+
+def test_the_sweep_recipe_runs_as_written_in_an_unguarded_script(fmu_dir, tmp_path):
+    recipe = next(block for block in readme_python_blocks() if "Sweep(" in block)
+    assert "__main__" not in recipe
+    (tmp_path / "scenarios").symlink_to(REPO / "scenarios")
+    (tmp_path / "fmus").symlink_to(fmu_dir)
+    script = tmp_path / "recipe.py"
+    # as written, but for two local workers at most (the machine is shared) and a closing line to check it ran
+    script.write_text(recipe.replace("sweep.run()", "sweep.run(workers=2)") + "\nprint('RECIPE DONE')\n")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, env=env,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    lines = done.stdout.splitlines()
+    assert lines[-1] == "RECIPE DONE" and "Traceback" not in done.stderr and "Nanny" not in done.stderr
+    rows = [line.split() for line in lines[:-1]]
+    # 600, 650, 700 rpm in SI, each point ok with a positive twist
+    assert [round(float(r[0]) * 30 / 3.141592653589793) for r in rows] == [600, 650, 700]
+    assert all(r[1] == "ok" and float(r[2]) > 0 for r in rows)
+    results = tmp_path / "results"
+    for name in ("_sweep.csv", "_sweep.png", "_sweep_orders.png", "_sweep.jsonl"):
+        assert (results / f"double_cardan_omar_torsional{name}").is_file()
