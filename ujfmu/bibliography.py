@@ -59,6 +59,9 @@ FMU_SOURCES = {
     "RingCoupling": ("Turla2002",),
     "Motor": (),
     "Load": ("Brutti1999",),
+    "CardanJointTorqueDriven": ("Feng2012",),
+    "DoubleCardanDrivelineTorqueDriven": ("Brutti1999", "Omar2023"),
+    "MotorController": (),
 }
 
 
