@@ -9,7 +9,8 @@
                             running_speed = "comp.omega" (spectra in running-speed orders), steady_from [s]
                             (orbits and spectra from that time on)
     [sweep]                 defaults of `ujfmu sweep`: params = ["comp.par=START:STOP:STEP[rpm|deg]", ...],
-                            outputs = [...], running_speed, settle_time [s], revolutions, orders = [1, 2, 4]
+                            outputs = [...], running_speed, settle_time [s], revolutions, orders = [1, 2, 4],
+                            steady_tol = 1e-3 (0: no check), max_settle_time [s] (see ujfmu.steady)
     [reference]             file = "references/x.csv" (relative to the scenario), generator = "cardan_chain"
     [reference.tolerance]   "comp.var" = { rel_range = 0.01, abs = 0.0 }
       pass when max |result - reference| <= rel_range * (max - min of the reference) + abs
@@ -29,7 +30,8 @@ from .master import Component, Connection
 TOP_LEVEL_KEYS = {"title", "description", "experiment", "components", "connections", "output", "reference",
                   "sweep"}
 #: fields of the optional [sweep] table (defaults of `ujfmu sweep`, see ujfmu.sweep)
-SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions", "orders"}
+SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions", "orders", "steady_tol",
+              "max_settle_time"}
 
 
 class ScenarioError(ValueError):
@@ -136,7 +138,7 @@ class Scenario:
         if unknown:
             raise ScenarioError(f"{self.path}: [sweep]: unknown field(s) {', '.join(sorted(unknown))}; "
                                 f"known: {', '.join(sorted(SWEEP_KEYS))}")
-        for key in ("settle_time", "revolutions"):
+        for key in ("settle_time", "revolutions", "steady_tol", "max_settle_time"):
             if key in self.sweep:
                 self._number(self.sweep, f"sweep.{key}")
         speed = [self.sweep["running_speed"]] if "running_speed" in self.sweep else []
