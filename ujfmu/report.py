@@ -348,7 +348,8 @@ def turla(rep):
     s = Section("Turla, Iljin: elastic centrifugal ring coupling between misaligned shafts (RingCoupling)",
                 "Fig. 3 ring (scenario `ring_coupling_fig3`, pendulum case c_s = c_d = 0: undamped, so its "
                 "oscillation from the start is the result and is measured over the first 4 revolutions, without a "
-                "steady-state check) swept over the running speed; Fig. 4's limits from the three rings of scenario `ring_coupling_speed_study` (c_s = 87 "
+                "steady-state check) swept over the running speed; Fig. 4's limits from the three rings of "
+                "scenario `ring_coupling_speed_study` (c_s = 87 "
                 "EI/R, 10% damping) swept at constant speeds. Eq. (20): amplitude 39.25 e^2 EI/(w^2 I2 R^3). "
                 "Derivation: [ring_coupling.md](ring_coupling.md).")
 

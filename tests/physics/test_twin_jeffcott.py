@@ -64,7 +64,8 @@ def test_bent_ends_turn_by_the_exact_rotation_about_the_bending_plane_normal(bet
             r2 = Rotation.from_rotvec([0.0, b, 0.0]).as_matrix() @ Rotation.from_rotvec([-v2, u2, 0.0]).as_matrix()
             e1 = r1 @ np.array([-math.sin(th), math.cos(th), 0.0])
             axis1 = r1 @ np.array([0.0, 0.0, 1.0])
-            assert math.atan2(math.hypot(axis1[0], axis1[1]), axis1[2]) == pytest.approx(math.hypot(u1, v1), rel=1e-9, abs=1e-15)
+            slope = math.atan2(math.hypot(axis1[0], axis1[1]), axis1[2])
+            assert slope == pytest.approx(math.hypot(u1, v1), rel=1e-9, abs=1e-15)
             px, py, _ = r2.T @ e1
             psi = tj.joint(p, th, u1, v1, u2, v2)[0]
             assert math.remainder(psi - math.atan2(-px, py), 2 * math.pi) == pytest.approx(0.0, abs=1e-13)
@@ -115,8 +116,8 @@ def test_aligned_rotor_under_load_keeps_circular_orbits_and_no_2x():
     this holds to round-off. Round-off measured here: X and Y 1x agree to 1e-15..3e-15 relative; the 2x of tau_in is
     ~1e-12 N.m (K1T = 329 N.m/rad times the ulp of an input angle of some 100 rad, averaged by the fit), that of
     omega_out ~1e-13 rad/s. The bounds leave about two decades; the Euler-sequence tilt R_x(v) R_y(-u) misses the
-    first by eight (disc 1: 5.7e-4 relative). Damping raised (20% lateral, 30% torsional) so the start transient is below
-    round-off after 1.8 s."""
+    first by eight (disc 1: 5.7e-4 relative). Damping raised (20% lateral, 30% torsional) so that the start
+    transient is below round-off after 1.8 s."""
     r = tj.rig_parameters()
     changes = dict(beta=0.0, phase_u1=0.4, phase_u2=-1.1)
     for i in (1, 2):
