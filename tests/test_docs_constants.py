@@ -16,7 +16,8 @@ from ujfmu.report import twin_decay_rates
 
 ROOT = Path(__file__).parents[1]
 DOCS = sorted((ROOT / "docs").glob("*.md")) + [ROOT / "README.md"]
-QUOTE = re.compile(r"`((?:ujfmu\.)?[a-z_][a-z_0-9]*(?:\.[a-z_][a-z_0-9]*)*)\.([A-Z][A-Z_0-9]*)` = ([-+]?\d[\d.]*(?:e[-+]?\d+)?)")
+QUOTE = re.compile(r"`((?:ujfmu\.)?[a-z_][a-z_0-9]*(?:\.[a-z_][a-z_0-9]*)*)\.([A-Z][A-Z_0-9]*)` = "
+                   r"([-+]?\d[\d.]*(?:e[-+]?\d+)?)")
 
 
 def quotes():

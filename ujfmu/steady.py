@@ -108,6 +108,15 @@ def steady_change(new: dict, old: dict) -> tuple:
     return worst, name
 
 
+def halves_change(angle, table, signals, orders=(1, 2, 4)) -> tuple:
+    """``steady_change`` between the first and the second half of a record (angle: the running angle of each
+    sample, table: a structured array with the signals): for a test that waited a fixed time, whether its
+    record repeats."""
+    half = len(angle) // 2
+    first, second = (Window(0.0, np.asarray(angle[part]), table[part]) for part in (slice(0, half), slice(half, None)))
+    return steady_change(periodic_figures(second, signals, orders), periodic_figures(first, signals, orders))
+
+
 def settle_and_measure(cosim, settings) -> dict:
     """Settle the co-simulation, check steadiness and the operating point, measure; returns the record fields:
     the figures, ``status``, ``error`` (the reason for a status other than ok), ``settled_s`` (the settle time
