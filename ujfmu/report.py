@@ -16,7 +16,7 @@ import numpy as np
 
 from .build import DEFAULT_FMU_DIR, REPO_DIR, fmu_class
 from .scenario import Scenario
-from .steady import FLOOR
+from .steady import FLOOR, GROWTH
 from .sweep import Sweep, SweepSettings, close_client, dask_client, parse_axis
 
 SCENARIOS = REPO_DIR / "scenarios"
@@ -433,7 +433,8 @@ def render(sections):
              "Steady state is checked, not assumed (`ujfmu.steady`): a point's figures (the mean and the "
              "running-speed order amplitudes of every output) over the measuring window at T must agree with "
              f"those over the window at 3T/4 within {SweepSettings.steady_tol:g} of themselves (or of "
-             f"{FLOOR:g} x the output's largest figure); otherwise T doubles, up to 8 times the first. A transient "
+             f"{FLOOR:g} x the output's largest figure); otherwise T grows by {GROWTH:g}x, up to 8 times the "
+             "first. A transient "
              "decaying as exp(-sigma t) leaves less than the change measured once sigma T >= 4 ln 2. Only points "
              "that pass, and whose motor reached its set speed, enter the tables; a section says where a "
              "measurement is deliberately taken without the check.", "",
