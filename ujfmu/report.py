@@ -431,8 +431,9 @@ def render(sections):
              "the paper. Verdicts: reproduced (within the stated band), reproduced in trend (the effect and its "
              "direction, not the value), not reproduced (the reason is in the notes and the model docs).", "",
              "Steady state is checked, not assumed (`ujfmu.steady`): a point's figures (the mean and the "
-             "running-speed order amplitudes of every output) over the measuring window at T must agree with "
-             f"those over the window at 3T/4 within {SweepSettings.steady_tol:g} of themselves (or of "
+             "running-speed order amplitudes of every output) over the measuring window at the settle time T "
+             "must agree with those over every window back to 3T/4 (back-to-back windows) within "
+             f"{SweepSettings.steady_tol:g} of themselves (or of "
              f"{FLOOR:g} x the output's largest figure); otherwise T grows by {GROWTH:g}x, up to 8 times the "
              "first. A transient "
              "decaying as exp(-sigma t) leaves less than the change measured once sigma T >= 4 ln 2. Only points "

@@ -143,11 +143,10 @@ def settle_and_measure(cosim, settings) -> dict:
             settle = max(settle, 4.0 * (window.table["time"][-1] - window.table["time"][0]))
             cap = s.max_settle_time if s.max_settle_time is not None else 8.0 * settle
         earlier = [periodic_figures(window, signals, s.orders)]
-        length = window.table["time"][-1] - window.table["time"][0]
-        while True:   # back-to-back windows until one starts at T (within half a window)
+        while True:   # back-to-back windows until one starts at T or later
             window = record_window(cosim, s.running_speed, s.revolutions)
             earlier.append(periodic_figures(window, signals, s.orders))
-            if window.start >= start + settle - 0.5 * length:
+            if window.start >= start + settle - 0.5 * h:
                 break
         change, worst = max(steady_change(earlier[-1], old) for old in earlier[:-1])
         if change <= s.steady_tol or GROWTH * settle > cap * (1.0 + 1e-9):
