@@ -161,8 +161,9 @@ def main(argv=None):
     p.add_argument("--running-speed", help="speed signal whose revolutions are measured [rad/s]")
     p.add_argument("--settle", type=float, help="settle time before measuring [s]")
     p.add_argument("--revolutions", type=float, help="measurement window in revolutions")
-    p.add_argument("--steady-tol", type=float, help="steady-state tolerance: figures at T and T/2 agree within this "
-                                                    "relative change (default 1e-3; 0: no check)")
+    p.add_argument("--steady-tol", type=float, help="steady-state tolerance: the figures over the last quarter of the "
+                                                    "settle time agree within this relative change (default 1e-3; "
+                                                    "0: no check)")
     p.add_argument("--max-settle", type=float, help="longest settle time before a point is 'not_steady' [s] "
                                                     "(default 8x --settle)")
     p.add_argument("--orders", type=lambda s: tuple(int(k) for k in s.split(",")), help="orders, e.g. 1,2,4")

@@ -5,7 +5,8 @@ A point sets the swept parameters, co-simulates ``settle_time`` seconds, reads t
 ``revolutions`` whole revolutions of the outputs and reduces each to max, min, peak-to-peak, mean, RMS and the
 amplitudes of chosen running-speed orders (least squares on the running angle, ``analysis.order_amplitudes``).
 Steady state is checked, not assumed, and the settle time extended until it holds (``ujfmu.steady``: the figures
-at T and T/2 agree within ``steady_tol``); so is the operating point (a Motor's speed against its set point).
+over the last quarter of the settle time agree within ``steady_tol``); so is the operating point (a Motor's speed
+against its set point).
 A point's status is ``ok``, ``not_steady``, ``off_target`` or ``error``.
 
 The FMUs go to each dask worker once (a WorkerPlugin writes them to a local folder), so a cluster needs no
