@@ -1,4 +1,4 @@
-"""Numbers the docs quote from the code match the code, so the two cannot drift apart.
+"""Numbers the docs and the README quote from the code match the code, so the two cannot drift apart.
 
 A constant is quoted as `module.NAME` = value (module relative to ujfmu), and every such quote is checked; a
 substep rule must quote RATE_STEP that way rather than a bare number. Derived values (the twin rotor's default
@@ -10,6 +10,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from ujfmu.physics import twin_jeffcott as tj
 from ujfmu.report import twin_decay_rates
@@ -83,3 +84,32 @@ def test_twin_rotor_rig_table_and_modes_are_the_code_values():
     assert agrees(sigma, text), (text, sigma)
     (text,) = printed("twin_jeffcott.md", r"only ([\d.]+)% of critical")
     assert agrees(100 * sigma / torsion[0], text), (text, sigma)
+
+
+def _quoted_values():
+    """(doc, pattern capturing one number, the code's value) for constants quoted in prose."""
+    from ujfmu.fmu.base import SPEED_RANGE, TORQUE_RANGE
+    from ujfmu.physics import ring_coupling as rc
+    from ujfmu.steady import FLOOR, GROWTH
+    from ujfmu.sweep import SweepSettings
+    return [
+        ("ring_coupling.md", r"M_p = (\d+) \(EI/R\^3\)", rc.MP_COEFFICIENT),
+        ("ring_coupling.md", r"(\d+) EI/R \[N.m/rad\]", rc.CS_COEFFICIENT),
+        ("ring_coupling.md", r"= (\d+\.\d+) e\^2 EI/\(w\^2", rc.SMALL_PARAMETER_COEFFICIENT),
+        ("../README.md", r"M_p = (\d+) \(EI/R\^3\)", rc.MP_COEFFICIENT),
+        ("../README.md", r"c_s = (\d+) EI/R", rc.CS_COEFFICIENT),
+        ("../README.md", r"speeds within \+-(1e\d) rad/s", SPEED_RANGE["max"]),
+        ("../README.md", r"torques within \+-(1e\d) N.m", TORQUE_RANGE["max"]),
+        ("cosimulation.md", r"\+-(1e\d) rad/s", SPEED_RANGE["max"]),
+        ("cosimulation.md", r"\+-(1e\d) N.m", TORQUE_RANGE["max"]),
+        ("../README.md", r"`steady_tol` \(default (1e-\d) of", SweepSettings.steady_tol),
+        ("../README.md", r"or of (\d+)% of the output's largest figure", 100 * FLOOR),
+        ("../README.md", r"T grows ([\d.]+)x", GROWTH),
+        ("../README.md", r"within (\d+)% of its set point", 100 * SweepSettings.operating_tol),
+    ]
+
+
+@pytest.mark.parametrize("doc, pattern, value", _quoted_values(), ids=lambda x: str(x)[:30])
+def test_constants_quoted_in_prose_are_the_code_values(doc, pattern, value):
+    texts = [t for t in printed(doc, pattern) if t is not None]
+    assert texts and all(agrees(value, t) for t in texts), (texts, value)
