@@ -45,3 +45,27 @@ def test_invalid_parameter_surfaces_with_fmu_log(fmu_dir):
     comps[1].parameters["J2"] = -1.0
     with pytest.raises(CosimulationError, match="J2"):
         cosimulate(comps, CONNECTIONS, 0.01, 1e-3, [])
+
+
+def test_recorded_time_and_columns_align_with_the_closed_form(fmu_dir):
+    """An ideal ramp from t0 = 0.25 s: every row is the state at its own time, t_k = t0 + k h, with
+    omega = a t, phi = a (t^2 - t0^2)/2, theta1 = the same, and the Hooke joint's omega_out = r(theta1) omega (bend
+    phi only). A time column or a recorded column shifted by one step is off by a h (or more) and fails."""
+    a, h, t0, phi = 40.0, 1e-3, 0.25, np.radians(30)
+    comps = [Component("motor", fmu_dir / "Motor.fmu", dict(ideal_speed_source=True, profile=1, accel=a,
+                                                            omega_set=1e3)),
+             Component("joint", fmu_dir / "CardanJoint.fmu", dict(error_angle_beta=0.0, error_angle_gamma=0.0))]
+    record = ["joint.omega_out", "motor.omega", "joint.phi_in", "motor.phi", "joint.phi_out"]
+    table = cosimulate(comps, [Connection("motor.omega", "joint.omega_in")], 0.75, h, record, start_time=t0)
+    assert set(table.dtype.names) == {"time", *record} and len(table) == 501
+    t = table["time"]
+    np.testing.assert_allclose(t, t0 + h * np.arange(501), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(table["motor.omega"], a * t, rtol=1e-13)
+    np.testing.assert_allclose(table["motor.phi"], 0.5 * a * (t ** 2 - t0 ** 2), rtol=1e-12, atol=1e-15)
+    theta1 = table["joint.phi_in"]
+    # the joint estimates alpha from the input's history (zero before its first step): exact from the second step
+    np.testing.assert_allclose(theta1[2:], 0.5 * a * (t[2:] ** 2 - t0 ** 2), rtol=0, atol=a * h * h)
+    ratio = np.cos(phi) / (1 - np.sin(phi) ** 2 * np.cos(theta1) ** 2)
+    np.testing.assert_allclose(table["joint.omega_out"], ratio * a * t, rtol=1e-12)
+    theta2 = np.unwrap(np.arctan2(np.sin(theta1), np.cos(theta1) * np.cos(phi)))
+    np.testing.assert_allclose(table["joint.phi_out"], theta2, rtol=0, atol=1e-12)

@@ -20,6 +20,9 @@ record = ["j.tau_in"]
 """
 
 
+REF = '\n[reference]\nfile = "r.csv"\n[reference.tolerance]\n"j.tau_in" = { rel_range = 0.01 }'
+
+
 def write(tmp_path, text):
     path = tmp_path / "s.toml"
     path.write_text(text)
@@ -54,12 +57,36 @@ def test_good_file_loads(tmp_path):
     ('[experiment]', '[experimment]', "unknown top-level field(s) experimment"),
     ('fmu = "Load"', 'fmu = "Load"\nparameter = { T0 = 1.0 }', "components.l: fields are fmu and parameters"),
     ('stop_time = 1.0', 'stop_time = 1.0\nstop_time = 2.0', "line 4"),
+    # [reference]: every recorded signal compared or not_compared with a reason; tolerances well-formed
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x"]' + REF, "output.record: j.M_x neither compared"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x"]' + REF + '\n[reference.not_compared]\n"j.M_x" = " "',
+     "reference.not_compared.j.M_x"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF + '\n[reference.not_compared]\n"j.M_y" = "why"',
+     "reference.not_compared.j.M_y: not a recorded signal"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF + '\n[reference.not_compared]\n"j.tau_in" = "why"',
+     "also has a [reference.tolerance]"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF.replace("0.01", "-0.01"), "must not be negative"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF.replace("rel_range", "relrange"),
+     "reference.tolerance.j.tau_in"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF + '\n[reference.extrapolated]\n"j.M_x" = { abs = 1 }',
+     "reference.extrapolated.j.M_x: not a recorded signal"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF.replace("file =", "fil ="), "[reference]: unknown field"),
 ])
 def test_bad_field_is_named(tmp_path, old, new, field):
     path = write(tmp_path, GOOD.replace(old, new))
     with pytest.raises(ScenarioError) as err:
         Scenario(path)
     assert str(path) in str(err.value) and field in str(err.value)
+
+
+def test_not_compared_signals_are_listed_with_their_reason(tmp_path):
+    """`ujfmu run` and `ujfmu check` print the summary: it names each uncompared signal and why."""
+    from ujfmu.scenario_run import ScenarioResult
+    text = GOOD.replace('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x"]' + REF
+                        + '\n[reference.not_compared]\n"j.M_x" = "no reference for it"')
+    scenario = Scenario(write(tmp_path, text))
+    assert scenario.not_compared == {"j.M_x": "no reference for it"} and list(scenario.tolerances) == ["j.tau_in"]
+    assert "not compared: j.M_x: no reference for it" in ScenarioResult(scenario, None).summary()
 
 
 def test_missing_fmu_is_named_before_anything_runs(tmp_path):

@@ -131,6 +131,41 @@ def cmd_report(args):
     return 0
 
 
+def cmd_mutate(args):
+    import json
+
+    from .mutate import load_mutants, mutate, score
+    mutants = load_mutants(args.list)
+    if args.only:
+        unknown = set(args.only) - {m.id for m in mutants}
+        if unknown:
+            raise FileNotFoundError(f"no mutant {', '.join(sorted(unknown))} in {args.list}")
+        mutants = [m for m in mutants if m.id in args.only]
+    journal = args.out / "mutate.jsonl"
+    done = {}
+    if args.resume and journal.is_file():
+        latest = {r["id"]: r for r in map(json.loads, journal.read_text().splitlines())}
+        done = {i: r for i, r in latest.items() if r["status"] in ("killed", "timeout", "equivalent")}
+    elif journal.is_file():
+        journal.unlink()
+    todo = [m for m in mutants if m.id not in done]
+    print(f"{len(mutants)} mutants ({len(done)} from {journal}), running {len(todo)}", flush=True)
+
+    def report(outcome):
+        print(f"{outcome.status:10s} {outcome.mutant.id:40s} {outcome.seconds:6.1f} s  "
+              f"{outcome.detail.splitlines()[-1] if outcome.detail else ''}"[:200], flush=True)
+
+    outcomes = mutate(todo, timeout=args.timeout, niceness=args.nice, progress=report, journal=journal)
+    statuses = [r["status"] for r in done.values() if r["id"] in {m.id for m in mutants}]
+    statuses += [o.status for o in outcomes]
+    killed, judged, fraction = score(statuses)
+    survivors = [m.id for m, o in zip(todo, outcomes) if o.status == "survived"]
+    print(f"score: {killed} of {judged} non-equivalent mutants killed ({100 * fraction:.1f}%); "
+          f"{statuses.count('equivalent')} equivalent, {statuses.count('error')} errors"
+          + (f"; survivors: {', '.join(survivors)}" if survivors else ""))
+    return 1 if survivors or "error" in statuses else 0
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="ujfmu", description=__doc__)
     parser.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where the FMUs are (default: fmus/)")
@@ -190,6 +225,15 @@ def main(argv=None):
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: no dask)")
     p.add_argument("--no-progress", action="store_true")
     p.set_defaults(func=cmd_report)
+    p = sub.add_parser("mutate", help="mutation run: the curated mutants (mutants.toml) against their tests")
+    p.add_argument("--list", type=Path, default=REPO_DIR / "mutants.toml", help="mutant list (default: mutants.toml)")
+    p.add_argument("--only", nargs="+", metavar="ID", help="run only these mutants")
+    p.add_argument("--resume", action="store_true",
+                   help="keep the killed mutants of results/mutate.jsonl, run the others (survivors, errors, new)")
+    p.add_argument("--timeout", type=float, default=900.0, help="seconds per mutant (default: 900)")
+    p.add_argument("--nice", type=int, default=19, help="CPU niceness of the test runs (default: 19)")
+    p.add_argument("--out", type=Path, default=Path("results"), help="writes mutate.jsonl here")
+    p.set_defaults(func=cmd_mutate)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

@@ -11,9 +11,14 @@
     [sweep]                 defaults of `ujfmu sweep`: params = ["comp.par=START:STOP:STEP[rpm|deg]", ...],
                             outputs = [...], running_speed, settle_time [s], revolutions, orders = [1, 2, 4],
                             steady_tol = 1e-3 (0: no check), max_settle_time [s] (see ujfmu.steady)
-    [reference]             file = "references/x.csv" (relative to the scenario), generator = "cardan_chain"
+    [reference]             file = "references/x.csv" (relative to the scenario), generator = "cardan_chain",
+                            not_compared = { "comp.var" = "why this recorded signal is not compared", ... }
     [reference.tolerance]   "comp.var" = { rel_range = 0.01, abs = 0.0 }
       pass when max |result - reference| <= rel_range * (max - min of the reference) + abs
+    [reference.extrapolated] "comp.var" = { rel_range = 0.001 }: the same test on the step-halving (Richardson)
+                            extrapolation 2 y(h/2) - y(h) of runs at step_size and step_size/2, which removes the
+                            first-order coupling error; for scenarios whose [reference.tolerance] must allow for it
+    With a reference file, every recorded signal is compared or listed in not_compared with its reason.
 """
 
 import math
@@ -32,6 +37,8 @@ TOP_LEVEL_KEYS = {"title", "description", "experiment", "components", "connectio
 #: fields of the optional [sweep] table (defaults of `ujfmu sweep`, see ujfmu.sweep)
 SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions", "orders", "steady_tol",
               "max_settle_time"}
+REFERENCE_KEYS = {"file", "generator", "tolerance", "extrapolated", "not_compared"}
+TOLERANCE_KEYS = {"rel_range", "abs"}
 
 
 class ScenarioError(ValueError):
@@ -112,13 +119,29 @@ class Scenario:
         for i, name in enumerate(self.record):
             self._check_signal(name, f"output.record[{i}]")
         ref = data.get("reference", {})
+        unknown = set(ref) - REFERENCE_KEYS if isinstance(ref, dict) else {"(not a table)"}
+        if unknown:
+            raise ScenarioError(f"{self.path}: [reference]: unknown field(s) {', '.join(sorted(unknown))}; "
+                                f"known: {', '.join(sorted(REFERENCE_KEYS))}")
         self.reference_file = (self.path.parent / ref["file"]) if "file" in ref else None
         self.reference_generator = ref.get("generator")
-        self.tolerances = {}
-        for name, tol in ref.get("tolerance", {}).items():
+        self.tolerances = self._tolerances(ref, "tolerance")
+        self.extrapolated_tolerances = self._tolerances(ref, "extrapolated")
+        self.not_compared = {}
+        for name, reason in ref.get("not_compared", {}).items():
+            field = f"reference.not_compared.{name}"
             if name not in self.record:
-                raise ScenarioError(f"{self.path}: reference.tolerance.{name}: not a recorded signal")
-            self.tolerances[name] = Tolerance(**tol)
+                raise ScenarioError(f"{self.path}: {field}: not a recorded signal")
+            if name in self.tolerances:
+                raise ScenarioError(f"{self.path}: {field}: the signal also has a [reference.tolerance]")
+            if not isinstance(reason, str) or not reason.strip():
+                raise ScenarioError(f"{self.path}: {field} = {reason!r} must be the reason, a non-empty string")
+            self.not_compared[name] = reason.strip()
+        if self.reference_file is not None:
+            missing = [n for n in self.record if n not in self.tolerances and n not in self.not_compared]
+            if missing:
+                raise ScenarioError(f"{self.path}: output.record: {', '.join(missing)} neither compared "
+                                    "([reference.tolerance]) nor listed in reference.not_compared with the reason")
         self.plot = list(out.get("plot", self.tolerances or self.record))
         self.orbits = [tuple(pair) for pair in out.get("orbits", [])]
         for i, pair in enumerate(self.orbits):
@@ -145,6 +168,24 @@ class Scenario:
         for name in list(self.sweep.get("outputs", [])) + speed:
             if name not in self.record:
                 raise ScenarioError(f"{self.path}: sweep: {name!r} is not a recorded signal")
+
+    def _tolerances(self, ref, key):
+        """{signal: Tolerance} of [reference.<key>]; each a recorded signal with finite, non-negative bounds."""
+        table = ref.get(key, {})
+        if not isinstance(table, dict):
+            raise ScenarioError(f"{self.path}: [reference.{key}] must be a table")
+        tolerances = {}
+        for name, tol in table.items():
+            field = f"reference.{key}.{name}"
+            if name not in self.record:
+                raise ScenarioError(f"{self.path}: {field}: not a recorded signal")
+            if not isinstance(tol, dict) or not tol or set(tol) - TOLERANCE_KEYS:
+                raise ScenarioError(f"{self.path}: {field} = {tol!r} must be {{ rel_range = ..., abs = ... }}")
+            values = {k: self._number(tol, f"{field}.{k}") for k in tol}
+            if any(v < 0 for v in values.values()):
+                raise ScenarioError(f"{self.path}: {field}: bounds must not be negative, got {tol!r}")
+            tolerances[name] = Tolerance(**values)
+        return tolerances
 
     def _table(self, data, key):
         if not isinstance(data.get(key), dict):

@@ -85,6 +85,7 @@ BOUNDARY_PARAMETERS = [
     ("RingCoupling", "d", 0.0), ("RingCoupling", "d", -1e-3), ("RingCoupling", "I2", 0.0), ("RingCoupling", "R", 0.0),
     ("RingCoupling", "R", -0.1), ("RingCoupling", "e", math.nan), ("RingCoupling", "E", math.nan),
     ("RingCoupling", "c_s", -1.0),
+    ("Load", "omega_smooth", 0.0), ("Load", "omega_smooth", -1e-12), ("Load", "omega_smooth", math.nan),
 ]
 
 
@@ -154,3 +155,13 @@ def test_case_count():
     print(f"bad-input cases tried: {CASES}")
     assert CASES["parameter"] >= n * EXAMPLES // 2 and CASES["input"] >= n * EXAMPLES // 2
     assert CASES["step"] >= n * 6
+
+
+def test_non_finite_values_are_refused_even_without_a_declared_range():
+    """The range check alone would let NaN through (comparisons with NaN are false) and, for a variable declared
+    without bounds, infinities too: Var.check refuses every non-finite value by itself."""
+    from ujfmu.fmu.base import input_, parameter
+    for var in (parameter("x", 0.0, "1", "a parameter without bounds"), input_("u", 0.0, "N.m", "an input")):
+        for value in (math.nan, math.inf, -math.inf):
+            assert f"{var.name} = {value!r} is not a finite number" in var.check(value)
+        assert var.check(1e300) is None and var.check(-1e-300) is None

@@ -6,8 +6,6 @@ import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from ujfmu.physics import cardan
-
 OUT = ("omega_out", "phi_out", "tau_in", "M_x", "M_y", "M_z", "phi_in", "alpha_in")
 
 
@@ -19,14 +17,39 @@ def test_lossless_at_constant_speed_to_round_off(open_fmu, drive):
     assert np.ptp(tau_in) > 0.05  # the balance is not trivial: tau_in fluctuates
 
 
-def test_outputs_match_physics_module_and_angles_are_continuous(open_fmu, drive):
-    h, w = 1e-3, 300.0  # ~48 revolutions in 1 s
-    rows = drive(open_fmu("CardanJoint"), lambda t: w, 0.3, h, 1000, OUT)
-    f = cardan.joint_frame(math.radians(30), 0.0, math.radians(0.3), math.radians(0.3))
+def test_driven_angle_is_the_hooke_closed_form_and_continuous(open_fmu, drive):
+    """Bend phi only: tan(theta2) = tan(theta1) / cos(phi) (the driven angle in the quadrant of theta1)."""
+    h, w, phi = 1e-3, 300.0, math.radians(30)  # ~48 revolutions in 1 s
+    rows = drive(open_fmu("CardanJoint"), lambda t: w, 0.3, h, 1000, OUT,
+                 dict(error_angle_beta=0.0, error_angle_gamma=0.0))
     theta1 = w * rows.time
     np.testing.assert_allclose(rows.phi_in, theta1, rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(rows.phi_out, [cardan.driven_angle(f, t) for t in theta1], rtol=1e-12, atol=1e-12)
+    closed = np.unwrap(np.arctan2(np.sin(theta1), np.cos(theta1) * math.cos(phi)))
+    np.testing.assert_allclose(rows.phi_out, closed, rtol=0, atol=1e-11)
+    ratio = math.cos(phi) / (1 - math.sin(phi) ** 2 * np.cos(theta1) ** 2)
+    np.testing.assert_allclose(rows.omega_out, ratio * w, rtol=1e-12)
     assert np.max(np.abs(np.diff(rows.phi_out))) < 2 * w * h  # no 2*pi jumps
+
+
+@pytest.mark.parametrize("tau_load", [0.3, -0.2])
+def test_moment_components_satisfy_the_torque_balance(open_fmu, drive, tau_load):
+    """M = (M_x, M_y, M_z) on the driven shaft, bend phi only, driving shaft accelerating (J1, J2 > 0):
+    - driven shaft: M_z = J2 alpha2 + tau_load, alpha2 = d(omega_out)/dt;
+    - driving shaft, about its axis K = R_x(phi) e_z = (0, -sin phi, cos phi): M . K = tau_in - J1 alpha1;
+    - no moment through the frictionless driven pin e2 = (-cos theta2, -sin theta2, 0): M . e2 = 0."""
+    h, a, phi, j1, j2 = 1e-4, 400.0, math.radians(30), 2e-4, 1e-3
+    rows = drive(open_fmu("CardanJoint"), lambda t: 60.0 + a * t, tau_load, h, 3000, OUT,
+                 dict(error_angle_beta=0.0, error_angle_gamma=0.0, J1=j1, J2=j2))[2:]
+    alpha2 = np.gradient(rows.omega_out, h)
+    inner = slice(1, -1)                                  # central differences, error (h omega)^2/6 ~ 2e-4
+    m_x, m_y, m_z = rows.M_x, rows.M_y, rows.M_z
+    assert np.ptp(j2 * alpha2[inner]) > 10 * abs(tau_load)   # the inertia term matters
+    np.testing.assert_allclose(m_z[inner], j2 * alpha2[inner] + tau_load, rtol=0, atol=1e-3 * np.ptp(m_z))
+    np.testing.assert_allclose(-m_y * math.sin(phi) + m_z * math.cos(phi), rows.tau_in - j1 * a, rtol=1e-12,
+                               atol=1e-12 * np.ptp(m_z))
+    theta2 = rows.phi_out
+    np.testing.assert_allclose(-m_x * np.cos(theta2) - m_y * np.sin(theta2), 0.0, atol=1e-12 * np.ptp(m_z))
+    assert min(np.ptp(m_x), np.ptp(m_y)) > 0.1 * np.ptp(m_z)
 
 
 def test_driving_acceleration_from_speed_history_is_exact_for_a_ramp(open_fmu, drive):

@@ -18,6 +18,24 @@ def test_ideal_speed_source_follows_ramp_and_reports_its_torque(open_fmu):
     assert tau == pytest.approx(2e-3 * 30.0 + 0.4, rel=1e-12)
 
 
+def test_pi_motor_torque_output_is_the_pi_law(open_fmu):
+    """Proportional only (Ki = 0), speed step of 10 rad/s at t = 0.5 s onto a motor at rest, no load: at every
+    communication point tau_motor = Kp (omega_ref - omega), and the speed rises as the first-order response
+    10 (1 - exp(-Kp (t - 0.5) / J))."""
+    m = open_fmu("Motor")
+    kp, j = 0.2, 1.0
+    m.initialize(dict(profile=2, t_step=0.5, omega_initial=0.0, omega_set=10.0, Kp=kp, Ki=0.0, tau_max=1e3,
+                      J_rotor=j))
+    h = 1e-3
+    for k in range(1500):
+        m.set(tau_load=0.0)
+        m.slave.doStep(k * h, h)
+        t = (k + 1) * h
+        omega, omega_ref, tau = m.get("omega", "omega_ref", "tau_motor")
+        assert tau == pytest.approx(kp * (omega_ref - omega), rel=1e-12, abs=1e-15)
+    assert omega == pytest.approx(10.0 * (1.0 - math.exp(-kp * (t - 0.5) / j)), rel=1e-3)
+
+
 def test_pi_motor_holds_speed_against_load_and_respects_torque_limit(open_fmu):
     m = open_fmu("Motor")
     m.initialize(dict(profile=0, omega_set=100.0, tau_max=0.5, J_rotor=1e-3, Kp=0.2, Ki=10.0))
@@ -38,6 +56,22 @@ def test_load_torque_law_feeds_through(open_fmu):
         ld.set(omega=w)   # no step needed: the output follows the input directly
         mag = math.sqrt(w * w + 0.01)
         assert ld.get("tau")[0] == pytest.approx(0.2 * w / mag + 0.01 * w + 0.017 * w * mag, rel=1e-14)
+
+
+@pytest.mark.parametrize("smooth", [0.1, 1e-9])
+def test_load_at_rest_is_smooth_and_odd(open_fmu, smooth):
+    """omega = 0: no torque and no division by zero, whatever the (allowed, > 0) regularisation speed; the
+    slope there is T0/omega_smooth + c1 + c2 omega_smooth; at omega = omega_smooth the smooth sign is 1/sqrt(2)."""
+    ld = open_fmu("Load")
+    ld.initialize(dict(T0=0.2, c1=0.01, c2=0.017, omega_smooth=smooth))
+    ld.set(omega=0.0)
+    assert ld.get("tau")[0] == 0.0
+    dw = 1e-6 * smooth
+    ld.set(omega=dw)
+    assert ld.get("tau")[0] / dw == pytest.approx(0.2 / smooth + 0.01 + 0.017 * smooth, rel=1e-6)
+    ld.set(omega=-smooth)
+    assert ld.get("tau")[0] == pytest.approx(-(0.2 / math.sqrt(2) + 0.01 * smooth + 0.017 * smooth ** 2 * math.sqrt(2)),
+                                             rel=1e-12)
 
 
 @pytest.mark.parametrize("fmu, param, value", [("Motor", "J_rotor", 0.0), ("Motor", "profile", 7),

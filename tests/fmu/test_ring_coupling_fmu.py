@@ -33,6 +33,11 @@ def test_pendulum_case_conserves_the_first_integral_and_has_the_elliptic_period(
                   omega_out_start=-dy0 - omega_in)
     h, n = 1e-3, 12000
     r = drive(open_fmu("RingCoupling"), lambda t: omega_in, 0.0, h, n, OUT, params)
+    # Eq. (5): M_p = 157 (EI/R^3) e^2 cos(phi1 + phi2) = A_e I2 cos(phi1 + phi2); the driver holds its reaction
+    m_p = A_E * I2 * np.cos(r.phi_in + r.phi_out)
+    np.testing.assert_allclose(r.M_p, m_p, rtol=1e-9, atol=1e-12 * A_E * I2)
+    np.testing.assert_allclose(r.transmitted_torque, m_p, rtol=1e-9, atol=1e-12 * A_E * I2)
+    np.testing.assert_allclose(r.tau_in, -m_p, rtol=1e-9, atol=1e-12 * A_E * I2)
     energy = first_integral(r)
     scale = max(abs(energy[0]), A_E)
     assert np.max(np.abs(energy - energy[0])) < 1e-6 * scale
@@ -68,16 +73,20 @@ def test_fig3_double_frequency_amplitude_is_eq20_and_falls_as_one_over_omega_squ
 
 
 def test_validity_speed_is_where_eq20_reaches_the_largest_static_shift():
-    """Eq. (20) amplitude = x_e_max = (157/87)(e/R)^2 (Eq. 22, the paper rounds to 1.8) at omega_min, for any e;
-    omega_min = sqrt(c_s / (4 I2)) = 60.3, 42.6, 34.8 rad/s for R = 0.1, 0.2, 0.3 m (Fig. 4 set)."""
+    """Written out from the paper: EI = E pi d^4 / 64, c_s = 87 EI/R, omega_min = sqrt(c_s / (4 I2)) = 60.3, 42.6,
+    34.8 rad/s for R = 0.1, 0.2, 0.3 m (Fig. 4 set); there Eq. (20)'s amplitude 39.25 e^2 EI / (omega^2 I2 R^3)
+    equals the largest static shift x_e_max = M_p,max / c_s = (157/87)(e/R)^2 (Eq. 22, the paper rounds to 1.8),
+    for any e."""
+    ei = E * math.pi * D ** 4 / 64
     for radius, expected in ((0.1, 60.27), (0.2, 42.62), (0.3, 34.80)):
         w = rc.validity_speed(E, D, radius, I2)
         assert w == pytest.approx(expected, abs=0.01)
-        assert w == pytest.approx(math.sqrt(rc.rotational_stiffness(E, D, radius) / (4 * I2)))
+        assert w == pytest.approx(math.sqrt(87 * ei / radius / (4 * I2)), rel=1e-12)
         for e in (0.001, 0.003, 0.01):
-            x_max = rc.MP_COEFFICIENT / rc.CS_COEFFICIENT * (e / radius) ** 2
-            assert rc.small_parameter_amplitude(E, D, radius, e, I2, w) == pytest.approx(x_max)
-    assert rc.MP_COEFFICIENT / rc.CS_COEFFICIENT == pytest.approx(1.8, abs=0.005)
+            assert rc.small_parameter_amplitude(E, D, radius, e, I2, w) == pytest.approx(157 / 87 * (e / radius) ** 2,
+                                                                                         rel=1e-12)
+            assert 39.25 * e ** 2 * ei / (w ** 2 * I2 * radius ** 3) == pytest.approx(1.8 * (e / radius) ** 2,
+                                                                                    rel=0.003)
 
 
 @pytest.mark.parametrize("radius", [0.1, 0.2, 0.3])

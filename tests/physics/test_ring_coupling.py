@@ -38,8 +38,11 @@ def test_fig3_set_numbers():
     assert rc.rotational_stiffness(E, D, R) == pytest.approx(726.43, rel=1e-4)
 
 
+@pytest.mark.paper
 def test_eq22_fixes_the_units_of_c_s():
-    """x_e_max = M_p,max / c_s must be dimensionless (Eq. 22: 1.8 (e/R)^2): with the printed c_s = 87 EI/R^3 it
+    """Documentation of the paper (sympy on its printed equations), not a test of ujfmu's computations.
+
+    x_e_max = M_p,max / c_s must be dimensionless (Eq. 22: 1.8 (e/R)^2): with the printed c_s = 87 EI/R^3 it
     has units m^2; with 87 EI/R it is (157/87)(e/R)^2."""
     ei, r, e = sp.symbols("EI R e", positive=True)
     newton, metre = sp.symbols("N m", positive=True)
@@ -50,8 +53,11 @@ def test_eq22_fixes_the_units_of_c_s():
     assert sp.simplify(ratio - sp.Rational(157, 87) * (e / r) ** 2) == 0
 
 
+@pytest.mark.paper
 def test_eq3_eq4_do_not_give_the_published_157():
-    """M_p = 2e (P_y cos g - P_x sin g) with Eq. (3)'s reactions (made a force by e/R^2: P = 2EI e/R^3 (...))
+    """Documentation of the paper (sympy on its printed equations), not a test of ujfmu's computations.
+
+    M_p = 2e (P_y cos g - P_x sin g) with Eq. (3)'s reactions (made a force by e/R^2: P = 2EI e/R^3 (...))
     gives 4b (EI/R^3) e^2 cos 2g with b = (pi - 4)/(2 pi): a coefficient -0.546, not 157. We keep the published
     157 (the paper's Eqs. 5-20 and its figures rest on it) and record the discrepancy (docs/ring_coupling.md)."""
     g = sp.Symbol("gamma", real=True)

@@ -4,6 +4,7 @@ energy Eq. (4), in the paper's own 5-DOF setting (torsionally rigid: theta2 = f(
 The extraction is garbled; docs/twin_jeffcott.md lists the readings this test pins down: the unbalance terms turn
 with the disc angle (sin theta, not sin 2 theta), and (mu - 1) stands for the joint's speed ratio up to sign."""
 
+import pytest
 import sympy as sp
 
 th = sp.Symbol("theta1", real=True)
@@ -39,8 +40,11 @@ def _printed_mass_matrix(mu_minus_1, theta2):
     return m
 
 
+@pytest.mark.paper
 def test_printed_eq10_agrees_with_lagrange_except_the_sign_of_the_secondary_cross_terms():
-    """Eq. (10) agrees with Lagrange's equations from Eq. (4) in every entry but one: one of disc 2's two cross
+    """Documentation of the paper (sympy on its printed equations), not a test of ujfmu's computations.
+
+    Eq. (10) agrees with Lagrange's equations from Eq. (4) in every entry but one: one of disc 2's two cross
     terms has the wrong sign whichever sign of the speed ratio r = dtheta2/dtheta1 is read into (mu - 1).
     With Eq. (5)'s reading, (mu - 1) = r, it is M_theta,X2. We use Eq. (4)."""
     derived = _derived_mass_matrix()
@@ -55,8 +59,11 @@ def test_printed_eq10_agrees_with_lagrange_except_the_sign_of_the_secondary_cros
         assert diff == sp.zeros(5, 5)
 
 
+@pytest.mark.paper
 def test_eq5_cross_terms_agree_with_lagrange_when_mu_minus_1_is_the_speed_ratio():
-    """Eq. (5)'s last term -m_u2 e (mu - 1)(sin theta2 X2' - cos theta2 Y2') theta1' is the derived one with
+    """Documentation of the paper (sympy on its printed equations), not a test of ujfmu's computations.
+
+    Eq. (5)'s last term -m_u2 e (mu - 1)(sin theta2 X2' - cos theta2 Y2') theta1' is the derived one with
     (mu - 1) = r, so Eq. (5) and Eq. (10) disagree on M_theta,X2."""
     derived = _derived_mass_matrix()
     assert sp.simplify(derived[0, 3] - (-mu2 * e * ratio * sp.sin(f))) == 0

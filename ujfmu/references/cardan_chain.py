@@ -17,7 +17,7 @@ import functools
 import numpy as np
 import sympy as sp
 
-from .common import load_torque, pi_law, profile, record_table, solve_piecewise
+from .common import check_close, check_energy_balance, load_torque, pi_law, profile, record_table, solve_piecewise
 
 RTOL, ATOL = 1e-11, 1e-12
 
@@ -56,6 +56,10 @@ class JointKinematics:
         e1 = self._e1(theta1, *self.angles)
         raw = np.arctan2(-np.asarray(e1[0]), np.asarray(e1[1]))
         return theta1 + (raw - theta1 + np.pi) % (2 * np.pi) - np.pi
+
+    def driving_axis(self, theta1):
+        """K = C e_z (Eq. 9), the driving shaft's axis in the driven frame, as three arrays like theta1."""
+        return np.broadcast_arrays(*self._k(theta1, *self.angles), theta1)[:3]
 
     def moment(self, theta1, m_z):
         """(M_x, M_y) from Eq. (10): M = M_z / e_n,z along e_n = e1 x e2, e2 = e3 x e1 / |e3 x e1|."""
@@ -117,7 +121,38 @@ def generate(scenario):
     columns = {
         "motor.omega": w1, "motor.phi": phi_motor, "motor.tau_motor": tau_motor,
         "joint.omega_out": w2, "joint.phi_out": theta2, "joint.tau_in": tau_in, "joint.phi_in": theta1,
-        "joint.M_x": m_x, "joint.M_y": m_y, "joint.M_z": m_z, "load.tau": tau_load,
+        "joint.M_x": m_x, "joint.M_y": m_y, "joint.M_z": m_z, "load.tau": tau_load, "joint.alpha_in": a1,
     }
+    self_check(scenario, t, columns)
     table = record_table(scenario, t, columns)
     return table, f"ujfmu.references.cardan_chain: {how}. Regenerate: ujfmu references"
+
+
+def self_check(scenario, t: np.ndarray, columns: dict) -> None:
+    """The reference's own laws, checked before it is written (ReferenceCheckError otherwise):
+
+    - energy: (J_m + J1) w1^2/2 + J2 w2^2/2 changes by the work of tau_motor on w1 less that of the load on w2
+      (checks the Lagrange equation, its r r' term and the solve);
+    - torque balance about the driving axis: M . K = tau_in - J1 alpha1 (the moment vector of Eq. 10, built from
+      cross products, against the torque built from the sympy velocity ratio);
+    - closed-form limit of a single joint: cos(theta) <= omega2/omega1 <= 1/cos(theta), cos(theta) = K_z.
+    columns: 'motor.omega', 'motor.tau_motor', 'joint.omega_out', 'joint.phi_in', 'joint.alpha_in',
+    'joint.tau_in', 'joint.M_x', 'joint.M_y', 'joint.M_z', 'load.tau' on the grid t.
+    """
+    pm, pj = scenario.parameters_with_defaults("motor"), scenario.parameters_with_defaults("joint")
+    c = columns
+    w1, w2 = c["motor.omega"], c["joint.omega_out"]
+    stored = 0.5 * (pm["J_rotor"] + pj["J1"]) * w1 ** 2 + 0.5 * pj["J2"] * w2 ** 2
+    check_energy_balance(scenario, "kinetic energy against the work of motor and load", t, stored,
+                         c["motor.tau_motor"] * w1, c["load.tau"] * w2, 1e-6)
+    kin = JointKinematics((pj["bend_angle"], pj["bend_plane_angle"], pj["error_angle_beta"],
+                           pj["error_angle_gamma"]))
+    k = kin.driving_axis(np.asarray(c["joint.phi_in"], dtype=float))
+    check_close(scenario, "torque balance about the driving axis, M . K = tau_in - J1 alpha1",
+                c["joint.M_x"] * k[0] + c["joint.M_y"] * k[1] + c["joint.M_z"] * k[2],
+                c["joint.tau_in"] - pj["J1"] * c["joint.alpha_in"], float(np.max(np.abs(c["joint.tau_in"]))),
+                1e-9)
+    moving = np.abs(w1) > 1e-9 * max(float(np.max(np.abs(w1))), 1e-300)
+    ratio, cos_angle = w2[moving] / w1[moving], float(k[2].flat[0])
+    check_close(scenario, "velocity ratio within [cos(theta), 1/cos(theta)]",
+                np.clip(ratio, cos_angle, 1.0 / cos_angle), ratio, 1.0, 1e-12)

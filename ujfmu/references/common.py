@@ -5,7 +5,7 @@ import time
 from contextlib import contextmanager
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy.integrate import cumulative_simpson, solve_ivp
 
 
 def profile(p, t):
@@ -100,3 +100,30 @@ def components_with_loads(scenario, fmu):
     load_of = {cn.source.split(".")[0]: cn.target.split(".")[0] for cn in scenario.connections
                if cn.source.endswith(".omega_out") and cn.target.endswith(".omega")}
     return [(c, load_of.get(c)) for c, (name, _) in scenario.components.items() if name == fmu]
+
+
+class ReferenceCheckError(AssertionError):
+    """A reference violates its own conservation law or closed-form limit (it is not written)."""
+
+
+def work(t: np.ndarray, power: np.ndarray) -> np.ndarray:
+    """Cumulative integral of power over the grid t from t[0] (Simpson's rule), e.g. the work of a torque."""
+    return cumulative_simpson(np.asarray(power, dtype=float), x=t, initial=0.0)
+
+
+def check_close(scenario, what: str, actual, expected, scale: float, rtol: float) -> float:
+    """ReferenceCheckError naming the scenario and the law unless max |actual - expected| <= rtol * scale;
+    returns the deviation relative to scale."""
+    deviation = float(np.max(np.abs(np.asarray(actual) - np.asarray(expected))))
+    if not deviation <= rtol * scale:
+        raise ReferenceCheckError(f"{scenario.path}: reference self-check failed: {what}: max deviation "
+                                  f"{deviation:.3g} > {rtol:g} x {scale:.3g}")
+    return deviation / scale
+
+
+def check_energy_balance(scenario, what: str, t: np.ndarray, stored, power_in, power_out, rtol: float) -> float:
+    """Energy balance stored(t) - stored(t0) = integral of (power_in - power_out) dt; the scale is the larger of
+    the largest stored energy and the largest work put in."""
+    supplied = work(t, power_in)
+    scale = max(float(np.max(np.abs(stored))), float(np.max(np.abs(supplied))), 1e-300)
+    return check_close(scenario, what, stored - stored[0], supplied - work(t, power_out), scale, rtol)

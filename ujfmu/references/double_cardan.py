@@ -18,7 +18,7 @@ import functools
 import numpy as np
 import sympy as sp
 
-from .common import load_torque, pi_law, profile, record_table, solve_piecewise
+from .common import check_close, check_energy_balance, load_torque, pi_law, profile, record_table, solve_piecewise
 
 RTOL, ATOL = 1e-10, 1e-11
 _PARAMS = ("beta1", "beta2", "yoke_phase", "joint_plane_angle", "I_input", "I_cross_pin", "I_cross_normal",
@@ -139,7 +139,7 @@ def generate(scenario):
     t = scenario.time_grid()
     ideal = pm["ideal_speed_source"]
     phi1_0 = pd["phi_in_start"]
-    cols, tau_m = {}, None
+    cols, tau_m, dissipation = {}, None, 0.0
 
     if pd["rigid_intermediate_shaft"]:
         if not ideal:
@@ -203,6 +203,8 @@ def generate(scenario):
                 _, tau_in[i] = ref.accelerations(q, qd, tau_drive=float(tau_m[i]), extra_inertia=pm["J_rotor"],
                                                  tau_load=tau_l[i])
         twist, dtwist, w2, energy = ref.outputs((phi1, phi4, f), (w1, w4, v))
+        dissipation = (pd["xi_theta"] * pd["k_theta"] * dtwist ** 2
+                       + pd["xi_phi"] * pd["k_phi"] * (pd["L_c"] * np.cos(pd["beta1"])) ** 2 * v ** 2)
         cols.update({
             "driveline.phi_out": phi4, "driveline.omega_out": w4, "driveline.tau_in": tau_in,
             "driveline.twist": twist, "driveline.dynamic_misalignment": f, "driveline.omega_intermediate": w2,
@@ -214,5 +216,25 @@ def generate(scenario):
                f"atol={ATOL:g}")
     cols.update({"motor.omega": w1, "motor.phi": phi_m, "load.tau": tau_l, "driveline.phi_in": phi1})
     cols["motor.tau_motor"] = (pm["J_rotor"] * a1 + cols["driveline.tau_in"]) if ideal else tau_m
+    self_check(scenario, t, cols, dissipation)
     table = record_table(scenario, t, cols)
     return table, f"ujfmu.references.double_cardan: {how}. Regenerate: ujfmu references"
+
+
+def self_check(scenario, t: np.ndarray, columns: dict, dissipation=0.0) -> None:
+    """The reference's own laws, checked before it is written (ReferenceCheckError otherwise):
+
+    - energy: stored_energy changes by the work of tau_in on the input less the load's work on the output and
+      the Rayleigh loss (dissipation: the power 2D of docs/double_cardan.md, 0 for the rigid shaft);
+    - closed-form limit: a rigid shaft with equal joint angles and the yokes in the joint plane (Z layout, in
+      phase) is a constant-velocity joint, omega_out = omega_in.
+    columns: 'motor.omega', 'driveline.omega_out', 'driveline.tau_in', 'driveline.stored_energy', 'load.tau'.
+    """
+    c, pd = columns, scenario.parameters_with_defaults("driveline")
+    w1, w4 = c["motor.omega"] * np.ones_like(t), c["driveline.omega_out"]
+    check_energy_balance(scenario, "stored energy against the work of tau_in, load and damping", t,
+                         c["driveline.stored_energy"], c["driveline.tau_in"] * w1, c["load.tau"] * w4 + dissipation,
+                         1e-6)
+    if pd["rigid_intermediate_shaft"] and pd["beta1"] == pd["beta2"] and pd["yoke_phase"] == pd["joint_plane_angle"]:
+        check_close(scenario, "constant-velocity layout: omega_out = omega_in", w4, w1,
+                    max(float(np.max(np.abs(w1))), 1e-300), 1e-12)

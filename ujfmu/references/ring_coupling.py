@@ -15,7 +15,8 @@ import numpy as np
 import sympy as sp
 from scipy import special
 
-from .common import components_with_loads, load_torque, pi_law, profile, record_table, solve_piecewise
+from .common import (check_energy_balance, components_with_loads, load_torque, pi_law, profile, record_table,
+                     solve_piecewise)
 
 RTOL, ATOL = 1e-11, 1e-12
 _PARAMS = ("R", "d", "E", "e", "I1", "I2", "c_s", "c_d", "phi_in_start", "phi_out_start")
@@ -96,6 +97,8 @@ def generate(scenario):
                          for cn in scenario.connections):
             cols["motor.tau_motor"] = pm["J_rotor"] * a1 + tau_in
     cols.update({"motor.omega": w1, "motor.phi": phi_m})
+    for name, load in rings:
+        self_check(scenario, t, cols, name, load)
     how = (f"monolithic ODE of {'ideal speed source' if ideal else 'PI motor'} + coupling + load, Lagrange's "
            f"equations formed by sympy from the ring's potential, scipy DOP853 rtol={RTOL:g} atol={ATOL:g}")
     return record_table(scenario, t, cols), f"ujfmu.references.ring_coupling: {how}. Regenerate: ujfmu references"
@@ -149,6 +152,26 @@ def generate_pendulum(scenario):
                      f"{name}.tau_in": -m_p, f"{name}.transmitted_torque": m_p})
         if load:
             cols[f"{load}.tau"] = np.zeros_like(t)
+    for name, load in components_with_loads(scenario, "RingCoupling"):
+        self_check(scenario, t, cols, name, load)
     how = ("closed form: the pendulum y'' + A_e sin y = 0 of Eq. (12) solved with Jacobi elliptic functions "
            "(scipy.special.ellipj, ellipkinc)")
     return record_table(scenario, t, cols), f"ujfmu.references.ring_coupling: {how}. Regenerate: ujfmu references"
+
+
+def self_check(scenario, t: np.ndarray, columns: dict, coupling: str, load: str | None) -> None:
+    """Energy balance of one coupling, checked before the reference is written (ReferenceCheckError otherwise):
+    E = I1 w1^2/2 + I2 w2^2/2 - 157 (EI/R^3) e^2 sin(phi1 + phi2) + c_s x_e^2/2 (Eqs. 5-9, written out again
+    from the columns) changes by the work of tau_in on w1 less the load's work on w2 and the damping loss
+    c_d (w2 - w1)^2. For the pendulum closed form (c_s = c_d = 0, no load, constant speed) this is the first
+    integral of y'' + A_e sin y = 0.
+    columns: 'motor.omega', '<coupling>.phi_in', '.phi_out', '.omega_out', '.x_e', '.tau_in' and '<load>.tau'.
+    """
+    pr = scenario.parameters_with_defaults(coupling)
+    c = {k.split(".", 1)[1]: v for k, v in columns.items() if k.startswith(coupling + ".")}
+    w1, w2 = columns["motor.omega"] * np.ones_like(t), c["omega_out"]
+    stored = (0.5 * (pr["I1"] * w1 ** 2 + pr["I2"] * w2 ** 2) - _mp_amplitude(pr) * np.sin(c["phi_in"] + c["phi_out"])
+              + 0.5 * pr["c_s"] * c["x_e"] ** 2)
+    lost = (columns[f"{load}.tau"] * w2 if load else 0.0 * t) + pr["c_d"] * (w2 - w1) ** 2
+    check_energy_balance(scenario, f"{coupling}: energy against the work of tau_in, load and damping", t, stored,
+                         c["tau_in"] * w1, lost, 1e-6)

@@ -22,7 +22,8 @@ import math
 import numpy as np
 import sympy as sp
 
-from .common import components_with_loads, load_torque, pi_law, profile, record_table, solve_piecewise
+from .common import (check_close, check_energy_balance, components_with_loads, load_torque, pi_law, profile,
+                     record_table, solve_piecewise, work)
 
 RTOL, ATOL = 1e-9, 1e-12
 _PARAMS = ("beta", "M1", "M2", "J_M1", "J_M2", "J_gb", "m_u1", "m_u2", "e", "phase_u1", "phase_u2",
@@ -239,7 +240,27 @@ def generate(scenario):
         if ideal and scenario_feeds(scenario, f"{name}.tau_in", "motor.tau_load"):
             cols["motor.tau_motor"] = pm["J_rotor"] * a_in + tau_in
     cols.update({"motor.omega": w_in, "motor.phi": phi_m})
+    for name in rotors:
+        energy_audit(scenario, t, cols, name, load_of[name])
     table = record_table(scenario, t, cols)
     how = (f"monolithic ODE of {'ideal speed source' if ideal else 'PI motor'} + rotor + load, Lagrange's "
            f"equations formed by sympy from rotation matrices and energies, scipy DOP853 rtol={RTOL:g} atol={ATOL:g}")
     return table, f"ujfmu.references.twin_jeffcott: {how}. Regenerate: ujfmu references"
+
+
+def energy_audit(scenario, t: np.ndarray, columns: dict, rotor: str, load: str, motor: str = "motor") -> None:
+    """The rotor's energy audit, checked before the reference is written (ReferenceCheckError otherwise):
+
+    - input_work (an ODE state) = integral of tau_in * omega_in dt (tau_in with the gearbox flange's J_gb alpha);
+    - stored_energy(t) - stored_energy(t0) = input_work - integral of tau_load * omega_out dt - dissipated_energy.
+    columns: '<motor>.omega', '<rotor>.tau_in', '.input_work', '.stored_energy', '.dissipated_energy',
+    '.omega_out' and '<load>.tau' on the grid t.
+    """
+    c = {k.split(".", 1)[1]: v for k, v in columns.items() if k.startswith(rotor + ".")}
+    w_in, supplied = columns[f"{motor}.omega"], c["input_work"]
+    scale = max(float(np.max(np.abs(supplied))), 1e-300)
+    check_close(scenario, f"{rotor}: input_work against the integral of tau_in * omega_in", supplied,
+                work(t, c["tau_in"] * w_in), scale, 1e-6)
+    check_energy_balance(scenario, f"{rotor}: stored energy against input work - load work - dissipated", t,
+                         c["stored_energy"] + c["dissipated_energy"], c["tau_in"] * w_in,
+                         columns[f"{load}.tau"] * c["omega_out"], 1e-6)

@@ -1,0 +1,58 @@
+"""ujfmu.scenario_run.compare and SignalCheck: the pass rule max |result - reference| <= rel_range * range + abs,
+at its boundary, with the reference interpolated to the result's times."""
+
+import numpy as np
+import pytest
+
+from ujfmu.scenario import Tolerance
+from ujfmu.scenario_run import SignalCheck, compare
+
+
+def table(time, **columns):
+    names = ["time"] + [n.replace("__", ".") for n in columns]
+    return np.rec.fromarrays([np.asarray(time, float)] + [np.asarray(c, float) for c in columns.values()],
+                             names=names)
+
+
+REFERENCE = table([0.0, 1.0, 2.0], a__y=[0.0, 4.0, 0.0])      # range 4
+TOLERANCE = {"a.y": Tolerance(rel_range=0.5, abs=0.25)}        # allowed 0.5 * 4 + 0.25 = 2.25 (exact in binary)
+
+
+JUST_OVER = 2.25 + 2.0 ** -48                                   # exact in binary, also as 4 + JUST_OVER
+
+
+@pytest.mark.parametrize("offset, passed", [(0.0, True), (2.25, True), (-2.25, True), (JUST_OVER, False),
+                                            (-JUST_OVER, False)])
+def test_the_bound_is_inclusive(offset, passed):
+    result = table([0.0, 0.5, 1.0, 1.5, 2.0], a__y=[0.0, 2.0, 4.0 + offset, 2.0, 0.0])
+    (check,) = compare(result, REFERENCE, TOLERANCE)
+    assert (check.name, check.allowed, check.reference_range) == ("a.y", 2.25, 4.0)
+    assert check.max_error == abs(offset) and check.passed is passed
+
+
+def test_the_reference_is_interpolated_to_the_result_times():
+    """Between reference samples the reference is the straight line (2 at t = 0.5): a result of 2 + 1 there is
+    off by exactly 1."""
+    result = table([0.5, 1.5], a__y=[3.0, 2.0])
+    (check,) = compare(result, REFERENCE, {"a.y": Tolerance(abs=1.0)})
+    assert check.max_error == 1.0 and check.passed
+    (check,) = compare(result, REFERENCE, {"a.y": Tolerance(abs=np.nextafter(1.0, 0.0))})
+    assert not check.passed
+
+
+def test_every_toleranced_signal_is_checked_and_must_be_in_the_reference():
+    result = table([0.0, 1.0, 2.0], a__y=[0.0, 4.0, 0.0], b__z=[1.0, 1.0, 1.0])
+    reference = table([0.0, 1.0, 2.0], a__y=[0.0, 4.0, 0.0], b__z=[1.0, 1.0, 2.0])
+    checks = compare(result, reference, {"a.y": Tolerance(abs=0.0), "b.z": Tolerance(rel_range=0.999)})
+    assert [(c.name, c.passed) for c in checks] == [("a.y", True), ("b.z", False)]
+    with pytest.raises(KeyError, match="c.w"):
+        compare(result, reference, {"c.w": Tolerance(abs=1.0)})
+
+
+def test_signal_check_verdict_and_report():
+    assert SignalCheck("x", 1.0, 1.0, 10.0).passed
+    assert not SignalCheck("x", 1.0, np.nextafter(1.0, 0.0), 10.0).passed
+    assert not SignalCheck("x", float("nan"), 1.0, 10.0).passed
+    text = str(SignalCheck("x", 0.5, 1.0, 10.0))
+    assert text.startswith("ok") and "5.0000% of range" in text
+    assert str(SignalCheck("x", 2.0, 1.0, 10.0)).startswith("FAIL")

@@ -1,0 +1,125 @@
+"""The reference generators' self-checks (ujfmu.references.*.self_check / energy_audit): each committed
+reference satisfies its own conservation law and closed-form limits, and a plausible bug in a reference (a
+dropped inertia term, swapped moment components, a sign) makes the check fail before anything is written.
+`test_committed_reference_regenerates` (tests/test_scenarios.py) runs every check inside every generator."""
+
+import ast
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ujfmu.references import cardan_chain, double_cardan, read_reference, ring_coupling, twin_jeffcott
+from ujfmu.references.common import ReferenceCheckError
+from ujfmu.scenario import Scenario
+
+SCENARIOS = Path(__file__).parents[1] / "scenarios"
+
+
+def committed(name):
+    scenario = Scenario(SCENARIOS / f"{name}.toml")
+    table, _ = read_reference(scenario.reference_file)
+    return scenario, table["time"], {n: np.array(table[n]) for n in table.dtype.names}
+
+
+def test_twin_rotor_energy_audit_catches_a_reference_without_the_gearbox_inertia():
+    """The input torque without J_gb*alpha hides under a loose run-up tolerance, not under the audit."""
+    scenario, t, cols = committed("twin_jeffcott_runup")
+    twin_jeffcott.energy_audit(scenario, t, cols, "rotor", "load")
+    j_gb = scenario.parameters_with_defaults("rotor")["J_gb"]
+    cols["rotor.tau_in"] = cols["rotor.tau_in"] - j_gb * np.gradient(cols["motor.omega"], t)
+    with pytest.raises(ReferenceCheckError, match="input_work against the integral"):
+        twin_jeffcott.energy_audit(scenario, t, cols, "rotor", "load")
+
+
+def test_twin_rotor_energy_audit_catches_a_dissipation_sign():
+    scenario, t, cols = committed("twin_jeffcott_steady")
+    twin_jeffcott.energy_audit(scenario, t, cols, "rotor", "load")
+    cols["rotor.dissipated_energy"] = -cols["rotor.dissipated_energy"]
+    with pytest.raises(ReferenceCheckError, match="stored energy against"):
+        twin_jeffcott.energy_audit(scenario, t, cols, "rotor", "load")
+
+
+@pytest.mark.parametrize("bug, law", [
+    (lambda c: c.update({"joint.M_x": c["joint.M_y"], "joint.M_y": c["joint.M_x"]}), "torque balance"),
+    (lambda c: c.update({"load.tau": -c["load.tau"]}), "kinetic energy"),
+    (lambda c: c.update({"joint.omega_out": c["motor.omega"] * 1.2}), "kinetic energy"),
+])
+def test_cardan_reference_checks(bug, law):
+    scenario, t, cols = committed("cardan_constant_speed")
+    cols["joint.alpha_in"] = np.zeros_like(t)          # ideal constant speed source
+    cardan_chain.self_check(scenario, t, cols)
+    bug(cols)
+    with pytest.raises(ReferenceCheckError, match=law):
+        cardan_chain.self_check(scenario, t, cols)
+
+
+def test_cardan_velocity_ratio_limit():
+    """cos(theta) <= omega2/omega1 <= 1/cos(theta): a ratio past 1/cos(theta) is caught even when the energy
+    balance is kept (driven side massless, load scaled to match)."""
+    scenario, t, cols = committed("cardan_constant_speed")
+    cols["joint.alpha_in"] = np.zeros_like(t)
+    scenario.components["joint"][1].update(J2=0.0)
+    cols["joint.omega_out"] = cols["joint.omega_out"] * 1.2
+    cols["load.tau"] = cols["load.tau"] / 1.2
+    with pytest.raises(ReferenceCheckError, match="velocity ratio"):
+        cardan_chain.self_check(scenario, t, cols)
+
+
+@pytest.mark.parametrize("bug, law", [
+    (lambda c: c.update({"driveline.tau_in": 0.999 * c["driveline.tau_in"]}), "stored energy"),
+    (lambda c: c.update({"driveline.omega_out": c["driveline.omega_out"] * (1 + 1e-9)}), "constant-velocity"),
+])
+def test_double_cardan_reference_checks(bug, law):
+    scenario, t, cols = committed("double_cardan_brutti_rigid")
+    double_cardan.self_check(scenario, t, cols)
+    bug(cols)
+    with pytest.raises(ReferenceCheckError, match=law):
+        double_cardan.self_check(scenario, t, cols)
+
+
+@pytest.mark.parametrize("name, bug", [
+    ("ring_coupling_fig3", lambda c: c.update({"coupling.tau_in": -c["coupling.tau_in"]})),
+    ("ring_coupling_startup", lambda c: c.update({"load.tau": 0.99 * c["load.tau"]})),
+])
+def test_ring_coupling_energy_balance(name, bug):
+    """For the pendulum closed form the balance is the first integral of y'' + A_e sin y = 0."""
+    scenario, t, cols = committed(name)
+    load = "load" if "load" in scenario.components else None
+    ring_coupling.self_check(scenario, t, cols, "coupling", load)
+    bug(cols)
+    with pytest.raises(ReferenceCheckError, match="energy against"):
+        ring_coupling.self_check(scenario, t, cols, "coupling", load)
+
+
+def test_references_do_not_import_the_code_they_check():
+    """References stay independent: no generator imports ujfmu.physics or ujfmu.fmu (or anything from ujfmu
+    outside ujfmu.references)."""
+    for path in (Path(__file__).parents[1] / "ujfmu" / "references").glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                assert node.level <= 1 and not (node.module or "").startswith("ujfmu"), (path, node.module)
+            elif isinstance(node, ast.Import):
+                assert not any(a.name.startswith("ujfmu") for a in node.names), path
+
+
+def test_references_motor_and_load_laws_written_out_again():
+    """The references' own copies of the Motor and Load laws (references.common), at the branches the committed
+    scenarios never reach: the step profile, and the PI law in saturation with conditional integration."""
+    from ujfmu.references.common import load_torque, pi_law, profile
+    p = dict(profile=2, omega_set=10.0, accel=1.0, t_step=0.5, omega_initial=2.0, Kp=2.0, Ki=10.0, tau_max=5.0)
+    w, a, angle = profile(p, np.array([0.25, 0.75]))
+    np.testing.assert_array_equal(w, [2.0, 10.0])
+    np.testing.assert_array_equal(a, [0.0, 0.0])
+    np.testing.assert_allclose(angle, [0.5, 2.0 * 0.5 + 10.0 * 0.25], rtol=1e-15)
+    t = np.full(6, 0.75)                                   # reference speed 10
+    speed = np.array([9.0, 0.0, 9.0, 11.0, 20.0, 9.0])     # errors 1, 10, 1, -1, -10, 1
+    integral = np.array([0.1, 0.0, 1.0, 1.0, 0.0, -1.0])   # u = 3, 20, 12, 8, -20, -8
+    tau, di = pi_law(p, t, speed, integral)
+    np.testing.assert_allclose(tau, [3.0, 5.0, 5.0, 5.0, -5.0, -5.0])
+    # integrate unless saturated with the error driving further into saturation
+    np.testing.assert_allclose(di, [1.0, 0.0, 0.0, -1.0, 0.0, 1.0])
+    law = dict(T0=0.2, c1=0.01, c2=0.017, omega_smooth=0.1)
+    w = np.array([-50.0, 0.0, 50.0])
+    mag = np.sqrt(w * w + 0.01)
+    np.testing.assert_allclose(load_torque(law, w), 0.2 * w / mag + 0.01 * w + 0.017 * w * mag, rtol=1e-15)
