@@ -90,7 +90,11 @@ def _disc_constants(mass, inertia, m_u, e):
 
 def _tilt_coefficients(x):
     """(S, F, S', F') of x = angle^2: S = sin(angle)/angle, F = (1 - cos(angle))/angle^2 and their derivatives
-    with respect to x (Taylor series below x = 1e-2, where the closed forms lose digits)."""
+    with respect to x. Taylor series below x = 1e-2, where the closed forms lose digits (a bent shaft's end slope
+    is far below that: the short series below x = 1e-4 is exact to rounding)."""
+    if x < 1e-4:
+        return (1.0 - x / 6.0 * (1.0 - x / 20.0), 0.5 - x / 24.0 * (1.0 - x / 30.0),
+                -1.0 / 6.0 + x / 60.0 - x * x / 1680.0, -1.0 / 24.0 + x / 360.0 - x * x / 13440.0)
     if x < 1e-2:
         return (1.0 - x / 6.0 * (1.0 - x / 20.0 * (1.0 - x / 42.0 * (1.0 - x / 72.0))),
                 0.5 - x / 24.0 * (1.0 - x / 30.0 * (1.0 - x / 56.0 * (1.0 - x / 90.0))),
@@ -110,10 +114,12 @@ def _tilt(k, a, b, x, y, z):
     n = s * z + f * m
     c = 1.0 - f * (a * a + b * b)      # cos(angle)
     rv = (x + b * n, y - a * n, c * z + s * m)
-    n_a = 2.0 * a * (ds * z + df * m) + f * y
-    n_b = 2.0 * b * (ds * z + df * m) - f * x
-    d_a = (b * n_a, -n - a * n_a, -a * s * z + 2.0 * a * ds * m + s * y)
-    d_b = (n + b * n_b, -a * n_b, -b * s * z + 2.0 * b * ds * m - s * x)
+    g = 2.0 * (ds * z + df * m)
+    n_a = a * g + f * y
+    n_b = b * g - f * x
+    h = 2.0 * ds * m - s * z
+    d_a = (b * n_a, -n - a * n_a, a * h + s * y)
+    d_b = (n + b * n_b, -a * n_b, b * h - s * x)
     return rv, d_a, d_b
 
 
@@ -126,28 +132,31 @@ def joint(p, theta1, u1, v1, u2, v2):
     e1 = R1 R_z(theta1) (0, 1, 0); in the secondary end frame p = R2^T R_y(-beta) e1 and the driven pin is z x p, so
     psi = atan2(-p_x, p_y): tan(psi) = cos(beta) tan(theta1) without tilts (paper Eq. 1). psi - theta1 is
     evaluated as one atan2, so psi is continuous over revolutions. Derivatives are analytic (Rodrigues'
-    formula differentiated, `_tilt`).
+    formula differentiated, `_tilt`); a change d of e1 changes psi by w . d with
+    w = R_y(beta) R2 (-p_y, p_x, 0) / (p_x^2 + p_y^2), the gradient carried back through the rotations.
     """
     s, c = math.sin(theta1), math.cos(theta1)
     sb, cb = p.sin_beta, p.cos_beta
     k1 = _tilt_coefficients(u1 * u1 + v1 * v1)
     k2 = _tilt_coefficients(u2 * u2 + v2 * v2)
     e1, e1_a, e1_b = _tilt(k1, v1, -u1, -s, c, 0.0)
-    e1_th = _tilt(k1, v1, -u1, -c, -s, 0.0)[0]
-    # r = R_y(-beta) e1, then p = R2^T r = exp([(v2, -u2, 0)]x) r
-    r = (cb * e1[0] - sb * e1[2], e1[1], sb * e1[0] + cb * e1[2])
-    p_, p_a, p_b = _tilt(k2, v2, -u2, *r)
+    # p = R2^T r with r = R_y(-beta) e1; R2^T = exp([(v2, -u2, 0)]x)
+    p_, p_a, p_b = _tilt(k2, v2, -u2, cb * e1[0] - sb * e1[2], e1[1], sb * e1[0] + cb * e1[2])
     px, py = p_[0], p_[1]
     den = px * px + py * py
     psi = theta1 + math.atan2(-px * c - py * s, py * c - px * s)
-
-    def rate(d):
-        """dpsi for a change d of e1 (carried through R_y(-beta) and R2^T)."""
-        q = _tilt(k2, v2, -u2, cb * d[0] - sb * d[2], d[1], sb * d[0] + cb * d[2])[0]
-        return (px * q[1] - py * q[0]) / den
-
-    return (psi, rate(e1_th), -rate(e1_b), rate(e1_a), -(px * p_b[1] - py * p_b[0]) / den,
-            (px * p_a[1] - py * p_a[0]) / den)
+    # w = R_y(beta) R2 (-p_y, p_x, 0) / den; R2 = exp([(-v2, u2, 0)]x) on a vector without z component
+    qx, qy = -py / den, px / den
+    m = -v2 * qy - u2 * qx
+    n = k2[1] * m
+    qx, qy, qz = qx + u2 * n, qy + v2 * n, k2[0] * m
+    wx, wy, wz = cb * qx + sb * qz, qy, cb * qz - sb * qx
+    # dpsi/dtheta1 = w . R1 (-c, -s, 0)
+    m = -v1 * s - u1 * c
+    n = k1[1] * m
+    return (psi, wx * (-c - u1 * n) + wy * (-s - v1 * n) + wz * k1[0] * m,
+            -(wx * e1_b[0] + wy * e1_b[1] + wz * e1_b[2]), wx * e1_a[0] + wy * e1_a[1] + wz * e1_a[2],
+            -(px * p_b[1] - py * p_b[0]) / den, (px * p_a[1] - py * p_a[0]) / den)
 
 
 def _disc_accelerations(d, angle, w, q_theta, q_x, q_y):
