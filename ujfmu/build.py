@@ -61,12 +61,10 @@ def fmu_class(name):
 
 
 def source_hash():
-    """Hash of everything an FMU ships, so a changed model never reuses an old module name."""
-    digest = hashlib.sha256(__version__.encode())
-    for sub in _RUNTIME_DIRS:
-        for path in sorted((PACKAGE_DIR / sub).glob("*.py")):
-            digest.update(path.name.encode() + path.read_bytes())
-    return digest.hexdigest()[:10]
+    """Hash of everything an FMU ships (the version and the runtime sources' build digest, which also tags the
+    FMU's serialized states), so a changed model never reuses an old module name."""
+    from .fmu.base import sources_digest
+    return hashlib.sha256(f"{__version__} {sources_digest()}".encode()).hexdigest()[:10]
 
 
 def build_all(dest=DEFAULT_FMU_DIR, names=None):

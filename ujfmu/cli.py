@@ -59,8 +59,9 @@ def cmd_references(args):
         scenario = Scenario(path)
         if scenario.reference_generator is None:
             continue
+        target = scenario.reference_output()   # inside the scenario's folder, checked before any work
         table, provenance = generate(scenario)
-        write_reference(scenario.reference_file, table, provenance)
+        write_reference(target, table, provenance)
         print(f"wrote {scenario.reference_file}")
     return 0
 
@@ -203,7 +204,9 @@ def main(argv=None):
                                                     "(default 8x --settle)")
     p.add_argument("--orders", type=lambda s: tuple(int(k) for k in s.split(",")), help="orders, e.g. 1,2,4")
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: no dask)")
-    p.add_argument("--scheduler", help="address of a running dask.distributed scheduler, e.g. tcp://host:8786")
+    p.add_argument("--scheduler", help="address of a running dask.distributed scheduler, e.g. tls://host:8786; "
+                        "it must be a trusted cluster (it runs what its clients submit); TLS settings come from "
+                        "the dask config (docs/security.md)")
     p.add_argument("--name", help="output name (default: <scenario>_sweep)")
     p.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: results/)")
     p.add_argument("--no-plot", action="store_true")

@@ -11,7 +11,8 @@
     [sweep]                 defaults of `ujfmu sweep`: params = ["comp.par=START:STOP:STEP[rpm|deg]", ...],
                             outputs = [...], running_speed, settle_time [s], revolutions, orders = [1, 2, 4],
                             steady_tol = 1e-3 (0: no check), max_settle_time [s] (see ujfmu.steady)
-    [reference]             file = "references/x.csv" (relative to the scenario), generator = "cardan_chain",
+    [reference]             file = "references/x.csv" (relative to the scenario; `ujfmu references` writes it
+                            only inside the scenario's folder), generator = "cardan_chain",
                             not_compared = { "comp.var" = "why this recorded signal is not compared", ... }
     [reference.tolerance]   "comp.var" = { rel_range = 0.01, abs = 0.0 }
       pass when max |result - reference| <= rel_range * (max - min of the reference) + abs
@@ -67,6 +68,9 @@ class Scenario:
                                 f"known: {', '.join(sorted(TOP_LEVEL_KEYS))}")
         self.title = data.get("title", self.name)
         self.description = data.get("description", "")
+        for field, value in (("title", self.title), ("description", self.description)):
+            if not isinstance(value, str):
+                raise ScenarioError(f"{self.path}: {field} = {value!r} must be a string")
         exp = self._table(data, "experiment")
         self.start_time = self._number(exp, "experiment.start_time", 0.0)
         self.stop_time = self._number(exp, "experiment.stop_time")
@@ -123,7 +127,11 @@ class Scenario:
         if unknown:
             raise ScenarioError(f"{self.path}: [reference]: unknown field(s) {', '.join(sorted(unknown))}; "
                                 f"known: {', '.join(sorted(REFERENCE_KEYS))}")
-        self.reference_file = (self.path.parent / ref["file"]) if "file" in ref else None
+        self.reference_file = None
+        if "file" in ref:
+            if not isinstance(ref["file"], str) or not ref["file"].endswith(".csv"):
+                raise ScenarioError(f"{self.path}: reference.file = {ref['file']!r} must be the path of a .csv file")
+            self.reference_file = self.path.parent / ref["file"]
         self.reference_generator = ref.get("generator")
         self.tolerances = self._tolerances(ref, "tolerance")
         self.extrapolated_tolerances = self._tolerances(ref, "extrapolated")
@@ -168,6 +176,17 @@ class Scenario:
         for name in list(self.sweep.get("outputs", [])) + speed:
             if name not in self.record:
                 raise ScenarioError(f"{self.path}: sweep: {name!r} is not a recorded signal")
+
+    def reference_output(self):
+        """Where `ujfmu references` writes the reference: the reference file if it resolves (symlinks followed)
+        inside the scenario's folder, else a ScenarioError, so a scenario file cannot make it write elsewhere."""
+        folder = self.path.parent.resolve()
+        path = self.reference_file.resolve()
+        if not path.is_relative_to(folder):
+            raise ScenarioError(f"{self.path}: reference.file = {str(self.reference_file)!r} is outside the "
+                                f"scenario's folder {folder}; `ujfmu references` writes only inside it (give a "
+                                f"relative path such as references/{self.name}.csv)")
+        return path
 
     def _tolerances(self, ref, key):
         """{signal: Tolerance} of [reference.<key>]; each a recorded signal with finite, non-negative bounds."""

@@ -219,6 +219,9 @@ class Sweep:
         self.scenario = scenario if isinstance(scenario, Scenario) else Scenario(scenario)
         self.axes, self.settings = list(axes), settings
         self.name = name or f"{self.scenario.name}_sweep"
+        if self.name.startswith(".") or any(c in self.name for c in "/\\\0"):
+            raise ScenarioError(f"sweep name {self.name!r} must be a plain file name (no path separators, not "
+                                f"starting with '.'): it names the files written in {out_dir}")
         self.out_dir = Path(out_dir)
         self.fmu_dir = Path(fmu_dir)
         self.csv = self.out_dir / f"{self.name}.csv"
@@ -248,13 +251,14 @@ class Sweep:
         """{point key: record} of the finished points in the journal made with the same configuration."""
         records = {}
         if self.journal.is_file():
-            for line in self.journal.read_text().splitlines():
+            for line in self.journal.read_text(errors="replace").splitlines():
                 try:
                     record = json.loads(line)
-                except json.JSONDecodeError:   # a line cut by an interruption
-                    continue
-                if record.get("config") == self.config:
-                    records[self.key(record["point"])] = record
+                    if (record.get("config") == self.config and record["status"] in ("ok", "error")
+                            and isinstance(record["error"], str) and isinstance(record.get("wall_s", 0.0), float)):
+                        records[self.key(record["point"])] = record
+                except (ValueError, TypeError, KeyError, AttributeError):   # a line cut by an interruption
+                    continue                                                # or not a point record: skipped
         return records
 
     def run(self, workers=None, scheduler=None, progress=True, client=None):
@@ -350,12 +354,18 @@ class Sweep:
 
 def dask_client(workers=None, scheduler=None):
     """A dask.distributed Client: on the scheduler at that address, else on a new local cluster of worker
-    processes (one thread each; default one per core)."""
-    from distributed import Client, LocalCluster
+    processes (one thread each; default one per core). Both use dask's TLS settings from the dask config
+    (``distributed.comm.tls.*``, ``distributed.comm.require-encryption``; docs/security.md): a cluster runs
+    whatever its clients submit, so connect only to a trusted one."""
+    from distributed import Client, LocalCluster, Security
+    security = Security()   # from the dask config
     if scheduler:
-        return Client(scheduler)
+        if security.require_encryption and not scheduler.startswith("tls://"):
+            raise ScenarioError(f"--scheduler {scheduler!r}: the dask config requires encryption "
+                                "(distributed.comm.require-encryption); give a tls:// address")
+        return Client(scheduler, security=security)
     cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=40)
+                           dashboard_address=None, silence_logs=40, security=security)
     return Client(cluster)
 
 

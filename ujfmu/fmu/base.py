@@ -13,14 +13,27 @@ it has no path to fmi2Error):
   need more than rk4.MAX_SUBSTEPS substeps, or any exception while stepping: the message is logged at fmi2Error
   and the step is refused (fmi2Discard); the instance and the host process stay alive.
 
-FMU state (canGetAndSetFMUstate, canSerializeFMUstate): everything that evolves, i.e. the variables, the
-life-cycle flags and every attribute a model sets after construction, deep-copied (pickled when serialized).
+FMU state (canGetAndSetFMUstate, canSerializeFMUstate), data only: the values of the variables, the life-cycle
+flags and the attributes each model declares in ``STATE`` (name -> kind, see ``KINDS``). Attributes that follow from
+the parameters (a parameters object, cached rates) are declared in ``DERIVED`` and recomputed by ``derive()`` on
+restore, never stored. An attribute a model sets that is in neither makes fmi2GetFMUstate fail (and the tests),
+so nothing can be forgotten. fmi2GetFMUstate returns an :class:`FmuState`; fmi2SetFMUstate restores exactly its
+fields, the same ones a serialized state restores. The serialized form (``encode_state``) is a versioned header
+(magic, format version, model name, build digest of the FMU's sources), JSON of plain numbers, and a SHA-256 of
+all of it. ``decode_state`` rejects a truncated or corrupted blob, another format version, another FMU, another
+build, a wrong field set, a wrong type or length, a non-finite number where a finite one is required, and
+parameters outside their ranges; it never imports, constructs or calls anything the blob names. pythonfmu turns
+the rejection into fmi2Fatal with the reason in the log message; the instance is left unchanged and usable (the
+objects pythonfmu releases twice are pinned, as above). docs/security.md has the threat model.
 """
 
-import copy
+import hashlib
+import json
 import math
-import pickle
+import struct
 import sys
+import weakref
+from pathlib import Path
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Status
@@ -28,11 +41,13 @@ from pythonfmu.default_experiment import DefaultExperiment
 
 _TYPES = {float: Real, int: Integer, bool: Boolean}
 #: life-cycle attributes of UjfmuSlave that are part of the FMU state
-_LIFECYCLE = ("_stale", "_initialized", "_running", "_start_time")
+_LIFECYCLE_KINDS = {"_stale": "bool", "_initialized": "bool", "_running": "bool", "_start_time": "float"}
 
 #: Objects pythonfmu 0.7.0 releases twice after a Python exception (once when it turns the exception into
 #: fmi2Fatal, again in fmi2FreeInstance). References held here keep them valid so the host survives.
 _PINNED_AFTER_EXCEPTION = []
+#: every live instance, to pin the right objects when a state blob is rejected (pythonfmu calls the class there)
+_LIVE = weakref.WeakSet()
 
 
 class Var:
@@ -93,6 +108,13 @@ class UjfmuSlave(Fmi2Slave):
     """Base of every ujfmu FMU. Subclasses set VARIABLES, DEFAULT_EXPERIMENT, and implement
     ``initialize(start_time)``, ``compute_outputs()`` and ``advance(t, h)``; ``check_parameters()`` is optional.
 
+    Every attribute a model sets goes in one of two declarations (else saving the FMU state fails, and the tests):
+    ``STATE = {"_state": "float[4]", "_started": "bool"}`` for what ``initialize`` sets and ``advance`` changes
+    (saved with the FMU state; kinds in ``KINDS``), ``DERIVED = ("_p",)`` for what ``derive()`` computes from
+    the parameters alone (recomputed when a state is restored). PrescribedInputSlave.STATE holds the input angle
+    and history; extend it with ``{**PrescribedInputSlave.STATE, ...}``. Attributes set in ``__init__`` before
+    ``UjfmuSlave.__init__`` returns are plumbing, outside the state.
+
     Outputs are computed lazily from the current inputs and state (``compute_outputs`` runs on the first output
     read after any input changed or a step was taken), so outputs with direct feedthrough are exact at every
     communication point whatever order the host sets inputs in.
@@ -132,9 +154,10 @@ class UjfmuSlave(Fmi2Slave):
         big = sys.float_info.max
         self._input_bounds = tuple((v.name, -big if v.min is None else v.min, big if v.max is None else v.max, v)
                                    for v in self._inputs)
-        # FMU state = the variables, the life-cycle flags, and every attribute the model adds after this point
-        # (its integrator state, derived parameters, input history): nothing model-specific to forget
-        self._plumbing = frozenset(self.__dict__) - {v.name for v in self.VARIABLES} - set(_LIFECYCLE)
+        # every attribute set so far (the variables, life-cycle flags and plumbing) plus the declared STATE and
+        # DERIVED ones: a model attribute outside this set makes _capture fail, so none can be forgotten
+        self._known = frozenset(self.__dict__) | {"_known"} | self.STATE.keys() | set(self.DERIVED)
+        _LIVE.add(self)
 
     def _output_getter(self, name):
         def get():
@@ -144,7 +167,7 @@ class UjfmuSlave(Fmi2Slave):
                         problems = self._problems()
                         if problems:
                             raise ValueError("invalid parameters: " + "; ".join(problems))
-                        self.initialize(self._start_time)
+                        self._start()
                         self._initialized = True
                     self.compute_outputs()
                 except Exception as exc:
@@ -170,21 +193,60 @@ class UjfmuSlave(Fmi2Slave):
             super().set_real(vrs, values)
 
     # --- FMU state (fmi2GetFMUstate / SetFMUstate / Serialize; canGetAndSetFMUstate in the modelDescription) ---
+    @classmethod
+    def state_kinds(cls, initialized):
+        """Field name -> kind of the FMU state: variables and life-cycle flags, plus STATE once initialized."""
+        kinds = {v.name: v.type.__name__ for v in cls.VARIABLES}
+        kinds.update(_LIFECYCLE_KINDS)
+        if initialized:
+            kinds.update(cls.STATE)
+        return kinds
+
+    def _capture(self):
+        """The current FMU state, each value normalized to its kind (a tuple of floats for a float[n])."""
+        undeclared = self.__dict__.keys() - self._known
+        if undeclared:
+            raise ValueError(f"attributes {sorted(undeclared)} are neither in STATE nor in DERIVED")
+        kinds = self.state_kinds(self._initialized)
+        return FmuState(type(self), {k: _normalize(kind, getattr(self, k)) for k, kind in kinds.items()})
+
     def _get_fmu_state(self):
-        """A deep copy of everything that evolves: variables, life-cycle flags and the model's own attributes."""
-        return {k: copy.deepcopy(v) for k, v in self.__dict__.items() if k not in self._plumbing}
+        try:
+            return self._capture()
+        except Exception as exc:   # a model that does not declare its state: an error status, never a crash
+            self._raise_to_host(f"{self.modelName} '{self.instance_name}': cannot save the FMU state: {exc}")
 
     def _set_fmu_state(self, state):
-        for key, value in state.items():   # a copy again: one saved state can be restored many times
-            setattr(self, key, copy.deepcopy(value))
+        """Restore a state of this FMU (values are immutable: one saved state can be restored many times)."""
+        if not isinstance(state, FmuState) or state.origin != (type(self).__module__, type(self).__name__):
+            self._raise_to_host(f"{self.modelName} '{self.instance_name}': fmi2SetFMUstate was given a state that "
+                                "is not one of this FMU's; the instance is unchanged")
+        for key, value in state.fields.items():
+            setattr(self, key, value)
+        if self._initialized:
+            self.derive()
 
     @staticmethod
     def _fmu_state_to_bytes(state):
-        return pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL)
+        return encode_state(state)
 
-    @staticmethod
-    def _fmu_state_from_bytes(data):
-        return pickle.loads(bytes(data))
+    @classmethod
+    def _fmu_state_from_bytes(cls, data):
+        """fmi2DeSerializeFMUstate: pythonfmu calls this on the class, so a rejection pins the objects of every
+        live instance of the class (see _PINNED_AFTER_EXCEPTION) and logs the reason to the instance when it is
+        the only one (pythonfmu's fmi2Fatal message carries the reason in any case)."""
+        try:
+            return decode_state(cls, bytes(data))
+        except Exception as exc:    # StateError; anything else is a bug, but must not reach pythonfmu unpinned
+            reason = exc if isinstance(exc, StateError) else repr(exc)
+            message = f"{cls.__name__}: FMU state rejected, the instance is unchanged: {reason}"
+        callers = [inst for inst in list(_LIVE) if type(inst) is cls]
+        for inst in callers:
+            _PINNED_AFTER_EXCEPTION.extend((inst, inst, cls, inst.log_queue))
+            if len(callers) == 1:
+                inst.log(message, Fmi2Status.error)
+        _PINNED_AFTER_EXCEPTION.append(cls)
+        raise ValueError(message)
 
     def _raise_to_host(self, message):
         """Log at error level, pin what pythonfmu will release twice, and raise (the host gets fmi2Fatal)."""
@@ -204,6 +266,15 @@ class UjfmuSlave(Fmi2Slave):
         return set_
 
     # --- hooks for the models ---
+    #: model attributes that evolve and are saved with the FMU state: name -> kind ("float", "float|None", "int",
+    #: "bool", "float[n]"); set by initialize(), changed by advance()
+    STATE = {}
+    #: model attributes computed from the parameters by derive(), recomputed when a state is restored
+    DERIVED = ()
+
+    def derive(self):
+        """Set the DERIVED attributes from the parameters (runs before initialize and after a state restore)."""
+
     def check_parameters(self):
         """Model-specific consistency checks; return a list of messages (empty when valid)."""
         return []
@@ -221,17 +292,21 @@ class UjfmuSlave(Fmi2Slave):
     def setup_experiment(self, start_time, stop_time=None, tolerance=None):
         self._start_time = start_time
 
-    def _problems(self):
+    def _problems(self, causalities=("parameter", "input")):
         """Messages for every parameter or input outside its range, else the model's own checks."""
         problems = [m for m in (v.check(getattr(self, v.name)) for v in self.VARIABLES
-                                if v.causality in ("parameter", "input")) if m]
+                                if v.causality in causalities) if m]
         return problems or self.check_parameters()
+
+    def _start(self):
+        self.derive()
+        self.initialize(self._start_time)
 
     def exit_initialization_mode(self):
         problems = self._problems()
         if problems:
             self._raise_to_host(f"{self.modelName} '{self.instance_name}': invalid parameters: " + "; ".join(problems))
-        self.initialize(self._start_time)
+        self._start()
         self._initialized = self._running = self._stale = True
 
     def do_step(self, current_time, step_size):
@@ -259,6 +334,8 @@ class PrescribedInputSlave(UjfmuSlave):
     of the angle, not 10^6 of them.
     """
 
+    STATE = {"_phi_in": "float", "_phi_in_carry": "float", "_omega_prev": "float|None", "_h_prev": "float"}
+
     def start_input(self, phi_start):
         self._phi_in, self._phi_in_carry = phi_start, 0.0
         self._omega_prev, self._h_prev = None, 0.0   # omega_in at the previous communication point
@@ -272,3 +349,172 @@ class PrescribedInputSlave(UjfmuSlave):
         self._phi_in_carry = (total - self._phi_in) - increment
         self._phi_in = total
         self._omega_prev, self._h_prev = self.omega_in, h
+
+
+# --- FMU state: in memory and serialized ---------------------------------------------------------------------------
+#: kinds of state values: "float" (finite), "float|None", "int", "bool", "float[n]" (a tuple of n finite floats);
+#: the variables use their own type, and an input may hold any float (the host may set one; steps refuse it)
+KINDS = ("float", "float|None", "int", "bool", "float[n]")
+STATE_MAGIC = b"UJFMU-STATE\n"
+STATE_FORMAT_VERSION = 1
+_MAX_STATE_BYTES = 1 << 20
+_DIGEST = 32
+
+
+class StateError(ValueError):
+    """A serialized FMU state that this FMU does not accept."""
+
+
+class FmuState:
+    """An FMU state: the model's name and its fields (name -> immutable plain value)."""
+
+    __slots__ = ("origin", "fields")
+
+    def __init__(self, cls, fields):
+        self.origin, self.fields = (cls.__module__, cls.__name__), fields
+
+
+def _normalize(kind, value):
+    if kind.startswith("float["):
+        return tuple(float(x) for x in value)
+    if kind == "float" or (kind == "float|None" and value is not None):
+        return float(value)
+    return value
+
+
+_BUILD = []
+
+
+def sources_digest():
+    """SHA-256 (hex, 16 digits) of the runtime sources as they are now (ujfmu/fmu and ujfmu/physics, as shipped
+    in every FMU)."""
+    digest = hashlib.sha256()
+    root = Path(__file__).resolve().parent.parent
+    for sub in ("fmu", "physics"):
+        for path in sorted((root / sub).glob("*.py")):
+            digest.update(f"{sub}/{path.name}\0".encode() + path.read_bytes() + b"\0")
+    return digest.hexdigest()[:16]
+
+
+def build_digest():
+    """The sources digest of this build, read once: a state is restored only by the build that saved it."""
+    if not _BUILD:
+        _BUILD.append(sources_digest())
+    return _BUILD[0]
+
+
+def encode_state(state):
+    """Serialized state: MAGIC | u16 format version | u8 length + model name | u8 length + build digest |
+    u32 length + JSON of the fields (sorted keys, floats written exactly) | SHA-256 of everything before it."""
+    payload = json.dumps(state.fields, sort_keys=True, separators=(",", ":")).encode()
+    return frame_state(state.origin[1].encode(), build_digest().encode(), payload)
+
+
+def frame_state(model, build, payload):
+    """The serialized state holding payload (bytes) for the model and build named (bytes)."""
+    body = (STATE_MAGIC + struct.pack(">HB", STATE_FORMAT_VERSION, len(model)) + model
+            + struct.pack(">B", len(build)) + build + struct.pack(">I", len(payload)) + payload)
+    return body + hashlib.sha256(body).digest()
+
+
+class _Reader:
+    def __init__(self, data):
+        self.data, self.pos = data, 0
+
+    def take(self, n, what):
+        if self.pos + n > len(self.data):
+            raise StateError(f"truncated: {len(self.data)} bytes end inside the {what}")
+        chunk = self.data[self.pos:self.pos + n]
+        self.pos += n
+        return chunk
+
+    def unpack(self, fmt, what):
+        return struct.unpack(fmt, self.take(struct.calcsize(fmt), what))[0]
+
+
+def _no_duplicates(pairs):
+    keys = [k for k, _ in pairs]
+    if len(set(keys)) != len(keys):
+        raise StateError("a field appears twice")
+    return dict(pairs)
+
+
+def decode_state(cls, data):
+    """The FmuState of cls serialized in data, or StateError saying why not (see encode_state)."""
+    if len(data) > _MAX_STATE_BYTES:
+        raise StateError(f"{len(data)} bytes is more than any state of this FMU ({_MAX_STATE_BYTES})")
+    r = _Reader(data)
+    if r.take(len(STATE_MAGIC), "magic") != STATE_MAGIC:
+        raise StateError("not a ujfmu FMU state (wrong magic bytes)")
+    version = r.unpack(">H", "header")
+    if version != STATE_FORMAT_VERSION:
+        raise StateError(f"format version {version}; this FMU reads version {STATE_FORMAT_VERSION}")
+    model = r.take(r.unpack(">B", "header"), "header")
+    build = r.take(r.unpack(">B", "header"), "header")
+    payload = r.take(r.unpack(">I", "header"), "fields")
+    digest = r.take(_DIGEST, "checksum")
+    if r.pos != len(data):
+        raise StateError(f"{len(data) - r.pos} bytes after the checksum")
+    if hashlib.sha256(data[:-_DIGEST]).digest() != digest:
+        raise StateError("checksum mismatch: the state is corrupted")
+    if model != cls.__name__.encode():
+        raise StateError(f"saved by FMU {model.decode(errors='replace')!r}, this is {cls.__name__!r}")
+    if build != build_digest().encode():
+        raise StateError(f"saved by another build of {cls.__name__} (source digest {build.decode(errors='replace')}, "
+                         f"this build {build_digest()}): restore it with the FMU file that saved it")
+    try:
+        fields = json.loads(payload.decode("utf-8"), object_pairs_hook=_no_duplicates)
+    except (ValueError, RecursionError) as exc:
+        raise StateError(f"unreadable fields: {exc}") from None
+    if not isinstance(fields, dict):
+        raise StateError("the fields are not a JSON object")
+    return FmuState(cls, check_fields(cls, fields))
+
+
+def _kind_error(kind, value, finite=True):
+    """None if value is of kind (JSON-decoded: lists for float[n]), else what is wrong."""
+    if kind.startswith("float["):
+        n = int(kind[6:-1])
+        if not (isinstance(value, (list, tuple)) and len(value) == n):
+            return f"expected {n} numbers, got {type(value).__name__}"
+        return next((e for e in (_kind_error("float", x) for x in value) if e), None)
+    if kind == "float|None":
+        return None if value is None else _kind_error("float", value)
+    expected = {"float": float, "int": int, "bool": bool}[kind]
+    if type(value) is not expected:
+        return f"expected {kind}, got {type(value).__name__}"
+    if finite and kind == "float" and not math.isfinite(value):
+        return f"{value!r} is not finite"
+    return None
+
+
+def check_fields(cls, fields):
+    """The fields of a state of cls with sequences as tuples, or StateError naming the first wrong one; parameters
+    of an initialized state must be in range, and derive() must accept them."""
+    initialized = fields.get("_initialized")
+    if type(initialized) is not bool:
+        raise StateError("field _initialized missing or not a bool")
+    if fields.get("_running") is True and not initialized:
+        raise StateError("_running without _initialized")
+    kinds = cls.state_kinds(initialized)
+    if fields.keys() != kinds.keys():
+        missing, extra = sorted(kinds.keys() - fields.keys()), sorted(fields.keys() - kinds.keys())
+        raise StateError(f"wrong field set: missing {missing}, unexpected {extra[:5]}")
+    inputs = {v.name for v in cls.VARIABLES if v.causality == "input"}
+    for name, kind in kinds.items():
+        error = _kind_error(kind, fields[name], finite=name not in inputs)
+        if error:
+            raise StateError(f"field {name}: {error}")
+    fields = {k: _normalize(kind, fields[k]) for k, kind in kinds.items()}
+    if initialized:
+        probe = cls.__new__(cls)    # no __init__: a bare object of this class holding the restored values
+        probe.__dict__.update(fields)
+        try:
+            problems = probe._problems(("parameter",))
+            if not problems:
+                probe.derive()
+        except Exception as exc:
+            problems = [f"derived quantities fail: {exc!r}"]
+        if problems:
+            raise StateError("invalid parameters: " + "; ".join(problems))
+    return fields

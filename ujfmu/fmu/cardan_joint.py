@@ -62,6 +62,7 @@ class CardanJoint(PrescribedInputSlave):
                ("omega_in",)),
     )
     DEFAULT_EXPERIMENT = (0.0, 1.0, 1.0e-3)
+    DERIVED = ("_frame",)
 
     def check_parameters(self):
         frame = cardan.joint_frame(self.bend_angle, self.bend_plane_angle, self.error_angle_beta,
@@ -72,9 +73,11 @@ class CardanJoint(PrescribedInputSlave):
                     f"error_angle_beta, error_angle_gamma is outside its allowed range [0, {cardan.MAX_ANGLE:.10g}] rad"]
         return []
 
-    def initialize(self, start_time):
+    def derive(self):
         self._frame = cardan.joint_frame(self.bend_angle, self.bend_plane_angle, self.error_angle_beta,
                                          self.error_angle_gamma)
+
+    def initialize(self, start_time):
         self.start_input(self.phi_in_start)
 
     def compute_outputs(self):

@@ -80,6 +80,8 @@ class DoubleCardanDriveline(PrescribedInputSlave):
         output("stored_energy", "J", "Kinetic plus elastic energy of the driveline", ("omega_in",)),
     )
     DEFAULT_EXPERIMENT = (0.0, 3.0, 1.0e-3)
+    STATE = {**PrescribedInputSlave.STATE, "_state": "float[4]", "_started": "bool"}
+    DERIVED = ("_p", "_natural_rate")
 
     def check_parameters(self):
         problems = []
@@ -92,15 +94,17 @@ class DoubleCardanDriveline(PrescribedInputSlave):
                             "(allowed range (0, 1000] kg.m2; 0 only with rigid_intermediate_shaft = true)")
         return problems
 
-    def initialize(self, start_time):
+    def derive(self):
         self._p = dc.Driveline(self.beta1, self.beta2, self.yoke_phase, self.joint_plane_angle, self.I_input,
                                self.I_cross_pin, self.I_cross_normal, self.I_intermediate, self.J_load,
                                self.k_theta, self.xi_theta, self.m_s, self.k_phi, self.xi_phi, self.L_c)
+        self._natural_rate = 0.0 if self.rigid_intermediate_shaft else dc.natural_rate_bound(self._p)
+
+    def initialize(self, start_time):
         self.start_input(self.phi_in_start)
         # flexible states (phi4, omega4, phi, dphi); omega4 follows the input kinematically until the first step
         self._state = (dc.rigid_output_angle(self._p, self._phi_in), 0.0, 0.0, 0.0)
         self._started = False
-        self._natural_rate = 0.0 if self.rigid_intermediate_shaft else dc.natural_rate_bound(self._p)
 
     def _flexible_state(self):
         if self._started:

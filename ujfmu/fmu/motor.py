@@ -42,6 +42,8 @@ class Motor(UjfmuSlave):
         output("omega_ref", "rad/s", "Reference speed of the profile"),
     )
     DEFAULT_EXPERIMENT = (0.0, 6.0, 1.0e-3)
+    STATE = {"_time": "float", "_state": "float[3]"}    # time, (phi, omega, controller integral)
+    DERIVED = ("_phi_ref0", "_params")
 
     def check_parameters(self):
         if self.profile == motor.RAMP and self.omega_set < 0.0:
@@ -52,12 +54,14 @@ class Motor(UjfmuSlave):
     def _reference(self, t):
         return motor.speed_reference(t, self.profile, self.omega_set, self.accel, self.t_step, self.omega_initial)
 
-    def initialize(self, start_time):
-        self._time = start_time
-        omega0, _, self._phi_ref0 = self._reference(start_time)
-        self._state = (0.0, omega0, 0.0)  # phi, omega, controller integral
+    def derive(self):
+        self._phi_ref0 = self._reference(self._start_time)[2]
         self._params = (self.J_rotor, self.Kp, self.Ki, self.tau_max, self.profile, self.omega_set, self.accel,
                         self.t_step, self.omega_initial)
+
+    def initialize(self, start_time):
+        self._time = start_time
+        self._state = (0.0, self._reference(start_time)[0], 0.0)  # phi, omega, controller integral
 
     def compute_outputs(self):
         omega_ref, alpha_ref, phi_ref = self._reference(self._time)

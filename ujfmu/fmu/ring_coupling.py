@@ -65,6 +65,8 @@ class RingCoupling(PrescribedInputSlave):
                "-157 (EI/R^3) e^2 sin(phi1 + phi2) + c_s x_e^2 / 2", ("omega_in",)),
     )
     DEFAULT_EXPERIMENT = (0.0, 2.0, 1.0e-3)
+    STATE = {**PrescribedInputSlave.STATE, "_state": "float[2]", "_started": "bool"}
+    DERIVED = ("_p", "_rate")
 
     def check_parameters(self):
         if not self.e < self.R:
@@ -72,12 +74,14 @@ class RingCoupling(PrescribedInputSlave):
                     f"(allowed range [0, R) m)"]
         return []
 
-    def initialize(self, start_time):
+    def derive(self):
         self._p = rc.Coupling(**{n: getattr(self, n) for n in rc.Coupling.PARAMETERS})
+        self._rate = rc.natural_rate(self._p)
+
+    def initialize(self, start_time):
         self.start_input(self.phi_in_start)
         self._state = (self.phi_out_start, self.omega_out_start)
         self._started = False
-        self._rate = rc.natural_rate(self._p)
 
     def _current_state(self):
         if self._started or not self.start_at_input_speed:

@@ -87,13 +87,17 @@ class TwinJeffcottRotor(PrescribedInputSlave):
         output("input_work", "J", "Work done on the rotor through the input since the start"),
     )
     DEFAULT_EXPERIMENT = (0.0, 4.0, 1.0e-3)
+    STATE = {**PrescribedInputSlave.STATE, "_state": f"float[{tj.STATE_SIZE}]", "_started": "bool"}
+    DERIVED = ("_p", "_natural_rate")
+
+    def derive(self):
+        self._p = tj.TwinRotor(**{n: getattr(self, n) for n in tj.TwinRotor.PARAMETERS})
+        self._natural_rate = tj.natural_rate_bound(self._p)
 
     def initialize(self, start_time):
-        self._p = tj.TwinRotor(**{n: getattr(self, n) for n in tj.TwinRotor.PARAMETERS})
         self.start_input(self.phi_in_start)
         self._state = tj.initial_state(self._p, self._phi_in, 0.0)
         self._started = False     # before the first step the discs turn with the input
-        self._natural_rate = tj.natural_rate_bound(self._p)
 
     def _current_state(self):
         return self._state if self._started else tj.initial_state(self._p, self._phi_in, self.omega_in)
