@@ -34,6 +34,7 @@ from .analysis import order_fit
 OK, NOT_STEADY, OFF_TARGET, ERROR = "ok", "not_steady", "off_target", "error"
 #: statuses whose figures are a result of the requested settings (rerunning gives the same); `error` is retried
 FINAL = (OK, NOT_STEADY, OFF_TARGET)
+STATUSES = FINAL + (ERROR,)
 #: figures smaller than this fraction of their output's largest figure are compared in absolute terms
 FLOOR = 1e-2
 FIGURES = ("max", "min", "p2p", "mean", "rms")

@@ -31,7 +31,7 @@ from pathlib import Path
 from .build import DEFAULT_FMU_DIR, fmu_class
 from .master import Component, Connection, Cosimulation
 from .scenario import Scenario, ScenarioError
-from .steady import ERROR, FINAL, FIGURES, OK, settle_and_measure
+from .steady import ERROR, FIGURES, FINAL, OK, STATUSES, settle_and_measure
 
 #: human units accepted after a --param range, and their factor to SI
 UNITS = {"rpm": math.pi / 30.0, "deg": math.pi / 180.0, "": 1.0}
@@ -254,7 +254,7 @@ class Sweep:
             for line in self.journal.read_text(errors="replace").splitlines():
                 try:
                     record = json.loads(line)
-                    if (record.get("config") == self.config and record["status"] in ("ok", "error")
+                    if (record.get("config") == self.config and record["status"] in STATUSES
                             and isinstance(record["error"], str) and isinstance(record.get("wall_s", 0.0), float)):
                         records[self.key(record["point"])] = record
                 except (ValueError, TypeError, KeyError, AttributeError):   # a line cut by an interruption
