@@ -32,6 +32,9 @@ def write(tmp_path, text):
 def test_good_file_loads(tmp_path):
     s = Scenario(write(tmp_path, GOOD))
     assert s.parameters_with_defaults("j")["J1"] == 2e-7 and len(s.time_grid()) == 1001
+    assert s.coupling == "implicit"
+    assert Scenario(write(tmp_path, GOOD.replace("step_size = 1e-3", 'step_size = 1e-3\ncoupling = "explicit"'))
+                    ).coupling == "explicit"
 
 
 @pytest.mark.parametrize("old, new, field", [
@@ -57,6 +60,10 @@ def test_good_file_loads(tmp_path):
     ('[experiment]', '[experimment]', "unknown top-level field(s) experimment"),
     ('fmu = "Load"', 'fmu = "Load"\nparameter = { T0 = 1.0 }', "components.l: fields are fmu and parameters"),
     ('stop_time = 1.0', 'stop_time = 1.0\nstop_time = 2.0', "line 4"),
+    # coupling scheme: one of the known ones; misspelt experiment fields
+    ('step_size = 1e-3', 'step_size = 1e-3\ncoupling = "implicitly"', "experiment.coupling"),
+    ('step_size = 1e-3', 'step_size = 1e-3\ncoupling = 1', "experiment.coupling"),
+    ('step_size = 1e-3', 'step_size = 1e-3\ncoupler = "explicit"', "unknown field(s) coupler"),
     # [reference]: every recorded signal compared or not_compared with a reason; tolerances well-formed
     ('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x"]' + REF, "output.record: j.M_x neither compared"),
     ('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x"]' + REF + '\n[reference.not_compared]\n"j.M_x" = " "',

@@ -19,7 +19,7 @@ from pathlib import Path
 
 
 from .build import DEFAULT_FMU_DIR, REPO_DIR, build_fmu
-from .master import Component, Cosimulation
+from .master import COUPLINGS, Component, Cosimulation, CosimulationError
 from .references import common, generate
 from .scenario import Scenario
 from .scenario_run import compare
@@ -70,6 +70,55 @@ def bench_scenario(path, fmu_dir, floor_dir, repeats=REPEATS):
     return row
 
 
+def bench_schemes(paths, fmu_dir=DEFAULT_FMU_DIR, repeats=1, progress=None) -> dict:
+    """Cost of each coupling scheme on each scenario at its own step, taken in one run (schemes alternated, the
+    fastest of ``repeats`` kept): wall seconds per simulated second, the implicit/explicit ratio, and the error
+    that stopped a run. Totals over the scenarios both schemes complete."""
+    rows = []
+    for path in paths:
+        scenario = Scenario(path)
+        n_steps = int(round((scenario.stop_time - scenario.start_time) / scenario.step_size))
+        duration = scenario.stop_time - scenario.start_time
+        row = dict(scenario=scenario.name, simulated_s=duration)
+        for _ in range(repeats):
+            for coupling in COUPLINGS:
+                try:
+                    with Cosimulation(scenario.master_components(fmu_dir), scenario.connections, scenario.step_size,
+                                      scenario.record, scenario.start_time, coupling) as cosim:
+                        started = time.perf_counter()
+                        cosim.run(n_steps)
+                        seconds = time.perf_counter() - started
+                    row[coupling] = min(row.get(coupling) or math.inf, seconds / duration)
+                except CosimulationError as exc:
+                    row[coupling], row[f"{coupling}_error"] = None, str(exc).splitlines()[0][:160]
+        both = all(row.get(c) for c in COUPLINGS)
+        row["ratio"] = row["implicit"] / row["explicit"] if both else None
+        rows.append(row)
+        if progress:
+            progress(f"schemes {scenario.name}: " + ", ".join(f"{c} {_f(row.get(c), '.3f')} s/s" for c in COUPLINGS))
+    done = [r for r in rows if r["ratio"] is not None]
+    totals = {c: sum(r[c] * r["simulated_s"] for r in done) / max(1e-300, sum(r["simulated_s"] for r in done))
+              for c in COUPLINGS}
+    return dict(rows=rows, totals=totals,
+                ratio=totals["implicit"] / totals["explicit"] if done else None,
+                failed={c: [r["scenario"] for r in rows if r.get(c) is None] for c in COUPLINGS})
+
+
+def render_schemes(title, figures):
+    lines = [f"| {title} | sim. s | explicit wall s / sim. s | implicit wall s / sim. s | implicit / explicit |",
+             "| --- | --- | --- | --- | --- |"]
+    for r in figures["rows"]:
+        cells = [_f(r.get(c), ".3f") if r.get(c) is not None else "failed" for c in ("explicit", "implicit")]
+        lines.append(f"| {r['scenario']} | {r['simulated_s']:g} | {cells[0]} | {cells[1]} | {_f(r['ratio'], '.2f')} |")
+    t = figures["totals"]
+    lines.append(f"| all that both complete | | {t['explicit']:.3f} | {t['implicit']:.3f} | "
+                 f"{_f(figures['ratio'], '.2f')} |")
+    for c, names in figures["failed"].items():
+        if names:
+            lines.append(f"\n{c} failed on {len(names)}: {', '.join(names)}")
+    return "\n".join(lines)
+
+
 def bench_sweep(fmu_dir, workers):
     """Omar's Fig. 4 sweep (the scenario's [sweep] table) with this many local workers: (seconds, points)."""
     from .sweep import Sweep, SweepSettings, parse_axis
@@ -86,8 +135,10 @@ def bench_sweep(fmu_dir, workers):
     return seconds, len(sweep.points)
 
 
-def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print):
-    """All figures of one run: {'scenarios': [rows], 'sweep': {...}}."""
+def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, battery=(), schemes=True):
+    """All figures of one run: {'scenarios': [rows], 'schemes': {...}, 'battery': {...}, 'sweep': {...}};
+    battery: the coupling battery's scenario files (ujfmu.battery.paths()) to cost in each scheme; schemes: cost
+    each scheme on the scenarios too."""
     with tempfile.TemporaryDirectory(prefix="ujfmu_floor_") as floor_dir:
         names = sorted({fmu for p in scenarios for fmu, _ in Scenario(p).components.values()})
         for name in names:
@@ -97,6 +148,10 @@ def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print):
             progress(f"bench {Path(path).stem}")
             rows.append(bench_scenario(path, fmu_dir, floor_dir))
     result = {"step_size": STEP, "scenarios": rows, "targets": TARGETS}
+    if schemes:
+        result["schemes"] = bench_schemes(scenarios, fmu_dir, REPEATS, progress)
+    if battery:
+        result["battery"] = bench_schemes(battery, fmu_dir, 1, progress)
     if sweep:
         figures = {}
         for workers in (1, 2):
@@ -127,6 +182,11 @@ def render(result):
                      f"{_f(r['monolithic_ratio'], '.3f')} | "
                      f"{'-' if r['within_tolerance'] is None else ('yes' if r['within_tolerance'] else 'NO')} | "
                      f"{' / '.join(marks)} |")
+    if "schemes" in result:
+        lines += ["", "Coupling schemes, each scenario at its own step (docs/cosimulation.md):", "",
+                  render_schemes("scenario", result["schemes"])]
+    if "battery" in result:
+        lines += ["", "Coupling battery (ujfmu.battery), 1 ms:", "", render_schemes("set-up", result["battery"])]
     if "sweep" in result:
         s = result["sweep"]
         one, two = s["workers"][1], s["workers"][2]

@@ -29,13 +29,27 @@ def cmd_build(args):
 
 
 def cmd_run(args):
+    from . import stepsize
+    from .scenario import Scenario
     from .scenario_run import run_scenario
-    result = run_scenario(args.scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=not args.no_plot)
+    scenario = Scenario(args.scenario)
+    if args.step == "auto":
+        scenario.check_fmus(args.fmu_dir)
+        scenario.step_size, _ = stepsize.choose(scenario, args.fmu_dir, progress=print)
+        print(f"--step auto: step_size = {scenario.step_size:g} s")
+    elif args.step is not None:
+        scenario.step_size = float(args.step)
+    result = run_scenario(scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=not args.no_plot)
     print(result.summary())
     print(f"  results: {result.csv}" + (f"\n  plot:    {result.plot}" if result.plot else ""))
     for extra in result.extra_plots:
         print(f"  plot:    {extra}")
-    return 0 if result.passed else 1
+    step_ok = True
+    if args.check_step:
+        estimate = stepsize.estimate(scenario, fmu_dir=args.fmu_dir, coarse=result.table)
+        print("\n".join(estimate.lines()))
+        step_ok = estimate.passed
+    return 0 if result.passed and step_ok else 1
 
 
 def cmd_check(args):
@@ -117,11 +131,35 @@ def cmd_export_ssp(args):
 
 def cmd_bench(args):
     from .bench import render, run_bench, write
+    from .battery import paths as battery_paths
     result = run_bench(_scenarios(args.scenarios), fmu_dir=args.fmu_dir, sweep=not args.no_sweep,
-                       progress=lambda msg: print(msg, file=sys.stderr))
+                       progress=lambda msg: print(msg, file=sys.stderr),
+                       battery=() if args.no_battery else battery_paths())
     print(render(result))
     print(f"\nwrote {write(result, args.out)}")
     return 0
+
+
+def cmd_battery(args):
+    from . import battery
+    if args.regenerate:
+        battery.regenerate(progress=print)
+        return 0
+    runs = []
+    print("| set-up | joint | " + " | ".join(f"{c}: worst error / range" for c in args.coupling) + " |")
+    print("| --- | --- | " + " | ".join("---" for _ in args.coupling) + " |")
+    for path in battery.paths():
+        row = [battery.run_one(path, c, args.fmu_dir) for c in args.coupling]
+        runs += row
+        kind = "double Cardan" if "driveline" in path.read_text() else "Cardan"
+        cells = [r.error.split(":")[0][:60] + " (failed)" if r.error else
+                 f"{100 * max(r.worst.values()):.2f}% {'ok' if r.passed else 'FAIL'}" for r in row]
+        print(f"| {path.stem} | {kind} | " + " | ".join(cells) + " |", flush=True)
+    for c in args.coupling:
+        mine = [r for r in runs if r.coupling == c]
+        print(f"{c}: {sum(r.passed for r in mine)} of {len(mine)} within {100 * battery.TOLERANCE:g}%, "
+              f"{sum(bool(r.error) for r in mine)} stopped")
+    return 0 if all(r.passed for r in runs) else 1
 
 
 def cmd_report(args):
@@ -179,6 +217,12 @@ def main(argv=None):
         p = sub.add_parser(name, help=helptext)
         if name == "run":
             p.add_argument("scenario", type=Path)
+            p.add_argument("--step", metavar="SECONDS|auto",
+                           help="communication step instead of the scenario's; auto: halve it until the coupling "
+                                "error estimated by step halving is within the tolerances")
+            p.add_argument("--check-step", action="store_true",
+                           help="rerun at half the step and report the estimated coupling error per signal "
+                                "(exit status 1 if above the tolerance)")
         else:
             p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")
@@ -219,8 +263,16 @@ def main(argv=None):
     p = sub.add_parser("bench", help="speed figures as ratios in one run: FMI floor, monolithic solve, sweeps")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p.add_argument("--no-sweep", action="store_true", help="skip the sweep figures (1 and 2 workers)")
+    p.add_argument("--no-battery", action="store_true",
+                   help="skip the coupling battery's cost per scheme (scenarios/battery, about 2 minutes)")
     p.add_argument("--out", type=Path, default=Path("results"), help="writes bench.md and bench.json here")
     p.set_defaults(func=cmd_bench)
+    p = sub.add_parser("battery", help="run the coupling battery (scenarios/battery) in each scheme against its "
+                                       "monolithic references")
+    p.add_argument("--coupling", action="append", choices=["explicit", "implicit"],
+                   help="scheme(s) to run (default: both)")
+    p.add_argument("--regenerate", action="store_true", help="redraw the set-ups and re-solve their references")
+    p.set_defaults(func=cmd_battery)
     p = sub.add_parser("report", help="re-create the papers' published results with sweeps; write docs/validation.md")
     p.add_argument("--out", type=Path, default=REPO_DIR / "docs" / "validation.md", help="markdown file to write")
     p.add_argument("--work-dir", type=Path, help="where the sweeps keep their points (default: results/report; "
@@ -238,6 +290,8 @@ def main(argv=None):
     p.add_argument("--out", type=Path, default=Path("results"), help="writes mutate.jsonl here")
     p.set_defaults(func=cmd_mutate)
     args = parser.parse_args(argv)
+    if args.command == "battery" and not args.coupling:
+        args.coupling = ["explicit", "implicit"]
     try:
         return args.func(args)
     except Exception as exc:  # a clear message, not a traceback, for user errors

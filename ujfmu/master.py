@@ -1,18 +1,24 @@
-"""Fixed-step co-simulation master on fmpy's FMU2Slave.
+"""Fixed-step co-simulation master on fmpy's FMU2Slave, explicit or implicit coupling (docs/cosimulation.md).
 
-Coupling scheme (Jacobi with ordered output propagation):
+Set-up and transfer (both schemes):
 
 1. Instantiate every component, set its parameters in initialization mode, exit initialization mode.
 2. At every communication point t_k, transfer the connections in a topological order of the direct-feedthrough
    graph read from each modelDescription (ModelStructure/Outputs dependencies): a connection leaving output
    ``A.y`` is transferred only after every input of A that y depends on has been set. Outputs with direct
    feedthrough (the joint's omega_out and tau_in, the load's tau) are therefore consistent with their inputs at
-   t_k, with no one-step lag, and no FMU is stepped twice. A cycle in that graph (an algebraic loop) is an error.
-3. Record, then step every FMU from t_k to t_k + h with its inputs held (each FMU sees values at t_k), and repeat.
+   t_k, with no one-step lag. A cycle in that graph (an algebraic loop) is an error.
 
-The only coupling delay left is the held input over one step (first order in h), e.g. the motor sees the joint's
-tau_in(t_k) during [t_k, t_k+1]. Stable for explicit inertia coupling while the driven inertia reflected to the
-motor stays below the motor's own (see docs/cosimulation.md).
+Explicit: record, step every FMU from t_k to t_k + h with its inputs held, transfer, repeat. The held torn
+inputs (the driver's tau_load) lag by a step: unstable at any h when the driven inertia reflected to the driver
+exceeds the driver's own.
+
+Implicit (default): the torn inputs held over [t_k, t_k+1] are iterated to u = THETA G(t_k+1; u) +
+(1 - THETA) G(t_k) by a quasi-Newton method (finite-difference interface Jacobian, Broyden updates), the
+components owning them rolled back with fmi2GetFMUstate/fmi2SetFMUstate; see ``Cosimulation._implicit_step``.
+
+Both watch the torn connections for a diverging coupling (``CouplingInstabilityError``) and keep the recorded
+results up to a failure (``CosimulationError.partial``).
 """
 
 import atexit
@@ -25,12 +31,44 @@ from pathlib import Path
 import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import calloc, free
+from ctypes import byref
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2Real, fmi2ValueReference)
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2FMUstate, fmi2Real, fmi2ValueReference)
+
+
+#: coupling schemes (docs/cosimulation.md): "implicit" iterates the torn inputs to convergence at every step
+COUPLINGS = ("implicit", "explicit")
+DEFAULT_COUPLING = "implicit"
+#: implicit coupling: a torn input has converged when |G(u) - u| <= RTOL * (largest |value| so far) + ATOL
+COUPLING_RTOL, COUPLING_ATOL = 1e-4, 1e-9
+#: a step whose residual will not fall below tol (G(u) jumps: a torque limit switching inside the step) is taken
+#: at its best iterate if that is within STALL_FACTOR * tol
+STALL_FACTOR = 100.0
+
+#: implicit coupling: quasi-Newton iterations per step before the interface Jacobian is rebuilt by finite
+#: differences, and rebuilds per step before the step is declared not converging
+MAX_ITERATIONS, MAX_REBUILDS = 6, 2
+#: implicit coupling: the torn inputs are held at THETA G(t_k+1) + (1 - THETA) G(t_k); inertia amplification of
+#: the iterated loop at most (1 - THETA)/THETA (docs/cosimulation.md)
+THETA = 0.6
+
+
+#: instability detection: a torn connection whose step-to-step change alternates in sign for at least
+#: GROWTH_STEPS steps while growing GROWTH_FACTOR-fold, to at least GROWTH_FLOOR of its largest |value|; a step
+#: refused after 2 or more alternations growing 1.5-fold each is blamed on the coupling too
+GROWTH_STEPS, GROWTH_FACTOR, GROWTH_FLOOR = 3, 8.0, 1e-3
 
 
 class CosimulationError(RuntimeError):
-    """A co-simulation could not be set up or an FMU refused a call; carries the FMUs' log messages."""
+    """A co-simulation could not be set up, an FMU refused a call, or the coupling went unstable; carries the
+    FMUs' log messages, and ``partial`` (the recorded results up to the failure, a structured array) once
+    ``Cosimulation.run`` has them."""
+
+    partial = None
+
+
+class CouplingInstabilityError(CosimulationError):
+    """The coupling went unstable: the message names the connection, the step, the growth and the remedy."""
 
 
 @dataclass
@@ -201,9 +239,16 @@ class Cosimulation:
     context manager, or call ``close``.
     """
 
-    def __init__(self, components, connections, step_size, record, start_time=0.0):
+    def __init__(self, components, connections, step_size, record, start_time=0.0, coupling=DEFAULT_COUPLING):
         if not (step_size > 0.0 and math.isfinite(step_size)):
             raise CosimulationError(f"communication step size {step_size!r} must be finite and > 0")
+        if coupling not in COUPLINGS:
+            raise CosimulationError(f"coupling = {coupling!r} is not one of {', '.join(COUPLINGS)}")
+        self.coupling = coupling
+        self.iterations = 0          # implicit coupling: evaluations of the torn inputs' fixed point, in all
+        self.jacobian_builds = 0     # implicit coupling: finite-difference interface Jacobians
+        self.stalled_steps = 0       # implicit coupling: steps taken at their best iterate (see STALL_FACTOR)
+        self.open_loop = False       # implicit coupling found the torn values independent of the torn inputs
         self.step_size, self.time, self.steps_done = step_size, start_time, 0
         self.start_time = start_time
         self.log = []
@@ -266,7 +311,52 @@ class Cosimulation:
                                   np.frombuffer(buffer, dtype=np.float64), column))
         self._steppers = [(inst.raw("fmi2DoStep"), inst.slave.component, name)
                           for name, inst in self.instances.items()]
+        self._plan_tearing(views)
         self._communicate()
+        # per torn connection: [last value, last change, alternations, |change| when they began, max |value|]
+        self._growth = [[v[0], 0.0, 0, 0.0, abs(v[0])] for v in self._tear_views]
+
+    def _plan_tearing(self, views):
+        """Torn inputs for implicit coupling: inputs on a loop of connections on which no connected output of
+        their component depends directly.
+
+        Such an input reaches the connected outputs only through the component's state (the motor's tau_load
+        through its speed), and they lead back to the input's source, so the value held over [t_k, t_k+1] is
+        the coupling approximation of a closed loop; an input with direct feedthrough to a connected output is
+        made consistent at every communication point by the ordered transfer, and one on no loop (a speed fed
+        forward) has nothing to iterate. The components owning torn inputs are rolled back and restepped while
+        the torn values are iterated; the others step once per communication step.
+        """
+        fed_through = {name: set() for name in self.instances}
+        feeds = {name: set() for name in self.instances}
+        for transfer in self._transfers:
+            comp, out = transfer[-1].source.split(".", 1)
+            fed_through[comp].update(self.instances[comp].input_dependencies(out))
+            feeds[comp].add(transfer[-1].target.split(".", 1)[0])
+
+        def reaches(start, goal):
+            seen, todo = set(), [start]
+            while todo:
+                comp = todo.pop()
+                if comp == goal:
+                    return True
+                if comp not in seen:
+                    seen.add(comp)
+                    todo.extend(feeds[comp])
+            return False
+
+        self._tears = []
+        for i, transfer in enumerate(self._transfers):
+            comp, inp = transfer[-1].target.split(".", 1)
+            if inp not in fed_through[comp] and reaches(comp, transfer[-1].source.split(".", 1)[0]):
+                self._tears.append(i)
+        self._tear_views = [views[i][:1] for i in self._tears]
+        rolled = dict.fromkeys(self._transfers[i][-1].target.split(".", 1)[0] for i in self._tears)
+        self._rolled = [(self.instances[name], name) for name in rolled]
+        self._rolled_steppers = [s for s in self._steppers if s[2] in rolled]
+        self._fixed_steppers = [s for s in self._steppers if s[2] not in rolled]
+        self._tear_scale = np.zeros(len(self._tears))
+        self._jacobian, self._g_past = None, []
 
     def _log_text(self):
         return ("\nFMU log:\n" + "\n".join(self.log)) if self.log else ""
@@ -291,28 +381,195 @@ class Cosimulation:
         """Take n_steps communication steps; when rows (n_steps x len(columns)) is given, record into it after
         every step. progress: optional callable(steps_done, n_steps) called now and then."""
         h, steppers, start = self.step_size, self._steppers, self.start_time
+        implicit = self.coupling == "implicit" and bool(self._tears)
+        monitor = bool(self._tears)
         every = max(1, n_steps // 200)
         for k in range(n_steps):
             t = start + self.steps_done * h
-            for do_step, comp, name in steppers:
-                if do_step(comp, t, h, 1) > 1:
-                    raise CosimulationError(f"component '{name}' refused the step at t = {t!r}" + self._log_text())
+            if implicit:
+                self._implicit_step(t, h)
+                implicit = not self.open_loop
+            else:
+                self._step(steppers, t, h)
             self.steps_done += 1
             self.time = start + self.steps_done * h
-            self._communicate()
+            if not implicit:
+                self._communicate()
             if rows is not None:
                 self.read(rows[k])
+            if monitor:
+                self._watch_growth()
             if progress is not None and (k + 1) % every == 0:
                 progress(k + 1, n_steps)
+
+    def _step(self, steppers, t, h):
+        for do_step, comp, name in steppers:
+            if do_step(comp, t, h, 1) > 1:
+                growing = self._growth_report()
+                if growing:   # a port left its range because the coupling was diverging
+                    raise CouplingInstabilityError(
+                        f"component '{name}' refused the step at t = {t!r} after the coupling went unstable: "
+                        f"{growing}" + self._log_text())
+                raise CosimulationError(f"component '{name}' refused the step at t = {t!r}" + self._log_text())
+
+    def _watch_growth(self):
+        """Detect a diverging coupling: per torn connection, the change d_k = g_k - g_k-1 of the value it
+        carries alternating in sign at every step while |d| grows (the explicit inertia coupling's mode
+        d_k = -(J_driven / J_driver) d_k-1, docs/cosimulation.md). Raises CouplingInstabilityError."""
+        for state, view in zip(self._growth, self._tear_views):
+            g = view[0]
+            d = g - state[0]
+            state[0] = g
+            state[4] = max(state[4], abs(g))
+            if d * state[1] < 0.0 and abs(d) > 0.0:
+                state[2] += 1
+                if state[2] == 1:
+                    state[3] = abs(d)
+            else:
+                state[2], state[3] = 0, abs(d)
+            state[1] = d
+            if (state[2] >= GROWTH_STEPS and abs(d) > GROWTH_FACTOR * state[3]
+                    and abs(d) > GROWTH_FLOOR * state[4]):
+                raise CouplingInstabilityError(self._growth_report(force=True) + self._log_text())
+
+    def _growth_report(self, force=False):
+        """Words on the fastest-growing alternating torn connection ('' if none is growing)."""
+        worst = None
+        for i, state in zip(self._tears, self._growth):
+            if state[2] >= 2 and state[3] > 0.0 and abs(state[1]) > 1.5 ** state[2] * state[3]:
+                ratio = (abs(state[1]) / state[3]) ** (1.0 / state[2])
+                if worst is None or ratio > worst[1]:
+                    worst = (i, ratio, state)
+        if worst is None:
+            return ""
+        i, ratio, state = worst
+        conn = self._transfers[i][-1]
+        src, dst = conn.source.split(".", 1)[0], conn.target.split(".", 1)[0]
+        remedy = ("use coupling = \"implicit\" in [experiment] (the default), which iterates this connection "
+                  "every step" if self.coupling == "explicit" else
+                  "reduce step_size (try half) and check the step with `ujfmu run --check-step`")
+        return (f"coupling instability between '{src}' and '{dst}': {conn.source} -> {conn.target} changes sign at "
+                f"every step for {state[2]} steps, growing x{ratio:.3g} per step (to {abs(state[1]):.4g}, "
+                f"t = {self.time!r}, {self.coupling} coupling, h = {self.step_size!r}); the coupled loop feeds "
+                f"energy into an oscillation at the step rate. Remedy: {remedy}. Results up to here are kept")
+
+    def _implicit_step(self, t, h):
+        """One implicitly coupled step [t, t + h]: the torn inputs u held over the step are iterated until
+        u = G(u), G the values their connections carry at t + h after the rolled-back components stepped with u
+        and every connection was transferred in feedthrough order.
+
+        Residual r(u) = G(u) - u, solved by a quasi-Newton method on the interface Jacobian dr/du: built by
+        finite differences (Kuebler and Schiehlen 2000), then kept up to date across steps by Broyden's rank-one
+        update r_{j+1} - r_j = J (u_{j+1} - u_j), which for one torn input is the secant method and the one-column
+        case of IQN-ILS (Degroote et al. 2009). The components owning torn inputs are restored with
+        fmi2SetFMUstate before each re-step; the others step once. Ends with the FMUs at t + h and every
+        connection transferred there.
+        """
+        states = []
+        for inst, name in self._rolled:
+            state = fmi2FMUstate()
+            if inst.raw("fmi2GetFMUstate")(inst.slave.component, byref(state)) > 1:
+                raise CosimulationError(f"component '{name}' could not save its state at t = {t!r}" + self._log_text())
+            states.append(state)
+        try:
+            self._step(self._fixed_steppers, t, h)
+            g_start = np.array([v[0] for v in self._tear_views])
+            self._g_start = g_start
+            past = self._g_past
+            if len(past) == 2:    # G at t + h extrapolated quadratically from t, t - h, t - 2h
+                u = g_start + THETA * (2.0 * g_start - 3.0 * past[1] + past[0])
+            elif past:
+                u = g_start + THETA * (g_start - past[-1])
+            else:
+                u = g_start
+            self._g_past = (past + [g_start])[-2:]
+            r = self._evaluate(u, t, h, states, restore=False)
+            scale = self._tear_scale
+            np.maximum(scale, np.abs(g_start), out=scale)
+            tol = COUPLING_RTOL * scale + COUPLING_ATOL
+            best = (np.max(np.abs(r) / tol), u, r)
+            rebuilds = 0
+            while best[0] > 1.0:
+                if self._jacobian is None or rebuilds:
+                    self._jacobian = self._fd_jacobian(u, r, t, h, states, tol)
+                    # G independent of u (an ideal speed source): no loop to iterate; explicit from the next step on
+                    self.open_loop = bool(np.allclose(self._jacobian, -np.eye(len(u)), rtol=0.0, atol=1e-9))
+                for _ in range(MAX_ITERATIONS):
+                    du = -np.linalg.solve(self._jacobian, r)
+                    r_new = self._evaluate(u + du, t, h, states)
+                    self._jacobian += np.outer(r_new - r - self._jacobian @ du, du) / (du @ du)
+                    u, r = u + du, r_new
+                    best = min(best, (np.max(np.abs(r) / tol), u, r), key=lambda b: b[0])
+                    if best[0] <= 1.0:
+                        break
+                else:
+                    rebuilds += 1
+                    if rebuilds <= MAX_REBUILDS:
+                        continue
+                    # no fixed point within tol: G jumps inside the step (a torque limit switching on or off)
+                    if best[0] > STALL_FACTOR:
+                        raise CosimulationError(self._divergence_message(t, best[2], tol))
+                    self.stalled_steps += 1
+                    self._evaluate(best[1], t, h, states)
+                break
+        finally:
+            for (inst, _), state in zip(self._rolled, states):
+                inst.raw("fmi2FreeFMUstate")(inst.slave.component, byref(state))
+
+    def _evaluate(self, u, t, h, states, restore=True):
+        """r(u) = G(u) - u: step the rolled-back components with the torn inputs held at u, transfer everything
+        at t + h, and read what the torn connections carry."""
+        self.iterations += 1
+        for (inst, name), state in zip(self._rolled, states):
+            if restore and inst.raw("fmi2SetFMUstate")(inst.slave.component, state) > 1:
+                raise CosimulationError(f"component '{name}' could not restore its state at t = {t!r}"
+                                        + self._log_text())
+        for i, value in zip(self._tears, u):
+            _, _, _, _, buffer, set_, dst, dst_vr, conn = self._transfers[i]
+            buffer[0] = value
+            if set_(dst, dst_vr, 1, buffer) > 1:
+                raise CosimulationError(f"t = {t!r}: setting {conn.target} failed" + self._log_text())
+        self._step(self._rolled_steppers, t, h)
+        self.time = t + h
+        self._communicate()
+        g = np.array([v[0] for v in self._tear_views])
+        return THETA * g + (1.0 - THETA) * self._g_start - u
+
+    def _fd_jacobian(self, u, r, t, h, states, tol):
+        """dr/du by forward differences, one torn input at a time (n re-steps)."""
+        self.jacobian_builds += 1
+        n = len(u)
+        jac = np.empty((n, n))
+        for j in range(n):
+            du = max(1e-6 * max(abs(u[j]), self._tear_scale[j]), 1e3 * COUPLING_ATOL)
+            probe = u.copy()
+            probe[j] += du
+            jac[:, j] = (self._evaluate(probe, t, h, states) - r) / du
+        if not np.all(np.isfinite(jac)) or abs(np.linalg.det(jac)) < 1e-12:
+            raise CosimulationError(self._divergence_message(t, r, tol, "its interface Jacobian is singular"))
+        return jac
+
+    def _divergence_message(self, t, r, tol, why=None):
+        names = ", ".join(f"{self._transfers[i][-1].source} -> {self._transfers[i][-1].target} "
+                          f"(|residual| {abs(ri):.3g}, tolerance {ti:.3g})" for i, ri, ti in zip(self._tears, r, tol))
+        return (f"implicit coupling did not converge in the step at t = {t!r} (h = {self.step_size!r}): {names}"
+                + (f": {why}" if why else "") + "; reduce the step size" + self._log_text())
 
     def run(self, n_steps, progress=None):
         """Record the current point, take n_steps steps recording after each; a structured array with 'time'
         and one column per recorded 'comp.var'."""
         values = np.empty((n_steps + 1, len(self.columns)))
-        t0 = self.time
+        t0, k0 = self.time, self.steps_done
         self.read(values[0])
-        self.advance(n_steps, values[1:], progress)
-        time = t0 + self.step_size * np.arange(n_steps + 1)
+        try:
+            self.advance(n_steps, values[1:], progress)
+        except CosimulationError as exc:   # keep what was recorded up to the last completed step
+            exc.partial = self._table(t0, values[:self.steps_done - k0 + 1])
+            raise
+        return self._table(t0, values)
+
+    def _table(self, t0, values):
+        time = t0 + self.step_size * np.arange(len(values))
         dtype = np.dtype([("time", np.float64)] + [(c, np.float64) for c in self.columns])
         return np.rec.fromarrays([time] + list(values.T), dtype=dtype)
 
@@ -332,7 +589,8 @@ def _vrs(*refs):
     return (fmi2ValueReference * len(refs))(*refs)
 
 
-def cosimulate(components, connections, stop_time, step_size, record, start_time=0.0, progress=None):
+def cosimulate(components, connections, stop_time, step_size, record, start_time=0.0, progress=None,
+               coupling=DEFAULT_COUPLING):
     """Run the co-simulation; returns a structured array with 'time' and one column per recorded 'comp.var'.
 
     progress: optional callable(steps_done, steps_total) called now and then.
@@ -341,5 +599,5 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
     if n_steps < 1 or not math.isclose(start_time + n_steps * step_size, stop_time, rel_tol=1e-9, abs_tol=1e-12):
         raise CosimulationError(f"stop_time - start_time = {stop_time - start_time} is not a whole number of "
                                 f"communication steps of {step_size}")
-    with Cosimulation(components, connections, step_size, record, start_time) as cosim:
+    with Cosimulation(components, connections, step_size, record, start_time, coupling) as cosim:
         return cosim.run(n_steps, progress)

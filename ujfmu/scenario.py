@@ -1,7 +1,8 @@
 """Scenario files (TOML): components and their parameters, connections, experiment, records, reference.
 
     title = "..."
-    [experiment]            stop_time, step_size [s]; start_time optional (0)
+    [experiment]            stop_time, step_size [s]; start_time optional (0); coupling = "implicit" (default,
+                            iterated to convergence every step) or "explicit" (docs/cosimulation.md)
     [components.NAME]       fmu = "CardanJoint" (fmus/CardanJoint.fmu), parameters = { name = value, ... }
     [[connections]]         from = "comp.output", to = "comp.input"
     [output]                record = ["comp.var", ...]; plot = [...] (default: the compared signals);
@@ -30,11 +31,12 @@ from pathlib import Path
 import numpy as np
 
 from .build import DEFAULT_FMU_DIR, FMUS, fmu_class
-from .master import Component, Connection
+from .master import COUPLINGS, DEFAULT_COUPLING, Component, Connection
 
 
 TOP_LEVEL_KEYS = {"title", "description", "experiment", "components", "connections", "output", "reference",
                   "sweep"}
+EXPERIMENT_KEYS = {"start_time", "stop_time", "step_size", "coupling"}
 #: fields of the optional [sweep] table (defaults of `ujfmu sweep`, see ujfmu.sweep)
 SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions", "orders", "steady_tol",
               "max_settle_time"}
@@ -77,6 +79,14 @@ class Scenario:
         self.step_size = self._number(exp, "experiment.step_size")
         if not self.step_size > 0 or not self.stop_time > self.start_time:
             raise ScenarioError(f"{self.path}: [experiment] needs step_size > 0 and stop_time > start_time")
+        unknown = set(exp) - EXPERIMENT_KEYS
+        if unknown:
+            raise ScenarioError(f"{self.path}: [experiment]: unknown field(s) {', '.join(sorted(unknown))}; "
+                                f"known: {', '.join(sorted(EXPERIMENT_KEYS))}")
+        self.coupling = exp.get("coupling", DEFAULT_COUPLING)
+        if self.coupling not in COUPLINGS:
+            raise ScenarioError(f"{self.path}: experiment.coupling = {self.coupling!r} must be one of "
+                                f"{', '.join(repr(c) for c in COUPLINGS)} (docs/cosimulation.md)")
 
         self.components = {}
         for cname, comp in self._table(data, "components").items():
@@ -129,8 +139,9 @@ class Scenario:
                                 f"known: {', '.join(sorted(REFERENCE_KEYS))}")
         self.reference_file = None
         if "file" in ref:
-            if not isinstance(ref["file"], str) or not ref["file"].endswith(".csv"):
-                raise ScenarioError(f"{self.path}: reference.file = {ref['file']!r} must be the path of a .csv file")
+            if not isinstance(ref["file"], str) or not ref["file"].endswith((".csv", ".csv.gz")):
+                raise ScenarioError(f"{self.path}: reference.file = {ref['file']!r} must be the path of a .csv file "
+                                    "(or a gzipped .csv.gz)")
             self.reference_file = self.path.parent / ref["file"]
         self.reference_generator = ref.get("generator")
         self.tolerances = self._tolerances(ref, "tolerance")

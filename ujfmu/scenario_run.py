@@ -9,7 +9,7 @@ import numpy as np
 from fmpy.util import validate_result, write_csv
 
 from .build import DEFAULT_FMU_DIR
-from .master import cosimulate
+from .master import CosimulationError, cosimulate
 from .references import read_reference
 from .scenario import Scenario
 
@@ -85,9 +85,9 @@ def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.nda
     h = scenario.step_size
     if coarse is None:
         coarse = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time, h,
-                            scenario.record, scenario.start_time)
+                            scenario.record, scenario.start_time, coupling=scenario.coupling)
     fine = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time, h / 2,
-                      scenario.record, scenario.start_time)[::2]
+                      scenario.record, scenario.start_time, coupling=scenario.coupling)[::2]
     out = coarse.copy()
     for name in scenario.record:
         out[name] = 2.0 * fine[name] - coarse[name]
@@ -114,7 +114,11 @@ def run_scenario(path, fmu_dir=DEFAULT_FMU_DIR, out_dir=DEFAULT_OUT_DIR, plot=Tr
     try:
         table = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
                            scenario.step_size, scenario.record, scenario.start_time,
-                           progress=report if bar else None)
+                           progress=report if bar else None, coupling=scenario.coupling)
+    except CosimulationError as exc:
+        if exc.partial is not None and out_dir is not None:
+            _write_partial(scenario, exc, Path(out_dir), plot)
+        raise
     finally:
         if bar:
             bar.close()
@@ -143,6 +147,18 @@ def run_scenario(path, fmu_dir=DEFAULT_FMU_DIR, out_dir=DEFAULT_OUT_DIR, plot=Tr
             if scenario.spectra:
                 result.extra_plots.append(plot_spectra(result, out_dir / f"{scenario.name}_spectra.png"))
     return result
+
+
+def _write_partial(scenario, exc, out_dir, plot):
+    """Write the results up to a failure (CSV, plot) and name them in the error's message."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    csv = out_dir / f"{scenario.name}.csv"
+    write_csv(csv, exc.partial)
+    written = [f"results up to t = {float(exc.partial['time'][-1])!r}: {csv}"]
+    if plot and len(exc.partial) > 1:
+        from .plotting import plot_scenario
+        written.append(f"plot: {plot_scenario(ScenarioResult(scenario, exc.partial), None, out_dir / f'{scenario.name}.png')}")
+    exc.args = (f"{exc.args[0] if exc.args else exc}\n" + "\n".join(written),)
 
 
 def write_junit(results, path):

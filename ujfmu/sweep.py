@@ -153,6 +153,7 @@ class PointJob:
     step_size: float
     settings: SweepSettings
     fmu_hashes: dict = field(default_factory=dict)
+    coupling: str = "implicit"   # the scenario's [experiment] coupling
 
 
 def run_point(job, point, fmu_blobs=None):
@@ -175,7 +176,7 @@ def run_point(job, point, fmu_blobs=None):
         s = job.settings
         signals = list(dict.fromkeys(s.outputs + [s.running_speed] + [x for pair in s.operating_point for x in pair]))
         with Cosimulation(components, [Connection(a, b) for a, b in job.connections], job.step_size,
-                          signals) as cosim:
+                          signals, coupling=job.coupling) as cosim:
             record.update(settle_and_measure(cosim, s))
     except Exception as exc:  # a failing point is data, not the end of the sweep
         record.update(status=ERROR, error=f"{type(exc).__name__}: {exc}".replace("\n", " | ")[:2000])
@@ -237,10 +238,10 @@ class Sweep:
         hashes = {f: hashlib.sha256(b).hexdigest()[:16] for f, b in self.fmu_blobs.items()}
         self.job = PointJob([(n, fmu, dict(p)) for n, (fmu, p) in self.scenario.components.items()],
                             [(c.source, c.target) for c in self.scenario.connections], self.scenario.step_size,
-                            settings, hashes)
+                            settings, hashes, self.scenario.coupling)
         # results are only reused for the same FMUs, scenario setup and settings
         self.config = hashlib.sha256(json.dumps([asdict(settings), self.job.components, self.job.connections,
-                                                 self.job.step_size, hashes], sort_keys=True,
+                                                 self.job.step_size, hashes, self.job.coupling], sort_keys=True,
                                                 default=str).encode()).hexdigest()[:16]
 
     @staticmethod

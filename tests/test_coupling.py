@@ -1,0 +1,112 @@
+"""Coupling schemes: which inputs are torn, implicit stability and convergence where explicit diverges at any step,
+step-halving error estimates against a monolithic reference, and what `ujfmu run` does when a run goes unstable."""
+
+import numpy as np
+import pytest
+
+from ujfmu import battery, stepsize
+from ujfmu.cli import main
+from ujfmu.master import Cosimulation, CouplingInstabilityError, cosimulate
+from ujfmu.references import read_reference
+from ujfmu.scenario import Scenario
+from ujfmu.scenario_run import compare
+
+HEAVY = battery.BATTERY_DIR / "battery_04.toml"   # CardanJoint, J2 = 0.28 kg.m^2 against a 0.038 kg.m^2 motor
+LIGHT = battery.BATTERY_DIR / "battery_02.toml"
+
+
+def _run(path, fmu_dir, step, coupling, stop=None):
+    s = Scenario(path)
+    return cosimulate(s.master_components(fmu_dir), s.connections, stop or s.stop_time, step, s.record,
+                      coupling=coupling)
+
+
+def test_only_the_driver_torque_is_torn_and_only_the_motor_rolled_back(fmu_dir):
+    s = Scenario(HEAVY)
+    with Cosimulation(s.master_components(fmu_dir), s.connections, 1e-3, s.record) as cosim:
+        assert [cosim._transfers[i][-1].target for i in cosim._tears] == ["motor.tau_load"]
+        assert [name for _, name in cosim._rolled] == ["motor"]
+        cosim.advance(20)
+        assert cosim.jacobian_builds == 1 and 20 <= cosim.iterations <= 60
+
+
+def test_explicit_diverges_at_any_step_where_implicit_converges_at_first_order(fmu_dir):
+    """Driven inertia 7.4x the motor's: explicit coupling diverges at 1 ms and at 0.25 ms (the amplification
+    -J_r/J_m has no h in it); the implicit scheme's error against the monolithic reference halves with the step."""
+    for h in (1e-3, 2.5e-4):
+        with pytest.raises(CouplingInstabilityError):
+            _run(HEAVY, fmu_dir, h, "explicit")
+    s = Scenario(HEAVY)
+    reference, _ = read_reference(s.reference_file)
+    errors = []
+    for h in (1e-3, 5e-4):
+        table = _run(HEAVY, fmu_dir, h, "implicit")
+        errors.append({c.name: c.max_error for c in compare(table, reference, s.tolerances)})
+    for name in ("motor.omega", "joint.omega_out", "joint.tau_in"):
+        assert 1.5 < errors[0][name] / errors[1][name] < 2.7, (name, errors)
+
+
+def test_step_halving_estimate_matches_the_error_against_the_reference(fmu_dir):
+    """2 |y(h) - y(h/2)| estimates the error at h (first order): within a factor 2 of the true error, per signal
+    with a visible error."""
+    s = Scenario(LIGHT)
+    reference, _ = read_reference(s.reference_file)
+    coarse = _run(LIGHT, fmu_dir, s.step_size, s.coupling)
+    est = stepsize.estimate(s, fmu_dir=fmu_dir, coarse=coarse)
+    true = {c.name: c.max_error / c.reference_range for c in compare(coarse, reference, s.tolerances)}
+    assert est.passed and set(est.errors) == set(true)
+    for name, err in true.items():
+        if err > 2e-4:
+            assert 0.5 < est.errors[name] / err < 2.0, (name, est.errors[name], err)
+
+
+def test_run_stops_an_unstable_run_names_it_and_keeps_the_results(fmu_dir, tmp_path, capsys):
+    text = HEAVY.read_text().replace("step_size = 1e-3", 'step_size = 1e-3\ncoupling = "explicit"')
+    path = tmp_path / "heavy_explicit.toml"
+    path.write_text(text.replace('file = "references/', f'file = "{HEAVY.parent}/references/'))
+    code = main(["--fmu-dir", str(fmu_dir), "run", str(path), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "coupling instability between 'joint' and 'motor'" in err and "h = 0.001" in err
+    csv, png = tmp_path / "out" / "heavy_explicit.csv", tmp_path / "out" / "heavy_explicit.png"
+    assert csv.is_file() and png.is_file() and str(csv) in err
+    partial = np.genfromtxt(csv, delimiter=",", names=True)
+    assert 2 <= len(partial) < 20 and partial["time"][0] == 0.0
+
+
+def test_check_step_reports_every_signal(fmu_dir, tmp_path, capsys):
+    code = main(["--fmu-dir", str(fmu_dir), "run", str(LIGHT), "--check-step", "--no-plot",
+                 "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert code == 0
+    for name in Scenario(LIGHT).tolerances:
+        assert f"ok   {name}" in out
+
+
+def test_open_loop_runs_explicitly_and_bitwise_like_explicit(fmu_dir):
+    """An ideal speed source ignores its tau_load: the implicit scheme finds dG/du = 0 at its first Jacobian and
+    steps explicitly from then on, giving the explicit result bit for bit."""
+    s = Scenario(battery.BATTERY_DIR.parent / "double_cardan_omar_torsional.toml")
+    tables = {}
+    for coupling in ("explicit", "implicit"):
+        with Cosimulation(s.master_components(fmu_dir), s.connections, 1e-3, s.record, coupling=coupling) as cosim:
+            tables[coupling] = cosim.run(300)
+            assert cosim.open_loop == (coupling == "implicit")
+    for name in s.record:
+        np.testing.assert_array_equal(tables["implicit"][name], tables["explicit"][name])
+
+
+def test_battery_command_tabulates_each_scheme(fmu_dir, monkeypatch, capsys):
+    monkeypatch.setattr(battery, "paths", lambda: [LIGHT, HEAVY])
+    code = main(["--fmu-dir", str(fmu_dir), "battery"])
+    out = capsys.readouterr().out
+    assert code == 1   # explicit cannot run the heavy set-up
+    assert "| battery_04 | Cardan | coupling instability between 'joint' and 'motor' (failed) |" in out
+    assert "explicit: 1 of 2 within 2%, 1 stopped" in out and "implicit: 1 of 2 within 2%, 0 stopped" in out
+
+
+def test_a_speed_fed_forward_is_not_torn(fmu_dir):
+    """Rings driven by one speed source with nothing fed back: no loop, nothing to iterate, the explicit result."""
+    s = Scenario(battery.BATTERY_DIR.parent / "ring_coupling_speed_study.toml")
+    with Cosimulation(s.master_components(fmu_dir), s.connections, 1e-3, s.record) as cosim:
+        assert cosim._tears == [] and cosim._rolled == []

@@ -1,0 +1,83 @@
+"""Communication step help without a reference: the coupling error estimated by step halving.
+
+Both coupling schemes are first order in the step h (the input held over a step), so with y_h the result at step h
+and y_h/2 at half of it, y_h - y_exact = 2 (y_h - y_h/2) + O(h^2) (Richardson). ``estimate`` reports that per
+recorded signal as a fraction of the signal's range; ``choose`` halves the step until every signal's estimate is
+within its allowance. Both only rerun the scenario: no reference is needed.
+"""
+
+import copy
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .build import DEFAULT_FMU_DIR
+from .master import CosimulationError, cosimulate
+
+#: allowance per signal when the scenario gives no tolerance: a fraction of the signal's range
+DEFAULT_REL_RANGE = 0.02
+MAX_HALVINGS = 5
+
+
+@dataclass
+class StepEstimate:
+    step: float
+    errors: dict        # signal -> estimated max |error| at this step / range of the signal
+    allowed: dict       # signal -> allowance as a fraction of the range
+    failure: str = ""   # the co-simulation at this step (or its half) stopped: why
+
+    @property
+    def passed(self) -> bool:
+        return not self.failure and all(self.errors[n] <= self.allowed[n] for n in self.errors)
+
+    def lines(self) -> list[str]:
+        if self.failure:
+            return [f"step {self.step:g} s: {self.failure}"]
+        return [f"step {self.step:g} s, estimated coupling error (2 x |y(h) - y(h/2)|) per signal:"] + [
+            f"  {'ok  ' if self.errors[n] <= self.allowed[n] else 'HIGH'} {n:28s} {100 * self.errors[n]:8.3f}% "
+            f"of range (allowed {100 * self.allowed[n]:.3g}%)" for n in self.errors]
+
+
+def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coarse=None) -> StepEstimate:
+    """Estimated coupling error of the scenario at ``step`` (default its own), by a rerun at step/2: the
+    distance of y(h) from the step-halving extrapolation 2 y(h/2) - y(h) (scenario_run.extrapolate_step).
+
+    Signals: the toleranced ones with their allowance rel_range (+ abs as a fraction of the range), else every
+    recorded signal with DEFAULT_REL_RANGE. coarse: the result at ``step`` if already computed."""
+    from .scenario_run import extrapolate_step
+    run = copy.copy(scenario)
+    run.step_size = scenario.step_size if step is None else step
+    names = list(scenario.tolerances) or list(scenario.record)
+    try:
+        if coarse is None:
+            coarse = cosimulate(run.master_components(fmu_dir), run.connections, run.stop_time, run.step_size,
+                                run.record, run.start_time, coupling=run.coupling)
+        extrapolated = extrapolate_step(run, fmu_dir, coarse)
+    except CosimulationError as exc:
+        return StepEstimate(run.step_size, {}, {}, str(exc).splitlines()[0])
+    errors, allowed = {}, {}
+    for name in names:
+        span = float(np.ptp(extrapolated[name]))
+        diff = float(np.max(np.abs(extrapolated[name] - coarse[name])))
+        tol = scenario.tolerances.get(name)
+        errors[name] = diff / span if span > 0.0 else (0.0 if diff == 0.0 else math.inf)
+        allowed[name] = (tol.rel_range + (tol.abs / span if span > 0.0 else math.inf)) if tol else DEFAULT_REL_RANGE
+    return StepEstimate(run.step_size, errors, allowed)
+
+
+def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, list[StepEstimate]]:
+    """The largest of step, step/2, step/4, ... (step the scenario's) whose estimate passes; (step, estimates).
+
+    Raises CosimulationError naming the last estimate when MAX_HALVINGS halvings do not reach the allowance."""
+    step, tried = scenario.step_size, []
+    for _ in range(MAX_HALVINGS + 1):
+        est = estimate(scenario, step, fmu_dir)
+        tried.append(est)
+        if progress:
+            progress("\n".join(est.lines()))
+        if est.passed:
+            return step, tried
+        step /= 2.0
+    raise CosimulationError(f"--step auto: no step down to {2.0 * step:g} s keeps the estimated coupling error "
+                            f"within the allowance:\n" + "\n".join(tried[-1].lines()))
