@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from ujfmu.analysis import amplitude_spectrum, order_amplitudes
+from ujfmu.analysis import amplitude_spectrum, decay_rates, order_amplitudes, order_fit
 
 
 def test_order_amplitudes_recover_harmonics_of_a_varying_speed():
@@ -23,3 +23,21 @@ def test_amplitude_spectrum_peak_is_the_sinusoid_amplitude():
     freq, amp = amplitude_spectrum(t, 5.0 + 0.7 * np.sin(2 * math.pi * 12.5 * t))
     assert freq[np.argmax(amp)] == pytest.approx(12.5)
     assert amp.max() == pytest.approx(0.7, rel=1e-3)
+
+
+def test_decay_rates_are_those_of_damped_oscillators():
+    """Two uncoupled oscillators m x'' + c x' + k x = 0: each mode decays at c / (2 m) (underdamped)."""
+    def rhs(y):
+        x1, v1, x2, v2 = y
+        return [v1, -(400.0 * x1 + 0.8 * v1) / 2.0, v2, -(9.0 * x2 + 0.3 * v2) / 0.5]
+    np.testing.assert_allclose(decay_rates(rhs, np.zeros(4)), [0.2, 0.2, 0.3, 0.3], rtol=1e-7)
+
+
+def test_order_fit_mean_does_not_depend_on_where_a_window_ends():
+    """The fitted mean of a periodic signal over a window that is not whole revolutions is exact, where the
+    sample mean is biased by the part revolution."""
+    angle = np.linspace(0.0, 2 * 2 * math.pi + 1.0, 700)
+    signal = 0.3 + 2.0 * np.cos(2 * angle) + 0.1 * np.cos(5 * angle)
+    c0, amplitudes, _ = order_fit(angle, signal, range(1, 9))
+    assert c0 == pytest.approx(0.3, abs=1e-12) and amplitudes[1] == pytest.approx(2.0, abs=1e-12)
+    assert abs(signal.mean() - 0.3) > 1e-2

@@ -2,7 +2,6 @@
 physics, the FMU layer, the master, the scenario comparison and the reference generators, and a mutant run
 restores the file it changed."""
 
-from pathlib import Path
 
 from ujfmu.mutate import AREAS, DEFAULT_LIST, REPOSITORY, Mutant, area, load_mutants, run_mutant, score
 

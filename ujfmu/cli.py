@@ -166,7 +166,8 @@ def cmd_sweep(args):
     axes = [parse_axis(spec, scenario) for spec in specs]
     settings = SweepSettings.from_scenario(scenario, outputs=args.output, running_speed=args.running_speed,
                                            settle_time=args.settle, revolutions=args.revolutions,
-                                           orders=args.orders)
+                                           orders=args.orders, steady_tol=args.steady_tol,
+                                           max_settle_time=args.max_settle)
     sweep = Sweep(scenario, axes, settings, out_dir=args.out, name=args.name, fmu_dir=args.fmu_dir)
     print(f"{sweep.name}: {len(sweep.points)} points ({' x '.join(str(len(a.values)) for a in axes)}), "
           f"settle {settings.settle_time:g} s, {settings.revolutions:g} revolutions measured")
@@ -182,10 +183,21 @@ def cmd_sweep(args):
     failed = sweep.failed()
     for record in failed[:10]:
         print(f"  point {record['point']} {record['status']}: {record['error']}", file=sys.stderr)
-    if failed:
-        print(f"{len(failed)} of {len(sweep.points)} points failed (recorded in the table; rerun to retry them)",
-              file=sys.stderr)
+    print(_status_summary(sweep.status_counts(), len(sweep.points)), file=sys.stderr if failed else sys.stdout)
     return 1 if failed else 0
+
+
+#: what each sweep point status means, for the summary line
+STATUS_MEANING = {"ok": "steady at the operating point", "not_steady": "not steady by max_settle_time",
+                  "off_target": "operating point not reached", "error": "failed (rerun to retry)",
+                  "missing": "not run"}
+
+
+def _status_summary(counts, total):
+    """'N points: a ok (steady at the operating point), b not_steady (...), ...'."""
+    parts = [f"{n} {status} ({STATUS_MEANING.get(status, status)})" for status, n in sorted(
+        counts.items(), key=lambda item: list(STATUS_MEANING).index(item[0]) if item[0] in STATUS_MEANING else 99)]
+    return f"{total} points: " + ", ".join(parts)
 
 
 def cmd_export_ssp(args):
@@ -336,6 +348,11 @@ def main(argv=None):
     p.add_argument("--running-speed", help="speed signal whose revolutions are measured [rad/s]")
     p.add_argument("--settle", type=float, help="settle time before measuring [s]")
     p.add_argument("--revolutions", type=float, help="measurement window in revolutions")
+    p.add_argument("--steady-tol", type=float, help="steady-state tolerance: the figures over the last quarter of the "
+                                                    "settle time agree within this relative change (default 1e-3; "
+                                                    "0: no check)")
+    p.add_argument("--max-settle", type=float, help="longest settle time before a point is 'not_steady' [s] "
+                                                    "(default 8x --settle)")
     p.add_argument("--orders", type=lambda s: tuple(int(k) for k in s.split(",")), help="orders, e.g. 1,2,4")
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: no dask)")
     p.add_argument("--scheduler", help="address of a running dask.distributed scheduler, e.g. tls://host:8786; "

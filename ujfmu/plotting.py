@@ -147,6 +147,26 @@ def plot_spectra(result, path):
     return path
 
 
+#: marker of each sweep point status other than ok (see ujfmu.steady)
+STATUS_MARKERS = {"not_steady": ("x", "tab:red", "not steady"), "off_target": ("v", "tab:purple",
+                                                                                "operating point not reached")}
+
+
+def _plot_points_not_ok(ax, sweep, xs, out, k):
+    """Mark the max and min of the points whose status is not_steady or off_target (their figures are kept but are
+    not steady-state results); xs maps records to the first axis' values, k scales to the display unit. Returns
+    whether any were drawn."""
+    drawn = False
+    for status, (marker, color, text) in STATUS_MARKERS.items():
+        rows = [r for r in sweep.records() if r["status"] == status and f"{out}.max" in r]
+        if rows:
+            x = list(xs(rows))
+            ax.plot(x + x, [k * r[f"{out}.max"] for r in rows] + [k * r[f"{out}.min"] for r in rows], marker, color=color,
+                    ms=5, ls="none", label=f"{text} ({len(rows)})")
+            drawn = True
+    return drawn
+
+
 def plot_sweep(sweep, out_dir):
     """Sweep figures against the first axis (in the unit it was given in): results/<name>.png with max and min of
     every output, one curve per combination of the other axes; results/<name>_orders.png with the order
@@ -185,9 +205,13 @@ def plot_sweep(sweep, out_dir):
             color = f"C{i % 10}"
             ax.plot(xs(rows), [k * r[f"{out}.max"] for r in rows], ".-", color=color, ms=3, label=label(key))
             ax.plot(xs(rows), [k * r[f"{out}.min"] for r in rows], ".--", color=color, ms=3)
+        flagged = _plot_points_not_ok(ax, sweep, xs, out, k)
         ax.set_ylabel(f"[{unit}]", fontsize=8)
-        ax.set_title(f"{out}: max (solid), min (dashed) over the measured revolutions", fontsize=9, loc="left")
+        ax.set_title(f"{out}: max (solid), min (dashed) in steady state over the measured revolutions" + (
+            "; points not ok marked by status (max and min)" if flagged else ""), fontsize=9, loc="left")
         ax.grid(alpha=0.3)
+        if flagged and not others:
+            ax.legend(fontsize=7)
     if others:
         axes[0, 0].legend(fontsize=7)
     axes[-1, 0].set_xlabel(xlabel)

@@ -13,7 +13,8 @@
                             running_speed = "comp.omega" (spectra in running-speed orders), steady_from [s]
                             (orbits and spectra from that time on)
     [sweep]                 optional defaults of `ujfmu sweep`: params = ["comp.par=START:STOP:STEP[rpm|deg]", ...],
-                            outputs = [...], running_speed, settle_time [s], revolutions, orders = [1, 2, 4]
+                            outputs = [...], running_speed, settle_time [s], revolutions, orders = [1, 2, 4],
+                            steady_tol = 1e-3 (0: no check), max_settle_time [s] (see ujfmu.steady)
     [reference]             optional: file = "references/x.csv" (relative to the scenario; `ujfmu references`
                             writes it only inside the scenario's folder), generator = "cardan_chain",
                             not_compared = { "comp.var" = "why this recorded signal is not compared", ... };
@@ -41,7 +42,8 @@ TOP_LEVEL_KEYS = {"title", "description", "experiment", "components", "connectio
                   "sweep"}
 EXPERIMENT_KEYS = {"start_time", "stop_time", "step_size", "coupling"}
 #: fields of the optional [sweep] table (defaults of `ujfmu sweep`, see ujfmu.sweep)
-SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions", "orders"}
+SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions", "orders", "steady_tol",
+              "max_settle_time"}
 REFERENCE_KEYS = {"file", "generator", "tolerance", "extrapolated", "not_compared"}
 TOLERANCE_KEYS = {"rel_range", "abs"}
 
@@ -199,7 +201,7 @@ class Scenario:
         if unknown:
             raise ScenarioError(f"{self.path}: [sweep]: unknown field(s) {', '.join(sorted(unknown))}; "
                                 f"known: {', '.join(sorted(SWEEP_KEYS))}")
-        for key in ("settle_time", "revolutions"):
+        for key in ("settle_time", "revolutions", "steady_tol", "max_settle_time"):
             if key in self.sweep:
                 self._number(self.sweep, f"sweep.{key}")
         speed = [self.sweep["running_speed"]] if "running_speed" in self.sweep else []

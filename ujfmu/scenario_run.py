@@ -18,7 +18,6 @@ from fmpy.util import validate_result, write_csv
 from .build import DEFAULT_FMU_DIR
 from .extras import available, preload
 from .master import CosimulationError, cosimulate
-from .references import read_reference
 from .scenario import Scenario
 
 DEFAULT_OUT_DIR = Path("results")

@@ -4,6 +4,10 @@ per-point figures, run on dask.distributed (a local pool of worker processes, or
 A point sets the swept parameters, co-simulates ``settle_time`` seconds, reads the running speed, then records
 ``revolutions`` whole revolutions of the outputs and reduces each to max, min, peak-to-peak, mean, RMS and the
 amplitudes of chosen running-speed orders (least squares on the running angle, ``analysis.order_amplitudes``).
+Steady state is checked, not assumed, and the settle time extended until it holds (``ujfmu.steady``: the figures
+over the last quarter of the settle time agree within ``steady_tol``); so is the operating point (a Motor's speed
+against its set point).
+A point's status is ``ok``, ``not_steady``, ``off_target`` or ``error``.
 
 The FMUs go to each dask worker once (a WorkerPlugin writes them to a local folder), so a cluster needs no
 shared file system; the workers need ujfmu installed. Resumable: every finished point is appended at once to
@@ -36,16 +40,13 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-import numpy as np
-
-from .analysis import order_amplitudes
 from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
 from .master import Component, Connection, Cosimulation
 from .scenario import Scenario, ScenarioError
+from .steady import ERROR, FIGURES, FINAL, OK, STATUSES, settle_and_measure
 
 #: human units accepted after a --param range, and their factor to SI
 UNITS = {"rpm": math.pi / 30.0, "deg": math.pi / 180.0, "": 1.0}
-FIGURES = ("max", "min", "p2p", "mean", "rms")
 
 
 @dataclass
@@ -113,6 +114,10 @@ class SweepSettings:
     settle_time: float
     revolutions: float = 4.0
     orders: tuple = (1, 2, 4)
+    steady_tol: float = 1e-3            # 0: no steady-state check (a measurement during a transient)
+    max_settle_time: float = None       # s; default 8x the first settle time
+    operating_point: tuple = ()         # (signal, set point signal) pairs; default every Motor's omega, omega_ref
+    operating_tol: float = 0.01         # relative to the set point
 
     @classmethod
     def from_scenario(cls, scenario, **overrides) -> "SweepSettings":
@@ -137,12 +142,27 @@ class SweepSettings:
                                 "is needed: the time to reach steady state")
         settings = cls(outputs, running_speed, float(settle), float(table.get("revolutions", 4.0)),
                        tuple(int(k) for k in table.get("orders", (1, 2, 4))))
+        settings.steady_tol, settings.max_settle_time, settings.operating_point = _steady_settings(scenario, table)
         if not (settings.settle_time >= 0 and settings.revolutions > 0 and all(k > 0 for k in settings.orders)):
             raise ScenarioError(f"{where} needs settle_time >= 0, revolutions > 0 and positive orders")
         return settings
 
     def columns(self):
         return [f"{out}.{fig}" for out in self.outputs for fig in FIGURES + tuple(f"h{k}" for k in self.orders)]
+
+
+def _steady_settings(scenario, table):
+    """(steady_tol, max_settle_time, operating_point) from the [sweep] table or overrides; by default every Motor
+    component's speed is checked against its reference speed."""
+    where = f"{scenario.path}: [sweep]"
+    tol = float(table.get("steady_tol", 1e-3))
+    cap = table.get("max_settle_time")
+    cap = None if cap is None else float(cap)
+    if not (tol >= 0 and (cap is None or cap >= float(table["settle_time"]))):
+        raise ScenarioError(f"{where} needs steady_tol >= 0 (0: no check) and max_settle_time >= settle_time")
+    pairs = tuple((f"{name}.omega", f"{name}.omega_ref") for name, (fmu, _) in scenario.components.items()
+                  if fmu == "Motor")
+    return tol, cap, pairs
 
 
 @dataclass
@@ -157,13 +177,14 @@ class PointJob:
 
 
 def run_point(job, point, fmu_blobs=None):
-    """One sweep point: returns a record dict (status 'ok' with figures, or 'error' with the message).
+    """One sweep point: returns a record dict: figures, status ('ok', 'not_steady' or 'off_target' with the
+    reason, see ``ujfmu.steady``; 'error' with the message) and the settle time used.
 
     point: {"comp.par": value}. The FMUs come from fmu_blobs ({fmu name: bytes}) when given, else from the
     folder this worker process received them in (``FmuInstaller``).
     """
     started = time.perf_counter()
-    record = {"point": point, "status": "ok", "error": ""}
+    record = {"point": point, "status": OK, "error": ""}
     try:
         fmu_dir = _worker_fmu_dir(job.fmu_hashes, fmu_blobs)
         params = {}
@@ -173,28 +194,12 @@ def run_point(job, point, fmu_blobs=None):
         components = [Component(name, fmu_dir / f"{fmu}.fmu", {**parameters, **params.get(name, {})})
                       for name, fmu, parameters in job.components]
         s = job.settings
-        signals = list(dict.fromkeys(s.outputs + [s.running_speed]))
+        signals = list(dict.fromkeys(s.outputs + [s.running_speed] + [x for pair in s.operating_point for x in pair]))
         with Cosimulation(components, [Connection(a, b) for a, b in job.connections], job.step_size,
                           signals, coupling=job.coupling) as cosim:
-            cosim.advance(int(round(s.settle_time / job.step_size)))
-            now = np.empty(len(cosim.columns))
-            cosim.read(now)
-            speed = now[cosim.columns.index(s.running_speed)]
-            if not (math.isfinite(speed) and abs(speed) > 1e-9):
-                raise ValueError(f"running speed {s.running_speed} = {speed!r} rad/s after settling: no revolutions "
-                                 "to measure over")
-            table = cosim.run(max(8, int(math.ceil(s.revolutions * 2.0 * math.pi / abs(speed) / job.step_size))))
-        w = table[s.running_speed]
-        angle = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * job.step_size)))
-        record["speed_mean"] = float(w.mean())
-        for out in s.outputs:
-            y = table[out]
-            amps, _ = order_amplitudes(angle, y, s.orders)
-            figures = dict(max=y.max(), min=y.min(), p2p=np.ptp(y), mean=y.mean(), rms=math.sqrt(np.mean(y * y)))
-            figures.update({f"h{k}": a for k, a in zip(s.orders, amps)})
-            record.update({f"{out}.{k}": float(v) for k, v in figures.items()})
+            record.update(settle_and_measure(cosim, s))
     except Exception as exc:  # a failing point is data, not the end of the sweep
-        record.update(status="error", error=f"{type(exc).__name__}: {exc}".replace("\n", " | ")[:2000])
+        record.update(status=ERROR, error=f"{type(exc).__name__}: {exc}".replace("\n", " | ")[:2000])
     record["wall_s"] = time.perf_counter() - started
     return record
 
@@ -277,7 +282,7 @@ class Sweep:
             for line in self.journal.read_text(errors="replace").splitlines():
                 try:
                     record = json.loads(line)
-                    if (record.get("config") == self.config and record["status"] in ("ok", "error")
+                    if (record.get("config") == self.config and record["status"] in STATUSES
                             and isinstance(record["error"], str) and isinstance(record.get("wall_s", 0.0), float)):
                         records[self.key(record["point"])] = record
                 except (ValueError, TypeError, KeyError, AttributeError):   # a line cut by an interruption
@@ -293,7 +298,7 @@ class Sweep:
         points_total), called as points finish (points reused from the journal count as done)."""
         self.out_dir.mkdir(parents=True, exist_ok=True)
         self._check_grid()
-        finished = {k for k, r in self.done().items() if r["status"] == "ok"}
+        finished = {k for k, r in self.done().items() if r["status"] in FINAL}
         todo = [p for p in self.points if self.key(p) not in finished]
         self.reused = len(self.points) - len(todo)
         count = [self.reused]
@@ -336,7 +341,7 @@ class Sweep:
                 try:
                     record = future.result()
                 except Exception as exc:   # the worker itself died
-                    record = {"point": futures[future], "status": "error", "wall_s": float("nan"),
+                    record = {"point": futures[future], "status": ERROR, "wall_s": float("nan"),
                               "error": f"worker failed: {type(exc).__name__}: {exc}"}
                 keep(record)
         finally:
@@ -372,7 +377,7 @@ class Sweep:
     def write_csv(self):
         """The tidy CSV: one row a point; swept parameters in SI units, then the figures of every output."""
         param_cols = [n for ax in self.axes for n in ax.names]
-        cols = ["speed_mean"] + self.settings.columns()
+        cols = ["speed_mean"] + self.settings.columns() + ["settled_s", "steady_change"]
         with open(self.csv, "w", newline="") as f:
             writer = csv.writer(f)
             writer.writerow(param_cols + ["status"] + cols + ["wall_s", "error"])
@@ -383,7 +388,15 @@ class Sweep:
         return self.csv
 
     def failed(self):
-        return [r for r in self.table() if r["status"] != "ok"]
+        """Records of the points that are not ok (failed, not steady, operating point missed or not run)."""
+        return [r for r in self.table() if r["status"] != OK]
+
+    def status_counts(self):
+        """{status: number of points} of the current grid."""
+        counts = {}
+        for record in self.table():
+            counts[record["status"]] = counts.get(record["status"], 0) + 1
+        return counts
 
     def plot(self, out_dir=None):
         """Figures against the first axis: max/min of every output (one curve per combination of the other axes)

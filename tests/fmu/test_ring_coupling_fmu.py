@@ -9,6 +9,7 @@ from scipy.special import ellipk
 
 from ujfmu.analysis import order_amplitudes
 from ujfmu.physics import ring_coupling as rc
+from ujfmu.steady import halves_change
 
 OUT = ("omega_out", "phi_out", "phi_in", "tau_in", "x_e", "M_p", "transmitted_torque", "stored_energy")
 E, D, R, ECC, I2 = 2.1e11, 0.003, 0.1, 0.003, 0.05          # the Fig. 3 set
@@ -101,6 +102,7 @@ def test_eq20_error_grows_below_the_validity_speed(open_fmu, drive, radius):
     for ratio in (4.0, 2.0, 1.5, 1.2):
         omega = ratio * w_min
         r = small_parameter_run(open_fmu, drive, omega, dict(R=radius, c_s=c_s, c_d=c_d), n=2500, settle=1500)
+        assert halves_change(r.phi_in, r, ["x_e"], [2])[0] < 1e-4   # it has settled
         amp = order_amplitudes(r.phi_in, r.x_e, [2])[0][0]
         linear = a_e / abs(4 * w_min ** 2 - 4 * omega ** 2 + 2j * omega * c_d / I2)
         assert amp == pytest.approx(linear, rel=0.01)
@@ -116,6 +118,7 @@ def test_steady_running_with_stiffness_and_load(open_fmu, drive):
     c_s = rc.rotational_stiffness(E, D, R)
     r = small_parameter_run(open_fmu, drive, omega, dict(c_d=0.2 * math.sqrt(c_s * I2)), tau_load=tau, n=3000,
                             settle=1500)
+    assert halves_change(r.phi_in, r, ["x_e", "omega_out"])[0] < 1e-4   # it has settled
     revolutions = slice(0, int(round(2 * math.pi / omega * 20 / 1e-3)))       # 20 whole revolutions
     assert np.mean(r.transmitted_torque[revolutions]) == pytest.approx(tau, rel=1e-3)
     assert np.mean(r.x_e[revolutions]) == pytest.approx(-tau / c_s, rel=1e-3)

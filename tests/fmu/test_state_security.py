@@ -9,7 +9,6 @@ The models' STATE and DERIVED declarations cover every attribute they set (Pytho
 
 The number of hypothesis cases tried is counted and checked at the end (CASES)."""
 
-import json
 import math
 import pickle
 

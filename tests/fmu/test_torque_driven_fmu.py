@@ -1,7 +1,6 @@
 """Torque-driven FMUs (CardanJointTorqueDriven, DoubleCardanDrivelineTorqueDriven) and MotorController through
 fmpy: closed forms of the straight and constant-velocity layouts, the ports an explicit host needs."""
 
-import math
 
 import pytest
 from fmpy.fmi1 import FMICallException

@@ -7,6 +7,7 @@ import pytest
 
 from ujfmu.analysis import order_amplitudes
 from ujfmu.physics import twin_jeffcott as tj
+from ujfmu.steady import halves_change
 
 OUT = ("omega_out", "phi_out", "tau_in", "X1", "Y1", "X2", "Y2", "phi_in", "phi_disc1", "omega_disc1",
        "stored_energy", "dissipated_energy", "input_work")
@@ -48,6 +49,7 @@ def test_aligned_discs_are_plain_jeffcott_rotors(open_fmu, drive, omega, tau_loa
     rel = 1e-5 if tau_load == 0.0 else 0.01
     r = drive(open_fmu("TwinJeffcottRotor"), lambda t: omega, tau_load, h, n, OUT, params)
     steady = r[n_settle:]
+    assert halves_change(steady.phi_in, steady, ["X1", "Y1", "X2", "Y2"])[0] < 1e-5   # it has settled
     for i, angle in ((1, steady.phi_disc1), (2, steady.phi_out)):
         amplitude, lag = jeffcott(i, omega, params)
         phase_u = params[f"phase_u{i}"]
@@ -68,6 +70,7 @@ def test_misalignment_puts_a_growing_2x_into_the_secondary_disc(open_fmu, drive)
     for beta in (0.0, 5.0, 10.0, 15.0):
         r = drive(open_fmu("TwinJeffcottRotor", f"b{beta:g}"), lambda t: omega, 3.0, h, n, OUT,
                   well_damped(beta=beta * DEG))[n_settle:]
+        assert halves_change(r.phi_in, r, ["X2", "Y2"])[0] < 1e-4   # it has settled
         amp_x = order_amplitudes(r.phi_in, r.X2, [1, 2])[0]
         amp_y = order_amplitudes(r.phi_in, r.Y2, [1, 2])[0]
         twice.append(math.hypot(amp_x[1], amp_y[1]))

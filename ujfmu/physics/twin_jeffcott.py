@@ -17,8 +17,9 @@ Potential and dissipation (Eqs. 6-7 with the torsional terms written as the shaf
     V = K1T (phi_in - theta1)^2/2 + K2T (psi - theta2)^2/2 + sum K X^2/2
     D = C1T (w_in - theta1')^2/2 + C2T (psi' - theta2')^2/2 + sum C X'^2/2
 psi = joint output angle, exact Hooke kinematics tan(psi) = cos(beta) tan(theta1) (paper Eq. 1, driving pin normal
-to the plane of the shafts at theta1 = 0), between the shafts' end sections turned by the bending slopes
-u = 3 X / L, v = 3 Y / L (end slope of a mid-span-loaded simply supported shaft) as rotation angles: the torque
+to the plane of the shafts at theta1 = 0), between the shafts' end sections, each turned exactly by its bending
+slope angle sqrt(u^2 + v^2) about the normal to its bending plane (u = 3 X / L, v = 3 Y / L: end slope of a
+mid-span-loaded simply supported shaft; Rodrigues' formula, so an aligned rotor stays axisymmetric): the torque
 the joint transmits then loads the shafts laterally (its secondary couple), which is what puts twice-running-speed
 components into the lateral response when beta != 0.
 """
@@ -88,38 +89,75 @@ def _disc_constants(mass, inertia, m_u, e):
     return dict(M=mass, J=inertia, a=a, m=m, jt=jt, j_eff=jt - a * a / m)
 
 
+def _tilt_coefficients(x):
+    """(S, F, S', F') of x = angle^2: S = sin(angle)/angle, F = (1 - cos(angle))/angle^2 and their derivatives
+    with respect to x. Taylor series below x = 1e-2, where the closed forms lose digits (a bent shaft's end slope
+    is far below that: the short series below x = 1e-4 is exact to rounding)."""
+    if x < 1e-4:
+        return (1.0 - x / 6.0 * (1.0 - x / 20.0), 0.5 - x / 24.0 * (1.0 - x / 30.0),
+                -1.0 / 6.0 + x / 60.0 - x * x / 1680.0, -1.0 / 24.0 + x / 360.0 - x * x / 13440.0)
+    if x < 1e-2:
+        return (1.0 - x / 6.0 * (1.0 - x / 20.0 * (1.0 - x / 42.0 * (1.0 - x / 72.0))),
+                0.5 - x / 24.0 * (1.0 - x / 30.0 * (1.0 - x / 56.0 * (1.0 - x / 90.0))),
+                -1.0 / 6.0 + x / 60.0 - x * x / 1680.0 + x ** 3 / 90720.0 - x ** 4 / 7983360.0,
+                -1.0 / 24.0 + x / 360.0 - x * x / 13440.0 + x ** 3 / 907200.0 - x ** 4 / 95800320.0)
+    angle = math.sqrt(x)
+    s, c = math.sin(angle) / angle, math.cos(angle)
+    f = 2.0 * math.sin(0.5 * angle) ** 2 / x
+    return s, f, (c - s) / (2.0 * x), (s - 2.0 * f) / (2.0 * x)
+
+
+def _tilt(k, a, b, x, y, z):
+    """R v and its derivatives d(R v)/da, d(R v)/db for v = (x, y, z) and the rotation R = exp([r]x) by the tilt
+    vector r = (a, b, 0) (Rodrigues: R v = v + S r x v + F r x (r x v), k = _tilt_coefficients(a^2 + b^2))."""
+    s, f, ds, df = k
+    m = a * y - b * x                  # (r x v)_z
+    n = s * z + f * m
+    c = 1.0 - f * (a * a + b * b)      # cos(angle)
+    rv = (x + b * n, y - a * n, c * z + s * m)
+    g = 2.0 * (ds * z + df * m)
+    n_a = a * g + f * y
+    n_b = b * g - f * x
+    h = 2.0 * ds * m - s * z
+    d_a = (b * n_a, -n - a * n_a, a * h + s * y)
+    d_b = (n + b * n_b, -a * n_b, b * h - s * x)
+    return rv, d_a, d_b
+
+
 def joint(p, theta1, u1, v1, u2, v2):
     """(psi, dpsi/dtheta1, dpsi/du1, dpsi/dv1, dpsi/du2, dpsi/dv2): Hooke joint output angle.
 
-    Primary end section R_x(v1) R_y(-u1) (its axis tilted to about (-u1, -v1, 1)), driving pin
-    e1 = R_x(v1) R_y(-u1) R_z(theta1) (0, 1, 0); secondary frame R_y(beta) R_x(-v2) R_y(u2) (its end section tilted
-    to about (u2, v2, 1) in the secondary frame). In that frame p = R_y(-u2) R_x(v2) R_y(-beta) e1 and the driven
-    pin is z x p, so psi = atan2(-p_x, p_y): tan(psi) = cos(beta) tan(theta1) without tilts (paper Eq. 1).
-    psi - theta1 is evaluated as one atan2, so psi is continuous over revolutions.
+    Each bent end section is turned by its slope angle about the normal to its bending plane, exactly: the
+    primary end by R1 = exp([(v1, -u1, 0)]x) (axis tilted towards (-u1, -v1)), the secondary end, in the secondary
+    shaft's frame R_y(beta), by R2 = exp([(-v2, u2, 0)]x) (axis towards (u2, v2)). Driving pin
+    e1 = R1 R_z(theta1) (0, 1, 0); in the secondary end frame p = R2^T R_y(-beta) e1 and the driven pin is z x p, so
+    psi = atan2(-p_x, p_y): tan(psi) = cos(beta) tan(theta1) without tilts (paper Eq. 1). psi - theta1 is
+    evaluated as one atan2, so psi is continuous over revolutions. Derivatives are analytic (Rodrigues'
+    formula differentiated, `_tilt`); a change d of e1 changes psi by w . d with
+    w = R_y(beta) R2 (-p_y, p_x, 0) / (p_x^2 + p_y^2), the gradient carried back through the rotations.
     """
     s, c = math.sin(theta1), math.cos(theta1)
-    su1, cu1, sv1, cv1 = math.sin(u1), math.cos(u1), math.sin(v1), math.cos(v1)
-    t = (p.sin_beta, p.cos_beta, math.sin(u2), math.cos(u2), math.sin(v2), math.cos(v2))
-    px, py, rx, ry, rz, mz = _to_secondary(t, -cu1 * s, cv1 * c + sv1 * su1 * s, sv1 * c - cv1 * su1 * s)
+    sb, cb = p.sin_beta, p.cos_beta
+    k1 = _tilt_coefficients(u1 * u1 + v1 * v1)
+    k2 = _tilt_coefficients(u2 * u2 + v2 * v2)
+    e1, e1_a, e1_b = _tilt(k1, v1, -u1, -s, c, 0.0)
+    # p = R2^T r with r = R_y(-beta) e1; R2^T = exp([(v2, -u2, 0)]x)
+    p_, p_a, p_b = _tilt(k2, v2, -u2, cb * e1[0] - sb * e1[2], e1[1], sb * e1[0] + cb * e1[2])
+    px, py = p_[0], p_[1]
     den = px * px + py * py
     psi = theta1 + math.atan2(-px * c - py * s, py * c - px * s)
-    dth = _to_secondary(t, -cu1 * c, -cv1 * s + sv1 * su1 * c, -sv1 * s - cv1 * su1 * c)
-    du1 = _to_secondary(t, su1 * s, sv1 * cu1 * s, -cv1 * cu1 * s)
-    dv1 = _to_secondary(t, 0.0, -sv1 * c + cv1 * su1 * s, cv1 * c + sv1 * su1 * s)
-    su2, cu2, sv2, cv2 = t[2:]
-    dmz_dv2 = cv2 * ry - sv2 * rz
-    return (psi, (px * dth[1] - py * dth[0]) / den, (px * du1[1] - py * du1[0]) / den,
-            (px * dv1[1] - py * dv1[0]) / den, py * (su2 * rx + cu2 * mz) / den,
-            (px * (-sv2 * ry - cv2 * rz) + py * su2 * dmz_dv2) / den)
-
-
-def _to_secondary(t, x, y, z):
-    """(p_x, p_y, r_x, r_y, r_z, m_z) of p = R_y(-u2) R_x(v2) r, r = R_y(-beta) (x, y, z); t = sin/cos of beta,
-    u2, v2."""
-    sb, cb, su2, cu2, sv2, cv2 = t
-    rx, rz = cb * x - sb * z, sb * x + cb * z
-    mz = sv2 * y + cv2 * rz
-    return cu2 * rx - su2 * mz, cv2 * y - sv2 * rz, rx, y, rz, mz
+    # w = R_y(beta) R2 (-p_y, p_x, 0) / den; R2 = exp([(-v2, u2, 0)]x) on a vector without z component
+    qx, qy = -py / den, px / den
+    m = -v2 * qy - u2 * qx
+    n = k2[1] * m
+    qx, qy, qz = qx + u2 * n, qy + v2 * n, k2[0] * m
+    wx, wy, wz = cb * qx + sb * qz, qy, cb * qz - sb * qx
+    # dpsi/dtheta1 = w . R1 (-c, -s, 0)
+    m = -v1 * s - u1 * c
+    n = k1[1] * m
+    return (psi, wx * (-c - u1 * n) + wy * (-s - v1 * n) + wz * k1[0] * m,
+            -(wx * e1_b[0] + wy * e1_b[1] + wz * e1_b[2]), wx * e1_a[0] + wy * e1_a[1] + wz * e1_a[2],
+            -(px * p_b[1] - py * p_b[0]) / den, (px * p_a[1] - py * p_a[0]) / den)
 
 
 def _disc_accelerations(d, angle, w, q_theta, q_x, q_y):

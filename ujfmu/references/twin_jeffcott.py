@@ -1,10 +1,12 @@
 """Monolithic reference for Motor -> TwinJeffcottRotor(s) -> Load(s).
 
 Independent of the co-simulation and of ujfmu.physics.twin_jeffcott, it starts again from geometry and energy:
-- the joint from exact rotation matrices (sympy): the primary end section R_x(v1) R_y(-u1), the secondary frame
-  R_y(beta) R_x(-v2) R_y(u2), with the bending end slopes u = 3 X / L, v = 3 Y / L as rotation angles (the FMU
-  linearises these small rotations); the driving pin e1 = R_a R_z(theta1) (0, 1, 0), the driven pin normal to e1
-  and to the secondary axis, and the output angle psi read off in the secondary frame;
+- the joint from exact rotation matrices (sympy): each bent end section turned by its slope angle about the
+  normal to its bending plane, R = I + S K + F K^2 (Rodrigues; K the cross-product matrix of the rotation vector,
+  S = sin(a)/a, F = (1 - cos a)/a^2 as functions of a^2 so that they stay regular at zero tilt), the primary end
+  R(v1, -u1), the secondary frame R_y(beta) R(-v2, u2), with the bending end slopes u = 3 X / L, v = 3 Y / L; the
+  driving pin e1 = R_a R_z(theta1) (0, 1, 0), the driven pin normal to e1 and to the secondary axis, and the output
+  angle psi read off in the secondary frame;
 - the kinetic energy from the velocities of disc centres and unbalance masses, the potential and the Rayleigh
   function of docs/twin_jeffcott.md as sympy expressions, and Lagrange's equations M(q) q'' = f(q, q', t) formed by
   sympy's differentiation (q = theta1, X1, Y1, theta2, X2, Y2; the input angle prescribed for an ideal speed
@@ -15,6 +17,7 @@ Independent of the co-simulation and of ujfmu.physics.twin_jeffcott, it starts a
 """
 
 import functools
+import math
 
 import numpy as np
 import sympy as sp
@@ -27,16 +30,75 @@ _PARAMS = ("beta", "M1", "M2", "J_M1", "J_M2", "J_gb", "m_u1", "m_u2", "e", "pha
            "K1X", "K1Y", "K2X", "K2Y", "C1X", "C1Y", "C2X", "C2Y", "K1T", "K2T", "C1T", "C2T", "L1", "L2")
 
 
-def _rx(a):
-    return sp.Matrix([[1, 0, 0], [0, sp.cos(a), -sp.sin(a)], [0, sp.sin(a), sp.cos(a)]])
-
-
 def _ry(a):
     return sp.Matrix([[sp.cos(a), 0, sp.sin(a)], [0, 1, 0], [-sp.sin(a), 0, sp.cos(a)]])
 
 
 def _rz(a):
     return sp.Matrix([[sp.cos(a), -sp.sin(a), 0], [sp.sin(a), sp.cos(a), 0], [0, 0, 1]])
+
+
+def _analytic_in_square(series, closed):
+    """A numpy function of x = a^2 from its Taylor series (used for x < 1e-3) and its closed form in a (else)."""
+    def evaluate(x):
+        if np.ndim(x) == 0:   # the ODE right-hand side: scalars, kept cheap
+            x = float(x)
+            return series(x) if x < 1e-3 else closed(x, math.sqrt(x))
+        x = np.asarray(x, float)
+        safe = np.maximum(x, 1e-3)
+        return np.where(x < 1e-3, series(x), closed(safe, np.sqrt(safe)))
+    return evaluate
+
+
+def _sinc(x, a):
+    return np.sin(a) / a
+
+
+def _versine(x, a):
+    return 2 * np.sin(a / 2) ** 2 / x
+
+
+#: sin(a)/a, (1 - cos a)/a^2 and their derivatives with respect to x = a^2
+_sinc_sq = _analytic_in_square(lambda x: 1 - x / 6 + x ** 2 / 120 - x ** 3 / 5040 + x ** 4 / 362880, _sinc)
+_versine_sq = _analytic_in_square(lambda x: 1 / 2 - x / 24 + x ** 2 / 720 - x ** 3 / 40320 + x ** 4 / 3628800,
+                                  _versine)
+_sinc_sq_dx = _analytic_in_square(lambda x: -1 / 6 + x / 60 - x ** 2 / 1680 + x ** 3 / 90720 - x ** 4 / 7983360,
+                                  lambda x, a: (np.cos(a) - _sinc(x, a)) / (2 * x))
+_versine_sq_dx = _analytic_in_square(
+    lambda x: -1 / 24 + x / 360 - x ** 2 / 13440 + x ** 3 / 907200 - x ** 4 / 95800320,
+    lambda x, a: (_sinc(x, a) - 2 * _versine(x, a)) / (2 * x))
+
+
+class SincSq(sp.Function):
+    """sin(sqrt(x)) / sqrt(x), analytic in x (symbolic stand-in; numbers from _sinc_sq)."""
+
+    def fdiff(self, argindex=1):
+        return SincSqDx(self.args[0])
+
+
+class SincSqDx(sp.Function):
+    pass
+
+
+class VersineSq(sp.Function):
+    """(1 - cos(sqrt(x))) / x, analytic in x."""
+
+    def fdiff(self, argindex=1):
+        return VersineSqDx(self.args[0])
+
+
+class VersineSqDx(sp.Function):
+    pass
+
+
+_NUMERIC = {"SincSq": _sinc_sq, "SincSqDx": _sinc_sq_dx, "VersineSq": _versine_sq, "VersineSqDx": _versine_sq_dx}
+
+
+def _tilt(a, b):
+    """Rotation by the vector (a, b, 0): Rodrigues, R = I + S K + F K^2 with K its cross-product matrix."""
+    k = sp.Matrix([[0, 0, b], [0, 0, -a], [-b, a, 0]])
+    angle_sq = a ** 2 + b ** 2
+    return sp.eye(3) + SincSq(angle_sq) * k + VersineSq(angle_sq) * k * k
 
 
 @functools.lru_cache(maxsize=None)
@@ -65,8 +127,8 @@ def _equations():
     # joint output angle from rotation matrices
     u1, v1 = 3 * x1 / pr["L1"], 3 * y1 / pr["L1"]
     u2, v2 = 3 * x2 / pr["L2"], 3 * y2 / pr["L2"]
-    e1 = _rx(v1) * _ry(-u1) * _rz(th1) * sp.Matrix([0, 1, 0])
-    p = (_ry(pr["beta"]) * _rx(-v2) * _ry(u2)).T * e1
+    e1 = _tilt(v1, -u1) * _rz(th1) * sp.Matrix([0, 1, 0])
+    p = (_ry(pr["beta"]) * _tilt(-v2, u2)).T * e1
     c, s = sp.cos(th1), sp.sin(th1)
     psi = th1 + sp.atan2(-p[0] * c - p[1] * s, p[1] * c - p[0] * s)
     dpsi = sum(sp.diff(psi, qi) * wi for qi, wi in zip(q, qd))
@@ -84,7 +146,8 @@ def _equations():
     shaft2 = pr["K2T"] * twist2 + pr["C2T"] * (dpsi - qd[3])
     args = (q, qd, phi_in, w_in, tau_load, params)
     outputs = [shaft1, shaft2, kinetic + potential, 2 * rayleigh]
-    return (sp.lambdify(args, [mass, force], "numpy", cse=True), sp.lambdify(args, outputs, "numpy", cse=True))
+    modules = [_NUMERIC, "numpy"]
+    return (sp.lambdify(args, [mass, force], modules, cse=True), sp.lambdify(args, outputs, modules, cse=True))
 
 
 class RotorReference:

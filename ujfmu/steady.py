@@ -1,0 +1,187 @@
+"""Steady state of a running co-simulation: settle until the response repeats, check the operating point, measure.
+
+A sweep point (``ujfmu.sweep.run_point``) settles for ``settle_time``, then records ``revolutions`` whole
+revolutions and reduces each output to its figures. Whether it was steady is measured, not assumed:
+
+- **Steady-state criterion.** The figures that do not depend on where the samples fall in a revolution (the mean and
+  the amplitudes of the requested running-speed orders of every output and of the running speed, from one
+  least-squares fit of orders 0..max(8, 2 x the highest requested), so that other orders do not leak in) are
+  measured over back-to-back windows of the same number of revolutions from 3T/4 to T. The point is steady when
+  every such figure f of the last window agrees with those of every earlier one, |f(T) - f(t)| <= steady_tol *
+  max(|f(T)|, FLOOR * largest figure of that output) (a response that only beats, never settling, then shows its
+  variation within the quarter). A transient decaying as exp(-sigma t) changes by A exp(-sigma T) (exp(sigma T/4) -
+  1) between 3T/4 and T and leaves A exp(-sigma T) at T: once sigma T >= 4 ln 2 = 2.8 the error left is below the
+  change measured. Otherwise T grows by GROWTH (1.5x), up to ``max_settle_time`` (default 8x the first T), so any
+  decay slower than that shows as a change. T is at least four windows long. A decay or drift much slower than 1/T
+  changes too little within the last quarter to be seen, so the first T must be of the order of the slowest time
+  constant: where a model's slowest decay rate is known (``analysis.decay_rates`` of its linearisation), a settle
+  time of 2.8 / sigma or more makes the check decisive (the report does this for the twin rotor).
+- **Operating point.** Each (signal, set point) pair, e.g. a Motor's ``omega`` and ``omega_ref``, must agree in
+  the mean over the measured window within ``operating_tol`` of the set point; a saturated drive that never
+  reaches its speed is flagged, not measured as if it had.
+
+Statuses: ``ok``; ``not_steady`` (figures kept, with the residual change); ``off_target`` (figures kept, the
+signal and set point named); ``error`` (the point failed; message kept).
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .analysis import order_fit
+
+OK, NOT_STEADY, OFF_TARGET, ERROR = "ok", "not_steady", "off_target", "error"
+#: statuses whose figures are a result of the requested settings (rerunning gives the same); `error` is retried
+FINAL = (OK, NOT_STEADY, OFF_TARGET)
+STATUSES = FINAL + (ERROR,)
+#: figures smaller than this fraction of their output's largest figure are compared in absolute terms
+FLOOR = 1e-2
+FIGURES = ("max", "min", "p2p", "mean", "rms")
+#: factor by which the settle time grows while a point is not steady
+GROWTH = 1.5
+
+
+@dataclass
+class Window:
+    """One measured window: the running angle and the recorded signals over whole revolutions."""
+    start: float
+    angle: np.ndarray
+    table: np.ndarray
+
+
+def record_window(cosim, running_speed: str, revolutions: float) -> Window:
+    """Record ``revolutions`` revolutions of the running speed read at the current point (at least 8 steps)."""
+    now = np.empty(len(cosim.columns))
+    cosim.read(now)
+    speed = now[cosim.columns.index(running_speed)]
+    if not (math.isfinite(speed) and abs(speed) > 1e-9):
+        raise ValueError(f"running speed {running_speed} = {speed!r} rad/s at t = {cosim.time:g} s: no revolutions "
+                         "to measure over")
+    h = cosim.step_size
+    start = cosim.time
+    table = cosim.run(max(8, int(math.ceil(revolutions * 2.0 * math.pi / abs(speed) / h))))
+    w = table[running_speed]
+    angle = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * h)))
+    return Window(start, angle, table)
+
+
+def fitted_orders(window: Window, orders) -> range:
+    """Orders 1..K fitted together: K = max(8, 2 max(orders)) so that unrequested orders do not leak into the
+    requested ones or the mean, fewer if a revolution has too few samples (but at least max(orders))."""
+    per_revolution = len(window.angle) * 2.0 * math.pi / max(abs(window.angle[-1] - window.angle[0]), 1e-300)
+    return range(1, max(max(orders), min(max(8, 2 * max(orders)), int(per_revolution / 2.0) - 1)) + 1)
+
+
+def figures(window: Window, outputs, orders) -> dict:
+    """{"out.max", "out.min", "out.p2p", "out.mean", "out.rms", "out.h<k>"} of a window: extremes and RMS of the
+    samples, mean and order amplitudes from the fit of ``fitted_orders`` (exact for a periodic signal, wherever
+    the window's ends fall)."""
+    result = {}
+    fitted = fitted_orders(window, orders)
+    for out in outputs:
+        y = window.table[out]
+        c0, amps, _ = order_fit(window.angle, y, fitted)
+        values = dict(max=y.max(), min=y.min(), p2p=np.ptp(y), mean=c0, rms=math.sqrt(np.mean(y * y)))
+        values.update({f"h{k}": amps[k - 1] for k in orders})
+        result.update({f"{out}.{k}": float(v) for k, v in values.items()})
+    return result
+
+
+def periodic_figures(window: Window, signals, orders) -> dict:
+    """{signal: [mean, amplitude of each order]} from one fit of ``fitted_orders`` (criterion above)."""
+    fitted = fitted_orders(window, orders)
+    result = {}
+    for name in signals:
+        c0, amplitudes, _ = order_fit(window.angle, window.table[name], fitted)
+        result[name] = [float(c0)] + [float(amplitudes[k - 1]) for k in orders]
+    return result
+
+
+def steady_change(new: dict, old: dict) -> tuple:
+    """(largest change relative to its allowance, 'signal figure') between two windows' ``periodic_figures``;
+    <= steady_tol means steady (module docstring)."""
+    worst, name = 0.0, ""
+    for signal, figures_new in new.items():
+        scale = max(abs(f) for f in figures_new)
+        for i, (f_new, f_old) in enumerate(zip(figures_new, old[signal])):
+            allowance = max(abs(f_new), FLOOR * scale)
+            change = abs(f_new - f_old)
+            relative = change / allowance if allowance > 0 else (0.0 if change == 0 else math.inf)
+            if not relative <= worst:
+                worst, name = relative, f"{signal} {'mean' if i == 0 else 'order amplitude'}"
+    return worst, name
+
+
+def halves_change(angle, table, signals, orders=(1, 2, 4)) -> tuple:
+    """``steady_change`` between the first and the second half of a record (angle: the running angle of each
+    sample, table: a structured array with the signals): for a test that waited a fixed time, whether its
+    record repeats."""
+    half = len(angle) // 2
+    first, second = (Window(0.0, np.asarray(angle[part]), table[part]) for part in (slice(0, half), slice(half, None)))
+    return steady_change(periodic_figures(second, signals, orders), periodic_figures(first, signals, orders))
+
+
+def settle_and_measure(cosim, settings) -> dict:
+    """Settle the co-simulation, check steadiness and the operating point, measure; returns the record fields:
+    the figures, ``status``, ``error`` (the reason for a status other than ok), ``settled_s`` (the settle time
+    used) and ``steady_change`` (the criterion's value, <= steady_tol when steady)."""
+    s = settings
+    h = cosim.step_size
+    record = {}
+    if not s.steady_tol:   # no steady-state check asked for (a measurement during a transient)
+        cosim.advance(int(round(s.settle_time / h)))
+        window = record_window(cosim, s.running_speed, s.revolutions)
+        record.update(_measured(window, s), settled_s=window.start - cosim.start_time, steady_change=math.nan)
+        return _check_operating_point(window, s, record)
+    signals = list(dict.fromkeys(s.outputs + [s.running_speed]))
+    start = cosim.time
+    settle, cap = s.settle_time, None
+    while True:
+        cosim.advance(max(0, int(round((start + 0.75 * settle - cosim.time) / h))))
+        window = record_window(cosim, s.running_speed, s.revolutions)
+        if cap is None:   # the first window fixes the shortest settle time and the default cap
+            settle = max(settle, 4.0 * (window.table["time"][-1] - window.table["time"][0]))
+            cap = s.max_settle_time if s.max_settle_time is not None else 8.0 * settle
+        earlier = [periodic_figures(window, signals, s.orders)]
+        while True:   # back-to-back windows until one starts at T or later
+            window = record_window(cosim, s.running_speed, s.revolutions)
+            earlier.append(periodic_figures(window, signals, s.orders))
+            if window.start >= start + settle - 0.5 * h:
+                break
+        change, worst = max(steady_change(earlier[-1], old) for old in earlier[:-1])
+        if change <= s.steady_tol or GROWTH * settle > cap * (1.0 + 1e-9):
+            break
+        settle *= GROWTH
+    record.update(_measured(window, s), settled_s=window.start - start, steady_change=change)
+    if change <= s.steady_tol:
+        record.update(status=OK, error="")
+    else:
+        record.update(status=NOT_STEADY,
+                      error=f"not steady after {settle:g} s: the {worst} changed by {change:.3g} of itself "
+                            f"since {0.75 * settle:g} s (allowed {s.steady_tol:g}); raise max_settle_time "
+                            "(--max-settle) or check for an unstable or non-periodic response")
+    return _check_operating_point(window, s, record)
+
+
+def _measured(window, s):
+    out = figures(window, s.outputs, s.orders)
+    speed = window.table[s.running_speed]
+    out["speed_mean"] = float(order_fit(window.angle, speed, fitted_orders(window, s.orders))[0])
+    return out
+
+
+def _check_operating_point(window, s, record):
+    """Flag the point when a signal's mean misses its set point's mean by more than operating_tol."""
+    record.setdefault("status", OK)
+    record.setdefault("error", "")
+    for signal, target in s.operating_point:
+        value, goal = float(window.table[signal].mean()), float(window.table[target].mean())
+        if not abs(value - goal) <= s.operating_tol * max(abs(goal), 1e-12):
+            message = (f"operating point not reached: {signal} = {value:.6g} against its set point {target} = "
+                       f"{goal:.6g} ({100.0 * (value - goal) / max(abs(goal), 1e-12):+.1f}%, allowed "
+                       f"{100.0 * s.operating_tol:g}%); a drive at its torque limit cannot hold the speed: raise "
+                       "its torque limit or lower the load")
+            record["error"] = "; ".join(m for m in (message, record["error"]) if m)
+            record["status"] = OFF_TARGET
+    return record
