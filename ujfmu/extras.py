@@ -32,8 +32,9 @@ def available(module: str) -> bool:
 
 
 #: compiled modules of the extras that the tooling uses after FMUs are loaded (fmpy's validate_result needs
-#: scipy.ndimage; the reference generators scipy.integrate, scipy.special and sympy)
-PRELOAD = ("scipy.ndimage", "scipy.integrate", "scipy.special", "sympy")
+#: scipy.ndimage; the reference generators scipy.integrate, scipy.special and sympy; the tests scipy.linalg and
+#: scipy.spatial.transform)
+PRELOAD = ("scipy.ndimage", "scipy.integrate", "scipy.special", "scipy.linalg", "scipy.spatial.transform", "sympy")
 
 
 def preload() -> None:
