@@ -10,9 +10,9 @@ import math
 #: substep length times the fastest rate of the model (natural frequencies, decay rates, forcing harmonics).
 #: At w h = 0.5 classical RK4 keeps a free oscillation's amplitude to 1 - (w h)^6/144 = 1 - 1.1e-4 per substep
 #: (0.14% per period) and its frequency to (w h)^4/120 = 0.05%, and the rates fed in are upper bounds (the
-#: models' natural_rate bounds, 4x the running speed), so the actual modes see less. It was 0.15 until the
-#: benchmark of issue 6: every scenario's agreement with its reference is unchanged to the printed digits
-#: (`ujfmu check`), the worst scenario error stays below 0.81 of its tolerance, and the FMUs run 1.3-2x faster.
+#: models' natural_rate bounds, 4x the running speed), so the actual modes see less. Against 0.15, every
+#: scenario's agreement with its reference is the same to the printed digits (`ujfmu check`), the worst scenario
+#: error stays below 0.81 of its tolerance, and the FMUs run 1.3-2x faster.
 RATE_STEP = 0.5
 
 
