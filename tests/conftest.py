@@ -32,7 +32,7 @@ def pytest_unconfigure(config):
     pythonfmu 0.7.0 binaries stay loaded (they cannot be unloaded safely, docs/cosimulation.md), and tearing the
     interpreter down under them has now and then aborted the process after the last test ("corrupted
     double-linked list", SIGSEGV): a result already reported must not turn into a failing exit status."""
-    if _EXIT:
+    if _EXIT and not hasattr(config, "workerinput"):   # the main pytest process, not a pytest-xdist worker
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(_EXIT[-1])
