@@ -8,6 +8,7 @@ FMU executes and the calls it makes (sys.settrace sees the FMU's code, which run
 of its serialized FMU state. A per-step cost that grows with the run (a history kept and scanned, a list that
 grows) changes those counts; a busy machine does not."""
 
+import gc
 import math
 import sys
 from pathlib import Path
@@ -42,7 +43,9 @@ NO_STEADY_STATE = {"CardanJointTorqueDriven", "DoubleCardanDrivelineTorqueDriven
 
 
 class WorkCounter:
-    """Counts the Python lines executed and functions called while active (sys.settrace)."""
+    """Counts the Python lines executed and functions called while active (sys.settrace). The garbage collector
+    is run before and paused while counting: a collection inside the window would run the weakref callbacks of
+    objects other tests left behind (Python code, counted), a few lines now and then."""
 
     def __init__(self):
         self.counts = {"line": 0, "call": 0}
@@ -53,11 +56,14 @@ class WorkCounter:
         return self._trace
 
     def __enter__(self):
+        gc.collect()
+        gc.disable()
         sys.settrace(self._trace)
         return self
 
     def __exit__(self, *exc):
         sys.settrace(None)
+        gc.enable()
 
 
 @pytest.mark.parametrize("name", [n for n in FMUS if n not in NO_STEADY_STATE])
