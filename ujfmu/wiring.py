@@ -60,20 +60,27 @@ def with_changes(scenario: Scenario, changes: dict, step_size: float = None, sto
     return out
 
 
+def _run(scenario: Scenario, engine: str, fmu_dir) -> np.ndarray | None:
+    """The scenario's table from libcosim or our master's explicit scheme; None when it stopped (a component
+    refused a step, or the coupling went unstable)."""
+    try:
+        if engine == "libcosim":
+            from .libcosim_run import cosimulate_libcosim
+            return cosimulate_libcosim(scenario, Path(fmu_dir))
+        return cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
+                          scenario.step_size, scenario.record, coupling="explicit")
+    except (CosimulationError, RuntimeError):
+        return None
+
+
 def runs_stably(scenario: Scenario, engine: str = "master", fmu_dir=DEFAULT_FMU_DIR) -> bool:
     """True when the run completes with every recorded speed within 3x the largest reference speed of the
     motor's profile; False when a component refuses a step (a port left its range) or a speed exceeds that."""
     (params,) = [scenario.parameters_with_defaults(n) for n, (f, _) in scenario.components.items()
                  if f in ("Motor", "MotorController")]
     bound = 3.0 * max(abs(params["omega_set"]), abs(params["omega_initial"]), 1.0)
-    try:
-        if engine == "libcosim":
-            from .libcosim_run import cosimulate_libcosim
-            table = cosimulate_libcosim(scenario, Path(fmu_dir))
-        else:
-            table = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
-                               scenario.step_size, scenario.record, coupling="explicit")
-    except (CosimulationError, RuntimeError):
+    table = _run(scenario, engine, fmu_dir)
+    if table is None:
         return False
     speeds = [n for n in scenario.record if ".omega" in n]
     return all(np.all(np.abs(table[n]) < bound) for n in speeds)
@@ -82,14 +89,8 @@ def runs_stably(scenario: Scenario, engine: str = "master", fmu_dir=DEFAULT_FMU_
 def accuracy(scenario: Scenario, reference, engine: str, fmu_dir=DEFAULT_FMU_DIR) -> str:
     """'x% / y%': the largest error of the recorded speeds / torques against reference, in % of the reference's
     range (torque-driven names: tau_input_shaft for tau_in), or 'diverged'."""
-    try:
-        if engine == "libcosim":
-            from .libcosim_run import cosimulate_libcosim
-            table = cosimulate_libcosim(scenario, Path(fmu_dir))
-        else:
-            table = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
-                               scenario.step_size, scenario.record, coupling="explicit")
-    except (CosimulationError, RuntimeError):
+    table = _run(scenario, engine, fmu_dir)
+    if table is None:
         return "diverged"
     errors = {"omega": 0.0, "tau": 0.0}
     for name in scenario.record:
