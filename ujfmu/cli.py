@@ -61,9 +61,14 @@ def cmd_build(args):
     if unknown:
         raise UsageError(f"unknown FMU {', '.join(unknown)}; known: {', '.join(FMUS)}")
     names = args.names or list(FMUS)
+    fmu_dir = args.fmu_dir
+    if args.fmi == 3:   # FMI 3.0 (pythonfmu3): fmus/fmi3/ unless --fmu-dir says otherwise
+        from .build3 import DEFAULT_FMU3_DIR, build_all3 as build_all
+        if fmu_dir == DEFAULT_FMU_DIR:
+            fmu_dir = DEFAULT_FMU3_DIR
     with _progress(args, "building FMUs", "fmu") as progress:
         for i, name in enumerate(names):
-            path = build_all(args.fmu_dir, [name])[0]
+            path = build_all(fmu_dir, [name])[0]
             _say(args, f"built {path}")
             if progress:
                 progress(i + 1, len(names))
@@ -321,6 +326,10 @@ def main(argv=None):
 
     p = command("build", cmd_build, "build all FMUs into fmus/ (or --fmu-dir)")
     p.add_argument("names", nargs="*", help=f"FMUs to build, of {', '.join(FMUS)} (default: all)")
+    p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                   help="FMI version: 2 (default, FMI 2.0 Co-Simulation, pythonfmu) or 3 (FMI 3.0 Co-Simulation, "
+                        "plus Model Exchange where the model offers it, pythonfmu3; into fmus/fmi3/ unless "
+                        "--fmu-dir is given)")
     for name, func, helptext in (("run", cmd_run, "co-simulate one scenario, write CSV and PNG, compare"),
                                  ("check", cmd_check, "run every scenario against its reference")):
         p = command(name, func, helptext)
