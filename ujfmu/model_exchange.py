@@ -47,6 +47,7 @@ class MeInstance(FmuInstance3):
         self.slave.instantiate(loggingOn=True, logMessage=logger)
         self.instantiated = True
         self.nx = self.slave.getNumberOfContinuousStates()
+        self.time = 0.0
         self.buffer = (c_double * max(self.nx, 1))()
 
 
@@ -126,6 +127,9 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
                 for inst, part in parts:
                     inst.slave.getContinuousStateDerivatives(inst.buffer, inst.nx)
                     dx[part] = inst.buffer[:inst.nx]
+                    if not np.all(np.isfinite(dx[part])):   # the FMU logged why
+                        raise ModelExchangeError(f"component '{inst.name}' gave non-finite derivatives at t = "
+                                                 f"{inst.time!r}")
             except Exception as exc:    # from a C callback: make the solver fail, report the cause after it
                 failed("derivatives", exc)
                 dx[:] = np.nan
@@ -133,6 +137,7 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
         def set_time(t):
             for inst in instances.values():
                 inst.slave.setTime(t)
+                inst.time = t
 
         def get_nominals(ptr, n):
             np.ctypeslib.as_array(ptr, (n,))[:] = 1.0

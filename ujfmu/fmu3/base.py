@@ -19,8 +19,8 @@ releases the instance, its class and its log queue, and releases them again in f
 to fmi3Error): invalid parameters fail fmi3ExitInitializationMode with a logged error naming the parameter and
 its range (status fmi3Fatal; the objects released twice are pinned first, so the host survives and may free the
 instance); a bad input, step size or diverging step refuses fmi3DoStep with fmi3Discard and a logged error, the
-instance staying usable; in Model Exchange a non-finite or out-of-range input makes the derivative call fail the
-same way as an invalid parameter. Unlike pythonfmu 0.7.0, pythonfmu3 passes error messages to the host's logger
+instance staying usable; in Model Exchange a non-finite or out-of-range input gives NaN derivatives and a logged
+error naming it (the host's solver stops there). Unlike pythonfmu 0.7.0, pythonfmu3 passes error messages to the host's logger
 also with logging off.
 """
 
@@ -305,22 +305,26 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         self._core._stale = True
 
     def get_continuous_state_derivatives(self):
+        """The state derivatives; NaN for each, with the reason logged at error level, when the inputs are
+        non-finite or out of range or the equations fail (pythonfmu3 0.3.4 crashes the host on an exception here:
+        its C layer prints and clears the error before it checks for one). A host's solver then stops on them."""
         core = self._core
-        for name, lo, hi, var in core._input_bounds:
-            if not lo <= getattr(core, name) <= hi:   # NaN and inf fail too
-                self._raise_to_host(f"{core.modelName} '{self.instance_name}': derivatives at t = {self.time!r} "
-                                    f"refused: {var.check(getattr(core, name))}")
         try:
+            for name, lo, hi, var in core._input_bounds:
+                if not lo <= getattr(core, name) <= hi:   # NaN and inf fail too
+                    raise ValueError(var.check(getattr(core, name)))
+            if not core._initialized:
+                problems = core._problems()
+                if problems:
+                    raise ValueError("invalid parameters: " + "; ".join(problems))
             rates = [float(x) for x in self._continuous(self._states.derivatives)]
-        except ValueError:
-            raise
+            if not all(math.isfinite(x) for x in rates):
+                raise ValueError(f"they are not finite ({rates!r}): check the inputs and parameters")
+            return rates
         except Exception as exc:
-            self._raise_to_host(f"{core.modelName} '{self.instance_name}': derivatives at t = {self.time!r} "
-                                f"failed: {exc!r}")
-        if not all(math.isfinite(x) for x in rates):
-            self._raise_to_host(f"{core.modelName} '{self.instance_name}': derivatives at t = {self.time!r} are not "
-                                f"finite ({rates!r}): check the inputs and parameters")
-        return rates
+            self.log(f"{core.modelName} '{self.instance_name}': derivatives at t = {self.time!r} refused: {exc}",
+                     Fmi3Status.error)
+            return [math.nan] * len(self._states.names)
 
     def set_time(self, time):
         self.time = time
