@@ -64,6 +64,8 @@ def build_hint(fmu_dir) -> str:
     """The command that builds the FMUs into fmu_dir, for "not found" messages."""
     if Path(fmu_dir).absolute() == DEFAULT_FMU_DIR.absolute():
         return "run `ujfmu build` first"
+    if Path(fmu_dir).absolute() == (DEFAULT_FMU_DIR / "fmi3").absolute():
+        return "run `ujfmu build --fmi 3` first"
     return f"run `ujfmu build --fmu-dir {fmu_dir}` first"
 
 

@@ -62,10 +62,8 @@ def cmd_build(args):
         raise UsageError(f"unknown FMU {', '.join(unknown)}; known: {', '.join(FMUS)}")
     names = args.names or list(FMUS)
     fmu_dir = args.fmu_dir
-    if args.fmi == 3:   # FMI 3.0 (pythonfmu3): fmus/fmi3/ unless --fmu-dir says otherwise
-        from .build3 import DEFAULT_FMU3_DIR, build_all3 as build_all
-        if fmu_dir == DEFAULT_FMU_DIR:
-            fmu_dir = DEFAULT_FMU3_DIR
+    if args.fmi == 3:   # FMI 3.0 (pythonfmu3)
+        from .build3 import build_all3 as build_all
     with _progress(args, "building FMUs", "fmu") as progress:
         for i, name in enumerate(names):
             path = build_all(fmu_dir, [name])[0]
@@ -304,6 +302,12 @@ def _common(parser, suppress):
                              "output is not a terminal)")
 
 
+def _fmi(parser, helptext):
+    parser.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                        help=f"FMI version (default 2: FMI 2.0 Co-Simulation); 3: {helptext}, in fmus/fmi3/ "
+                             "unless --fmu-dir is given")
+
+
 def _out(parser, default, helptext):
     parser.add_argument("--out", type=Path, default=argparse.SUPPRESS, help=f"{helptext} (default: {default})")
     parser.set_defaults(out_default=Path(default))
@@ -326,10 +330,7 @@ def main(argv=None):
 
     p = command("build", cmd_build, "build all FMUs into fmus/ (or --fmu-dir)")
     p.add_argument("names", nargs="*", help=f"FMUs to build, of {', '.join(FMUS)} (default: all)")
-    p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
-                   help="FMI version: 2 (default, FMI 2.0 Co-Simulation, pythonfmu) or 3 (FMI 3.0 Co-Simulation, "
-                        "plus Model Exchange where the model offers it, pythonfmu3; into fmus/fmi3/ unless "
-                        "--fmu-dir is given)")
+    _fmi(p, "build FMI 3.0 FMUs (Co-Simulation, plus Model Exchange where the model offers it; pythonfmu3)")
     for name, func, helptext in (("run", cmd_run, "co-simulate one scenario, write CSV and PNG, compare"),
                                  ("check", cmd_check, "run every scenario against its reference")):
         p = command(name, func, helptext)
@@ -346,6 +347,7 @@ def main(argv=None):
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")
         _out(p, "results/", "output folder")
         p.add_argument("--no-plot", action="store_true")
+        _fmi(p, "run the FMI 3.0 Co-Simulation FMUs")
     p = command("references", cmd_references, "regenerate the reference CSV files of the scenarios")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p = command("sweep", cmd_sweep, "co-simulate a scenario over a parameter grid to steady state (dask)")
@@ -375,6 +377,7 @@ def main(argv=None):
     p = command("export-ssp", cmd_export_ssp, "write scenarios as SSP packages (SystemStructure.ssd + FMUs)")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     _out(p, "results/", "writes <scenario>.ssp here")
+    _fmi(p, "package the FMI 3.0 FMUs")
     p = command("bench", cmd_bench, "speed figures as ratios in one run: FMI floor, monolithic solve, sweeps")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p.add_argument("--no-sweep", action="store_true", help="skip the sweep figures (1 and 2 workers)")
@@ -411,6 +414,9 @@ def main(argv=None):
                      (" (FMUs go to --fmu-dir)" if args.command == "build" else ""))
     if "out" not in args:
         args.out = args.out_default
+    if getattr(args, "fmi", 2) == 3 and args.fmu_dir == DEFAULT_FMU_DIR:   # --fmi 3: fmus/fmi3/ by default
+        from .build3 import DEFAULT_FMU3_DIR
+        args.fmu_dir = DEFAULT_FMU3_DIR
     try:
         return args.func(args)
     except Exception as exc:  # a clear message, not a traceback, for user errors
