@@ -6,6 +6,7 @@ import sys
 import pytest
 
 from ujfmu.build import build_all
+from ujfmu.build3 import build_all3
 from ujfmu.extras import preload
 
 preload()   # the extras' compiled modules before any FMU is loaded (see ujfmu.extras.preload)
@@ -15,6 +16,14 @@ preload()   # the extras' compiled modules before any FMU is loaded (see ujfmu.e
 def fmu_dir(tmp_path_factory):
     dest = tmp_path_factory.mktemp("fmus")
     build_all(dest)
+    return dest
+
+
+@pytest.fixture(scope="session")
+def fmu3_dir(tmp_path_factory):
+    """Every FMI 3.0 FMU (ujfmu build --fmi 3), built once per session."""
+    dest = tmp_path_factory.mktemp("fmus3")
+    build_all3(dest)
     return dest
 
 
