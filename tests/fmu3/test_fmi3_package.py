@@ -107,3 +107,21 @@ def test_documentation_is_carried(fmu3_dir, name):
         page = zf.read("documentation/index.html").decode()
     assert "FMI 3.0" in page and "Feng" in page and "flange_a" in page
     assert ("Model Exchange" in page) == (name in STATES)
+
+
+@pytest.mark.parametrize("name", ["CardanJoint", "DoubleCardanDrivelineTorqueDriven"])
+def test_fmu_code_imports_only_the_standard_library_and_pythonfmu(fmu3_dir, name):
+    import ast
+    import sys
+    with zipfile.ZipFile(fmu3_dir / f"{name}.fmu") as zf:
+        code = {n: zf.read(n).decode() for n in zf.namelist() if n.endswith(".py")
+                and not n.startswith(("resources/pythonfmu/", "resources/pythonfmu3/"))}
+    assert any("/fmu3/" in n for n in code) and any("/physics/" in n for n in code)
+    allowed = set(sys.stdlib_module_names) | {"pythonfmu", "pythonfmu3"}
+    for path, text in code.items():
+        for node in ast.walk(ast.parse(text)):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
+                [node.module] if isinstance(node, ast.ImportFrom) and node.level == 0 else []
+            for module in names:
+                top = module.split(".")[0]
+                assert top in allowed or top.startswith("ujfmu3_"), f"{path} imports {module}"
