@@ -117,17 +117,17 @@ class Report:
 # --- Feng, Wang, Zhu: CardanJoint -----------------------------------------------------------------------------
 
 def feng(rep):
-    from .physics import cardan
+    from .models.cardan_joint import model as cardan
     joint = {v.name: v.start for v in fmu_class("CardanJoint").VARIABLES if v.causality == "parameter"}
     s = Section("Feng, Wang, Zhu: moments transmitted by one universal joint (CardanJoint)",
                 "Laboratory model (T0 = 0.3 N.m, J1 = 2.0e-7 kg.m^2, alpha = 30 rad/s^2, phi = 30 deg, beta = "
                 "gamma = 0.3 deg; the CardanJoint's defaults). Fig. 2 holds the *driving* torque at T0, whereas "
                 "the FMU is driven by a speed and loaded by a torque, so Fig. 2 is evaluated with the FMU's own "
-                "equations (`ujfmu.physics.cardan.transmitted_moment`, Eq. 10) over one revolution at net torque "
+                "equations (`ujfmu.models.cardan_joint.model.transmitted_moment`, Eq. 10) over one revolution at net torque "
                 "T0 - J1 alpha. Fig. 3 runs the FMU (scenario `cardan_constant_speed`, constant 0.3 N.m load) on "
                 "start-up ramps of 10, 30 and 50 rad/s^2 from rest, measured over one revolution after 1 s: with "
                 "the load torque fixed, the transmitted torque's fluctuation shows up in the driving torque "
-                "tau_in. Derivations: [cardan_joint.md](cardan_joint.md).")
+                "tau_in. Derivations: [cardan_joint/README.md](../ujfmu/models/cardan_joint/README.md).")
     frame = cardan.joint_frame(joint["bend_angle"], joint["bend_plane_angle"], joint["error_angle_beta"],
                                joint["error_angle_gamma"])
     net = 0.3 - joint["J1"] * 30.0
@@ -165,7 +165,7 @@ def brutti(rep):
                 "10 deg, yokes in phase) against the fan load M_u = c w^2, c = 0.017 N.m.s^2, in scenario "
                 "`double_cardan_brutti_rigid`, at 2000 and 4000 rpm (ideal source). The paper's torque plots "
                 "(Figs. 2, 4, 5) are not in the text; its only number is M_u \"about 750 N.m\" at 2000 rpm. "
-                "Derivation: [double_cardan.md](double_cardan.md).")
+                "Derivation: [double_cardan_driveline/README.md](../ujfmu/models/double_cardan_driveline/README.md).")
     pts, _ = rep.sweep("double_cardan_brutti_rigid", "brutti_speeds", ["motor.omega_set=2000,4000rpm"],
                        outputs=["driveline.tau_in", "load.tau"], running_speed="motor.omega", settle_time=0.02,
                        revolutions=2)
@@ -194,7 +194,7 @@ def omar(rep):
                 "revolutions are measured); critical speeds are the parabola-refined maxima. Figs. "
                 "4-8 are one grid over beta0 = 15, 20, 25, 30 deg; Table 2 is a grid over the load at our two "
                 "critical speeds; Figs. 11-12 sweep 150-650 rpm at the two other lateral stiffnesses. "
-                "Derivation: [double_cardan.md](double_cardan.md).")
+                "Derivation: [double_cardan_driveline/README.md](../ujfmu/models/double_cardan_driveline/README.md).")
     s.row("torsional natural frequency sqrt(k_theta/J_load)", OMAR["omega_torsional"],
           math.sqrt(table1["k_theta"] / table1["J_load"]), "rad/s", "reproduced (closed form)")
     s.row("lateral natural frequency sqrt(k_phi/m_s)", OMAR["omega_lateral"],
@@ -276,7 +276,7 @@ def twin_decay_rates(parameters: dict) -> np.ndarray:
     """Decay rates [1/s] of the TwinJeffcottRotor's free modes, slowest first: eigenvalues of its equations
     linearised at rest with the input held (an ideal speed source), no load (``analysis.decay_rates``)."""
     from .analysis import decay_rates
-    from .physics import twin_jeffcott as tj
+    from .models.twin_jeffcott_rotor import model as tj
     p = tj.TwinRotor(**{n: parameters[n] for n in tj.TwinRotor.PARAMETERS})
     return decay_rates(lambda y: tj.derivatives(p, 0.0, 0.0, 0.0, list(y) + [0.0, 0.0], 0.0)[:12], np.zeros(12))
 
@@ -299,12 +299,12 @@ def tchomeni(rep):
                         outputs=outputs, running_speed="motor.omega", settle_time=settle, revolutions=8)
     s = Section("Tchomeni, Alugongo, Masu: two unbalanced Jeffcott rotors through a Hooke joint (TwinJeffcottRotor)",
                 "The paper publishes no parameter table and no numbers; its claims are qualitative. Default rig "
-                "(docs/twin_jeffcott.md) in scenario `twin_jeffcott_steady` at 100 rad/s with 2 N.m, swept over "
+                "(ujfmu/models/twin_jeffcott_rotor/README.md) in scenario `twin_jeffcott_steady` at 100 rad/s with 2 N.m, swept over "
                 f"the joint angle. The slowest free mode of the linearised rotor (its first torsional mode) decays "
                 f"at sigma = {sigma:.3f} 1/s, so each point settles at least T = (4/3) ln(1/steady_tol) / sigma = "
                 f"{settle:.1f} s (a start transient of relative size 1 then changes by less than steady_tol = "
                 f"{tol:g} between 3T/4 and T), is checked for steady state and settled in {settled_text(sw)}; then "
-                "8 revolutions are measured. Derivation: [twin_jeffcott.md](twin_jeffcott.md).")
+                "8 revolutions are measured. Derivation: [twin_jeffcott_rotor/README.md](../ujfmu/models/twin_jeffcott_rotor/README.md).")
     rows = [pts[(math.radians(b),)] for b in betas]
     ratios = [r["rotor.X2.h2"] / r["rotor.X2.h1"] for r in rows]
     s.row("2x running-speed component of disc 2 appears with misalignment (2x / 1x of X2 at beta = 0, 5, 10, "
@@ -341,14 +341,14 @@ def tchomeni(rep):
                   zip(result.extra_plots, ("orbits, beta = 0 vs 10 deg", "spectra in running-speed orders"))]
     s.notes = ("The aligned orbits are circles to the accuracy of the steady-state check, and exactly so in the "
                "model (an axisymmetric rotor: the bent shaft ends turn about the normals of their bending planes; "
-               "tests/physics/test_twin_jeffcott.py shows it to round-off).")
+               "tests/models/twin_jeffcott_rotor/test_twin_jeffcott_rotor_model.py shows it to round-off).")
     return s
 
 
 # --- Turla, Iljin: RingCoupling -------------------------------------------------------------------------------
 
 def turla(rep):
-    from .physics import ring_coupling as rc
+    from .models.ring_coupling import model as rc
     sc = Scenario(SCENARIOS / "ring_coupling_fig3.toml")
     p = sc.parameters_with_defaults("coupling")
     s = Section("Turla, Iljin: elastic centrifugal ring coupling between misaligned shafts (RingCoupling)",
@@ -357,7 +357,7 @@ def turla(rep):
                 "steady-state check) swept over the running speed; Fig. 4's limits from the three rings of "
                 "scenario `ring_coupling_speed_study` (c_s = 87 "
                 "EI/R, 10% damping) swept at constant speeds. Eq. (20): amplitude 39.25 e^2 EI/(w^2 I2 R^3). "
-                "Derivation: [ring_coupling.md](ring_coupling.md).")
+                "Derivation: [ring_coupling/README.md](../ujfmu/models/ring_coupling/README.md).")
 
     def eq20(q, w):
         return rc.small_parameter_amplitude(q["E"], q["d"], q["R"], q["e"], q["I2"], w)

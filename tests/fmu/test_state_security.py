@@ -127,13 +127,14 @@ def forge(name, blob, change, build=None):
     state = base.decode_state(cls, blob)
     fields = dict(state.fields)
     change(fields)
-    saved = list(base._BUILD)
+    saved = dict(base._BUILD)
     if build:
-        base._BUILD[:] = [build]
+        base._BUILD[base.model_stem(cls.__module__)] = build
     try:
         return base.encode_state(base.FmuState(cls, fields))
     finally:
-        base._BUILD[:] = saved
+        base._BUILD.clear()
+        base._BUILD.update(saved)
 
 
 class Payload:
@@ -291,7 +292,7 @@ def test_json_bombs_are_rejected(pair):
     inst, log, _ = pair("Load")
     for text in ("[" * 100000 + "]" * 100000, '{"a": ' + "9" * 5000 + "}", '{"_stale": true, "_stale": false}',
                  "\udc80", "[]"):
-        blob = base.frame_state(b"Load", base.build_digest().encode(), text.encode(errors="surrogatepass"))
+        blob = base.frame_state(b"Load", base.build_digest("load").encode(), text.encode(errors="surrogatepass"))
         check_rejected(inst, log, blob, "fields")
 
 

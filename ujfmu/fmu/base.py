@@ -120,7 +120,7 @@ class UjfmuSlave(Fmi2Slave):
     communication point whatever order the host sets inputs in.
     """
 
-    PHYSICS = None  # the ujfmu.physics module holding the model's equations (documentation)
+    PHYSICS = None  # the model's equations module, ujfmu.models.<stem>.model (documentation)
     VARIABLES = ()
     DEFAULT_EXPERIMENT = (0.0, 1.0, 1e-3)  # start, stop, step
     author = "ujfmu"
@@ -382,32 +382,51 @@ def _normalize(kind, value):
     return value
 
 
-_BUILD = []
+_BUILD = {}
 
 
-def sources_digest():
-    """SHA-256 (hex, 16 digits) of the runtime sources as they are now (ujfmu/fmu and ujfmu/physics, as shipped
-    in every FMU)."""
+def model_stem(module: str) -> str:
+    """The model folder of an FMU class declared in module ``ujfmu.models.<stem>.fmu`` (or the same below an FMU's
+    runtime package)."""
+    parts = module.split(".")
+    if len(parts) < 3 or parts[-3] != "models":
+        raise ValueError(f"{module} is not a model's FMU declaration (models/<stem>/fmu.py)")
+    return parts[-2]
+
+
+_ROOT = Path(__file__).resolve().parent.parent   # ujfmu, or an FMU's runtime package
+
+
+def runtime_files(stem: str, root: Path = _ROOT) -> list:
+    """Paths, relative to the runtime package root, of everything an FMU of model ``stem`` ships: the shared FMI
+    plumbing (``fmu/``) and its own model folder's equations and declaration (``models/<stem>/``)."""
+    shared = sorted(p.name for p in (root / "fmu").glob("*.py"))
+    return ([f"fmu/{name}" for name in shared] + ["models/__init__.py"]
+            + [f"models/{stem}/{name}" for name in ("__init__.py", "model.py", "fmu.py")])
+
+
+def sources_digest(stem: str, root: Path = _ROOT) -> str:
+    """SHA-256 (hex, 16 digits) of the runtime sources of model ``stem`` as they are now: exactly the files its
+    FMU ships (``runtime_files``)."""
     digest = hashlib.sha256()
-    root = Path(__file__).resolve().parent.parent
-    for sub in ("fmu", "physics"):
-        for path in sorted((root / sub).glob("*.py")):
-            digest.update(f"{sub}/{path.name}\0".encode() + path.read_bytes() + b"\0")
+    for rel in runtime_files(stem, root):
+        digest.update(f"{rel}\0".encode() + (root / rel).read_bytes() + b"\0")
     return digest.hexdigest()[:16]
 
 
-def build_digest():
-    """The sources digest of this build, read once: a state is restored only by the build that saved it."""
-    if not _BUILD:
-        _BUILD.append(sources_digest())
-    return _BUILD[0]
+def build_digest(stem: str) -> str:
+    """The sources digest of this build of model ``stem``, read once: a state is restored only by the build that
+    saved it."""
+    if stem not in _BUILD:
+        _BUILD[stem] = sources_digest(stem)
+    return _BUILD[stem]
 
 
 def encode_state(state):
     """Serialized state: MAGIC | u16 format version | u8 length + model name | u8 length + build digest |
     u32 length + JSON of the fields (sorted keys, floats written exactly) | SHA-256 of everything before it."""
     payload = json.dumps(state.fields, sort_keys=True, separators=(",", ":")).encode()
-    return frame_state(state.origin[1].encode(), build_digest().encode(), payload)
+    return frame_state(state.origin[1].encode(), build_digest(model_stem(state.origin[0])).encode(), payload)
 
 
 def frame_state(model, build, payload):
@@ -459,9 +478,10 @@ def decode_state(cls, data):
         raise StateError("checksum mismatch: the state is corrupted")
     if model != cls.__name__.encode():
         raise StateError(f"saved by FMU {model.decode(errors='replace')!r}, this is {cls.__name__!r}")
-    if build != build_digest().encode():
+    this_build = build_digest(model_stem(cls.__module__))
+    if build != this_build.encode():
         raise StateError(f"saved by another build of {cls.__name__} (source digest {build.decode(errors='replace')}, "
-                         f"this build {build_digest()}): restore it with the FMU file that saved it")
+                         f"this build {this_build}): restore it with the FMU file that saved it")
     try:
         fields = json.loads(payload.decode("utf-8"), object_pairs_hook=_no_duplicates)
     except (ValueError, RecursionError) as exc:

@@ -8,13 +8,13 @@ the driving torque tau_in (held over a step) and reads back omega_in, a state wi
 remains for the host's explicit loop is the driver's controller (torque from the sampled speed) and the load
 (torque from the output speed), both ordinary step-size conditions.
 
-The equations are derivatives of a state (ujfmu.physics ``torque_driven_rates``), integrated over each step with
-classical RK4 (ujfmu.physics.rk4.integrate_time), so a Model Exchange export can hand them to the host's solver.
+The equations are derivatives of a state (``torque_driven_rates`` of the model), integrated over each step with
+classical RK4 (ujfmu.fmu.rk4.integrate_time), so a Model Exchange export can hand them to the host's solver.
 """
 
 import math
 
-from ..physics import rk4
+from . import rk4
 from .base import SPEED_RANGE, TORQUE_RANGE, UjfmuSlave, input_, output, parameter
 
 

@@ -1,6 +1,7 @@
 """FMI 3.0 plumbing over a ujfmu model (runs inside the FMU: standard library and pythonfmu3 only).
 
-An FMI 3.0 FMU of model M (a class of ``ujfmu.fmu``: its ``VARIABLES`` declaration and its equations) is a
+An FMI 3.0 FMU of model M (the FMU class of ``ujfmu/models/<stem>/fmu.py``: its ``VARIABLES`` declaration over
+the equations of its ``model.py``) is a
 pythonfmu3 slave that holds one bare instance of M, the *core*, and forwards every FMI call to the same methods
 the FMI 2.0 FMU runs: parameters and inputs are checked by ``Var.check`` and M's own checks, outputs are computed
 lazily by ``compute_outputs``, a Co-Simulation step is M's ``do_step`` (its own RK4 substeps), and the FMU state
@@ -33,7 +34,6 @@ from pythonfmu3.cosimulation import CoSimulation
 from pythonfmu3.modelexchange import ModelExchange
 
 from ..fmu import base as fmu_base
-from ..physics import motor
 
 _TYPES = {float: Float64, int: Int32, bool: Boolean}
 #: objects pythonfmu3 releases twice after a Python exception; references held here keep them valid
@@ -62,7 +62,7 @@ class ContinuousStates:
 
 class TorqueDrivenStates(ContinuousStates):
     """The state tuple ``_state`` of a torque-driven joint and its time derivative ``rates(_state)``
-    (``ujfmu.physics`` ``torque_driven_rates``: tau_in and tau_load at their current values)."""
+    (``torque_driven_rates`` of the model: tau_in and tau_load at their current values)."""
 
     def __init__(self, names):
         self.names = names
@@ -78,7 +78,7 @@ class TorqueDrivenStates(ContinuousStates):
 
 
 class ControllerStates(ContinuousStates):
-    """The MotorController's PI integral I: dI/dt of ``ujfmu.physics.motor.pi_torque`` with e = omega_ref(t) -
+    """The MotorController's PI integral I: dI/dt of ``ujfmu.models.motor.model.pi_torque`` with e = omega_ref(t) -
     omega (conditional-integration anti-windup), omega the current input."""
 
     names = (("integral", "rad", "Integral of the speed error"),)
@@ -90,6 +90,7 @@ class ControllerStates(ContinuousStates):
         core._integral = float(values[0])
 
     def derivatives(self, core):
+        from ..models.motor import model as motor   # shipped in the MotorController FMU only
         omega_ref = core._reference(core._time)[0]
         return [motor.pi_torque(omega_ref - core.omega, core._integral, core.Kp, core.Ki, core.tau_max)[1]]
 

@@ -1,5 +1,5 @@
 """Pieces every monolithic reference shares: the Motor FMU's speed profiles and PI law and the Load FMU's torque
-law, written out again with numpy (independent of ujfmu.physics)."""
+law, written out again with numpy (independent of the models' equations)."""
 
 import time
 from contextlib import contextmanager
