@@ -17,6 +17,9 @@ from .master import _STATUS, FmuInstance
 class FmuInstance3(FmuInstance):
     """One FMI 3.0 Co-Simulation FMU instance: variables by name, FMU log messages collected in ``log``."""
 
+    INTERFACE = "coSimulation"   # the modelDescription element of the interface, and fmpy's class for it
+    FMU_CLASS = FMU3Slave
+
     def __init__(self, component, unzip_dir, model_description, log):
         self.name = component.name
         self.md = model_description
@@ -28,12 +31,11 @@ class FmuInstance3(FmuInstance):
             log.append(f"[{_STATUS[status] if 0 <= status < 6 else status}] {name}: "
                        f"{message.decode(errors='replace')}")
 
-        self.slave = FMU3Slave(guid=model_description.guid, unzipDirectory=unzip_dir,
-                               modelIdentifier=model_description.coSimulation.modelIdentifier,
-                               instanceName=component.name)
+        self.slave = self.FMU_CLASS(guid=model_description.guid, unzipDirectory=unzip_dir,
+                                    modelIdentifier=getattr(model_description, self.INTERFACE).modelIdentifier,
+                                    instanceName=component.name)
         self.slave.instantiate(loggingOn=True, logMessage=logger)
         self.instantiated = True
-        self._raw = self._adapters()
 
     def _adapters(self):
         f = self.slave._functions
@@ -56,6 +58,8 @@ class FmuInstance3(FmuInstance):
 
     def raw(self, function):
         """The FMU's FMI 3.0 C function behind the FMI 2.0 name, with the FMI 2.0 argument list."""
+        if "_raw" not in self.__dict__:
+            self._raw = self._adapters()
         return self._raw[function]
 
     def set_value(self, name, value):

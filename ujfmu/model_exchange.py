@@ -16,7 +16,7 @@ import numpy as np
 from fmpy.fmi3 import FMU3Model
 
 from .fmi3_host import FmuInstance3
-from .master import CosimulationError, _feedthrough_order, _STATUS, extracted
+from .master import CosimulationError, _feedthrough_order, extracted
 
 
 class ModelExchangeError(CosimulationError):
@@ -26,26 +26,15 @@ class ModelExchangeError(CosimulationError):
 class MeInstance(FmuInstance3):
     """One FMI 3.0 Model Exchange FMU instance (fmpy's FMU3Model) with FmuInstance3's access by name."""
 
+    INTERFACE = "modelExchange"
+    FMU_CLASS = FMU3Model
+
     def __init__(self, component, unzip_dir, model_description, log):
         if model_description.modelExchange is None:
             raise ModelExchangeError(f"component '{component.name}': {model_description.modelName} has no Model "
                                      "Exchange interface (speed-driven joints need the driver's acceleration; use "
                                      "the torque-driven variant with a MotorController)")
-        self.name = component.name
-        self.md = model_description
-        self.variables = {v.name: v for v in model_description.modelVariables}
-        self._log = log
-        name = component.name
-
-        def logger(env, status, category, message):
-            log.append(f"[{_STATUS[status] if 0 <= status < 6 else status}] {name}: "
-                       f"{message.decode(errors='replace')}")
-
-        self.slave = FMU3Model(guid=model_description.guid, unzipDirectory=unzip_dir,
-                               modelIdentifier=model_description.modelExchange.modelIdentifier,
-                               instanceName=component.name)
-        self.slave.instantiate(loggingOn=True, logMessage=logger)
-        self.instantiated = True
+        super().__init__(component, unzip_dir, model_description, log)
         self.nx = self.slave.getNumberOfContinuousStates()
         self.time = 0.0
         self.buffer = (c_double * max(self.nx, 1))()
