@@ -2,7 +2,8 @@
 
 Each FMU holds exactly the files of its FMI 2.0 twin (the shared plumbing ``ujfmu.fmu`` and its own model's
 ``ujfmu/models/<stem>/model.py`` and ``fmu.py``: equations and declaration), the FMI 3.0 layer ``ujfmu.fmu3`` and
-pythonfmu3's runtime, in a package named after the FMU and a hash of all of it (``ujfmu3_cardanjoint_<hash>``), so FMI 2.0 and 3.0 FMUs and different builds never shadow each
+pythonfmu3's runtime, in a package named after the FMU and a hash of all of it (``ujfmu3_cardanjoint_<hash>``),
+so FMI 2.0 and 3.0 FMUs and different builds never shadow each
 other's modules in a host's interpreter. The ``ujfmu.fmu`` declarations import pythonfmu's pure-Python part,
 which is shipped too (standard library only).
 
@@ -144,8 +145,9 @@ def model_description3(name: str, model, pythonfmu3_version: str = "") -> bytes:
     me = name in STATES
     states = [vr[v.name] for v, der in variables if v.causality == "local" and der is None]
     doc = next(c.__doc__ for c in model.__mro__ if c.__doc__).strip().splitlines()[0]
+    token = uuid.uuid5(uuid.NAMESPACE_URL, f"ujfmu3/{name}/{fmi3_hash(FMUS[name][0])}")
     root = ET.Element("fmiModelDescription", fmiVersion="3.0", modelName=name,
-                      instantiationToken="{" + str(uuid.uuid5(uuid.NAMESPACE_URL, f"ujfmu3/{name}/{fmi3_hash(FMUS[name][0])}")) + "}",
+                      instantiationToken="{" + str(token) + "}",
                       description=doc, author=model.author, license=model.license, version=__version__,
                       generationTool=f"ujfmu {__version__} (pythonfmu3 {pythonfmu3_version})",
                       variableNamingConvention="structured")

@@ -78,7 +78,7 @@ def _run_one(args, path, scenario=None):
     plot = not args.no_plot and available("matplotlib")
     with _progress(args, Path(path).stem, "step") as progress:
         result = run_scenario(scenario if scenario is not None else path, fmu_dir=args.fmu_dir, out_dir=args.out,
-                              plot=plot, progress=progress)
+                              plot=plot, progress=progress, model_exchange=args.model_exchange)
     print(result.summary())
     return result
 
@@ -93,6 +93,9 @@ def cmd_run(args):
     from . import stepsize
     from .scenario import Scenario
     scenario = Scenario(args.scenario)
+    if args.model_exchange and (args.step == "auto" or args.check_step):
+        raise UsageError("--step auto and --check-step estimate a co-simulation's coupling error; a Model Exchange "
+                         "run (--model-exchange) has none: its accuracy is the solver's (rtol 1e-8)")
     if args.step == "auto":
         scenario.check_fmus(args.fmu_dir)
         scenario.step_size, _ = stepsize.choose(scenario, args.fmu_dir,
@@ -348,6 +351,9 @@ def main(argv=None):
         _out(p, "results/", "output folder")
         p.add_argument("--no-plot", action="store_true")
         _fmi(p, "run the FMI 3.0 Co-Simulation FMUs")
+        p.add_argument("--model-exchange", action="store_true",
+                       help="run the FMI 3.0 Model Exchange FMUs together under fmpy's CVode instead of "
+                            "co-simulating (implies --fmi 3; torque-driven joints, MotorController, Load)")
     p = command("references", cmd_references, "regenerate the reference CSV files of the scenarios")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p = command("sweep", cmd_sweep, "co-simulate a scenario over a parameter grid to steady state (dask)")
@@ -414,6 +420,8 @@ def main(argv=None):
                      (" (FMUs go to --fmu-dir)" if args.command == "build" else ""))
     if "out" not in args:
         args.out = args.out_default
+    if getattr(args, "model_exchange", False):
+        args.fmi = 3
     if getattr(args, "fmi", 2) == 3 and args.fmu_dir == DEFAULT_FMU_DIR:   # --fmi 3: fmus/fmi3/ by default
         from .build3 import DEFAULT_FMU3_DIR
         args.fmu_dir = DEFAULT_FMU3_DIR

@@ -39,3 +39,22 @@ def test_export_ssp_packages_the_fmi3_fmus(fmu3_dir, tmp_path):
             (tmp_path / f"{fmu}.fmu").write_bytes(zf.read(f"resources/{fmu}.fmu"))
             assert read_model_description(str(tmp_path / f"{fmu}.fmu")).fmiVersion == "3.0"
         assert b'startConnector="tau_motor"' in zf.read("SystemStructure.ssd")
+
+
+def test_run_model_exchange_checks_the_scenario_against_its_reference(fmu3_dir, tmp_path, capsys):
+    """`ujfmu run --model-exchange`: the torque-driven driveline under CVode, within the scenario's tolerances and
+    its tight step-halving bands (no step error to remove)."""
+    assert main(["run", "--model-exchange", "--fmu-dir", str(fmu3_dir), "scenarios/cardan_heavy_torque_driven.toml",
+                 "--out", str(tmp_path), "--no-plot", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("PASS cardan_heavy_torque_driven") and "step-halving" in out
+    assert (tmp_path / "cardan_heavy_torque_driven.csv").is_file()
+
+
+def test_run_model_exchange_refuses_a_speed_driven_scenario_and_step_checks(fmu3_dir, tmp_path, capsys):
+    assert main(["run", "--model-exchange", "--fmu-dir", str(fmu3_dir), "scenarios/cardan_startup.toml",
+                 "--out", str(tmp_path), "--no-plot", "-q"]) == 2
+    assert "has no Model Exchange interface" in capsys.readouterr().err
+    assert main(["run", "--model-exchange", "--check-step", "--fmu-dir", str(fmu3_dir),
+                 "scenarios/cardan_heavy_torque_driven.toml", "--no-plot", "-q"]) == 2
+    assert "has none" in capsys.readouterr().err

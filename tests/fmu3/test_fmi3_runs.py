@@ -197,3 +197,16 @@ def test_state_get_set_and_serialize_round_trip_bitwise(fmu3_dir, opened, name):
     assert any("FMU state rejected" in m and "checksum mismatch" in m for m in log), log
     inst.slave.freeFMUState(state)
     assert np.all(np.isfinite(_record(inst, 5, 60 * H)))      # the instance stays usable
+
+
+def test_start_time_is_taken_from_the_first_step(fmu_dir, fmu3_dir, opened):
+    """pythonfmu3 does not pass fmi3EnterInitializationMode's startTime on: the FMU re-starts at the first step's
+    time, so from the first step on a Motor ramping from t0 = 1 s gives the FMI 2.0 numbers bitwise."""
+    fmi2 = _open(FmuInstance, fmu_dir, "Motor", [])
+    fmi3 = _open(FmuInstance3, fmu3_dir, "Motor", [])
+    opened += [fmi2, fmi3]
+    fmi2.initialize(start_time=1.0)
+    fmi3.initialize(start_time=1.0)
+    a, b = _record(fmi2, 50, t0=1.0), _record(fmi3, 50, t0=1.0)
+    assert a[1, 3] == pytest.approx(30.0 * 1.001)   # omega_ref: the ramp at 30 rad/s2 from rest at t = 0
+    assert np.array_equal(a[1:], b[1:])

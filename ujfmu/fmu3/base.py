@@ -21,8 +21,8 @@ to fmi3Error): invalid parameters fail fmi3ExitInitializationMode with a logged 
 its range (status fmi3Fatal; the objects released twice are pinned first, so the host survives and may free the
 instance); a bad input, step size or diverging step refuses fmi3DoStep with fmi3Discard and a logged error, the
 instance staying usable; in Model Exchange a non-finite or out-of-range input gives NaN derivatives and a logged
-error naming it (the host's solver stops there). Unlike pythonfmu 0.7.0, pythonfmu3 passes error messages to the host's logger
-also with logging off.
+error naming it (the host's solver stops there). Unlike pythonfmu 0.7.0, pythonfmu3 passes error messages to the
+host's logger also with logging off.
 """
 
 import math
