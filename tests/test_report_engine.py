@@ -7,7 +7,7 @@ import pytest
 
 from ujfmu.bibliography import BY_KEY
 from ujfmu.build import REPO_DIR
-from ujfmu.report import VALIDATED, Points, published, sections
+from ujfmu.report import VALIDATED, Points, published, section_functions
 from ujfmu.scenario import Scenario
 from ujfmu.sweep import Axis, parse_axis
 
@@ -26,8 +26,8 @@ def test_published_values_are_data_that_the_committed_report_shows():
 
 
 def test_sections_come_from_the_model_folders_in_report_order():
-    assert [s.__name__ for s in sections()] == ["feng", "brutti", "omar", "tchomeni", "turla"]
-    assert all(s.__module__.startswith("ujfmu.models.") for s in sections())
+    assert [s.__name__ for s in section_functions()] == ["feng", "brutti", "omar", "tchomeni", "turla"]
+    assert all(s.__module__.startswith("ujfmu.models.") for s in section_functions())
 
 
 def test_points_are_found_by_axis_values_in_any_unit():

@@ -163,7 +163,7 @@ def settled_text(sweep):
     return f"{times[0]:g} s" if len(times) == 1 else f"{times[0]:g}-{times[-1]:g} s"
 
 
-def sections() -> list:
+def section_functions() -> list:
     """The section functions of every validated model, in the report's order."""
     return [section for stem in VALIDATED
             for section in importlib.import_module(f"ujfmu.models.{stem}.validation").SECTIONS]
@@ -184,7 +184,7 @@ def write_report(path=Path("docs") / "validation.md", fmu_dir=DEFAULT_FMU_DIR, w
     rep.figure_dir = path.parent / "figures"
     rep.figure_dir.mkdir(parents=True, exist_ok=True)
     try:
-        sections = [section(rep) for section in sections()]
+        sections = [section(rep) for section in section_functions()]
     finally:
         rep.close()
     path.write_text(render(sections))
