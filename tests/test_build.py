@@ -24,7 +24,8 @@ def test_fmu_ships_its_own_model_and_the_plumbing_only(fmu_dir, name):
     shipped = shipped_runtime(fmu_dir / f"{name}.fmu")
     assert shipped == sorted(["__init__.py"] + runtime_files(stem))   # the package's own __init__: its name only
     assert f"models/{stem}/model.py" in shipped and f"models/{stem}/fmu.py" in shipped
-    assert not [p for p in shipped if p.startswith("models/") and p.split("/")[1] not in (stem, "__init__.py")]
+    assert not [p for p in shipped if p.startswith("models/") and p.split("/")[1] not in (stem, "__init__.py",
+                                                                                         "protocol.py")]
     assert not [p for p in shipped if p.endswith(("reference.py", ".toml", ".md"))]
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from ujfmu.models.twin_jeffcott_rotor import model as tj
-from ujfmu.report import twin_decay_rates
+from ujfmu.models.twin_jeffcott_rotor.validation import twin_decay_rates
 
 ROOT = Path(__file__).parents[1]
 DOCS = (sorted((ROOT / "docs").glob("*.md")) + sorted((ROOT / "ujfmu" / "models").glob("*/README.md"))

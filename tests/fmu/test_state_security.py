@@ -217,11 +217,11 @@ def test_another_fmus_state_in_memory_is_refused(pair):
 
 def test_state_sequences_must_have_their_length(pair, blobs):
     inst, log, _ = pair("TwinJeffcottRotor")
-    short = forge("TwinJeffcottRotor", blobs["TwinJeffcottRotor"], lambda f: f.update(_state=f["_state"][:-1]))
-    check_rejected(inst, log, short, "field _state: expected 14 numbers")
+    short = forge("TwinJeffcottRotor", blobs["TwinJeffcottRotor"], lambda f: f.update(_y=f["_y"][:-1]))
+    check_rejected(inst, log, short, "field _y: expected 14 numbers")
     nan = forge("TwinJeffcottRotor", blobs["TwinJeffcottRotor"],
-                lambda f: f.update(_state=(math.nan,) + f["_state"][1:]))
-    check_rejected(inst, log, nan, "field _state: nan is not finite")
+                lambda f: f.update(_y=(math.nan,) + f["_y"][1:]))
+    check_rejected(inst, log, nan, "field _y: nan is not finite")
 
 
 def test_derived_quantities_follow_the_restored_parameters(pair, blobs, fmu_dir):

@@ -50,10 +50,10 @@ def test_cardan_torque_driven_reproduces_the_speed_driven_torque():
 
 def _driveline(**kw):
     args = dict(beta1=math.radians(20), beta2=math.radians(20), yoke_phase=math.radians(30), joint_plane_angle=0.0,
-                i_input=0.01, i_pin=1e-3, i_normal=1.5e-3, i_intermediate=0.02, j_load=0.5, k_theta=2e4,
-                xi_theta=0.002, m_s=4.09, k_phi=26331.0, xi_phi=0.002, l_c=0.325)
+                I_input=0.01, I_cross_pin=1e-3, I_cross_normal=1.5e-3, I_intermediate=0.02, J_load=0.5, k_theta=2e4,
+                xi_theta=0.002, m_s=4.09, k_phi=26331.0, xi_phi=0.002, L_c=0.325)
     args.update(kw)
-    return dc.Driveline(**args)
+    return dc.Parameters(**args)
 
 
 @pytest.mark.parametrize("rigid", [True, False])
@@ -96,6 +96,6 @@ def test_double_cardan_flexible_torque_driven_reproduces_the_speed_driven_torque
 
 def test_natural_rate_bound_covers_the_free_input_shaft():
     """The two-mass torsional mode sqrt(k r^2 (1/J_out + 1/J_in)) exceeds the prescribed-input bound's."""
-    p = _driveline(i_input=0.0, i_pin=0.0, i_normal=0.0, i_intermediate=0.0)
-    two_mass = math.sqrt(p.k_theta * (1.0 / p.j_load + 1.0 / 0.05))
+    p = _driveline(I_input=0.0, I_cross_pin=0.0, I_cross_normal=0.0, I_intermediate=0.0)
+    two_mass = math.sqrt(p.k_theta * (1.0 / p.J_load + 1.0 / 0.05))
     assert dc.natural_rate_bound(p) < two_mass <= dc.natural_rate_bound(p, 0.05)

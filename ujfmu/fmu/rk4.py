@@ -6,6 +6,7 @@ The torque-driven variants carry the input shaft in their state and use integrat
 """
 
 import math
+from collections.abc import Callable, Sequence
 
 #: substep length times the fastest rate of the model (natural frequencies, decay rates, forcing harmonics).
 #: At w h = 0.5 classical RK4 keeps a free oscillation's amplitude to 1 - (w h)^6/144 = 1 - 1.1e-4 per substep
@@ -21,7 +22,7 @@ RATE_STEP = 0.5
 MAX_SUBSTEPS = 100_000
 
 
-def substeps(rate, h, max_substeps=MAX_SUBSTEPS):
+def substeps(rate: float, h: float, max_substeps: int = MAX_SUBSTEPS) -> int:
     """Number of RK4 substeps for a step h so that each is at most RATE_STEP / rate long; ValueError above
     max_substeps (or for a non-finite rate)."""
     n = h * rate / RATE_STEP
@@ -32,7 +33,8 @@ def substeps(rate, h, max_substeps=MAX_SUBSTEPS):
     return max(1, math.ceil(n))
 
 
-def integrate(derivatives, y, t_span, n, phi0, w0, alpha):
+def integrate(derivatives: Callable, y: Sequence[float], t_span: float,
+        n: int, phi0: float, w0: float, alpha: float) -> list:
     """Advance y over t_span with n classical RK4 substeps of y' = derivatives(phi(t), w(t), y)."""
     def rates(t, y):
         return derivatives(phi0 + t * (w0 + 0.5 * alpha * t), w0 + alpha * t, y)

@@ -7,13 +7,13 @@ Standard library only: this module runs inside every FMU. A model's ``model.py``
     ``init=False`` fields set in ``__post_init__``); built from the FMU's parameters by name.
 ``State``
     a NamedTuple of the integrated variables (no fields: a model without dynamics of its own).
-``initial_state(p, u) -> State``
-    the state at the inputs ``u`` of the start; the FMU keeps re-evaluating it at the current inputs until its
-    first step (the warm start), and at every instant while ``kinematic(p)``.
+``initial_state(p, t, u) -> State``
+    the state at time t [s] and inputs ``u`` of the start; the FMU re-evaluates it at the current inputs until
+    its first step (the warm start: a host may set the inputs after initialization).
 ``derivatives(p, t, y, u) -> tuple``
-    dy/dt at time t (s, absolute), state y and inputs u.
-``outputs(p, y, u) -> dict``
-    the FMU's outputs, by output name, at state y and inputs u.
+    dy/dt at time t [s], state y and inputs u.
+``outputs(p, t, y, u) -> dict``
+    the FMU's outputs, by output name, at time t, state y and inputs u.
 ``check(p) -> list``
     the messages for parameter combinations that are invalid (each parameter's own range is checked from the
     FMU declaration before).
@@ -21,7 +21,8 @@ Standard library only: this module runs inside every FMU. A model's ``model.py``
     an upper bound [1/s] of the fastest rate of y over a step whose input speeds stay within omega_max [rad/s]:
     the RK4 substeps are ``ujfmu.fmu.rk4.RATE_STEP / rate_bound`` long.
 
-Optional: ``kinematic(p) -> bool`` (default False: the state is integrated) and ``check_state(p, y) -> list``
+Optional: ``kinematic(p) -> bool`` (default False; True: the state is not integrated but held from the first
+step on, the outputs following the inputs alone) and ``check_state(p, y) -> list``
 (messages when a state reached by a step is outside the model's validity; default none).
 
 The inputs ``u`` are the model's own NamedTuple ``Inputs``; a model whose input shaft follows a prescribed speed
@@ -49,11 +50,11 @@ class Model(Protocol):
     State: type
     Inputs: type
 
-    def initial_state(self, p, u) -> tuple: ...
+    def initial_state(self, p, t: float, u) -> tuple: ...
 
     def derivatives(self, p, t: float, y: tuple, u) -> tuple: ...
 
-    def outputs(self, p, y: tuple, u) -> dict: ...
+    def outputs(self, p, t: float, y: tuple, u) -> dict: ...
 
     def check(self, p) -> list: ...
 

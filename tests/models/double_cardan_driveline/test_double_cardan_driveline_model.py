@@ -11,22 +11,19 @@ from ujfmu.models.double_cardan_driveline import model as dc
 from ujfmu.models.double_cardan_driveline.reference import DrivelineReference
 
 DEG = math.pi / 180.0
-OMAR = dict(i_input=0.0, i_pin=0.0, i_normal=0.0, i_intermediate=0.0, j_load=0.0045, k_theta=92.2, xi_theta=0.002,
-            m_s=4.09, k_phi=26331.0, xi_phi=0.002, l_c=0.325)
-BRUTTI = dict(OMAR, i_input=0.01528, i_pin=0.00111, i_normal=0.00202, j_load=0.01528)
-FMU_NAMES = dict(i_input="I_input", i_pin="I_cross_pin", i_normal="I_cross_normal", i_intermediate="I_intermediate",
-                 j_load="J_load", k_theta="k_theta", xi_theta="xi_theta", m_s="m_s", k_phi="k_phi",
-                 xi_phi="xi_phi", l_c="L_c")
+OMAR = dict(I_input=0.0, I_cross_pin=0.0, I_cross_normal=0.0, I_intermediate=0.0, J_load=0.0045, k_theta=92.2,
+            xi_theta=0.002, m_s=4.09, k_phi=26331.0, xi_phi=0.002, L_c=0.325)
+BRUTTI = dict(OMAR, I_input=0.01528, I_cross_pin=0.00111, I_cross_normal=0.00202, J_load=0.01528)
 
 
 def driveline(beta1, beta2, yoke_phase=0.0, plane=0.0, **inertias):
-    return dc.Driveline(beta1, beta2, yoke_phase, plane, **{**OMAR, **inertias})
+    return dc.Parameters(beta1, beta2, yoke_phase, plane, **{**OMAR, **inertias})
 
 
 def reference(beta1, beta2, yoke_phase=0.0, plane=0.0, **inertias):
     values = {**OMAR, **inertias}
     return DrivelineReference({"beta1": beta1, "beta2": beta2, "yoke_phase": yoke_phase, "joint_plane_angle": plane,
-                               **{FMU_NAMES[k]: v for k, v in values.items()}})
+                               **values})
 
 
 # --- one joint ------------------------------------------------------------------------------------------------
@@ -148,7 +145,7 @@ def _brutti_tau_in(p, rpm):
 
 
 def test_brutti_without_inertia_input_torque_equals_resisting_torque():
-    p = driveline(10 * DEG, 10 * DEG, **{**BRUTTI, "i_input": 0.0, "i_pin": 0.0, "i_normal": 0.0, "j_load": 0.0})
+    p = driveline(10 * DEG, 10 * DEG, **{**BRUTTI, "I_input": 0.0, "I_cross_pin": 0.0, "I_cross_normal": 0.0, "J_load": 0.0})
     tau = _brutti_tau_in(p, 2000)
     assert np.allclose(tau, C_FAN * (2000 * RPM) ** 2, rtol=1e-12)
     assert C_FAN * (2000 * RPM) ** 2 == pytest.approx(750, rel=0.01)   # Brutti's catalogue M_u
@@ -167,7 +164,7 @@ def test_brutti_inertia_torque_is_second_harmonic_and_grows_with_speed_squared()
 
 def test_rigid_power_balance_against_independent_kinetic_energy():
     """tau_in w1 - tau_load w4 = dT/dt along a speed-varying input, T from the reference's vector kinematics."""
-    b = dict(BRUTTI, i_intermediate=0.004)
+    b = dict(BRUTTI, I_intermediate=0.004)
     p = driveline(10 * DEG, 14 * DEG, yoke_phase=0.3, plane=0.1, **b)
     ref = reference(10 * DEG, 14 * DEG, 0.3, 0.1, **b)
     t = np.linspace(0.0, 0.05, 5001)
@@ -200,7 +197,7 @@ def test_aligned_linearised_system_has_omars_natural_frequencies():
 @pytest.mark.parametrize("layout", [dict(beta2=15 * DEG), dict(beta2=-20 * DEG, yoke_phase=0.4, plane=0.2)])
 def test_flexible_power_balance(layout):
     """tau_in w1 - tau_load w4 = dE/dt + c_theta dtwist^2 + c_phi (L_c cos beta1)^2 dphi^2 along a run."""
-    inertias = dict(i_input=1e-3, i_pin=2e-4, i_normal=3e-4, i_intermediate=1e-3, xi_theta=0.01, xi_phi=0.01,
+    inertias = dict(I_input=1e-3, I_cross_pin=2e-4, I_cross_normal=3e-4, I_intermediate=1e-3, xi_theta=0.01, xi_phi=0.01,
                     m_s=0.05)
     p = driveline(15 * DEG, layout["beta2"], layout.get("yoke_phase", 0.0), layout.get("plane", 0.0), **inertias)
     h, alpha, tau_load = 1e-4, 300.0, 5.0

@@ -11,11 +11,11 @@ E, D, R, ECC, I2 = 2.1e11, 0.003, 0.1, 0.003, 0.05
 def coupling(**changes):
     values = dict(R=R, d=D, E=E, e=ECC, I1=0.02, I2=I2, c_s=500.0, c_d=0.7, phi_in_start=0.2, phi_out_start=-0.4)
     values.update(changes)
-    return rc.Coupling(**values)
+    return rc.Parameters(**values)
 
 
 def potential(p, phi1, phi2):
-    return rc.outputs(p, phi1, 0.0, 0.0, (phi2, 0.0))["stored_energy"]
+    return rc.outputs_at(p, phi1, 0.0, 0.0, (phi2, 0.0))["stored_energy"]
 
 
 def test_misalignment_moment_and_elastic_torque_derive_from_the_stored_energy():
@@ -27,7 +27,7 @@ def test_misalignment_moment_and_elastic_torque_derive_from_the_stored_energy():
         d2 = (potential(p, phi1, phi2 + h) - potential(p, phi1, phi2 - h)) / (2 * h)
         d1 = (potential(p, phi1 + h, phi2) - potential(p, phi1 - h, phi2)) / (2 * h)
         assert -d2 == pytest.approx(m_p + elastic, rel=1e-6)
-        assert d1 == pytest.approx(rc.outputs(p, phi1, 0.0, 0.0, (phi2, 0.0))["tau_in"], rel=1e-6)
+        assert d1 == pytest.approx(rc.outputs_at(p, phi1, 0.0, 0.0, (phi2, 0.0))["tau_in"], rel=1e-6)
 
 
 def test_fig3_set_numbers():

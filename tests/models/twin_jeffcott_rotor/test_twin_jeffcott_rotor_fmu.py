@@ -101,6 +101,6 @@ def test_before_the_first_step_the_discs_turn_with_the_input(open_fmu):
     inst.initialize(dict(beta=20 * DEG, phi_in_start=0.3))
     inst.set(omega_in=50.0)
     omega_out, phi_out, omega_disc1 = inst.get("omega_out", "phi_out", "omega_disc1")
-    psi, ratio = tj.joint(tj.TwinRotor(**{**RIG, "beta": 20 * DEG, "phase_u1": 0.0, "phase_u2": 0.0}),
+    psi, ratio = tj.joint(tj.Parameters(**{**RIG, "beta": 20 * DEG, "phase_u1": 0.0, "phase_u2": 0.0}),
                           0.3, 0.0, 0.0, 0.0, 0.0)[:2]
     assert (phi_out, omega_out, omega_disc1) == pytest.approx((psi, ratio * 50.0, 50.0), rel=1e-14)

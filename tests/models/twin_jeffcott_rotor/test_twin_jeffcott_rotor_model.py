@@ -14,7 +14,7 @@ DEG = math.pi / 180.0
 def rotor(**changes):
     values = {**tj.rig_parameters(), "phase_u1": 0.0, "phase_u2": 0.0}
     values.update(changes)
-    return tj.TwinRotor(**values)
+    return tj.Parameters(**values)
 
 
 @pytest.mark.parametrize("beta_deg", [0.0, 5.0, 30.0, -60.0, 85.0])
@@ -125,10 +125,10 @@ def test_aligned_rotor_under_load_keeps_circular_orbits_and_no_2x():
         changes.update({f"C{i}X": c, f"C{i}Y": c, f"C{i}T": 2.0 * 0.3 * math.sqrt(r[f"K{i}T"] * r[f"J_M{i}"])})
     p = rotor(**changes)
     w, h, tau, n = 100.0, 1e-3, 2.0, 2500
-    y, rate, rows = tj.initial_state(p, 0.0, w), tj.natural_rate_bound(p), []
+    y, rate, rows = tj.rest_state(p, 0.0, w), tj.natural_rate_bound(p), []
     for k in range(n):
         if k >= n - 629:   # the last 10 revolutions (628.3 steps)
-            rows.append((w * k * h, y[2], y[4], y[8], y[10], tj.outputs(p, w * k * h, w, 0.0, y)["tau_in"], y[7]))
+            rows.append((w * k * h, y[2], y[4], y[8], y[10], tj.torque_outputs(p, w * k * h, w, 0.0, y)["tau_in"], y[7]))
         y = tj.step(p, h, w * k * h, w, 0.0, y, tau, rate)
     angle, x1, y1, x2, y2, tau_in, omega_out = np.array(rows).T
     damping_power = 0.0
@@ -154,7 +154,7 @@ def test_disc_accelerations_solve_the_mass_matrix():
 
 def _energy_audit_error(p, h, alpha=60.0, tau=2.0, duration=3.0):
     """(|input work - load work - dissipation - change of stored energy|, input work) of an RK4 run-up."""
-    y, phi, w = tj.initial_state(p, 0.0, 0.0), 0.0, 0.0
+    y, phi, w = tj.rest_state(p, 0.0, 0.0), 0.0, 0.0
     e0, load_work = tj.stored_energy(p, phi, w, y), 0.0
     rate = tj.natural_rate_bound(p)
     for _ in range(int(round(duration / h))):
@@ -185,12 +185,12 @@ def test_linearised_natural_frequencies_are_the_jeffcott_and_torsional_chain_one
     p = rotor(beta=0.0, m_u1=0.0, m_u2=0.0, C1X=0.0, C1Y=0.0, C2X=0.0, C2Y=0.0, C1T=0.0, C2T=0.0)
     r = tj.rig_parameters()
     y0 = np.zeros(tj.STATE_SIZE)
-    f0 = np.array(tj.derivatives(p, 0.0, 0.0, 0.0, list(y0), 0.0))
+    f0 = np.array(tj.rates(p, 0.0, 0.0, 0.0, list(y0), 0.0))
     jac = np.empty((12, 12))
     for i in range(12):
         y = y0.copy()
         y[i] = 1e-6
-        jac[:, i] = (np.array(tj.derivatives(p, 0.0, 0.0, 0.0, list(y), 0.0)) - f0)[:12] / 1e-6
+        jac[:, i] = (np.array(tj.rates(p, 0.0, 0.0, 0.0, list(y), 0.0)) - f0)[:12] / 1e-6
     ours = np.sort(np.abs(np.linalg.eigvals(jac).imag))[::2]
     stiffness = np.array([[r["K1T"] + r["K2T"], -r["K2T"]], [-r["K2T"], r["K2T"]]])
     torsion = np.sqrt(np.linalg.eigvals(np.linalg.solve(np.diag([r["J_M1"], r["J_M2"]]), stiffness)).real)

@@ -3,7 +3,7 @@
 import math
 
 from . import model as cardan
-from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
+from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, model_parameters, output, parameter
 from ...fmu.torque_driven import TorqueDrivenSlave, driven_ports
 
 _ANGLE = dict(min=-cardan.MAX_ANGLE, max=cardan.MAX_ANGLE)
@@ -29,7 +29,7 @@ class CardanJoint(PrescribedInputSlave):
     Lossless: tau_in*omega_in = M_z*omega_out when J1 = J2 = 0.
     """
 
-    PHYSICS = cardan
+    MODEL = cardan
     VARIABLES = (
         parameter("bend_angle", math.radians(30.0), "rad",
                   "Structural misalignment phi, C_phi = R_x(phi) (Feng Eq. 1); laboratory model 30 deg", **_ANGLE),
@@ -63,34 +63,6 @@ class CardanJoint(PrescribedInputSlave):
                ("omega_in",)),
     )
     DEFAULT_EXPERIMENT = (0.0, 1.0, 1.0e-3)
-    DERIVED = ("_frame",)
-
-    def check_parameters(self):
-        frame = cardan.joint_frame(self.bend_angle, self.bend_plane_angle, self.error_angle_beta,
-                                   self.error_angle_gamma)
-        angle = cardan.shaft_angle(frame)
-        if angle > cardan.MAX_ANGLE:
-            return [f"total shaft angle acos(K_z) = {angle!r} rad from bend_angle, bend_plane_angle, "
-                    f"error_angle_beta, error_angle_gamma is outside its allowed range [0, {cardan.MAX_ANGLE:.10g}] rad"]
-        return []
-
-    def derive(self):
-        self._frame = cardan.joint_frame(self.bend_angle, self.bend_plane_angle, self.error_angle_beta,
-                                         self.error_angle_gamma)
-
-    def initialize(self, start_time):
-        self.start_input(self.phi_in_start)
-
-    def compute_outputs(self):
-        alpha1 = self.input_acceleration()
-        (self.tau_in, self.M_x, self.M_y, self.M_z, self.omega_out, _) = cardan.joint_torques(
-            self._frame, self._phi_in, self.omega_in, alpha1, self.tau_load, self.J1, self.J2)
-        self.phi_in = self._phi_in
-        self.phi_out = cardan.driven_angle(self._frame, self._phi_in)
-        self.alpha_in = alpha1
-
-    def advance(self, t, h):
-        self.advance_input(h, self.input_acceleration())
 
 
 class CardanJointTorqueDriven(TorqueDrivenSlave):
@@ -98,42 +70,35 @@ class CardanJointTorqueDriven(TorqueDrivenSlave):
 
     The same joint as CardanJoint (Feng, Wang, Zhu Eqs. 1-10), with the driving shaft free: its angle and speed
     are a state integrated from (J_drive + J1 + J2 r^2) alpha1 = tau_in - J2 r r' omega1^2 - r tau_load
-    (ujfmu.models.cardan_joint.model.torque_driven_rates), J_drive the driver's rotor inertia lumped on the driving shaft,
+    (model.torque_driven_rates), J_drive the driver's rotor inertia lumped on the driving shaft,
     tau_in and tau_load held over each step (classical RK4, substeps from the kinematic harmonics 4|omega1|).
     Outputs as CardanJoint's; tau_input_shaft = tau_in - J_drive*alpha1 is what CardanJoint calls tau_in.
     Wire it to MotorController (tau_motor -> tau_in, omega_in -> omega) and a Load (omega_out -> omega,
     tau -> tau_load). Signs as CardanJoint's.
     """
 
-    PHYSICS = cardan
+    MODEL = cardan
     VARIABLES = driven_ports(CardanJoint)
     STATE = {"_state": "float[2]"}   # (theta1, omega1)
-    DERIVED = ("_frame",)
+    DERIVED = ("_p",)
     DEFAULT_EXPERIMENT = CardanJoint.DEFAULT_EXPERIMENT
 
     def check_parameters(self):
-        problems = CardanJoint.check_parameters(self)
+        problems = cardan.check(model_parameters(cardan, self))
         if not self.J_drive + self.J1 > 0.0:
             problems.append(f"J_drive + J1 = {self.J_drive + self.J1!r} kg.m2 must be > 0 (allowed range (0, 2000] "
                             "kg.m2): the driving shaft needs an inertia to integrate")
         return problems
 
     def derive(self):
-        self._frame = cardan.joint_frame(self.bend_angle, self.bend_plane_angle, self.error_angle_beta,
-                                         self.error_angle_gamma)
+        self._p = model_parameters(cardan, self)
 
     def initial_state(self):
         return (self.phi_in_start, self.omega_in_start)
 
     def rates(self, state):
-        return cardan.torque_driven_rates(self._frame, state, self.tau_in, self.tau_load, self.J_drive, self.J1,
+        return cardan.torque_driven_rates(self._p.frame, state, self.tau_in, self.tau_load, self.J_drive, self.J1,
                                           self.J2)
 
     def rate_bound(self, omega_max):
         return 4.0 * omega_max
-
-    def compute_outputs(self):
-        alpha1 = self.input_shaft_outputs()
-        (self.tau_input_shaft, self.M_x, self.M_y, self.M_z, self.omega_out, _) = cardan.joint_torques(
-            self._frame, self.phi_in, self.omega_in, alpha1, self.tau_load, self.J1, self.J2)
-        self.phi_out = cardan.driven_angle(self._frame, self.phi_in)

@@ -18,8 +18,9 @@ import functools
 import numpy as np
 import sympy as sp
 
-from ...references.common import (check_close, check_energy_balance, drive, load_torque, pi_law, profile, record_table,
-                     solve_piecewise, torque_driven_names)
+from ...references.common import (check_close, check_energy_balance, drive, load_torque, pi_law, record_table,
+                                  solve_piecewise, source_motion, source_torque, torque_driven_names)
+from ...references.rotations import rx, ry
 
 RTOL, ATOL = 1e-11, 1e-12
 
@@ -27,13 +28,6 @@ RTOL, ATOL = 1e-11, 1e-12
 @functools.lru_cache(maxsize=None)
 def _kinematics():
     t1, phi, delta, beta, gamma = sp.symbols("theta1 phi delta beta gamma", real=True)
-
-    def rx(a):
-        return sp.Matrix([[1, 0, 0], [0, sp.cos(a), -sp.sin(a)], [0, sp.sin(a), sp.cos(a)]])
-
-    def ry(a):
-        return sp.Matrix([[sp.cos(a), 0, sp.sin(a)], [0, 1, 0], [-sp.sin(a), 0, sp.cos(a)]])
-
     c = ry(-gamma) * rx(-beta) * ry(delta) * rx(phi)
     e1 = c * sp.Matrix([-sp.sin(t1), sp.cos(t1), 0])
     k = c * sp.Matrix([0, 0, 1])
@@ -86,8 +80,7 @@ def generate(scenario):
     theta20 = float(kin.driven_angle(np.array(pj["phi_in_start"])))
 
     if pm["ideal_speed_source"]:
-        w1, a1, ang = profile(pm, t)
-        ang = ang - profile(pm, t[:1])[2][0]
+        w1, a1, ang = source_motion(pm, t)
         theta1 = pj["phi_in_start"] + ang
         theta2 = kin.driven_angle(theta1)
         phi_motor = ang
@@ -119,7 +112,7 @@ def generate(scenario):
     tau_in = j1 * a1 + r * m_z
     m_x, m_y = kin.moment(theta1, m_z)
     if pm["ideal_speed_source"]:
-        tau_motor = jm * a1 + tau_in
+        tau_motor = source_torque(jm, a1, tau_in)
     else:
         tau_motor = tau_m
     columns = {

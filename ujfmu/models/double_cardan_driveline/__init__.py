@@ -1,1 +1,2 @@
-"""DoubleCardanDriveline: equations (model.py), FMU declaration (fmu.py), reference derivation, published values, README."""
+"""DoubleCardanDriveline: equations (model.py), FMU declaration (fmu.py), reference derivation, published values,
+README."""

@@ -3,7 +3,7 @@
 import math
 
 from . import model as dc
-from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
+from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, model_parameters, output, parameter
 from ...fmu.torque_driven import TorqueDrivenSlave, driven_ports
 
 _ANGLE = dict(min=-dc.MAX_ANGLE, max=dc.MAX_ANGLE)
@@ -15,7 +15,7 @@ class DoubleCardanDriveline(PrescribedInputSlave):
     """Input shaft, Cardan joint 1, intermediate shaft, Cardan joint 2, output shaft with the driven load.
 
     The input shaft follows omega_in (angle advanced with the input extrapolated linearly over each step, its
-    acceleration alpha_in the backward difference of omega_in). Two modes (ujfmu/models/double_cardan_driveline/README.md):
+    acceleration alpha_in the backward difference of omega_in). Two modes (README.md):
     - rigid_intermediate_shaft = true (Brutti et al., section 4): one degree of freedom; the output follows the
       joints' kinematics and tau_in = J_eq alpha1 + J_eq' omega1^2/2 + (dphi4/dphi1) tau_load from the kinetic
       energy J_eq(phi1) omega1^2/2 of every inertia (input shaft, crosses, intermediate shaft, output and load).
@@ -30,7 +30,7 @@ class DoubleCardanDriveline(PrescribedInputSlave):
     twist = phi2 - phi3 > 0 and shaft_torque > 0 while transmitting positive torque.
     """
 
-    PHYSICS = dc
+    MODEL = dc
     VARIABLES = (
         parameter("beta1", math.radians(15.0), "rad",
                   "Static angle of joint 1 between input and intermediate shaft (Omar beta0 = 15 deg)", **_ANGLE),
@@ -81,60 +81,6 @@ class DoubleCardanDriveline(PrescribedInputSlave):
         output("stored_energy", "J", "Kinetic plus elastic energy of the driveline", ("omega_in",)),
     )
     DEFAULT_EXPERIMENT = (0.0, 3.0, 1.0e-3)
-    STATE = {**PrescribedInputSlave.STATE, "_state": "float[4]", "_started": "bool"}
-    DERIVED = ("_p", "_natural_rate")
-
-    def check_parameters(self):
-        problems = []
-        if self.I_cross_normal > 2.0 * self.I_cross_pin:
-            problems.append(f"I_cross_normal = {self.I_cross_normal!r} kg.m2 exceeds 2*I_cross_pin = "
-                            f"{2.0 * self.I_cross_pin!r} kg.m2 (allowed range [0, 2*I_cross_pin] kg.m2: a rigid "
-                            "cross has I_normal <= I_pin + I_pin)")
-        if not self.rigid_intermediate_shaft and not self.J_load > 0.0:
-            problems.append(f"J_load = {self.J_load!r} kg.m2 must be > 0 with a flexible intermediate shaft "
-                            "(allowed range (0, 1000] kg.m2; 0 only with rigid_intermediate_shaft = true)")
-        return problems
-
-    def driveline(self):
-        """The parameters as a ujfmu.models.double_cardan_driveline.model.Driveline."""
-        return dc.Driveline(self.beta1, self.beta2, self.yoke_phase, self.joint_plane_angle, self.I_input,
-                            self.I_cross_pin, self.I_cross_normal, self.I_intermediate, self.J_load,
-                            self.k_theta, self.xi_theta, self.m_s, self.k_phi, self.xi_phi, self.L_c)
-
-    def derive(self):
-        self._p = self.driveline()
-        self._natural_rate = 0.0 if self.rigid_intermediate_shaft else dc.natural_rate_bound(self._p)
-
-    def initialize(self, start_time):
-        self.start_input(self.phi_in_start)
-        # flexible states (phi4, omega4, phi, dphi); omega4 follows the input kinematically until the first step
-        self._state = (dc.rigid_output_angle(self._p, self._phi_in), 0.0, 0.0, 0.0)
-        self._started = False
-
-    def _flexible_state(self):
-        if self._started:
-            return self._state
-        rigid = dc.rigid_state(self._p, self._phi_in, self.omega_in, 0.0, 0.0)
-        return (self._state[0], rigid["omega4"], 0.0, 0.0)
-
-    def compute_outputs(self):
-        alpha1 = self.input_acceleration()
-        state = None if self.rigid_intermediate_shaft else self._flexible_state()
-        self.tau_in = _set_outputs(self, self._phi_in, self.omega_in, alpha1, state)
-        self.phi_in, self.alpha_in = self._phi_in, alpha1
-
-    def advance(self, t, h):
-        alpha1 = self.input_acceleration()
-        if not self.rigid_intermediate_shaft:
-            w_max = max(abs(self.omega_in), abs(self.omega_in + alpha1 * h))
-            n = dc.flexible_substeps(self._natural_rate, h, w_max)
-            state = dc.flexible_step(self._p, h, self._phi_in, self.omega_in, alpha1, self._flexible_state(),
-                                     self.tau_load, n)
-            if not all(math.isfinite(x) for x in state):
-                raise ValueError(f"the state became non-finite over the step ({state!r})")
-            _check_joint_angles(self, state[2])
-            self._state, self._started = state, True
-        self.advance_input(h, alpha1)
 
 
 class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
@@ -143,7 +89,7 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
 
     The same driveline as DoubleCardanDriveline (rigid: Brutti et al.; flexible: Omar et al.), with the input
     shaft free: its angle and speed join the state, integrated with the driver's rotor inertia J_drive lumped on
-    the input shaft (ujfmu.models.double_cardan_driveline.model.torque_driven_rates): rigid, (J_drive + J_eq) alpha1 =
+    the input shaft (model.torque_driven_rates): rigid, (J_drive + J_eq) alpha1 =
     tau_in - J_eq' omega1^2/2 - rho tau_load; flexible, (J_drive + J_in) alpha1 = tau_in - J_in' omega1^2/2 -
     r1 (k_theta twist + c_theta dtwist), with the output and lateral equations unchanged. tau_in and tau_load are
     held over each step (classical RK4, substeps from the torsional mode of both shaft ends and 4|omega1|). The
@@ -153,21 +99,21 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
     DoubleCardanDriveline's.
     """
 
-    PHYSICS = dc
+    MODEL = dc
     VARIABLES = driven_ports(DoubleCardanDriveline)
     STATE = {"_state": "float[6]"}   # (phi1, omega1, phi4, omega4, phi, dphi)
     DERIVED = ("_p", "_natural_rate")
     DEFAULT_EXPERIMENT = DoubleCardanDriveline.DEFAULT_EXPERIMENT
 
     def check_parameters(self):
-        problems = DoubleCardanDriveline.check_parameters(self)
+        problems = dc.check(model_parameters(dc, self))
         if not self.J_drive + self.I_input > 0.0:
             problems.append(f"J_drive + I_input = {self.J_drive + self.I_input!r} kg.m2 must be > 0 (allowed range "
                             "(0, 2000] kg.m2): the input shaft needs an inertia to integrate")
         return problems
 
     def derive(self):
-        self._p = DoubleCardanDriveline.driveline(self)
+        self._p = model_parameters(dc, self)
         self._natural_rate = 0.0 if self.rigid_intermediate_shaft else \
             dc.natural_rate_bound(self._p, self.J_drive + self.I_input)
 
@@ -188,37 +134,10 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
         return self._natural_rate + 4.0 * omega_max
 
     def check_state(self, state):
-        _check_joint_angles(self, state[4])
-
-    def compute_outputs(self):
-        alpha1 = self.input_shaft_outputs()
-        state = self._state
-        flexible = None if self.rigid_intermediate_shaft else state[2:]
-        self.tau_input_shaft = _set_outputs(self, state[0], state[1], alpha1, flexible)
+        problems = dc.check_state(self._p, state[2:])
+        if problems:
+            raise ValueError(problems[0])
 
 
 #: rates of the flexible entries of the torque-driven state, which a rigid shaft does not use
 _AT_REST = (0.0, 0.0, 0.0, 0.0)
-
-
-def _set_outputs(fmu, phi1, omega1, alpha1, state):
-    """Set fmu's output-shaft and intermediate-shaft outputs at input motion (phi1, omega1, alpha1) and flexible
-    state (phi4, w4, phi, dphi), None for the rigid shaft; returns the torque at the input shaft (tau_in)."""
-    if state is None:
-        out = dc.rigid_state(fmu._p, phi1, omega1, alpha1, fmu.tau_load)
-        fmu.phi_out, fmu.omega_out = out["phi4"], out["omega4"]
-        fmu.twist = fmu.dynamic_misalignment = 0.0
-    else:
-        out = dc.flexible_outputs(fmu._p, phi1, omega1, alpha1, state)
-        fmu.phi_out, fmu.omega_out, fmu.dynamic_misalignment = state[0], state[1], state[2]
-        fmu.twist = out["twist"]
-    fmu.shaft_torque, fmu.omega_intermediate, fmu.stored_energy = out["shaft_torque"], out["omega2"], out["energy"]
-    return out["tau_in"]
-
-
-def _check_joint_angles(fmu, phi):
-    """ValueError when a joint angle plus the dynamic misalignment phi leaves [-MAX_ANGLE, MAX_ANGLE]."""
-    for name, angle in (("beta1", fmu.beta1 + phi), ("beta2", fmu.beta2 + fmu._p.cos_plane * phi)):
-        if abs(angle) > dc.MAX_ANGLE:
-            raise ValueError(f"joint angle {name} + dynamic misalignment = {angle!r} rad left its allowed "
-                             f"range [{-dc.MAX_ANGLE:.10g}, {dc.MAX_ANGLE:.10g}] rad")

@@ -1,8 +1,12 @@
 """Double Cardan driveline: input shaft -> joint 1 -> intermediate shaft -> joint 2 -> output shaft.
 
-Sources: Brutti, Pennestri, Biancolini, IFToMM World Congress 1999 [Brutti1999], rigid-body torque analysis;
-Omar, Rahim, Rejab, IJAME 2023 [Omar2023], torsional-lateral model, Eqs. (1)-(19) (bibliography: docs/references.md).
-Derivation and every interpretation: ujfmu/models/double_cardan_driveline/README.md. Standard library only: this module runs inside FMUs.
+Sources: [Brutti1999] Carlo Brutti, Ettore Pennestri, Marco Evangelos Biancolini, "On the Dynamics of the
+Transmission with a Double Cardan Joint", Proceedings of the Tenth World Congress on the Theory of Machines and
+Mechanisms (IFToMM), Oulu, Finland, 1999: rigid-body torque analysis, section 4. [Omar2023] M. H. Omar,
+M. A. Rahim, M. N. A. M. Rejab, "Numerical Study on the Torsional and Lateral Vibrations of Double Universal Joint
+Driveline System", International Journal of Automotive and Mechanical Engineering (IJAME), 2023: torsional-lateral
+model, Eqs. (1)-(19).
+Derivation and every interpretation: README.md. Standard library only: this module runs inside FMUs.
 
 Angles (rad): phi1 input shaft, phi2 / phi3 the intermediate shaft at its joint-1 / joint-2 end, phi4 output shaft.
 One joint with bend b, driving-yoke angle x and driven-yoke angle y (Omar Eq. 4):
@@ -24,26 +28,30 @@ J_in, J_out: the inertias kinematically tied to phi1 / phi4, evaluated at the st
 """
 
 import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from ...fmu import rk4
+from ..protocol import Drive
 
 #: Largest admissible magnitude of a joint angle (static plus dynamic) [rad].
 MAX_ANGLE = math.radians(89.0)
 HALF_PI = 0.5 * math.pi
 
 
-def joint_error(x, b):
+def joint_error(x: float, b: float) -> float:
     """y - x for tan y = tan x / cos b: atan2((1 - c) sin 2x, (1 + c) - (1 - c) cos 2x), c = cos b (Omar Eq. 4)."""
     c = math.cos(b)
     return math.atan2((1.0 - c) * math.sin(2.0 * x), (1.0 + c) - (1.0 - c) * math.cos(2.0 * x))
 
 
-def joint_inverse(y, b):
+def joint_inverse(y: Sequence[float], b: float) -> float:
     """x with y = x + joint_error(x, b): x = y + joint_error(y + pi/2, b) (tan x = cos b tan y)."""
     return y + joint_error(y + HALF_PI, b)
 
 
-def joint_ratio(x, b):
+def joint_ratio(x: float, b: float) -> tuple:
     """(dy/dx, d2y/dx2, dy/db) of one joint (Omar eta_1 and eta_1A, corrected)."""
     s, c = math.sin(b), math.cos(b)
     sx, cx = math.sin(x), math.cos(x)
@@ -52,7 +60,7 @@ def joint_ratio(x, b):
     return r, -r * s * s * 2.0 * sx * cx / d, s * sx * cx / d
 
 
-def cross_inertia(x, b, i_pin, i_normal):
+def cross_inertia(x: float, b: float, i_pin: float, i_normal: float) -> tuple:
     """(J, dJ/dx): kinetic energy of a joint's cross is J(x) w_x^2 / 2, w_x the driving yoke's speed.
 
     The cross turns about e_A, e_B (pins, i_pin each) and e_n (normal, i_normal) at rates
@@ -71,50 +79,75 @@ def cross_inertia(x, b, i_pin, i_normal):
             i_pin * s * s * dpin - i_normal * c * c * dd / (d * d))
 
 
-class Driveline:
-    """Parameters of a double Cardan driveline, with the derived constants the equations use."""
+@dataclass(slots=True)
+class Parameters:
+    """The DoubleCardanDriveline FMU's parameters (names as declared there) and the constants the equations use:
+    delta = yoke_phase - joint_plane_angle (joint 2's phase relative to joint 1), c = xi k (Omar Eq. 12),
+    lever2 = (L_c cos beta1)^2 and m_lat = m_s lever2 (Omar Eqs. 11, 14), and the natural-rate bound of the
+    flexible equations (0 for a rigid shaft, or where :func:`check` refuses the parameters)."""
 
-    __slots__ = ("beta1", "beta2", "delta", "cos_plane", "i_input", "i_pin", "i_normal", "i_intermediate",
-                 "j_load", "k_theta", "c_theta", "m_s", "k_phi", "c_phi", "lever2", "m_lat")
+    beta1: float
+    beta2: float
+    yoke_phase: float
+    joint_plane_angle: float
+    I_input: float
+    I_cross_pin: float
+    I_cross_normal: float
+    I_intermediate: float
+    J_load: float
+    k_theta: float
+    xi_theta: float
+    m_s: float
+    k_phi: float
+    xi_phi: float
+    L_c: float
+    rigid_intermediate_shaft: bool = False
+    phi_in_start: float = 0.0
+    delta: float = field(init=False, repr=False)
+    cos_plane: float = field(init=False, repr=False)
+    c_theta: float = field(init=False, repr=False)
+    c_phi: float = field(init=False, repr=False)
+    lever2: float = field(init=False, repr=False)
+    m_lat: float = field(init=False, repr=False)
+    natural_rate: float = field(init=False, repr=False)
 
-    def __init__(self, beta1, beta2, yoke_phase, joint_plane_angle, i_input, i_pin, i_normal, i_intermediate,
-                 j_load, k_theta, xi_theta, m_s, k_phi, xi_phi, l_c):
-        self.beta1, self.beta2 = beta1, beta2
-        self.delta = yoke_phase - joint_plane_angle
-        self.cos_plane = math.cos(joint_plane_angle)
-        self.i_input, self.i_pin, self.i_normal, self.i_intermediate = i_input, i_pin, i_normal, i_intermediate
-        self.j_load, self.k_theta, self.c_theta = j_load, k_theta, xi_theta * k_theta
-        self.m_s, self.k_phi, self.c_phi = m_s, k_phi, xi_phi * k_phi
-        self.lever2 = (l_c * math.cos(beta1)) ** 2   # (L_c cos beta0)^2 of Omar Eqs. (11), (12), (14)
-        self.m_lat = m_s * self.lever2
+    def __post_init__(self):
+        self.delta = self.yoke_phase - self.joint_plane_angle
+        self.cos_plane = math.cos(self.joint_plane_angle)
+        self.c_theta = self.xi_theta * self.k_theta
+        self.c_phi = self.xi_phi * self.k_phi
+        self.lever2 = (self.L_c * math.cos(self.beta1)) ** 2   # (L_c cos beta0)^2 of Omar Eqs. (11), (12), (14)
+        self.m_lat = self.m_s * self.lever2
+        self.natural_rate = 0.0 if self.rigid_intermediate_shaft or not self.J_load > 0.0 else \
+            natural_rate_bound(self)
 
 
-def input_inertia(p, phi1):
+def input_inertia(p: Parameters, phi1: float) -> tuple:
     """(J_in, dJ_in/dphi1): input shaft, cross 1 and the joint-1 half of the intermediate shaft."""
-    jc, djc = cross_inertia(phi1, p.beta1, p.i_pin, p.i_normal)
+    jc, djc = cross_inertia(phi1, p.beta1, p.I_cross_pin, p.I_cross_normal)
     r, dr, _ = joint_ratio(phi1, p.beta1)
-    half = 0.5 * p.i_intermediate
-    return p.i_input + jc + half * r * r, djc + 2.0 * half * r * dr
+    half = 0.5 * p.I_intermediate
+    return p.I_input + jc + half * r * r, djc + 2.0 * half * r * dr
 
 
-def output_inertia(p, phi4):
+def output_inertia(p: Parameters, phi4: float) -> tuple:
     """(J_out, dJ_out/dphi4): driven load, cross 2 and the joint-2 half of the intermediate shaft."""
     u4 = phi4 + p.delta
-    jc, djc = cross_inertia(u4, p.beta2, p.i_pin, p.i_normal)
+    jc, djc = cross_inertia(u4, p.beta2, p.I_cross_pin, p.I_cross_normal)
     r, dr, _ = joint_ratio(u4, p.beta2)
-    half = 0.5 * p.i_intermediate
-    return p.j_load + jc + half * r * r, djc + 2.0 * half * r * dr
+    half = 0.5 * p.I_intermediate
+    return p.J_load + jc + half * r * r, djc + 2.0 * half * r * dr
 
 
 # --- rigid intermediate shaft (Brutti, section 4): one degree of freedom, phi1 imposed -------------------------
 
-def rigid_output_angle(p, phi1):
+def rigid_output_angle(p: Parameters, phi1: float) -> float:
     """phi4(phi1) through both joints with an untwisted shaft (phi3 = phi2)."""
     phi2 = phi1 + joint_error(phi1, p.beta1)
     return joint_inverse(phi2 + p.delta, p.beta2) - p.delta
 
 
-def rigid_state(p, phi1, omega1, alpha1, tau_load):
+def rigid_state(p: Parameters, phi1: float, omega1: float, alpha1: float, tau_load: float) -> dict:
     """Rigid driveline at the imposed input motion. T = J_eq(phi1) w1^2 / 2 with
 
         J_eq = J_in + J_out rho^2,   rho = dphi4/dphi1 = r1 / r2,
@@ -142,7 +175,8 @@ def rigid_state(p, phi1, omega1, alpha1, tau_load):
 
 # --- flexible intermediate shaft (Omar, Eqs. 16-19 re-derived): states phi4, w4, phi, dphi ----------------------
 
-def flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi):
+def flexible_kinematics(p: Parameters, phi1: float, omega1: float,
+        phi4: float, omega4: float, phi: float, dphi: float) -> tuple:
     """Twist, twist rate and the partials the equations need.
 
     Returns (twist, dtwist, r1, r2, g, e1): twist = phi2 - phi3, r1 = dphi2/dphi1, r2 = dphi3/dphi4,
@@ -159,7 +193,7 @@ def flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi):
     return twist, r1 * omega1 - r2 * omega4 + g * dphi, r1, r2, g, e1
 
 
-def flexible_derivatives(p, phi1, omega1, state, tau_load):
+def flexible_derivatives(p: Parameters, phi1: float, omega1: float, state: Sequence[float], tau_load: float) -> tuple:
     """d/dt of (phi4, w4, phi, dphi): Lagrange's equations of the T, P, D above (cf. Omar Eqs. 16, 17, 19):
 
         J_out dw4/dt = r2 (k_theta twist + c_theta dtwist) - J_out' w4^2 / 2 - tau_load
@@ -180,7 +214,7 @@ def _flexible_rates(p, phi1, omega1, state, tau_load):
             -(p.c_phi * dphi + p.k_phi * phi) / p.m_s - g * shaft / p.m_lat), r1, shaft
 
 
-def flexible_outputs(p, phi1, omega1, alpha1, state):
+def flexible_outputs(p: Parameters, phi1: float, omega1: float, alpha1: float, state: Sequence[float]) -> dict:
     """Torques and energy at one instant: dict of twist, dtwist, shaft_torque, tau_in, omega2, energy.
 
     tau_in = J_in alpha1 + J_in' w1^2 / 2 + r1 (k_theta twist + c_theta dtwist) (Lagrange for the imposed phi1);
@@ -199,7 +233,7 @@ def flexible_outputs(p, phi1, omega1, alpha1, state):
             "omega2": r1 * omega1 + e1 * dphi, "energy": energy}
 
 
-def natural_rate_bound(p: Driveline, input_inertia: float = math.inf) -> float:
+def natural_rate_bound(p: Parameters, input_inertia: float = math.inf) -> float:
     """An upper bound [1/s] of the fastest free motion of the flexible equations (oscillation + decay).
 
     input_inertia: a lower bound of the inertia on the input shaft when that shaft is free (torque-driven), which
@@ -208,19 +242,20 @@ def natural_rate_bound(p: Driveline, input_inertia: float = math.inf) -> float:
     r_max = 1.0 / min(math.cos(p.beta1), math.cos(p.beta2))  # dy/dx <= 1/cos b
     g_max = 0.5 * (  # |dy/db| <= tan b / (2 cos b)
                    abs(math.tan(p.beta1)) / math.cos(p.beta1) + abs(math.tan(p.beta2)) / math.cos(p.beta2))
-    inv_j = 1.0 / p.j_load + 1.0 / input_inertia
+    inv_j = 1.0 / p.J_load + 1.0 / input_inertia
     oscillation = math.sqrt(p.k_theta * r_max * r_max * inv_j + p.k_phi / p.m_s + p.k_theta * g_max ** 2 / p.m_lat)
     decay = p.c_theta * r_max * r_max * inv_j + p.c_phi / p.m_s + p.c_theta * g_max ** 2 / p.m_lat
     return oscillation + decay
 
 
-def flexible_substeps(natural_rate, h, omega1_max):
+def flexible_substeps(natural_rate: float, h: float, omega1_max: float) -> int:
     """RK4 substeps for a step h: each at most RATE_STEP / (natural_rate + 4 |omega1|) long (the kinematics carry
     harmonics 2x, 4x, ... of the input angle with amplitudes q, q^2, ...)."""
     return rk4.substeps(natural_rate + 4.0 * omega1_max, h)
 
 
-def flexible_step(p, t_span, phi1, omega1, alpha1, state, tau_load, substeps):
+def flexible_step(p: Parameters, t_span: float, phi1: float, omega1: float,
+        alpha1: float, state: Sequence[float], tau_load: float, substeps: int) -> tuple:
     """Advance the flexible states over t_span with classical RK4; phi1(t) = phi1 + w1 t + alpha1 t^2/2.
 
     Returns the new state; tau_load is held over the step.
@@ -232,7 +267,7 @@ def flexible_step(p, t_span, phi1, omega1, alpha1, state, tau_load, substeps):
 
 # --- torque-driven input shaft: phi1 is a state, the driver's rotor inertia J_d lumped on it -------------------
 
-def torque_driven_rates(p: Driveline, j_drive: float, state, tau_drive: float, tau_load: float) -> tuple:
+def torque_driven_rates(p: Parameters, j_drive: float, state, tau_drive: float, tau_load: float) -> tuple:
     """d/dt of the state under a driving torque tau_drive on the input shaft (which carries J_d).
 
     Rigid shaft, state (phi1, w1): (J_d + J_eq) alpha1 = tau_drive - J_eq' w1^2 / 2 - rho tau_load, i.e.
@@ -248,3 +283,76 @@ def torque_driven_rates(p: Driveline, j_drive: float, state, tau_drive: float, t
     rates, r1, shaft = _flexible_rates(p, phi1, omega1, state[2:], tau_load)
     j_in, dj_in = input_inertia(p, phi1)
     return (omega1, (tau_drive - 0.5 * dj_in * omega1 * omega1 - r1 * shaft) / (j_drive + j_in)) + rates
+
+
+# --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
+
+class State(NamedTuple):
+    """Flexible intermediate shaft: output shaft angle and speed, dynamic misalignment and its rate (unused, zero,
+    with a rigid shaft)."""
+
+    phi4: float
+    omega4: float
+    phi: float
+    dphi: float
+
+
+Inputs = Drive
+
+
+def kinematic(p: Parameters) -> bool:
+    """A rigid intermediate shaft: the output follows the joints' kinematics, nothing to integrate."""
+    return p.rigid_intermediate_shaft
+
+
+def initial_state(p: Parameters, t: float, u: Drive) -> State:
+    """Untwisted, phi = 0, the output at the rigid kinematics' angle and speed of the input motion u."""
+    if p.rigid_intermediate_shaft:
+        return State(0.0, 0.0, 0.0, 0.0)
+    return State(rigid_output_angle(p, u.phi), rigid_state(p, u.phi, u.omega, 0.0, 0.0)["omega4"], 0.0, 0.0)
+
+
+def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
+    """:func:`flexible_derivatives` at the input motion u."""
+    return _flexible_rates(p, u.phi, u.omega, y, u.tau_load)[0]
+
+
+def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
+    """The natural-rate bound plus 4 |omega1| (the kinematics carry harmonics 2x, 4x, ... of the input angle)."""
+    return p.natural_rate + 4.0 * omega_max
+
+
+def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
+    """Rigid: :func:`rigid_state`; flexible: :func:`flexible_outputs` at state y."""
+    if p.rigid_intermediate_shaft:
+        out = rigid_state(p, u.phi, u.omega, u.alpha, u.tau_load)
+        values = {"phi_out": out["phi4"], "omega_out": out["omega4"], "twist": 0.0, "dynamic_misalignment": 0.0}
+    else:
+        out = flexible_outputs(p, u.phi, u.omega, u.alpha, y)
+        values = {"phi_out": y[0], "omega_out": y[1], "dynamic_misalignment": y[2], "twist": out["twist"]}
+    values.update(tau_in=out["tau_in"], shaft_torque=out["shaft_torque"], omega_intermediate=out["omega2"],
+                  stored_energy=out["energy"])
+    return values
+
+
+def check(p: Parameters) -> list:
+    """A rigid cross has I_normal <= 2 I_pin; a flexible shaft needs an output inertia."""
+    problems = []
+    if p.I_cross_normal > 2.0 * p.I_cross_pin:
+        problems.append(f"I_cross_normal = {p.I_cross_normal!r} kg.m2 exceeds 2*I_cross_pin = "
+                        f"{2.0 * p.I_cross_pin!r} kg.m2 (allowed range [0, 2*I_cross_pin] kg.m2: a rigid "
+                        "cross has I_normal <= I_pin + I_pin)")
+    if not p.rigid_intermediate_shaft and not p.J_load > 0.0:
+        problems.append(f"J_load = {p.J_load!r} kg.m2 must be > 0 with a flexible intermediate shaft "
+                        "(allowed range (0, 1000] kg.m2; 0 only with rigid_intermediate_shaft = true)")
+    return problems
+
+
+def check_state(p: Parameters, y: State) -> list:
+    """Both joint angles plus the dynamic misalignment phi must stay within [-MAX_ANGLE, MAX_ANGLE]."""
+    problems = []
+    for name, angle in (("beta1", p.beta1 + y[2]), ("beta2", p.beta2 + p.cos_plane * y[2])):
+        if abs(angle) > MAX_ANGLE:
+            problems.append(f"joint angle {name} + dynamic misalignment = {angle!r} rad left its allowed "
+                            f"range [{-MAX_ANGLE:.10g}, {MAX_ANGLE:.10g}] rad")
+    return problems[:1]

@@ -1,11 +1,11 @@
 """Monolithic reference for Motor -> DoubleCardanDriveline -> Load, and for its torque-driven wiring
 MotorController -> DoubleCardanDrivelineTorqueDriven -> Load (the same equations, the rotor inertia from J_drive).
 
-Independent of the co-simulation and of ujfmu.models.double_cardan_driveline.model, it starts again from geometry and energy:
+Independent of the co-simulation and of this folder's model.py, it starts again from geometry and energy:
 - each joint from vectors (sympy): the driving pin e_A = R_x(b) (-sin x, cos x, 0) in the driven shaft's frame,
   the driven angle y = x + atan2 of e_A's projection (no tan formula), the cross frame (e_A, e_B, e_n) with
   e_B = e_z x e_A / |e_z x e_A|, e_n = e_A x e_B, and the cross's body angular velocity from R^T dR/dt;
-- the kinetic energy of every body, the potential and the Rayleigh function of ujfmu/models/double_cardan_driveline/README.md as sympy
+- the kinetic energy of every body, the potential and the Rayleigh function of README.md as sympy
   expressions, and Lagrange's equations M(q) q'' + h(q, q') = Q formed by sympy's differentiation
   (q = input angle, output angle, dynamic misalignment; the input angle prescribed for an ideal speed source);
 - for the rigid intermediate shaft, the output angle by Newton iteration on phi3(phi4) = phi2 and the input torque
@@ -19,21 +19,19 @@ import functools
 import numpy as np
 import sympy as sp
 
-from ...references.common import (check_close, check_energy_balance, drive, load_torque, pi_law, profile, record_table,
-                     solve_piecewise, torque_driven_names)
+from ...references.common import (check_close, check_energy_balance, drive, drive_name, load_torque, pi_law, profile,
+                                  record_table, solve_piecewise, source_motion, source_start_angle, source_torque,
+                                  torque_driven_names)
+from ...references.rotations import rx
 
 RTOL, ATOL = 1e-10, 1e-11
 _PARAMS = ("beta1", "beta2", "yoke_phase", "joint_plane_angle", "I_input", "I_cross_pin", "I_cross_normal",
            "I_intermediate", "J_load", "k_theta", "xi_theta", "m_s", "k_phi", "xi_phi", "L_c")
 
 
-def _rx(a):
-    return sp.Matrix([[1, 0, 0], [0, sp.cos(a), -sp.sin(a)], [0, sp.sin(a), sp.cos(a)]])
-
-
 def _joint(x, b):
     """(y - x, cross rotation rates per unit dx/dt about e_A, e_B, e_n) for one joint with bend b."""
-    e_a = _rx(b) * sp.Matrix([-sp.sin(x), sp.cos(x), 0])
+    e_a = rx(b) * sp.Matrix([-sp.sin(x), sp.cos(x), 0])
     err = sp.atan2(-e_a[0] * sp.cos(x) - e_a[1] * sp.sin(x), e_a[1] * sp.cos(x) - e_a[0] * sp.sin(x))
     e_b = sp.Matrix([-e_a[1], e_a[0], 0]) / sp.sqrt(e_a[0] ** 2 + e_a[1] ** 2)
     e_n = e_a.cross(e_b)
@@ -56,7 +54,7 @@ def _equations():
         wa, wb, wn = (r.subs({x: angle, b: bend}) for r in rates)
         return i_pin * (wa ** 2 + wb ** 2) + i_n * wn ** 2
 
-    # kinetic energy: rotating parts at the static joint angles, lateral mass (ujfmu/models/double_cardan_driveline/README.md)
+    # kinetic energy: rotating parts at the static joint angles, lateral mass (README.md)
     phi2_static = p1 + err.subs({x: p1, b: b1})
     phi3_static = p4 + err.subs({x: p4 + delta, b: b2})
     j_in = i_in + cross_energy(p1, b1) + i_int / 2 * sp.diff(phi2_static, p1) ** 2
@@ -148,8 +146,7 @@ def generate(scenario):
     if pd["rigid_intermediate_shaft"]:
         if not ideal or torque_driven:
             raise ValueError(f"{scenario.path}: the rigid-shaft reference needs an ideal speed source")
-        w1, a1, ang = profile(pm, t)
-        phi_m = ang - profile(pm, t[:1])[2][0]
+        w1, a1, phi_m = source_motion(pm, t)
         phi1 = phi1_0 + phi_m
         rg = ref.rigid(phi1)
         w4 = rg["rho"] * w1
@@ -176,7 +173,7 @@ def generate(scenario):
                 qd = (float(w1), y[1], y[3])
                 acc, _ = ref.accelerations(q, qd, known_alpha1=float(a1), tau_load=load_torque(pl, y[1]))
                 return [y[1], acc[1], y[3], acc[2]]
-            ang0 = float(profile(pm, t[:1])[2][0])
+            ang0 = source_start_angle(pm, t)
         else:
             y = [0.0, w1_0, 0.0] + y
 
@@ -189,8 +186,7 @@ def generate(scenario):
 
         ys = solve_piecewise(rhs, y, t, pm, RTOL, ATOL)
         if ideal:
-            w1, a1, ang = profile(pm, t)
-            phi_m = ang - ang0
+            w1, a1, phi_m = source_motion(pm, t)
             phi4, w4, f, v = ys
         else:
             phi_m, w1, integral, phi4, w4, f, v = ys
@@ -217,12 +213,12 @@ def generate(scenario):
             "driveline.shaft_torque": pd["k_theta"] * twist + pd["xi_theta"] * pd["k_theta"] * dtwist,
             "driveline.stored_energy": energy,
         })
-        how = (f"monolithic ODE of {'ideal speed source' if ideal else 'PI motor'} + driveline + load, Lagrange's "
+        how = (f"monolithic ODE of {drive_name(ideal)} + driveline + load, Lagrange's "
                f"equations formed by sympy from vector kinematics and energies, scipy DOP853 rtol={RTOL:g} "
                f"atol={ATOL:g}")
     cols.update({"motor.omega": w1, "motor.phi": phi_m, "load.tau": tau_l, "driveline.phi_in": phi1,
                  "driveline.alpha_in": a1})
-    cols["motor.tau_motor"] = (jm * a1 + cols["driveline.tau_in"]) if ideal else tau_m
+    cols["motor.tau_motor"] = source_torque(jm, a1, cols["driveline.tau_in"]) if ideal else tau_m
     self_check(scenario, t, cols, dissipation)
     if torque_driven:
         cols = torque_driven_names("driveline", cols)
@@ -234,7 +230,7 @@ def self_check(scenario, t: np.ndarray, columns: dict, dissipation=0.0) -> None:
     """The reference's own laws, checked before it is written (ReferenceCheckError otherwise):
 
     - energy: stored_energy changes by the work of tau_in on the input less the load's work on the output and
-      the Rayleigh loss (dissipation: the power 2D of ujfmu/models/double_cardan_driveline/README.md, 0 for the rigid shaft);
+      the Rayleigh loss (dissipation: the power 2D of README.md, 0 for the rigid shaft);
     - closed-form limit: a rigid shaft with equal joint angles and the yokes in the joint plane (Z layout, in
       phase) is a constant-velocity joint, omega_out = omega_in.
     columns: 'motor.omega', 'driveline.omega_out', 'driveline.tau_in', 'driveline.stored_energy', 'load.tau'.

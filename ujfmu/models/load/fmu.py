@@ -1,10 +1,10 @@
 """Load FMU: speed-dependent resisting torque."""
 
 from . import model as load
-from ...fmu.base import SPEED_RANGE, UjfmuSlave, input_, output, parameter
+from ...fmu.base import SPEED_RANGE, ModelSlave, input_, output, parameter
 
 
-class Load(UjfmuSlave):
+class Load(ModelSlave):
     """Resisting torque tau = T0*s(omega) + c1*omega + c2*omega*|omega|_s (ujfmu.models.load.model).
 
     s and |.|_s are a smooth sign and absolute value with regularisation speed omega_smooth, so the law is smooth
@@ -13,7 +13,7 @@ class Load(UjfmuSlave):
     Signs: tau > 0 opposes positive rotation; connect it to the tau_load input of the machine that drives it.
     """
 
-    PHYSICS = load
+    MODEL = load
     VARIABLES = (
         parameter("T0", 0.3, "N.m", "Constant resisting torque magnitude (Feng et al.: T0 = 0.3 N.m)",
                   min=-1.0e6, max=1.0e6),
@@ -26,11 +26,5 @@ class Load(UjfmuSlave):
     )
     DEFAULT_EXPERIMENT = (0.0, 1.0, 1.0e-3)
 
-    def initialize(self, start_time):
-        pass
-
-    def compute_outputs(self):
-        self.tau = load.load_torque(self.omega, self.T0, self.c1, self.c2, self.omega_smooth)
-
-    def advance(self, t, h):
-        pass
+    def model_inputs(self):
+        return load.Inputs(self.omega)

@@ -1,12 +1,12 @@
 """Motor FMU: rotor inertia with a PI speed controller and torque limit, or an ideal speed source."""
 
 from . import model as motor
-from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, UjfmuSlave, input_, output, parameter
+from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, ModelSlave, UjfmuSlave, input_, output, parameter
 
 _SPEED = SPEED_RANGE
 
 
-class Motor(UjfmuSlave):
+class Motor(ModelSlave):
     """Drive motor following a speed profile (ujfmu.models.motor.model).
 
     PI mode (ideal_speed_source = false): J_rotor*domega/dt = tau_motor - tau_load with
@@ -21,7 +21,7 @@ class Motor(UjfmuSlave):
     Signs: omega, phi, tau_motor > 0 in the direction of rotation; tau_load > 0 opposes the rotation.
     """
 
-    PHYSICS = motor
+    MODEL = motor
     VARIABLES = (
         parameter("J_rotor", 1.0e-3, "kg.m2", "Rotor moment of inertia", min=1.0e-9, max=1.0e3),
         parameter("Kp", 0.2, "N.m.s/rad", "PI speed controller proportional gain", min=0.0, max=1.0e6),
@@ -42,42 +42,9 @@ class Motor(UjfmuSlave):
         output("omega_ref", "rad/s", "Reference speed of the profile"),
     )
     DEFAULT_EXPERIMENT = (0.0, 6.0, 1.0e-3)
-    STATE = {"_time": "float", "_state": "float[3]"}    # time, (phi, omega, controller integral)
-    DERIVED = ("_phi_ref0", "_params")
 
-    def check_parameters(self):
-        if self.profile == motor.RAMP and self.omega_set < 0.0:
-            return [f"omega_set = {self.omega_set!r} rad/s is outside its allowed range [0, 1e+04] rad/s for the "
-                    "ramp profile (profile = 1)"]
-        return []
-
-    def _reference(self, t):
-        return motor.speed_reference(t, self.profile, self.omega_set, self.accel, self.t_step, self.omega_initial)
-
-    def derive(self):
-        self._phi_ref0 = self._reference(self._start_time)[2]
-        self._params = (self.J_rotor, self.Kp, self.Ki, self.tau_max, self.profile, self.omega_set, self.accel,
-                        self.t_step, self.omega_initial)
-
-    def initialize(self, start_time):
-        self._time = start_time
-        self._state = (0.0, self._reference(start_time)[0], 0.0)  # phi, omega, controller integral
-
-    def compute_outputs(self):
-        omega_ref, alpha_ref, phi_ref = self._reference(self._time)
-        self.omega_ref = omega_ref
-        if self.ideal_speed_source:
-            self.omega, self.phi = omega_ref, phi_ref - self._phi_ref0
-            self.tau_motor = self.J_rotor * alpha_ref + self.tau_load
-        else:
-            self.phi, self.omega, integral = self._state
-            self.tau_motor = motor.pi_torque(omega_ref - self.omega, integral, self.Kp, self.Ki, self.tau_max)[0]
-
-    def advance(self, t, h):
-        if not self.ideal_speed_source:
-            n = motor.controller_substeps(h, self.J_rotor, self.Kp, self.Ki)
-            self._state = motor.pi_motor_step(t, h, self._state, self.tau_load, self._params + (n,))
-        self._time = t + h
+    def model_inputs(self):
+        return motor.Inputs(self.tau_load)
 
 
 class MotorController(UjfmuSlave):
@@ -101,8 +68,12 @@ class MotorController(UjfmuSlave):
     DEFAULT_EXPERIMENT = Motor.DEFAULT_EXPERIMENT
     STATE = {"_time": "float", "_integral": "float"}
     DERIVED = ("_params",)
-    check_parameters = Motor.check_parameters
-    _reference = Motor._reference
+
+    def check_parameters(self):
+        return motor.check(self)   # the profile's parameters, named as Motor's
+
+    def _reference(self, t):
+        return motor.reference(self, t)
 
     def derive(self):
         self._params = (self.Kp, self.Ki, self.tau_max, self.profile, self.omega_set, self.accel, self.t_step,

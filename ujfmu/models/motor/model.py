@@ -9,17 +9,21 @@ Speed profiles omega_ref(t) (Feng et al. accelerate the driving shaft at alpha =
     CONSTANT: omega_ref = omega_set
     RAMP:     omega_ref = min(accel * t, omega_set)  (from rest)
     STEP:     omega_ref = omega_initial before t_step, omega_set from t_step on
+Source: none; a generic drive (PI speed control with conditional-integration anti-windup, the textbook law).
 Standard library only: runs inside the Motor FMU.
 """
 
 import math
+from dataclasses import dataclass
+from typing import NamedTuple
 
 from ...fmu import rk4
 
 CONSTANT, RAMP, STEP = 0, 1, 2
 
 
-def speed_reference(t, profile, omega_set, accel, t_step, omega_initial):
+def speed_reference(t: float, profile: int, omega_set: float,
+        accel: float, t_step: float, omega_initial: float) -> tuple:
     """(omega_ref, alpha_ref, phi_ref): reference speed, its derivative and its integral from t = 0."""
     if profile == RAMP:
         t_end = omega_set / accel
@@ -33,7 +37,7 @@ def speed_reference(t, profile, omega_set, accel, t_step, omega_initial):
     return omega_set, 0.0, omega_set * t
 
 
-def pi_torque(error, integral, kp, ki, tau_max):
+def pi_torque(error: float, integral: float, kp: float, ki: float, tau_max: float) -> tuple:
     """(tau_motor, dI/dt) of the PI law with clamp and conditional-integration anti-windup."""
     u = kp * error + ki * integral
     if u > tau_max:
@@ -43,41 +47,90 @@ def pi_torque(error, integral, kp, ki, tau_max):
     return u, error
 
 
-def controller_substeps(step, inertia, kp, ki):
-    """RK4 substeps per communication step: keep |lambda| h_sub <= 0.2 for the closed PI loop's fastest pole."""
-    # closed loop: J s^2 + Kp s + Ki = 0; |lambda| <= Kp/J + sqrt(Ki/J) bounds both roots
-    lam = kp / inertia + math.sqrt(ki / inertia)
-    n = step * lam / 0.2
-    if not n <= 100_000:
-        raise ValueError(f"a step of {step!r} s needs {n:.3g} RK4 substeps for the PI loop's fastest pole "
-                         f"{lam:.6g} 1/s (allowed at most 100000): reduce the step, Kp or Ki, or raise J_rotor")
-    return max(1, math.ceil(n))
+# --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
+
+@dataclass(slots=True)
+class Parameters:
+    """The Motor FMU's parameters (names as declared there)."""
+
+    J_rotor: float
+    Kp: float
+    Ki: float
+    tau_max: float
+    profile: int
+    omega_set: float
+    accel: float
+    t_step: float
+    omega_initial: float
+    ideal_speed_source: bool = False
 
 
-def pi_motor_step(t, h, state, tau_load, p):
-    """Advance (phi, omega, integral) over [t, t+h] with tau_load held; classical RK4 with substeps.
+class State(NamedTuple):
+    """Rotor angle [rad] and speed [rad/s] and the controller's integral of the speed error [rad]; an ideal speed
+    source holds the angle offset that makes its angle 0 at the start in phi (nothing is integrated)."""
 
-    p: (inertia, kp, ki, tau_max, profile, omega_set, accel, t_step, omega_initial, substeps).
-    """
-    inertia, kp, ki, tau_max, profile, omega_set, accel, t_step, omega_initial, n = p
+    phi: float
+    omega: float
+    integral: float
 
-    def rhs(time, omega, integral):
-        omega_ref = speed_reference(time, profile, omega_set, accel, t_step, omega_initial)[0]
-        tau, d_integral = pi_torque(omega_ref - omega, integral, kp, ki, tau_max)
-        return omega, (tau - tau_load) / inertia, d_integral
 
-    phi, omega, integral = state
-    hs = h / n
-    for i in range(n):
-        ts = t + i * hs
-        k1 = rhs(ts, omega, integral)
-        k2 = rhs(ts + 0.5 * hs, omega + 0.5 * hs * k1[1], integral + 0.5 * hs * k1[2])
-        k3 = rhs(ts + 0.5 * hs, omega + 0.5 * hs * k2[1], integral + 0.5 * hs * k2[2])
-        k4 = rhs(ts + hs, omega + hs * k3[1], integral + hs * k3[2])
-        phi += hs / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
-        omega += hs / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
-        integral += hs / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2])
-    return phi, omega, integral
+class Inputs(NamedTuple):
+    """The reaction torque of the driven machine [N.m], held over a step."""
+
+    tau_load: float
+
+
+def reference(p: Parameters, t: float) -> tuple:
+    """(omega_ref, alpha_ref, phi_ref) of the profile at time t (:func:`speed_reference`)."""
+    return speed_reference(t, p.profile, p.omega_set, p.accel, p.t_step, p.omega_initial)
+
+
+def kinematic(p: Parameters) -> bool:
+    """The ideal speed source: the rotor follows the profile, nothing to integrate."""
+    return p.ideal_speed_source
+
+
+def initial_state(p: Parameters, t: float, u: Inputs) -> State:
+    """Rotor at angle 0 and the reference speed, integral 0 (ideal source: the offset -phi_ref(t))."""
+    omega_ref, _, phi_ref = reference(p, t)
+    return State(-phi_ref if p.ideal_speed_source else 0.0, omega_ref, 0.0)
+
+
+def derivatives(p: Parameters, t: float, y: State, u: Inputs) -> tuple:
+    """J domega/dt = tau_motor - tau_load, dphi/dt = omega, dI/dt from :func:`pi_torque`."""
+    omega_ref = reference(p, t)[0]
+    tau, d_integral = pi_torque(omega_ref - y[1], y[2], p.Kp, p.Ki, p.tau_max)
+    return y[1], (tau - u.tau_load) / p.J_rotor, d_integral
+
+
+#: substep length times the closed loop's fastest pole: 0.2, tighter than rk4.RATE_STEP, keeps the PI start-ups'
+#: RK4 error well below the 1e-3 of their range they are checked to
+POLE_STEP = 0.2
+
+
+def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
+    """The closed loop J s^2 + Kp s + Ki = 0 has |lambda| <= Kp/J + sqrt(Ki/J) (both roots), scaled so that a
+    substep (rk4.RATE_STEP / rate) is POLE_STEP / |lambda| long."""
+    return (p.Kp / p.J_rotor + math.sqrt(p.Ki / p.J_rotor)) * (rk4.RATE_STEP / POLE_STEP)
+
+
+def outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
+    """Speed, angle and drive torque (ideal source: the profile, and the torque J alpha_ref + tau_load a perfect
+    drive delivers; PI: the state and the PI law)."""
+    omega_ref, alpha_ref, phi_ref = reference(p, t)
+    if p.ideal_speed_source:
+        return {"omega_ref": omega_ref, "omega": omega_ref, "phi": phi_ref + y[0],
+                "tau_motor": p.J_rotor * alpha_ref + u.tau_load}
+    return {"omega_ref": omega_ref, "phi": y[0], "omega": y[1],
+            "tau_motor": pi_torque(omega_ref - y[1], y[2], p.Kp, p.Ki, p.tau_max)[0]}
+
+
+def check(p: Parameters) -> list:
+    """The ramp runs from rest up to omega_set >= 0."""
+    if p.profile == RAMP and p.omega_set < 0.0:
+        return [f"omega_set = {p.omega_set!r} rad/s is outside its allowed range [0, 1e+04] rad/s for the "
+                "ramp profile (profile = 1)"]
+    return []
 
 
 def controller_step(t: float, h: float, integral: float, omega: float, p: tuple) -> float:

@@ -1,7 +1,5 @@
 """RingCoupling FMU: elastic centrifugal ring coupling between radially misaligned shafts (Turla, Iljin)."""
 
-import math
-
 from . import model as rc
 from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
 
@@ -23,7 +21,7 @@ class RingCoupling(PrescribedInputSlave):
     tau_load > 0 opposes shaft 2's rotation; transmitted_torque > 0 drives shaft 2.
     """
 
-    PHYSICS = rc
+    MODEL = rc
     VARIABLES = (
         parameter("R", _R, "m", "Radius of the ring (paper R; Fig. 3: 0.1 m)", min=1.0e-4, max=10.0),
         parameter("d", _D, "m", "Diameter of the ring's wire (paper d; Fig. 3: 3 mm)", min=1.0e-6, max=1.0),
@@ -65,43 +63,3 @@ class RingCoupling(PrescribedInputSlave):
                "-157 (EI/R^3) e^2 sin(phi1 + phi2) + c_s x_e^2 / 2", ("omega_in",)),
     )
     DEFAULT_EXPERIMENT = (0.0, 2.0, 1.0e-3)
-    STATE = {**PrescribedInputSlave.STATE, "_state": "float[2]", "_started": "bool"}
-    DERIVED = ("_p", "_rate")
-
-    def check_parameters(self):
-        if not self.e < self.R:
-            return [f"e = {self.e!r} m must be smaller than the ring radius R = {self.R!r} m "
-                    f"(allowed range [0, R) m)"]
-        return []
-
-    def derive(self):
-        self._p = rc.Coupling(**{n: getattr(self, n) for n in rc.Coupling.PARAMETERS})
-        self._rate = rc.natural_rate(self._p)
-
-    def initialize(self, start_time):
-        self.start_input(self.phi_in_start)
-        self._state = (self.phi_out_start, self.omega_out_start)
-        self._started = False
-
-    def _current_state(self):
-        if self._started or not self.start_at_input_speed:
-            return self._state
-        return (self._state[0], self.omega_in)
-
-    def compute_outputs(self):
-        alpha = self.input_acceleration()
-        y = self._current_state()
-        out = rc.outputs(self._p, self._phi_in, self.omega_in, alpha, y)
-        self.phi_out, self.omega_out = y
-        self.tau_in, self.x_e, self.M_p = out["tau_in"], out["x_e"], out["M_p"]
-        self.transmitted_torque, self.stored_energy = out["transmitted_torque"], out["stored_energy"]
-        self.phi_in, self.alpha_in = self._phi_in, alpha
-
-    def advance(self, t, h):
-        alpha = self.input_acceleration()
-        state = rc.step(self._p, h, self._phi_in, self.omega_in, alpha, self._current_state(), self.tau_load,
-                        self._rate)
-        if not all(math.isfinite(x) for x in state):
-            raise ValueError(f"the state became non-finite over the step ({state!r})")
-        self._state, self._started = tuple(state), True
-        self.advance_input(h, alpha)

@@ -15,8 +15,8 @@ import numpy as np
 import sympy as sp
 from scipy import special
 
-from ...references.common import (check_energy_balance, components_with_loads, load_torque, pi_law, profile, record_table,
-                     solve_piecewise)
+from ...references.common import (check_energy_balance, components_with_loads, drive_name, feeds, load_torque, pi_law,
+                                  profile, record_table, solve_piecewise, source_torque)
 
 RTOL, ATOL = 1e-11, 1e-12
 _PARAMS = ("R", "d", "E", "e", "I1", "I2", "c_s", "c_d", "phi_in_start", "phi_out_start")
@@ -93,13 +93,12 @@ def generate(scenario):
                      + potential(phi1, phi2, w1, w2, *k), f"{name}.phi_in": phi1})
         if load:
             cols[f"{load}.tau"] = tau_l(w2)
-        if ideal and any(cn.source == f"{name}.tau_in" and cn.target == "motor.tau_load"
-                         for cn in scenario.connections):
-            cols["motor.tau_motor"] = pm["J_rotor"] * a1 + tau_in
+        if ideal and feeds(scenario, f"{name}.tau_in", "motor.tau_load"):
+            cols["motor.tau_motor"] = source_torque(pm["J_rotor"], a1, tau_in)
     cols.update({"motor.omega": w1, "motor.phi": phi_m})
     for name, load in rings:
         self_check(scenario, t, cols, name, load)
-    how = (f"monolithic ODE of {'ideal speed source' if ideal else 'PI motor'} + coupling + load, Lagrange's "
+    how = (f"monolithic ODE of {drive_name(ideal)} + coupling + load, Lagrange's "
            f"equations formed by sympy from the ring's potential, scipy DOP853 rtol={RTOL:g} atol={ATOL:g}")
     return record_table(scenario, t, cols), f"ujfmu.references.ring_coupling: {how}. Regenerate: ujfmu references"
 

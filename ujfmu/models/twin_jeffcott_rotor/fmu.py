@@ -43,7 +43,7 @@ class TwinJeffcottRotor(PrescribedInputSlave):
     Input (gearbox output flange, inertia J_gb) -> primary shaft (torsion K1T, C1T) -> disc 1 (lateral X1, Y1) ->
     Hooke joint at angle beta -> secondary shaft (torsion K2T, C2T) -> disc 2 (lateral X2, Y2) <- tau_load.
     Six degrees of freedom (theta1, X1, Y1, theta2, X2, Y2) from Lagrange's equations with the paper's energies
-    (Eqs. 4-8, re-derived: ujfmu/models/twin_jeffcott_rotor/README.md), exact Hooke kinematics tan(psi) = cos(beta) tan(theta1) between
+    (Eqs. 4-8, re-derived: README.md), exact Hooke kinematics tan(psi) = cos(beta) tan(theta1) between
     the shafts' bent end sections, so that the joint's transmitted torque loads the shafts laterally (secondary
     couple, twice running speed). Integrated with classical RK4 substeps sized from the natural frequencies and the
     input speed; the input angle follows omega_in extrapolated linearly over each step (alpha_in the backward
@@ -52,7 +52,7 @@ class TwinJeffcottRotor(PrescribedInputSlave):
     X1, Y1 in the primary shaft's frame, X2, Y2 in the secondary's; X lies in the plane of the two shafts.
     """
 
-    PHYSICS = tj
+    MODEL = tj
     VARIABLES = (
         parameter("beta", _RIG["beta"], "rad", "Hooke joint angle between primary and secondary shaft (paper beta)",
                   min=-tj.MAX_ANGLE, max=tj.MAX_ANGLE),
@@ -87,37 +87,3 @@ class TwinJeffcottRotor(PrescribedInputSlave):
         output("input_work", "J", "Work done on the rotor through the input since the start"),
     )
     DEFAULT_EXPERIMENT = (0.0, 4.0, 1.0e-3)
-    STATE = {**PrescribedInputSlave.STATE, "_state": f"float[{tj.STATE_SIZE}]", "_started": "bool"}
-    DERIVED = ("_p", "_natural_rate")
-
-    def derive(self):
-        self._p = tj.TwinRotor(**{n: getattr(self, n) for n in tj.TwinRotor.PARAMETERS})
-        self._natural_rate = tj.natural_rate_bound(self._p)
-
-    def initialize(self, start_time):
-        self.start_input(self.phi_in_start)
-        self._state = tj.initial_state(self._p, self._phi_in, 0.0)
-        self._started = False     # before the first step the discs turn with the input
-
-    def _current_state(self):
-        return self._state if self._started else tj.initial_state(self._p, self._phi_in, self.omega_in)
-
-    def compute_outputs(self):
-        alpha = self.input_acceleration()
-        y = self._current_state()
-        out = tj.outputs(self._p, self._phi_in, self.omega_in, alpha, y)
-        self.phi_disc1, self.omega_disc1, self.X1, self.Y1 = y[0], y[1], y[2], y[4]
-        self.phi_out, self.omega_out, self.X2, self.Y2 = y[6], y[7], y[8], y[10]
-        self.dissipated_energy, self.input_work = y[12], y[13]
-        self.tau_in, self.stored_energy = out["tau_in"], out["stored_energy"]
-        self.primary_shaft_torque, self.secondary_shaft_torque = out["primary_shaft_torque"], out["secondary_shaft_torque"]
-        self.phi_in, self.alpha_in = self._phi_in, alpha
-
-    def advance(self, t, h):
-        alpha = self.input_acceleration()
-        state = tj.step(self._p, h, self._phi_in, self.omega_in, alpha, self._current_state(), self.tau_load,
-                        self._natural_rate)
-        if not all(math.isfinite(x) for x in state):
-            raise ValueError(f"the state became non-finite over the step ({state!r})")
-        self._state, self._started = state, True
-        self.advance_input(h, alpha)

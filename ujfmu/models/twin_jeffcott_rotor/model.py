@@ -1,7 +1,9 @@
-"""Two unbalanced Jeffcott rotors coupled through a Hooke joint (Tchomeni, Alugongo,
-Masu, Vibroengineering Procedia 2019 [Tchomeni2019]).
+"""Two unbalanced Jeffcott rotors coupled through a Hooke joint.
 
-Derivation, every interpretation of the paper and the default rig: ujfmu/models/twin_jeffcott_rotor/README.md. Standard library only:
+Source [Tchomeni2019]: Tchomeni, Alugongo, Masu, "Modeling and vibration analysis of twin-rotor system
+interconnected by a Hooke's joint", Vibroengineering Procedia, vol. 27, 2019; Eqs. (1)-(11).
+
+Derivation, every interpretation of the paper and the default rig: README.md. Standard library only:
 this module runs inside the TwinJeffcottRotor FMU.
 
 Layout: input (gearbox output, prescribed angle phi_in, inertia J_gb) -- primary shaft (torsion K1T, C1T) -- disc 1
@@ -25,13 +27,17 @@ components into the lateral response when beta != 0.
 """
 
 import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from ...fmu import rk4
+from ..protocol import Drive
 
 #: Largest admissible joint angle magnitude [rad].
 MAX_ANGLE = math.radians(89.0)
 
-#: The default rig (one place for every default; ujfmu/models/twin_jeffcott_rotor/README.md). Steel: E, G = E / (2 (1 + 0.3)), density.
+#: The default rig (one place for every default; README.md). Steel: E, G = E / (2 (1 + 0.3)), density.
 RIG = dict(
     E=210.0e9, G=210.0e9 / 2.6, density=7850.0,   # Pa, Pa, kg/m^3 (structural steel handbook values)
     shaft_diameter=0.012,                          # m, both shafts
@@ -44,7 +50,7 @@ RIG = dict(
 )
 
 
-def rig_parameters(rig=RIG):
+def rig_parameters(rig: dict = RIG) -> dict:
     """Model parameters of a steel rig: Jeffcott stiffness 48 E I / L^3, torsion G J_p / L, disc mass and
     polar inertia from geometry, viscous damping from damping ratios (lateral: of the disc on its shaft;
     torsional: of each disc on its own shaft with the far end held)."""
@@ -64,24 +70,52 @@ def rig_parameters(rig=RIG):
     return p
 
 
-class TwinRotor:
-    """Parameters and derived constants (names as the FMU's parameters)."""
+@dataclass(slots=True)
+class Parameters:
+    """The TwinJeffcottRotor FMU's parameters (names as declared there) and the constants the equations use:
+    sin and cos of beta, the end slopes 3 / L per unit mid-span displacement, per disc M, J, m_u e, M + m_u (paper
+    M_X1X1), J + m_u e^2 (paper M_theta theta) and its Schur complement, and the natural-rate bound."""
 
-    PARAMETERS = ("beta", "M1", "M2", "J_M1", "J_M2", "J_gb", "m_u1", "m_u2", "e", "phase_u1", "phase_u2",
-                  "K1X", "K1Y", "K2X", "K2Y", "C1X", "C1Y", "C2X", "C2Y", "K1T", "K2T", "C1T", "C2T", "L1", "L2")
+    beta: float
+    M1: float
+    J_M1: float
+    m_u1: float
+    phase_u1: float
+    K1X: float
+    K1Y: float
+    C1X: float
+    C1Y: float
+    K1T: float
+    C1T: float
+    L1: float
+    M2: float
+    J_M2: float
+    m_u2: float
+    phase_u2: float
+    K2X: float
+    K2Y: float
+    C2X: float
+    C2Y: float
+    K2T: float
+    C2T: float
+    L2: float
+    e: float
+    J_gb: float
+    phi_in_start: float = 0.0
+    sin_beta: float = field(init=False, repr=False)
+    cos_beta: float = field(init=False, repr=False)
+    slope1: float = field(init=False, repr=False)
+    slope2: float = field(init=False, repr=False)
+    disc1: dict = field(init=False, repr=False)
+    disc2: dict = field(init=False, repr=False)
+    natural_rate: float = field(init=False, repr=False)
 
-    def __init__(self, beta, M1, M2, J_M1, J_M2, J_gb, m_u1, m_u2, e, phase_u1, phase_u2,
-                 K1X, K1Y, K2X, K2Y, C1X, C1Y, C2X, C2Y, K1T, K2T, C1T, C2T, L1, L2):
-        self.beta, self.sin_beta, self.cos_beta = beta, math.sin(beta), math.cos(beta)
-        self.J_gb, self.e = J_gb, e
-        self.K1X, self.K1Y, self.K2X, self.K2Y = K1X, K1Y, K2X, K2Y
-        self.C1X, self.C1Y, self.C2X, self.C2Y = C1X, C1Y, C2X, C2Y
-        self.K1T, self.K2T, self.C1T, self.C2T = K1T, K2T, C1T, C2T
-        self.slope1, self.slope2 = 3.0 / L1, 3.0 / L2   # end slope per unit mid-span displacement
-        self.phase_u1, self.phase_u2 = phase_u1, phase_u2
-        # per disc: M, J, m_u e, M + m_u (paper M_X1X1), J + m_u e^2 (paper M_theta theta), Schur complement
-        self.disc1 = _disc_constants(M1, J_M1, m_u1, e)
-        self.disc2 = _disc_constants(M2, J_M2, m_u2, e)
+    def __post_init__(self):
+        self.sin_beta, self.cos_beta = math.sin(self.beta), math.cos(self.beta)
+        self.slope1, self.slope2 = 3.0 / self.L1, 3.0 / self.L2   # end slope per unit mid-span displacement
+        self.disc1 = _disc_constants(self.M1, self.J_M1, self.m_u1, self.e)
+        self.disc2 = _disc_constants(self.M2, self.J_M2, self.m_u2, self.e)
+        self.natural_rate = natural_rate_bound(self)
 
 
 def _disc_constants(mass, inertia, m_u, e):
@@ -124,7 +158,7 @@ def _tilt(k, a, b, x, y, z):
     return rv, d_a, d_b
 
 
-def joint(p, theta1, u1, v1, u2, v2):
+def joint(p: Parameters, theta1: float, u1: float, v1: float, u2: float, v2: float) -> tuple:
     """(psi, dpsi/dtheta1, dpsi/du1, dpsi/dv1, dpsi/du2, dpsi/dv2): Hooke joint output angle.
 
     Each bent end section is turned by its slope angle about the normal to its bending plane, exactly: the
@@ -174,7 +208,7 @@ def _disc_accelerations(d, angle, w, q_theta, q_x, q_y):
 STATE_SIZE = 14
 
 
-def shaft_torques(p, phi_in, w_in, y):
+def shaft_torques(p: Parameters, phi_in: float, w_in: float, y: Sequence[float]) -> tuple:
     """(T1, T2, psi, joint derivatives, rates) along a state: primary and secondary shaft torques, T > 0 driving."""
     th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
     s1, s2 = p.slope1, p.slope2
@@ -185,7 +219,7 @@ def shaft_torques(p, phi_in, w_in, y):
     return t1, t2, g, dpsi
 
 
-def derivatives(p, phi_in, w_in, alpha_in, y, tau_load):
+def rates(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequence[float], tau_load: float) -> tuple:
     """dy/dt of the 14 states (Lagrange, Eq. 8, with the energies above); tau_load acts on disc 2."""
     th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
     s1, s2 = p.slope1, p.slope2
@@ -203,7 +237,7 @@ def derivatives(p, phi_in, w_in, alpha_in, y, tau_load):
             (p.J_gb * alpha_in + t1) * w_in)
 
 
-def stored_energy(p, phi_in, w_in, y):
+def stored_energy(p: Parameters, phi_in: float, w_in: float, y: Sequence[float]) -> float:
     """Kinetic energy of the gearbox flange and both discs plus elastic energy of shafts and supports [J]."""
     th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
     psi = joint(p, th1, p.slope1 * x1, p.slope1 * y1, p.slope2 * x2, p.slope2 * y2)[0]
@@ -216,13 +250,13 @@ def stored_energy(p, phi_in, w_in, y):
                            + p.K2X * x2 * x2 + p.K2Y * y2 * y2)
 
 
-def initial_state(p, phi_in, w_in):
+def rest_state(p: Parameters, phi_in: float, w_in: float) -> list:
     """Untwisted shafts, discs centred, discs turning with the input as the rigid joint kinematics dictate."""
     g = joint(p, phi_in, 0.0, 0.0, 0.0, 0.0)
     return [phi_in, w_in, 0.0, 0.0, 0.0, 0.0, g[0], g[1] * w_in, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
 
 
-def natural_rate_bound(p):
+def natural_rate_bound(p: Parameters) -> float:
     """An upper bound [1/s] of the fastest free motion: sqrt of the trace of M^-1 K plus the trace of M^-1 C, with
     |dpsi/dtheta1| <= 1 / cos(beta) and |dpsi/du|, |dpsi/dv| <= tan(beta) (plus margin for the tilts)."""
     r = 1.0 / p.cos_beta
@@ -237,18 +271,72 @@ def natural_rate_bound(p):
     return math.sqrt(stiffness) + decay
 
 
-def step(p, t_span, phi_in, w_in, alpha_in, y, tau_load, natural_rate):
+def step(p: Parameters, t_span: float, phi_in: float, w_in: float,
+        alpha_in: float, y: Sequence[float], tau_load: float, natural_rate: float) -> list:
     """Advance the state over t_span with RK4 substeps (input angle quadratic in time, tau_load held); the
     substeps resolve the natural rate and the 1x, 2x, 4x forcing by the unbalance and the joint."""
     w_max = max(abs(w_in), abs(w_in + alpha_in * t_span))
 
     def f(phi, w, state):
-        return derivatives(p, phi, w, alpha_in, state, tau_load)
+        return rates(p, phi, w, alpha_in, state, tau_load)
     return rk4.integrate(f, y, t_span, rk4.substeps(natural_rate + 4.0 * w_max, t_span), phi_in, w_in, alpha_in)
 
 
-def outputs(p, phi_in, w_in, alpha_in, y):
-    """dict of the FMU's outputs for a state (tau_in = J_gb alpha_in + T1)."""
+def torque_outputs(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequence[float]) -> dict:
+    """dict of the torques and energy for a state (tau_in = J_gb alpha_in + T1)."""
     t1, t2, g, dpsi = shaft_torques(p, phi_in, w_in, y)
     return dict(tau_in=p.J_gb * alpha_in + t1, primary_shaft_torque=t1, secondary_shaft_torque=t2,
                 joint_output_angle=g[0], stored_energy=stored_energy(p, phi_in, w_in, y))
+
+
+# --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
+
+class State(NamedTuple):
+    """Disc angles and speeds, disc-centre displacements and velocities, and the energy audit's integrals."""
+
+    theta1: float
+    omega1: float
+    X1: float
+    dX1: float
+    Y1: float
+    dY1: float
+    theta2: float
+    omega2: float
+    X2: float
+    dX2: float
+    Y2: float
+    dY2: float
+    dissipated_energy: float
+    input_work: float
+
+
+Inputs = Drive
+
+
+def initial_state(p: Parameters, t: float, u: Drive) -> State:
+    """:func:`rest_state` at the input motion u."""
+    return State(*rest_state(p, u.phi, u.omega))
+
+
+def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
+    """:func:`rates` at the input motion u."""
+    return rates(p, u.phi, u.omega, u.alpha, y, u.tau_load)
+
+
+def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
+    """The natural-rate bound plus 4 |omega_in| (the 1x, 2x, 4x forcing by the unbalance and the joint)."""
+    return p.natural_rate + 4.0 * omega_max
+
+
+def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
+    """The discs' motion from the state, the torques and energy from :func:`torque_outputs`."""
+    out = torque_outputs(p, u.phi, u.omega, u.alpha, y)
+    return {"phi_disc1": y[0], "omega_disc1": y[1], "X1": y[2], "Y1": y[4], "phi_out": y[6], "omega_out": y[7],
+            "X2": y[8], "Y2": y[10], "dissipated_energy": y[12], "input_work": y[13], "tau_in": out["tau_in"],
+            "stored_energy": out["stored_energy"], "primary_shaft_torque": out["primary_shaft_torque"],
+            "secondary_shaft_torque": out["secondary_shaft_torque"]}
+
+
+def check(p: Parameters) -> list:
+    """Every parameter's own range suffices."""
+    return []

@@ -1,6 +1,6 @@
 """Monolithic reference for Motor -> TwinJeffcottRotor(s) -> Load(s).
 
-Independent of the co-simulation and of ujfmu.models.twin_jeffcott_rotor.model, it starts again from geometry and energy:
+Independent of the co-simulation and of this folder's model.py, it starts again from geometry and energy:
 - the joint from exact rotation matrices (sympy): each bent end section turned by its slope angle about the
   normal to its bending plane, R = I + S K + F K^2 (Rodrigues; K the cross-product matrix of the rotation vector,
   S = sin(a)/a, F = (1 - cos a)/a^2 as functions of a^2 so that they stay regular at zero tilt), the primary end
@@ -8,7 +8,7 @@ Independent of the co-simulation and of ujfmu.models.twin_jeffcott_rotor.model, 
   driving pin e1 = R_a R_z(theta1) (0, 1, 0), the driven pin normal to e1 and to the secondary axis, and the output
   angle psi read off in the secondary frame;
 - the kinetic energy from the velocities of disc centres and unbalance masses, the potential and the Rayleigh
-  function of ujfmu/models/twin_jeffcott_rotor/README.md as sympy expressions, and Lagrange's equations M(q) q'' = f(q, q', t) formed by
+  function of README.md as sympy expressions, and Lagrange's equations M(q) q'' = f(q, q', t) formed by
   sympy's differentiation (q = theta1, X1, Y1, theta2, X2, Y2; the input angle prescribed for an ideal speed
   source, else the motor's angle as a further coordinate);
 - the input work and the dissipated energy as two more ODE states, the motor's PI law and the load's torque
@@ -22,20 +22,13 @@ import math
 import numpy as np
 import sympy as sp
 
-from ...references.common import (check_close, check_energy_balance, components_with_loads, load_torque, pi_law, profile,
-                     record_table, solve_piecewise, work)
+from ...references.common import (check_close, check_energy_balance, components_with_loads, drive_name, feeds,
+                                  load_torque, pi_law, profile, record_table, solve_piecewise, source_torque, work)
+from ...references.rotations import ry, rz
 
 RTOL, ATOL = 1e-9, 1e-12
 _PARAMS = ("beta", "M1", "M2", "J_M1", "J_M2", "J_gb", "m_u1", "m_u2", "e", "phase_u1", "phase_u2",
            "K1X", "K1Y", "K2X", "K2Y", "C1X", "C1Y", "C2X", "C2Y", "K1T", "K2T", "C1T", "C2T", "L1", "L2")
-
-
-def _ry(a):
-    return sp.Matrix([[sp.cos(a), 0, sp.sin(a)], [0, 1, 0], [-sp.sin(a), 0, sp.cos(a)]])
-
-
-def _rz(a):
-    return sp.Matrix([[sp.cos(a), -sp.sin(a), 0], [sp.sin(a), sp.cos(a), 0], [0, 0, 1]])
 
 
 def _analytic_in_square(series, closed):
@@ -127,8 +120,8 @@ def _equations():
     # joint output angle from rotation matrices
     u1, v1 = 3 * x1 / pr["L1"], 3 * y1 / pr["L1"]
     u2, v2 = 3 * x2 / pr["L2"], 3 * y2 / pr["L2"]
-    e1 = _tilt(v1, -u1) * _rz(th1) * sp.Matrix([0, 1, 0])
-    p = (_ry(pr["beta"]) * _tilt(-v2, u2)).T * e1
+    e1 = _tilt(v1, -u1) * rz(th1) * sp.Matrix([0, 1, 0])
+    p = (ry(pr["beta"]) * _tilt(-v2, u2)).T * e1
     c, s = sp.cos(th1), sp.sin(th1)
     psi = th1 + sp.atan2(-p[0] * c - p[1] * s, p[1] * c - p[0] * s)
     dpsi = sum(sp.diff(psi, qi) * wi for qi, wi in zip(q, qd))
@@ -183,10 +176,6 @@ def _initial(ref, phi_in, w_in):
     return np.array([phi_in, 0, 0, psi, 0, 0, w_in, 0, 0, ratio * w_in, 0, 0, 0, 0], dtype=float)
 
 
-def scenario_feeds(scenario, source, target):
-    return any(cn.source == source and cn.target == target for cn in scenario.connections)
-
-
 def generate(scenario):
     """Reference for a motor driving one or more TwinJeffcottRotor components, each with a Load on its output
     (a PI motor drives a single rotor; an ideal speed source any number)."""
@@ -237,13 +226,13 @@ def generate(scenario):
             stored_energy=energy + 0.5 * pr["J_gb"] * w_in ** 2, input_work=ys[12], dissipated_energy=ys[13],
             phi_in=phi_in).items()})
         cols[f"{load_of[name]}.tau"] = tau_l
-        if ideal and scenario_feeds(scenario, f"{name}.tau_in", "motor.tau_load"):
-            cols["motor.tau_motor"] = pm["J_rotor"] * a_in + tau_in
+        if ideal and feeds(scenario, f"{name}.tau_in", "motor.tau_load"):
+            cols["motor.tau_motor"] = source_torque(pm["J_rotor"], a_in, tau_in)
     cols.update({"motor.omega": w_in, "motor.phi": phi_m})
     for name in rotors:
         energy_audit(scenario, t, cols, name, load_of[name])
     table = record_table(scenario, t, cols)
-    how = (f"monolithic ODE of {'ideal speed source' if ideal else 'PI motor'} + rotor + load, Lagrange's "
+    how = (f"monolithic ODE of {drive_name(ideal)} + rotor + load, Lagrange's "
            f"equations formed by sympy from rotation matrices and energies, scipy DOP853 rtol={RTOL:g} atol={ATOL:g}")
     return table, f"ujfmu.references.twin_jeffcott: {how}. Regenerate: ujfmu references"
 
