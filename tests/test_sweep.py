@@ -58,6 +58,29 @@ def test_bad_axes_are_rejected_before_anything_runs(brutti, spec, words):
     assert words in str(err.value)
 
 
+@pytest.mark.parametrize("spec, words", [
+    ("driveline.k_theta=1000:2000:500rpm", "driveline.k_theta: 'rpm' converts to rad/s, but the parameter's unit is "
+                                           "N.m/rad; it takes SI values without a suffix"),
+    ("driveline.beta1=10rpm", "driveline.beta1: 'rpm' converts to rad/s, but the parameter's unit is rad; it takes "
+                              "a suffix deg or none (SI)"),
+    ("driveline.J_load=1deg", "driveline.J_load: 'deg' converts to rad, but the parameter's unit is kg.m2"),
+    ("motor.omega_set=100deg", "motor.omega_set: 'deg' converts to rad, but the parameter's unit is rad/s; it takes "
+                               "a suffix rpm or none (SI)"),
+    ("motor.omega_set=100Hz", "optionally followed by rpm (rad/s parameters) or deg (rad parameters)"),
+])
+def test_a_unit_suffix_must_match_the_parameters_unit(brutti, spec, words):
+    with pytest.raises(ScenarioError, match="--param") as err:
+        parse_axis(spec, brutti)
+    assert words in str(err.value)
+
+
+def test_unit_suffixes_are_case_insensitive(brutti):
+    assert parse_axis("motor.omega_set=1000:2000:500RPM", brutti) == parse_axis("motor.omega_set=1000:2000:500rpm",
+                                                                                  brutti)
+    axis = parse_axis("driveline.beta1=10Deg", brutti)
+    assert axis.unit == "deg" and axis.values == pytest.approx([math.radians(10)])
+
+
 def test_points_reproduce_the_fan_load_and_the_inertia_torque_scaling(brutti, tmp_path, fmu_dir):
     """Rigid double Cardan, yokes in phase: mean input torque = c w^2 (output at constant speed, power balance);
     the crosses' inertia torque fluctuates at 2x and grows as w^2, and odd orders vanish by symmetry."""

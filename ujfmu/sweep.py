@@ -47,6 +47,19 @@ from .steady import ERROR, FIGURES, FINAL, OK, STATUSES, settle_and_measure
 
 #: human units accepted after a --param range, and their factor to SI
 UNITS = {"rpm": math.pi / 30.0, "deg": math.pi / 180.0, "": 1.0}
+#: the declared (SI) unit a parameter must have for each human unit
+UNIT_OF = {"rpm": "rad/s", "deg": "rad"}
+
+
+def unit_problem(unit: str, declared: str | None) -> str:
+    """'' if values given in unit (a key of UNITS) may set a parameter declared in declared (its SI unit), else
+    why not: rpm converts to rad/s and deg to rad only; any other parameter takes SI values without a suffix."""
+    if not unit or UNIT_OF[unit] == declared:
+        return ""
+    accepted = [u for u, si in UNIT_OF.items() if si == declared]
+    takes = f"a suffix {' or '.join(accepted)} or none (SI)" if accepted else "SI values without a suffix"
+    return (f"'{unit}' converts to {UNIT_OF[unit]}, but the parameter's unit is {declared or 'dimensionless'}; "
+            f"it takes {takes}")
 
 
 @dataclass
@@ -64,6 +77,9 @@ class Axis:
         """An axis over the given values in unit ("rpm", "deg" or "" for SI); names: one ``component.parameter``
         or several set together."""
         names = (names,) if isinstance(names, str) else tuple(names)
+        unit = unit.lower()
+        if unit not in UNITS:
+            raise ValueError(f"unknown unit {unit!r}: use 'rpm' (rad/s parameters), 'deg' (rad parameters) or '' (SI)")
         return cls(names, [float(v) * UNITS[unit] for v in values], unit)
 
     @classmethod
@@ -95,6 +111,9 @@ class Axis:
             declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
             if par not in declared:
                 raise ScenarioError(f"{what}: {fmu} has no parameter '{par}' (it has {', '.join(declared)})")
+            problem = unit_problem(self.unit, declared[par].unit)
+            if problem:
+                raise ScenarioError(f"{what}: {comp}.{par}: {problem}")
             for value in self.values:
                 problem = declared[par].check(declared[par].type(value))
                 if problem:
@@ -102,7 +121,8 @@ class Axis:
 
 
 def parse_axis(text: str, scenario) -> Axis:
-    """``comp.par[,comp.par...]=START:STOP:STEP[unit]`` (inclusive) or ``=V1,V2,...[unit]``; unit rpm or deg.
+    """``comp.par[,comp.par...]=START:STOP:STEP[unit]`` (inclusive) or ``=V1,V2,...[unit]``; unit rpm (for a
+    parameter in rad/s) or deg (for one in rad), in any letter case.
 
     scenario: a Scenario or the path of a scenario file. Values are checked against the parameters' declared
     ranges; a ScenarioError names the argument otherwise.
@@ -111,8 +131,8 @@ def parse_axis(text: str, scenario) -> Axis:
     names_text, sep, values_text = text.partition("=")
     if not sep:
         raise ScenarioError(f"--param {text!r}: expected component.parameter=START:STOP:STEP")
-    match = re.fullmatch(r"\s*(.*?)\s*(rpm|deg)?\s*", values_text)
-    body, unit = match.group(1), match.group(2) or ""
+    match = re.fullmatch(r"\s*(.*?)\s*(rpm|deg)?\s*", values_text, re.IGNORECASE)
+    body, unit = match.group(1), (match.group(2) or "").lower()
     names = tuple(n.strip() for n in names_text.split(","))
     try:
         if ":" in body:
@@ -121,7 +141,9 @@ def parse_axis(text: str, scenario) -> Axis:
         else:
             axis = Axis.of(names, [float(x) for x in body.split(",")], unit)
     except ValueError as exc:
-        raise ScenarioError(f"--param {text!r}: bad values {values_text!r} ({exc})") from None
+        raise ScenarioError(f"--param {text!r}: bad values {values_text!r} ({exc}); expected numbers "
+                            "START:STOP:STEP or V1,V2,..., optionally followed by rpm (rad/s parameters) or deg "
+                            "(rad parameters), in any case: 1000RPM is 1000rpm") from None
     axis.check(scenario, f"--param {text!r}")
     return axis
 
