@@ -161,3 +161,55 @@ def test_references_motor_and_load_laws_written_out_again():
     w = np.array([-50.0, 0.0, 50.0])
     mag = np.sqrt(w * w + 0.01)
     np.testing.assert_allclose(load_torque(law, w), 0.2 * w / mag + 0.01 * w + 0.017 * w * mag, rtol=1e-15)
+
+
+def rewired(tmp_path, name, *edits):
+    """The committed scenario name with text edits (old, new) applied, as a Scenario in tmp_path."""
+    text = (SCENARIOS / f"{name}.toml").read_text()
+    for old, new in edits:
+        assert old in text, old
+        text = text.replace(old, new)
+    path = tmp_path / f"{name}.toml"
+    path.write_text(text)
+    return Scenario(path)
+
+
+UNLOADED_DRIVELINE = ('[[connections]]\nfrom = "load.tau"\nto = "driveline.tau_load"\n', ""), \
+    ('fmu = "DoubleCardanDriveline"\nparameters = {}', 'fmu = "DoubleCardanDriveline"\nparameters = {}\n'
+                                                         'inputs = { tau_load = 5.0 }')
+
+
+@pytest.mark.parametrize("name, edits, words", [
+    ("double_cardan_omar_torsional", UNLOADED_DRIVELINE, ["connection(s) missing: load.tau -> driveline.tau_load"]),
+    ("double_cardan_omar_torsional", [("driveline", "shaft")],
+     ["no component 'driveline' (DoubleCardanDriveline or DoubleCardanDrivelineTorqueDriven)",
+      "component(s) 'shaft' (DoubleCardanDriveline) not part of it", "connection(s) missing: motor.omega -> "
+      "driveline.omega_in", "it does not model: motor.omega -> shaft.omega_in"]),
+    ("cardan_heavy_torque_driven", [("[components.load]", "[components.fan]"), ('"load.', '"fan.')],
+     ["no component 'load' (Load)", "component(s) 'fan' (Load) not part of it",
+      "connection(s) missing: joint.omega_out -> load.omega, load.tau -> joint.tau_load",
+      "torque-driven (MotorController, CardanJointTorqueDriven, Load; connections joint.omega_in -> motor.omega"]),
+    ("twin_jeffcott_runup", [('[[connections]]\nfrom = "rotor.tau_in"\nto = "motor.tau_load"\n', ""),
+                             ('fmu = "Motor"\n', 'fmu = "Motor"\ninputs = { tau_load = 0.0 }\n')],
+     ["connection(s) missing: rotor.tau_in -> motor.tau_load", "a PI motor"]),
+    ("ring_coupling_fig3", [("inputs = { tau_load = 0.0 }", "inputs = { tau_load = 2.0 }")],
+     ["coupling has no Load, so its tau_load must be 0, not 2.0"]),
+])
+def test_generators_refuse_a_wiring_they_do_not_model(tmp_path, name, edits, words):
+    """A reference of another system would pass or fail the run for the wrong reason: each generator checks the
+    components (names, FMUs) and connections against the topology it models and names what it expects."""
+    from ujfmu.references import generate
+    from ujfmu.references.common import WiringError
+    scenario = rewired(tmp_path, name, *edits)
+    with pytest.raises(WiringError, match="reference generator") as err:
+        generate(scenario)
+    for text in words:
+        assert text in str(err.value)
+
+
+def test_the_command_line_names_the_expected_wiring_without_a_traceback(tmp_path, capsys):
+    from ujfmu.cli import main
+    scenario = rewired(tmp_path, "double_cardan_omar_torsional", ("driveline", "shaft"))
+    assert main(["references", str(scenario.path)]) == 2
+    err = capsys.readouterr().err
+    assert "ujfmu: error:" in err and "components 'motor', 'driveline', 'load'" in err and "Traceback" not in err

@@ -140,7 +140,8 @@ def cmd_references(args):
     for module in ("scipy", "sympy"):
         require(module, "references", "ujfmu references")
     from .references import generate, write_reference
-    from .scenario import Scenario
+    from .references.common import WiringError
+    from .scenario import Scenario, ScenarioError
     wrote = 0
     for path in _scenarios(args.scenarios):
         scenario = Scenario(path)
@@ -149,7 +150,10 @@ def cmd_references(args):
             print(f"{scenario.path}: skipped: {why}, so there is nothing to regenerate", file=sys.stderr)
             continue
         target = scenario.reference_output()   # inside the scenario's folder, checked before any work
-        table, provenance = generate(scenario)
+        try:
+            table, provenance = generate(scenario)
+        except WiringError as exc:
+            raise ScenarioError(str(exc)) from None
         write_reference(target, table, provenance)
         _say(args, f"wrote {scenario.reference_file}")
         wrote += 1

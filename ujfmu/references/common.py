@@ -121,6 +121,107 @@ def record_table(scenario, t, columns):
                              names=names)
 
 
+class WiringError(ValueError):
+    """A scenario's components or connections are not the system its reference generator models."""
+
+
+def _arrows(pairs) -> str:
+    return ", ".join(f"{a} -> {b}" for a, b in pairs)
+
+
+def check_wiring(scenario, generator: str, expects: str, components: dict, connections, optional=(),
+                 problems=()) -> None:
+    """WiringError unless the scenario has exactly the given components (name -> tuple of allowed FMU names), every
+    one of the given connections ((from, to) pairs), no connection outside them and optional, and no problems
+    found by the caller. The message names the scenario, the generator, the topology it models (expects, a
+    sentence) and every difference, so nothing is solved for a system the reference does not describe."""
+    have = {name: fmu for name, (fmu, _) in scenario.components.items()}
+    wired = [(cn.source, cn.target) for cn in scenario.connections]
+    problems = list(problems)
+    for name, fmus in components.items():
+        if name not in have:
+            problems.append(f"no component '{name}' ({' or '.join(fmus)})")
+        elif have[name] not in fmus:
+            problems.append(f"component '{name}' is a {have[name]}, not a {' or '.join(fmus)}")
+    extra = [f"'{name}' ({fmu})" for name, fmu in have.items() if name not in components]
+    if extra:
+        problems.append(f"component(s) {', '.join(extra)} not part of it")
+    missing = [pair for pair in connections if pair not in wired]
+    if missing:
+        problems.append(f"connection(s) missing: {_arrows(missing)}")
+    allowed = set(connections) | set(optional)
+    unexpected = [pair for pair in wired if pair not in allowed]
+    if unexpected:
+        problems.append(f"connection(s) it does not model: {_arrows(unexpected)}")
+    if problems:
+        raise WiringError(f"{scenario.path}: reference generator '{generator}' models {expects}; this scenario "
+                          f"differs: {'; '.join(problems)}. Wire the scenario so, or remove its [reference] "
+                          "generator (then it runs unchecked)")
+
+
+#: the speed-driven and torque-driven connections of motor -> machine -> load, '{m}' the machine's name
+CHAIN_CONNECTIONS = {
+    False: (("motor.omega", "{m}.omega_in"), ("{m}.tau_in", "motor.tau_load"), ("{m}.omega_out", "load.omega"),
+            ("load.tau", "{m}.tau_load")),
+    True: (("{m}.omega_in", "motor.omega"), ("motor.tau_motor", "{m}.tau_in"), ("{m}.omega_out", "load.omega"),
+           ("load.tau", "{m}.tau_load")),
+}
+
+
+def chain_topology(machine: str, fmu: str) -> str:
+    """The sentence that names the motor -> machine -> load chain check_chain_wiring requires."""
+    speed, torque = ([(a.format(m=machine), b.format(m=machine)) for a, b in CHAIN_CONNECTIONS[k]]
+                     for k in (False, True))
+    return (f"the chain of components 'motor', '{machine}', 'load', either speed-driven (Motor, {fmu}, Load; "
+            f"connections {_arrows(speed)}) or torque-driven (MotorController, {fmu}TorqueDriven, Load; "
+            f"connections {_arrows(torque)})")
+
+
+def check_chain_wiring(scenario, generator: str, machine: str, fmu: str) -> None:
+    """check_wiring for the three-component chain motor -> machine -> load of chain_topology: the machine's FMU
+    (fmu or its TorqueDriven variant) chooses the wiring."""
+    entry = scenario.components.get(machine)
+    torque_driven = entry is not None and entry[0] == fmu + "TorqueDriven"
+    components = {"motor": ("MotorController",) if torque_driven else ("Motor",),
+                  machine: (fmu + "TorqueDriven",) if torque_driven else (fmu, fmu + "TorqueDriven"),
+                  "load": ("Load",)}
+    connections = [(a.format(m=machine), b.format(m=machine)) for a, b in CHAIN_CONNECTIONS[torque_driven]]
+    check_wiring(scenario, generator, chain_topology(machine, fmu), components, connections)
+
+
+def check_fan_out_wiring(scenario, generator: str, fmu: str, load_optional: bool) -> None:
+    """check_wiring for a Motor named 'motor' driving components of fmu (any names), each with a Load (any name)
+    fed from its omega_out and feeding its tau_load (optional where load_optional: without one, its tau_load must be
+    set to 0). An ideal speed source drives any number and may take one's tau_in as its tau_load; a PI motor drives
+    exactly one, whose tau_in loads it."""
+    machines = components_with_loads(scenario, fmu)
+    motor = scenario.components.get("motor", ("",))[0] == "Motor"
+    ideal = not motor or bool(scenario.parameters_with_defaults("motor")["ideal_speed_source"])
+    components = {"motor": ("Motor",)}
+    connections, optional, problems = [], [], []
+    for name, load in machines:
+        components[name] = (fmu,)
+        connections.append(("motor.omega", f"{name}.omega_in"))
+        (optional if ideal else connections).append((f"{name}.tau_in", "motor.tau_load"))
+        if load:
+            components[load] = ("Load",)
+            connections += [(f"{name}.omega_out", f"{load}.omega"), (f"{load}.tau", f"{name}.tau_load")]
+        elif not load_optional:
+            problems.append(f"{name} has no Load fed from {name}.omega_out")
+        elif scenario.inputs.get(name, {}).get("tau_load", 0.0) != 0.0:
+            problems.append(f"{name} has no Load, so its tau_load must be 0, not {scenario.inputs[name]['tau_load']}")
+    if not machines:
+        problems.append(f"no {fmu} component")
+    elif not ideal and len(machines) != 1:
+        problems.append(f"a PI motor (ideal_speed_source = false) drives {len(machines)} {fmu} components")
+    load = "with or without a Load (tau_load = 0 without)" if load_optional else "each with a Load"
+    expects = (f"a Motor named 'motor' driving {fmu} components (any names), {load}: connections motor.omega -> "
+               f"X.omega_in, X.omega_out -> L.omega, L.tau -> X.tau_load for each {fmu} X and its Load L; an ideal "
+               "speed source drives any number of them (X.tau_in -> motor.tau_load optional, for one), a PI motor "
+               "exactly one, with X.tau_in -> motor.tau_load")
+    check_wiring(scenario, generator, expects, components, connections, optional, problems)
+
+
 def components_with_loads(scenario, fmu):
     """[(component, its Load component or None)] for every component of the given FMU, the load being the
     component whose omega input is fed from the component's omega_out."""

@@ -18,8 +18,8 @@ import functools
 import numpy as np
 import sympy as sp
 
-from ...references.common import (check_close, check_energy_balance, drive, load_torque, pi_law, record_table,
-                                  solve_piecewise, source_motion, source_torque, torque_driven_names)
+from ...references.common import (check_chain_wiring, check_close, check_energy_balance, drive, load_torque, pi_law,
+                                  record_table, solve_piecewise, source_motion, source_torque, torque_driven_names)
 from ...references.rotations import rx, ry
 
 RTOL, ATOL = 1e-11, 1e-12
@@ -69,8 +69,16 @@ class JointKinematics:
 
 
 def generate(scenario):
-    """Reference for a scenario with components motor (Motor, or MotorController with the torque-driven
-    CardanJointTorqueDriven), joint (CardanJoint or CardanJointTorqueDriven), load (Load)."""
+    """Reference for the chain of exactly three components named motor, joint, load, refused (WiringError naming
+    what differs) for any other wiring:
+
+    - speed-driven: motor (Motor), joint (CardanJoint), load (Load); connections motor.omega -> joint.omega_in,
+      joint.tau_in -> motor.tau_load, joint.omega_out -> load.omega, load.tau -> joint.tau_load;
+    - torque-driven: motor (MotorController), joint (CardanJointTorqueDriven), load (Load); connections
+      joint.omega_in -> motor.omega, motor.tau_motor -> joint.tau_in, joint.omega_out -> load.omega,
+      load.tau -> joint.tau_load.
+    """
+    check_chain_wiring(scenario, "cardan_chain", "joint", "CardanJoint")
     pl, pj = scenario.parameters_with_defaults("load"), scenario.parameters_with_defaults("joint")
     pm, jm, w0, torque_driven = drive(scenario, "motor", "joint")
     kin = JointKinematics((pj["bend_angle"], pj["bend_plane_angle"], pj["error_angle_beta"],

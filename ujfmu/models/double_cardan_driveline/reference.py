@@ -19,9 +19,9 @@ import functools
 import numpy as np
 import sympy as sp
 
-from ...references.common import (check_close, check_energy_balance, drive, drive_name, load_torque, pi_law, profile,
-                                  record_table, solve_piecewise, source_motion, source_start_angle, source_torque,
-                                  torque_driven_names)
+from ...references.common import (check_chain_wiring, check_close, check_energy_balance, drive, drive_name,
+                                  load_torque, pi_law, profile, record_table, solve_piecewise, source_motion,
+                                  source_start_angle, source_torque, torque_driven_names, WiringError)
 from ...references.rotations import rx
 
 RTOL, ATOL = 1e-10, 1e-11
@@ -133,8 +133,17 @@ class DrivelineReference:
 
 
 def generate(scenario):
-    """Reference for a scenario with components motor (Motor, or MotorController with the torque-driven
-    DoubleCardanDrivelineTorqueDriven), driveline (DoubleCardanDriveline or its torque-driven variant), load."""
+    """Reference for the chain of exactly three components named motor, driveline, load, refused (WiringError
+    naming what differs) for any other wiring:
+
+    - speed-driven: motor (Motor), driveline (DoubleCardanDriveline), load (Load); connections motor.omega ->
+      driveline.omega_in, driveline.tau_in -> motor.tau_load, driveline.omega_out -> load.omega,
+      load.tau -> driveline.tau_load;
+    - torque-driven: motor (MotorController), driveline (DoubleCardanDrivelineTorqueDriven), load (Load);
+      connections driveline.omega_in -> motor.omega, motor.tau_motor -> driveline.tau_in,
+      driveline.omega_out -> load.omega, load.tau -> driveline.tau_load.
+    """
+    check_chain_wiring(scenario, "double_cardan", "driveline", "DoubleCardanDriveline")
     pd, pl = scenario.parameters_with_defaults("driveline"), scenario.parameters_with_defaults("load")
     pm, jm, w1_0, torque_driven = drive(scenario, "motor", "driveline")
     ref = DrivelineReference(pd)
@@ -145,7 +154,7 @@ def generate(scenario):
 
     if pd["rigid_intermediate_shaft"]:
         if not ideal or torque_driven:
-            raise ValueError(f"{scenario.path}: the rigid-shaft reference needs an ideal speed source")
+            raise WiringError(f"{scenario.path}: the rigid-shaft reference needs an ideal speed source")
         w1, a1, phi_m = source_motion(pm, t)
         phi1 = phi1_0 + phi_m
         rg = ref.rigid(phi1)

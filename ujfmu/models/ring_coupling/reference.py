@@ -15,8 +15,9 @@ import numpy as np
 import sympy as sp
 from scipy import special
 
-from ...references.common import (check_energy_balance, components_with_loads, drive_name, feeds, load_torque, pi_law,
-                                  profile, record_table, solve_piecewise, source_torque)
+from ...references.common import (check_energy_balance, check_fan_out_wiring, components_with_loads, drive_name,
+                                  feeds, load_torque, pi_law, profile, record_table, solve_piecewise, source_torque,
+                                  WiringError)
 
 RTOL, ATOL = 1e-11, 1e-12
 _PARAMS = ("R", "d", "E", "e", "I1", "I2", "c_s", "c_d", "phi_in_start", "phi_out_start")
@@ -42,13 +43,16 @@ def _equations():
 
 
 def generate(scenario):
-    """Monolithic reference: a motor (ideal source, or PI with a single coupling) and the couplings with loads."""
+    """Monolithic reference for a Motor named motor driving one or more RingCoupling components (any names), each
+    with or without a Load (any name; without one its tau_load input must be 0), refused (WiringError naming what
+    differs) for any other wiring. Connections, for every coupling C and its load L: motor.omega -> C.omega_in,
+    C.omega_out -> L.omega, L.tau -> C.tau_load. An ideal speed source drives any number of couplings
+    (C.tau_in -> motor.tau_load optional, for one of them); a PI motor exactly one, with C.tau_in -> motor.tau_load."""
+    check_fan_out_wiring(scenario, "ring_coupling", "RingCoupling", load_optional=True)
     pm = scenario.parameters_with_defaults("motor")
     force2, drive, potential = _equations()
     ideal = pm["ideal_speed_source"]
     rings = components_with_loads(scenario, "RingCoupling")
-    if not ideal and len(rings) != 1:
-        raise ValueError(f"{scenario.path}: a PI motor reference drives exactly one coupling")
     t = scenario.time_grid()
     w_m, a_m, ang = profile(pm, t)
     ang0 = float(ang[0])
@@ -126,10 +130,12 @@ def pendulum_angle(a_e, y0, v0, t):
 
 
 def generate_pendulum(scenario):
-    """Closed form for couplings with c_s = c_d = 0, no load and an ideal constant speed source."""
+    """Closed form for couplings with c_s = c_d = 0, no load and an ideal constant speed source: the wiring of
+    ``generate`` (checked the same way) with motor an ideal speed source at constant speed."""
+    check_fan_out_wiring(scenario, "ring_coupling_pendulum", "RingCoupling", load_optional=True)
     pm = scenario.parameters_with_defaults("motor")
     if not (pm["ideal_speed_source"] and pm["profile"] == 0):
-        raise ValueError(f"{scenario.path}: the pendulum closed form needs an ideal constant speed source")
+        raise WiringError(f"{scenario.path}: the pendulum closed form needs an ideal constant speed source")
     t = scenario.time_grid()
     w1 = pm["omega_set"]
     cols = {"motor.omega": np.full_like(t, w1), "motor.phi": w1 * (t - t[0])}
@@ -137,7 +143,7 @@ def generate_pendulum(scenario):
         pr = scenario.parameters_with_defaults(name)
         pl = scenario.parameters_with_defaults(load) if load else {"T0": 0.0, "c1": 0.0, "c2": 0.0}
         if pr["c_s"] != 0 or pr["c_d"] != 0 or pl["T0"] != 0 or pl["c1"] != 0 or pl["c2"] != 0:
-            raise ValueError(f"{scenario.path}: {name}: the pendulum closed form needs c_s = c_d = 0 and no load")
+            raise WiringError(f"{scenario.path}: {name}: the pendulum closed form needs c_s = c_d = 0 and no load")
         amp = _mp_amplitude(pr)
         a_e = amp / pr["I2"]
         w2_0 = w1 if pr["start_at_input_speed"] else pr["omega_out_start"]

@@ -22,8 +22,9 @@ import math
 import numpy as np
 import sympy as sp
 
-from ...references.common import (check_close, check_energy_balance, components_with_loads, drive_name, feeds,
-                                  load_torque, pi_law, profile, record_table, solve_piecewise, source_torque, work)
+from ...references.common import (check_close, check_energy_balance, check_fan_out_wiring, components_with_loads,
+                                  drive_name, feeds, load_torque, pi_law, profile, record_table, solve_piecewise,
+                                  source_torque, work)
 from ...references.rotations import ry, rz
 
 RTOL, ATOL = 1e-9, 1e-12
@@ -177,14 +178,16 @@ def _initial(ref, phi_in, w_in):
 
 
 def generate(scenario):
-    """Reference for a motor driving one or more TwinJeffcottRotor components, each with a Load on its output
-    (a PI motor drives a single rotor; an ideal speed source any number)."""
+    """Reference for a Motor named motor driving one or more TwinJeffcottRotor components (any names), each with
+    a Load (any name), refused (WiringError naming what differs) for any other wiring. Connections, for every
+    rotor R and its load L: motor.omega -> R.omega_in, R.omega_out -> L.omega, L.tau -> R.tau_load. An ideal
+    speed source drives any number of rotors (R.tau_in -> motor.tau_load optional, for one of them); a PI motor
+    drives exactly one, with R.tau_in -> motor.tau_load."""
+    check_fan_out_wiring(scenario, "twin_jeffcott", "TwinJeffcottRotor", load_optional=False)
     pm = scenario.parameters_with_defaults("motor")
     load_of = dict(components_with_loads(scenario, "TwinJeffcottRotor"))
     rotors = list(load_of)
     ideal = pm["ideal_speed_source"]
-    if not ideal and len(rotors) != 1:
-        raise ValueError(f"{scenario.path}: a PI motor reference drives exactly one rotor")
     t = scenario.time_grid()
     w_m, a_m, ang = profile(pm, t)
     ang0 = float(ang[0])
