@@ -101,6 +101,41 @@ def test_boundary_parameters_are_errors_naming_them(fmu_dir, name, param, value)
     assert any(param in m and "allowed range" in m for m in log), log
 
 
+@pytest.mark.parametrize("name, values, words, absent", [
+    ("DoubleCardanDriveline", {"beta1": 12.0},
+     "invalid parameters: beta1 = 12.0 is outside its allowed range [-1.553343034, 1.553343034] rad (12 deg = "
+     "0.2094 rad?)", "invalid inputs"),
+    ("CardanJoint", {"tau_load": math.nan}, "invalid inputs: tau_load = nan is not a finite number",
+     "invalid parameters"),
+    ("Motor", {"omega_set": 15000.0},
+     "invalid parameters: omega_set = 15000.0 is outside its allowed range [-10000, 10000] rad/s (15000 rpm = "
+     "1571 rad/s?)", "invalid inputs"),
+])
+def test_initialization_errors_name_inputs_as_inputs_and_hint_at_unit_slips(fmu_dir, name, values, words, absent):
+    """A value out of range that would be in range read as deg (rad variables) or rpm (rad/s variables) gets the
+    converted value as a hint; an input is named as an input, not as a parameter."""
+    log = []
+    inst = open_instance(fmu_dir, name, log)
+    try:
+        with pytest.raises(FMICallException, match="fmi2ExitInitializationMode"):
+            inst.initialize(values)
+    finally:
+        inst.free()
+    assert any(words in m for m in log), log
+    assert not any(absent in m for m in log), log
+
+
+def test_unit_hints_only_where_the_converted_value_fits():
+    from ujfmu.fmu.base import input_, parameter
+    angle = parameter("beta1", 0.1, "rad", "an angle", min=-1.5, max=1.5)
+    assert angle.check(12.0).endswith("(12 deg = 0.2094 rad?)")
+    assert "deg" not in angle.check(120.0) and "rpm" not in angle.check(120.0)   # 2.09 rad: out of range too
+    speed = input_("omega_in", 0.0, "rad/s", "a speed", min=-1e4, max=1e4)
+    assert speed.check(-20000.0).endswith("(-20000 rpm = -2094 rad/s?)")
+    torque = input_("tau_load", 0.0, "N.m", "a torque", min=-1e7, max=1e7)
+    assert torque.check(2e7).endswith("N.m")
+
+
 @pytest.mark.parametrize("name", list(FMUS))
 def test_bad_inputs(fmu_dir, name):
     @SETTINGS

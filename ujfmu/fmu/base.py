@@ -54,6 +54,10 @@ _PINNED_AFTER_EXCEPTION = []
 _LIVE = weakref.WeakSet()
 
 
+#: SI unit -> (the human unit a value in it is often given in by mistake, factor to SI)
+HUMAN_UNITS = {"rad": ("deg", math.pi / 180.0), "rad/s": ("rpm", math.pi / 30.0)}
+
+
 class Var:
     """One FMU variable: the single declaration of its name, causality, variability, unit, range and start."""
 
@@ -84,9 +88,21 @@ class Var:
             return None
         if not math.isfinite(value):
             return f"{self.name} = {value!r} is not a finite number (allowed range {self.range_text()})"
-        if (self.min is not None and value < self.min) or (self.max is not None and value > self.max):
-            return f"{self.name} = {value!r} is outside its allowed range {self.range_text()}"
+        if not self.within(value):
+            return f"{self.name} = {value!r} is outside its allowed range {self.range_text()}{self.unit_hint(value)}"
         return None
+
+    def within(self, value):
+        """True if value lies in [min, max] (a missing bound is no bound)."""
+        return not ((self.min is not None and value < self.min) or (self.max is not None and value > self.max))
+
+    def unit_hint(self, value):
+        """' (12 deg = 0.209 rad?)' for a rad variable, ' (1000 rpm = 104.7 rad/s?)' for a rad/s one, when value
+        read as degrees or rpm (x pi/180, x pi/30) would be within range: the likely slip; else ''."""
+        human = HUMAN_UNITS.get(self.unit)
+        if human is None or not self.within(value * human[1]):
+            return ""
+        return f" ({value:.6g} {human[0]} = {value * human[1]:.4g} {self.unit}?)"
 
 
 def parameter(name, start, unit, description, min=None, max=None, type=float, variability="fixed"):
@@ -168,9 +184,9 @@ class UjfmuSlave(Fmi2Slave):
             if self._stale:
                 try:
                     if not self._initialized:  # an output read before fmi2ExitInitializationMode
-                        problems = self._problems()
-                        if problems:
-                            raise ValueError("invalid parameters: " + "; ".join(problems))
+                        invalid = self._invalid()
+                        if invalid:
+                            raise ValueError(invalid)
                         self._start()
                         self._initialized = True
                     self.compute_outputs()
@@ -297,19 +313,27 @@ class UjfmuSlave(Fmi2Slave):
         self._start_time = start_time
 
     def _problems(self, causalities=("parameter", "input")):
-        """Messages for every parameter or input outside its range, else the model's own checks."""
-        problems = [m for m in (v.check(getattr(self, v.name)) for v in self.VARIABLES
-                                if v.causality in causalities) if m]
-        return problems or self.check_parameters()
+        """{causality: messages} for every parameter or input outside its range, else {'parameter': the model's
+        own checks}; empty when all is well."""
+        problems = {c: [m for m in (v.check(getattr(self, v.name)) for v in self.VARIABLES if v.causality == c) if m]
+                    for c in causalities}
+        problems = {c: ms for c, ms in problems.items() if ms}
+        own = [] if problems else list(self.check_parameters())
+        return problems or ({"parameter": own} if own else {})
+
+    def _invalid(self, causalities=("parameter", "input")):
+        """'' if the parameters and inputs are valid, else 'invalid parameters: ...; invalid inputs: ...' naming each
+        invalid one with its allowed range (inputs named as inputs)."""
+        return "; ".join(f"invalid {c}s: " + "; ".join(ms) for c, ms in self._problems(causalities).items())
 
     def _start(self):
         self.derive()
         self.initialize(self._start_time)
 
     def exit_initialization_mode(self):
-        problems = self._problems()
-        if problems:
-            self._raise_to_host(f"{self.modelName} '{self.instance_name}': invalid parameters: " + "; ".join(problems))
+        invalid = self._invalid()
+        if invalid:
+            self._raise_to_host(f"{self.modelName} '{self.instance_name}': {invalid}")
         self._start()
         self._initialized = self._running = self._stale = True
 
@@ -667,11 +691,11 @@ def check_fields(cls, fields):
         probe = cls.__new__(cls)    # no __init__: a bare object of this class holding the restored values
         probe.__dict__.update(fields)
         try:
-            problems = probe._problems(("parameter",))
-            if not problems:
+            invalid = probe._invalid(("parameter",))
+            if not invalid:
                 probe.derive()
         except Exception as exc:
-            problems = [f"derived quantities fail: {exc!r}"]
-        if problems:
-            raise StateError("invalid parameters: " + "; ".join(problems))
+            invalid = f"invalid parameters: derived quantities fail: {exc!r}"
+        if invalid:
+            raise StateError(invalid)
     return fields

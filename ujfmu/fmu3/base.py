@@ -287,10 +287,9 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         """what(core) once the core is initialized (else a ValueError naming the invalid parameters)."""
         core = self._core
         if not core._initialized:
-            problems = core._problems()
-            if problems:
-                self._raise_to_host(f"{core.modelName} '{self.instance_name}': invalid parameters: "
-                                    + "; ".join(problems))
+            invalid = core._invalid()
+            if invalid:
+                self._raise_to_host(f"{core.modelName} '{self.instance_name}': {invalid}")
             core._start()
             core._initialized = True
         return what(core)
@@ -315,9 +314,9 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
                 if not lo <= getattr(core, name) <= hi:   # NaN and inf fail too
                     raise ValueError(var.check(getattr(core, name)))
             if not core._initialized:
-                problems = core._problems()
-                if problems:
-                    raise ValueError("invalid parameters: " + "; ".join(problems))
+                invalid = core._invalid()
+                if invalid:
+                    raise ValueError(invalid)
             rates = [float(x) for x in self._continuous(self._states.derivatives)]
             if not all(math.isfinite(x) for x in rates):
                 raise ValueError(f"they are not finite ({rates!r}): check the inputs and parameters")
