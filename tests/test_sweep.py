@@ -178,6 +178,26 @@ def test_cli_sweep_writes_table_and_plots_and_reports_bad_parameters(fmu_dir, tm
     assert "Motor has no parameter 'nope'" in capsys.readouterr().err
 
 
+def test_cli_sweep_quiet_lists_no_files_and_step_sets_the_communication_step(fmu_dir, tmp_path, capsys):
+    """-q prints the verdict, not the files (as run -q); --step reaches every point: points of the journal at
+    another step are computed again, not reused, and the step must be positive."""
+    args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_brutti_rigid.toml"),
+            "--param", "motor.omega_set=1000rpm", "--output", "driveline.tau_in", "--running-speed", "motor.omega",
+            "--settle", "0.01", "--revolutions", "1", "--steady-tol", "0", "--workers", "0", "--out", str(tmp_path)]
+    assert main(["-q"] + args) == 0
+    out = capsys.readouterr().out
+    assert "1 points: 1 ok" in out and "table:" not in out and "journal:" not in out and "plot:" not in out
+    assert (tmp_path / "double_cardan_brutti_rigid_sweep.csv").is_file()
+    assert main(["-q"] + args) == 0
+    assert "reused 1 of 1 points" in capsys.readouterr().out
+    assert main(["-q"] + args + ["--step", "5e-4"]) == 0
+    assert "reused" not in capsys.readouterr().out
+    assert main(["-q"] + args + ["--step", "5e-4"]) == 0
+    assert "reused 1 of 1 points" in capsys.readouterr().out
+    assert main(["-q"] + args + ["--step", "0"]) == 2
+    assert "--step 0: the communication step must be a number of seconds > 0" in capsys.readouterr().err
+
+
 def test_another_grid_under_the_same_name_is_refused_and_a_rerun_says_what_it_reused(fmu_dir, tmp_path, capsys):
     args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_brutti_rigid.toml"),
             "--output", "driveline.tau_in", "--running-speed", "motor.omega", "--settle", "0.01",

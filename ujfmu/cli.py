@@ -6,6 +6,7 @@ alone draws progress bars (tqdm, on a terminal only)."""
 
 import argparse
 import contextlib
+import math
 import sys
 from pathlib import Path
 
@@ -89,6 +90,17 @@ def _plots_missing(args):
               file=sys.stderr)
 
 
+def _step_size(text: str) -> float:
+    """--step SECONDS as a float, or UsageError unless it is a finite number > 0."""
+    try:
+        step = float(text)
+    except ValueError:
+        step = math.nan
+    if not (math.isfinite(step) and step > 0):
+        raise UsageError(f"--step {text}: the communication step must be a number of seconds > 0")
+    return step
+
+
 def cmd_run(args):
     from . import stepsize
     from .scenario import Scenario
@@ -102,7 +114,7 @@ def cmd_run(args):
                                                 progress=(lambda *a: None) if args.quiet else print)
         print(f"--step auto: step_size = {scenario.step_size:g} s")
     elif args.step is not None:
-        scenario.step_size = float(args.step)
+        scenario.step_size = _step_size(args.step)
     result = _run_one(args, args.scenario, scenario)
     _say(args, f"  results: {result.csv}" + (f"\n  plot:    {result.plot}" if result.plot else ""))
     for extra in result.extra_plots:
@@ -169,6 +181,8 @@ def cmd_sweep(args):
     from .scenario import Scenario, ScenarioError
     from .sweep import Sweep, SweepSettings, parse_axis
     scenario = Scenario(args.scenario)
+    if args.step is not None:
+        scenario.step_size = _step_size(args.step)
     specs = args.param or scenario.sweep.get("params", [])
     if not specs:
         raise ScenarioError(f"{scenario.path}: nothing to sweep: give --param comp.par=START:STOP:STEP "
@@ -185,10 +199,10 @@ def cmd_sweep(args):
         sweep.run(workers=args.workers, scheduler=args.scheduler, progress=progress)
     if sweep.reused:
         print(f"  reused {sweep.reused} of {len(sweep.points)} points from {sweep.journal}")
-    print(f"  table: {sweep.csv}\n  journal: {sweep.journal}")
+    _say(args, f"  table: {sweep.csv}\n  journal: {sweep.journal}")
     if not args.no_plot and available("matplotlib"):
         for path in sweep.plot():
-            print(f"  plot:  {path}")
+            _say(args, f"  plot:  {path}")
     _plots_missing(args)
     failed = sweep.failed()
     for record in failed[:10]:
@@ -375,6 +389,8 @@ def main(argv=None):
     p.add_argument("--max-settle", type=float, help="longest settle time before a point is 'not_steady' [s] "
                                                     "(default 8x --settle)")
     p.add_argument("--orders", type=lambda s: tuple(int(k) for k in s.split(",")), help="orders, e.g. 1,2,4")
+    p.add_argument("--step", metavar="SECONDS", help="communication step instead of the scenario's (as for run; "
+                                                     "points of the journal at another step are not reused)")
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: no dask)")
     p.add_argument("--scheduler", help="address of a running dask.distributed scheduler, e.g. tls://host:8786; "
                         "it must be a trusted cluster (it runs what its clients submit); TLS settings come from "
