@@ -18,6 +18,23 @@ def test_run_scenario_from_python_returns_the_table(fmu_dir, tmp_path):
     assert (tmp_path / "cardan_constant_speed.csv").is_file() and (tmp_path / "cardan_constant_speed.png").is_file()
 
 
+def test_run_scenario_types_and_documents_its_folders(fmu_dir, tmp_path, monkeypatch):
+    """README gives run_scenario's signature with the fmu_dir and out_dir keywords, as the code declares them, and
+    the defaults are those of the command line; str paths work and out_dir=None writes nothing."""
+    import inspect
+
+    from ujfmu.build import DEFAULT_FMU_DIR
+    from ujfmu.cli import DEFAULT_OUT_DIR
+    params = inspect.signature(ujfmu.run_scenario).parameters
+    readme = (Path(__file__).parents[1] / "README.md").read_text()
+    for name, default in (("fmu_dir", DEFAULT_FMU_DIR), ("out_dir", DEFAULT_OUT_DIR)):
+        assert params[name].kind is inspect.Parameter.KEYWORD_ONLY and Path(params[name].default) == default
+        assert f'{name}: {params[name].annotation} = "{params[name].default}"' in readme, name
+    monkeypatch.chdir(tmp_path)
+    result = ujfmu.run_scenario(str(SCENARIOS / "cardan_constant_speed.toml"), fmu_dir=str(fmu_dir), out_dir=None)
+    assert result.passed and result.csv is None and list(tmp_path.iterdir()) == []
+
+
 def test_check_writes_junit_and_fails_on_a_failing_scenario(fmu_dir, tmp_path, capsys):
     text = (SCENARIOS / "cardan_constant_speed.toml").read_text()
     strict = tmp_path / "too_strict.toml"

@@ -6,6 +6,7 @@ scenario that was not checked never counts as passed: the JUnit report marks it 
 """
 
 import math
+import os
 import time
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
@@ -165,7 +166,8 @@ def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.nda
     return out
 
 
-def run_scenario(path, fmu_dir=DEFAULT_FMU_DIR, out_dir=DEFAULT_OUT_DIR, plot: bool = True,
+def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike = DEFAULT_FMU_DIR,
+                 out_dir: str | os.PathLike | None = DEFAULT_OUT_DIR, plot: bool = True,
                  progress: Callable[[int, int], None] | None = None, model_exchange: bool = False) -> ScenarioResult:
     """Co-simulate a scenario, compare with its reference; write CSV (and PNG) into out_dir (None: write nothing).
 
