@@ -155,8 +155,8 @@ def check_wiring(scenario, generator: str, expects: str, components: dict, conne
         problems.append(f"connection(s) it does not model: {_arrows(unexpected)}")
     if problems:
         raise WiringError(f"{scenario.path}: reference generator '{generator}' models {expects}; this scenario "
-                          f"differs: {'; '.join(problems)}. Wire the scenario so, or remove its [reference] "
-                          "generator (then it runs unchecked)")
+                          f"differs: {'; '.join(problems)}. Wire the scenario so; this generator's reference "
+                          "cannot check another system (without a [reference] table a scenario runs unchecked)")
 
 
 #: the speed-driven and torque-driven connections of motor -> machine -> load, '{m}' the machine's name
