@@ -49,6 +49,8 @@ def test_good_file_loads(tmp_path):
     ('record = ["j.tau_in"]', 'record = ["j.tau_in"]\nspectra = ["j.M_x"]', "output.spectra"),
     ('record = ["j.tau_in"]', 'record = ["j.tau_in"]\nplot = ["j.phi_out"]', "output.plot"),
     ('record = ["j.tau_in"]', 'record = ["j.tau_in"]\nsteady_from = "late"', "output.steady_from"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]\nsteady_from = 1.0', "output.steady_from = 1.0 s must lie in"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]\nrecrod = ["j.M_x"]', "[output]: unknown field(s) recrod"),
     # connections between mismatched units, or an input fed twice
     ('from = "j.omega_out"', 'from = "j.tau_in"', "units differ"),
     ('to = "l.omega"', 'to = "l.omega"\n[[connections]]\nfrom = "j.omega_out"\nto = "l.omega"', "already fed"),
@@ -116,3 +118,27 @@ def test_missing_fmu_is_named_before_anything_runs(tmp_path):
         run_scenario(path, fmu_dir=tmp_path / "nowhere", out_dir=tmp_path / "out", progress=False)
     assert str(path) in str(err.value) and "components.j.fmu" in str(err.value) and "ujfmu build" in str(err.value)
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("t0, t1", [(0.0, 0.5), (0.2, 1.0)])
+def test_a_reference_that_does_not_cover_the_run_is_an_error_before_anything_runs(tmp_path, fmu_dir, t0, t1):
+    """Beyond its ends a reference would be held at its end values: the run is refused, naming both spans."""
+    from ujfmu.scenario_run import run_scenario
+    (tmp_path / "r.csv").write_text(f'"time","j.tau_in"\n{t0},0.0\n{t1},1.0\n')
+    path = write(tmp_path, GOOD + REF)
+    with pytest.raises(ScenarioError) as err:
+        run_scenario(path, fmu_dir=fmu_dir, out_dir=tmp_path / "out", progress=False)
+    assert f"covers t = {t0:g} to {t1:g} s" in str(err.value) and "ujfmu references" in str(err.value)
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_allowed_error_scales_with_the_reference_over_the_run_only():
+    """A reference longer than the run: the band is rel_range times the reference's range within the run."""
+    import numpy as np
+
+    from ujfmu.scenario import Tolerance
+    from ujfmu.scenario_run import compare
+    ref = np.rec.fromarrays([np.linspace(0.0, 6.0, 61), np.linspace(0.0, 60.0, 61)], names="time,x")
+    run = np.rec.fromarrays([np.linspace(0.0, 2.0, 21), np.linspace(0.0, 20.0, 21) + 0.3], names="time,x")
+    (check,) = compare(run, ref, {"x": Tolerance(rel_range=0.01)})
+    assert check.reference_range == pytest.approx(20.0) and check.allowed == pytest.approx(0.2) and not check.passed

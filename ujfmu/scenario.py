@@ -44,6 +44,7 @@ EXPERIMENT_KEYS = {"start_time", "stop_time", "step_size", "coupling"}
 #: fields of the optional [sweep] table (defaults of `ujfmu sweep`, see ujfmu.sweep)
 SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions", "orders", "steady_tol",
               "max_settle_time"}
+OUTPUT_KEYS = {"record", "plot", "orbits", "spectra", "running_speed", "steady_from"}
 REFERENCE_KEYS = {"file", "generator", "tolerance", "extrapolated", "not_compared"}
 TOLERANCE_KEYS = {"rel_range", "abs"}
 
@@ -149,6 +150,10 @@ class Scenario:
                 f"or set it explicitly, held constant, e.g. [components.{first[0]}] inputs = {{ {first[1]} = 0.0 }}")
 
         out = data.get("output", {})
+        unknown = set(out) - OUTPUT_KEYS if isinstance(out, dict) else {"(not a table)"}
+        if unknown:
+            raise ScenarioError(f"{self.path}: [output]: unknown field(s) {', '.join(sorted(unknown))}; "
+                                f"known: {', '.join(sorted(OUTPUT_KEYS))}")
         self.record = list(out.get("record", []))
         for i, name in enumerate(self.record):
             self._check_signal(name, f"output.record[{i}]")
@@ -196,6 +201,9 @@ class Scenario:
                 if name not in self.record:
                     raise ScenarioError(f"{self.path}: output.{field}: {name!r} is not a recorded signal")
         self.steady_from = self._number(out, "output.steady_from", self.start_time)
+        if not self.start_time <= self.steady_from < self.stop_time:
+            raise ScenarioError(f"{self.path}: output.steady_from = {self.steady_from!r} s must lie in "
+                                f"[start_time, stop_time) = [{self.start_time!r}, {self.stop_time!r}) s")
         self.sweep = data.get("sweep", {})
         unknown = set(self.sweep) - SWEEP_KEYS if isinstance(self.sweep, dict) else {"(not a table)"}
         if unknown:

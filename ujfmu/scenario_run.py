@@ -18,7 +18,7 @@ from fmpy.util import validate_result, write_csv
 from .build import DEFAULT_FMU_DIR
 from .extras import available, preload
 from .master import CosimulationError, cosimulate
-from .scenario import Scenario
+from .scenario import Scenario, ScenarioError
 
 DEFAULT_OUT_DIR = Path("results")
 preload()   # before any FMU is loaded (see extras.preload)
@@ -119,16 +119,32 @@ class ScenarioResult:
 
 def compare(table, reference, tolerances):
     """Check each toleranced signal: max |result - reference| <= rel_range*(range of reference) + abs, the
-    reference interpolated linearly to the result's times."""
+    reference interpolated linearly to the result's times; the range is the reference's over the result's time
+    span (a reference longer than the run does not widen the band)."""
     checks = []
+    t = table["time"]
+    slack = 1e-9 * max(1.0, abs(float(t[-1])))
+    window = (reference["time"] >= t[0] - slack) & (reference["time"] <= t[-1] + slack)
     for name, tol in tolerances.items():
         if name not in reference.dtype.names:
             raise KeyError(f"signal '{name}' has a tolerance but is not in the reference")
-        y_ref = np.interp(table["time"], reference["time"], reference[name])
-        span = float(np.ptp(reference[name]))
+        y_ref = np.interp(t, reference["time"], reference[name])
+        span = float(np.ptp(reference[name][window])) if window.any() else 0.0
         err = float(np.max(np.abs(table[name] - y_ref)))
         checks.append(SignalCheck(name, err, tol.rel_range * span + tol.abs, span))
     return checks
+
+
+def check_reference_span(scenario: Scenario, reference: np.ndarray) -> None:
+    """The reference must cover the experiment's [start_time, stop_time] (to half a step): beyond its ends it
+    would be held at its end values and the comparison would be meaningless."""
+    t0, t1 = float(reference["time"][0]), float(reference["time"][-1])
+    slack = 0.5 * scenario.step_size
+    if t0 > scenario.start_time + slack or t1 < scenario.stop_time - slack:
+        raise ScenarioError(f"{scenario.path}: the reference {scenario.reference_file_text} covers t = {t0:g} to "
+                            f"{t1:g} s, the experiment runs from {scenario.start_time:g} to "
+                            f"{scenario.stop_time:g} s: run within the reference's span, or regenerate the "
+                            f"reference (`ujfmu references {scenario.path}`)")
 
 
 def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.ndarray | None = None) -> np.ndarray:
@@ -162,6 +178,7 @@ def run_scenario(path, fmu_dir=DEFAULT_FMU_DIR, out_dir=DEFAULT_OUT_DIR, plot: b
     reference = None
     if scenario.reference_file is not None:   # a missing reference file is an error before anything runs
         reference = scenario.read_reference()
+        check_reference_span(scenario, reference)
     start = time.perf_counter()
     try:
         table = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,

@@ -172,5 +172,21 @@ def measure(fmu_dir=DEFAULT_FMU_DIR, out=sys.stdout) -> None:
     row("torque-driven DoubleCardanDriveline, h = 1 ms: k_theta [N.m/rad]",
         *limits(double, "driveline.k_theta", 2e4, 2e6, None, 0.6))
 
+def main(argv: list[str] | None = None) -> None:
+    """``python -m ujfmu.wiring [--fmu-dir DIR]``: print the measured limits (needs the libcosim extra)."""
+    import argparse
+
+    from .extras import MissingExtraError, require
+    parser = argparse.ArgumentParser(prog="python -m ujfmu.wiring", description=measure.__doc__)
+    parser.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR,
+                        help="folder of the built FMUs (default: fmus/ of the current directory)")
+    args = parser.parse_args(argv)
+    try:
+        require("libcosimpy", "libcosim", "the wiring study's libcosim column")
+    except MissingExtraError as exc:
+        parser.error(str(exc))
+    measure(args.fmu_dir)
+
+
 if __name__ == "__main__":
-    measure()
+    main()
