@@ -1,11 +1,19 @@
-"""Shared fixtures: FMUs built once per test session from the working tree, into a temporary folder."""
+"""Shared fixtures: FMUs built once per test session from the working tree, into a temporary folder; an opened FMU
+instance and a driver for the FMU-level tests (tests/fmu, tests/models)."""
 
 import os
+import shutil
+import subprocess
 import sys
+import sysconfig
+import tempfile
+from pathlib import Path
 
+import numpy as np
 import pytest
 
 from ujfmu.build import build_all
+from ujfmu.build3 import build_all3
 from ujfmu.extras import preload
 
 preload()   # the extras' compiled modules before any FMU is loaded (see ujfmu.extras.preload)
@@ -16,6 +24,98 @@ def fmu_dir(tmp_path_factory):
     dest = tmp_path_factory.mktemp("fmus")
     build_all(dest)
     return dest
+
+
+@pytest.fixture(scope="session")
+def fmu3_dir(tmp_path_factory):
+    """Every FMI 3.0 FMU (ujfmu build --fmi 3), built once per session."""
+    dest = tmp_path_factory.mktemp("fmus3")
+    build_all3(dest)
+    return dest
+
+
+@pytest.fixture
+def open_fmu(fmu_dir):
+    """open_fmu(name, instance_name) -> FmuInstance (freed at the end of the test)."""
+    from fmpy import extract, read_model_description
+
+    from ujfmu.master import Component, FmuInstance
+
+    opened = []
+
+    def _open(name, instance_name="x"):
+        path = fmu_dir / f"{name}.fmu"
+        tmp = tempfile.TemporaryDirectory(prefix="ujfmu_test_")
+        inst = FmuInstance(Component(instance_name, path), extract(str(path), unzipdir=tmp.name),
+                           read_model_description(str(path)), [])
+        opened.append((inst, tmp))
+        return inst
+
+    yield _open
+    for inst, tmp in opened:
+        inst.free()
+        tmp.cleanup()
+
+
+@pytest.fixture
+def drive():
+    """drive(inst, omega, tau_load, h, n, outputs, params) -> record array, see _drive."""
+    return _drive
+
+
+def _drive(inst, omega, tau_load, h, n, outputs, params=None):
+    """Initialise inst with params, then n steps of h with omega_in = omega(t) and a constant tau_load; returns a
+    record array of time, omega_in and the outputs read at each communication point before stepping."""
+    inst.initialize(params)
+    rows = []
+    for k in range(n):
+        t = k * h
+        inst.set(omega_in=omega(t), tau_load=tau_load)
+        rows.append([t, omega(t)] + inst.get(*outputs))
+        inst.slave.doStep(t, h)
+    return np.rec.fromarrays(np.array(rows).T, names=("time", "omega_in") + tuple(outputs))
+
+
+@pytest.fixture(scope="session")
+def libpython():
+    """The shared libpython a C host preloads to run the FMUs (Linux)."""
+    name = sysconfig.get_config_var("INSTSONAME") or sysconfig.get_config_var("LDLIBRARY")
+    for folder in (sysconfig.get_config_var("LIBDIR"), sysconfig.get_config_var("LIBPL")):
+        if folder and name and (Path(folder) / name).is_file():
+            return Path(folder) / name
+    pytest.fail("this Python has no shared libpython to preload")
+
+
+@pytest.fixture(scope="session")
+def c_host(tmp_path_factory, libpython):
+    """c_host(source, binary, token, resources, md, inputs, h, steps) -> the output rows the C host
+    tests/c_host/<source>.c (compiled once with gcc and fmpy's FMI headers) prints for an FMU's shared library
+    run with libpython preloaded: the modelDescription md's inputs set from inputs[name](t) before each step, all
+    its outputs read after it. Skips without gcc."""
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc not available")
+    import fmpy
+    built = {}
+
+    def run(source, binary, token, resources, md, inputs, h, steps):
+        if source not in built:
+            exe = tmp_path_factory.mktemp("c_host") / source
+            subprocess.run(["gcc", "-O1", "-Wall", "-Wextra", "-Werror", "-o", str(exe),
+                            str(Path(__file__).parent / "c_host" / f"{source}.c"),
+                            f"-I{Path(fmpy.__file__).parent / 'c-code'}", "-ldl"], check=True, capture_output=True)
+            built[source] = exe
+        ins = [v for v in md.modelVariables if v.causality == "input"]
+        outs = [v for v in md.modelVariables if v.causality == "output"]
+        plan = [f"{len(ins)} " + " ".join(str(v.valueReference) for v in ins),
+                f"{len(outs)} " + " ".join(str(v.valueReference) for v in outs)]
+        plan += [" ".join(repr(inputs[v.name](k * h)) for v in ins) for k in range(steps)]
+        done = subprocess.run([str(built[source]), str(binary), token, resources, repr(h), str(steps)],
+                              input="\n".join(plan) + "\n", capture_output=True, text=True, timeout=120,
+                              env={**os.environ, "LD_PRELOAD": str(libpython)})
+        assert done.returncode == 0, done.stderr[-2000:]
+        return [[float(x) for x in line.split()] for line in done.stdout.splitlines()]
+
+    return run
 
 
 _EXIT = []

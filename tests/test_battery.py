@@ -12,7 +12,8 @@ import pytest
 
 from ujfmu import battery
 from ujfmu.master import CosimulationError, CouplingInstabilityError, cosimulate
-from ujfmu.physics import cardan, load
+from ujfmu.models.cardan_joint import model as cardan
+from ujfmu.models.load import model as load
 from ujfmu.references import read_reference
 from ujfmu.scenario import Scenario
 

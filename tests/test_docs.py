@@ -38,7 +38,7 @@ def test_nothing_points_at_the_authors_paper_folder():
 
 def test_physics_and_model_docs_cite_existing_keys():
     cited = set()
-    for folder, suffix in (("ujfmu/physics", "*.py"), ("docs", "*.md")):
+    for folder, suffix in (("ujfmu/models", "*/model.py"), ("ujfmu/models", "*/README.md"), ("docs", "*.md")):
         for path in (REPO / folder).glob(suffix):
             keys = set(re.findall(r"\[([A-Z][a-z]+\d{4})\]", path.read_text()))
             assert keys <= set(BY_KEY), (path, keys - set(BY_KEY))

@@ -12,11 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ujfmu.physics import twin_jeffcott as tj
-from ujfmu.report import twin_decay_rates
+from ujfmu.models.twin_jeffcott_rotor import model as tj
+from ujfmu.models.twin_jeffcott_rotor.validation import twin_decay_rates
 
 ROOT = Path(__file__).parents[1]
-DOCS = sorted((ROOT / "docs").glob("*.md")) + [ROOT / "README.md"]
+DOCS = (sorted((ROOT / "docs").glob("*.md")) + sorted((ROOT / "ujfmu" / "models").glob("*/README.md"))
+        + [ROOT / "README.md"])
 QUOTE = re.compile(r"`((?:ujfmu\.)?[a-z_][a-z_0-9]*(?:\.[a-z_][a-z_0-9]*)*)\.([A-Z][A-Z_0-9]*)` = "
                    r"([-+]?\d[\d.]*(?:e[-+]?\d+)?)")
 
@@ -24,13 +25,14 @@ QUOTE = re.compile(r"`((?:ujfmu\.)?[a-z_][a-z_0-9]*(?:\.[a-z_][a-z_0-9]*)*)\.([A
 def quotes():
     for path in DOCS:
         for match in QUOTE.finditer(path.read_text()):
-            yield path.name, match.group(1).removeprefix("ujfmu."), match.group(2), float(match.group(3))
+            yield path.relative_to(ROOT).as_posix(), match.group(1).removeprefix("ujfmu."), match.group(2), float(match.group(3))
 
 
 def test_every_quoted_constant_is_the_code_value():
     found = list(quotes())
     assert {(doc, name) for doc, _, name, _ in found} >= {
-        ("twin_jeffcott.md", "RATE_STEP"), ("ring_coupling.md", "RATE_STEP"), ("double_cardan.md", "RATE_STEP")}
+        (f"ujfmu/models/{stem}/README.md", "RATE_STEP")
+        for stem in ("twin_jeffcott_rotor", "ring_coupling", "double_cardan_driveline")}
     for doc, module, name, value in found:
         assert getattr(importlib.import_module(f"ujfmu.{module}"), name) == value, f"{doc}: {module}.{name}"
 
@@ -41,9 +43,13 @@ def test_substep_rules_quote_the_constant_not_a_number():
             assert not re.search(r"at most \d[\d.]* /", line), f"{path.name}: {line.strip()}"
 
 
+TWIN = "ujfmu/models/twin_jeffcott_rotor/README.md"
+RING = "ujfmu/models/ring_coupling/README.md"
+
+
 def printed(doc, pattern):
-    """The numbers (as text) a regular expression captures in a doc."""
-    match = re.search(pattern, (ROOT / "docs" / doc).read_text().replace("\n", " "))
+    """The numbers (as text) a regular expression captures in a doc (path relative to the repository)."""
+    match = re.search(pattern, (ROOT / doc).read_text().replace("\n", " "))
     assert match, pattern
     return match.groups()
 
@@ -72,40 +78,40 @@ def test_twin_rotor_rig_table_and_modes_are_the_code_values():
             math.sqrt(r["K1X"] / (r["M1"] + r["m_u1"])), math.sqrt(r["K1X"] / (r["M1"] + r["m_u1"])) * 30 / math.pi),
     }
     for pattern, values in checks.items():
-        for text, value in zip(printed("twin_jeffcott.md", pattern), values):
+        for text, value in zip(printed(TWIN, pattern), values):
             assert agrees(value, text), (pattern, text, value)
     stiffness = np.array([[r["K1T"] + r["K2T"], -r["K2T"]], [-r["K2T"], r["K2T"]]])
     inertia = np.diag([r[f"J_M{i}"] + r[f"m_u{i}"] * r["e"] ** 2 for i in (1, 2)])   # with the unbalance mass
     torsion = np.sort(np.sqrt(np.linalg.eigvals(np.linalg.solve(inertia, stiffness)).real))
-    for text, value in zip(printed("twin_jeffcott.md", r"torsional ([\d.]+) and ([\d.]+) rad/s"), torsion):
+    for text, value in zip(printed(TWIN, r"torsional ([\d.]+) and ([\d.]+) rad/s"), torsion):
         assert agrees(value, text), (text, value)
     sigma = twin_decay_rates({**r, "phase_u1": 0.0, "phase_u2": 0.0, "beta": 0.0})[0]
-    (text,) = printed("twin_jeffcott.md", r"decays at sigma = ([\d.]+) 1/s")
+    (text,) = printed(TWIN, r"decays at sigma = ([\d.]+) 1/s")
     assert agrees(sigma, text), (text, sigma)
-    (text,) = printed("twin_jeffcott.md", r"only ([\d.]+)% of critical")
+    (text,) = printed(TWIN, r"only ([\d.]+)% of critical")
     assert agrees(100 * sigma / torsion[0], text), (text, sigma)
 
 
 def _quoted_values():
     """(doc, pattern capturing one number, the code's value) for constants quoted in prose."""
     from ujfmu.fmu.base import SPEED_RANGE, TORQUE_RANGE
-    from ujfmu.physics import ring_coupling as rc
+    from ujfmu.models.ring_coupling import model as rc
     from ujfmu.steady import FLOOR, GROWTH
     from ujfmu.sweep import SweepSettings
     return [
-        ("ring_coupling.md", r"M_p = (\d+) \(EI/R\^3\)", rc.MP_COEFFICIENT),
-        ("ring_coupling.md", r"(\d+) EI/R \[N.m/rad\]", rc.CS_COEFFICIENT),
-        ("ring_coupling.md", r"= (\d+\.\d+) e\^2 EI/\(w\^2", rc.SMALL_PARAMETER_COEFFICIENT),
-        ("../README.md", r"M_p = (\d+) \(EI/R\^3\)", rc.MP_COEFFICIENT),
-        ("../README.md", r"c_s = (\d+) EI/R", rc.CS_COEFFICIENT),
-        ("../README.md", r"speeds within \+-(1e\d) rad/s", SPEED_RANGE["max"]),
-        ("../README.md", r"torques within \+-(1e\d) N.m", TORQUE_RANGE["max"]),
-        ("cosimulation.md", r"\+-(1e\d) rad/s", SPEED_RANGE["max"]),
-        ("cosimulation.md", r"\+-(1e\d) N.m", TORQUE_RANGE["max"]),
-        ("../README.md", r"`steady_tol` \(default (1e-\d) of", SweepSettings.steady_tol),
-        ("../README.md", r"or of (\d+)% of the output's largest figure", 100 * FLOOR),
-        ("../README.md", r"T grows ([\d.]+)x", GROWTH),
-        ("../README.md", r"within (\d+)% of its set point", 100 * SweepSettings.operating_tol),
+        (RING, r"M_p = (\d+) \(EI/R\^3\)", rc.MP_COEFFICIENT),
+        (RING, r"(\d+) EI/R \[N.m/rad\]", rc.CS_COEFFICIENT),
+        (RING, r"= (\d+\.\d+) e\^2 EI/\(w\^2", rc.SMALL_PARAMETER_COEFFICIENT),
+        ("README.md", r"M_p = (\d+) \(EI/R\^3\)", rc.MP_COEFFICIENT),
+        ("README.md", r"c_s = (\d+) EI/R", rc.CS_COEFFICIENT),
+        ("README.md", r"speeds within \+-(1e\d) rad/s", SPEED_RANGE["max"]),
+        ("README.md", r"torques within \+-(1e\d) N.m", TORQUE_RANGE["max"]),
+        ("docs/cosimulation.md", r"\+-(1e\d) rad/s", SPEED_RANGE["max"]),
+        ("docs/cosimulation.md", r"\+-(1e\d) N.m", TORQUE_RANGE["max"]),
+        ("README.md", r"`steady_tol` \(default (1e-\d) of", SweepSettings.steady_tol),
+        ("README.md", r"or of (\d+)% of the output's largest figure", 100 * FLOOR),
+        ("README.md", r"T grows ([\d.]+)x", GROWTH),
+        ("README.md", r"within (\d+)% of its set point", 100 * SweepSettings.operating_tol),
     ]
 
 

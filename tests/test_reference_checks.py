@@ -9,7 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ujfmu.references import cardan_chain, double_cardan, read_reference, ring_coupling, twin_jeffcott
+from ujfmu.models.cardan_joint import reference as cardan_chain
+from ujfmu.models.double_cardan_driveline import reference as double_cardan
+from ujfmu.models.ring_coupling import reference as ring_coupling
+from ujfmu.models.twin_jeffcott_rotor import reference as twin_jeffcott
+from ujfmu.references import read_reference
 from ujfmu.references.common import ReferenceCheckError
 from ujfmu.scenario import Scenario
 
@@ -92,15 +96,49 @@ def test_ring_coupling_energy_balance(name, bug):
         ring_coupling.self_check(scenario, t, cols, "coupling", load)
 
 
+def reference_modules():
+    """(module name, path) of every reference module: the shared ujfmu/references and each model's reference.py."""
+    root = Path(__file__).parents[1]
+    paths = sorted((root / "ujfmu" / "references").glob("*.py")) + sorted((root / "ujfmu" / "models").glob("*/reference.py"))
+    return [(".".join(p.relative_to(root).with_suffix("").parts), p) for p in paths]
+
+
+def imported_modules(module, path):
+    """Absolute names of every module imported by the file at path (module: its own dotted name)."""
+    package = module.rsplit(".", 1)[0] if path.name != "__init__.py" else module
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parent = package.split(".")[:len(package.split(".")) - node.level + 1]
+                base = ".".join(parent + ([base] if base else []))
+            yield base
+            yield from (f"{base}.{a.name}" for a in node.names)
+        elif isinstance(node, ast.Import):
+            yield from (a.name for a in node.names)
+
+
 def test_references_do_not_import_the_code_they_check():
-    """References stay independent: no generator imports ujfmu.physics or ujfmu.fmu (or anything from ujfmu
-    outside ujfmu.references)."""
-    for path in (Path(__file__).parents[1] / "ujfmu" / "references").glob("*.py"):
-        for node in ast.walk(ast.parse(path.read_text())):
-            if isinstance(node, ast.ImportFrom):
-                assert node.level <= 1 and not (node.module or "").startswith("ujfmu"), (path, node.module)
-            elif isinstance(node, ast.Import):
-                assert not any(a.name.startswith("ujfmu") for a in node.names), path
+    """References stay independent: no reference module (ujfmu/references, ujfmu/models/*/reference.py) imports any
+    ujfmu module outside ujfmu.references: not a model's equations or FMU, not the FMU plumbing."""
+    modules = reference_modules()
+    assert len(modules) >= 6 and any(m.endswith("cardan_joint.reference") for m, _ in modules)
+    for module, path in modules:
+        for name in imported_modules(module, path):
+            assert not name.startswith("ujfmu") or name.startswith("ujfmu.references"), (path, name)
+
+
+def test_reference_import_rule_catches_a_model_import(tmp_path):
+    """The rule above fails on a reference that imports a model, absolutely or relatively."""
+    bad = tmp_path / "reference.py"
+    for line in ("from ujfmu.models.cardan_joint import model", "from ..cardan_joint.model import joint_torques",
+                 "from . import model", "import ujfmu.fmu.rk4"):
+        bad.write_text(line + "\n")
+        names = list(imported_modules("ujfmu.models.cardan_joint.reference", bad))
+        assert any(n.startswith("ujfmu") and not n.startswith("ujfmu.references") for n in names), (line, names)
+    bad.write_text("from ...references.common import pi_law\n")
+    assert list(imported_modules("ujfmu.models.cardan_joint.reference", bad)) == [
+        "ujfmu.references.common", "ujfmu.references.common.pi_law"]
 
 
 def test_references_motor_and_load_laws_written_out_again():

@@ -1,6 +1,6 @@
 """ujfmu: universal-joint driveline models as FMI 2.0 Co-Simulation FMUs.
 
-Heavy imports (numpy, fmpy) live in the tooling modules, not here: ujfmu.physics and ujfmu.fmu run inside FMUs.
+Heavy imports (numpy, fmpy) live in the tooling modules, not here: ujfmu.fmu and ujfmu.models.<stem>.model/fmu run inside FMUs.
 """
 
 __version__ = "0.1.0"

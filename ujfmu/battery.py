@@ -13,7 +13,7 @@ Drawn with a fixed seed from the ranges of heavy and stiff drivelines met in pra
 
 Each set-up (but the EXCLUDED ones, outside the models' valid range) is written as a scenario file
 (scenarios/battery/*.toml) whose reference is the monolithic scipy solve of the same system
-(ujfmu.references.cardan_chain or double_cardan), never a co-simulation. Regenerate both with
+(ujfmu.models.cardan_joint.reference or double_cardan), never a co-simulation. Regenerate both with
 ``ujfmu battery --regenerate``; ``ujfmu battery`` runs every set-up in each coupling scheme and tabulates the worst
 error against the reference, as a fraction of each signal's range.
 """

@@ -71,8 +71,8 @@ def markdown() -> str:
              "The papers the models come from, cited by key (e.g. [Feng2012]) in the code, the docs and every FMU's "
              "`documentation/index.html`, which carries this list too. Generated from `ujfmu/bibliography.py`; "
              "tests/test_docs.py checks that this file matches it. The papers contain typos; how each was read is "
-             "in the model's document (docs/cardan_joint.md, docs/double_cardan.md, docs/twin_jeffcott.md, "
-             "docs/ring_coupling.md). A DOI is given only where verified; otherwise the publisher's page, if "
+             "in the model's document (ujfmu/models/cardan_joint/README.md, ujfmu/models/double_cardan_driveline/README.md, ujfmu/models/twin_jeffcott_rotor/README.md, "
+             "ujfmu/models/ring_coupling/README.md). A DOI is given only where verified; otherwise the publisher's page, if "
              "known.", "",
              "| key | reference | used for |", "| --- | --- | --- |"]
     lines += [f"| [{r.key}] | {r.text()} | {r.used_for} |" for r in REFERENCES]

@@ -61,9 +61,12 @@ def cmd_build(args):
     if unknown:
         raise UsageError(f"unknown FMU {', '.join(unknown)}; known: {', '.join(FMUS)}")
     names = args.names or list(FMUS)
+    fmu_dir = args.fmu_dir
+    if args.fmi == 3:   # FMI 3.0 (pythonfmu3)
+        from .build3 import build_all3 as build_all
     with _progress(args, "building FMUs", "fmu") as progress:
         for i, name in enumerate(names):
-            path = build_all(args.fmu_dir, [name])[0]
+            path = build_all(fmu_dir, [name])[0]
             _say(args, f"built {path}")
             if progress:
                 progress(i + 1, len(names))
@@ -75,7 +78,7 @@ def _run_one(args, path, scenario=None):
     plot = not args.no_plot and available("matplotlib")
     with _progress(args, Path(path).stem, "step") as progress:
         result = run_scenario(scenario if scenario is not None else path, fmu_dir=args.fmu_dir, out_dir=args.out,
-                              plot=plot, progress=progress)
+                              plot=plot, progress=progress, model_exchange=args.model_exchange)
     print(result.summary())
     return result
 
@@ -90,6 +93,9 @@ def cmd_run(args):
     from . import stepsize
     from .scenario import Scenario
     scenario = Scenario(args.scenario)
+    if args.model_exchange and (args.step == "auto" or args.check_step):
+        raise UsageError("--step auto and --check-step estimate a co-simulation's coupling error; a Model Exchange "
+                         "run (--model-exchange) has none: its accuracy is the solver's (rtol 1e-8)")
     if args.step == "auto":
         scenario.check_fmus(args.fmu_dir)
         scenario.step_size, _ = stepsize.choose(scenario, args.fmu_dir,
@@ -299,6 +305,12 @@ def _common(parser, suppress):
                              "output is not a terminal)")
 
 
+def _fmi(parser, helptext):
+    parser.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                        help=f"FMI version (default 2: FMI 2.0 Co-Simulation); 3: {helptext}, in fmus/fmi3/ "
+                             "unless --fmu-dir is given")
+
+
 def _out(parser, default, helptext):
     parser.add_argument("--out", type=Path, default=argparse.SUPPRESS, help=f"{helptext} (default: {default})")
     parser.set_defaults(out_default=Path(default))
@@ -321,6 +333,7 @@ def main(argv=None):
 
     p = command("build", cmd_build, "build all FMUs into fmus/ (or --fmu-dir)")
     p.add_argument("names", nargs="*", help=f"FMUs to build, of {', '.join(FMUS)} (default: all)")
+    _fmi(p, "build FMI 3.0 FMUs (Co-Simulation, plus Model Exchange where the model offers it; pythonfmu3)")
     for name, func, helptext in (("run", cmd_run, "co-simulate one scenario, write CSV and PNG, compare"),
                                  ("check", cmd_check, "run every scenario against its reference")):
         p = command(name, func, helptext)
@@ -337,6 +350,10 @@ def main(argv=None):
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")
         _out(p, "results/", "output folder")
         p.add_argument("--no-plot", action="store_true")
+        _fmi(p, "run the FMI 3.0 Co-Simulation FMUs")
+        p.add_argument("--model-exchange", action="store_true",
+                       help="run the FMI 3.0 Model Exchange FMUs together under fmpy's CVode instead of "
+                            "co-simulating (implies --fmi 3; torque-driven joints, MotorController, Load)")
     p = command("references", cmd_references, "regenerate the reference CSV files of the scenarios")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p = command("sweep", cmd_sweep, "co-simulate a scenario over a parameter grid to steady state (dask)")
@@ -366,6 +383,7 @@ def main(argv=None):
     p = command("export-ssp", cmd_export_ssp, "write scenarios as SSP packages (SystemStructure.ssd + FMUs)")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     _out(p, "results/", "writes <scenario>.ssp here")
+    _fmi(p, "package the FMI 3.0 FMUs")
     p = command("bench", cmd_bench, "speed figures as ratios in one run: FMI floor, monolithic solve, sweeps")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p.add_argument("--no-sweep", action="store_true", help="skip the sweep figures (1 and 2 workers)")
@@ -402,6 +420,11 @@ def main(argv=None):
                      (" (FMUs go to --fmu-dir)" if args.command == "build" else ""))
     if "out" not in args:
         args.out = args.out_default
+    if getattr(args, "model_exchange", False):
+        args.fmi = 3
+    if getattr(args, "fmi", 2) == 3 and args.fmu_dir == DEFAULT_FMU_DIR:   # --fmi 3: fmus/fmi3/ by default
+        from .build3 import DEFAULT_FMU3_DIR
+        args.fmu_dir = DEFAULT_FMU3_DIR
     try:
         return args.func(args)
     except Exception as exc:  # a clear message, not a traceback, for user errors

@@ -268,7 +268,11 @@ class Cosimulation:
                 raise CosimulationError(f"component '{comp.name}': FMU file {comp.fmu} not found "
                                         "(run `ujfmu build` first)")
             unzip_dir, md = extracted(comp.fmu)
-            self.instances[comp.name] = FmuInstance(comp, unzip_dir, md, self.log)
+            if md.fmiVersion.startswith("3"):
+                from .fmi3_host import FmuInstance3 as instance   # FMI 3.0 Co-Simulation (ujfmu build --fmi 3)
+            else:
+                instance = FmuInstance
+            self.instances[comp.name] = instance(comp, unzip_dir, md, self.log)
         for comp in components:
             self.instances[comp.name].initialize(comp.parameters, self.start_time)
 

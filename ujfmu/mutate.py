@@ -16,6 +16,7 @@ survives when they all pass. Score = killed / (killed + survived). Not part of C
 
 from __future__ import annotations
 
+import fnmatch
 import json
 import os
 import shutil
@@ -30,8 +31,11 @@ from pathlib import Path
 REPOSITORY = Path(__file__).resolve().parents[1]
 DEFAULT_LIST = REPOSITORY / "mutants.toml"
 #: the areas the list must cover (a path prefix each)
-AREAS = {"physics": "ujfmu/physics/", "FMU layer": "ujfmu/fmu/", "master": "ujfmu/master.py",
-         "scenario comparison": ("ujfmu/scenario.py", "ujfmu/scenario_run.py"), "references": "ujfmu/references/"}
+AREAS = {"physics": ("ujfmu/models/*/model.py", "ujfmu/fmu/rk4.py"),
+         "FMU layer": ("ujfmu/models/*/fmu.py", "ujfmu/fmu/"), "master": "ujfmu/master.py",
+         "scenario comparison": ("ujfmu/scenario.py", "ujfmu/scenario_run.py"),
+         "references": ("ujfmu/models/*/reference.py", "ujfmu/references/"),
+         "FMI 3.0 layer": ("ujfmu/fmu3/", "ujfmu/build3.py", "ujfmu/model_exchange.py", "ujfmu/fmi3_host.py")}
 
 
 @dataclass
@@ -73,8 +77,9 @@ def load_mutants(path: Path = DEFAULT_LIST) -> list[Mutant]:
 
 def area(mutant: Mutant) -> str:
     """Which of AREAS the mutated file belongs to ('' if none)."""
-    for name, prefix in AREAS.items():
-        if mutant.file.startswith(prefix if isinstance(prefix, str) else tuple(prefix)):
+    for name, patterns in AREAS.items():
+        if any(fnmatch.fnmatch(mutant.file, p if p.endswith(".py") else p + "*")
+               for p in ((patterns,) if isinstance(patterns, str) else patterns)):
             return name
     return ""
 

@@ -19,7 +19,7 @@ sweep goes on. One journal holds one grid: a sweep of another grid under the sam
 From Python (keyword arguments of ``SweepSettings.from_scenario`` override the scenario's [sweep] table)::
 
     scenario = Scenario("scenarios/double_cardan_omar_torsional.toml")
-    sweep = Sweep(scenario, [parse_axis("motor.omega_set=600:700:50rpm", scenario)],
+    sweep = Sweep(scenario, [Axis.span("motor.omega_set", 600, 700, 50, "rpm")],
                   SweepSettings.from_scenario(scenario, revolutions=2))
     sweep.run()            # local dask workers; no ``if __name__ == "__main__":`` guard needed
     rows = sweep.table()   # flat dicts, as the CSV
@@ -51,10 +51,28 @@ UNITS = {"rpm": math.pi / 30.0, "deg": math.pi / 180.0, "": 1.0}
 
 @dataclass
 class Axis:
-    """One sweep axis: the parameters it sets together (``component.parameter``) and their SI values."""
+    """One sweep axis: the parameters it sets together (``component.parameter``) and their SI values.
+
+    Build one with :meth:`span` or :meth:`of` (values in a human unit converted to SI); ``parse_axis`` makes one
+    from the command line's text. :meth:`check` validates it against a scenario (Sweep does)."""
     names: tuple
     values: list
     unit: str = ""      # the human unit the values were given in ("rpm", "deg" or "")
+
+    @classmethod
+    def of(cls, names, values, unit: str = "") -> "Axis":
+        """An axis over the given values in unit ("rpm", "deg" or "" for SI); names: one ``component.parameter``
+        or several set together."""
+        names = (names,) if isinstance(names, str) else tuple(names)
+        return cls(names, [float(v) * UNITS[unit] for v in values], unit)
+
+    @classmethod
+    def span(cls, names, start: float, stop: float, step: float, unit: str = "") -> "Axis":
+        """start, start + step, ... up to stop inclusive (to 1e-9 of a step), in unit (see :meth:`of`)."""
+        if not step > 0 or stop < start:
+            raise ValueError("need STEP > 0 and STOP >= START")
+        count = int(math.floor((stop - start) / step + 1e-9)) + 1
+        return cls.of(names, [start + k * step for k in range(count)], unit)
 
     @property
     def label(self):
@@ -63,6 +81,24 @@ class Axis:
     def display(self, value):
         """value in the unit it was given in."""
         return value / UNITS[self.unit]
+
+    def check(self, scenario, what: str = "") -> None:
+        """ScenarioError (prefixed by what, default 'axis <label>') unless every name is a parameter of a component
+        of scenario and every value is within its declared range."""
+        what = what or f"axis {self.label}"
+        for name in self.names:
+            comp, _, par = name.partition(".")
+            if comp not in scenario.components:
+                raise ScenarioError(f"{what}: {scenario.path} has no component '{comp}' "
+                                    f"(it has {', '.join(scenario.components)})")
+            fmu = scenario.components[comp][0]
+            declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
+            if par not in declared:
+                raise ScenarioError(f"{what}: {fmu} has no parameter '{par}' (it has {', '.join(declared)})")
+            for value in self.values:
+                problem = declared[par].check(declared[par].type(value))
+                if problem:
+                    raise ScenarioError(f"{what}: {comp}.{problem}")
 
 
 def parse_axis(text: str, scenario) -> Axis:
@@ -77,33 +113,17 @@ def parse_axis(text: str, scenario) -> Axis:
         raise ScenarioError(f"--param {text!r}: expected component.parameter=START:STOP:STEP")
     match = re.fullmatch(r"\s*(.*?)\s*(rpm|deg)?\s*", values_text)
     body, unit = match.group(1), match.group(2) or ""
+    names = tuple(n.strip() for n in names_text.split(","))
     try:
         if ":" in body:
             start, stop, step = (float(x) for x in body.split(":"))
-            if not step > 0 or stop < start:
-                raise ValueError("need STEP > 0 and STOP >= START")
-            count = int(math.floor((stop - start) / step + 1e-9)) + 1
-            values = [start + k * step for k in range(count)]
+            axis = Axis.span(names, start, stop, step, unit)
         else:
-            values = [float(x) for x in body.split(",")]
+            axis = Axis.of(names, [float(x) for x in body.split(",")], unit)
     except ValueError as exc:
         raise ScenarioError(f"--param {text!r}: bad values {values_text!r} ({exc})") from None
-    values = [v * UNITS[unit] for v in values]
-    names = tuple(n.strip() for n in names_text.split(","))
-    for name in names:
-        comp, _, par = name.partition(".")
-        if comp not in scenario.components:
-            raise ScenarioError(f"--param {text!r}: {scenario.path} has no component '{comp}' "
-                                f"(it has {', '.join(scenario.components)})")
-        fmu = scenario.components[comp][0]
-        declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
-        if par not in declared:
-            raise ScenarioError(f"--param {text!r}: {fmu} has no parameter '{par}' (it has {', '.join(declared)})")
-        for value in values:
-            problem = declared[par].check(declared[par].type(value))
-            if problem:
-                raise ScenarioError(f"--param {text!r}: {comp}.{problem}")
-    return Axis(names, values, unit)
+    axis.check(scenario, f"--param {text!r}")
+    return axis
 
 
 @dataclass
@@ -243,6 +263,8 @@ class Sweep:
     def __init__(self, scenario, axes, settings, out_dir=Path("results"), name=None, fmu_dir=DEFAULT_FMU_DIR):
         self.scenario = scenario if isinstance(scenario, Scenario) else Scenario(scenario)
         self.axes, self.settings = list(axes), settings
+        for axis in self.axes:
+            axis.check(self.scenario)
         self.name = name or f"{self.scenario.name}_sweep"
         if self.name.startswith(".") or any(c in self.name for c in "/\\\0"):
             raise ScenarioError(f"sweep name {self.name!r} must be a plain file name (no path separators, not "

@@ -1,59 +1,25 @@
 """Non-Python host: a small FMI 2.0 host in C (tests/c_host/fmi2_host.c, fmi2 headers from fmpy) compiled with gcc
 at test time runs every FMU with libpython preloaded; its outputs equal the fmpy run's."""
 
-import os
-import shutil
-import subprocess
-import sysconfig
 from pathlib import Path
 
-import fmpy
 import pytest
 from fmu_helpers import INPUTS, open_instance
 
 from ujfmu.build import FMUS
 from ujfmu.master import extracted
 
-HOST_SOURCE = Path(__file__).parents[1] / "c_host" / "fmi2_host.c"
 H, STEPS = 1e-3, 200
 
 
-def libpython():
-    name = sysconfig.get_config_var("INSTSONAME") or sysconfig.get_config_var("LDLIBRARY")
-    for folder in (sysconfig.get_config_var("LIBDIR"), sysconfig.get_config_var("LIBPL")):
-        if folder and name and (Path(folder) / name).is_file():
-            return Path(folder) / name
-    return None
-
-
-@pytest.fixture(scope="module")
-def host(tmp_path_factory):
-    if shutil.which("gcc") is None:
-        pytest.skip("gcc not available")
-    exe = tmp_path_factory.mktemp("c_host") / "fmi2_host"
-    headers = Path(fmpy.__file__).parent / "c-code"
-    subprocess.run(["gcc", "-O1", "-Wall", "-Wextra", "-Werror", "-o", str(exe), str(HOST_SOURCE),
-                    f"-I{headers}", "-ldl"], check=True, capture_output=True, text=True)
-    return exe
-
-
 @pytest.mark.parametrize("name", list(FMUS))
-def test_c_host_runs_the_fmu_like_fmpy(host, fmu_dir, name):
-    lib = libpython()
-    assert lib is not None, "this Python has no shared libpython to preload"
+def test_c_host_runs_the_fmu_like_fmpy(c_host, fmu_dir, name):
     unzip, md = extracted(fmu_dir / f"{name}.fmu")
     unzip = Path(unzip)
     inputs = [v for v in md.modelVariables if v.causality == "input"]
     outputs = [v for v in md.modelVariables if v.causality == "output"]
-    plan = [f"{len(inputs)} " + " ".join(str(v.valueReference) for v in inputs),
-            f"{len(outputs)} " + " ".join(str(v.valueReference) for v in outputs)]
-    plan += [" ".join(repr(INPUTS[v.name](k * H)) for v in inputs) for k in range(STEPS)]
     binary = unzip / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
-    env = {**os.environ, "LD_PRELOAD": str(lib)}
-    run = subprocess.run([str(host), str(binary), md.guid, (unzip / "resources").as_uri(), repr(H), str(STEPS)],
-                         input="\n".join(plan) + "\n", capture_output=True, text=True, env=env, timeout=120)
-    assert run.returncode == 0, run.stderr[-2000:]
-    theirs = [[float(x) for x in line.split()] for line in run.stdout.splitlines()]
+    theirs = c_host("fmi2_host", binary, md.guid, (unzip / "resources").as_uri(), md, INPUTS, H, STEPS)
 
     inst = open_instance(fmu_dir, name, [], "fmpy")
     try:

@@ -27,6 +27,7 @@ the rejection into fmi2Fatal with the reason in the log message; the instance is
 objects pythonfmu releases twice are pinned, as above). docs/security.md has the threat model.
 """
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -38,6 +39,9 @@ from pathlib import Path
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Status
 from pythonfmu.default_experiment import DefaultExperiment
+
+from ..models.protocol import Drive
+from . import rk4
 
 _TYPES = {float: Real, int: Integer, bool: Boolean}
 #: life-cycle attributes of UjfmuSlave that are part of the FMU state
@@ -120,7 +124,7 @@ class UjfmuSlave(Fmi2Slave):
     communication point whatever order the host sets inputs in.
     """
 
-    PHYSICS = None  # the ujfmu.physics module holding the model's equations (documentation)
+    PHYSICS = None  # the model's equations module, ujfmu.models.<stem>.model (documentation)
     VARIABLES = ()
     DEFAULT_EXPERIMENT = (0.0, 1.0, 1e-3)  # start, stop, step
     author = "ujfmu"
@@ -325,16 +329,128 @@ class UjfmuSlave(Fmi2Slave):
             return False
 
 
-class PrescribedInputSlave(UjfmuSlave):
-    """Base of the drivetrain FMUs whose input shaft follows ``omega_in`` (a prescribed motion).
+class ModelSlave(UjfmuSlave):
+    """An FMU over a model that implements the protocol of ``ujfmu.models.protocol``: a subclass declares MODEL (the
+    model module), VARIABLES and DEFAULT_EXPERIMENT, nothing else. This class does the rest, once for every model:
+
+    - the parameters object ``MODEL.Parameters`` from the FMU's parameters (by name), and ``MODEL.check`` on it;
+    - the state: ``MODEL.initial_state`` at the current inputs until the first step (the warm start: a host may
+      set the inputs after initialization), then integrated, or held while ``MODEL.kinematic(p)``;
+    - a step: classical RK4 (``rk4.integrate_time``) with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs
+      held (a prescribed input shaft extrapolated, see PrescribedInputSlave), then the finite check and
+      ``MODEL.check_state`` of the new state;
+    - the outputs: ``MODEL.outputs`` assigned by name.
+
+    Subclasses provide ``model_inputs()`` (the model's inputs now) and ``inputs_at(s)`` (at time s into a step, as
+    the step extrapolates them) and may extend ``initialize``/``advance`` for what their inputs need
+    (PrescribedInputSlave: the input shaft's angle).
+    """
+
+    MODEL = None
+    STATE = {"_time": "float", "_started": "bool"}   # plus "_y": the model state, set in __init_subclass__
+    DERIVED = ("_p",)
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls.__dict__.get("MODEL") is not None:
+            cls.PHYSICS = cls.MODEL
+            cls.STATE = {**cls.STATE, "_y": f"float[{len(cls.MODEL.State._fields)}]"}
+
+    def parameters(self):
+        """The FMU's parameters as the model's Parameters."""
+        return model_parameters(self.MODEL, self)
+
+    def check_parameters(self):
+        return self.MODEL.check(self.parameters())
+
+    def derive(self):
+        self._p = self.parameters()
+
+    def initialize(self, start_time):
+        self._time, self._started = start_time, False
+        self._y = tuple(self.MODEL.initial_state(self._p, start_time, self.model_inputs()))
+
+    def model_inputs(self):
+        """The model's inputs (its Inputs) now, from the FMU's input variables."""
+        raise NotImplementedError
+
+    def inputs_at(self, s):
+        """The model's inputs at time s [s] into the step from now (default: held)."""
+        return self.model_inputs()
+
+    def current_state(self, u):
+        """The model state now: after the first step the integrated (or, kinematic, held) one, before it
+        initial_state at the current inputs u (the warm start)."""
+        if self._started:
+            return self._y
+        return tuple(self.MODEL.initial_state(self._p, self._time, u))
+
+    def compute_outputs(self):
+        u = self.model_inputs()
+        for name, value in self.MODEL.outputs(self._p, self._time, self.current_state(u), u).items():
+            setattr(self, name, value)
+
+    def advance(self, t, h):
+        model, p = self.MODEL, self._p
+        if getattr(model, "kinematic", _never)(p):
+            if not self._started:
+                self._y, self._started = self.current_state(self.model_inputs()), True
+        else:
+            u = self.model_inputs()
+            y = self.current_state(u)
+            n = rk4.substeps(model.rate_bound(p, y, self.speed_bound(h)), h)
+            if type(self).inputs_at is ModelSlave.inputs_at:   # inputs held over the step
+
+                def rates(s, y):
+                    return model.derivatives(p, t + s, y, u)
+            else:
+
+                def rates(s, y):
+                    return model.derivatives(p, t + s, y, self.inputs_at(s))
+            y = tuple(rk4.integrate_time(rates, y, h, n))
+            if not all(math.isfinite(x) for x in y):
+                raise ValueError(f"the state became non-finite over the step ({y!r})")
+            problems = getattr(model, "check_state", _none)(p, y)
+            if problems:
+                raise ValueError("; ".join(problems))
+            self._y, self._started = y, True
+        self._time = t + h
+
+    def speed_bound(self, h):
+        """Bound [rad/s] of the input speeds over the next step of h (0: the model has no input speed)."""
+        return 0.0
+
+
+def model_parameters(model, fmu):
+    """model.Parameters from the FMU's variables of the same names."""
+    names = [f.name for f in dataclasses.fields(model.Parameters) if f.init]
+    return model.Parameters(**{name: getattr(fmu, name) for name in names})
+
+
+def _never(p):
+    return False
+
+
+def _none(p, y):
+    return []
+
+
+class PrescribedInputSlave(ModelSlave):
+    """Base of the drivetrain FMUs whose input shaft follows ``omega_in`` (a prescribed motion); the model's inputs
+    are ``ujfmu.models.protocol.Drive`` (angle, speed, acceleration of the input shaft, load torque).
 
     Over a communication step h the input angle is phi(t) = phi + omega_in t + alpha t^2 / 2, alpha the backward
     difference of omega_in over the previous step (0 before the first): exact for constant speed and constant
     acceleration. The angle is summed with Kahan's compensation, so after 10^6 steps its round-off is a few ulps
-    of the angle, not 10^6 of them.
+    of the angle, not 10^6 of them. The outputs phi_in and alpha_in are the shaft's angle and acceleration.
     """
 
-    STATE = {"_phi_in": "float", "_phi_in_carry": "float", "_omega_prev": "float|None", "_h_prev": "float"}
+    STATE = {**ModelSlave.STATE, "_phi_in": "float", "_phi_in_carry": "float", "_omega_prev": "float|None",
+             "_h_prev": "float"}
+
+    def initialize(self, start_time):
+        self.start_input(self.phi_in_start)
+        super().initialize(start_time)
 
     def start_input(self, phi_start):
         self._phi_in, self._phi_in_carry = phi_start, 0.0
@@ -342,6 +458,26 @@ class PrescribedInputSlave(UjfmuSlave):
 
     def input_acceleration(self):
         return 0.0 if self._omega_prev is None else (self.omega_in - self._omega_prev) / self._h_prev
+
+    def model_inputs(self):
+        return Drive(self._phi_in, self.omega_in, self.input_acceleration(), self.tau_load)
+
+    def inputs_at(self, s):
+        """The input shaft extrapolated s into the step: angle quadratic, speed linear in s (Eq. above)."""
+        alpha, w0 = self.input_acceleration(), self.omega_in
+        return Drive(self._phi_in + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, alpha, self.tau_load)
+
+    def speed_bound(self, h):
+        alpha = self.input_acceleration()
+        return max(abs(self.omega_in), abs(self.omega_in + alpha * h))
+
+    def compute_outputs(self):
+        super().compute_outputs()
+        self.phi_in, self.alpha_in = self._phi_in, self.input_acceleration()
+
+    def advance(self, t, h):
+        super().advance(t, h)
+        self.advance_input(h, self.input_acceleration())
 
     def advance_input(self, h, alpha):
         increment = h * (self.omega_in + 0.5 * alpha * h) - self._phi_in_carry
@@ -382,32 +518,52 @@ def _normalize(kind, value):
     return value
 
 
-_BUILD = []
+_BUILD = {}
 
 
-def sources_digest():
-    """SHA-256 (hex, 16 digits) of the runtime sources as they are now (ujfmu/fmu and ujfmu/physics, as shipped
-    in every FMU)."""
+def model_stem(module: str) -> str:
+    """The model folder of an FMU class declared in module ``ujfmu.models.<stem>.fmu`` (or the same below an FMU's
+    runtime package)."""
+    parts = module.split(".")
+    if len(parts) < 3 or parts[-3] != "models":
+        raise ValueError(f"{module} is not a model's FMU declaration (models/<stem>/fmu.py)")
+    return parts[-2]
+
+
+_ROOT = Path(__file__).resolve().parent.parent   # ujfmu, or an FMU's runtime package
+
+
+def runtime_files(stem: str, root: Path = _ROOT) -> list:
+    """Paths, relative to the runtime package root, of everything an FMU of model ``stem`` ships: the shared FMI
+    plumbing (``fmu/``, ``models/protocol.py``) and its own model folder's equations and declaration
+    (``models/<stem>/``)."""
+    shared = sorted(p.name for p in (root / "fmu").glob("*.py"))
+    return ([f"fmu/{name}" for name in shared] + ["models/__init__.py", "models/protocol.py"]
+            + [f"models/{stem}/{name}" for name in ("__init__.py", "model.py", "fmu.py")])
+
+
+def sources_digest(stem: str, root: Path = _ROOT) -> str:
+    """SHA-256 (hex, 16 digits) of the runtime sources of model ``stem`` as they are now: exactly the files its
+    FMU ships (``runtime_files``)."""
     digest = hashlib.sha256()
-    root = Path(__file__).resolve().parent.parent
-    for sub in ("fmu", "physics"):
-        for path in sorted((root / sub).glob("*.py")):
-            digest.update(f"{sub}/{path.name}\0".encode() + path.read_bytes() + b"\0")
+    for rel in runtime_files(stem, root):
+        digest.update(f"{rel}\0".encode() + (root / rel).read_bytes() + b"\0")
     return digest.hexdigest()[:16]
 
 
-def build_digest():
-    """The sources digest of this build, read once: a state is restored only by the build that saved it."""
-    if not _BUILD:
-        _BUILD.append(sources_digest())
-    return _BUILD[0]
+def build_digest(stem: str) -> str:
+    """The sources digest of this build of model ``stem``, read once: a state is restored only by the build that
+    saved it."""
+    if stem not in _BUILD:
+        _BUILD[stem] = sources_digest(stem)
+    return _BUILD[stem]
 
 
 def encode_state(state):
     """Serialized state: MAGIC | u16 format version | u8 length + model name | u8 length + build digest |
     u32 length + JSON of the fields (sorted keys, floats written exactly) | SHA-256 of everything before it."""
     payload = json.dumps(state.fields, sort_keys=True, separators=(",", ":")).encode()
-    return frame_state(state.origin[1].encode(), build_digest().encode(), payload)
+    return frame_state(state.origin[1].encode(), build_digest(model_stem(state.origin[0])).encode(), payload)
 
 
 def frame_state(model, build, payload):
@@ -459,9 +615,10 @@ def decode_state(cls, data):
         raise StateError("checksum mismatch: the state is corrupted")
     if model != cls.__name__.encode():
         raise StateError(f"saved by FMU {model.decode(errors='replace')!r}, this is {cls.__name__!r}")
-    if build != build_digest().encode():
+    this_build = build_digest(model_stem(cls.__module__))
+    if build != this_build.encode():
         raise StateError(f"saved by another build of {cls.__name__} (source digest {build.decode(errors='replace')}, "
-                         f"this build {build_digest()}): restore it with the FMU file that saved it")
+                         f"this build {this_build}): restore it with the FMU file that saved it")
     try:
         fields = json.loads(payload.decode("utf-8"), object_pairs_hook=_no_duplicates)
     except (ValueError, RecursionError) as exc:

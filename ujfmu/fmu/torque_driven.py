@@ -8,13 +8,14 @@ the driving torque tau_in (held over a step) and reads back omega_in, a state wi
 remains for the host's explicit loop is the driver's controller (torque from the sampled speed) and the load
 (torque from the output speed), both ordinary step-size conditions.
 
-The equations are derivatives of a state (ujfmu.physics ``torque_driven_rates``), integrated over each step with
-classical RK4 (ujfmu.physics.rk4.integrate_time), so a Model Exchange export can hand them to the host's solver.
+The equations are derivatives of a state (``torque_driven_rates`` of the model), integrated over each step with
+classical RK4 (ujfmu.fmu.rk4.integrate_time), so a Model Exchange export can hand them to the host's solver.
 """
 
 import math
 
-from ..physics import rk4
+from ..models.protocol import Drive
+from . import rk4
 from .base import SPEED_RANGE, TORQUE_RANGE, UjfmuSlave, input_, output, parameter
 
 
@@ -52,9 +53,18 @@ def driven_ports(speed_driven: type) -> tuple:
 
 class TorqueDrivenSlave(UjfmuSlave):
     """Base of the torque-driven FMUs. The model state is one tuple of floats ``_state`` whose first two entries
-    are the input shaft's angle and speed (STATE); subclasses implement ``derive()`` (the DERIVED attributes),
-    ``initial_state()``, ``rates(state)`` (its time derivative at the current inputs), ``rate_bound(omega_max)``
-    (an upper bound of its fastest rate, for the substeps) and ``compute_outputs()``."""
+    are the input shaft's angle and speed and the rest the speed-driven model's State (STATE); subclasses set MODEL
+    (the speed-driven model's module, whose ``outputs`` give every output but the input shaft's) and implement
+    ``derive()`` (the DERIVED attributes, ``_p`` the model's Parameters), ``initial_state()``, ``rates(state)``
+    (its time derivative at the current inputs) and ``rate_bound(omega_max)`` (an upper bound of its fastest rate,
+    for the substeps)."""
+
+    MODEL = None
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls.__dict__.get("MODEL") is not None:
+            cls.PHYSICS = cls.MODEL
 
     def initialize(self, start_time):
         self._state = self.initial_state()
@@ -77,8 +87,14 @@ class TorqueDrivenSlave(UjfmuSlave):
     def check_state(self, state):
         """Raise ValueError if state (after a step) is outside the model's validity."""
 
-    def input_shaft_outputs(self):
-        """Set omega_in, phi_in, alpha_in and return alpha_in."""
-        self.phi_in, self.omega_in = self._state[0], self._state[1]
-        self.alpha_in = self.rates(self._state)[1]
-        return self.alpha_in
+    def compute_outputs(self):
+        """The input shaft's outputs from the state and the equations of motion, the others from the model's
+        outputs at that motion (its tau_in is tau_input_shaft here)."""
+        y = self._state
+        self.phi_in, self.omega_in = y[0], y[1]
+        self.alpha_in = self.rates(y)[1]
+        model = self.MODEL
+        out = model.outputs(self._p, 0.0, model.State(*y[2:]), Drive(y[0], y[1], self.alpha_in, self.tau_load))
+        self.tau_input_shaft = out.pop("tau_in")
+        for name, value in out.items():
+            setattr(self, name, value)

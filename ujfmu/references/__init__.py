@@ -1,5 +1,7 @@
 """Reference trajectories from computations independent of the co-simulation they check.
 
+Each model's derivation is in its folder (``ujfmu/models/<stem>/reference.py``); the parts they share (the
+references' own Motor and Load laws, the ideal-source/PI drive, the checks) are in ``ujfmu.references.common``.
 Each generator takes a scenario (ujfmu.scenario.Scenario) and returns a structured array sampled on the
 scenario's communication grid. Reference CSV files start with one '#' line saying how they were made; the rest is
 fmpy's cross-check CSV format. Regenerate all with ``ujfmu references``.
@@ -12,14 +14,14 @@ from pathlib import Path
 
 import numpy as np
 
-#: generator name -> (module in ujfmu.references, function); imported when used (they need scipy and sympy,
-#: the ``references`` extra; reading a reference CSV needs neither)
+#: generator name (a scenario's [reference] generator) -> (module, function); imported when used (they need scipy
+#: and sympy, the ``references`` extra; reading a reference CSV needs neither)
 GENERATORS = {
-    "cardan_chain": ("cardan_chain", "generate"),
-    "double_cardan": ("double_cardan", "generate"),
-    "twin_jeffcott": ("twin_jeffcott", "generate"),
-    "ring_coupling": ("ring_coupling", "generate"),
-    "ring_coupling_pendulum": ("ring_coupling", "generate_pendulum"),
+    "cardan_chain": ("ujfmu.models.cardan_joint.reference", "generate"),
+    "double_cardan": ("ujfmu.models.double_cardan_driveline.reference", "generate"),
+    "twin_jeffcott": ("ujfmu.models.twin_jeffcott_rotor.reference", "generate"),
+    "ring_coupling": ("ujfmu.models.ring_coupling.reference", "generate"),
+    "ring_coupling_pendulum": ("ujfmu.models.ring_coupling.reference", "generate_pendulum"),
 }
 
 
@@ -64,4 +66,4 @@ def generate(scenario):
             raise ModuleNotFoundError(f"regenerating a reference solution needs {dependency}, which is not installed: "
                                       "pip install 'ujfmu[references]'", name=dependency) from None
     module, function = GENERATORS[name]
-    return getattr(importlib.import_module(f"{__name__}.{module}"), function)(scenario)
+    return getattr(importlib.import_module(module), function)(scenario)

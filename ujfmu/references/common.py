@@ -1,5 +1,5 @@
 """Pieces every monolithic reference shares: the Motor FMU's speed profiles and PI law and the Load FMU's torque
-law, written out again with numpy (independent of ujfmu.physics)."""
+law, written out again with numpy (independent of the models' equations)."""
 
 import time
 from contextlib import contextmanager
@@ -22,6 +22,33 @@ def profile(p, t):
         return (np.where(before, w0, w_set), np.zeros_like(t),
                 np.where(before, w0 * t, w0 * t_step + w_set * (t - t_step)))
     return np.full_like(t, w_set), np.zeros_like(t), w_set * t
+
+
+def source_start_angle(p, t) -> float:
+    """The profile's angle at the grid's first time t[0]: an ideal speed source's angle counts from there."""
+    return float(profile(p, t[:1])[2][0])
+
+
+def source_motion(p, t) -> tuple:
+    """(omega, alpha, angle since t[0]) of an ideal speed source following the profile on the grid t."""
+    w, a, angle = profile(p, t)
+    return w, a, angle - source_start_angle(p, t)
+
+
+def source_torque(j_rotor, alpha, tau_load):
+    """The torque an ideal speed source delivers: its rotor's inertia torque plus the torque it is loaded with
+    (the Motor FMU's ideal mode, written out again)."""
+    return j_rotor * alpha + tau_load
+
+
+def drive_name(ideal: bool) -> str:
+    """How the references' provenance names the drive."""
+    return "ideal speed source" if ideal else "PI motor"
+
+
+def feeds(scenario, source: str, target: str) -> bool:
+    """True if the scenario connects source (``component.output``) to target (``component.input``)."""
+    return any(cn.source == source and cn.target == target for cn in scenario.connections)
 
 
 def corners(p, t0, t1):

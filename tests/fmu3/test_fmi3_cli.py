@@ -1,0 +1,60 @@
+"""`--fmi 3` on the command line: build, check and export-ssp with the FMI 3.0 FMUs."""
+
+import zipfile
+from pathlib import Path
+
+from fmpy import read_model_description
+
+from ujfmu.cli import main
+from ujfmu.scenario import Scenario
+
+
+def test_build_fmi3_writes_an_fmi3_fmu(tmp_path):
+    assert main(["build", "--fmi", "3", "Load", "--fmu-dir", str(tmp_path), "-q"]) == 0
+    assert read_model_description(str(tmp_path / "Load.fmu")).fmiVersion == "3.0"
+
+
+def test_check_runs_a_scenario_with_the_fmi3_fmus(fmu3_dir, tmp_path, capsys):
+    assert main(["check", "--fmi", "3", "--fmu-dir", str(fmu3_dir), "scenarios/cardan_constant_speed.toml",
+                 "--out", str(tmp_path), "--no-plot", "-q"]) == 0
+    assert "1 passed, 0 failed" in capsys.readouterr().out
+
+
+def test_missing_fmi3_fmus_name_the_build_command(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "scenarios").mkdir()
+    assert main(["check", "--fmi", "3", "--no-plot", "-q",
+                 str(Path(__file__).parents[2] / "scenarios" / "cardan_constant_speed.toml")]) == 2
+    assert "ujfmu build --fmi 3" in capsys.readouterr().err
+
+
+def test_export_ssp_packages_the_fmi3_fmus(fmu3_dir, tmp_path):
+    path = "scenarios/cardan_heavy_torque_driven.toml"
+    assert main(["export-ssp", "--fmi", "3", "--fmu-dir", str(fmu3_dir), path, "--out", str(tmp_path)]) == 0
+    ssp = tmp_path / "cardan_heavy_torque_driven.ssp"
+    with zipfile.ZipFile(ssp) as zf:
+        names = zf.namelist()
+        for fmu in {fmu for fmu, _ in Scenario(path).components.values()}:
+            assert f"resources/{fmu}.fmu" in names
+            (tmp_path / f"{fmu}.fmu").write_bytes(zf.read(f"resources/{fmu}.fmu"))
+            assert read_model_description(str(tmp_path / f"{fmu}.fmu")).fmiVersion == "3.0"
+        assert b'startConnector="tau_motor"' in zf.read("SystemStructure.ssd")
+
+
+def test_run_model_exchange_checks_the_scenario_against_its_reference(fmu3_dir, tmp_path, capsys):
+    """`ujfmu run --model-exchange`: the torque-driven driveline under CVode, within the scenario's tolerances and
+    its tight step-halving bands (no step error to remove)."""
+    assert main(["run", "--model-exchange", "--fmu-dir", str(fmu3_dir), "scenarios/cardan_heavy_torque_driven.toml",
+                 "--out", str(tmp_path), "--no-plot", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("PASS cardan_heavy_torque_driven") and "step-halving" in out
+    assert (tmp_path / "cardan_heavy_torque_driven.csv").is_file()
+
+
+def test_run_model_exchange_refuses_a_speed_driven_scenario_and_step_checks(fmu3_dir, tmp_path, capsys):
+    assert main(["run", "--model-exchange", "--fmu-dir", str(fmu3_dir), "scenarios/cardan_startup.toml",
+                 "--out", str(tmp_path), "--no-plot", "-q"]) == 2
+    assert "has no Model Exchange interface" in capsys.readouterr().err
+    assert main(["run", "--model-exchange", "--check-step", "--fmu-dir", str(fmu3_dir),
+                 "scenarios/cardan_heavy_torque_driven.toml", "--no-plot", "-q"]) == 2
+    assert "has none" in capsys.readouterr().err

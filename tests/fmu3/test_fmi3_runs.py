@@ -1,0 +1,233 @@
+"""The FMI 3.0 FMUs running: the same numbers as the FMI 2.0 FMUs, scenarios against their references in
+Co-Simulation (our master) and Model Exchange (fmpy's CVode), errors, FMU state. (Every scenario passes with the
+FMI 3.0 FMUs: `ujfmu build --fmi 3 && ujfmu check --fmu-dir fmus/fmi3`; here one, plus bitwise equality with
+FMI 2.0 for every FMU, whose scenarios tests/test_scenarios.py checks.)"""
+
+import math
+
+import numpy as np
+import pytest
+from fmpy.fmi1 import FMICallException
+
+from ujfmu.build import FMUS
+from ujfmu.fmi3_host import FmuInstance3
+from ujfmu.master import Component, FmuInstance, cosimulate, extracted
+from ujfmu.model_exchange import MeInstance, ModelExchangeError, simulate_me, simulate_scenario_me
+from ujfmu.scenario import Scenario
+from ujfmu.scenario_run import compare
+
+#: inputs as functions of time: a ramping, wavering speed and varying torques exercise the input history
+INPUTS = {
+    "omega_in": lambda t: 40.0 + 30.0 * t + 3.0 * math.sin(17.0 * t),
+    "tau_load": lambda t: 0.2 + 0.1 * math.cos(11.0 * t),
+    "omega": lambda t: 40.0 + 30.0 * t,
+    "tau_in": lambda t: 0.5 + 0.2 * math.sin(13.0 * t),
+}
+H = 1e-3
+
+
+def _open(kind, fmu_dir, name, log, instance_name="probe"):
+    path = fmu_dir / f"{name}.fmu"
+    unzip_dir, md = extracted(path)
+    return kind(Component(instance_name, path), unzip_dir, md, log)
+
+
+@pytest.fixture
+def opened():
+    instances = []
+    yield instances
+    for inst in instances:
+        inst.free()
+
+
+def _record(inst, n, t0=0.0):
+    """n steps with INPUTS; the outputs read at each communication point, as an array."""
+    outputs = [v.name for v in inst.md.modelVariables if v.causality == "output"]
+    inputs = [v.name for v in inst.md.modelVariables if v.causality == "input"]
+    step = inst.raw("fmi2DoStep")
+    rows = []
+    for k in range(n):
+        t = t0 + k * H
+        inst.set(**{name: INPUTS[name](t) for name in inputs})
+        rows.append(inst.get(*outputs))
+        assert step(inst.slave.component, t, H, 1) == 0
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("name", list(FMUS))
+def test_fmi3_gives_the_fmi2_numbers_bitwise(fmu_dir, fmu3_dir, opened, name):
+    """One declaration and one set of equations: the FMI 3.0 FMU's outputs equal the FMI 2.0 FMU's, bit for bit,
+    over 300 steps of varying inputs."""
+    fmi2 = _open(FmuInstance, fmu_dir, name, [])
+    fmi3 = _open(FmuInstance3, fmu3_dir, name, [])
+    opened += [fmi2, fmi3]
+    fmi2.initialize()
+    fmi3.initialize()
+    a, b = _record(fmi2, 300), _record(fmi3, 300)
+    assert np.all(np.isfinite(a)) and np.ptp(a, axis=0).max() > 0.0
+    assert np.array_equal(a, b)
+
+
+def test_scenario_with_fmi3_fmus_passes_and_repeats_fmi2_bitwise(fmu_dir, fmu3_dir):
+    """The first 2 s of cardan_startup (PI ramp, implicit coupling: rollback through fmi3Get/SetFMUState) within
+    the scenario's tolerances of its reference, and bitwise the FMI 2.0 run."""
+    sc = Scenario("scenarios/cardan_startup.toml")
+
+    def run(folder):
+        return cosimulate(sc.master_components(folder), sc.connections, 2.0, sc.step_size, sc.record,
+                          coupling=sc.coupling)
+
+    fmi3 = run(fmu3_dir)
+    checks = compare(fmi3, sc.read_reference(), sc.tolerances)
+    assert checks and all(c.passed for c in checks), [str(c) for c in checks]
+    fmi2 = run(fmu_dir)
+    for name in fmi2.dtype.names:
+        assert np.array_equal(fmi2[name], fmi3[name]), name
+
+
+@pytest.mark.parametrize("scenario", ["cardan_heavy_torque_driven", "double_cardan_stiff_torque_driven"])
+def test_model_exchange_under_cvode_agrees_with_the_monolithic_reference(fmu3_dir, scenario):
+    """The torque-driven drivelines integrated by CVode as one system: no sampled controller, no coupling delay,
+    so they agree with the monolithic reference within the tight step-halving bands of the scenario (10-50x the
+    co-simulation's), where co-simulation at 1 ms is 2-4% off in torque. cardan_heavy_torque_driven is the set-up
+    whose speed-driven FMI 2.0 wiring diverges at any step in an explicit host (tests/test_wiring.py)."""
+    sc = Scenario(f"scenarios/{scenario}.toml")
+    table = simulate_scenario_me(sc, fmu3_dir)
+    reference = sc.read_reference()
+    for check in compare(table, reference, sc.extrapolated_tolerances) + compare(table, reference, sc.tolerances):
+        assert check.passed, str(check)
+    # and far inside: every signal within 1e-4 of its reference range
+    for name in sc.tolerances:
+        span = np.ptp(reference[name])
+        assert np.max(np.abs(table[name] - np.interp(table["time"], reference["time"], reference[name]))) \
+            <= 1e-4 * span, name
+
+
+def test_model_exchange_refuses_a_speed_driven_component(fmu3_dir):
+    with pytest.raises(ModelExchangeError, match="CardanJoint has no Model Exchange interface.*torque-driven"):
+        simulate_me([Component("joint", fmu3_dir / "CardanJoint.fmu")], [], 0.01, 1e-3, ["joint.tau_in"])
+
+
+def test_invalid_parameter_fails_initialization_with_a_message_and_the_host_survives(fmu3_dir, opened):
+    log = []
+    bad = _open(FmuInstance3, fmu3_dir, "CardanJoint", log, "bad")
+    opened.append(bad)
+    with pytest.raises(FMICallException):
+        bad.initialize({"J1": -1.0})
+    assert any("J1 = -1.0 is outside its allowed range [0, 1000] kg.m2" in line for line in log), log
+    good = _open(FmuInstance3, fmu3_dir, "CardanJoint", [], "good")
+    opened.append(good)
+    good.initialize()
+    assert np.all(np.isfinite(_record(good, 5)))
+
+
+def test_bad_input_refuses_the_step_and_the_instance_stays_usable(fmu3_dir, opened):
+    log = []
+    inst = _open(FmuInstance3, fmu3_dir, "CardanJointTorqueDriven", log)
+    opened.append(inst)
+    inst.initialize()
+    step = inst.raw("fmi2DoStep")
+    inst.set(tau_in=float("nan"), tau_load=0.0)
+    assert step(inst.slave.component, 0.0, H, 1) == 2          # fmi3Discard
+    assert any("tau_in = nan is not a finite number (allowed range [-10000000, 10000000] N.m)" in m for m in log), log
+    inst.set(tau_in=1.0)
+    assert step(inst.slave.component, 0.0, H, 1) == 0
+    assert inst.get("omega_in")[0] > 0.0
+
+
+def test_model_exchange_bad_input_gives_nan_derivatives_with_a_message(fmu3_dir, opened):
+    """(pythonfmu3 crashes the host on an exception in fmi3GetContinuousStateDerivatives: NaN and a logged error
+    instead, on which a solver stops.)"""
+    log = []
+    inst = _open(MeInstance, fmu3_dir, "CardanJointTorqueDriven", log)
+    opened.append(inst)
+    inst.initialize()
+    inst.set(tau_in=float("inf"))
+    inst.slave.getContinuousStateDerivatives(inst.buffer, inst.nx)
+    assert all(math.isnan(x) for x in inst.buffer)
+    assert any("derivatives at t = 0.0 refused: tau_in = inf is not a finite number" in m for m in log), log
+    inst.set(tau_in=1.0)
+    inst.slave.getContinuousStateDerivatives(inst.buffer, inst.nx)
+    assert inst.buffer[1] > 0.0
+
+
+def test_model_exchange_run_stops_with_the_fmu_message(fmu3_dir):
+    """An input out of its range stops the run with an error carrying the FMU's reason, not with numbers."""
+    with pytest.raises(ModelExchangeError, match="(?s)tau_in = 100000000.0 is outside its allowed range"):
+        simulate_me([Component("joint", fmu3_dir / "CardanJointTorqueDriven.fmu", {"tau_in": 1e8})],
+                    [], 0.01, 1e-3, ["joint.omega_in"])
+
+
+def test_model_exchange_derivatives_are_the_equations_of_motion(fmu3_dir, opened):
+    """A straight joint (no bend, no error angles) is a rigid shaft: der(phi1) = omega1, der(omega1) =
+    (tau_in - tau_load) / (J_drive + J1 + J2), whatever the state."""
+    inst = _open(MeInstance, fmu3_dir, "CardanJointTorqueDriven", [])
+    opened.append(inst)
+    params = dict(bend_angle=0.0, error_angle_beta=0.0, error_angle_gamma=0.0, J_drive=0.01, J1=0.002, J2=0.03)
+    inst.initialize(params)
+    inst.set(tau_in=2.0, tau_load=0.5)
+    inst.buffer[0], inst.buffer[1] = 3.0, 7.0
+    inst.slave.setContinuousStates(inst.buffer, 2)
+    inst.slave.getContinuousStateDerivatives(inst.buffer, 2)
+    assert inst.buffer[0] == 7.0
+    assert inst.buffer[1] == pytest.approx(1.5 / 0.042, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", ["CardanJointTorqueDriven", "TwinJeffcottRotor"])
+def test_state_get_set_and_serialize_round_trip_bitwise(fmu3_dir, opened, name):
+    log = []
+    inst = _open(FmuInstance3, fmu3_dir, name, log, "a")
+    opened.append(inst)
+    inst.initialize()
+    _record(inst, 30)
+    state = inst.slave.getFMUState()
+    blob = inst.slave.serializeFMUState(state)
+    first = _record(inst, 30, 30 * H)
+    inst.slave.setFMUState(state)
+    assert np.array_equal(_record(inst, 30, 30 * H), first)
+    fresh = _open(FmuInstance3, fmu3_dir, name, [], "b")
+    opened.append(fresh)
+    fresh.initialize()
+    fresh.slave.setFMUState(fresh.slave.deserializeFMUState(blob))
+    assert np.array_equal(_record(fresh, 30, 30 * H), first)
+    damaged = bytearray(blob)
+    damaged[len(damaged) // 2] ^= 1
+    with pytest.raises(FMICallException):
+        inst.slave.deserializeFMUState(bytes(damaged))
+    assert any("FMU state rejected" in m and "checksum mismatch" in m for m in log), log
+    inst.slave.freeFMUState(state)
+    assert np.all(np.isfinite(_record(inst, 5, 60 * H)))      # the instance stays usable
+
+
+def test_start_time_is_taken_from_the_first_step(fmu_dir, fmu3_dir, opened):
+    """pythonfmu3 does not pass fmi3EnterInitializationMode's startTime on: the FMU re-starts at the first step's
+    time, so from the first step on a Motor ramping from t0 = 1 s gives the FMI 2.0 numbers bitwise."""
+    fmi2 = _open(FmuInstance, fmu_dir, "Motor", [])
+    fmi3 = _open(FmuInstance3, fmu3_dir, "Motor", [])
+    opened += [fmi2, fmi3]
+    fmi2.initialize(start_time=1.0)
+    fmi3.initialize(start_time=1.0)
+    a, b = _record(fmi2, 50, t0=1.0), _record(fmi3, 50, t0=1.0)
+    assert a[1, 3] == pytest.approx(30.0 * 1.001)   # omega_ref: the ramp at 30 rad/s2 from rest at t = 0
+    assert np.array_equal(a[1:], b[1:])
+
+
+def test_many_instances_interleaved_each_equal_to_a_lone_instance(fmu3_dir, opened):
+    """Five instances of one FMI 3.0 FMU in one process, different parameters, stepped interleaved, each bitwise
+    a lone instance with its parameters (pythonfmu3 imports the FMU's module once for all of them)."""
+    values = [0.0, 1e-4, 1e-3, 1e-2, 0.1]
+    crowd = [_open(FmuInstance3, fmu3_dir, "CardanJointTorqueDriven", [], f"i{k}") for k in range(len(values))]
+    opened += crowd
+    for inst, j2 in zip(crowd, values):
+        inst.initialize({"J2": j2})
+    rows = [[] for _ in crowd]
+    for k in range(40):
+        for inst, out in zip(crowd, rows):
+            out.append(_record(inst, 1, k * H)[0])
+    finals = [inst.get("omega_in")[0] for inst in crowd]
+    assert len(set(finals)) == len(values)        # the parameters took effect per instance
+    for j2, out in zip(values, rows):
+        lone = _open(FmuInstance3, fmu3_dir, "CardanJointTorqueDriven", [], "lone")
+        opened.append(lone)
+        lone.initialize({"J2": j2})
+        assert np.array_equal(_record(lone, 40), np.array(out))

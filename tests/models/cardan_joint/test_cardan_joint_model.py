@@ -1,0 +1,182 @@
+"""ujfmu.models.cardan_joint.model against exact kinematic oracles and Feng et al.'s closed forms (Eqs. 11-19)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from ujfmu.models.cardan_joint import model as cardan
+
+PHI = math.radians(30.0)
+LAB = dict(T0=0.3, J1=2.0e-7, alpha=30.0, beta=math.radians(0.3), gamma=math.radians(0.3))  # Feng's lab model
+THETA = np.linspace(-3 * math.pi, 3 * math.pi, 2001)
+
+
+def frame(phi=0.0, delta=0.0, beta=0.0, gamma=0.0):
+    return cardan.joint_frame(phi, delta, beta, gamma)
+
+
+def moments(f, net_torque, thetas=THETA):
+    return np.array([cardan.transmitted_moment(f, t, net_torque) for t in thetas]).T
+
+
+@pytest.mark.parametrize("phi_deg", [5.0, 30.0, 60.0, 85.0])
+def test_driven_angle_obeys_tan_relation(phi_deg):
+    """tan(theta2) = tan(theta1)/cos(phi), phase convention theta2 = theta1 at theta1 = k*pi/2."""
+    phi = math.radians(phi_deg)
+    f = frame(phi)
+    theta2 = np.array([cardan.driven_angle(f, t) for t in THETA])
+    mask = np.abs(np.cos(THETA)) > 1e-3
+    np.testing.assert_allclose(np.tan(theta2[mask]), np.tan(THETA[mask]) / math.cos(phi), rtol=1e-9, atol=1e-9)
+    quarter = np.arange(-6, 7) * math.pi / 2
+    np.testing.assert_allclose([cardan.driven_angle(f, t) for t in quarter], quarter, atol=1e-12)
+
+
+@pytest.mark.parametrize("phi_deg", [10.0, 30.0, 45.0])
+def test_angle_error_series(phi_deg):
+    """theta2 - theta1 = sum_n q^n/n sin(2 n theta1), q = tan^2(phi/2) (series summed to round-off)."""
+    f = frame(math.radians(phi_deg))
+    q = math.tan(math.radians(phi_deg) / 2) ** 2
+    series = sum(q**n / n * np.sin(2 * n * THETA) for n in range(1, 80))
+    error = np.array([cardan.driven_angle(f, t) for t in THETA]) - THETA
+    np.testing.assert_allclose(error, series, atol=1e-13)
+
+
+def test_driven_angle_is_continuous_over_revolutions_with_all_misalignments():
+    f = frame(math.radians(40), math.radians(20), math.radians(3), math.radians(-2))
+    theta1 = np.linspace(0, 200 * math.pi, 200001)
+    theta2 = np.array([cardan.driven_angle(f, t) for t in theta1])
+    assert np.max(np.abs(np.diff(theta2))) < 3 * np.max(np.diff(theta1))
+    assert abs(theta2[-1] - theta1[-1]) < math.pi / 2  # one driven turn per driving turn
+
+
+@pytest.mark.parametrize("phi_deg", [15.0, 30.0, 60.0])
+def test_velocity_ratio_bounds_and_closed_form(phi_deg):
+    phi = math.radians(phi_deg)
+    f = frame(phi)
+    r = np.array([cardan.velocity_ratio(f, t) for t in THETA])
+    assert r.min() == pytest.approx(math.cos(phi), rel=1e-9)
+    assert r.max() == pytest.approx(1 / math.cos(phi), rel=1e-9)
+    np.testing.assert_allclose(r, math.cos(phi) / (1 - math.sin(phi) ** 2 * np.cos(THETA) ** 2), rtol=1e-12)
+
+
+def test_velocity_ratio_and_slope_are_derivatives_of_driven_angle():
+    """r = d(theta2)/d(theta1) and r' = dr/d(theta1) by central differences, general misalignment."""
+    f = frame(math.radians(35), math.radians(-15), math.radians(2), math.radians(4))
+    h = 1e-5
+    for t in np.linspace(0, 2 * math.pi, 37):
+        r, dr = cardan.velocity_ratio_and_slope(f, t)
+        fd = (cardan.driven_angle(f, t + h) - cardan.driven_angle(f, t - h)) / (2 * h)
+        fd2 = (cardan.velocity_ratio(f, t + h) - cardan.velocity_ratio(f, t - h)) / (2 * h)
+        assert r == pytest.approx(fd, rel=1e-8)
+        assert dr == pytest.approx(fd2, rel=1e-6, abs=1e-8)
+
+
+def test_cross_normal_identities():
+    """e_n is a unit vector normal to e1 with e_n.K = K_z/xi (used for the power balance)."""
+    f = frame(math.radians(25), math.radians(10), math.radians(1), math.radians(-1))
+    k = np.array(f[2])
+    for t in np.linspace(0, 2 * math.pi, 25):
+        e1 = np.array(cardan.driving_pin(f, t))
+        en, xi = cardan.cross_normal(e1)
+        assert np.linalg.norm(en) == pytest.approx(1.0, abs=1e-14)
+        assert np.dot(en, e1) == pytest.approx(0.0, abs=1e-14)
+        assert np.dot(e1, k) == pytest.approx(0.0, abs=1e-14)
+        assert np.dot(en, k) == pytest.approx(k[2] / xi, rel=1e-13)
+
+
+def test_lossless_power_balance_general_misalignment():
+    """Massless joint: M_z*omega2 = T0*omega1 at every angle (virtual work of an ideal cross)."""
+    f = frame(math.radians(35), math.radians(12), math.radians(1.5), math.radians(-0.7))
+    for t in np.linspace(0, 2 * math.pi, 50):
+        tau_in, _, _, m_z, omega2, _ = cardan.joint_torques(f, t, 7.0, 0.0, 0.4, 0.0, 0.0)
+        assert tau_in * 7.0 == pytest.approx(m_z * omega2, rel=1e-13)
+
+
+def test_joint_torques_consistent_with_eq10():
+    """joint_torques' moment vector equals Eq. (10) with T0 - J1*alpha = tau_in - J1*alpha1."""
+    f = frame(PHI, 0.0, LAB["beta"], LAB["gamma"])
+    for t in np.linspace(0, 2 * math.pi, 19):
+        tau_in, m_x, m_y, m_z, _, _ = cardan.joint_torques(f, t, 50.0, 30.0, 0.3, 2e-7, 1e-5)
+        np.testing.assert_allclose(cardan.transmitted_moment(f, t, tau_in - 2e-7 * 30.0), (m_x, m_y, m_z),
+                                   rtol=1e-12, atol=1e-15)
+
+
+def test_fig2_ranges_of_laboratory_model():
+    """Feng Fig. 2: M_z between 0.26 and 0.35 N.m, |M_x| up to about 0.09, |M_y| up to about 0.15."""
+    f = frame(PHI, 0.0, LAB["beta"], LAB["gamma"])
+    m_x, m_y, m_z = moments(f, LAB["T0"] - LAB["J1"] * LAB["alpha"], np.linspace(0, 2 * math.pi, 20001))
+    assert round(m_z.min(), 2) == 0.26 and round(m_z.max(), 2) == 0.35
+    assert round(np.abs(m_x).max(), 2) == 0.09
+    assert round(np.abs(m_y).max(), 2) == 0.15
+    # "when M_y and M_z are at their maximum, M_x is zero" (to the order of the error misalignment)
+    i = np.argmax(m_z)
+    assert abs(m_x[i]) < 0.03 * np.abs(m_x).max() and m_y[i] == pytest.approx(m_y.max(), abs=1e-3)
+
+
+def test_eqs_17_to_19_bend_only():
+    """alpha = beta = delta = 0: M_x = T tan(phi) sin cos, M_y = -T sin(phi) cos^2, M_z = T (1-sin^2 phi cos^2)/cos phi."""
+    t0 = 0.3
+    m_x, m_y, m_z = moments(frame(PHI), t0)
+    s, c = np.sin(THETA), np.cos(THETA)
+    np.testing.assert_allclose(m_x, t0 * math.tan(PHI) * s * c, atol=1e-15)
+    np.testing.assert_allclose(m_y, -t0 * math.sin(PHI) * c**2, atol=1e-15)
+    np.testing.assert_allclose(m_z, t0 * (1 - math.sin(PHI) ** 2 * c**2) / math.cos(PHI), rtol=1e-14)
+    # the second form of Eq. (19) with U = cos(phi)/(1 - sin^2(phi)/2), V = sin^2(phi)/(2 - sin^2(phi))
+    u = math.cos(PHI) / (1 - math.sin(PHI) ** 2 / 2)
+    v = math.sin(PHI) ** 2 / (2 - math.sin(PHI) ** 2)
+    np.testing.assert_allclose(m_z, t0 * (1 - v * np.cos(2 * THETA)) / u, rtol=1e-14)
+
+
+@pytest.mark.parametrize("eps_deg", [0.3, 1.0])
+def test_eqs_14_to_16_error_misalignment_only(eps_deg):
+    """phi = delta = 0, small beta, gamma: Eqs. (14)-(15) hold to first order; Eq. (16) to first order only.
+
+    Eq. (16) keeps the second-order term -(gamma sin + beta cos)^2 but drops the one from 1/(e_n . K):
+    exactly M_z = T0 xi^2/K_z = T0 (1 - (gamma s + beta c)^2 + ...)/(cos beta cos gamma), see ujfmu/models/cardan_joint/README.md.
+    """
+    beta, gamma, t0 = math.radians(eps_deg), math.radians(0.7 * eps_deg), 0.3
+    m_x, m_y, m_z = moments(frame(0.0, 0.0, beta, gamma), t0)
+    s, c = np.sin(THETA), np.cos(THETA)
+    eps = max(beta, gamma)
+    np.testing.assert_allclose(m_x, t0 * (-gamma * s**2 - beta * s * c), atol=2 * t0 * eps**2)
+    np.testing.assert_allclose(m_y, t0 * (gamma * s * c + beta * c**2), atol=2 * t0 * eps**2)
+    e1z = -s * math.sin(gamma) - c * math.sin(beta) * math.cos(gamma)
+    np.testing.assert_allclose(m_z, t0 * (1 - e1z**2) / (math.cos(beta) * math.cos(gamma)), rtol=1e-13)
+    paper_16 = t0 * (1 - (gamma * s + beta * c) ** 2)
+    np.testing.assert_allclose(m_z, paper_16, atol=t0 * eps**2)                      # first order: agrees
+    assert np.max(np.abs(m_z - paper_16 - t0 * (beta**2 + gamma**2) / 2)) < 2 * t0 * eps**3  # the missing term
+    # and the residual really is of that order: a 1st-order error would be ~eps, far above these bounds
+    assert np.max(np.abs(m_x)) > 10 * 2 * t0 * eps**2
+
+
+def test_eqs_11_to_13_bend_with_small_error_misalignment():
+    """delta = 0, phi = 30 deg, small beta, gamma: the first forms of Eqs. (11)-(13), to first order in beta, gamma."""
+    beta, gamma, t0 = LAB["beta"], LAB["gamma"], 0.3
+    m_x, m_y, m_z = moments(frame(PHI, 0.0, beta, gamma), t0)
+    s2, c2 = np.sin(2 * THETA), np.cos(2 * THETA)
+    sp, cp = math.sin(PHI), math.cos(PHI)
+    k = t0 / (2 * (beta * sp + cp))
+    np.testing.assert_allclose(m_x, k * (-gamma * (1 - c2) + gamma * sp**2 * (1 + c2) - (beta * cp - sp) * s2),
+                               atol=4 * t0 * beta**2)
+    np.testing.assert_allclose(m_y, k * ((beta * cp**2 - beta * sp**2 - sp * cp) * (1 + c2) + gamma * cp * s2),
+                               atol=4 * t0 * beta**2)
+    np.testing.assert_allclose(m_z, k * ((cp**2 + 2 * beta * sp * cp) * (1 + c2) + (1 - c2) + 2 * gamma * sp * s2),
+                               atol=4 * t0 * beta**2)
+
+
+def test_bend_plane_angle_alone_is_a_tilt_about_y():
+    """With the printed C_delta = R_y(delta), delta alone misaligns the shafts by delta (ujfmu/models/cardan_joint/README.md)."""
+    delta = math.radians(20)
+    f = frame(0.0, delta)
+    assert cardan.shaft_angle(f) == pytest.approx(delta, rel=1e-12)
+    r = np.array([cardan.velocity_ratio(f, t) for t in THETA])
+    assert r.min() == pytest.approx(math.cos(delta), rel=1e-9)
+    assert r.max() == pytest.approx(1 / math.cos(delta), rel=1e-9)
+
+
+def test_symmetry_mirror_bend():
+    """Bending by -phi mirrors the joint: the same torsional moment M_z."""
+    _, _, mz_pos = moments(frame(PHI), 0.3)
+    _, _, mz_neg = moments(frame(-PHI), 0.3)
+    np.testing.assert_allclose(mz_pos, mz_neg, rtol=1e-13)

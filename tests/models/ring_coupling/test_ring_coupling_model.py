@@ -1,0 +1,70 @@
+"""RingCoupling physics: the ring's potential, units of c_s, and the paper's coefficients."""
+
+import pytest
+import sympy as sp
+
+from ujfmu.models.ring_coupling import model as rc
+
+E, D, R, ECC, I2 = 2.1e11, 0.003, 0.1, 0.003, 0.05
+
+
+def coupling(**changes):
+    values = dict(R=R, d=D, E=E, e=ECC, I1=0.02, I2=I2, c_s=500.0, c_d=0.7, phi_in_start=0.2, phi_out_start=-0.4)
+    values.update(changes)
+    return rc.Parameters(**values)
+
+
+def potential(p, phi1, phi2):
+    return rc.outputs_at(p, phi1, 0.0, 0.0, (phi2, 0.0))["stored_energy"]
+
+
+def test_misalignment_moment_and_elastic_torque_derive_from_the_stored_energy():
+    """-dV/dphi2 is the torque on shaft 2; dV/dphi1 is what the driver must add (tau_in at rest)."""
+    p = coupling()
+    for phi1, phi2 in ((0.3, 1.1), (2.0, -0.7), (10.0, 10.2)):
+        m_p, _, elastic = rc.torques(p, phi1, 0.0, phi2, 0.0)
+        h = 1e-6
+        d2 = (potential(p, phi1, phi2 + h) - potential(p, phi1, phi2 - h)) / (2 * h)
+        d1 = (potential(p, phi1 + h, phi2) - potential(p, phi1 - h, phi2)) / (2 * h)
+        assert -d2 == pytest.approx(m_p + elastic, rel=1e-6)
+        assert d1 == pytest.approx(rc.outputs_at(p, phi1, 0.0, 0.0, (phi2, 0.0))["tau_in"], rel=1e-6)
+
+
+def test_fig3_set_numbers():
+    """EI = 0.835 N.m^2, A_e = 23.6 1/s^2, c_s = 87 EI/R = 726 N.m/rad: the coupling's own natural frequency
+    sqrt(c_s/I2) = 120.5 rad/s."""
+    assert rc.bending_stiffness(E, D) == pytest.approx(0.83498, rel=1e-4)
+    assert rc.pendulum_constant(E, D, R, ECC, I2) == pytest.approx(23.596, rel=1e-4)
+    assert rc.rotational_stiffness(E, D, R) == pytest.approx(726.43, rel=1e-4)
+
+
+@pytest.mark.paper
+def test_eq22_fixes_the_units_of_c_s():
+    """Documentation of the paper (sympy on its printed equations), not a test of ujfmu's computations.
+
+    x_e_max = M_p,max / c_s must be dimensionless (Eq. 22: 1.8 (e/R)^2): with the printed c_s = 87 EI/R^3 it
+    has units m^2; with 87 EI/R it is (157/87)(e/R)^2."""
+    ei, r, e = sp.symbols("EI R e", positive=True)
+    newton, metre = sp.symbols("N m", positive=True)
+    units = {ei: newton * metre ** 2, r: metre, e: metre}
+    m_p_max = 157 * ei / r ** 3 * e ** 2
+    assert sp.simplify((m_p_max / (87 * ei / r ** 3)).subs(units) / metre ** 2).free_symbols == set()
+    ratio = sp.simplify(m_p_max / (87 * ei / r))
+    assert sp.simplify(ratio - sp.Rational(157, 87) * (e / r) ** 2) == 0
+
+
+@pytest.mark.paper
+def test_eq3_eq4_do_not_give_the_published_157():
+    """Documentation of the paper (sympy on its printed equations), not a test of ujfmu's computations.
+
+    M_p = 2e (P_y cos g - P_x sin g) with Eq. (3)'s reactions (made a force by e/R^2: P = 2EI e/R^3 (...))
+    gives 4b (EI/R^3) e^2 cos 2g with b = (pi - 4)/(2 pi): a coefficient -0.546, not 157. We keep the published
+    157 (the paper's Eqs. 5-20 and its figures rest on it) and record the discrepancy (ujfmu/models/ring_coupling/README.md)."""
+    g = sp.Symbol("gamma", real=True)
+    a, b = (sp.pi ** 2 - 8) / (4 * sp.pi), (sp.pi - 4) / (2 * sp.pi)
+    p_x = 2 * (a * sp.cos(g) + b * sp.sin(g))
+    p_y = 2 * (a * sp.sin(g) + b * sp.cos(g))
+    m_p = sp.simplify(2 * (p_y * sp.cos(g) - p_x * sp.sin(g)))
+    assert sp.simplify(m_p - 4 * b * sp.cos(2 * g)) == 0
+    assert float(4 * b) == pytest.approx(-0.5465, abs=1e-4)
+    assert rc.MP_COEFFICIENT == 157.0 and rc.SMALL_PARAMETER_COEFFICIENT == 39.25

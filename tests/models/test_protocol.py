@@ -1,0 +1,61 @@
+"""Every model implements the protocol of ujfmu.models.protocol, and its FMU module is its declaration only."""
+
+import dataclasses
+import inspect
+
+import pytest
+
+from ujfmu.build import FMUS, fmu_class
+from ujfmu.fmu.base import ModelSlave, PrescribedInputSlave, model_parameters
+from ujfmu.models.protocol import Drive
+
+MODEL_FMUS = [name for name in FMUS if issubclass(fmu_class(name), ModelSlave)]
+
+
+def test_the_speed_driven_models_and_the_motor_and_load_are_protocol_fmus():
+    assert sorted(MODEL_FMUS) == ["CardanJoint", "DoubleCardanDriveline", "Load", "Motor", "RingCoupling",
+                                  "TwinJeffcottRotor"]
+
+
+@pytest.mark.parametrize("name", MODEL_FMUS)
+def test_parameters_are_the_fmu_parameters_by_name(name):
+    cls = fmu_class(name)
+    fields = {f.name for f in dataclasses.fields(cls.MODEL.Parameters) if f.init}
+    assert fields == {v.name for v in cls.VARIABLES if v.causality == "parameter"}
+
+
+@pytest.mark.parametrize("name", MODEL_FMUS)
+def test_outputs_are_the_declared_outputs_by_name(name):
+    """At the declared defaults and some inputs: outputs() gives every declared output (the input shaft's angle and
+    acceleration come from the base), initial_state() is a State, derivatives() one rate per state entry."""
+    cls = fmu_class(name)
+    model = cls.MODEL
+    defaults = type("Defaults", (), {v.name: v.start for v in cls.VARIABLES})()
+    p = model_parameters(model, defaults)
+    assert model.check(p) == []
+    u = Drive(0.3, 20.0, 5.0, 1.5) if issubclass(cls, PrescribedInputSlave) else model.Inputs(
+        *(1.5 for _ in model.Inputs._fields))
+    y = model.initial_state(p, 0.0, u)
+    assert isinstance(y, model.State) and len(model.derivatives(p, 0.0, y, u)) == len(y)
+    declared = {v.name for v in cls.VARIABLES if v.causality == "output"}
+    from_base = {"phi_in", "alpha_in"} if issubclass(cls, PrescribedInputSlave) else set()
+    assert set(model.outputs(p, 0.0, y, u)) == declared - from_base
+    assert model.rate_bound(p, y, 20.0) >= 0.0
+
+
+@pytest.mark.parametrize("name", MODEL_FMUS)
+def test_fmu_module_is_a_declaration(name):
+    """The FMU class holds the model, its variables and default experiment, and at most how it reads its inputs:
+    no physics, no stepping, no output assignment of its own."""
+    cls = fmu_class(name)
+    methods = {k for k, v in vars(cls).items() if inspect.isfunction(v)}
+    assert methods <= {"model_inputs"}, methods
+    assert cls.MODEL.__name__ == cls.__module__.rsplit(".", 1)[0] + ".model"
+
+
+def test_check_messages_name_the_parameters():
+    """check() returns the messages for invalid combinations (the ranges of single parameters are declared)."""
+    ring = fmu_class("RingCoupling").MODEL
+    p = ring.Parameters(R=0.1, d=0.003, E=2.1e11, e=0.2, I1=0.0, I2=0.05, c_s=0.0, c_d=0.0)
+    (message,) = ring.check(p)
+    assert "e = 0.2 m" in message and "R = 0.1 m" in message

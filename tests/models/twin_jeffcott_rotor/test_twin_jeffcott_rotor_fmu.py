@@ -1,0 +1,106 @@
+"""TwinJeffcottRotor.fmu through fmpy: the aligned Jeffcott limit, the misalignment 2x, energy, errors."""
+
+import math
+
+import numpy as np
+import pytest
+
+from ujfmu.analysis import order_amplitudes
+from ujfmu.models.twin_jeffcott_rotor import model as tj
+from ujfmu.steady import halves_change
+
+OUT = ("omega_out", "phi_out", "tau_in", "X1", "Y1", "X2", "Y2", "phi_in", "phi_disc1", "omega_disc1",
+       "stored_energy", "dissipated_energy", "input_work")
+DEG = math.pi / 180.0
+RIG = tj.rig_parameters()
+
+
+def well_damped(**changes):
+    """The default rig with 10% lateral and 20% torsional damping, so that runs settle within a second."""
+    params = {}
+    for i in (1, 2):
+        m = RIG[f"M{i}"] + RIG[f"m_u{i}"]
+        c = 2.0 * 0.1 * math.sqrt(RIG[f"K{i}X"] * m)
+        params.update({f"C{i}X": c, f"C{i}Y": c, f"C{i}T": 2.0 * 0.2 * math.sqrt(RIG[f"K{i}T"] * RIG[f"J_M{i}"])})
+    params.update(changes)
+    return params
+
+
+def jeffcott(i, omega, params):
+    """Steady unbalance response (amplitude, phase lag) of disc i as a plain Jeffcott rotor, M the disc's whole
+    translating mass M_i + m_ui."""
+    k, c, m = RIG[f"K{i}X"], params[f"C{i}X"], RIG[f"M{i}"] + RIG[f"m_u{i}"]
+    amplitude = RIG[f"m_u{i}"] * RIG["e"] * omega ** 2 / math.hypot(k - m * omega ** 2, c * omega)
+    return amplitude, math.atan2(c * omega, k - m * omega ** 2)
+
+
+W1 = math.sqrt(RIG["K1X"] / (RIG["M1"] + RIG["m_u1"]))   # 153.8 rad/s
+W2 = math.sqrt(RIG["K2X"] / (RIG["M2"] + RIG["m_u2"]))   # 117.0 rad/s
+
+
+@pytest.mark.parametrize("tau_load", [0.0, 2.0])
+@pytest.mark.parametrize("omega", [0.5 * W2, W2, W1, 1.6 * W1], ids=["below", "at-disc2", "at-disc1", "above"])
+def test_aligned_discs_are_plain_jeffcott_rotors(open_fmu, drive, omega, tau_load):
+    """beta = 0: each disc's steady 1x orbit has the Jeffcott amplitude and phase lag, the orbit is a circle (X and
+    Y equal, 90 deg apart) and there is no 2x. Phases of the unbalance differ per disc. Exact (1e-5) without load;
+    a transmitted torque T adds the joint's geometric stiffness ~ T (3/L)^2 (0.1% here; within 1%)."""
+    params = well_damped(beta=0.0, phase_u1=0.4, phase_u2=-1.1)
+    h, n_settle, n = 1e-3, 1500, 2000
+    rel = 1e-5 if tau_load == 0.0 else 0.01
+    r = drive(open_fmu("TwinJeffcottRotor"), lambda t: omega, tau_load, h, n, OUT, params)
+    steady = r[n_settle:]
+    assert halves_change(steady.phi_in, steady, ["X1", "Y1", "X2", "Y2"])[0] < 1e-5   # it has settled
+    for i, angle in ((1, steady.phi_disc1), (2, steady.phi_out)):
+        amplitude, lag = jeffcott(i, omega, params)
+        phase_u = params[f"phase_u{i}"]
+        amp_x, phase_x = order_amplitudes(angle, steady[f"X{i}"], [1, 2])
+        amp_y, phase_y = order_amplitudes(angle, steady[f"Y{i}"], [1, 2])
+        assert amp_x[0] == pytest.approx(amplitude, rel=rel) and amp_y[0] == pytest.approx(amplitude, rel=rel)
+        # X = A cos(theta + phase_u - lag), Y = A sin(theta + phase_u - lag)
+        assert math.remainder(phase_x[0] - (lag - phase_u), 2 * math.pi) == pytest.approx(0.0, abs=rel)
+        assert math.remainder(phase_y[0] - (lag - phase_u + math.pi / 2), 2 * math.pi) == pytest.approx(0.0, abs=rel)
+        assert amp_x[1] < 1e-4 * amplitude and amp_y[1] < 1e-4 * amplitude
+
+
+def test_misalignment_puts_a_growing_2x_into_the_secondary_disc(open_fmu, drive):
+    """At 70 rad/s with a 3 N.m load: the 2x amplitude of the secondary disc's orbit is absent at beta = 0 and grows
+    with beta (the joint's secondary couple T tan(beta)-sized, at twice the running speed)."""
+    omega, h, n_settle, n = 70.0, 1e-3, 1500, 2000
+    twice = []
+    for beta in (0.0, 5.0, 10.0, 15.0):
+        r = drive(open_fmu("TwinJeffcottRotor", f"b{beta:g}"), lambda t: omega, 3.0, h, n, OUT,
+                  well_damped(beta=beta * DEG))[n_settle:]
+        assert halves_change(r.phi_in, r, ["X2", "Y2"])[0] < 1e-4   # it has settled
+        amp_x = order_amplitudes(r.phi_in, r.X2, [1, 2])[0]
+        amp_y = order_amplitudes(r.phi_in, r.Y2, [1, 2])[0]
+        twice.append(math.hypot(amp_x[1], amp_y[1]))
+        if beta == 0.0:
+            unbalance = math.hypot(amp_x[0], amp_y[0])
+    assert twice[0] < 1e-4 * unbalance
+    assert twice[1] > 0.05 * unbalance
+    assert twice[1] < twice[2] < twice[3]
+
+
+def test_energy_balance_through_the_fmu_outputs(open_fmu, drive):
+    """Run-up 0 -> 180 rad/s through both lateral criticals, beta = 10 deg, 2 N.m load:
+    input_work - load work - dissipated_energy = stored_energy change (RK4 accuracy), and the FMU's input_work is
+    what the host measures as the integral of tau_in * omega_in."""
+    h, n, tau = 2e-4, 10000, 2.0
+    r = drive(open_fmu("TwinJeffcottRotor"), lambda t: 90.0 * t, tau, h, n, OUT, dict(beta=10 * DEG))
+    load_work = tau * (r.phi_out - r.phi_out[0])          # tau_load is held over each step: exact
+    change = r.stored_energy - r.stored_energy[0]
+    residual = r.input_work - load_work - r.dissipated_energy - change
+    assert r.dissipated_energy[-1] > 1e-3 * r.input_work[-1]
+    assert np.max(np.abs(residual)) < 1e-7 * r.input_work[-1]
+    host = np.concatenate([[0.0], np.cumsum(0.5 * h * np.diff(r.tau_in * r.omega_in) + h * (r.tau_in * r.omega_in)[:-1])])
+    assert np.max(np.abs(host - r.input_work)) < 2e-3 * r.input_work[-1]
+
+
+def test_before_the_first_step_the_discs_turn_with_the_input(open_fmu):
+    inst = open_fmu("TwinJeffcottRotor")
+    inst.initialize(dict(beta=20 * DEG, phi_in_start=0.3))
+    inst.set(omega_in=50.0)
+    omega_out, phi_out, omega_disc1 = inst.get("omega_out", "phi_out", "omega_disc1")
+    psi, ratio = tj.joint(tj.Parameters(**{**RIG, "beta": 20 * DEG, "phase_u1": 0.0, "phase_u2": 0.0}),
+                          0.3, 0.0, 0.0, 0.0, 0.0)[:2]
+    assert (phi_out, omega_out, omega_disc1) == pytest.approx((psi, ratio * 50.0, 50.0), rel=1e-14)

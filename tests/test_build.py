@@ -1,0 +1,51 @@
+"""Each FMU ships only its own model plus the shared FMI plumbing, and its build digest covers exactly that."""
+
+import shutil
+import zipfile
+
+import pytest
+
+from ujfmu.build import FMUS, PACKAGE_DIR
+from ujfmu.fmu.base import runtime_files, sources_digest
+
+STEMS = sorted({stem for stem, _ in FMUS.values()})
+
+
+def shipped_runtime(path):
+    """Paths of the FMU's runtime package relative to its root (resources/<package>/...)."""
+    with zipfile.ZipFile(path) as zf:
+        names = [n for n in zf.namelist() if n.startswith("resources/ujfmu_") and "/" in n[len("resources/"):]]
+    return sorted(n.split("/", 2)[2] for n in names)
+
+
+@pytest.mark.parametrize("name", list(FMUS))
+def test_fmu_ships_its_own_model_and_the_plumbing_only(fmu_dir, name):
+    stem = FMUS[name][0]
+    shipped = shipped_runtime(fmu_dir / f"{name}.fmu")
+    assert shipped == sorted(["__init__.py"] + runtime_files(stem))   # the package's own __init__: its name only
+    assert f"models/{stem}/model.py" in shipped and f"models/{stem}/fmu.py" in shipped
+    assert not [p for p in shipped if p.startswith("models/") and p.split("/")[1] not in (stem, "__init__.py",
+                                                                                         "protocol.py")]
+    assert not [p for p in shipped if p.endswith(("reference.py", ".toml", ".md"))]
+
+
+def test_digest_covers_what_the_fmu_ships_and_nothing_else(tmp_path):
+    """A change to one model's equations changes that model's digest only; a change to the plumbing changes all."""
+    root = tmp_path / "ujfmu"
+    shutil.copytree(PACKAGE_DIR / "fmu", root / "fmu", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(PACKAGE_DIR / "models", root / "models", ignore=shutil.ignore_patterns("__pycache__"))
+    before = {stem: sources_digest(stem, root) for stem in STEMS}
+    assert before == {stem: sources_digest(stem) for stem in STEMS}
+    assert len(set(before.values())) == len(STEMS)
+    for changed in STEMS:
+        for extra in ("reference.py", "README.md"):   # not shipped: no digest changes
+            if (root / "models" / changed / extra).exists():
+                (root / "models" / changed / extra).write_text("changed\n")
+        assert {stem: sources_digest(stem, root) for stem in STEMS} == before
+        model = root / "models" / changed / "model.py"
+        model.write_text(model.read_text() + "\n# changed\n")
+        after = {stem: sources_digest(stem, root) for stem in STEMS}
+        assert [stem for stem in STEMS if after[stem] != before[stem]] == [changed]
+        before = after
+    (root / "fmu" / "rk4.py").write_text((root / "fmu" / "rk4.py").read_text() + "\n# changed\n")
+    assert all(sources_digest(stem, root) != before[stem] for stem in STEMS)

@@ -1,0 +1,54 @@
+"""The report engine without running it: published values as per-model data, points found by axis values, axes
+as objects equal to the command line's."""
+
+import math
+
+import pytest
+
+from ujfmu.bibliography import BY_KEY
+from ujfmu.build import REPO_DIR
+from ujfmu.report import VALIDATED, Points, published, section_functions
+from ujfmu.scenario import Scenario
+from ujfmu.sweep import Axis, parse_axis
+
+
+def test_published_values_are_data_that_the_committed_report_shows():
+    """Every published value is read from its model's published.toml, cites a known paper, and appears as the
+    paper column of its row in docs/validation.md."""
+    report = (REPO_DIR / "docs" / "validation.md").read_text()
+    count = 0
+    for stem in VALIDATED:
+        for v in published(stem).values():
+            count += 1
+            assert v.paper in BY_KEY and v.value > 0 and (v.band is None or 0 < v.band < 1)
+            assert f"| {v.quantity} | {v.value:.4g} |" in report, v.id
+    assert count == 27
+
+
+def test_sections_come_from_the_model_folders_in_report_order():
+    assert [s.__name__ for s in section_functions()] == ["feng", "brutti", "omar", "tchomeni", "turla"]
+    assert all(s.__module__.startswith("ujfmu.models.") for s in section_functions())
+
+
+def test_points_are_found_by_axis_values_in_any_unit():
+    rows = [{"point": {"motor.omega_set": w * math.pi / 30.0, "load.T0": t}, "value": (w, t)}
+            for w in (100.0, 110.0) for t in (5.0, 10.0)]
+    points = Points(rows)
+    rpm = (110.0 / 30.0) * math.pi   # the same speed computed another way: not the same float
+    assert rpm != 110.0 * math.pi / 30.0
+    assert points.at({"motor.omega_set": rpm, "load.T0": 10})["value"] == (110.0, 10.0)
+    assert [r["value"] for r in points.where({"load.T0": 5.0})] == [(100.0, 5.0), (110.0, 5.0)]
+    with pytest.raises(KeyError, match="0 sweep points"):
+        points.at({"load.T0": 7.0})
+    with pytest.raises(KeyError, match="2 sweep points"):
+        points.at({"load.T0": 5.0})
+
+
+def test_axis_objects_are_what_the_command_line_parses():
+    scenario = Scenario(REPO_DIR / "scenarios" / "double_cardan_omar_torsional.toml")
+    assert Axis.span("motor.omega_set", 100, 1500, 10, "rpm") == parse_axis("motor.omega_set=100:1500:10rpm",
+                                                                            scenario)
+    linked = Axis.of(("driveline.beta1", "driveline.beta2"), [15, 30], "deg")
+    assert linked == parse_axis("driveline.beta1,driveline.beta2=15,30deg", scenario)
+    with pytest.raises(Exception, match="outside its allowed range"):
+        Axis.of("driveline.beta1", [95], "deg").check(scenario)

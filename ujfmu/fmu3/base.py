@@ -1,0 +1,350 @@
+"""FMI 3.0 plumbing over a ujfmu model (runs inside the FMU: standard library and pythonfmu3 only).
+
+An FMI 3.0 FMU of model M (the FMU class of ``ujfmu/models/<stem>/fmu.py``: its ``VARIABLES`` declaration over
+the equations of its ``model.py``) is a
+pythonfmu3 slave that holds one bare instance of M, the *core*, and forwards every FMI call to the same methods
+the FMI 2.0 FMU runs: parameters and inputs are checked by ``Var.check`` and M's own checks, outputs are computed
+lazily by ``compute_outputs``, a Co-Simulation step is M's ``do_step`` (its own RK4 substeps), and the FMU state
+is M's data-only state (``ujfmu.fmu.base.encode_state``/``decode_state``: a versioned, checksummed blob of JSON
+numbers, never executed). So the two FMI versions of one model give the same numbers.
+
+Model Exchange (``ModelExchangeFmu``) is offered for the models whose equations are derivatives of a state at
+the current inputs: the torque-driven joints (driving torque in, input shaft speed out, the input shaft with
+the driver's rotor inertia as a state), the MotorController (its PI integral) and the Load (no state). The
+continuous states are the core's state tuple (``STATES`` names them); their derivatives are the core's own rate
+function, so ME and CS share the equations, CS integrating them with RK4 inside the step and ME leaving it to
+the host's solver.
+
+Error handling (pythonfmu3 0.3.4, like pythonfmu 0.7.0, turns a Python exception into fmi3Fatal and then
+releases the instance, its class and its log queue, and releases them again in fmi3FreeInstance; it has no path
+to fmi3Error): invalid parameters fail fmi3ExitInitializationMode with a logged error naming the parameter and
+its range (status fmi3Fatal; the objects released twice are pinned first, so the host survives and may free the
+instance); a bad input, step size or diverging step refuses fmi3DoStep with fmi3Discard and a logged error, the
+instance staying usable; in Model Exchange a non-finite or out-of-range input gives NaN derivatives and a logged
+error naming it (the host's solver stops there). Unlike pythonfmu 0.7.0, pythonfmu3 passes error messages to the
+host's logger also with logging off.
+"""
+
+import math
+import weakref
+
+from pythonfmu3 import Boolean, DefaultExperiment, Float64, Fmi3Causality, Fmi3SlaveBase, Fmi3Status, Int32
+from pythonfmu3 import Fmi3StepResult, Fmi3Variability
+from pythonfmu3.cosimulation import CoSimulation
+from pythonfmu3.modelexchange import ModelExchange
+
+from ..fmu import base as fmu_base
+
+_TYPES = {float: Float64, int: Int32, bool: Boolean}
+#: objects pythonfmu3 releases twice after a Python exception; references held here keep them valid
+_PINNED_AFTER_EXCEPTION = []
+_LIVE = weakref.WeakSet()
+
+
+# --- Model Exchange: the continuous states of each model that offers it --------------------------------------------
+class ContinuousStates:
+    """The continuous states of a model's core: names and units, get/set, derivatives at the current inputs."""
+
+    names = ()   # ((name, unit, description), ...)
+
+    def get(self, core) -> list:
+        return []
+
+    def set(self, core, values) -> None:
+        pass
+
+    def derivatives(self, core) -> list:
+        return []
+
+    def set_time(self, core, time: float) -> None:
+        pass
+
+
+class TorqueDrivenStates(ContinuousStates):
+    """The state tuple ``_state`` of a torque-driven joint and its time derivative ``rates(_state)``
+    (``torque_driven_rates`` of the model: tau_in and tau_load at their current values)."""
+
+    def __init__(self, names):
+        self.names = names
+
+    def get(self, core):
+        return list(core._state)
+
+    def set(self, core, values):
+        core._state = tuple(float(v) for v in values)
+
+    def derivatives(self, core):
+        return list(core.rates(core._state))
+
+
+class ControllerStates(ContinuousStates):
+    """The MotorController's PI integral I: dI/dt of ``ujfmu.models.motor.model.pi_torque`` with e = omega_ref(t) -
+    omega (conditional-integration anti-windup), omega the current input."""
+
+    names = (("integral", "rad", "Integral of the speed error"),)
+
+    def get(self, core):
+        return [core._integral]
+
+    def set(self, core, values):
+        core._integral = float(values[0])
+
+    def derivatives(self, core):
+        from ..models.motor import model as motor   # shipped in the MotorController FMU only
+        omega_ref = core._reference(core._time)[0]
+        return [motor.pi_torque(omega_ref - core.omega, core._integral, core.Kp, core.Ki, core.tau_max)[1]]
+
+    def set_time(self, core, time):
+        core._time = time
+
+
+_JOINT = (("phi1", "rad", "Input shaft angle"), ("omega1", "rad/s", "Input shaft speed"))
+#: model name -> its continuous states, for the models offered as Model Exchange
+STATES = {
+    "CardanJointTorqueDriven": TorqueDrivenStates(_JOINT),
+    "DoubleCardanDrivelineTorqueDriven": TorqueDrivenStates(_JOINT + (
+        ("phi4", "rad", "Output shaft angle (flexible shaft; 0 with a rigid one)"),
+        ("omega4", "rad/s", "Output shaft speed (flexible shaft; 0 with a rigid one)"),
+        ("phi", "rad", "Dynamic misalignment angle (flexible shaft; 0 with a rigid one)"),
+        ("dphi", "rad/s", "Rate of the dynamic misalignment (flexible shaft; 0 with a rigid one)"))),
+    "MotorController": ControllerStates(),
+    "Load": ContinuousStates(),
+}
+
+
+def state_variables(model) -> tuple:
+    """The Model Exchange variables of model (a ujfmu.fmu class), after its VARIABLES: ``x.<name>`` (local,
+    continuous) and ``der(x.<name>)``, as (Var, name of the state it is the derivative of, or None)."""
+    states = STATES.get(model.__name__)
+    if states is None:
+        return ()
+    xs = tuple((fmu_base.Var(f"x.{n}", "local", unit, f"Continuous state: {d}"), None) for n, unit, d in states.names)
+    ders = tuple((fmu_base.Var(f"der(x.{n})", "local", _per_second(unit), f"Time derivative of x.{n}"), f"x.{n}")
+                 for n, unit, _ in states.names)
+    return xs + ders
+
+
+def _per_second(unit):
+    return {"rad": "rad/s", "rad/s": "rad/s2"}[unit]
+
+
+def fmi3_variables(model) -> tuple:
+    """Every variable of the FMI 3.0 FMU of model in value-reference order (value reference = position + 1; 0 is
+    the independent variable time), as
+    (Var, derivative-of name or None): the model's VARIABLES, then its Model Exchange states and derivatives."""
+    return tuple((v, None) for v in model.VARIABLES) + state_variables(model)
+
+
+# --- the FMU -------------------------------------------------------------------------------------------------------
+class Fmi3Model(Fmi3SlaveBase, CoSimulation):
+    """FMI 3.0 Co-Simulation FMU of the ujfmu model ``MODEL`` (see the module docstring)."""
+
+    MODEL = None
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        model = self.MODEL
+        self.time = 0.0
+        self.modelName = model.__name__
+        self.description = next(c.__doc__ for c in model.__mro__ if c.__doc__).strip().splitlines()[0]
+        self.author, self.license = model.author, model.license
+        start, stop, step = model.DEFAULT_EXPERIMENT
+        self.default_experiment = DefaultExperiment(start_time=start, stop_time=stop, step_size=step)
+        self._core = core = model.__new__(model)
+        core.instance_name, core.modelName, core.log_queue = self.instance_name, model.__name__, self.log_queue
+        core.log = self._log_from_core
+        core._stale, core._initialized, core._running, core._start_time = True, False, False, 0.0
+        core._inputs = tuple(v for v in model.VARIABLES if v.causality == "input")
+        for var in model.VARIABLES:
+            setattr(core, var.name, 0.0 if var.causality == "output" else var.type(var.start))
+        big = 1.7976931348623157e308
+        core._input_bounds = tuple((v.name, -big if v.min is None else v.min, big if v.max is None else v.max, v)
+                                   for v in core._inputs)
+        core._known = frozenset(core.__dict__) | {"_known"} | model.STATE.keys() | set(model.DERIVED)
+        self._states = STATES.get(model.__name__, ContinuousStates())
+        self.vars.clear()
+        self.vars[0] = time = Float64("time", causality=Fmi3Causality.independent,
+                                      variability=Fmi3Variability.continuous, getter=lambda: self.time)
+        time.value_reference = 0
+        for var, derivative_of in fmi3_variables(model):
+            self._register(var, derivative_of)
+        self._getters = {vr: v.getter for vr, v in self.vars.items() if isinstance(v, Float64)}
+        self._setters = {vr: v.setter for vr, v in self.vars.items() if isinstance(v, Float64) and v.setter}
+        self._stepped = False   # no fmi3DoStep yet (the first one sets the start time)
+        _LIVE.add(self)
+
+    def _register(self, var, derivative_of):
+        vr = len(self.vars)
+        core = self._core
+        getter, setter = None, None
+        if var.causality == "output":
+            getter = self._guarded(core._output_getter(var.name))
+        elif var.causality == "local":
+            getter = self._state_getter(var.name)
+        else:
+            getter, setter = (lambda name=var.name: getattr(core, name)), core._input_setter(var.name, var.type)
+        kwargs = dict(causality=Fmi3Causality[var.causality], variability=Fmi3Variability[var.variability],
+                      description=var.description, getter=getter, setter=setter)
+        if var.type is float:
+            kwargs["unit"] = var.unit
+            if derivative_of is not None:
+                kwargs["derivative"] = next(r for r, v in self.vars.items() if v.name == derivative_of)
+        if var.causality in ("parameter", "input"):
+            kwargs["start"] = var.start
+        variable = _TYPES[var.type](var.name, **kwargs)
+        variable.value_reference = vr   # from 1 in declaration order (0 is the time)
+        self.vars[vr] = variable
+
+    def _state_getter(self, name):
+        index = [f"x.{n}" for n, _, _ in self._states.names]
+        if name in index:
+            i = index.index(name)
+            return lambda: self._continuous(self._states.get)[i]
+        i = index.index(name[4:-1])
+        return lambda: self._continuous(self._states.derivatives)[i]
+
+    # --- logging and errors ---
+    def _log_from_core(self, message, status=Fmi3Status.ok, *args, **kwargs):
+        self.log(message, Fmi3Status(int(status)))
+
+    def _pin(self):
+        _PINNED_AFTER_EXCEPTION.extend((self, self, type(self), self.log_queue))
+
+    def _raise_to_host(self, message):
+        self.log(message, Fmi3Status.error)
+        self._pin()
+        raise ValueError(message)
+
+    def _guarded(self, function):
+        """function, with the objects pythonfmu3 releases twice pinned if it raises (the core logged why)."""
+        def call(*args):
+            try:
+                return function(*args)
+            except Exception:
+                self._pin()
+                raise
+        return call
+
+    # --- values ---
+    def get_float64(self, vrs):
+        try:
+            getters = self._getters
+            return [getters[vr]() for vr in vrs]
+        except KeyError:
+            return super().get_float64(vrs)
+
+    def set_float64(self, vrs, values):
+        try:
+            setters = self._setters
+            for vr, value in zip(vrs, values):
+                setters[vr](value)
+        except KeyError:
+            super().set_float64(vrs, values)
+
+    # --- life cycle ---
+    def exit_initialization_mode(self):
+        self._guarded(self._core.exit_initialization_mode)()
+
+    def do_step(self, current_time, step_size):
+        core = self._core
+        if not self._stepped and core._running and current_time != core._start_time:
+            # pythonfmu3 0.3.4 does not pass fmi3EnterInitializationMode's startTime on: the first step's time is it
+            core._start_time = current_time
+            core._start()
+        self._stepped = True
+        ok = core.do_step(current_time, step_size)
+        return Fmi3StepResult() if ok else Fmi3StepResult(status=Fmi3Status.discard)
+
+    # --- FMU state: the core's data-only state ---
+    def _get_fmu_state(self):
+        return self._guarded(self._core._get_fmu_state)()
+
+    def _set_fmu_state(self, state):
+        self._guarded(self._core._set_fmu_state)(state)
+        self._stepped = True
+
+    @staticmethod
+    def _fmu_state_to_bytes(state):
+        return fmu_base.encode_state(state)
+
+    @classmethod
+    def _fmu_state_from_bytes(cls, data):
+        """fmi3DeserializeFMUState (pythonfmu3 calls it on the class): a rejected blob pins the objects of every
+        live instance of the class and logs the reason to each."""
+        try:
+            return fmu_base.decode_state(cls.MODEL, bytes(data))
+        except Exception as exc:
+            reason = exc if isinstance(exc, fmu_base.StateError) else repr(exc)
+            message = f"{cls.MODEL.__name__}: FMU state rejected, the instance is unchanged: {reason}"
+        for inst in [i for i in list(_LIVE) if type(i) is cls]:
+            inst._pin()
+            inst.log(message, Fmi3Status.error)
+        _PINNED_AFTER_EXCEPTION.append(cls)
+        raise ValueError(message)
+
+    # --- Model Exchange ---
+    def _continuous(self, what):
+        """what(core) once the core is initialized (else a ValueError naming the invalid parameters)."""
+        core = self._core
+        if not core._initialized:
+            problems = core._problems()
+            if problems:
+                self._raise_to_host(f"{core.modelName} '{self.instance_name}': invalid parameters: "
+                                    + "; ".join(problems))
+            core._start()
+            core._initialized = True
+        return what(core)
+
+    def get_number_of_continuous_states(self):
+        return len(self._states.names)
+
+    def get_continuous_states(self):
+        return [float(x) for x in self._continuous(self._states.get)]
+
+    def set_continuous_states(self, values):
+        self._continuous(lambda core: self._states.set(core, values))
+        self._core._stale = True
+
+    def get_continuous_state_derivatives(self):
+        """The state derivatives; NaN for each, with the reason logged at error level, when the inputs are
+        non-finite or out of range or the equations fail (pythonfmu3 0.3.4 crashes the host on an exception here:
+        its C layer prints and clears the error before it checks for one). A host's solver then stops on them."""
+        core = self._core
+        try:
+            for name, lo, hi, var in core._input_bounds:
+                if not lo <= getattr(core, name) <= hi:   # NaN and inf fail too
+                    raise ValueError(var.check(getattr(core, name)))
+            if not core._initialized:
+                problems = core._problems()
+                if problems:
+                    raise ValueError("invalid parameters: " + "; ".join(problems))
+            rates = [float(x) for x in self._continuous(self._states.derivatives)]
+            if not all(math.isfinite(x) for x in rates):
+                raise ValueError(f"they are not finite ({rates!r}): check the inputs and parameters")
+            return rates
+        except Exception as exc:
+            self.log(f"{core.modelName} '{self.instance_name}': derivatives at t = {self.time!r} refused: {exc}",
+                     Fmi3Status.error)
+            return [math.nan] * len(self._states.names)
+
+    def set_time(self, time):
+        self.time = time
+        self._states.set_time(self._core, time)
+        self._core._stale = True
+
+    def get_nominals_of_continuous_states(self, size):
+        return [1.0] * size
+
+
+class ModelExchangeFmu(Fmi3Model, ModelExchange):
+    """FMI 3.0 Co-Simulation and Model Exchange FMU of the ujfmu model ``MODEL``."""
+
+    def get_continuous_state_derivatives(self):
+        return Fmi3Model.get_continuous_state_derivatives(self)
+
+
+def fmi3_class(model) -> type:
+    """The FMI 3.0 FMU class of model (a ujfmu.fmu class): Co-Simulation, plus Model Exchange where STATES has
+    its continuous states."""
+    base = ModelExchangeFmu if model.__name__ in STATES else Fmi3Model
+    return type(f"{model.__name__}Fmi3", (base,), {"MODEL": model, "__doc__": model.__doc__})

@@ -1,0 +1,182 @@
+"""Model Exchange run of a scenario: the FMI 3.0 Model Exchange FMUs of its components integrated together by
+one solver, fmpy's CVode (BDF, SUNDIALS), as a system simulator that imports them would.
+
+There is no communication step: at every right-hand-side evaluation the solver sets the time and every FMU's
+continuous states, the connections are transferred in the order of the direct-feedthrough graph (as in
+``ujfmu.master``), and the state derivatives are read. So there is no coupling delay and no explicit-coupling
+instability; the accuracy is the solver's. Components must offer Model Exchange: the torque-driven joints,
+MotorController and Load (``ujfmu build --fmi 3``; the speed-driven joints would need the driver's acceleration,
+an input derivative Model Exchange does not provide).
+"""
+
+import math
+from ctypes import c_double
+
+import numpy as np
+from fmpy.fmi3 import FMU3Model
+
+from .fmi3_host import FmuInstance3
+from .master import CosimulationError, _feedthrough_order, extracted
+
+
+class ModelExchangeError(CosimulationError):
+    """A Model Exchange run could not be set up, an FMU refused a call, or the solver failed."""
+
+
+class MeInstance(FmuInstance3):
+    """One FMI 3.0 Model Exchange FMU instance (fmpy's FMU3Model) with FmuInstance3's access by name."""
+
+    INTERFACE = "modelExchange"
+    FMU_CLASS = FMU3Model
+
+    def __init__(self, component, unzip_dir, model_description, log):
+        if model_description.modelExchange is None:
+            raise ModelExchangeError(f"component '{component.name}': {model_description.modelName} has no Model "
+                                     "Exchange interface (speed-driven joints need the driver's acceleration; use "
+                                     "the torque-driven variant with a MotorController)")
+        super().__init__(component, unzip_dir, model_description, log)
+        self.nx = self.slave.getNumberOfContinuousStates()
+        self.time = 0.0
+        self.buffer = (c_double * max(self.nx, 1))()
+
+
+class _NoInput:
+    @staticmethod
+    def apply(time):
+        pass
+
+
+def simulate_me(components, connections, stop_time: float, output_interval: float, record, start_time=0.0,
+                relative_tolerance: float = 1e-8) -> np.ndarray:
+    """Integrate the components' Model Exchange FMUs together with CVode; a structured array with 'time' and one
+    column per recorded 'comp.var' at start_time + k * output_interval (as ``master.cosimulate`` returns)."""
+    from fmpy.sundials import CVodeSolver
+
+    n_out = int(round((stop_time - start_time) / output_interval))
+    if n_out < 1 or not math.isclose(start_time + n_out * output_interval, stop_time, rel_tol=1e-9, abs_tol=1e-12):
+        raise ModelExchangeError(f"stop_time - start_time = {stop_time - start_time} is not a whole number of "
+                                 f"output intervals of {output_interval}")
+    log, instances = [], {}
+    failure = []
+
+    def failed(what, exc):
+        failure.append(f"{what}: {exc}")
+
+    try:
+        for comp in components:
+            unzip_dir, md = extracted(comp.fmu)
+            instances[comp.name] = MeInstance(comp, unzip_dir, md, log)
+        for comp in components:
+            instances[comp.name].initialize(comp.parameters, start_time)
+        ordered = _feedthrough_order(connections, instances)
+        transfers = []
+        for conn in ordered:
+            (src, out), (dst, inp) = (x.split(".", 1) for x in (conn.source, conn.target))
+            transfers.append((instances[src].slave, [instances[src].vr(out)], instances[dst].slave,
+                              [instances[dst].vr(inp)]))
+        readers = []
+        for name in record:
+            comp, var = name.split(".", 1)
+            if comp not in instances:
+                raise ModelExchangeError(f"recorded signal '{name}': no component '{comp}'")
+            readers.append((instances[comp].slave, [instances[comp].vr(var)]))
+
+        def transfer():
+            for src, out, dst, inp in transfers:
+                dst.setFloat64(inp, src.getFloat64(out))
+
+        transfer()
+        for inst in instances.values():
+            while inst.slave.updateDiscreteStates()[0]:
+                pass
+            inst.slave.enterContinuousTimeMode()
+        parts, offset = [], 0
+        for inst in instances.values():
+            if inst.nx:
+                parts.append((inst, slice(offset, offset + inst.nx)))
+                offset += inst.nx
+        nx = offset
+
+        def get_x(ptr, n):
+            x = np.ctypeslib.as_array(ptr, (n,))
+            for inst, part in parts:
+                inst.slave.getContinuousStates(inst.buffer, inst.nx)
+                x[part] = inst.buffer[:inst.nx]
+
+        def set_x(ptr, n):
+            x = np.ctypeslib.as_array(ptr, (n,))
+            for inst, part in parts:
+                inst.buffer[:inst.nx] = x[part].tolist()
+                inst.slave.setContinuousStates(inst.buffer, inst.nx)
+
+        def get_dx(ptr, n):
+            dx = np.ctypeslib.as_array(ptr, (n,))
+            try:
+                transfer()
+                for inst, part in parts:
+                    inst.slave.getContinuousStateDerivatives(inst.buffer, inst.nx)
+                    dx[part] = inst.buffer[:inst.nx]
+                    if not np.all(np.isfinite(dx[part])):   # the FMU logged why
+                        raise ModelExchangeError(f"component '{inst.name}' gave non-finite derivatives at t = "
+                                                 f"{inst.time!r}")
+            except Exception as exc:    # from a C callback: make the solver fail, report the cause after it
+                failed("derivatives", exc)
+                dx[:] = np.nan
+
+        def set_time(t):
+            for inst in instances.values():
+                inst.slave.setTime(t)
+                inst.time = t
+
+        def get_nominals(ptr, n):
+            np.ctypeslib.as_array(ptr, (n,))[:] = 1.0
+
+        solver = CVodeSolver(nx=nx, nz=0, get_x=get_x, set_x=set_x, get_dx=get_dx, get_z=lambda ptr, n: None,
+                             get_nominals=get_nominals, set_time=set_time, input=_NoInput(), startTime=start_time,
+                             relativeTolerance=relative_tolerance, maxNumSteps=100_000)
+        values = np.empty((n_out + 1, len(record)))
+
+        def read(row):
+            transfer()
+            row[:] = [slave.getFloat64(vr)[0] for slave, vr in readers]
+
+        read(values[0])
+        t = start_time
+        for k in range(1, n_out + 1):
+            t_next = start_time + k * output_interval
+            try:
+                solver.step(t, t_next)
+            except RuntimeError as exc:
+                raise ModelExchangeError(f"CVode failed between t = {t!r} and {t_next!r}: "
+                                         + "; ".join(failure or [str(exc)])) from None
+            if failure:
+                raise ModelExchangeError(f"between t = {t!r} and {t_next!r}: " + "; ".join(failure))
+            t = t_next
+            set_time(t)
+            read(values[k])
+            for inst in instances.values():
+                inst.slave.completedIntegratorStep()
+        del solver
+    except ModelExchangeError as exc:
+        exc.args = (exc.args[0] + _log_text(log),)
+        raise
+    except Exception as exc:
+        raise ModelExchangeError(f"{exc}" + _log_text(log)) from exc
+    finally:
+        for inst in instances.values():
+            inst.free()
+    time = start_time + output_interval * np.arange(n_out + 1)
+    dtype = np.dtype([("time", np.float64)] + [(c, np.float64) for c in record])
+    return np.rec.fromarrays([time] + list(values.T), dtype=dtype)
+
+
+def _log_text(log):
+    return ("\nFMU log:\n  " + "\n  ".join(log[-20:])) if log else ""
+
+
+def simulate_scenario_me(scenario, fmu_dir, relative_tolerance: float = 1e-8) -> np.ndarray:
+    """The scenario (a ``ujfmu.scenario.Scenario``) run with the Model Exchange FMUs of fmu_dir, output at its
+    communication step."""
+    scenario.check_fmus(fmu_dir)
+    return simulate_me(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
+                       scenario.step_size, scenario.record, scenario.start_time, relative_tolerance)

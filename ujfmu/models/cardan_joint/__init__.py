@@ -1,0 +1,1 @@
+"""CardanJoint: equations (model.py), FMU declaration (fmu.py), reference derivation, published values, README."""

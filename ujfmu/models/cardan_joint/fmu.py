@@ -1,0 +1,104 @@
+"""CardanJoint FMU: one universal joint between a driving and a driven shaft (Feng, Wang, Zhu)."""
+
+import math
+
+from . import model as cardan
+from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, model_parameters, output, parameter
+from ...fmu.torque_driven import TorqueDrivenSlave, driven_ports
+
+_ANGLE = dict(min=-cardan.MAX_ANGLE, max=cardan.MAX_ANGLE)
+_INERTIA = dict(min=0.0, max=1.0e3)
+
+
+class CardanJoint(PrescribedInputSlave):
+    """Universal (Cardan/Hooke) joint with structural and error misalignment, Feng, Wang, Zhu Eqs. (1)-(10).
+
+    The driving shaft follows the input speed omega_in; the driven shaft follows the joint's exact kinematics,
+    theta2 = theta2(theta1), omega2 = r(theta1)*omega1 with r = K_z/xi^2. The driven-side inertia J2 and the load
+    torque set the transmitted moment, M_z = tau_load + J2*alpha2, alpha2 = r*alpha1 + r'*omega1^2; Eq. (8)/(10)
+    then give the moment vector (M_x, M_y, M_z) in the driven xyz frame and the driving torque
+    tau_in = J1*alpha1 + M (e_n . K) that the joint demands from the driver.
+
+    Driving acceleration from the input speed history: alpha1 is the backward difference of omega_in over the
+    last communication step, (omega_in(t_k) - omega_in(t_k-1)) / h (zero before the first step). Over a step the
+    driving angle is advanced with the input extrapolated linearly, theta1 += omega_in*h + alpha1*h^2/2, which
+    is exact for constant speed and for constant acceleration (Feng's start-up).
+
+    Signs: omega_in, omega_out > 0 turn the shafts the same way; tau_in > 0 is the torque the driver applies in
+    the direction of rotation; tau_load > 0 opposes the driven shaft's rotation; M_z > 0 drives the driven shaft.
+    Lossless: tau_in*omega_in = M_z*omega_out when J1 = J2 = 0.
+    """
+
+    MODEL = cardan
+    VARIABLES = (
+        parameter("bend_angle", math.radians(30.0), "rad",
+                  "Structural misalignment phi, C_phi = R_x(phi) (Feng Eq. 1); laboratory model 30 deg", **_ANGLE),
+        parameter("bend_plane_angle", 0.0, "rad",
+                  "Structural misalignment delta, C_delta = R_y(delta) (Feng Eq. 1)", **_ANGLE),
+        parameter("error_angle_beta", math.radians(0.3), "rad",
+                  "Error misalignment beta, C_beta = R_x(-beta) (Feng Eq. 1); laboratory model 0.3 deg", **_ANGLE),
+        parameter("error_angle_gamma", math.radians(0.3), "rad",
+                  "Error misalignment gamma, C_gamma = R_y(-gamma) (Feng Eq. 1); laboratory model 0.3 deg",
+                  **_ANGLE),
+        parameter("J1", 2.0e-7, "kg.m2", "Driving shaft moment of inertia (Feng Eq. 8); laboratory model",
+                  **_INERTIA),
+        parameter("J2", 0.0, "kg.m2",
+                  "Driven-side moment of inertia carried by the joint (0: Feng's massless driven side)", **_INERTIA),
+        parameter("phi_in_start", 0.0, "rad", "Driving shaft angle theta1 at the start time", min=-1.0e6, max=1.0e6),
+        input_("omega_in", 0.0, "rad/s", "Driving shaft angular speed omega1", **SPEED_RANGE),
+        input_("tau_load", 0.0, "N.m", "Load torque on the driven shaft (positive opposes its rotation)",
+               **TORQUE_RANGE),
+        output("omega_out", "rad/s", "Driven shaft angular speed omega2 = r(theta1)*omega1", ("omega_in",)),
+        output("phi_out", "rad", "Driven shaft angle theta2, continuous over revolutions"),
+        output("tau_in", "N.m", "Driving torque T0 demanded from the driver (Feng Eq. 8)",
+               ("omega_in", "tau_load")),
+        output("M_x", "N.m", "Transmitted moment on the driven shaft, x component (Feng Eq. 10)",
+               ("omega_in", "tau_load")),
+        output("M_y", "N.m", "Transmitted moment on the driven shaft, y component (Feng Eq. 10)",
+               ("omega_in", "tau_load")),
+        output("M_z", "N.m", "Transmitted moment on the driven shaft, z (torsional) component (Feng Eq. 10)",
+               ("omega_in", "tau_load")),
+        output("phi_in", "rad", "Driving shaft angle theta1, continuous over revolutions"),
+        output("alpha_in", "rad/s2", "Driving shaft angular acceleration alpha1 estimated from omega_in",
+               ("omega_in",)),
+    )
+    DEFAULT_EXPERIMENT = (0.0, 1.0, 1.0e-3)
+
+
+class CardanJointTorqueDriven(TorqueDrivenSlave):
+    """Torque-driven CardanJoint: driving torque tau_in in, input shaft speed omega_in out (stable in explicit hosts).
+
+    The same joint as CardanJoint (Feng, Wang, Zhu Eqs. 1-10), with the driving shaft free: its angle and speed
+    are a state integrated from (J_drive + J1 + J2 r^2) alpha1 = tau_in - J2 r r' omega1^2 - r tau_load
+    (model.torque_driven_rates), J_drive the driver's rotor inertia lumped on the driving shaft,
+    tau_in and tau_load held over each step (classical RK4, substeps from the kinematic harmonics 4|omega1|).
+    Outputs as CardanJoint's; tau_input_shaft = tau_in - J_drive*alpha1 is what CardanJoint calls tau_in.
+    Wire it to MotorController (tau_motor -> tau_in, omega_in -> omega) and a Load (omega_out -> omega,
+    tau -> tau_load). Signs as CardanJoint's.
+    """
+
+    MODEL = cardan
+    VARIABLES = driven_ports(CardanJoint)
+    STATE = {"_state": "float[2]"}   # (theta1, omega1)
+    DERIVED = ("_p",)
+    DEFAULT_EXPERIMENT = CardanJoint.DEFAULT_EXPERIMENT
+
+    def check_parameters(self):
+        problems = cardan.check(model_parameters(cardan, self))
+        if not self.J_drive + self.J1 > 0.0:
+            problems.append(f"J_drive + J1 = {self.J_drive + self.J1!r} kg.m2 must be > 0 (allowed range (0, 2000] "
+                            "kg.m2): the driving shaft needs an inertia to integrate")
+        return problems
+
+    def derive(self):
+        self._p = model_parameters(cardan, self)
+
+    def initial_state(self):
+        return (self.phi_in_start, self.omega_in_start)
+
+    def rates(self, state):
+        return cardan.torque_driven_rates(self._p.frame, state, self.tau_in, self.tau_load, self.J_drive, self.J1,
+                                          self.J2)
+
+    def rate_bound(self, omega_max):
+        return 4.0 * omega_max

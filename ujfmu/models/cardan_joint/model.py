@@ -1,0 +1,211 @@
+"""Single Cardan (Hooke) joint: kinematics and transmitted moment.
+
+Source [Feng2012]: Changlin Feng, Deshi Wang, Yongyong Zhu, "Analysis of Moment Transmitted by Universal Joint in
+Varying Operating Condition", Advanced Engineering Forum, vols. 2-3, p. 999, Trans Tech Publications, 2012,
+https://www.scientific.net/AEF.2-3.999; Eqs. (1)-(10). Standard library only: this module runs inside FMUs.
+
+Frames. ``xyz`` is fixed to the driven shaft's bearings, ``z`` along the driven shaft (Eq. 2). The driving shaft's
+frame is reached by ``C = C_gamma C_beta C_delta C_phi``. Expanding candidate elementary rotations and comparing term
+by term with the printed Eqs. (1) and (9) fixes them uniquely (see README.md):
+
+    C_phi   = R_x(+phi)     structural misalignment, ``bend_angle``
+    C_delta = R_y(+delta)   structural misalignment, second Euler angle, ``bend_plane_angle``
+    C_beta  = R_x(-beta)    error misalignment, ``error_angle_beta``
+    C_gamma = R_y(-gamma)   error misalignment, ``error_angle_gamma``
+
+so the driving-shaft axis is K = C (0,0,1) (Eq. 9) and the driving yoke's pin is e1 = C (-sin t1, cos t1, 0)
+(Eq. 1). Interpretation: with the printed matrices delta is a tilt about y, not an azimuth of the bend plane; the
+angle between the shafts is acos(K_z).
+
+Derived identities used below (proofs in README.md; the tests check each against the literal Eq. 10):
+    xi^2 = e1x^2 + e1y^2,      e_n . K = K_z / xi,     e_n,z = xi
+    d(theta2)/d(theta1) = K_z / xi^2                  (velocity ratio)
+"""
+
+import math
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+from ..protocol import Drive
+
+#: Largest admissible magnitude of each misalignment angle and of the total shaft angle acos(K_z) [rad].
+MAX_ANGLE = math.radians(89.0)
+
+
+def joint_frame(bend_angle: float, bend_plane_angle: float, error_angle_beta: float, error_angle_gamma: float) -> tuple:
+    """Columns (a, b, K) of C = R_y(-gamma) R_x(-beta) R_y(delta) R_x(phi); K is the driving axis (Eq. 9).
+
+    e1(theta1) = -sin(theta1) a + cos(theta1) b (Eq. 1).
+    """
+    c = _matmul(_rot_y(-error_angle_gamma),
+                _matmul(_rot_x(-error_angle_beta), _matmul(_rot_y(bend_plane_angle), _rot_x(bend_angle))))
+    a = (c[0][0], c[1][0], c[2][0])
+    b = (c[0][1], c[1][1], c[2][1])
+    k = (c[0][2], c[1][2], c[2][2])
+    return a, b, k
+
+
+def shaft_angle(frame: tuple) -> float:
+    """Angle between driving and driven shafts, acos(K_z) [rad]."""
+    return math.acos(max(-1.0, min(1.0, frame[2][2])))
+
+
+def driving_pin(frame: tuple, theta1: float) -> tuple:
+    """e1 in xyz, Eq. (1)."""
+    a, b, _ = frame
+    s, c = math.sin(theta1), math.cos(theta1)
+    return (-s * a[0] + c * b[0], -s * a[1] + c * b[1], -s * a[2] + c * b[2])
+
+
+def cross_normal(e1: tuple) -> tuple:
+    """Unit normal of the cross piece e_n = e1 x e2, Eqs. (3)-(4); returns (e_n, xi)."""
+    xi = math.sqrt(e1[0] * e1[0] + e1[1] * e1[1])
+    return (-e1[0] * e1[2] / xi, -e1[1] * e1[2] / xi, xi), xi
+
+
+def driven_angle(frame: tuple, theta1: float) -> float:
+    """Driven shaft angle theta2 [rad], continuous in theta1.
+
+    Phase convention: the driven yoke's pin is e2 = e3 x (-sin theta2, cos theta2, 0), i.e. theta2 is to the
+    driven shaft what theta1 is to the driving one, so theta2 = theta1 when the shafts are aligned and, with only
+    a bend phi, tan(theta2) = tan(theta1)/cos(phi). Computed as theta1 plus the bounded angle error, so there is
+    no atan branch jump (the error stays below pi/2 for shaft angles below 90 deg).
+    """
+    e1x, e1y, _ = driving_pin(frame, theta1)
+    s, c = math.sin(theta1), math.cos(theta1)
+    return theta1 + math.atan2(-e1x * c - e1y * s, e1y * c - e1x * s)
+
+
+def velocity_ratio(frame: tuple, theta1: float) -> float:
+    """omega2/omega1 = d(theta2)/d(theta1) = K_z/xi^2; with a bend phi only, cos(phi)/(1 - sin^2 phi cos^2 theta1)."""
+    e1x, e1y, _ = driving_pin(frame, theta1)
+    return frame[2][2] / (e1x * e1x + e1y * e1y)
+
+
+def velocity_ratio_and_slope(frame: tuple, theta1: float) -> tuple:
+    """(r, dr/dtheta1) with r = K_z/xi^2 and dr/dtheta1 = -2 K_z (e1 . f1)_xy / xi^4, f1 = de1/dtheta1."""
+    a, b, k = frame
+    s, c = math.sin(theta1), math.cos(theta1)
+    e1x, e1y = -s * a[0] + c * b[0], -s * a[1] + c * b[1]
+    f1x, f1y = -c * a[0] - s * b[0], -c * a[1] - s * b[1]
+    xi2 = e1x * e1x + e1y * e1y
+    r = k[2] / xi2
+    return r, -2.0 * r * (e1x * f1x + e1y * f1y) / xi2
+
+
+def transmitted_moment(frame: tuple, theta1: float, net_input_torque: float) -> tuple:
+    """Moment on the driven shaft (M_x, M_y, M_z), Eq. (10).
+
+    net_input_torque is T0 - J1*alpha of Eq. (8): the driving torque less the driving shaft's inertia torque.
+    """
+    k = frame[2]
+    en, _ = cross_normal(driving_pin(frame, theta1))
+    m = net_input_torque / (en[0] * k[0] + en[1] * k[1] + en[2] * k[2])
+    return m * en[0], m * en[1], m * en[2]
+
+
+def joint_torques(frame: tuple, theta1: float, omega1: float,
+        alpha1: float, tau_load: float, j1: float, j2: float) -> tuple:
+    """Torques of the kinematically driven joint with driven-side inertia J2.
+
+    Driven shaft: M_z - tau_load = J2 * alpha2 with alpha2 = r*alpha1 + r'*omega1^2.
+    Driving shaft, Eq. (8): T0 = J1*alpha1 + M (e_n . K), M = M_z / e_n,z.
+    Returns (tau_in, M_x, M_y, M_z, omega2, alpha2); lossless: tau_in*omega1 = J1*alpha1*omega1 + M_z*omega2.
+    """
+    k = frame[2]
+    r, dr = velocity_ratio_and_slope(frame, theta1)
+    alpha2 = r * alpha1 + dr * omega1 * omega1
+    m_z = j2 * alpha2 + tau_load
+    en, _ = cross_normal(driving_pin(frame, theta1))
+    m = m_z / en[2]
+    tau_in = j1 * alpha1 + m * (en[0] * k[0] + en[1] * k[1] + en[2] * k[2])
+    return tau_in, m * en[0], m * en[1], m_z, r * omega1, alpha2
+
+
+def torque_driven_rates(frame: tuple, state, tau_drive: float, tau_load: float, j_drive: float, j1: float,
+                        j2: float) -> tuple:
+    """d/dt of (theta1, omega1) for the joint driven by a torque tau_drive on the driving shaft, which carries
+    the driver's rotor inertia j_drive lumped with J1. Lagrange with T = (J_d + J1 + J2 r^2) omega1^2 / 2:
+
+        (J_d + J1 + J2 r^2) alpha1 = tau_drive - J2 r r' omega1^2 - r tau_load
+
+    i.e. tau_drive = J_d alpha1 + tau_in(alpha1) with tau_in of :func:`joint_torques`, which is affine in alpha1.
+    """
+    theta1, omega1 = state
+    r = velocity_ratio(frame, theta1)
+    tau_at_rest = joint_torques(frame, theta1, omega1, 0.0, tau_load, j1, j2)[0]
+    return omega1, (tau_drive - tau_at_rest) / (j_drive + j1 + j2 * r * r)
+
+
+# --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
+
+@dataclass(slots=True)
+class Parameters:
+    """The CardanJoint FMU's parameters (names as declared there) and the joint frame C they give (Eq. 1)."""
+
+    bend_angle: float
+    bend_plane_angle: float
+    error_angle_beta: float
+    error_angle_gamma: float
+    J1: float
+    J2: float
+    phi_in_start: float = 0.0
+    frame: tuple = field(init=False, repr=False)
+
+    def __post_init__(self):
+        self.frame = joint_frame(self.bend_angle, self.bend_plane_angle, self.error_angle_beta,
+                                 self.error_angle_gamma)
+
+
+class State(NamedTuple):
+    """No state of its own: the driven shaft follows the joint's kinematics exactly."""
+
+
+Inputs = Drive
+
+
+def kinematic(p: Parameters) -> bool:
+    """Always: theta2 = theta2(theta1), nothing to integrate."""
+    return True
+
+
+def initial_state(p: Parameters, t: float, u: Drive) -> State:
+    return State()
+
+
+def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
+    return ()
+
+
+def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
+    return 0.0
+
+
+def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
+    """tau_in, the moment (M_x, M_y, M_z) of Eqs. (8), (10) and the driven shaft's motion (joint_torques)."""
+    tau_in, m_x, m_y, m_z, omega_out, _ = joint_torques(p.frame, u.phi, u.omega, u.alpha, u.tau_load, p.J1, p.J2)
+    return {"tau_in": tau_in, "M_x": m_x, "M_y": m_y, "M_z": m_z, "omega_out": omega_out,
+            "phi_out": driven_angle(p.frame, u.phi)}
+
+
+def check(p: Parameters) -> list:
+    """The total shaft angle acos(K_z) must stay within MAX_ANGLE."""
+    angle = shaft_angle(p.frame)
+    if angle > MAX_ANGLE:
+        return [f"total shaft angle acos(K_z) = {angle!r} rad from bend_angle, bend_plane_angle, "
+                f"error_angle_beta, error_angle_gamma is outside its allowed range [0, {MAX_ANGLE:.10g}] rad"]
+    return []
+
+
+def _rot_x(t):
+    c, s = math.cos(t), math.sin(t)
+    return ((1.0, 0.0, 0.0), (0.0, c, -s), (0.0, s, c))
+
+
+def _rot_y(t):
+    c, s = math.cos(t), math.sin(t)
+    return ((c, 0.0, s), (0.0, 1.0, 0.0), (-s, 0.0, c))
+
+
+def _matmul(p, q):
+    return tuple(tuple(sum(p[i][m] * q[m][j] for m in range(3)) for j in range(3)) for i in range(3))

@@ -1,0 +1,2 @@
+"""DoubleCardanDriveline: equations (model.py), FMU declaration (fmu.py), reference derivation, published values,
+README."""

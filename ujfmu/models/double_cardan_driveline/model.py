@@ -1,0 +1,358 @@
+"""Double Cardan driveline: input shaft -> joint 1 -> intermediate shaft -> joint 2 -> output shaft.
+
+Sources: [Brutti1999] Carlo Brutti, Ettore Pennestri, Marco Evangelos Biancolini, "On the Dynamics of the
+Transmission with a Double Cardan Joint", Proceedings of the Tenth World Congress on the Theory of Machines and
+Mechanisms (IFToMM), Oulu, Finland, 1999: rigid-body torque analysis, section 4. [Omar2023] M. H. Omar,
+M. A. Rahim, M. N. A. M. Rejab, "Numerical Study on the Torsional and Lateral Vibrations of Double Universal Joint
+Driveline System", International Journal of Automotive and Mechanical Engineering (IJAME), 2023: torsional-lateral
+model, Eqs. (1)-(19).
+Derivation and every interpretation: README.md. Standard library only: this module runs inside FMUs.
+
+Angles (rad): phi1 input shaft, phi2 / phi3 the intermediate shaft at its joint-1 / joint-2 end, phi4 output shaft.
+One joint with bend b, driving-yoke angle x and driven-yoke angle y (Omar Eq. 4):
+
+    tan y = tan x / cos b,   y = x + joint_error(x, b)                       (continuous, |error| < pi/2)
+    dy/dx = cos b / (1 - sin^2 b cos^2 x)               (Omar eta_1, eta_2)
+    dy/db = sin(2x) sin b / (2 (1 - sin^2 b cos^2 x))   (Omar eta_1A, eta_2A; the paper prints cos^2(2 phi1))
+
+Joint 1: phi2 = phi1 + joint_error(phi1, b1). Joint 2 is the same relation seen from the output shaft (Omar
+Eq. 6): phi3 = phi4 + joint_error(phi4 + delta, b2), delta = yoke_phase - joint_plane_angle the phase of joint 2
+relative to joint 1. delta = 0 with b1 = +-b2 is the constant-velocity Z (b1 = b2) or W (b1 = -b2) layout.
+Dynamic misalignment phi (Omar Eq. 3): b1 = beta1 + phi, b2 = beta2 + phi*cos(joint_plane_angle).
+
+Lagrangian (Omar Eqs. 9-15 generalised; twist = phi2 - phi3 = -theta_s of Omar Eq. 1):
+    T = J_in(phi1) w1^2/2 + J_out(phi4) w4^2/2 + M_lat dphi^2/2,    M_lat = m_s (L_c cos beta1)^2   (Eq. 11)
+    P = k_theta twist^2/2 + k_phi (L_c cos beta1)^2 phi^2/2                                        (Eq. 14)
+    D = c_theta dtwist^2/2 + c_phi (L_c cos beta1)^2 dphi^2/2,    c = xi k                          (Eq. 12)
+J_in, J_out: the inertias kinematically tied to phi1 / phi4, evaluated at the static joint angles.
+"""
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+from ...fmu import rk4
+from ..protocol import Drive
+
+#: Largest admissible magnitude of a joint angle (static plus dynamic) [rad].
+MAX_ANGLE = math.radians(89.0)
+HALF_PI = 0.5 * math.pi
+
+
+def joint_error(x: float, b: float) -> float:
+    """y - x for tan y = tan x / cos b: atan2((1 - c) sin 2x, (1 + c) - (1 - c) cos 2x), c = cos b (Omar Eq. 4)."""
+    c = math.cos(b)
+    return math.atan2((1.0 - c) * math.sin(2.0 * x), (1.0 + c) - (1.0 - c) * math.cos(2.0 * x))
+
+
+def joint_inverse(y: Sequence[float], b: float) -> float:
+    """x with y = x + joint_error(x, b): x = y + joint_error(y + pi/2, b) (tan x = cos b tan y)."""
+    return y + joint_error(y + HALF_PI, b)
+
+
+def joint_ratio(x: float, b: float) -> tuple:
+    """(dy/dx, d2y/dx2, dy/db) of one joint (Omar eta_1 and eta_1A, corrected)."""
+    s, c = math.sin(b), math.cos(b)
+    sx, cx = math.sin(x), math.cos(x)
+    d = 1.0 - s * s * cx * cx
+    r = c / d
+    return r, -r * s * s * 2.0 * sx * cx / d, s * sx * cx / d
+
+
+def cross_inertia(x: float, b: float, i_pin: float, i_normal: float) -> tuple:
+    """(J, dJ/dx): kinetic energy of a joint's cross is J(x) w_x^2 / 2, w_x the driving yoke's speed.
+
+    The cross turns about e_A, e_B (pins, i_pin each) and e_n (normal, i_normal) at rates
+    (r w sin b cos x, w sin b sin x / sqrt(d), w cos b / sqrt(d)),  d = 1 - sin^2 b cos^2 x,  r = cos b / d.
+    """
+    s, c = math.sin(b), math.cos(b)
+    sx, cx = math.sin(x), math.cos(x)
+    s2x = 2.0 * sx * cx
+    d = 1.0 - s * s * cx * cx
+    dd = s * s * s2x
+    r = c / d
+    dr = -r * dd / d
+    pin = r * r * cx * cx + sx * sx / d
+    dpin = 2.0 * r * dr * cx * cx - r * r * s2x + s2x / d - sx * sx * dd / (d * d)
+    return (i_pin * s * s * pin + i_normal * c * c / d,
+            i_pin * s * s * dpin - i_normal * c * c * dd / (d * d))
+
+
+@dataclass(slots=True)
+class Parameters:
+    """The DoubleCardanDriveline FMU's parameters (names as declared there) and the constants the equations use:
+    delta = yoke_phase - joint_plane_angle (joint 2's phase relative to joint 1), c = xi k (Omar Eq. 12),
+    lever2 = (L_c cos beta1)^2 and m_lat = m_s lever2 (Omar Eqs. 11, 14), and the natural-rate bound of the
+    flexible equations (0 for a rigid shaft, or where :func:`check` refuses the parameters)."""
+
+    beta1: float
+    beta2: float
+    yoke_phase: float
+    joint_plane_angle: float
+    I_input: float
+    I_cross_pin: float
+    I_cross_normal: float
+    I_intermediate: float
+    J_load: float
+    k_theta: float
+    xi_theta: float
+    m_s: float
+    k_phi: float
+    xi_phi: float
+    L_c: float
+    rigid_intermediate_shaft: bool = False
+    phi_in_start: float = 0.0
+    delta: float = field(init=False, repr=False)
+    cos_plane: float = field(init=False, repr=False)
+    c_theta: float = field(init=False, repr=False)
+    c_phi: float = field(init=False, repr=False)
+    lever2: float = field(init=False, repr=False)
+    m_lat: float = field(init=False, repr=False)
+    natural_rate: float = field(init=False, repr=False)
+
+    def __post_init__(self):
+        self.delta = self.yoke_phase - self.joint_plane_angle
+        self.cos_plane = math.cos(self.joint_plane_angle)
+        self.c_theta = self.xi_theta * self.k_theta
+        self.c_phi = self.xi_phi * self.k_phi
+        self.lever2 = (self.L_c * math.cos(self.beta1)) ** 2   # (L_c cos beta0)^2 of Omar Eqs. (11), (12), (14)
+        self.m_lat = self.m_s * self.lever2
+        self.natural_rate = 0.0 if self.rigid_intermediate_shaft or not self.J_load > 0.0 else \
+            natural_rate_bound(self)
+
+
+def input_inertia(p: Parameters, phi1: float) -> tuple:
+    """(J_in, dJ_in/dphi1): input shaft, cross 1 and the joint-1 half of the intermediate shaft."""
+    jc, djc = cross_inertia(phi1, p.beta1, p.I_cross_pin, p.I_cross_normal)
+    r, dr, _ = joint_ratio(phi1, p.beta1)
+    half = 0.5 * p.I_intermediate
+    return p.I_input + jc + half * r * r, djc + 2.0 * half * r * dr
+
+
+def output_inertia(p: Parameters, phi4: float) -> tuple:
+    """(J_out, dJ_out/dphi4): driven load, cross 2 and the joint-2 half of the intermediate shaft."""
+    u4 = phi4 + p.delta
+    jc, djc = cross_inertia(u4, p.beta2, p.I_cross_pin, p.I_cross_normal)
+    r, dr, _ = joint_ratio(u4, p.beta2)
+    half = 0.5 * p.I_intermediate
+    return p.J_load + jc + half * r * r, djc + 2.0 * half * r * dr
+
+
+# --- rigid intermediate shaft (Brutti, section 4): one degree of freedom, phi1 imposed -------------------------
+
+def rigid_output_angle(p: Parameters, phi1: float) -> float:
+    """phi4(phi1) through both joints with an untwisted shaft (phi3 = phi2)."""
+    phi2 = phi1 + joint_error(phi1, p.beta1)
+    return joint_inverse(phi2 + p.delta, p.beta2) - p.delta
+
+
+def rigid_state(p: Parameters, phi1: float, omega1: float, alpha1: float, tau_load: float) -> dict:
+    """Rigid driveline at the imposed input motion. T = J_eq(phi1) w1^2 / 2 with
+
+        J_eq = J_in + J_out rho^2,   rho = dphi4/dphi1 = r1 / r2,
+    and Lagrange with the load's virtual work (-tau_load dphi4):
+        tau_in = J_eq alpha1 + J_eq' w1^2 / 2 + rho tau_load.
+    Returns dict: phi2, phi4, omega2, omega4, tau_in, shaft_torque (at the middle of the intermediate shaft), energy,
+    inertia (J_eq).
+    """
+    phi2 = phi1 + joint_error(phi1, p.beta1)
+    phi4 = joint_inverse(phi2 + p.delta, p.beta2) - p.delta
+    r1, dr1, _ = joint_ratio(phi1, p.beta1)
+    r2, dr2, _ = joint_ratio(phi4 + p.delta, p.beta2)
+    rho = r1 / r2
+    drho = dr1 / r2 - r1 * dr2 * rho / (r2 * r2)
+    j_in, dj_in = input_inertia(p, phi1)
+    j_out, dj_out = output_inertia(p, phi4)
+    j_eq = j_in + j_out * rho * rho
+    dj_eq = dj_in + dj_out * rho * rho * rho + 2.0 * j_out * rho * drho
+    w2 = omega1 * omega1
+    tau_in = j_eq * alpha1 + 0.5 * dj_eq * w2 + rho * tau_load
+    shaft = (tau_in - j_in * alpha1 - 0.5 * dj_in * w2) / r1
+    return {"phi2": phi2, "phi4": phi4, "omega2": r1 * omega1, "omega4": rho * omega1, "tau_in": tau_in,
+            "shaft_torque": shaft, "energy": 0.5 * j_eq * w2, "inertia": j_eq}
+
+
+# --- flexible intermediate shaft (Omar, Eqs. 16-19 re-derived): states phi4, w4, phi, dphi ----------------------
+
+def flexible_kinematics(p: Parameters, phi1: float, omega1: float,
+        phi4: float, omega4: float, phi: float, dphi: float) -> tuple:
+    """Twist, twist rate and the partials the equations need.
+
+    Returns (twist, dtwist, r1, r2, g, e1): twist = phi2 - phi3, r1 = dphi2/dphi1, r2 = dphi3/dphi4,
+    e1 = dphi2/db1, g = d(twist)/d(phi) = e1 - cos(plane) dphi3/db2 (Omar eta_1A - eta_2A), and
+    dtwist = r1 w1 - r2 w4 + g dphi (Omar Eq. 18 with theta_s = -twist).
+    """
+    b1 = p.beta1 + phi
+    b2 = p.beta2 + phi * p.cos_plane
+    u4 = phi4 + p.delta
+    r1, _, e1 = joint_ratio(phi1, b1)
+    r2, _, e2 = joint_ratio(u4, b2)
+    g = e1 - p.cos_plane * e2
+    twist = (phi1 + joint_error(phi1, b1)) - (phi4 + joint_error(u4, b2))
+    return twist, r1 * omega1 - r2 * omega4 + g * dphi, r1, r2, g, e1
+
+
+def flexible_derivatives(p: Parameters, phi1: float, omega1: float, state: Sequence[float], tau_load: float) -> tuple:
+    """d/dt of (phi4, w4, phi, dphi): Lagrange's equations of the T, P, D above (cf. Omar Eqs. 16, 17, 19):
+
+        J_out dw4/dt = r2 (k_theta twist + c_theta dtwist) - J_out' w4^2 / 2 - tau_load
+        M_lat d2phi/dt2 = -(L_c cos beta1)^2 (c_phi dphi + k_phi phi) - g (k_theta twist + c_theta dtwist)
+    """
+    return _flexible_rates(p, phi1, omega1, state, tau_load)[0]
+
+
+def _flexible_rates(p, phi1, omega1, state, tau_load):
+    """(flexible_derivatives, r1, shaft torque k_theta twist + c_theta dtwist)."""
+    phi4, omega4, phi, dphi = state
+    twist, dtwist, r1, r2, g, _ = flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi)
+    shaft = p.k_theta * twist + p.c_theta * dtwist
+    j_out, dj_out = output_inertia(p, phi4)
+    return (omega4,
+            (r2 * shaft - 0.5 * dj_out * omega4 * omega4 - tau_load) / j_out,
+            dphi,
+            -(p.c_phi * dphi + p.k_phi * phi) / p.m_s - g * shaft / p.m_lat), r1, shaft
+
+
+def flexible_outputs(p: Parameters, phi1: float, omega1: float, alpha1: float, state: Sequence[float]) -> dict:
+    """Torques and energy at one instant: dict of twist, dtwist, shaft_torque, tau_in, omega2, energy.
+
+    tau_in = J_in alpha1 + J_in' w1^2 / 2 + r1 (k_theta twist + c_theta dtwist) (Lagrange for the imposed phi1);
+    power balance: tau_in w1 - tau_load w4 = dE/dt + c_theta dtwist^2 + c_phi (L_c cos beta1)^2 dphi^2.
+    """
+    phi4, omega4, phi, dphi = state
+    twist, dtwist, r1, _, _, e1 = flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi)
+    shaft = p.k_theta * twist + p.c_theta * dtwist
+    j_in, dj_in = input_inertia(p, phi1)
+    j_out, _ = output_inertia(p, phi4)
+    energy = 0.5 * (j_in * omega1 * omega1 + j_out * omega4 * omega4 + p.m_lat * dphi * dphi
+                    + p.k_theta * twist * twist + p.k_phi * p.lever2 * phi * phi)
+    # joint-1 end of the intermediate shaft: phi2 depends on phi1 and, through b1, on phi
+    return {"twist": twist, "dtwist": dtwist, "shaft_torque": shaft,
+            "tau_in": j_in * alpha1 + 0.5 * dj_in * omega1 * omega1 + r1 * shaft,
+            "omega2": r1 * omega1 + e1 * dphi, "energy": energy}
+
+
+def natural_rate_bound(p: Parameters, input_inertia: float = math.inf) -> float:
+    """An upper bound [1/s] of the fastest free motion of the flexible equations (oscillation + decay).
+
+    input_inertia: a lower bound of the inertia on the input shaft when that shaft is free (torque-driven), which
+    adds its side of the torsional mode, k_theta r^2 (1/J_out + 1/J_in); inf for a prescribed input shaft.
+    """
+    r_max = 1.0 / min(math.cos(p.beta1), math.cos(p.beta2))  # dy/dx <= 1/cos b
+    g_max = 0.5 * (  # |dy/db| <= tan b / (2 cos b)
+                   abs(math.tan(p.beta1)) / math.cos(p.beta1) + abs(math.tan(p.beta2)) / math.cos(p.beta2))
+    inv_j = 1.0 / p.J_load + 1.0 / input_inertia
+    oscillation = math.sqrt(p.k_theta * r_max * r_max * inv_j + p.k_phi / p.m_s + p.k_theta * g_max ** 2 / p.m_lat)
+    decay = p.c_theta * r_max * r_max * inv_j + p.c_phi / p.m_s + p.c_theta * g_max ** 2 / p.m_lat
+    return oscillation + decay
+
+
+def flexible_substeps(natural_rate: float, h: float, omega1_max: float) -> int:
+    """RK4 substeps for a step h: each at most RATE_STEP / (natural_rate + 4 |omega1|) long (the kinematics carry
+    harmonics 2x, 4x, ... of the input angle with amplitudes q, q^2, ...)."""
+    return rk4.substeps(natural_rate + 4.0 * omega1_max, h)
+
+
+def flexible_step(p: Parameters, t_span: float, phi1: float, omega1: float,
+        alpha1: float, state: Sequence[float], tau_load: float, substeps: int) -> tuple:
+    """Advance the flexible states over t_span with classical RK4; phi1(t) = phi1 + w1 t + alpha1 t^2/2.
+
+    Returns the new state; tau_load is held over the step.
+    """
+    def derivatives(phi, w, y):
+        return flexible_derivatives(p, phi, w, y, tau_load)
+    return tuple(rk4.integrate(derivatives, state, t_span, substeps, phi1, omega1, alpha1))
+
+
+# --- torque-driven input shaft: phi1 is a state, the driver's rotor inertia J_d lumped on it -------------------
+
+def torque_driven_rates(p: Parameters, j_drive: float, state, tau_drive: float, tau_load: float) -> tuple:
+    """d/dt of the state under a driving torque tau_drive on the input shaft (which carries J_d).
+
+    Rigid shaft, state (phi1, w1): (J_d + J_eq) alpha1 = tau_drive - J_eq' w1^2 / 2 - rho tau_load, i.e.
+    tau_drive = J_d alpha1 + tau_in(alpha1) with tau_in of :func:`rigid_state`, affine in alpha1.
+    Flexible shaft, state (phi1, w1, phi4, w4, phi, dphi): Lagrange's phi1 equation of the T, P, D above,
+        (J_d + J_in) alpha1 = tau_drive - J_in' w1^2 / 2 - r1 (k_theta twist + c_theta dtwist),
+    and :func:`flexible_derivatives` for the rest.
+    """
+    phi1, omega1 = state[0], state[1]
+    if len(state) == 2:
+        rest = rigid_state(p, phi1, omega1, 0.0, tau_load)
+        return omega1, (tau_drive - rest["tau_in"]) / (j_drive + rest["inertia"])
+    rates, r1, shaft = _flexible_rates(p, phi1, omega1, state[2:], tau_load)
+    j_in, dj_in = input_inertia(p, phi1)
+    return (omega1, (tau_drive - 0.5 * dj_in * omega1 * omega1 - r1 * shaft) / (j_drive + j_in)) + rates
+
+
+# --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
+
+class State(NamedTuple):
+    """Flexible intermediate shaft: output shaft angle and speed, dynamic misalignment and its rate (unused, zero,
+    with a rigid shaft)."""
+
+    phi4: float
+    omega4: float
+    phi: float
+    dphi: float
+
+
+Inputs = Drive
+
+
+def kinematic(p: Parameters) -> bool:
+    """A rigid intermediate shaft: the output follows the joints' kinematics, nothing to integrate."""
+    return p.rigid_intermediate_shaft
+
+
+def initial_state(p: Parameters, t: float, u: Drive) -> State:
+    """Untwisted, phi = 0, the output at the rigid kinematics' angle and speed of the input motion u."""
+    if p.rigid_intermediate_shaft:
+        return State(0.0, 0.0, 0.0, 0.0)
+    return State(rigid_output_angle(p, u.phi), rigid_state(p, u.phi, u.omega, 0.0, 0.0)["omega4"], 0.0, 0.0)
+
+
+def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
+    """:func:`flexible_derivatives` at the input motion u."""
+    return _flexible_rates(p, u.phi, u.omega, y, u.tau_load)[0]
+
+
+def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
+    """The natural-rate bound plus 4 |omega1| (the kinematics carry harmonics 2x, 4x, ... of the input angle)."""
+    return p.natural_rate + 4.0 * omega_max
+
+
+def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
+    """Rigid: :func:`rigid_state`; flexible: :func:`flexible_outputs` at state y."""
+    if p.rigid_intermediate_shaft:
+        out = rigid_state(p, u.phi, u.omega, u.alpha, u.tau_load)
+        values = {"phi_out": out["phi4"], "omega_out": out["omega4"], "twist": 0.0, "dynamic_misalignment": 0.0}
+    else:
+        out = flexible_outputs(p, u.phi, u.omega, u.alpha, y)
+        values = {"phi_out": y[0], "omega_out": y[1], "dynamic_misalignment": y[2], "twist": out["twist"]}
+    values.update(tau_in=out["tau_in"], shaft_torque=out["shaft_torque"], omega_intermediate=out["omega2"],
+                  stored_energy=out["energy"])
+    return values
+
+
+def check(p: Parameters) -> list:
+    """A rigid cross has I_normal <= 2 I_pin; a flexible shaft needs an output inertia."""
+    problems = []
+    if p.I_cross_normal > 2.0 * p.I_cross_pin:
+        problems.append(f"I_cross_normal = {p.I_cross_normal!r} kg.m2 exceeds 2*I_cross_pin = "
+                        f"{2.0 * p.I_cross_pin!r} kg.m2 (allowed range [0, 2*I_cross_pin] kg.m2: a rigid "
+                        "cross has I_normal <= I_pin + I_pin)")
+    if not p.rigid_intermediate_shaft and not p.J_load > 0.0:
+        problems.append(f"J_load = {p.J_load!r} kg.m2 must be > 0 with a flexible intermediate shaft "
+                        "(allowed range (0, 1000] kg.m2; 0 only with rigid_intermediate_shaft = true)")
+    return problems
+
+
+def check_state(p: Parameters, y: State) -> list:
+    """Both joint angles plus the dynamic misalignment phi must stay within [-MAX_ANGLE, MAX_ANGLE]."""
+    problems = []
+    for name, angle in (("beta1", p.beta1 + y[2]), ("beta2", p.beta2 + p.cos_plane * y[2])):
+        if abs(angle) > MAX_ANGLE:
+            problems.append(f"joint angle {name} + dynamic misalignment = {angle!r} rad left its allowed "
+                            f"range [{-MAX_ANGLE:.10g}, {MAX_ANGLE:.10g}] rad")
+    return problems[:1]

@@ -1,0 +1,1 @@
+"""Load: equations (model.py), FMU declaration (fmu.py), reference derivation, published values, README."""

@@ -1,0 +1,30 @@
+"""Load FMU: speed-dependent resisting torque."""
+
+from . import model as load
+from ...fmu.base import SPEED_RANGE, ModelSlave, input_, output, parameter
+
+
+class Load(ModelSlave):
+    """Resisting torque tau = T0*s(omega) + c1*omega + c2*omega*|omega|_s (ujfmu.models.load.model).
+
+    s and |.|_s are a smooth sign and absolute value with regularisation speed omega_smooth, so the law is smooth
+    and odd through omega = 0: constant (Coulomb-like) torque T0, viscous c1, fan/propeller c2 (Brutti et al.:
+    M_u = c*omega^2, c = 0.017 N.m.s^2). Stateless: tau follows omega directly (direct feedthrough).
+    Signs: tau > 0 opposes positive rotation; connect it to the tau_load input of the machine that drives it.
+    """
+
+    MODEL = load
+    VARIABLES = (
+        parameter("T0", 0.3, "N.m", "Constant resisting torque magnitude (Feng et al.: T0 = 0.3 N.m)",
+                  min=-1.0e6, max=1.0e6),
+        parameter("c1", 0.0, "N.m.s/rad", "Viscous coefficient", min=-1.0e6, max=1.0e6),
+        parameter("c2", 0.0, "N.m.s2/rad2", "Quadratic (fan) coefficient", min=-1.0e6, max=1.0e6),
+        parameter("omega_smooth", 0.1, "rad/s", "Regularisation speed of the smooth sign and absolute value",
+                  min=1.0e-9, max=1.0e6),
+        input_("omega", 0.0, "rad/s", "Speed of the driven shaft", **SPEED_RANGE),
+        output("tau", "N.m", "Resisting torque (positive opposes positive rotation)", ("omega",)),
+    )
+    DEFAULT_EXPERIMENT = (0.0, 1.0, 1.0e-3)
+
+    def model_inputs(self):
+        return load.Inputs(self.omega)

@@ -1,0 +1,67 @@
+"""Driven load: resisting torque tau = T0*s(omega) + c1*omega + c2*omega*|omega|_s.
+
+s(omega) = omega/sqrt(omega^2 + omega_s^2) is a smooth sign and |omega|_s = sqrt(omega^2 + omega_s^2) a smooth
+absolute value, so the law is infinitely differentiable through omega = 0 and odd in omega (the torque always
+opposes the motion). For |omega| >> omega_s it is Coulomb T0*sign(omega), viscous c1*omega and fan/propeller
+c2*omega^2 (the fan load M_u = c*omega_5^2 of [Brutti1999]: Carlo Brutti, Ettore Pennestri, Marco Evangelos
+Biancolini, "On the Dynamics of the Transmission with a Double Cardan Joint", Proceedings of the Tenth World
+Congress on the Theory of Machines and Mechanisms (IFToMM), Oulu, Finland, 1999). Standard library only: runs
+inside the Load FMU.
+"""
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+
+def load_torque(omega: float, t0: float, c1: float, c2: float, omega_smooth: float) -> float:
+    """Resisting torque [N.m] at speed omega [rad/s]; positive opposes positive rotation."""
+    mag = math.sqrt(omega * omega + omega_smooth * omega_smooth)
+    return t0 * omega / mag + c1 * omega + c2 * omega * mag
+
+
+# --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
+
+@dataclass(slots=True)
+class Parameters:
+    """The Load FMU's parameters (names as declared there)."""
+
+    T0: float
+    c1: float
+    c2: float
+    omega_smooth: float
+
+
+class State(NamedTuple):
+    """Stateless: the torque follows the speed."""
+
+
+class Inputs(NamedTuple):
+    """Speed of the driven shaft [rad/s]."""
+
+    omega: float
+
+
+def kinematic(p: Parameters) -> bool:
+    return True
+
+
+def initial_state(p: Parameters, t: float, u: Inputs) -> State:
+    return State()
+
+
+def derivatives(p: Parameters, t: float, y: State, u: Inputs) -> tuple:
+    return ()
+
+
+def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
+    return 0.0
+
+
+def outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
+    """The resisting torque at the input speed (:func:`load_torque`)."""
+    return {"tau": load_torque(u.omega, p.T0, p.c1, p.c2, p.omega_smooth)}
+
+
+def check(p: Parameters) -> list:
+    return []

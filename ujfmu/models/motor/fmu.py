@@ -1,0 +1,92 @@
+"""Motor FMU: rotor inertia with a PI speed controller and torque limit, or an ideal speed source."""
+
+from . import model as motor
+from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, ModelSlave, UjfmuSlave, input_, output, parameter
+
+_SPEED = SPEED_RANGE
+
+
+class Motor(ModelSlave):
+    """Drive motor following a speed profile (ujfmu.models.motor.model).
+
+    PI mode (ideal_speed_source = false): J_rotor*domega/dt = tau_motor - tau_load with
+    tau_motor = clamp(Kp*e + Ki*integral(e), -tau_max, tau_max), e = omega_ref - omega, conditional-integration
+    anti-windup. Integrated over each communication step with tau_load held (classical RK4, substeps chosen from
+    the closed loop's fastest pole). Starts at omega = omega_ref(start), integral 0.
+    Ideal mode (ideal_speed_source = true): omega = omega_ref(t), phi = its integral, and
+    tau_motor = J_rotor*alpha_ref + tau_load is the torque a perfect drive would deliver (a step has no impulse).
+
+    Profiles: 0 constant omega_set; 1 ramp from rest at accel up to omega_set (Feng's start-up: 30 rad/s^2);
+    2 step from omega_initial to omega_set at t_step.
+    Signs: omega, phi, tau_motor > 0 in the direction of rotation; tau_load > 0 opposes the rotation.
+    """
+
+    MODEL = motor
+    VARIABLES = (
+        parameter("J_rotor", 1.0e-3, "kg.m2", "Rotor moment of inertia", min=1.0e-9, max=1.0e3),
+        parameter("Kp", 0.2, "N.m.s/rad", "PI speed controller proportional gain", min=0.0, max=1.0e6),
+        parameter("Ki", 10.0, "N.m/rad", "PI speed controller integral gain", min=0.0, max=1.0e8),
+        parameter("tau_max", 5.0, "N.m", "Torque limit of the drive (symmetric)", min=0.0, max=1.0e6),
+        parameter("profile", 1, "1", "Speed profile: 0 constant, 1 ramp from rest, 2 step", min=0, max=2, type=int),
+        parameter("omega_set", 150.0, "rad/s", "Final (constant, ramp end, step target) speed", **_SPEED),
+        parameter("accel", 30.0, "rad/s2", "Ramp acceleration (Feng et al.: 30 rad/s^2)", min=1.0e-6, max=1.0e7),
+        parameter("t_step", 0.0, "s", "Time of the speed step", min=-1.0e9, max=1.0e9),
+        parameter("omega_initial", 0.0, "rad/s", "Speed before the step", **_SPEED),
+        parameter("ideal_speed_source", False, None, "True: follow the profile exactly (ideal speed source)",
+                  type=bool),
+        input_("tau_load", 0.0, "N.m", "Reaction torque of the driven machine (positive opposes rotation)",
+               **TORQUE_RANGE),
+        output("omega", "rad/s", "Rotor speed"),
+        output("phi", "rad", "Rotor angle, continuous over revolutions"),
+        output("tau_motor", "N.m", "Drive torque on the rotor", ("tau_load",)),
+        output("omega_ref", "rad/s", "Reference speed of the profile"),
+    )
+    DEFAULT_EXPERIMENT = (0.0, 6.0, 1.0e-3)
+
+    def model_inputs(self):
+        return motor.Inputs(self.tau_load)
+
+
+class MotorController(UjfmuSlave):
+    """Motor drive without its rotor, for the torque-driven joints: measured speed in, drive torque out.
+
+    The Motor's PI speed controller, torque limit and speed profiles (ujfmu.models.motor.model):
+    tau_motor = clamp(Kp*e + Ki*I, -tau_max, tau_max), e = omega_ref(t) - omega, conditional-integration
+    anti-windup, with omega the speed the host passes in (held over a step: a sampled speed controller). The
+    rotor inertia belongs to the driven model: set the torque-driven joint's J_drive to the motor's J_rotor and
+    connect tau_motor -> tau_in, omega_in -> omega. The integral starts at 0.
+    Signs as Motor's: tau_motor > 0 drives in the direction of rotation.
+    """
+
+    PHYSICS = motor
+    VARIABLES = tuple(v for v in Motor.VARIABLES
+                      if v.causality == "parameter" and v.name not in ("J_rotor", "ideal_speed_source")) + (
+        input_("omega", 0.0, "rad/s", "Measured rotor speed (the torque-driven joint's omega_in)", **_SPEED),
+        output("tau_motor", "N.m", "Drive torque on the rotor", ("omega",)),
+        output("omega_ref", "rad/s", "Reference speed of the profile"),
+    )
+    DEFAULT_EXPERIMENT = Motor.DEFAULT_EXPERIMENT
+    STATE = {"_time": "float", "_integral": "float"}
+    DERIVED = ("_params",)
+
+    def check_parameters(self):
+        return motor.check(self)   # the profile's parameters, named as Motor's
+
+    def _reference(self, t):
+        return motor.reference(self, t)
+
+    def derive(self):
+        self._params = (self.Kp, self.Ki, self.tau_max, self.profile, self.omega_set, self.accel, self.t_step,
+                        self.omega_initial)
+
+    def initialize(self, start_time):
+        self._time, self._integral = start_time, 0.0
+
+    def compute_outputs(self):
+        self.omega_ref = self._reference(self._time)[0]
+        self.tau_motor = motor.pi_torque(self.omega_ref - self.omega, self._integral, self.Kp, self.Ki,
+                                         self.tau_max)[0]
+
+    def advance(self, t, h):
+        self._integral = motor.controller_step(t, h, self._integral, self.omega, self._params)
+        self._time = t + h

@@ -1,0 +1,148 @@
+"""Drive motor: rotor inertia with a PI speed controller and a torque limit, or an ideal speed source.
+
+    J * domega/dt = tau_motor - tau_load,   dphi/dt = omega
+    e = omega_ref(t) - omega,  u = Kp*e + Ki*I,  tau_motor = clamp(u, -tau_max, tau_max)
+    dI/dt = e, except while the output is saturated and e drives it further into saturation
+            (conditional integration, the usual anti-windup)
+
+Speed profiles omega_ref(t) (Feng et al. accelerate the driving shaft at alpha = 30 rad/s^2 from rest):
+    CONSTANT: omega_ref = omega_set
+    RAMP:     omega_ref = min(accel * t, omega_set)  (from rest)
+    STEP:     omega_ref = omega_initial before t_step, omega_set from t_step on
+Source: none; a generic drive (PI speed control with conditional-integration anti-windup, the textbook law).
+Standard library only: runs inside the Motor FMU.
+"""
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+from ...fmu import rk4
+
+CONSTANT, RAMP, STEP = 0, 1, 2
+
+
+def speed_reference(t: float, profile: int, omega_set: float,
+        accel: float, t_step: float, omega_initial: float) -> tuple:
+    """(omega_ref, alpha_ref, phi_ref): reference speed, its derivative and its integral from t = 0."""
+    if profile == RAMP:
+        t_end = omega_set / accel
+        if t < t_end:
+            return accel * t, accel, 0.5 * accel * t * t
+        return omega_set, 0.0, 0.5 * accel * t_end * t_end + omega_set * (t - t_end)
+    if profile == STEP:
+        if t < t_step:
+            return omega_initial, 0.0, omega_initial * t
+        return omega_set, 0.0, omega_initial * t_step + omega_set * (t - t_step)
+    return omega_set, 0.0, omega_set * t
+
+
+def pi_torque(error: float, integral: float, kp: float, ki: float, tau_max: float) -> tuple:
+    """(tau_motor, dI/dt) of the PI law with clamp and conditional-integration anti-windup."""
+    u = kp * error + ki * integral
+    if u > tau_max:
+        return tau_max, (0.0 if error > 0.0 else error)
+    if u < -tau_max:
+        return -tau_max, (0.0 if error < 0.0 else error)
+    return u, error
+
+
+# --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
+
+@dataclass(slots=True)
+class Parameters:
+    """The Motor FMU's parameters (names as declared there)."""
+
+    J_rotor: float
+    Kp: float
+    Ki: float
+    tau_max: float
+    profile: int
+    omega_set: float
+    accel: float
+    t_step: float
+    omega_initial: float
+    ideal_speed_source: bool = False
+
+
+class State(NamedTuple):
+    """Rotor angle [rad] and speed [rad/s] and the controller's integral of the speed error [rad]; an ideal speed
+    source holds the angle offset that makes its angle 0 at the start in phi (nothing is integrated)."""
+
+    phi: float
+    omega: float
+    integral: float
+
+
+class Inputs(NamedTuple):
+    """The reaction torque of the driven machine [N.m], held over a step."""
+
+    tau_load: float
+
+
+def reference(p: Parameters, t: float) -> tuple:
+    """(omega_ref, alpha_ref, phi_ref) of the profile at time t (:func:`speed_reference`)."""
+    return speed_reference(t, p.profile, p.omega_set, p.accel, p.t_step, p.omega_initial)
+
+
+def kinematic(p: Parameters) -> bool:
+    """The ideal speed source: the rotor follows the profile, nothing to integrate."""
+    return p.ideal_speed_source
+
+
+def initial_state(p: Parameters, t: float, u: Inputs) -> State:
+    """Rotor at angle 0 and the reference speed, integral 0 (ideal source: the offset -phi_ref(t))."""
+    omega_ref, _, phi_ref = reference(p, t)
+    return State(-phi_ref if p.ideal_speed_source else 0.0, omega_ref, 0.0)
+
+
+def derivatives(p: Parameters, t: float, y: State, u: Inputs) -> tuple:
+    """J domega/dt = tau_motor - tau_load, dphi/dt = omega, dI/dt from :func:`pi_torque`."""
+    omega_ref = reference(p, t)[0]
+    tau, d_integral = pi_torque(omega_ref - y[1], y[2], p.Kp, p.Ki, p.tau_max)
+    return y[1], (tau - u.tau_load) / p.J_rotor, d_integral
+
+
+#: substep length times the closed loop's fastest pole: 0.2, tighter than rk4.RATE_STEP, keeps the PI start-ups'
+#: RK4 error well below the 1e-3 of their range they are checked to
+POLE_STEP = 0.2
+
+
+def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
+    """The closed loop J s^2 + Kp s + Ki = 0 has |lambda| <= Kp/J + sqrt(Ki/J) (both roots), scaled so that a
+    substep (rk4.RATE_STEP / rate) is POLE_STEP / |lambda| long."""
+    return (p.Kp / p.J_rotor + math.sqrt(p.Ki / p.J_rotor)) * (rk4.RATE_STEP / POLE_STEP)
+
+
+def outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
+    """Speed, angle and drive torque (ideal source: the profile, and the torque J alpha_ref + tau_load a perfect
+    drive delivers; PI: the state and the PI law)."""
+    omega_ref, alpha_ref, phi_ref = reference(p, t)
+    if p.ideal_speed_source:
+        return {"omega_ref": omega_ref, "omega": omega_ref, "phi": phi_ref + y[0],
+                "tau_motor": p.J_rotor * alpha_ref + u.tau_load}
+    return {"omega_ref": omega_ref, "phi": y[0], "omega": y[1],
+            "tau_motor": pi_torque(omega_ref - y[1], y[2], p.Kp, p.Ki, p.tau_max)[0]}
+
+
+def check(p: Parameters) -> list:
+    """The ramp runs from rest up to omega_set >= 0."""
+    if p.profile == RAMP and p.omega_set < 0.0:
+        return [f"omega_set = {p.omega_set!r} rad/s is outside its allowed range [0, 1e+04] rad/s for the "
+                "ramp profile (profile = 1)"]
+    return []
+
+
+def controller_step(t: float, h: float, integral: float, omega: float, p: tuple) -> float:
+    """Advance the PI controller's integral over [t, t+h] with the measured speed omega held (a sampled speed
+    controller without a rotor of its own): dI/dt of :func:`pi_torque` with e = omega_ref(t) - omega, one RK4
+    step (exact while unsaturated: e is linear in t between the profile's corners).
+
+    p: (kp, ki, tau_max, profile, omega_set, accel, t_step, omega_initial).
+    """
+    kp, ki, tau_max, profile, omega_set, accel, t_step, omega_initial = p
+
+    def rates(s, y):
+        omega_ref = speed_reference(t + s, profile, omega_set, accel, t_step, omega_initial)[0]
+        return (pi_torque(omega_ref - omega, y[0], kp, ki, tau_max)[1],)
+    return rk4.integrate_time(rates, (integral,), h, 1)[0]

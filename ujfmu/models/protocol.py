@@ -1,0 +1,61 @@
+"""The protocol every model implements, and that the shared FMU base (ujfmu.fmu.base) drives.
+
+Standard library only: this module runs inside every FMU. A model's ``model.py`` is a module with:
+
+``Parameters``
+    a dataclass whose field names are the FMU's parameter names (derived constants the equations use are
+    ``init=False`` fields set in ``__post_init__``); built from the FMU's parameters by name.
+``State``
+    a NamedTuple of the integrated variables (no fields: a model without dynamics of its own).
+``initial_state(p, t, u) -> State``
+    the state at time t [s] and inputs ``u`` of the start; the FMU re-evaluates it at the current inputs until
+    its first step (the warm start: a host may set the inputs after initialization).
+``derivatives(p, t, y, u) -> tuple``
+    dy/dt at time t [s], state y and inputs u.
+``outputs(p, t, y, u) -> dict``
+    the FMU's outputs, by output name, at time t, state y and inputs u.
+``check(p) -> list``
+    the messages for parameter combinations that are invalid (each parameter's own range is checked from the
+    FMU declaration before).
+``rate_bound(p, y, omega_max) -> float``
+    an upper bound [1/s] of the fastest rate of y over a step whose input speeds stay within omega_max [rad/s]:
+    the RK4 substeps are ``ujfmu.fmu.rk4.RATE_STEP / rate_bound`` long.
+
+Optional: ``kinematic(p) -> bool`` (default False; True: the state is not integrated but held from the first
+step on, the outputs following the inputs alone) and ``check_state(p, y) -> list``
+(messages when a state reached by a step is outside the model's validity; default none).
+
+The inputs ``u`` are the model's own NamedTuple ``Inputs``; a model whose input shaft follows a prescribed speed
+(``omega_in``) uses :class:`Drive`, which the base extrapolates over a step (angle quadratic, speed linear in time:
+``ujfmu.fmu.rk4``).
+"""
+
+from typing import NamedTuple, Protocol
+
+
+class Drive(NamedTuple):
+    """Inputs of a model whose input shaft follows a prescribed motion: the shaft's angle [rad], speed [rad/s] and
+    acceleration [rad/s2] (the backward difference of omega_in), and the load torque [N.m] (held over a step)."""
+
+    phi: float
+    omega: float
+    alpha: float
+    tau_load: float
+
+
+class Model(Protocol):
+    """What the FMU base needs from a model module (see the module docstring)."""
+
+    Parameters: type
+    State: type
+    Inputs: type
+
+    def initial_state(self, p, t: float, u) -> tuple: ...
+
+    def derivatives(self, p, t: float, y: tuple, u) -> tuple: ...
+
+    def outputs(self, p, t: float, y: tuple, u) -> dict: ...
+
+    def check(self, p) -> list: ...
+
+    def rate_bound(self, p, y: tuple, omega_max: float) -> float: ...

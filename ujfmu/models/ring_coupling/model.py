@@ -1,0 +1,148 @@
+"""Elastic centrifugal ring coupling between radially misaligned shafts.
+
+Source [Turla2002]: Vytautas Turla, Igor Iljin, "The investigation of dynamics of misaligned units in vehicle
+transmission", Transport (Vilnius Gediminas Technical University), 2002; Eqs. (5)-(22).
+
+Derivation and every interpretation of the paper: README.md. Standard library only: this module runs
+inside the RingCoupling FMU.
+
+Shaft 1 (angle phi1, prescribed) drives shaft 2 (angle phi2, inertia I2) through a steel-wire ring (radius R, wire
+diameter d, Young's modulus E, EI = E pi d^4 / 64) with radial misalignment e:
+
+    M_p = 157 (EI / R^3) e^2 cos(phi1 + phi2)                      (Eq. 7; acts on both shafts, see below)
+    x_e = phi2 - phi1 - (alpha2 - alpha1)                           (Eq. 8: unevenness of the second shaft)
+    I2 phi2'' = M_p - c_s x_e - c_d x_e' - tau_load                 (Eq. 9 plus the coupling's elastic torque)
+    c_s = 87 EI / R  [N.m/rad]                                      (Eq. 21-22; the paper prints EI / R^3)
+
+M_p derives from the ring's potential Pi = -157 (EI/R^3) e^2 sin(phi1 + phi2): -dPi/dphi2 = M_p (Eq. 9), and the
+same -dPi/dphi1 = M_p acts on shaft 1, so the driver supplies tau_in = I1 alpha1 - M_p - (c_s x_e + c_d x_e').
+With c_s = c_d = tau_load = 0 this is Eq. (9), the pendulum y'' + A_e sin y = 0 in y = pi/2 - (phi1 + phi2)
+(Eq. 11-12), A_e = 157 e^2 EI / (I2 R^3).
+"""
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+from ..protocol import Drive
+
+#: Eq. (5)/(7): M_p = MP_COEFFICIENT (EI/R^3) e^2 cos(phi1 + phi2)
+MP_COEFFICIENT = 157.0
+#: Eq. (21)-(22) with [6]: c_s = CS_COEFFICIENT EI/R
+CS_COEFFICIENT = 87.0
+#: Eq. (20): amplitude of the 2x part of x_e = SMALL_PARAMETER_COEFFICIENT e^2 EI / (omega^2 I2 R^3) = A_e/(4 w^2)
+SMALL_PARAMETER_COEFFICIENT = MP_COEFFICIENT / 4.0   # 39.25
+
+
+def bending_stiffness(E: float, d: float) -> float:
+    """EI of a round wire of diameter d [N.m^2]."""
+    return E * math.pi * d ** 4 / 64.0
+
+
+def rotational_stiffness(E: float, d: float, R: float) -> float:
+    """c_s = 87 EI / R [N.m/rad] (Eq. 21-22, units corrected)."""
+    return CS_COEFFICIENT * bending_stiffness(E, d) / R
+
+
+def pendulum_constant(E: float, d: float, R: float, e: float, I2: float) -> float:
+    """A_e = 157 e^2 EI / (I2 R^3) [1/s^2] (Eq. 12)."""
+    return MP_COEFFICIENT * e * e * bending_stiffness(E, d) / (I2 * R ** 3)
+
+
+def small_parameter_amplitude(E: float, d: float, R: float, e: float, I2: float, omega: float) -> float:
+    """Amplitude of the double-frequency part of x_e, Eq. (20): 39.25 e^2 EI / (omega^2 I2 R^3) [rad]."""
+    return SMALL_PARAMETER_COEFFICIENT * e * e * bending_stiffness(E, d) / (omega * omega * I2 * R ** 3)
+
+
+def validity_speed(E: float, d: float, R: float, I2: float) -> float:
+    """Lowest speed [rad/s] at which Eq. (20) holds: its amplitude must not exceed the largest static shift
+    x_e_max = M_p,max / c_s = (157/87) (e/R)^2 (Eq. 21-22). e cancels: omega_min^2 = (87/4) EI / (I2 R) =
+    c_s / (4 I2), i.e. where twice the running speed meets the coupling's own natural frequency sqrt(c_s/I2)."""
+    return math.sqrt(CS_COEFFICIENT / 4.0 * bending_stiffness(E, d) / (I2 * R))
+
+
+@dataclass(slots=True)
+class Parameters:
+    """The RingCoupling FMU's parameters (names as declared there) and the constants the equations use: the
+    amplitude 157 (EI/R^3) e^2 of M_p (Eq. 7), the offset alpha2 - alpha1 of Eq. (8) and the natural-rate bound."""
+
+    R: float
+    d: float
+    E: float
+    e: float
+    I1: float
+    I2: float
+    c_s: float
+    c_d: float
+    phi_in_start: float = 0.0
+    phi_out_start: float = 0.0
+    start_at_input_speed: bool = True
+    omega_out_start: float = 0.0
+    mp_amplitude: float = field(init=False, repr=False)
+    offset: float = field(init=False, repr=False)
+    natural_rate: float = field(init=False, repr=False)
+
+    def __post_init__(self):
+        self.mp_amplitude = MP_COEFFICIENT * bending_stiffness(self.E, self.d) * self.e * self.e / self.R ** 3
+        self.offset = self.phi_out_start - self.phi_in_start        # alpha2 - alpha1
+        self.natural_rate = natural_rate(self)
+
+
+def torques(p: Parameters, phi1: float, w1: float, phi2: float, w2: float) -> tuple:
+    """(M_p, x_e, elastic torque on shaft 2 = -(c_s x_e + c_d x_e'))."""
+    x_e = phi2 - phi1 - p.offset
+    return p.mp_amplitude * math.cos(phi1 + phi2), x_e, -(p.c_s * x_e + p.c_d * (w2 - w1))
+
+
+def outputs_at(p: Parameters, phi1: float, w1: float, alpha1: float, y: Sequence[float]) -> dict:
+    """dict of the FMU's torque and energy outputs for a state y = (phi2, w2)."""
+    m_p, x_e, elastic = torques(p, phi1, w1, y[0], y[1])
+    potential = -p.mp_amplitude * math.sin(phi1 + y[0]) + 0.5 * p.c_s * x_e * x_e
+    return dict(M_p=m_p, x_e=x_e, transmitted_torque=m_p + elastic, tau_in=p.I1 * alpha1 - m_p + elastic,
+                stored_energy=0.5 * (p.I1 * w1 * w1 + p.I2 * y[1] * y[1]) + potential)
+
+
+def natural_rate(p: "Parameters") -> float:
+    """Bound [1/s] of the free motion: sqrt((c_s + M_p amplitude) / I2) + c_d / I2."""
+    return math.sqrt((p.c_s + p.mp_amplitude) / p.I2) + p.c_d / p.I2
+
+
+# --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
+
+class State(NamedTuple):
+    """Shaft 2's angle phi2 [rad] and speed [rad/s]."""
+
+    phi_out: float
+    omega_out: float
+
+
+Inputs = Drive
+
+
+def initial_state(p: Parameters, t: float, u: Drive) -> State:
+    """Shaft 2 at phi_out_start, turning with the input (start_at_input_speed) or at omega_out_start."""
+    return State(p.phi_out_start, u.omega if p.start_at_input_speed else p.omega_out_start)
+
+
+def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
+    """d/dt (phi2, w2), Eq. (9) with the elastic torque and the load."""
+    m_p, _, elastic = torques(p, u.phi, u.omega, y[0], y[1])
+    return (y[1], (m_p + elastic - u.tau_load) / p.I2)
+
+
+def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
+    """The natural rate plus the 2x forcing of either shaft's speed, 4 max(|w1|, |w2|) (the 4 as a margin)."""
+    return p.natural_rate + 4.0 * max(omega_max, abs(y[1]))
+
+
+def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
+    """:func:`outputs_at` and shaft 2's motion."""
+    return {"phi_out": y[0], "omega_out": y[1], **outputs_at(p, u.phi, u.omega, u.alpha, y)}
+
+
+def check(p: Parameters) -> list:
+    """The misalignment e must be smaller than the ring radius R."""
+    if not p.e < p.R:
+        return [f"e = {p.e!r} m must be smaller than the ring radius R = {p.R!r} m (allowed range [0, R) m)"]
+    return []

@@ -1,0 +1,1 @@
+"""TwinJeffcottRotor: equations (model.py), FMU declaration (fmu.py), reference derivation, published values, README."""

@@ -1,0 +1,342 @@
+"""Two unbalanced Jeffcott rotors coupled through a Hooke joint.
+
+Source [Tchomeni2019]: Tchomeni, Alugongo, Masu, "Modeling and vibration analysis of twin-rotor system
+interconnected by a Hooke's joint", Vibroengineering Procedia, vol. 27, 2019; Eqs. (1)-(11).
+
+Derivation, every interpretation of the paper and the default rig: README.md. Standard library only:
+this module runs inside the TwinJeffcottRotor FMU.
+
+Layout: input (gearbox output, prescribed angle phi_in, inertia J_gb) -- primary shaft (torsion K1T, C1T) -- disc 1
+(M1, J_M1, unbalance m_u1 at e) -- Hooke joint (angle beta) -- secondary shaft (torsion K2T, C2T) -- disc 2 (M2,
+J_M2, unbalance m_u2 at e) -- load torque. Each disc sits mid-span on a massless shaft between self-aligning
+bearings, lateral stiffness K and damping C per direction; the joint is at the shafts' adjacent bearings.
+Coordinates q = (theta1, X1, Y1, theta2, X2, Y2): disc angles and disc-centre displacements, disc 2's in the
+secondary shaft's frame (X in the plane of the two shafts).
+
+Kinetic energy of one disc (paper Eq. 5 with sin(theta), not sin(2 theta); phase phi_u of the unbalance):
+    T = (J + m_u e^2) w^2/2 + (M + m_u)(X'^2 + Y'^2)/2 + m_u e w (-sin(theta + phi_u) X' + cos(theta + phi_u) Y')
+Potential and dissipation (Eqs. 6-7 with the torsional terms written as the shafts' twists):
+    V = K1T (phi_in - theta1)^2/2 + K2T (psi - theta2)^2/2 + sum K X^2/2
+    D = C1T (w_in - theta1')^2/2 + C2T (psi' - theta2')^2/2 + sum C X'^2/2
+psi = joint output angle, exact Hooke kinematics tan(psi) = cos(beta) tan(theta1) (paper Eq. 1, driving pin normal
+to the plane of the shafts at theta1 = 0), between the shafts' end sections, each turned exactly by its bending
+slope angle sqrt(u^2 + v^2) about the normal to its bending plane (u = 3 X / L, v = 3 Y / L: end slope of a
+mid-span-loaded simply supported shaft; Rodrigues' formula, so an aligned rotor stays axisymmetric): the torque
+the joint transmits then loads the shafts laterally (its secondary couple), which is what puts twice-running-speed
+components into the lateral response when beta != 0.
+"""
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+from ...fmu import rk4
+from ..protocol import Drive
+
+#: Largest admissible joint angle magnitude [rad].
+MAX_ANGLE = math.radians(89.0)
+
+#: The default rig (one place for every default; README.md). Steel: E, G = E / (2 (1 + 0.3)), density.
+RIG = dict(
+    E=210.0e9, G=210.0e9 / 2.6, density=7850.0,   # Pa, Pa, kg/m^3 (structural steel handbook values)
+    shaft_diameter=0.012,                          # m, both shafts
+    L1=0.5, L2=0.6,                                # m, bearing spans of the primary and secondary shafts
+    disc_diameter=0.15, disc_thickness=0.025,      # m, both discs (solid steel)
+    m_u=0.002, e=0.06,                             # kg and m: a 2 g balancing screw at 60 mm radius
+    lateral_damping_ratio=0.02, torsional_damping_ratio=0.01,
+    J_gb=1.0e-3,                                   # kg.m^2, gearbox output flange
+    beta_deg=5.0,                                  # deg; the paper: "usually below 6 deg"
+)
+
+
+def rig_parameters(rig: dict = RIG) -> dict:
+    """Model parameters of a steel rig: Jeffcott stiffness 48 E I / L^3, torsion G J_p / L, disc mass and
+    polar inertia from geometry, viscous damping from damping ratios (lateral: of the disc on its shaft;
+    torsional: of each disc on its own shaft with the far end held)."""
+    d, rho = rig["shaft_diameter"], rig["density"]
+    area_moment = math.pi * d ** 4 / 64.0
+    polar_moment = 2.0 * area_moment
+    mass = rho * math.pi * rig["disc_diameter"] ** 2 / 4.0 * rig["disc_thickness"]
+    inertia = 0.5 * mass * (0.5 * rig["disc_diameter"]) ** 2
+    p = dict(beta=math.radians(rig["beta_deg"]), M1=mass, M2=mass, J_M1=inertia, J_M2=inertia, J_gb=rig["J_gb"],
+             m_u1=rig["m_u"], m_u2=rig["m_u"], e=rig["e"], L1=rig["L1"], L2=rig["L2"])
+    for i, span in ((1, rig["L1"]), (2, rig["L2"])):
+        k = 48.0 * rig["E"] * area_moment / span ** 3
+        c = 2.0 * rig["lateral_damping_ratio"] * math.sqrt(k * (mass + rig["m_u"]))
+        kt = rig["G"] * polar_moment / span
+        ct = 2.0 * rig["torsional_damping_ratio"] * math.sqrt(kt * inertia)
+        p.update({f"K{i}X": k, f"K{i}Y": k, f"C{i}X": c, f"C{i}Y": c, f"K{i}T": kt, f"C{i}T": ct})
+    return p
+
+
+@dataclass(slots=True)
+class Parameters:
+    """The TwinJeffcottRotor FMU's parameters (names as declared there) and the constants the equations use:
+    sin and cos of beta, the end slopes 3 / L per unit mid-span displacement, per disc M, J, m_u e, M + m_u (paper
+    M_X1X1), J + m_u e^2 (paper M_theta theta) and its Schur complement, and the natural-rate bound."""
+
+    beta: float
+    M1: float
+    J_M1: float
+    m_u1: float
+    phase_u1: float
+    K1X: float
+    K1Y: float
+    C1X: float
+    C1Y: float
+    K1T: float
+    C1T: float
+    L1: float
+    M2: float
+    J_M2: float
+    m_u2: float
+    phase_u2: float
+    K2X: float
+    K2Y: float
+    C2X: float
+    C2Y: float
+    K2T: float
+    C2T: float
+    L2: float
+    e: float
+    J_gb: float
+    phi_in_start: float = 0.0
+    sin_beta: float = field(init=False, repr=False)
+    cos_beta: float = field(init=False, repr=False)
+    slope1: float = field(init=False, repr=False)
+    slope2: float = field(init=False, repr=False)
+    disc1: dict = field(init=False, repr=False)
+    disc2: dict = field(init=False, repr=False)
+    natural_rate: float = field(init=False, repr=False)
+
+    def __post_init__(self):
+        self.sin_beta, self.cos_beta = math.sin(self.beta), math.cos(self.beta)
+        self.slope1, self.slope2 = 3.0 / self.L1, 3.0 / self.L2   # end slope per unit mid-span displacement
+        self.disc1 = _disc_constants(self.M1, self.J_M1, self.m_u1, self.e)
+        self.disc2 = _disc_constants(self.M2, self.J_M2, self.m_u2, self.e)
+        self.natural_rate = natural_rate_bound(self)
+
+
+def _disc_constants(mass, inertia, m_u, e):
+    a, m, jt = m_u * e, mass + m_u, inertia + m_u * e * e
+    return dict(M=mass, J=inertia, a=a, m=m, jt=jt, j_eff=jt - a * a / m)
+
+
+def _tilt_coefficients(x):
+    """(S, F, S', F') of x = angle^2: S = sin(angle)/angle, F = (1 - cos(angle))/angle^2 and their derivatives
+    with respect to x. Taylor series below x = 1e-2, where the closed forms lose digits (a bent shaft's end slope
+    is far below that: the short series below x = 1e-4 is exact to rounding)."""
+    if x < 1e-4:
+        return (1.0 - x / 6.0 * (1.0 - x / 20.0), 0.5 - x / 24.0 * (1.0 - x / 30.0),
+                -1.0 / 6.0 + x / 60.0 - x * x / 1680.0, -1.0 / 24.0 + x / 360.0 - x * x / 13440.0)
+    if x < 1e-2:
+        return (1.0 - x / 6.0 * (1.0 - x / 20.0 * (1.0 - x / 42.0 * (1.0 - x / 72.0))),
+                0.5 - x / 24.0 * (1.0 - x / 30.0 * (1.0 - x / 56.0 * (1.0 - x / 90.0))),
+                -1.0 / 6.0 + x / 60.0 - x * x / 1680.0 + x ** 3 / 90720.0 - x ** 4 / 7983360.0,
+                -1.0 / 24.0 + x / 360.0 - x * x / 13440.0 + x ** 3 / 907200.0 - x ** 4 / 95800320.0)
+    angle = math.sqrt(x)
+    s, c = math.sin(angle) / angle, math.cos(angle)
+    f = 2.0 * math.sin(0.5 * angle) ** 2 / x
+    return s, f, (c - s) / (2.0 * x), (s - 2.0 * f) / (2.0 * x)
+
+
+def _tilt(k, a, b, x, y, z):
+    """R v and its derivatives d(R v)/da, d(R v)/db for v = (x, y, z) and the rotation R = exp([r]x) by the tilt
+    vector r = (a, b, 0) (Rodrigues: R v = v + S r x v + F r x (r x v), k = _tilt_coefficients(a^2 + b^2))."""
+    s, f, ds, df = k
+    m = a * y - b * x                  # (r x v)_z
+    n = s * z + f * m
+    c = 1.0 - f * (a * a + b * b)      # cos(angle)
+    rv = (x + b * n, y - a * n, c * z + s * m)
+    g = 2.0 * (ds * z + df * m)
+    n_a = a * g + f * y
+    n_b = b * g - f * x
+    h = 2.0 * ds * m - s * z
+    d_a = (b * n_a, -n - a * n_a, a * h + s * y)
+    d_b = (n + b * n_b, -a * n_b, b * h - s * x)
+    return rv, d_a, d_b
+
+
+def joint(p: Parameters, theta1: float, u1: float, v1: float, u2: float, v2: float) -> tuple:
+    """(psi, dpsi/dtheta1, dpsi/du1, dpsi/dv1, dpsi/du2, dpsi/dv2): Hooke joint output angle.
+
+    Each bent end section is turned by its slope angle about the normal to its bending plane, exactly: the
+    primary end by R1 = exp([(v1, -u1, 0)]x) (axis tilted towards (-u1, -v1)), the secondary end, in the secondary
+    shaft's frame R_y(beta), by R2 = exp([(-v2, u2, 0)]x) (axis towards (u2, v2)). Driving pin
+    e1 = R1 R_z(theta1) (0, 1, 0); in the secondary end frame p = R2^T R_y(-beta) e1 and the driven pin is z x p, so
+    psi = atan2(-p_x, p_y): tan(psi) = cos(beta) tan(theta1) without tilts (paper Eq. 1). psi - theta1 is
+    evaluated as one atan2, so psi is continuous over revolutions. Derivatives are analytic (Rodrigues'
+    formula differentiated, `_tilt`); a change d of e1 changes psi by w . d with
+    w = R_y(beta) R2 (-p_y, p_x, 0) / (p_x^2 + p_y^2), the gradient carried back through the rotations.
+    """
+    s, c = math.sin(theta1), math.cos(theta1)
+    sb, cb = p.sin_beta, p.cos_beta
+    k1 = _tilt_coefficients(u1 * u1 + v1 * v1)
+    k2 = _tilt_coefficients(u2 * u2 + v2 * v2)
+    e1, e1_a, e1_b = _tilt(k1, v1, -u1, -s, c, 0.0)
+    # p = R2^T r with r = R_y(-beta) e1; R2^T = exp([(v2, -u2, 0)]x)
+    p_, p_a, p_b = _tilt(k2, v2, -u2, cb * e1[0] - sb * e1[2], e1[1], sb * e1[0] + cb * e1[2])
+    px, py = p_[0], p_[1]
+    den = px * px + py * py
+    psi = theta1 + math.atan2(-px * c - py * s, py * c - px * s)
+    # w = R_y(beta) R2 (-p_y, p_x, 0) / den; R2 = exp([(-v2, u2, 0)]x) on a vector without z component
+    qx, qy = -py / den, px / den
+    m = -v2 * qy - u2 * qx
+    n = k2[1] * m
+    qx, qy, qz = qx + u2 * n, qy + v2 * n, k2[0] * m
+    wx, wy, wz = cb * qx + sb * qz, qy, cb * qz - sb * qx
+    # dpsi/dtheta1 = w . R1 (-c, -s, 0)
+    m = -v1 * s - u1 * c
+    n = k1[1] * m
+    return (psi, wx * (-c - u1 * n) + wy * (-s - v1 * n) + wz * k1[0] * m,
+            -(wx * e1_b[0] + wy * e1_b[1] + wz * e1_b[2]), wx * e1_a[0] + wy * e1_a[1] + wz * e1_a[2],
+            -(px * p_b[1] - py * p_b[0]) / den, (px * p_a[1] - py * p_a[0]) / den)
+
+
+def _disc_accelerations(d, angle, w, q_theta, q_x, q_y):
+    """Solve one disc's 3x3 block of M q'' = Q (paper Eq. 10): returns (theta'', X'', Y'')."""
+    a, m = d["a"], d["m"]
+    s, c = math.sin(angle), math.cos(angle)
+    fx = q_x + a * c * w * w
+    fy = q_y + a * s * w * w
+    acc = (q_theta + a / m * (s * fx - c * fy)) / d["j_eff"]
+    return acc, (fx + a * s * acc) / m, (fy - a * c * acc) / m
+
+
+#: state: theta1, w1, X1, X1', Y1, Y1', theta2, w2, X2, X2', Y2, Y2', dissipated energy, input work
+STATE_SIZE = 14
+
+
+def shaft_torques(p: Parameters, phi_in: float, w_in: float, y: Sequence[float]) -> tuple:
+    """(T1, T2, psi, joint derivatives, rates) along a state: primary and secondary shaft torques, T > 0 driving."""
+    th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
+    s1, s2 = p.slope1, p.slope2
+    g = joint(p, th1, s1 * x1, s1 * y1, s2 * x2, s2 * y2)
+    dpsi = g[1] * w1 + s1 * (g[2] * vx1 + g[3] * vy1) + s2 * (g[4] * vx2 + g[5] * vy2)
+    t1 = p.K1T * (phi_in - th1) + p.C1T * (w_in - w1)
+    t2 = p.K2T * (g[0] - th2) + p.C2T * (dpsi - w2)
+    return t1, t2, g, dpsi
+
+
+def rates(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequence[float], tau_load: float) -> tuple:
+    """dy/dt of the 14 states (Lagrange, Eq. 8, with the energies above); tau_load acts on disc 2."""
+    th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
+    s1, s2 = p.slope1, p.slope2
+    t1, t2, g, dpsi = shaft_torques(p, phi_in, w_in, y)
+    a1, ax1, ay1 = _disc_accelerations(p.disc1, th1 + p.phase_u1, w1, t1 - t2 * g[1],
+                                       -p.K1X * x1 - p.C1X * vx1 - t2 * s1 * g[2],
+                                       -p.K1Y * y1 - p.C1Y * vy1 - t2 * s1 * g[3])
+    a2, ax2, ay2 = _disc_accelerations(p.disc2, th2 + p.phase_u2, w2, t2 - tau_load,
+                                       -p.K2X * x2 - p.C2X * vx2 - t2 * s2 * g[4],
+                                       -p.K2Y * y2 - p.C2Y * vy2 - t2 * s2 * g[5])
+    d1, d2 = w_in - w1, dpsi - w2
+    dissipation = (p.C1T * d1 * d1 + p.C2T * d2 * d2 + p.C1X * vx1 * vx1 + p.C1Y * vy1 * vy1
+                   + p.C2X * vx2 * vx2 + p.C2Y * vy2 * vy2)
+    return (w1, a1, vx1, ax1, vy1, ay1, w2, a2, vx2, ax2, vy2, ay2, dissipation,
+            (p.J_gb * alpha_in + t1) * w_in)
+
+
+def stored_energy(p: Parameters, phi_in: float, w_in: float, y: Sequence[float]) -> float:
+    """Kinetic energy of the gearbox flange and both discs plus elastic energy of shafts and supports [J]."""
+    th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
+    psi = joint(p, th1, p.slope1 * x1, p.slope1 * y1, p.slope2 * x2, p.slope2 * y2)[0]
+    energy = 0.5 * p.J_gb * w_in * w_in
+    for d, th, w, vx, vy, phase in ((p.disc1, th1, w1, vx1, vy1, p.phase_u1), (p.disc2, th2, w2, vx2, vy2, p.phase_u2)):
+        energy += (0.5 * d["jt"] * w * w + 0.5 * d["m"] * (vx * vx + vy * vy)
+                   + d["a"] * w * (-math.sin(th + phase) * vx + math.cos(th + phase) * vy))
+    twist1, twist2 = phi_in - th1, psi - th2
+    return energy + 0.5 * (p.K1T * twist1 * twist1 + p.K2T * twist2 * twist2 + p.K1X * x1 * x1 + p.K1Y * y1 * y1
+                           + p.K2X * x2 * x2 + p.K2Y * y2 * y2)
+
+
+def rest_state(p: Parameters, phi_in: float, w_in: float) -> list:
+    """Untwisted shafts, discs centred, discs turning with the input as the rigid joint kinematics dictate."""
+    g = joint(p, phi_in, 0.0, 0.0, 0.0, 0.0)
+    return [phi_in, w_in, 0.0, 0.0, 0.0, 0.0, g[0], g[1] * w_in, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+
+
+def natural_rate_bound(p: Parameters) -> float:
+    """An upper bound [1/s] of the fastest free motion: sqrt of the trace of M^-1 K plus the trace of M^-1 C, with
+    |dpsi/dtheta1| <= 1 / cos(beta) and |dpsi/du|, |dpsi/dv| <= tan(beta) (plus margin for the tilts)."""
+    r = 1.0 / p.cos_beta
+    g = 1.1 * abs(p.sin_beta) / p.cos_beta + 0.01
+    j1, j2 = p.disc1["j_eff"], p.disc2["j_eff"]
+    m1, m2 = p.disc1["M"], p.disc2["M"]
+    lat1, lat2 = p.slope1 ** 2 * g * g, p.slope2 ** 2 * g * g
+    stiffness = ((p.K1T + p.K2T * r * r) / j1 + p.K2T / j2 + (p.K1X + p.K1Y + 2.0 * p.K2T * lat1) / m1
+                 + (p.K2X + p.K2Y + 2.0 * p.K2T * lat2) / m2)
+    decay = ((p.C1T + p.C2T * r * r) / j1 + p.C2T / j2 + (p.C1X + p.C1Y + 2.0 * p.C2T * lat1) / m1
+             + (p.C2X + p.C2Y + 2.0 * p.C2T * lat2) / m2)
+    return math.sqrt(stiffness) + decay
+
+
+def step(p: Parameters, t_span: float, phi_in: float, w_in: float,
+        alpha_in: float, y: Sequence[float], tau_load: float, natural_rate: float) -> list:
+    """Advance the state over t_span with RK4 substeps (input angle quadratic in time, tau_load held); the
+    substeps resolve the natural rate and the 1x, 2x, 4x forcing by the unbalance and the joint."""
+    w_max = max(abs(w_in), abs(w_in + alpha_in * t_span))
+
+    def f(phi, w, state):
+        return rates(p, phi, w, alpha_in, state, tau_load)
+    return rk4.integrate(f, y, t_span, rk4.substeps(natural_rate + 4.0 * w_max, t_span), phi_in, w_in, alpha_in)
+
+
+def torque_outputs(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequence[float]) -> dict:
+    """dict of the torques and energy for a state (tau_in = J_gb alpha_in + T1)."""
+    t1, t2, g, dpsi = shaft_torques(p, phi_in, w_in, y)
+    return dict(tau_in=p.J_gb * alpha_in + t1, primary_shaft_torque=t1, secondary_shaft_torque=t2,
+                joint_output_angle=g[0], stored_energy=stored_energy(p, phi_in, w_in, y))
+
+
+# --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
+
+class State(NamedTuple):
+    """Disc angles and speeds, disc-centre displacements and velocities, and the energy audit's integrals."""
+
+    theta1: float
+    omega1: float
+    X1: float
+    dX1: float
+    Y1: float
+    dY1: float
+    theta2: float
+    omega2: float
+    X2: float
+    dX2: float
+    Y2: float
+    dY2: float
+    dissipated_energy: float
+    input_work: float
+
+
+Inputs = Drive
+
+
+def initial_state(p: Parameters, t: float, u: Drive) -> State:
+    """:func:`rest_state` at the input motion u."""
+    return State(*rest_state(p, u.phi, u.omega))
+
+
+def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
+    """:func:`rates` at the input motion u."""
+    return rates(p, u.phi, u.omega, u.alpha, y, u.tau_load)
+
+
+def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
+    """The natural-rate bound plus 4 |omega_in| (the 1x, 2x, 4x forcing by the unbalance and the joint)."""
+    return p.natural_rate + 4.0 * omega_max
+
+
+def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
+    """The discs' motion from the state, the torques and energy from :func:`torque_outputs`."""
+    out = torque_outputs(p, u.phi, u.omega, u.alpha, y)
+    return {"phi_disc1": y[0], "omega_disc1": y[1], "X1": y[2], "Y1": y[4], "phi_out": y[6], "omega_out": y[7],
+            "X2": y[8], "Y2": y[10], "dissipated_energy": y[12], "input_work": y[13], "tau_in": out["tau_in"],
+            "stored_energy": out["stored_energy"], "primary_shaft_torque": out["primary_shaft_torque"],
+            "secondary_shaft_torque": out["secondary_shaft_torque"]}
+
+
+def check(p: Parameters) -> list:
+    """Every parameter's own range suffices."""
+    return []
