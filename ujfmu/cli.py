@@ -71,13 +71,27 @@ def cmd_build(args):
 
 
 def _run_one(args, path, scenario=None):
+    from .scenario import Scenario
     from .scenario_run import run_scenario
     plot = not args.no_plot and available("matplotlib")
+    if args.output_interval is not None:
+        scenario = scenario if scenario is not None else Scenario(path)
+        scenario.output_interval = args.output_interval
     with _progress(args, Path(path).stem, "step") as progress:
         result = run_scenario(scenario if scenario is not None else path, fmu_dir=args.fmu_dir, out_dir=args.out,
                               plot=plot, progress=progress)
     print(result.summary())
     return result
+
+
+def _positive_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number >= 1")
+    return value
 
 
 def _plots_missing(args):
@@ -337,6 +351,9 @@ def main(argv=None):
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")
         _out(p, "results/", "output folder")
         p.add_argument("--no-plot", action="store_true")
+        p.add_argument("--output-interval", type=_positive_int, metavar="N",
+                       help="record every N-th communication step and the last (default: the scenario's "
+                            "[experiment] output_interval, else 1)")
     p = command("references", cmd_references, "regenerate the reference CSV files of the scenarios")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p = command("sweep", cmd_sweep, "co-simulate a scenario over a parameter grid to steady state (dask)")
