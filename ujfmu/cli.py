@@ -225,11 +225,14 @@ def cmd_export_ssp(args):
 def cmd_bench(args):
     for module, extra in (("scipy", "references"), ("sympy", "references"), ("distributed", "sweep")):
         require(module, extra, "ujfmu bench")
-    from .bench import render, run_bench, write
+    from .bench import ENGINES, render, run_bench, write
     from .battery import paths as battery_paths
+    cpus = None if args.engine_cpus is None else set() if args.engine_cpus == "all" else \
+        {int(c) for c in args.engine_cpus.split(",")}
     result = run_bench(_scenarios(args.scenarios), fmu_dir=args.fmu_dir, sweep=not args.no_sweep,
                        progress=(lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr)),
-                       battery=() if args.no_battery else battery_paths())
+                       battery=() if args.no_battery else battery_paths(),
+                       engines=() if args.no_engines else ENGINES, cpus=cpus)
     print(render(result))
     print(f"\nwrote {write(result, args.out)}")
     return 0
@@ -383,11 +386,17 @@ def main(argv=None):
     p = command("export-ssp", cmd_export_ssp, "write scenarios as SSP packages (SystemStructure.ssd + FMUs)")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     _out(p, "results/", "writes <scenario>.ssp here")
-    p = command("bench", cmd_bench, "speed figures as ratios in one run: FMI floor, monolithic solve, sweeps")
+    p = command("bench", cmd_bench, "speed figures as ratios in one run: FMI floor, monolithic solve, engines, "
+                                    "sweeps")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p.add_argument("--no-sweep", action="store_true", help="skip the sweep figures (1 and 2 workers)")
     p.add_argument("--no-battery", action="store_true",
                    help="skip the coupling battery's cost per scheme (scenarios/battery, about 2 minutes)")
+    p.add_argument("--no-engines", action="store_true",
+                   help="skip our master, Ecos and libcosim side by side on the scenarios' SSP packages")
+    p.add_argument("--engine-cpus", metavar="N[,N...]|all",
+                   help="cores the engine runs are pinned to (default: the first core this process may use; "
+                        "all: unpinned)")
     _out(p, "results/", "writes bench.md and bench.json here")
     p = command("battery", cmd_battery, "run the coupling battery (scenarios/battery) in each scheme against its "
                                         "monolithic references")
