@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from ujfmu import battery
-from ujfmu.master import Component, Connection, CosimulationError, CouplingInstabilityError, cosimulate
+from ujfmu.master import (Component, Connection, Cosimulation, CosimulationError, CouplingInstabilityError,
+                          cosimulate)
 from ujfmu.scenario import Scenario
 
 
@@ -100,3 +101,18 @@ def test_a_diverging_run_keeps_its_sparse_record_up_to_the_failure(fmu_dir):
         partial[every] = failure.value.partial
     assert len(partial[1]) % 2 == 1 and len(partial[1]) >= 5
     assert partial[2].tobytes() == partial[1][::2].tobytes()
+
+
+def test_steps_that_record_nothing_leave_read_and_run_where_a_recording_run_is(fmu_dir):
+    """advance() without rows reads only what the connections need; read() afterwards and a following run() give
+    bitwise the rows of one recording run at the same steps (no stale recorded signal)."""
+    record = ["joint.omega_out", "load.tau", "joint.tau_in", "joint.M_z", "motor.tau_motor", "motor.omega"]
+    full = cosimulate(chain(fmu_dir), CONNECTIONS, 0.2, 1e-3, record, coupling="explicit")
+    with Cosimulation(chain(fmu_dir), CONNECTIONS, 1e-3, record, coupling="explicit") as cosim:
+        cosim.advance(150)
+        row = np.empty(len(record))
+        cosim.read(row)
+        rest, columns = cosim.run(50), cosim.columns
+    assert row.tobytes() == np.array([full[150][name] for name in columns]).tobytes()
+    assert all(rest[name].tobytes() == full[name][150:].tobytes() for name in columns)
+    np.testing.assert_allclose(rest["time"], full["time"][150:], rtol=1e-15)

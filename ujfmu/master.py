@@ -308,6 +308,7 @@ class Cosimulation:
             sequence.append(("set", len(sets)))
             sets.append((dst, self.instances[dst].vr(inp), g, pos))
             open_get.pop(dst, None)
+        transferred = [len(vrs) for _, vrs in gets]   # the values connections need: a prefix of each read
         self.columns, readers, places = [], [], []
         for comp_name in dict.fromkeys(name.split(".", 1)[0] for name in record):
             names = [name for name in record if name.split(".", 1)[0] == comp_name]
@@ -356,6 +357,9 @@ class Cosimulation:
                 self._ops.append((inst.bare("fmi2SetReal"), c_void_p(inst.slave.component), _vrs(vr), c_size_t(1),
                                   segment(offsets[g] + pos, 1)))
                 self._op_names.append(f"transfer {ordered[i].source} -> {ordered[i].target}")
+        # the same without the recorded signals riding along, for the steps that record nothing
+        self._lean_ops = [op if kind == "set" else op[:3] + (c_size_t(transferred[i]),) + op[4:]
+                          for op, (kind, i) in zip(self._ops, sequence)]
         self._readers = [bare_get(comp, vrs, offsets[len(gets) + i]) for i, (comp, vrs) in enumerate(readers)]
         # per connection, in feedthrough order: (get, source, its vr, 1, value, set, target, its vr, connection),
         # value the one-value view of the scratch row where the connection's value is read to
@@ -373,6 +377,7 @@ class Cosimulation:
                           for name, inst in self.instances.items()]
         self._plan_tearing(views)
         self._communicate()
+        self._fresh = True
         # per torn connection: [last value, last change, alternations, |change| when they began, max |value|]
         self._growth = [[v[0], 0.0, 0, 0.0, abs(v[0])] for v in self._tear_views]
 
@@ -428,11 +433,15 @@ class Cosimulation:
                 self._op_failed(op)
 
     def _op_failed(self, op):
-        name = self._op_names[self._ops.index(op)] if op in self._ops else "reading the recorded signals"
+        plan = self._ops if op in self._ops else self._lean_ops
+        name = self._op_names[plan.index(op)] if op in plan else "reading the recorded signals"
         raise CosimulationError(f"t = {self.time!r}: {name} failed" + self._log_text())
 
     def read(self, row):
         """Write the recorded signals at the current communication point into row (len(columns) floats)."""
+        if not self._fresh:   # the last step read only what the connections need: transfer again, all of it
+            self._communicate()
+            self._fresh = True
         for op in self._readers:
             if op[0](op[1], op[2], op[3], op[4]) > 1:
                 self._op_failed(op)
@@ -456,6 +465,7 @@ class Cosimulation:
             else:
                 t = start + self.steps_done * h
                 self._implicit_step(t, h)
+                self._fresh = True
                 implicit = not self.open_loop
                 self.steps_done += 1
                 self.time = start + self.steps_done * h
@@ -475,7 +485,7 @@ class Cosimulation:
         connections (``_communicate``), record after every interval-th step and the last. Recorded points are
         copies of the scratch row, gathered into rows' columns in blocks."""
         h, start, steps = self.step_size, self.start_time, self.steps_done
-        steppers, ops, readers = self._bare_steppers, self._ops, self._readers
+        steppers, ops, lean, readers = self._bare_steppers, self._ops, self._lean_ops, self._readers
         watch = self._watch_growth if self._tears else None
         step_c, t_c = c_double(h), c_double()
         block, filled, first_row = None, 0, self.rows_done
@@ -491,6 +501,7 @@ class Cosimulation:
             first_row += filled
             self.rows_done, filled = first_row, 0
 
+        record = self._fresh
         try:
             for j in range(k + 1, k + count + 1):
                 t_c.value = start + steps * h
@@ -499,10 +510,11 @@ class Cosimulation:
                         self._refused(name, t_c.value)
                 steps += 1
                 self.steps_done, self.time = steps, start + steps * h
-                for op in ops:
+                record = block is not None and (j % interval == 0 or j == n_steps)
+                for op in ops if record else lean:
                     if op[0](op[1], op[2], op[3], op[4]) > 1:
                         self._op_failed(op)
-                if block is not None and (j % interval == 0 or j == n_steps):
+                if record:
                     for op in readers:
                         if op[0](op[1], op[2], op[3], op[4]) > 1:
                             self._op_failed(op)
@@ -513,6 +525,7 @@ class Cosimulation:
                 if watch is not None:
                     watch()
         finally:
+            self._fresh = record   # whether the recorded signals riding on the transfers are those of now
             if filled:
                 flush()
 
