@@ -283,31 +283,34 @@ class Cosimulation:
             self.instances[comp.name].initialize(comp.parameters, self.start_time)
 
         # The plan of a communication point, in feedthrough order: a connection is one fmi2SetReal of a value an
-        # fmi2GetReal of its source read. Reads of one component with no input of it set in between are one
-        # fmi2GetReal (one speed fed to three couplings is read once). A component's recorded signals ride along on
+        # fmi2GetReal of its source read. An output joins the component's previous read when no input it depends on
+        # was set since (one speed fed to three couplings is read once; a torque-driven joint's omega_in and
+        # omega_out are read together). A component's recorded signals ride along on
         # the last read of it made after every input they depend on is set, else they get a fmi2GetReal of their
         # own after the transfers (in read()). Every value lives in one buffer, the scratch row, so recording a
         # communication point is one copy of it.
         ordered = _feedthrough_order(connections, self.instances)
         gets, sets, sequence, open_get, set_at = [], [], [], {}, {}
 
-        def read_at(comp, vr):
-            if comp not in open_get:
-                open_get[comp] = len(gets)
+        def read_at(comp, name):
+            """(read, position) of output comp.name; open_get: component -> (its last read, inputs set since)."""
+            if comp not in open_get or open_get[comp][1] & set(self.instances[comp].input_dependencies(name)):
+                open_get[comp] = (len(gets), set())
                 sequence.append(("get", len(gets)))
                 gets.append((comp, []))
-            vrs = gets[open_get[comp]][1]
+            vrs, vr = gets[open_get[comp][0]][1], self.instances[comp].vr(name)
             if vr not in vrs:
                 vrs.append(vr)
-            return open_get[comp], vrs.index(vr)
+            return open_get[comp][0], vrs.index(vr)
 
         for conn in ordered:
             (src, out), (dst, inp) = conn.source.split(".", 1), conn.target.split(".", 1)
-            g, pos = read_at(src, self.instances[src].vr(out))
+            g, pos = read_at(src, out)
             set_at[(dst, inp)] = len(sequence)
             sequence.append(("set", len(sets)))
             sets.append((dst, self.instances[dst].vr(inp), g, pos))
-            open_get.pop(dst, None)
+            if dst in open_get:
+                open_get[dst][1].add(inp)
         transferred = [len(vrs) for _, vrs in gets]   # the values connections need: a prefix of each read
         self.columns, readers, places = [], [], []
         for comp_name in dict.fromkeys(name.split(".", 1)[0] for name in record):
