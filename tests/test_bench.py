@@ -48,6 +48,7 @@ def test_engines_run_the_same_ssp_side_by_side_and_a_missing_one_is_named(fmu_di
     assert row["errors"] == {} and row["steps"] == 500 and row["rows"] == {"ujfmu": 501, "libcosim": 500}
     assert row["ecos"] is None and row["ratio_ecos"] is None and list(figures["missing"]) == ["ecos"]
     assert row["ratio_libcosim"] == row["ujfmu"] / row["libcosim"] and len(figures["cpus"]) == 1
+    assert row["cpu_ratio_libcosim"] == row["cpu_ujfmu"] / row["cpu_libcosim"]
     table = render_engines(figures)
     assert "| cardan_constant_speed |" in table and "ujfmu / libcosim" in table
     assert "not measured: ecos is not installed" in table
