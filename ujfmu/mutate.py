@@ -117,7 +117,7 @@ def run_mutant(mutant: Mutant, src: Path, timeout: float = 900.0, niceness: int 
                 killed = "self-check failed" in done.stderr + done.stdout
                 return Outcome(mutant, "killed" if killed else "error", time.perf_counter() - started,
                                _tail(done.stderr + done.stdout))
-        args = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", *mutant.tests]
+        args = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-n", "0", *mutant.tests]
         done = _run(args, src, timeout, niceness)
         status = {0: "survived", 1: "killed"}.get(done.returncode, "error")
         return Outcome(mutant, status, time.perf_counter() - started, _tail(done.stdout + done.stderr))
