@@ -235,11 +235,12 @@ def bench_sweep(fmu_dir, workers):
 
 
 def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, battery=(), schemes=True,
-              engines=ENGINES, cpus=None):
+              engines=ENGINES, cpus=None, fmu3_dir=None):
     """All figures of one run: {'scenarios': [rows], 'engines': {...}, 'schemes': {...}, 'battery': {...},
     'sweep': {...}}; battery: the coupling battery's scenario files (ujfmu.battery.paths()) to cost in each scheme;
     schemes: cost each scheme on the scenarios too; engines: those to run side by side on the scenarios' SSP
-    packages (() for none), pinned to cpus (see ``bench_engines``)."""
+    packages (() for none), pinned to cpus (see ``bench_engines``); fmu3_dir: the FMI 3.0 FMUs (``ujfmu build
+    --fmi 3``), whose cost per step is compared with the FMI 2.0 FMUs' on each scenario (None: not measured)."""
     with tempfile.TemporaryDirectory(prefix="ujfmu_floor_") as floor_dir:
         names = sorted({fmu for p in scenarios for fmu, _ in Scenario(p).components.values()})
         for name in names:
@@ -253,6 +254,12 @@ def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, ba
         result["engines"] = bench_engines(scenarios, fmu_dir, REPEATS, cpus, engines, progress)
     if schemes:
         result["schemes"] = bench_schemes(scenarios, fmu_dir, REPEATS, progress)
+    if fmu3_dir is not None:
+        from .bench_fmi3 import fmi3_step_cost_ratio
+        result["fmi3"] = []
+        for path in scenarios:
+            progress(f"bench FMI 3.0 / FMI 2.0 {Path(path).stem}")
+            result["fmi3"].append(fmi3_step_cost_ratio(path, fmu_dir, fmu3_dir))
     if battery:
         result["battery"] = bench_schemes(battery, fmu_dir, 1, progress)
     if sweep:
@@ -291,6 +298,11 @@ def render(result):
         lines += ["", "Coupling schemes, each scenario at its own step (docs/cosimulation.md); targets 1 / 2 for the "
                   "implicit scheme against the same pass-through floor:", "",
                   render_schemes("scenario", result["schemes"], _floors(result), t)]
+    if "fmi3" in result:
+        lines += ["", "FMI 3.0 against FMI 2.0 Co-Simulation FMUs, same master and scheme, 1 ms:", "",
+                  "| scenario | FMI 2.0 us / step | FMI 3.0 us / step | FMI 3.0 / FMI 2.0 |", "| --- | --- | --- | --- |"]
+        lines += [f"| {r['scenario']} | {r['fmi2_us_per_step']:.1f} | {r['fmi3_us_per_step']:.1f} | "
+                  f"{r['fmi3_ratio']:.2f} |" for r in result["fmi3"]]
     if "battery" in result:
         lines += ["", "Coupling battery (ujfmu.battery), 1 ms:", "", render_schemes("set-up", result["battery"])]
     if "sweep" in result:

@@ -235,10 +235,17 @@ def cmd_bench(args):
     from .battery import paths as battery_paths
     cpus = None if args.engine_cpus is None else set() if args.engine_cpus == "all" else \
         {int(c) for c in args.engine_cpus.split(",")}
+    fmu3_dir = None
+    if not args.no_fmi3:
+        fmu3_dir = Path(args.fmu_dir) / "fmi3"
+        missing = [n for n in FMUS if not (fmu3_dir / f"{n}.fmu").exists()]
+        if missing:
+            raise UsageError(f"the FMI 3.0 cost figure needs the FMI 3.0 FMUs in {fmu3_dir} ({', '.join(missing)} "
+                             "missing): run `ujfmu build --fmi 3` first, or skip the figure with --no-fmi3")
     result = run_bench(_scenarios(args.scenarios), fmu_dir=args.fmu_dir, sweep=not args.no_sweep,
                        progress=(lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr)),
                        battery=() if args.no_battery else battery_paths(),
-                       engines=() if args.no_engines else ENGINES, cpus=cpus)
+                       engines=() if args.no_engines else ENGINES, cpus=cpus, fmu3_dir=fmu3_dir)
     print(render(result))
     print(f"\nwrote {write(result, args.out)}")
     return 0
@@ -410,6 +417,8 @@ def main(argv=None):
     p.add_argument("--no-sweep", action="store_true", help="skip the sweep figures (1 and 2 workers)")
     p.add_argument("--no-battery", action="store_true",
                    help="skip the coupling battery's cost per scheme (scenarios/battery, about 2 minutes)")
+    p.add_argument("--no-fmi3", action="store_true",
+                   help="skip the FMI 3.0 / FMI 2.0 cost per step (which needs `ujfmu build --fmi 3`)")
     p.add_argument("--no-engines", action="store_true",
                    help="skip our master, Ecos and libcosim side by side on the scenarios' SSP packages")
     p.add_argument("--engine-cpus", metavar="N[,N...]|all",
