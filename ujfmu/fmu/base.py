@@ -352,9 +352,10 @@ class ModelSlave(UjfmuSlave):
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
-        if cls.__dict__.get("MODEL") is not None:
-            cls.PHYSICS = cls.MODEL
-            cls.STATE = {**cls.STATE, "_y": f"float[{len(cls.MODEL.State._fields)}]"}
+        model = cls.__dict__.get("MODEL")
+        if model is not None:   # a model module, or a variant's protocol class inside one (documented: the module)
+            cls.PHYSICS = sys.modules[model.__module__] if isinstance(model, type) else model
+            cls.STATE = {**cls.STATE, "_y": f"float[{len(model.State._fields)}]"}
 
     def parameters(self):
         """The FMU's parameters as the model's Parameters."""
