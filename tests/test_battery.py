@@ -1,16 +1,19 @@
 """Coupling battery: randomly drawn heavy and stiff drivelines against their monolithic references.
 
 The default (implicit) scheme must run every set-up at 1 ms; within 2% of each signal's range everywhere except
-the set-ups listed in FIRST_ORDER_LIMITED (CardanJoints carrying a heavy J2, whose inertia-torque ripple the
-1 ms step samples coarsely), whose measured errors docs/cosimulation.md tabulates. The explicit scheme's
-instability on heavy driven sides must be detected and named.
+the set-ups listed in FIRST_ORDER_LIMITED (CardanJoints carrying a heavy J2, whose `tau_in` the joint computes
+from an acceleration estimated from the sampled input speed; docs/cosimulation.md tabulates their errors and the
+cause). The explicit scheme's instability on heavy driven sides must be detected and named; the set-up left out
+must be outside the model's valid range.
 """
 
 import numpy as np
 import pytest
 
 from ujfmu import battery
-from ujfmu.master import CouplingInstabilityError, cosimulate
+from ujfmu.master import CosimulationError, CouplingInstabilityError, cosimulate
+from ujfmu.models.cardan_joint import model as cardan
+from ujfmu.models.load import model as load
 from ujfmu.references import read_reference
 from ujfmu.scenario import Scenario
 
@@ -69,3 +72,52 @@ def test_explicit_instability_is_detected_and_named(fmu_dir):
     # the kept results end on the diverging torque, far outside anything the real system does
     np.testing.assert_array_equal(partial["time"], reference["time"][:len(partial)])
     assert abs(partial["joint.tau_in"][-1]) > 10 * np.ptp(reference["joint.tau_in"])
+
+
+def test_left_out_setup_leaves_the_models_valid_range(fmu_dir, tmp_path):
+    """battery_11 is left out for its physics, not for the coupling: its suspended mass's lateral mode grows in the
+    run-up until joint 1's angle plus the dynamic misalignment passes 89 deg at t = 0.33 s. The default scheme stops
+    there with the driveline's own range error (no coupling instability) and keeps the results so far."""
+    setup = next(s for s in battery.draw() if s["name"] == "battery_11")
+    assert set(battery.EXCLUDED) == {"battery_11"}
+    path = tmp_path / "battery_11.toml"
+    path.write_text(battery.scenario_text(setup))
+    scenario = Scenario(path)
+    with pytest.raises(CosimulationError) as info:
+        cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
+                   scenario.step_size, scenario.record)
+    assert not isinstance(info.value, CouplingInstabilityError)
+    assert "beta1 + dynamic misalignment" in str(info.value) and "left its allowed range" in str(info.value)
+    assert 0.30 < info.value.partial["time"][-1] < 0.34
+
+
+def _sampled_acceleration_floor(path):
+    """Worst error of the CardanJoint's own tau_in (Feng Eq. 8 with alpha1 the backward difference of omega_in over
+    the step, as the FMU computes it) fed with the monolithic reference's exact speed at 1 ms, as a fraction of
+    the reference tau_in's range: what the joint's output is off by when its input speed is exact."""
+    scenario = Scenario(path)
+    pj, pl = scenario.parameters_with_defaults("joint"), scenario.parameters_with_defaults("load")
+    reference, _ = read_reference(scenario.reference_file)
+    t, w = reference["time"], reference["motor.omega"]
+    theta = np.concatenate([[0.0], np.cumsum(0.5 * np.diff(t) * (w[1:] + w[:-1]))])
+    frame = cardan.joint_frame(pj["bend_angle"], pj["bend_plane_angle"], pj["error_angle_beta"],
+                               pj["error_angle_gamma"])
+    tau = [cardan.joint_torques(frame, theta[k], w[k], (w[k] - w[k - 1]) / (t[k] - t[k - 1]),
+                                load.load_torque(cardan.velocity_ratio(frame, theta[k]) * w[k], pl["T0"], pl["c1"],
+                                                 pl["c2"], pl["omega_smooth"]), pj["J1"], pj["J2"])[0]
+           for k in range(1, len(t))]
+    return float(np.max(np.abs(np.array(tau) - reference["joint.tau_in"][1:])) / np.ptp(reference["joint.tau_in"]))
+
+
+def test_heavy_joints_tau_in_is_limited_by_its_sampled_acceleration():
+    """The cause of FIRST_ORDER_LIMITED's CardanJoint errors: fed the exact speed, the joint's tau_in is already
+    more than 2% off, since its inertia torque J_r alpha1 uses the speed's backward difference (half a step late)
+    and J_r alpha1 is many times the net torque's range when J2 is heavy. A master holding the motor's speed exact
+    therefore leaves tau_in that far off; one making tau_in consistent leaves the speed first-order off
+    (docs/cosimulation.md). The light joints, whose floor is small, all pass."""
+    floors = {p.stem: _sampled_acceleration_floor(p) for p in PATHS
+              if Scenario(p).components.get("joint", ("",))[0] == "CardanJoint"}
+    for name, floor in floors.items():
+        if name in FIRST_ORDER_LIMITED:
+            assert floor > battery.TOLERANCE, (name, floor)
+    assert max(floors.values()) > 0.25 and min(floors.values()) < 0.005

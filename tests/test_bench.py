@@ -2,14 +2,17 @@
 
 from pathlib import Path
 
-from ujfmu.bench import bench_schemes, render, render_schemes, run_bench
+import importlib.util
+
+from ujfmu import engines
+from ujfmu.bench import bench_engines, bench_schemes, render, render_engines, render_schemes, run_bench
 
 SCENARIOS = Path(__file__).parents[1] / "scenarios"
 
 
 def test_bench_measures_floor_and_monolithic_ratios(fmu_dir):
     result = run_bench([SCENARIOS / "cardan_startup.toml", SCENARIOS / "cardan_constant_speed.toml"],
-                       fmu_dir=fmu_dir, sweep=False, progress=lambda msg: None, schemes=False)
+                       fmu_dir=fmu_dir, sweep=False, progress=lambda msg: None, schemes=False, engines=())
     startup, constant = result["scenarios"]
     assert startup["steps"] == 6000 and startup["floor_ratio"] > 0 and startup["monolithic_s"] > 0
     assert startup["within_tolerance"] is True   # the co-simulation agrees with the rtol 1e-8 monolithic solve
@@ -30,3 +33,22 @@ def test_bench_costs_each_coupling_scheme_in_one_run(fmu_dir):
     assert figures["ratio"] == light["ratio"]
     table = render_schemes("set-up", figures)
     assert "failed" in table and "battery_04" in table
+
+
+def test_engines_run_the_same_ssp_side_by_side_and_a_missing_one_is_named(fmu_dir, monkeypatch):
+    """Our master and libcosim step the scenario's SSP package in pinned child processes, every step recorded (ours
+    a row per point with the start, libcosim's observer a sample per step); the ratio is ours over theirs. An engine
+    whose package is not installed is named with the pip extra that brings it, not timed."""
+    real_find_spec = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "ecospy" else real_find_spec(name, *a))
+    assert "pip install 'ujfmu[bench]'" in engines.missing("ecos") and engines.missing("libcosim") is None
+    figures = bench_engines([SCENARIOS / "cardan_constant_speed.toml"], fmu_dir, repeats=1)
+    (row,) = figures["rows"]
+    assert row["errors"] == {} and row["steps"] == 500 and row["rows"] == {"ujfmu": 501, "libcosim": 500}
+    assert row["ecos"] is None and row["ratio_ecos"] is None and list(figures["missing"]) == ["ecos"]
+    assert row["ratio_libcosim"] == row["ujfmu"] / row["libcosim"] and len(figures["cpus"]) == 1
+    assert row["cpu_ratio_libcosim"] == row["cpu_ujfmu"] / row["cpu_libcosim"]
+    table = render_engines(figures)
+    assert "| cardan_constant_speed |" in table and "ujfmu / libcosim" in table
+    assert "not measured: ecos is not installed" in table

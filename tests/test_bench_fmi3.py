@@ -8,3 +8,13 @@ def test_fmi3_step_cost_ratio_times_both_versions(fmu_dir, fmu3_dir):
     assert row["scenario"] == "cardan_constant_speed" and row["steps"] == 500
     assert row["fmi2_us_per_step"] > 0.0 and row["fmi3_us_per_step"] > 0.0
     assert row["fmi3_ratio"] == row["fmi3_us_per_step"] / row["fmi2_us_per_step"]
+
+
+def test_bench_reports_the_fmi3_ratio_per_scenario(fmu_dir, fmu3_dir):
+    from ujfmu.bench import render, run_bench
+    result = run_bench(["scenarios/cardan_constant_speed.toml"], fmu_dir=fmu_dir, sweep=False,
+                       progress=lambda msg: None, schemes=False, engines=(), fmu3_dir=fmu3_dir)
+    (row,) = result["fmi3"]
+    assert row["scenario"] == "cardan_constant_speed" and row["fmi3_ratio"] > 0.0
+    table = render(result)
+    assert "FMI 3.0 / FMI 2.0" in table and f"| cardan_constant_speed | {row['fmi2_us_per_step']:.1f} |" in table

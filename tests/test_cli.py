@@ -160,3 +160,16 @@ def test_references_says_when_a_scenario_has_nothing_to_regenerate(tmp_path, cap
     assert main(["references", str(_unchecked(tmp_path))]) == 1
     captured = capsys.readouterr()
     assert "unchecked.toml: skipped: no [reference]" in captured.err and "no reference was regenerated" in captured.err
+
+
+def test_output_interval_thins_the_written_rows_and_keeps_the_verdict(fmu_dir, tmp_path, capsys):
+    """--output-interval 50 on a 500-step run: rows at 0, 50, ..., 500 s/1000 in the CSV, still compared (PASS);
+    a value below 1 is refused by the argument parser."""
+    path = SCENARIOS / "cardan_constant_speed.toml"
+    assert main(["run", str(path), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path), "--no-plot",
+                 "--output-interval", "50"]) == 0
+    assert "PASS cardan_constant_speed" in capsys.readouterr().out
+    rows = (tmp_path / "cardan_constant_speed.csv").read_text().splitlines()[1:]
+    assert [float(r.split(",")[0]) for r in rows] == pytest.approx([0.05 * k for k in range(11)], abs=1e-12)
+    with pytest.raises(SystemExit):
+        main(["run", str(path), "--output-interval", "0"])

@@ -3,7 +3,10 @@
 import numpy as np
 import pytest
 
-from ujfmu.master import Component, Connection, CosimulationError, cosimulate
+from ujfmu import battery
+from ujfmu.master import (Component, Connection, Cosimulation, CosimulationError, CouplingInstabilityError,
+                          cosimulate)
+from ujfmu.scenario import Scenario
 
 
 def chain(fmu_dir):
@@ -69,3 +72,47 @@ def test_recorded_time_and_columns_align_with_the_closed_form(fmu_dir):
     np.testing.assert_allclose(table["joint.omega_out"], ratio * a * t, rtol=1e-12)
     theta2 = np.unwrap(np.arctan2(np.sin(theta1), np.cos(theta1) * np.cos(phi)))
     np.testing.assert_allclose(table["joint.phi_out"], theta2, rtol=0, atol=1e-12)
+
+
+def test_output_interval_records_every_nth_step_and_the_last_bitwise(fmu_dir):
+    """output_interval n: the rows at steps 0, n, 2n, ... and the last, each bitwise the row of the full record
+    (same FMU calls, only fewer copies); the recorded time of a row is its own step's time."""
+    record = ["joint.omega_out", "load.tau", "joint.tau_in", "joint.M_z", "motor.tau_motor", "motor.omega"]
+    full = cosimulate(chain(fmu_dir), CONNECTIONS, 0.2, 1e-3, record)
+    sparse = cosimulate(chain(fmu_dir), CONNECTIONS, 0.2, 1e-3, record, output_interval=7)
+    steps = list(range(0, 201, 7)) + [200]
+    assert len(sparse) == 30 and sparse.dtype == full.dtype
+    assert sparse.tobytes() == full[steps].tobytes()
+    np.testing.assert_allclose(sparse["time"], 1e-3 * np.array(steps), rtol=1e-15)
+    with pytest.raises(CosimulationError, match="output interval"):
+        cosimulate(chain(fmu_dir), CONNECTIONS, 0.2, 1e-3, record, output_interval=0)
+
+
+def test_a_diverging_run_keeps_its_sparse_record_up_to_the_failure(fmu_dir):
+    """The explicit heavy set-up diverges within a few steps: with output_interval 2 the partial result is every
+    other row of the partial full record, the last recorded step included (rows are gathered in blocks: none may be
+    lost)."""
+    s = Scenario(battery.BATTERY_DIR / "battery_04.toml")
+    partial = {}
+    for every in (1, 2):
+        with pytest.raises(CouplingInstabilityError) as failure:
+            cosimulate(s.master_components(fmu_dir), s.connections, s.stop_time, 1e-3, s.record, coupling="explicit",
+                       output_interval=every)
+        partial[every] = failure.value.partial
+    assert len(partial[1]) % 2 == 1 and len(partial[1]) >= 5
+    assert partial[2].tobytes() == partial[1][::2].tobytes()
+
+
+def test_steps_that_record_nothing_leave_read_and_run_where_a_recording_run_is(fmu_dir):
+    """advance() without rows reads only what the connections need; read() afterwards and a following run() give
+    bitwise the rows of one recording run at the same steps (no stale recorded signal)."""
+    record = ["joint.omega_out", "load.tau", "joint.tau_in", "joint.M_z", "motor.tau_motor", "motor.omega"]
+    full = cosimulate(chain(fmu_dir), CONNECTIONS, 0.2, 1e-3, record, coupling="explicit")
+    with Cosimulation(chain(fmu_dir), CONNECTIONS, 1e-3, record, coupling="explicit") as cosim:
+        cosim.advance(150)
+        row = np.empty(len(record))
+        cosim.read(row)
+        rest, columns = cosim.run(50), cosim.columns
+    assert row.tobytes() == np.array([full[150][name] for name in columns]).tobytes()
+    assert all(rest[name].tobytes() == full[name][150:].tobytes() for name in columns)
+    np.testing.assert_allclose(rest["time"], full["time"][150:], rtol=1e-15)

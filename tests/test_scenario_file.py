@@ -33,7 +33,9 @@ def write(tmp_path, text):
 def test_good_file_loads(tmp_path):
     s = Scenario(write(tmp_path, GOOD))
     assert s.parameters_with_defaults("j")["J1"] == 2e-7 and len(s.time_grid()) == 1001
-    assert s.coupling == "implicit"
+    assert s.coupling == "implicit" and s.output_interval == 1
+    assert Scenario(write(tmp_path, GOOD.replace("step_size = 1e-3", "step_size = 1e-3\noutput_interval = 10"))
+                    ).output_interval == 10
     assert Scenario(write(tmp_path, GOOD.replace("step_size = 1e-3", 'step_size = 1e-3\ncoupling = "explicit"'))
                     ).coupling == "explicit"
 
@@ -79,6 +81,8 @@ def test_good_file_loads(tmp_path):
     # coupling scheme: one of the known ones; misspelt experiment fields
     ('step_size = 1e-3', 'step_size = 1e-3\ncoupling = "implicitly"', "experiment.coupling"),
     ('step_size = 1e-3', 'step_size = 1e-3\ncoupling = 1', "experiment.coupling"),
+    ('step_size = 1e-3', 'step_size = 1e-3\noutput_interval = 0', "experiment.output_interval"),
+    ('step_size = 1e-3', 'step_size = 1e-3\noutput_interval = 2.5', "experiment.output_interval"),
     ('step_size = 1e-3', 'step_size = 1e-3\ncoupler = "explicit"', "unknown field(s) coupler"),
     # [reference]: every recorded signal compared or not_compared with a reason; tolerances well-formed
     ('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x"]' + REF, "output.record: j.M_x neither compared"),

@@ -9,15 +9,21 @@ Per scenario, at a 1 ms communication step over the scenario's run:
   the integration timed (the symbolic derivation is not), and the ratio; plus whether the co-simulation stays
   within the scenario's tolerance of that solve. Scenarios whose reference is a closed form have no solve.
 For sweeps: Omar's Fig. 4 sweep (141 points) with 1 and 2 local dask workers, points per minute and speed-up.
+Engines (``ujfmu.engines``): each scenario's SSP package stepped by our master, Ecos and libcosim, each in its own
+process pinned to one core, alternated, the fastest of three runs of each; microseconds per step and the ratios.
+The figures above run the explicit scheme (inputs held over the step, as the C++ engines do); the coupling-scheme
+table adds the implicit scheme's cost on the same scenarios.
 """
 
 import json
 import math
+import os
 import tempfile
 import time
 from pathlib import Path
 
 
+from . import engines as engine_runs
 from .build import DEFAULT_FMU_DIR, REPO_DIR, build_fmu
 from .master import COUPLINGS, Component, Cosimulation, CosimulationError
 from .references import common, generate
@@ -27,13 +33,16 @@ from .scenario_run import compare
 STEP = 1e-3
 REPEATS = 3        # co-simulation and floor runs per scenario, alternated; the fastest of each counts
 MONOLITHIC_RTOL, MONOLITHIC_ATOL = 1e-8, 1e-11
-TARGETS = {"s_per_sim_s": 0.05, "floor_ratio": 2.0, "fig4_seconds": 120.0, "worker_speedup": 1.8}
+TARGETS = {"s_per_sim_s": 0.05, "floor_ratio": 2.0, "fig4_seconds": 120.0, "worker_speedup": 1.8,
+           "engine_ratio": 1.1}
+ENGINES = tuple(engine_runs.ENGINES)   # ours first: the others' ratios are to it
 
 
 def _stepping_time(components, scenario, n_steps):
     """(set-up seconds, stepping seconds, table) of one co-simulation at STEP, recording the scenario's signals."""
     started = time.perf_counter()
-    with Cosimulation(components, scenario.connections, STEP, scenario.record, scenario.start_time) as cosim:
+    with Cosimulation(components, scenario.connections, STEP, scenario.record, scenario.start_time,
+                      coupling="explicit") as cosim:
         ready = time.perf_counter()
         table = cosim.run(n_steps)
         done = time.perf_counter()
@@ -79,7 +88,7 @@ def bench_schemes(paths, fmu_dir=DEFAULT_FMU_DIR, repeats=1, progress=None) -> d
         scenario = Scenario(path)
         n_steps = int(round((scenario.stop_time - scenario.start_time) / scenario.step_size))
         duration = scenario.stop_time - scenario.start_time
-        row = dict(scenario=scenario.name, simulated_s=duration)
+        row = dict(scenario=scenario.name, simulated_s=duration, step_size=scenario.step_size)
         for _ in range(repeats):
             for coupling in COUPLINGS:
                 try:
@@ -104,18 +113,108 @@ def bench_schemes(paths, fmu_dir=DEFAULT_FMU_DIR, repeats=1, progress=None) -> d
                 failed={c: [r["scenario"] for r in rows if r.get(c) is None] for c in COUPLINGS})
 
 
-def render_schemes(title, figures):
-    lines = [f"| {title} | sim. s | explicit wall s / sim. s | implicit wall s / sim. s | implicit / explicit |",
-             "| --- | --- | --- | --- | --- |"]
+def _floors(result):
+    """{scenario: pass-through wall s per simulated s at STEP} of a bench result."""
+    return {r["scenario"]: r["floor_us_per_step"] * 1e-6 / result["step_size"] for r in result["scenarios"]}
+
+
+def render_schemes(title, figures, floors=None, targets=None):
+    """Markdown table of ``bench_schemes``; with floors ({scenario: pass-through s per simulated s}) and targets,
+    the implicit scheme's ratio to the floor and targets 1 / 2 met or not."""
+    marks = floors is not None and targets is not None
+    lines = [f"| {title} | sim. s | explicit wall s / sim. s | implicit wall s / sim. s | implicit / explicit |"
+             + (" implicit x floor | implicit targets 1 / 2 |" if marks else ""),
+             "| --- | --- | --- | --- | --- |" + (" --- | --- |" if marks else "")]
     for r in figures["rows"]:
         cells = [_f(r.get(c), ".3f") if r.get(c) is not None else "failed" for c in ("explicit", "implicit")]
-        lines.append(f"| {r['scenario']} | {r['simulated_s']:g} | {cells[0]} | {cells[1]} | {_f(r['ratio'], '.2f')} |")
+        line = f"| {r['scenario']} | {r['simulated_s']:g} | {cells[0]} | {cells[1]} | {_f(r['ratio'], '.2f')} |"
+        if marks:
+            floor = floors.get(r["scenario"]) if r.get("step_size") == STEP else None   # the floor is at STEP
+            cost = r.get("implicit")
+            ratio = cost / floor if floor and cost else None
+            line += (f" {_f(ratio, '.2f')} | " + ("-" if cost is None else "yes" if cost <= targets["s_per_sim_s"]
+                                                  else "NO") + " / "
+                     + ("-" if ratio is None else "yes" if ratio <= targets["floor_ratio"] else "NO") + " |")
+        lines.append(line)
     t = figures["totals"]
     lines.append(f"| all that both complete | | {t['explicit']:.3f} | {t['implicit']:.3f} | "
-                 f"{_f(figures['ratio'], '.2f')} |")
+                 f"{_f(figures['ratio'], '.2f')} |" + (" | |" if marks else ""))
     for c, names in figures["failed"].items():
         if names:
             lines.append(f"\n{c} failed on {len(names)}: {', '.join(names)}")
+    return "\n".join(lines)
+
+
+def default_cpus() -> set[int]:
+    """The core the engines are pinned to: the first this process may run on (``taskset -c 0`` on a free machine)."""
+    return {min(os.sched_getaffinity(0))}
+
+
+def bench_engines(paths, fmu_dir=DEFAULT_FMU_DIR, repeats=REPEATS, cpus=None, engines=ENGINES,
+                  progress=None) -> dict:
+    """Our master, Ecos and libcosim on each scenario's SSP package (``ujfmu.engines``), each run a process pinned to
+    cpus (None: the first core of ``default_cpus``; an empty set: unpinned), engines alternated, the fastest of
+    repeats kept: microseconds per step of the stepping loop with every recorded signal recorded (wall clock, and
+    'cpu_<engine>' the process's CPU time), and the ratio of ours to each engine ('ratio_<engine>',
+    'cpu_ratio_<engine>'). Engines not installed are listed in 'missing' with what to install."""
+    from .ssp import export_ssp
+    cpus = default_cpus() if cpus is None else cpus
+    missing = {e: engine_runs.missing(e) for e in engines if engine_runs.missing(e)}
+    running = [e for e in engines if e not in missing]
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="ujfmu_engines_") as tmp:
+        for path in paths:
+            scenario = Scenario(path)
+            ssp = export_ssp(scenario, tmp, fmu_dir)
+            row = dict(scenario=scenario.name, steps=None, errors={}, rows={})
+            best = {}
+            for _ in range(repeats):
+                for engine in running:
+                    if engine in row["errors"]:
+                        continue
+                    try:
+                        result = engine_runs.run(engine, ssp, Path(path), cpus)
+                    except RuntimeError as exc:
+                        row["errors"][engine] = str(exc)
+                        continue
+                    row["steps"], row["rows"][engine] = result["steps"], result["rows"]
+                    for key, figure in ((engine, "us_per_step"), (f"cpu_{engine}", "cpu_us_per_step")):
+                        best[key] = min(best.get(key, math.inf), result[figure])
+            for engine in engines:
+                row[engine], row[f"cpu_{engine}"] = best.get(engine), best.get(f"cpu_{engine}")
+            for engine in engines[1:]:
+                for kind in ("", "cpu_"):
+                    ours, theirs = row[kind + engines[0]], row[kind + engine]
+                    row[f"{kind}ratio_{engine}"] = ours / theirs if ours and theirs else None
+            rows.append(row)
+            if progress:
+                progress(f"engines {scenario.name}: " + ", ".join(f"{e} {_f(row[e], '.1f')} us/step" for e in engines))
+    return dict(rows=rows, missing=missing, engines=list(engines), cpus=sorted(cpus))
+
+
+def render_engines(figures, target=TARGETS["engine_ratio"]):
+    """Markdown table of ``bench_engines``: us per step side by side, ours over each, target 5 (ours within target x
+    the fastest C++ engine) met or not."""
+    engines = figures["engines"]
+    pinned = f"pinned to core {', '.join(map(str, figures['cpus']))}" if figures["cpus"] else "unpinned"
+    others = engines[1:]
+    lines = [f"Engines on the same SSP packages ({pinned}; stepping loop, every recorded signal recorded; the "
+             "fastest of alternated runs):", "",
+             "| scenario | " + " | ".join(f"{e} us / step" for e in engines) + " | "
+             + " | ".join(f"{engines[0]} / {e}" for e in others) + " | "
+             + " | ".join(f"{engines[0]} / {e}, CPU time" for e in others) + f" | within {target}x the fastest |",
+             "| --- " * (len(engines) + 2 * len(others) + 2) + "|"]
+    for r in figures["rows"]:
+        fastest = min((r[e] for e in others if r.get(e)), default=None)
+        mark = "-" if fastest is None or not r[engines[0]] else ("yes" if r[engines[0]] <= target * fastest else "NO")
+        lines.append(f"| {r['scenario']} | " + " | ".join(_f(r.get(e), ".1f") for e in engines) + " | "
+                     + " | ".join(_f(r.get(f"ratio_{e}"), ".2f") for e in others) + " | "
+                     + " | ".join(_f(r.get(f"cpu_ratio_{e}"), ".2f") for e in others) + f" | {mark} |")
+    for r in figures["rows"]:
+        for engine, error in r["errors"].items():
+            lines.append(f"\n{engine} failed on {r['scenario']}: {error}")
+    for engine, reason in figures["missing"].items():
+        lines.append(f"\nnot measured: {reason}")
     return "\n".join(lines)
 
 
@@ -135,10 +234,13 @@ def bench_sweep(fmu_dir, workers):
     return seconds, len(sweep.points)
 
 
-def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, battery=(), schemes=True):
-    """All figures of one run: {'scenarios': [rows], 'schemes': {...}, 'battery': {...}, 'sweep': {...}};
-    battery: the coupling battery's scenario files (ujfmu.battery.paths()) to cost in each scheme; schemes: cost
-    each scheme on the scenarios too."""
+def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, battery=(), schemes=True,
+              engines=ENGINES, cpus=None, fmu3_dir=None):
+    """All figures of one run: {'scenarios': [rows], 'engines': {...}, 'schemes': {...}, 'battery': {...},
+    'sweep': {...}}; battery: the coupling battery's scenario files (ujfmu.battery.paths()) to cost in each scheme;
+    schemes: cost each scheme on the scenarios too; engines: those to run side by side on the scenarios' SSP
+    packages (() for none), pinned to cpus (see ``bench_engines``); fmu3_dir: the FMI 3.0 FMUs (``ujfmu build
+    --fmi 3``), whose cost per step is compared with the FMI 2.0 FMUs' on each scenario (None: not measured)."""
     with tempfile.TemporaryDirectory(prefix="ujfmu_floor_") as floor_dir:
         names = sorted({fmu for p in scenarios for fmu, _ in Scenario(p).components.values()})
         for name in names:
@@ -148,8 +250,16 @@ def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, ba
             progress(f"bench {Path(path).stem}")
             rows.append(bench_scenario(path, fmu_dir, floor_dir))
     result = {"step_size": STEP, "scenarios": rows, "targets": TARGETS}
+    if engines:
+        result["engines"] = bench_engines(scenarios, fmu_dir, REPEATS, cpus, engines, progress)
     if schemes:
         result["schemes"] = bench_schemes(scenarios, fmu_dir, REPEATS, progress)
+    if fmu3_dir is not None:
+        from .bench_fmi3 import fmi3_step_cost_ratio
+        result["fmi3"] = []
+        for path in scenarios:
+            progress(f"bench FMI 3.0 / FMI 2.0 {Path(path).stem}")
+            result["fmi3"].append(fmi3_step_cost_ratio(path, fmu_dir, fmu3_dir))
     if battery:
         result["battery"] = bench_schemes(battery, fmu_dir, 1, progress)
     if sweep:
@@ -182,9 +292,17 @@ def render(result):
                      f"{_f(r['monolithic_ratio'], '.3f')} | "
                      f"{'-' if r['within_tolerance'] is None else ('yes' if r['within_tolerance'] else 'NO')} | "
                      f"{' / '.join(marks)} |")
+    if "engines" in result:
+        lines += ["", render_engines(result["engines"], t["engine_ratio"])]
     if "schemes" in result:
-        lines += ["", "Coupling schemes, each scenario at its own step (docs/cosimulation.md):", "",
-                  render_schemes("scenario", result["schemes"])]
+        lines += ["", "Coupling schemes, each scenario at its own step (docs/cosimulation.md); targets 1 / 2 for the "
+                  "implicit scheme against the same pass-through floor:", "",
+                  render_schemes("scenario", result["schemes"], _floors(result), t)]
+    if "fmi3" in result:
+        lines += ["", "FMI 3.0 against FMI 2.0 Co-Simulation FMUs, same master and scheme, 1 ms:", "",
+                  "| scenario | FMI 2.0 us / step | FMI 3.0 us / step | FMI 3.0 / FMI 2.0 |", "| --- | --- | --- | --- |"]
+        lines += [f"| {r['scenario']} | {r['fmi2_us_per_step']:.1f} | {r['fmi3_us_per_step']:.1f} | "
+                  f"{r['fmi3_ratio']:.2f} |" for r in result["fmi3"]]
     if "battery" in result:
         lines += ["", "Coupling battery (ujfmu.battery), 1 ms:", "", render_schemes("set-up", result["battery"])]
     if "sweep" in result:
@@ -198,7 +316,8 @@ def render(result):
                   f"{two['seconds']:.0f} s (target < {t['fig4_seconds']:.0f} s: "
                   f"{'met' if two['seconds'] < t['fig4_seconds'] else 'NOT met'})."]
     lines += ["", f"Targets: 1. <= {t['s_per_sim_s']} wall s per simulated s; 2. <= {t['floor_ratio']}x the "
-              "pass-through run; 3. faster than the DOP853 rtol 1e-8 solve and within the scenario's tolerance of it."]
+              "pass-through run; 3. faster than the DOP853 rtol 1e-8 solve and within the scenario's tolerance of it; "
+              f"5. our master's stepping loop within {t['engine_ratio']}x the fastest C++ engine's time per step."]
     return "\n".join(lines)
 
 

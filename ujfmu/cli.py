@@ -74,13 +74,27 @@ def cmd_build(args):
 
 
 def _run_one(args, path, scenario=None):
+    from .scenario import Scenario
     from .scenario_run import run_scenario
     plot = not args.no_plot and available("matplotlib")
+    if args.output_interval is not None:
+        scenario = scenario if scenario is not None else Scenario(path)
+        scenario.output_interval = args.output_interval
     with _progress(args, Path(path).stem, "step") as progress:
         result = run_scenario(scenario if scenario is not None else path, fmu_dir=args.fmu_dir, out_dir=args.out,
                               plot=plot, progress=progress, model_exchange=args.model_exchange)
     print(result.summary())
     return result
+
+
+def _positive_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number >= 1")
+    return value
 
 
 def _plots_missing(args):
@@ -217,11 +231,21 @@ def cmd_export_ssp(args):
 def cmd_bench(args):
     for module, extra in (("scipy", "references"), ("sympy", "references"), ("distributed", "sweep")):
         require(module, extra, "ujfmu bench")
-    from .bench import render, run_bench, write
+    from .bench import ENGINES, render, run_bench, write
     from .battery import paths as battery_paths
+    cpus = None if args.engine_cpus is None else set() if args.engine_cpus == "all" else \
+        {int(c) for c in args.engine_cpus.split(",")}
+    fmu3_dir = None
+    if not args.no_fmi3:
+        fmu3_dir = Path(args.fmu_dir) / "fmi3"
+        missing = [n for n in FMUS if not (fmu3_dir / f"{n}.fmu").exists()]
+        if missing:
+            raise UsageError(f"the FMI 3.0 cost figure needs the FMI 3.0 FMUs in {fmu3_dir} ({', '.join(missing)} "
+                             "missing): run `ujfmu build --fmi 3` first, or skip the figure with --no-fmi3")
     result = run_bench(_scenarios(args.scenarios), fmu_dir=args.fmu_dir, sweep=not args.no_sweep,
                        progress=(lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr)),
-                       battery=() if args.no_battery else battery_paths())
+                       battery=() if args.no_battery else battery_paths(),
+                       engines=() if args.no_engines else ENGINES, cpus=cpus, fmu3_dir=fmu3_dir)
     print(render(result))
     print(f"\nwrote {write(result, args.out)}")
     return 0
@@ -354,6 +378,9 @@ def main(argv=None):
         p.add_argument("--model-exchange", action="store_true",
                        help="run the FMI 3.0 Model Exchange FMUs together under fmpy's CVode instead of "
                             "co-simulating (implies --fmi 3; torque-driven joints, MotorController, Load)")
+        p.add_argument("--output-interval", type=_positive_int, metavar="N",
+                       help="record every N-th communication step and the last (default: the scenario's "
+                            "[experiment] output_interval, else 1)")
     p = command("references", cmd_references, "regenerate the reference CSV files of the scenarios")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p = command("sweep", cmd_sweep, "co-simulate a scenario over a parameter grid to steady state (dask)")
@@ -384,11 +411,19 @@ def main(argv=None):
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     _out(p, "results/", "writes <scenario>.ssp here")
     _fmi(p, "package the FMI 3.0 FMUs")
-    p = command("bench", cmd_bench, "speed figures as ratios in one run: FMI floor, monolithic solve, sweeps")
+    p = command("bench", cmd_bench, "speed figures as ratios in one run: FMI floor, monolithic solve, engines, "
+                                    "sweeps")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     p.add_argument("--no-sweep", action="store_true", help="skip the sweep figures (1 and 2 workers)")
     p.add_argument("--no-battery", action="store_true",
                    help="skip the coupling battery's cost per scheme (scenarios/battery, about 2 minutes)")
+    p.add_argument("--no-fmi3", action="store_true",
+                   help="skip the FMI 3.0 / FMI 2.0 cost per step (which needs `ujfmu build --fmi 3`)")
+    p.add_argument("--no-engines", action="store_true",
+                   help="skip our master, Ecos and libcosim side by side on the scenarios' SSP packages")
+    p.add_argument("--engine-cpus", metavar="N[,N...]|all",
+                   help="cores the engine runs are pinned to (default: the first core this process may use; "
+                        "all: unpinned)")
     _out(p, "results/", "writes bench.md and bench.json here")
     p = command("battery", cmd_battery, "run the coupling battery (scenarios/battery) in each scheme against its "
                                         "monolithic references")

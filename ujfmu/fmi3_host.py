@@ -62,6 +62,11 @@ class FmuInstance3(FmuInstance):
             self._raw = self._adapters()
         return self._raw[function]
 
+    def bare(self, function):
+        """The stepping loop's fast path (``FmuInstance.bare``) has no FMI 3.0 counterpart: the adapted function of
+        ``raw``, which accepts the same ctypes arguments."""
+        return self.raw(function)
+
     def set_value(self, name, value):
         var = self.variables.get(name)
         if var is None:

@@ -3,7 +3,8 @@
     title = "..."           optional (default: the file name); description = "..." optional free text
     [experiment]            stop_time, step_size [s]; start_time optional (0); stop_time - start_time a whole
                             number (>= 1) of steps; coupling = "implicit" (default, iterated to convergence
-                            every step) or "explicit" (docs/cosimulation.md)
+                            every step) or "explicit" (docs/cosimulation.md); output_interval = n records
+                            every n-th communication step and the last (default 1: every step)
     [components.NAME]       fmu = "CardanJoint" (fmus/CardanJoint.fmu), parameters = { name = value, ... } (SI
                             units: rad, rad/s, ...), inputs = { name = value } (inputs no connection feeds, held
                             constant: every input must be connected or set here)
@@ -40,7 +41,7 @@ from .master import COUPLINGS, DEFAULT_COUPLING, Component, Connection
 
 TOP_LEVEL_KEYS = {"title", "description", "experiment", "components", "connections", "output", "reference",
                   "sweep"}
-EXPERIMENT_KEYS = {"start_time", "stop_time", "step_size", "coupling"}
+EXPERIMENT_KEYS = {"start_time", "stop_time", "step_size", "coupling", "output_interval"}
 #: fields of the optional [sweep] table (defaults of `ujfmu sweep`, see ujfmu.sweep)
 SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions", "orders", "steady_tol",
               "max_settle_time"}
@@ -106,6 +107,11 @@ class Scenario:
         if self.coupling not in COUPLINGS:
             raise ScenarioError(f"{self.path}: experiment.coupling = {self.coupling!r} must be one of "
                                 f"{', '.join(repr(c) for c in COUPLINGS)} (docs/cosimulation.md)")
+        self.output_interval = exp.get("output_interval", 1)
+        if isinstance(self.output_interval, bool) or not isinstance(self.output_interval, int) \
+                or self.output_interval < 1:
+            raise ScenarioError(f"{self.path}: experiment.output_interval = {self.output_interval!r} must be a whole "
+                                "number of communication steps >= 1 (1: record every step)")
         steps = (self.stop_time - self.start_time) / self.step_size
         if round(steps) < 1 or not math.isclose(round(steps), steps, rel_tol=1e-9, abs_tol=1e-9):
             raise ScenarioError(f"{self.path}: [experiment] stop_time - start_time = "

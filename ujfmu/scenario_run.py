@@ -153,12 +153,12 @@ def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.nda
     It cancels a coupling error c*h + O(h^2) (inputs held over each step), leaving O(h^2). coarse: the run at h
     when it is already at hand.
     """
-    h = scenario.step_size
+    h, every = scenario.step_size, scenario.output_interval
     if coarse is None:
         coarse = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time, h,
-                            scenario.record, scenario.start_time, coupling=scenario.coupling)
+                            scenario.record, scenario.start_time, coupling=scenario.coupling, output_interval=every)
     fine = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time, h / 2,
-                      scenario.record, scenario.start_time, coupling=scenario.coupling)[::2]
+                      scenario.record, scenario.start_time, coupling=scenario.coupling, output_interval=2 * every)
     out = coarse.copy()
     for name in scenario.record:
         out[name] = 2.0 * fine[name] - coarse[name]
@@ -190,7 +190,8 @@ def run_scenario(path, fmu_dir=DEFAULT_FMU_DIR, out_dir=DEFAULT_OUT_DIR, plot: b
         else:
             table = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
                                scenario.step_size, scenario.record, scenario.start_time, progress=progress or None,
-                               coupling=scenario.coupling)
+                               coupling=scenario.coupling,
+                               output_interval=scenario.output_interval)
     except CosimulationError as exc:
         if exc.partial is not None and out_dir is not None:
             _write_partial(scenario, exc, Path(out_dir), plot)

@@ -52,7 +52,7 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     try:
         if coarse is None:
             coarse = cosimulate(run.master_components(fmu_dir), run.connections, run.stop_time, run.step_size,
-                                run.record, run.start_time, coupling=run.coupling)
+                                run.record, run.start_time, coupling=run.coupling, output_interval=run.output_interval)
         extrapolated = extrapolate_step(run, fmu_dir, coarse)
     except CosimulationError as exc:
         return StepEstimate(run.step_size, {}, {}, str(exc).splitlines()[0])
