@@ -124,6 +124,15 @@ class UjfmuSlave(Fmi2Slave):
     communication point whatever order the host sets inputs in.
     """
 
+    def __init_subclass__(cls, **kwargs):
+        """A model's build digest is read when its declaration is imported, while the files it covers are there
+        for sure: a host may delete an FMU's extraction folder while the module stays imported (pythonfmu reuses
+        an imported runtime package for a later instance extracted elsewhere)."""
+        super().__init_subclass__(**kwargs)
+        parts = cls.__module__.split(".")
+        if len(parts) >= 3 and parts[-3] == "models":   # models/<stem>/fmu.py (not the base classes, the pass-through)
+            build_digest(model_stem(cls.__module__))
+
     PHYSICS = None  # the model's equations module, ujfmu.models.<stem>.model (documentation)
     VARIABLES = ()
     DEFAULT_EXPERIMENT = (0.0, 1.0, 1e-3)  # start, stop, step
