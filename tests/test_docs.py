@@ -17,7 +17,8 @@ REPO = Path(__file__).parents[1]
 
 def test_references_md_is_the_generated_bibliography():
     assert (REPO / "docs" / "references.md").read_text() == markdown(), \
-        "regenerate: python -c \"from ujfmu.bibliography import markdown; print(markdown(), end='')\" > docs/references.md"
+        ("regenerate: python -c \"from ujfmu.bibliography import markdown; print(markdown(), end='')\" > "
+         "docs/references.md")
     for r in REFERENCES:
         assert r.authors and r.title and r.venue and 1900 < r.year < 2100
 

@@ -25,7 +25,8 @@ QUOTE = re.compile(r"`((?:ujfmu\.)?[a-z_][a-z_0-9]*(?:\.[a-z_][a-z_0-9]*)*)\.([A
 def quotes():
     for path in DOCS:
         for match in QUOTE.finditer(path.read_text()):
-            yield path.relative_to(ROOT).as_posix(), match.group(1).removeprefix("ujfmu."), match.group(2), float(match.group(3))
+            yield (path.relative_to(ROOT).as_posix(), match.group(1).removeprefix("ujfmu."), match.group(2),
+                   float(match.group(3)))
 
 
 def test_every_quoted_constant_is_the_code_value():

@@ -14,6 +14,22 @@ def readme_python_blocks():
     return re.findall(r"```python\n(.*?)```", (REPO / "README.md").read_text(), re.S)
 
 
+#: dask's log of a connection closed while the cluster shuts down on a loaded machine: noise, not a failure
+CLOSED_CONNECTION = ("CommClosedError", "StreamClosedError")
+
+
+def unexpected_tracebacks(stderr: str) -> list:
+    """The tracebacks in stderr but those of a closed dask connection."""
+    blocks = stderr.split("Traceback (most recent call last):")[1:]
+    return [b for b in blocks if not any(name in b for name in CLOSED_CONNECTION)]
+
+
+def test_unexpected_tracebacks_keep_all_but_closed_connections():
+    closed = "Traceback (most recent call last):\n  File x\ndistributed.comm.core.CommClosedError: in <TCP>\n"
+    spawn = "Traceback (most recent call last):\n  File y\nRuntimeError: An attempt has been made to start\n"
+    assert unexpected_tracebacks(closed + closed) == [] and len(unexpected_tracebacks(closed + spawn)) == 1
+
+
 def test_the_sweep_recipe_runs_as_written_in_an_unguarded_script(fmu_dir, tmp_path):
     recipe = next(block for block in readme_python_blocks() if "Sweep(" in block)
     assert "__main__" not in recipe
@@ -27,7 +43,7 @@ def test_the_sweep_recipe_runs_as_written_in_an_unguarded_script(fmu_dir, tmp_pa
                           timeout=300)
     assert done.returncode == 0, done.stderr[-3000:]
     lines = done.stdout.splitlines()
-    assert lines[-1] == "RECIPE DONE" and "Traceback" not in done.stderr and "Nanny" not in done.stderr
+    assert lines[-1] == "RECIPE DONE" and not unexpected_tracebacks(done.stderr) and "Nanny" not in done.stderr
     rows = [line.split() for line in lines[:-1]]
     # 600, 650, 700 rpm in SI, each point ok with a positive twist
     assert [round(float(r[0]) * 30 / 3.141592653589793) for r in rows] == [600, 650, 700]

@@ -99,7 +99,8 @@ def test_ring_coupling_energy_balance(name, bug):
 def reference_modules():
     """(module name, path) of every reference module: the shared ujfmu/references and each model's reference.py."""
     root = Path(__file__).parents[1]
-    paths = sorted((root / "ujfmu" / "references").glob("*.py")) + sorted((root / "ujfmu" / "models").glob("*/reference.py"))
+    paths = (sorted((root / "ujfmu" / "references").glob("*.py"))
+             + sorted((root / "ujfmu" / "models").glob("*/reference.py")))
     return [(".".join(p.relative_to(root).with_suffix("").parts), p) for p in paths]
 
 

@@ -65,7 +65,8 @@ def test_good_file_loads(tmp_path):
     ('[experiment]', '[experimment]', "unknown top-level field(s) experimment"),
     ('fmu = "Load"', 'fmu = "Load"\nparameter = { T0 = 1.0 }', "components.l: fields are fmu, parameters and inputs"),
     # messages that say what to write instead
-    ('fmu = "Load"', 'fmu = "Load"\n[components.m]\nfmu = "Motor"\nparameters = { profile = 1.5 }\ninputs = { tau_load = 0.0 }',
+    ('fmu = "Load"',
+     'fmu = "Load"\n[components.m]\nfmu = "Motor"\nparameters = { profile = 1.5 }\ninputs = { tau_load = 0.0 }',
      "must be an integer in [0, 2] (Speed profile: 0 constant, 1 ramp from rest, 2 step)"),
     ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { bend_angle = "20deg" }',
      "must be a number in rad (TOML values are SI, so angles in rad and speeds in rad/s; `ujfmu sweep --param` "

@@ -12,9 +12,10 @@ from ujfmu.models.protocol import Drive
 MODEL_FMUS = [name for name in FMUS if issubclass(fmu_class(name), ModelSlave)]
 
 
-def test_the_speed_driven_models_and_the_motor_and_load_are_protocol_fmus():
-    assert sorted(MODEL_FMUS) == ["CardanJoint", "DoubleCardanDriveline", "Load", "Motor", "RingCoupling",
-                                  "TwinJeffcottRotor"]
+def test_every_model_fmu_is_a_protocol_fmu():
+    assert sorted(MODEL_FMUS) == ["CardanJoint", "CardanJointTorqueDriven", "DoubleCardanDriveline",
+                                  "DoubleCardanDrivelineTorqueDriven", "Load", "Motor", "MotorController",
+                                  "RingCoupling", "TwinJeffcottRotor"]
 
 
 @pytest.mark.parametrize("name", MODEL_FMUS)
@@ -46,11 +47,14 @@ def test_outputs_are_the_declared_outputs_by_name(name):
 @pytest.mark.parametrize("name", MODEL_FMUS)
 def test_fmu_module_is_a_declaration(name):
     """The FMU class holds the model, its variables and default experiment, and at most how it reads its inputs:
-    no physics, no stepping, no output assignment of its own."""
+    no physics, no stepping, no output assignment of its own. Its model is its folder's model.py, or a variant's
+    protocol class in it."""
     cls = fmu_class(name)
     methods = {k for k, v in vars(cls).items() if inspect.isfunction(v)}
     assert methods <= {"model_inputs"}, methods
-    assert cls.MODEL.__name__ == cls.__module__.rsplit(".", 1)[0] + ".model"
+    assert {k for k in vars(cls) if not k.startswith("_")} <= {"MODEL", "VARIABLES", "DEFAULT_EXPERIMENT", "PHYSICS",
+                                                              "STATE", "model_inputs"}
+    assert inspect.getmodule(cls.MODEL).__name__ == cls.__module__.rsplit(".", 1)[0] + ".model"
 
 
 def test_check_messages_name_the_parameters():

@@ -140,6 +140,15 @@ class UjfmuSlave(Fmi2Slave):
     communication point whatever order the host sets inputs in.
     """
 
+    def __init_subclass__(cls, **kwargs):
+        """A model's build digest is read when its declaration is imported, while the files it covers are there
+        for sure: a host may delete an FMU's extraction folder while the module stays imported (pythonfmu reuses
+        an imported runtime package for a later instance extracted elsewhere)."""
+        super().__init_subclass__(**kwargs)
+        parts = cls.__module__.split(".")
+        if len(parts) >= 3 and parts[-3] == "models":   # models/<stem>/fmu.py (not the base classes, the pass-through)
+            build_digest(model_stem(cls.__module__))
+
     PHYSICS = None  # the model's equations module, ujfmu.models.<stem>.model (documentation)
     VARIABLES = ()
     DEFAULT_EXPERIMENT = (0.0, 1.0, 1e-3)  # start, stop, step
@@ -376,9 +385,10 @@ class ModelSlave(UjfmuSlave):
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
-        if cls.__dict__.get("MODEL") is not None:
-            cls.PHYSICS = cls.MODEL
-            cls.STATE = {**cls.STATE, "_y": f"float[{len(cls.MODEL.State._fields)}]"}
+        model = cls.__dict__.get("MODEL")
+        if model is not None:   # a model module, or a variant's protocol class inside one (documented: the module)
+            cls.PHYSICS = sys.modules[model.__module__] if isinstance(model, type) else model
+            cls.STATE = {**cls.STATE, "_y": f"float[{len(model.State._fields)}]"}
 
     def parameters(self):
         """The FMU's parameters as the model's Parameters."""

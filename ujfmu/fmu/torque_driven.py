@@ -8,15 +8,13 @@ the driving torque tau_in (held over a step) and reads back omega_in, a state wi
 remains for the host's explicit loop is the driver's controller (torque from the sampled speed) and the load
 (torque from the output speed), both ordinary step-size conditions.
 
-The equations are derivatives of a state (``torque_driven_rates`` of the model), integrated over each step with
-classical RK4 (ujfmu.fmu.rk4.integrate_time), so a Model Exchange export can hand them to the host's solver.
+The equations are the ``TorqueDriven`` protocol of the model module (derivatives of a state, its
+``torque_driven_rates``), integrated over each step by the shared ModelSlave with classical RK4, so a Model
+Exchange export can hand them to the host's solver.
 """
 
-import math
-
-from ..models.protocol import Drive
-from . import rk4
-from .base import SPEED_RANGE, TORQUE_RANGE, UjfmuSlave, input_, output, parameter
+from ..models.protocol import Torques
+from .base import SPEED_RANGE, TORQUE_RANGE, ModelSlave, input_, output, parameter
 
 
 #: the input-shaft ports of the speed-driven originals, declared anew below with the other causality
@@ -51,50 +49,23 @@ def driven_ports(speed_driven: type) -> tuple:
     ) + others
 
 
-class TorqueDrivenSlave(UjfmuSlave):
-    """Base of the torque-driven FMUs. The model state is one tuple of floats ``_state`` whose first two entries
-    are the input shaft's angle and speed and the rest the speed-driven model's State (STATE); subclasses set MODEL
-    (the speed-driven model's module, whose ``outputs`` give every output but the input shaft's) and implement
-    ``derive()`` (the DERIVED attributes, ``_p`` the model's Parameters), ``initial_state()``, ``rates(state)``
-    (its time derivative at the current inputs) and ``rate_bound(omega_max)`` (an upper bound of its fastest rate,
-    for the substeps)."""
+class TorqueDrivenSlave(ModelSlave):
+    """Base of the torque-driven FMUs: a ModelSlave over a torque-driven model (the ``TorqueDriven`` protocol of a
+    model module), whose inputs are ``Torques(tau_in, tau_load)`` held over a step and whose state starts with the
+    input shaft's angle and speed. A step whose input shaft would leave the speed range is refused."""
 
-    MODEL = None
+    def model_inputs(self):
+        return Torques(self.tau_in, self.tau_load)
 
-    def __init_subclass__(cls, **kwargs):
-        super().__init_subclass__(**kwargs)
-        if cls.__dict__.get("MODEL") is not None:
-            cls.PHYSICS = cls.MODEL
-
-    def initialize(self, start_time):
-        self._state = self.initial_state()
-
-    def advance(self, t, h):
-        omega, alpha = self.rates(self._state)[:2]
+    def speed_bound(self, h):
+        """|omega_in| + |alpha_in| h from the state and the equations of motion now (ValueError if it exceeds the
+        speed range)."""
+        u = self.model_inputs()
+        omega, alpha = self.MODEL.derivatives(self._p, self._time, self.current_state(u), u)[:2]
         reach = abs(omega) + abs(alpha) * h
         if not reach <= SPEED_RANGE["max"]:
             raise ValueError(f"tau_in = {self.tau_in!r} N.m and tau_load = {self.tau_load!r} N.m: the input shaft "
                              f"would reach {reach:.6g} rad/s within the step (omega_in = {omega!r} rad/s, alpha_in = "
                              f"{alpha!r} rad/s2), outside its allowed range [{SPEED_RANGE['min']:.10g}, "
                              f"{SPEED_RANGE['max']:.10g}] rad/s: reduce the torques or the step, or check J_drive")
-        n = rk4.substeps(self.rate_bound(reach), h)
-        state = tuple(rk4.integrate_time(lambda s, y: self.rates(y), self._state, h, n))
-        if not all(math.isfinite(x) for x in state):
-            raise ValueError(f"the state became non-finite over the step ({state!r})")
-        self.check_state(state)
-        self._state = state
-
-    def check_state(self, state):
-        """Raise ValueError if state (after a step) is outside the model's validity."""
-
-    def compute_outputs(self):
-        """The input shaft's outputs from the state and the equations of motion, the others from the model's
-        outputs at that motion (its tau_in is tau_input_shaft here)."""
-        y = self._state
-        self.phi_in, self.omega_in = y[0], y[1]
-        self.alpha_in = self.rates(y)[1]
-        model = self.MODEL
-        out = model.outputs(self._p, 0.0, model.State(*y[2:]), Drive(y[0], y[1], self.alpha_in, self.tau_load))
-        self.tau_input_shaft = out.pop("tau_in")
-        for name, value in out.items():
-            setattr(self, name, value)
+        return reach

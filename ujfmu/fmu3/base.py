@@ -11,8 +11,8 @@ numbers, never executed). So the two FMI versions of one model give the same num
 Model Exchange (``ModelExchangeFmu``) is offered for the models whose equations are derivatives of a state at
 the current inputs: the torque-driven joints (driving torque in, input shaft speed out, the input shaft with
 the driver's rotor inertia as a state), the MotorController (its PI integral) and the Load (no state). The
-continuous states are the core's state tuple (``STATES`` names them); their derivatives are the core's own rate
-function, so ME and CS share the equations, CS integrating them with RK4 inside the step and ME leaving it to
+continuous states are the core's model state (``STATES`` names them); their derivatives are the model's
+``derivatives`` (ujfmu.models.protocol), so ME and CS share the equations, CS integrating them with RK4 inside the step and ME leaving it to
 the host's solver.
 
 Error handling (pythonfmu3 0.3.4, like pythonfmu 0.7.0, turns a Python exception into fmi3Fatal and then
@@ -60,39 +60,23 @@ class ContinuousStates:
         pass
 
 
-class TorqueDrivenStates(ContinuousStates):
-    """The state tuple ``_state`` of a torque-driven joint and its time derivative ``rates(_state)``
-    (``torque_driven_rates`` of the model: tau_in and tau_load at their current values)."""
+class ModelStates(ContinuousStates):
+    """The state of a core over a model of the protocol (ujfmu.models.protocol): the core's model state (the
+    initial state at the current inputs until the first step or until the host sets it) and the model's
+    ``derivatives`` at the core's time and current inputs."""
 
     def __init__(self, names):
         self.names = names
 
     def get(self, core):
-        return list(core._state)
+        return list(core.current_state(core.model_inputs()))
 
     def set(self, core, values):
-        core._state = tuple(float(v) for v in values)
+        core._y, core._started = tuple(float(v) for v in values), True
 
     def derivatives(self, core):
-        return list(core.rates(core._state))
-
-
-class ControllerStates(ContinuousStates):
-    """The MotorController's PI integral I: dI/dt of ``ujfmu.models.motor.model.pi_torque`` with e = omega_ref(t) -
-    omega (conditional-integration anti-windup), omega the current input."""
-
-    names = (("integral", "rad", "Integral of the speed error"),)
-
-    def get(self, core):
-        return [core._integral]
-
-    def set(self, core, values):
-        core._integral = float(values[0])
-
-    def derivatives(self, core):
-        from ..models.motor import model as motor   # shipped in the MotorController FMU only
-        omega_ref = core._reference(core._time)[0]
-        return [motor.pi_torque(omega_ref - core.omega, core._integral, core.Kp, core.Ki, core.tau_max)[1]]
+        u = core.model_inputs()
+        return list(core.MODEL.derivatives(core._p, core._time, core.current_state(u), u))
 
     def set_time(self, core, time):
         core._time = time
@@ -101,13 +85,13 @@ class ControllerStates(ContinuousStates):
 _JOINT = (("phi1", "rad", "Input shaft angle"), ("omega1", "rad/s", "Input shaft speed"))
 #: model name -> its continuous states, for the models offered as Model Exchange
 STATES = {
-    "CardanJointTorqueDriven": TorqueDrivenStates(_JOINT),
-    "DoubleCardanDrivelineTorqueDriven": TorqueDrivenStates(_JOINT + (
+    "CardanJointTorqueDriven": ModelStates(_JOINT),
+    "DoubleCardanDrivelineTorqueDriven": ModelStates(_JOINT + (
         ("phi4", "rad", "Output shaft angle (flexible shaft; 0 with a rigid one)"),
         ("omega4", "rad/s", "Output shaft speed (flexible shaft; 0 with a rigid one)"),
         ("phi", "rad", "Dynamic misalignment angle (flexible shaft; 0 with a rigid one)"),
         ("dphi", "rad/s", "Rate of the dynamic misalignment (flexible shaft; 0 with a rigid one)"))),
-    "MotorController": ControllerStates(),
+    "MotorController": ModelStates((("integral", "rad", "Integral of the speed error"),)),
     "Load": ContinuousStates(),
 }
 

@@ -27,7 +27,11 @@ step on, the outputs following the inputs alone) and ``check_state(p, y) -> list
 
 The inputs ``u`` are the model's own NamedTuple ``Inputs``; a model whose input shaft follows a prescribed speed
 (``omega_in``) uses :class:`Drive`, which the base extrapolates over a step (angle quadratic, speed linear in time:
-``ujfmu.fmu.rk4``).
+``ujfmu.fmu.rk4``); a torque-driven variant, whose input shaft is a state, uses :class:`Torques`, held over a step.
+
+A model module may hold a second model, a variant with another causality at its ports, as a class whose
+attributes are the names above (e.g. ``TorqueDriven`` in ``cardan_joint/model.py``): the FMU of the variant
+declares that class as its MODEL.
 """
 
 from typing import NamedTuple, Protocol
@@ -41,6 +45,32 @@ class Drive(NamedTuple):
     omega: float
     alpha: float
     tau_load: float
+
+
+class Torques(NamedTuple):
+    """Inputs of a torque-driven model, whose input shaft is a state: the driving torque on the input shaft
+    [N.m] and the load torque [N.m], both held over a step."""
+
+    tau_in: float
+    tau_load: float
+
+
+def torque_driven_outputs(speed_driven: dict, y: tuple, alpha: float) -> dict:
+    """The outputs of a torque-driven model: its input shaft's angle y[0], speed y[1] and acceleration alpha from
+    its state and equation of motion, then the speed-driven model's outputs ``speed_driven`` at that motion, whose
+    tau_in (the torque the input shaft demands) is ``tau_input_shaft`` here (tau_in is the driving torque input)."""
+    out = {"phi_in": y[0], "omega_in": y[1], "alpha_in": alpha, "tau_input_shaft": speed_driven.pop("tau_in")}
+    out.update(speed_driven)
+    return out
+
+
+def shaft_inertia_problems(names: str, inertia: float, shaft: str) -> list:
+    """The message of a torque-driven model's check when the inertia [kg.m2] on its free input shaft (the sum
+    ``names``) is not > 0: the shaft's equation of motion divides by it."""
+    if inertia > 0.0:
+        return []
+    return [f"{names} = {inertia!r} kg.m2 must be > 0 (allowed range (0, 2000] kg.m2): the {shaft} needs an inertia "
+            "to integrate"]
 
 
 class Model(Protocol):

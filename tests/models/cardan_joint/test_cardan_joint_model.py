@@ -115,7 +115,8 @@ def test_fig2_ranges_of_laboratory_model():
 
 
 def test_eqs_17_to_19_bend_only():
-    """alpha = beta = delta = 0: M_x = T tan(phi) sin cos, M_y = -T sin(phi) cos^2, M_z = T (1-sin^2 phi cos^2)/cos phi."""
+    """alpha = beta = delta = 0: M_x = T tan(phi) sin cos, M_y = -T sin(phi) cos^2,
+    M_z = T (1-sin^2 phi cos^2)/cos phi."""
     t0 = 0.3
     m_x, m_y, m_z = moments(frame(PHI), t0)
     s, c = np.sin(THETA), np.cos(THETA)
@@ -133,7 +134,8 @@ def test_eqs_14_to_16_error_misalignment_only(eps_deg):
     """phi = delta = 0, small beta, gamma: Eqs. (14)-(15) hold to first order; Eq. (16) to first order only.
 
     Eq. (16) keeps the second-order term -(gamma sin + beta cos)^2 but drops the one from 1/(e_n . K):
-    exactly M_z = T0 xi^2/K_z = T0 (1 - (gamma s + beta c)^2 + ...)/(cos beta cos gamma), see ujfmu/models/cardan_joint/README.md.
+    exactly M_z = T0 xi^2/K_z = T0 (1 - (gamma s + beta c)^2 + ...)/(cos beta cos gamma), see
+    ujfmu/models/cardan_joint/README.md.
     """
     beta, gamma, t0 = math.radians(eps_deg), math.radians(0.7 * eps_deg), 0.3
     m_x, m_y, m_z = moments(frame(0.0, 0.0, beta, gamma), t0)
@@ -166,7 +168,8 @@ def test_eqs_11_to_13_bend_with_small_error_misalignment():
 
 
 def test_bend_plane_angle_alone_is_a_tilt_about_y():
-    """With the printed C_delta = R_y(delta), delta alone misaligns the shafts by delta (ujfmu/models/cardan_joint/README.md)."""
+    """With the printed C_delta = R_y(delta), delta alone misaligns the shafts by delta
+    (ujfmu/models/cardan_joint/README.md)."""
     delta = math.radians(20)
     f = frame(0.0, delta)
     assert cardan.shaft_angle(f) == pytest.approx(delta, rel=1e-12)

@@ -145,7 +145,8 @@ def _brutti_tau_in(p, rpm):
 
 
 def test_brutti_without_inertia_input_torque_equals_resisting_torque():
-    p = driveline(10 * DEG, 10 * DEG, **{**BRUTTI, "I_input": 0.0, "I_cross_pin": 0.0, "I_cross_normal": 0.0, "J_load": 0.0})
+    p = driveline(10 * DEG, 10 * DEG,
+                  **{**BRUTTI, "I_input": 0.0, "I_cross_pin": 0.0, "I_cross_normal": 0.0, "J_load": 0.0})
     tau = _brutti_tau_in(p, 2000)
     assert np.allclose(tau, C_FAN * (2000 * RPM) ** 2, rtol=1e-12)
     assert C_FAN * (2000 * RPM) ** 2 == pytest.approx(750, rel=0.01)   # Brutti's catalogue M_u
@@ -197,8 +198,8 @@ def test_aligned_linearised_system_has_omars_natural_frequencies():
 @pytest.mark.parametrize("layout", [dict(beta2=15 * DEG), dict(beta2=-20 * DEG, yoke_phase=0.4, plane=0.2)])
 def test_flexible_power_balance(layout):
     """tau_in w1 - tau_load w4 = dE/dt + c_theta dtwist^2 + c_phi (L_c cos beta1)^2 dphi^2 along a run."""
-    inertias = dict(I_input=1e-3, I_cross_pin=2e-4, I_cross_normal=3e-4, I_intermediate=1e-3, xi_theta=0.01, xi_phi=0.01,
-                    m_s=0.05)
+    inertias = dict(I_input=1e-3, I_cross_pin=2e-4, I_cross_normal=3e-4, I_intermediate=1e-3, xi_theta=0.01,
+                    xi_phi=0.01, m_s=0.05)
     p = driveline(15 * DEG, layout["beta2"], layout.get("yoke_phase", 0.0), layout.get("plane", 0.0), **inertias)
     h, alpha, tau_load = 1e-4, 300.0, 5.0
     phi1, w1 = 0.1, 60.0

@@ -37,7 +37,7 @@ def test_pi_saturation_and_anti_windup():
 
 def test_closed_loop_tracks_ramp_with_load_exactly_in_steady_state():
     """PI + inertia is type 2 for the speed loop: a ramp and a constant load leave no steady speed error."""
-    p = motor.Parameters(1e-3, 0.2, 10.0, 50.0, motor.RAMP, 1e9, 30.0, 0.0, 0.0)
+    p = motor.Parameters(0.2, 10.0, 50.0, motor.RAMP, 1e9, 30.0, 0.0, 0.0, J_rotor=1e-3)
     state, t, h = (0.0, 0.0, 0.0), 0.0, 1e-3
     lags = []
     for k in range(1000):
@@ -53,7 +53,7 @@ def test_closed_loop_step_response_matches_linear_closed_form():
     """Critically damped loop (omega_n = 100 rad/s): omega(t) = w_set (1 - (1 + wn t - 2 zeta wn t ...))."""
     J, wn = 1e-3, 100.0
     kp, ki = 2 * wn * J, wn * wn * J     # zeta = 1
-    p = motor.Parameters(J, kp, ki, 1e9, motor.CONSTANT, 1.0, 1.0, 0.0, 0.0)
+    p = motor.Parameters(kp, ki, 1e9, motor.CONSTANT, 1.0, 1.0, 0.0, 0.0, J_rotor=J)
     state, t = (0.0, 0.0, 0.0), 0.0
     for _ in range(30):
         state = pi_step(p, t, 1e-3, state, 0.0)

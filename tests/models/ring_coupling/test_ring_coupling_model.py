@@ -59,7 +59,8 @@ def test_eq3_eq4_do_not_give_the_published_157():
 
     M_p = 2e (P_y cos g - P_x sin g) with Eq. (3)'s reactions (made a force by e/R^2: P = 2EI e/R^3 (...))
     gives 4b (EI/R^3) e^2 cos 2g with b = (pi - 4)/(2 pi): a coefficient -0.546, not 157. We keep the published
-    157 (the paper's Eqs. 5-20 and its figures rest on it) and record the discrepancy (ujfmu/models/ring_coupling/README.md)."""
+    157 (the paper's Eqs. 5-20 and its figures rest on it) and record the discrepancy
+    (ujfmu/models/ring_coupling/README.md)."""
     g = sp.Symbol("gamma", real=True)
     a, b = (sp.pi ** 2 - 8) / (4 * sp.pi), (sp.pi - 4) / (2 * sp.pi)
     p_x = 2 * (a * sp.cos(g) + b * sp.sin(g))

@@ -92,7 +92,8 @@ def test_energy_balance_through_the_fmu_outputs(open_fmu, drive):
     residual = r.input_work - load_work - r.dissipated_energy - change
     assert r.dissipated_energy[-1] > 1e-3 * r.input_work[-1]
     assert np.max(np.abs(residual)) < 1e-7 * r.input_work[-1]
-    host = np.concatenate([[0.0], np.cumsum(0.5 * h * np.diff(r.tau_in * r.omega_in) + h * (r.tau_in * r.omega_in)[:-1])])
+    power = r.tau_in * r.omega_in
+    host = np.concatenate([[0.0], np.cumsum(0.5 * h * np.diff(power) + h * power[:-1])])
     assert np.max(np.abs(host - r.input_work)) < 2e-3 * r.input_work[-1]
 
 

@@ -128,7 +128,8 @@ def test_aligned_rotor_under_load_keeps_circular_orbits_and_no_2x():
     y, rate, rows = tj.rest_state(p, 0.0, w), tj.natural_rate_bound(p), []
     for k in range(n):
         if k >= n - 629:   # the last 10 revolutions (628.3 steps)
-            rows.append((w * k * h, y[2], y[4], y[8], y[10], tj.torque_outputs(p, w * k * h, w, 0.0, y)["tau_in"], y[7]))
+            torque = tj.torque_outputs(p, w * k * h, w, 0.0, y)["tau_in"]
+            rows.append((w * k * h, y[2], y[4], y[8], y[10], torque, y[7]))
         y = tj.step(p, h, w * k * h, w, 0.0, y, tau, rate)
     angle, x1, y1, x2, y2, tau_in, omega_out = np.array(rows).T
     damping_power = 0.0

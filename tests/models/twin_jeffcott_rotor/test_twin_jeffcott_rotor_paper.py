@@ -1,8 +1,9 @@
 """Tchomeni et al.'s printed mass matrix (Eq. 10) against Lagrange's equations formed by sympy from the kinetic
 energy Eq. (4), in the paper's own 5-DOF setting (torsionally rigid: theta2 = f(theta1) through the joint).
 
-The extraction is garbled; ujfmu/models/twin_jeffcott_rotor/README.md lists the readings this test pins down: the unbalance terms turn
-with the disc angle (sin theta, not sin 2 theta), and (mu - 1) stands for the joint's speed ratio up to sign."""
+The extraction is garbled; ujfmu/models/twin_jeffcott_rotor/README.md lists the readings this test pins down: the
+unbalance terms turn with the disc angle (sin theta, not sin 2 theta), and (mu - 1) stands for the joint's speed
+ratio up to sign."""
 
 import pytest
 import sympy as sp

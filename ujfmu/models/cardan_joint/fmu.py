@@ -3,7 +3,7 @@
 import math
 
 from . import model as cardan
-from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, model_parameters, output, parameter
+from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
 from ...fmu.torque_driven import TorqueDrivenSlave, driven_ports
 
 _ANGLE = dict(min=-cardan.MAX_ANGLE, max=cardan.MAX_ANGLE)
@@ -70,35 +70,13 @@ class CardanJointTorqueDriven(TorqueDrivenSlave):
 
     The same joint as CardanJoint (Feng, Wang, Zhu Eqs. 1-10), with the driving shaft free: its angle and speed
     are a state integrated from (J_drive + J1 + J2 r^2) alpha1 = tau_in - J2 r r' omega1^2 - r tau_load
-    (model.torque_driven_rates), J_drive the driver's rotor inertia lumped on the driving shaft,
+    (model.TorqueDriven), J_drive the driver's rotor inertia lumped on the driving shaft,
     tau_in and tau_load held over each step (classical RK4, substeps from the kinematic harmonics 4|omega1|).
     Outputs as CardanJoint's; tau_input_shaft = tau_in - J_drive*alpha1 is what CardanJoint calls tau_in.
     Wire it to MotorController (tau_motor -> tau_in, omega_in -> omega) and a Load (omega_out -> omega,
     tau -> tau_load). Signs as CardanJoint's.
     """
 
-    MODEL = cardan
+    MODEL = cardan.TorqueDriven
     VARIABLES = driven_ports(CardanJoint)
-    STATE = {"_state": "float[2]"}   # (theta1, omega1)
-    DERIVED = ("_p",)
     DEFAULT_EXPERIMENT = CardanJoint.DEFAULT_EXPERIMENT
-
-    def check_parameters(self):
-        problems = cardan.check(model_parameters(cardan, self))
-        if not self.J_drive + self.J1 > 0.0:
-            problems.append(f"J_drive + J1 = {self.J_drive + self.J1!r} kg.m2 must be > 0 (allowed range (0, 2000] "
-                            "kg.m2): the driving shaft needs an inertia to integrate")
-        return problems
-
-    def derive(self):
-        self._p = model_parameters(cardan, self)
-
-    def initial_state(self):
-        return (self.phi_in_start, self.omega_in_start)
-
-    def rates(self, state):
-        return cardan.torque_driven_rates(self._p.frame, state, self.tau_in, self.tau_load, self.J_drive, self.J1,
-                                          self.J2)
-
-    def rate_bound(self, omega_max):
-        return 4.0 * omega_max

@@ -26,7 +26,7 @@ import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
-from ..protocol import Drive
+from ..protocol import Drive, Torques, shaft_inertia_problems, torque_driven_outputs
 
 #: Largest admissible magnitude of each misalignment angle and of the total shaft angle acos(K_z) [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -195,6 +195,60 @@ def check(p: Parameters) -> list:
         return [f"total shaft angle acos(K_z) = {angle!r} rad from bend_angle, bend_plane_angle, "
                 f"error_angle_beta, error_angle_gamma is outside its allowed range [0, {MAX_ANGLE:.10g}] rad"]
     return []
+
+
+
+# --- the torque-driven joint (CardanJointTorqueDriven): the driving shaft free, its motion the state -------------
+
+@dataclass(slots=True, kw_only=True)
+class TorqueDrivenParameters(Parameters):
+    """CardanJointTorqueDriven's parameters: CardanJoint's, the driver's rotor inertia J_drive lumped on the
+    driving shaft [kg.m2] and the driving shaft's speed at the start time [rad/s]."""
+
+    J_drive: float
+    omega_in_start: float
+
+
+class TorqueDriven:
+    """The protocol of the torque-driven joint: state (theta1, omega1) of the driving shaft, driven by tau_in with
+    the driver's rotor inertia J_drive lumped with J1 (:func:`torque_driven_rates`); every other output is the
+    speed-driven joint's at that motion."""
+
+    Parameters = TorqueDrivenParameters
+    Inputs = Torques
+
+    class State(NamedTuple):
+        """Driving shaft angle theta1 [rad] and speed omega1 [rad/s]."""
+
+        theta1: float
+        omega1: float
+
+    @staticmethod
+    def initial_state(p: TorqueDrivenParameters, t: float, u: Torques) -> tuple:
+        """The driving shaft at phi_in_start turning at omega_in_start."""
+        return TorqueDriven.State(p.phi_in_start, p.omega_in_start)
+
+    @staticmethod
+    def derivatives(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> tuple:
+        """(J_d + J1 + J2 r^2) alpha1 = tau_in - J2 r r' omega1^2 - r tau_load (:func:`torque_driven_rates`)."""
+        return torque_driven_rates(p.frame, y, u.tau_in, u.tau_load, p.J_drive, p.J1, p.J2)
+
+    @staticmethod
+    def rate_bound(p: TorqueDrivenParameters, y: tuple, omega_max: float) -> float:
+        """The kinematics' harmonics of the driving angle, 4 |omega1| (the joint has no natural frequency)."""
+        return 4.0 * omega_max
+
+    @staticmethod
+    def outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
+        """The driving shaft's motion from the state and Eq. of :func:`torque_driven_rates`, the rest from
+        :func:`outputs` at that motion."""
+        alpha = TorqueDriven.derivatives(p, t, y, u)[1]
+        return torque_driven_outputs(outputs(p, t, State(), Drive(y[0], y[1], alpha, u.tau_load)), y, alpha)
+
+    @staticmethod
+    def check(p: TorqueDrivenParameters) -> list:
+        """:func:`check`, and the driving shaft needs an inertia to integrate."""
+        return check(p) + shaft_inertia_problems("J_drive + J1", p.J_drive + p.J1, "driving shaft")
 
 
 def _rot_x(t):

@@ -3,7 +3,7 @@
 import math
 
 from . import model as dc
-from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, model_parameters, output, parameter
+from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
 from ...fmu.torque_driven import TorqueDrivenSlave, driven_ports
 
 _ANGLE = dict(min=-dc.MAX_ANGLE, max=dc.MAX_ANGLE)
@@ -89,7 +89,7 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
 
     The same driveline as DoubleCardanDriveline (rigid: Brutti et al.; flexible: Omar et al.), with the input
     shaft free: its angle and speed join the state, integrated with the driver's rotor inertia J_drive lumped on
-    the input shaft (model.torque_driven_rates): rigid, (J_drive + J_eq) alpha1 =
+    the input shaft (model.TorqueDriven): rigid, (J_drive + J_eq) alpha1 =
     tau_in - J_eq' omega1^2/2 - rho tau_load; flexible, (J_drive + J_in) alpha1 = tau_in - J_in' omega1^2/2 -
     r1 (k_theta twist + c_theta dtwist), with the output and lateral equations unchanged. tau_in and tau_load are
     held over each step (classical RK4, substeps from the torsional mode of both shaft ends and 4|omega1|). The
@@ -99,45 +99,6 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
     DoubleCardanDriveline's.
     """
 
-    MODEL = dc
+    MODEL = dc.TorqueDriven
     VARIABLES = driven_ports(DoubleCardanDriveline)
-    STATE = {"_state": "float[6]"}   # (phi1, omega1, phi4, omega4, phi, dphi)
-    DERIVED = ("_p", "_natural_rate")
     DEFAULT_EXPERIMENT = DoubleCardanDriveline.DEFAULT_EXPERIMENT
-
-    def check_parameters(self):
-        problems = dc.check(model_parameters(dc, self))
-        if not self.J_drive + self.I_input > 0.0:
-            problems.append(f"J_drive + I_input = {self.J_drive + self.I_input!r} kg.m2 must be > 0 (allowed range "
-                            "(0, 2000] kg.m2): the input shaft needs an inertia to integrate")
-        return problems
-
-    def derive(self):
-        self._p = model_parameters(dc, self)
-        self._natural_rate = 0.0 if self.rigid_intermediate_shaft else \
-            dc.natural_rate_bound(self._p, self.J_drive + self.I_input)
-
-    def initial_state(self):
-        """(phi1, omega1, phi4, omega4, phi, dphi); the last four stay 0 with a rigid shaft."""
-        if self.rigid_intermediate_shaft:
-            return (self.phi_in_start, self.omega_in_start, 0.0, 0.0, 0.0, 0.0)
-        phi4 = dc.rigid_output_angle(self._p, self.phi_in_start)
-        omega4 = dc.rigid_state(self._p, self.phi_in_start, self.omega_in_start, 0.0, 0.0)["omega4"]
-        return (self.phi_in_start, self.omega_in_start, phi4, omega4, 0.0, 0.0)
-
-    def rates(self, state):
-        if self.rigid_intermediate_shaft:
-            return dc.torque_driven_rates(self._p, self.J_drive, state[:2], self.tau_in, self.tau_load) + _AT_REST
-        return dc.torque_driven_rates(self._p, self.J_drive, state, self.tau_in, self.tau_load)
-
-    def rate_bound(self, omega_max):
-        return self._natural_rate + 4.0 * omega_max
-
-    def check_state(self, state):
-        problems = dc.check_state(self._p, state[2:])
-        if problems:
-            raise ValueError(problems[0])
-
-
-#: rates of the flexible entries of the torque-driven state, which a rigid shaft does not use
-_AT_REST = (0.0, 0.0, 0.0, 0.0)

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from ...fmu import rk4
-from ..protocol import Drive
+from ..protocol import Drive, Torques, shaft_inertia_problems, torque_driven_outputs
 
 #: Largest admissible magnitude of a joint angle (static plus dynamic) [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -356,3 +356,84 @@ def check_state(p: Parameters, y: State) -> list:
             problems.append(f"joint angle {name} + dynamic misalignment = {angle!r} rad left its allowed "
                             f"range [{-MAX_ANGLE:.10g}, {MAX_ANGLE:.10g}] rad")
     return problems[:1]
+
+
+# --- the torque-driven driveline (DoubleCardanDrivelineTorqueDriven): the input shaft free, in the state --------
+
+@dataclass(slots=True, kw_only=True)
+class TorqueDrivenParameters(Parameters):
+    """DoubleCardanDrivelineTorqueDriven's parameters: DoubleCardanDriveline's, the driver's rotor inertia J_drive
+    lumped on the input shaft [kg.m2] and the input shaft's speed at the start time [rad/s]; natural_rate is the
+    bound with the input shaft free, :func:`natural_rate_bound` (p, J_drive + I_input) (0 for a rigid shaft or
+    where :meth:`TorqueDriven.check` refuses the parameters)."""
+
+    J_drive: float
+    omega_in_start: float
+
+    def __post_init__(self):
+        Parameters.__post_init__(self)
+        j_in = self.J_drive + self.I_input
+        self.natural_rate = 0.0 if self.rigid_intermediate_shaft or not (self.J_load > 0.0 and j_in > 0.0) else \
+            natural_rate_bound(self, j_in)
+
+
+#: rates of the flexible entries of the torque-driven state, which a rigid shaft does not use
+_AT_REST = (0.0, 0.0, 0.0, 0.0)
+
+
+class TorqueDriven:
+    """The protocol of the torque-driven driveline: state (phi1, omega1, phi4, omega4, phi, dphi), the input shaft
+    driven by tau_in with the driver's rotor inertia J_drive lumped on it (:func:`torque_driven_rates`; the last
+    four stay 0 with a rigid shaft); every other output is the speed-driven driveline's at that motion."""
+
+    Parameters = TorqueDrivenParameters
+    Inputs = Torques
+
+    class State(NamedTuple):
+        """Input shaft angle and speed, then the speed-driven driveline's :class:`State`."""
+
+        phi1: float
+        omega1: float
+        phi4: float
+        omega4: float
+        phi: float
+        dphi: float
+
+    @staticmethod
+    def initial_state(p: TorqueDrivenParameters, t: float, u: Torques) -> tuple:
+        """The input shaft at phi_in_start and omega_in_start; untwisted, phi = 0, the output at the rigid
+        kinematics' angle and speed."""
+        if p.rigid_intermediate_shaft:
+            return TorqueDriven.State(p.phi_in_start, p.omega_in_start, 0.0, 0.0, 0.0, 0.0)
+        phi4 = rigid_output_angle(p, p.phi_in_start)
+        omega4 = rigid_state(p, p.phi_in_start, p.omega_in_start, 0.0, 0.0)["omega4"]
+        return TorqueDriven.State(p.phi_in_start, p.omega_in_start, phi4, omega4, 0.0, 0.0)
+
+    @staticmethod
+    def derivatives(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> tuple:
+        """:func:`torque_driven_rates` (rigid: of (phi1, omega1), the rest at rest)."""
+        if p.rigid_intermediate_shaft:
+            return torque_driven_rates(p, p.J_drive, y[:2], u.tau_in, u.tau_load) + _AT_REST
+        return torque_driven_rates(p, p.J_drive, y, u.tau_in, u.tau_load)
+
+    @staticmethod
+    def rate_bound(p: TorqueDrivenParameters, y: tuple, omega_max: float) -> float:
+        """The natural-rate bound with the input shaft free plus 4 |omega1| (the kinematics' harmonics)."""
+        return p.natural_rate + 4.0 * omega_max
+
+    @staticmethod
+    def outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
+        """The input shaft's motion from the state and :func:`torque_driven_rates`, the rest from :func:`outputs`
+        at that motion."""
+        alpha = TorqueDriven.derivatives(p, t, y, u)[1]
+        return torque_driven_outputs(outputs(p, t, State(*y[2:]), Drive(y[0], y[1], alpha, u.tau_load)), y, alpha)
+
+    @staticmethod
+    def check(p: TorqueDrivenParameters) -> list:
+        """:func:`check`, and the input shaft needs an inertia to integrate."""
+        return check(p) + shaft_inertia_problems("J_drive + I_input", p.J_drive + p.I_input, "input shaft")
+
+    @staticmethod
+    def check_state(p: TorqueDrivenParameters, y: tuple) -> list:
+        """:func:`check_state` of the speed-driven driveline's part of the state."""
+        return check_state(p, y[2:])

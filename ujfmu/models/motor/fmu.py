@@ -1,7 +1,7 @@
 """Motor FMU: rotor inertia with a PI speed controller and torque limit, or an ideal speed source."""
 
 from . import model as motor
-from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, ModelSlave, UjfmuSlave, input_, output, parameter
+from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, ModelSlave, input_, output, parameter
 
 _SPEED = SPEED_RANGE
 
@@ -47,10 +47,10 @@ class Motor(ModelSlave):
         return motor.Inputs(self.tau_load)
 
 
-class MotorController(UjfmuSlave):
+class MotorController(ModelSlave):
     """Motor drive without its rotor, for the torque-driven joints: measured speed in, drive torque out.
 
-    The Motor's PI speed controller, torque limit and speed profiles (ujfmu.models.motor.model):
+    The Motor's PI speed controller, torque limit and speed profiles (ujfmu.models.motor.model.Controller):
     tau_motor = clamp(Kp*e + Ki*I, -tau_max, tau_max), e = omega_ref(t) - omega, conditional-integration
     anti-windup, with omega the speed the host passes in (held over a step: a sampled speed controller). The
     rotor inertia belongs to the driven model: set the torque-driven joint's J_drive to the motor's J_rotor and
@@ -58,7 +58,7 @@ class MotorController(UjfmuSlave):
     Signs as Motor's: tau_motor > 0 drives in the direction of rotation.
     """
 
-    PHYSICS = motor
+    MODEL = motor.Controller
     VARIABLES = tuple(v for v in Motor.VARIABLES
                       if v.causality == "parameter" and v.name not in ("J_rotor", "ideal_speed_source")) + (
         input_("omega", 0.0, "rad/s", "Measured rotor speed (the torque-driven joint's omega_in)", **_SPEED),
@@ -66,27 +66,6 @@ class MotorController(UjfmuSlave):
         output("omega_ref", "rad/s", "Reference speed of the profile"),
     )
     DEFAULT_EXPERIMENT = Motor.DEFAULT_EXPERIMENT
-    STATE = {"_time": "float", "_integral": "float"}
-    DERIVED = ("_params",)
 
-    def check_parameters(self):
-        return motor.check(self)   # the profile's parameters, named as Motor's
-
-    def _reference(self, t):
-        return motor.reference(self, t)
-
-    def derive(self):
-        self._params = (self.Kp, self.Ki, self.tau_max, self.profile, self.omega_set, self.accel, self.t_step,
-                        self.omega_initial)
-
-    def initialize(self, start_time):
-        self._time, self._integral = start_time, 0.0
-
-    def compute_outputs(self):
-        self.omega_ref = self._reference(self._time)[0]
-        self.tau_motor = motor.pi_torque(self.omega_ref - self.omega, self._integral, self.Kp, self.Ki,
-                                         self.tau_max)[0]
-
-    def advance(self, t, h):
-        self._integral = motor.controller_step(t, h, self._integral, self.omega, self._params)
-        self._time = t + h
+    def model_inputs(self):
+        return motor.Controller.Inputs(self.omega)

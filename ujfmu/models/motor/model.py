@@ -10,7 +10,8 @@ Speed profiles omega_ref(t) (Feng et al. accelerate the driving shaft at alpha =
     RAMP:     omega_ref = min(accel * t, omega_set)  (from rest)
     STEP:     omega_ref = omega_initial before t_step, omega_set from t_step on
 Source: none; a generic drive (PI speed control with conditional-integration anti-windup, the textbook law).
-Standard library only: runs inside the Motor FMU.
+Standard library only: runs inside the Motor and MotorController FMUs (``Controller``: the PI controller without
+its rotor, for the torque-driven joints).
 """
 
 import math
@@ -50,10 +51,9 @@ def pi_torque(error: float, integral: float, kp: float, ki: float, tau_max: floa
 # --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
 
 @dataclass(slots=True)
-class Parameters:
-    """The Motor FMU's parameters (names as declared there)."""
+class ControllerParameters:
+    """The MotorController FMU's parameters (names as declared there): the PI controller's and the profile's."""
 
-    J_rotor: float
     Kp: float
     Ki: float
     tau_max: float
@@ -62,6 +62,14 @@ class Parameters:
     accel: float
     t_step: float
     omega_initial: float
+
+
+@dataclass(slots=True, kw_only=True)
+class Parameters(ControllerParameters):
+    """The Motor FMU's parameters (names as declared there): the controller's, the rotor inertia [kg.m2] and the
+    ideal speed source switch."""
+
+    J_rotor: float
     ideal_speed_source: bool = False
 
 
@@ -133,16 +141,48 @@ def check(p: Parameters) -> list:
     return []
 
 
-def controller_step(t: float, h: float, integral: float, omega: float, p: tuple) -> float:
-    """Advance the PI controller's integral over [t, t+h] with the measured speed omega held (a sampled speed
-    controller without a rotor of its own): dI/dt of :func:`pi_torque` with e = omega_ref(t) - omega, one RK4
-    step (exact while unsaturated: e is linear in t between the profile's corners).
+# --- the controller without its rotor (MotorController): a sampled speed controller ----------------------------
 
-    p: (kp, ki, tau_max, profile, omega_set, accel, t_step, omega_initial).
-    """
-    kp, ki, tau_max, profile, omega_set, accel, t_step, omega_initial = p
+class Controller:
+    """The protocol of the PI speed controller without a rotor of its own: state the integral I of the speed
+    error, input the measured speed omega (held over a step), dI/dt of :func:`pi_torque` with
+    e = omega_ref(t) - omega."""
 
-    def rates(s, y):
-        omega_ref = speed_reference(t + s, profile, omega_set, accel, t_step, omega_initial)[0]
-        return (pi_torque(omega_ref - omega, y[0], kp, ki, tau_max)[1],)
-    return rk4.integrate_time(rates, (integral,), h, 1)[0]
+    Parameters = ControllerParameters
+
+    class State(NamedTuple):
+        """Integral of the speed error [rad]."""
+
+        integral: float
+
+    class Inputs(NamedTuple):
+        """The measured rotor speed [rad/s], held over a step."""
+
+        omega: float
+
+    @staticmethod
+    def initial_state(p: ControllerParameters, t: float, u: tuple) -> tuple:
+        """The integral starts at 0."""
+        return Controller.State(0.0)
+
+    @staticmethod
+    def derivatives(p: ControllerParameters, t: float, y: tuple, u: tuple) -> tuple:
+        """dI/dt of :func:`pi_torque` with e = omega_ref(t) - omega."""
+        return (pi_torque(reference(p, t)[0] - u.omega, y[0], p.Kp, p.Ki, p.tau_max)[1],)
+
+    @staticmethod
+    def rate_bound(p: ControllerParameters, y: tuple, omega_max: float) -> float:
+        """0: one RK4 step per communication step, exact while unsaturated (e is linear in t between the
+        profile's corners, omega held)."""
+        return 0.0
+
+    @staticmethod
+    def outputs(p: ControllerParameters, t: float, y: tuple, u: tuple) -> dict:
+        """The reference speed and the PI law's torque at the measured speed."""
+        omega_ref = reference(p, t)[0]
+        return {"omega_ref": omega_ref, "tau_motor": pi_torque(omega_ref - u.omega, y[0], p.Kp, p.Ki, p.tau_max)[0]}
+
+    @staticmethod
+    def check(p: ControllerParameters) -> list:
+        """:func:`check` (the profile's parameters, named as the Motor's)."""
+        return check(p)
