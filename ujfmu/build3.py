@@ -26,7 +26,8 @@ import zipfile
 from pathlib import Path
 
 from . import __version__
-from .build import DEFAULT_FMU_DIR, FMUS, PACKAGE_DIR, UNITS, documentation_html, fmu_class, source_hash
+from .build import (DEFAULT_FMU_DIR, FMUS, PACKAGE_DIR, UNITS, documentation_html, fmu_class, source_hash,
+                    stage_runtime)
 
 #: default folder of the FMI 3.0 FMUs (same file names as the FMI 2.0 ones: a scenario runs either version with
 #: --fmu-dir)
@@ -83,12 +84,9 @@ def build_fmu3(name: str, dest=DEFAULT_FMU3_DIR) -> Path:
     unique = f"ujfmu3_{name.lower()}_{fmi3_hash(stem)}"
     with tempfile.TemporaryDirectory(prefix="ujfmu_build3_") as tmp:
         stage = Path(tmp)
-        package = stage / unique
-        package.mkdir()
-        (package / "__init__.py").write_text(f'"""ujfmu {__version__} runtime for {name}.fmu (FMI 3.0)."""\n')
-        for rel in runtime_files(stem) + [f"fmu3/{p.name}" for p in sorted((PACKAGE_DIR / "fmu3").glob("*.py"))]:
-            (package / rel).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(PACKAGE_DIR / rel, package / rel)
+        package = stage_runtime(stage / unique, f"ujfmu {__version__} runtime for {name}.fmu (FMI 3.0).",
+                                runtime_files(stem) + [f"fmu3/{p.name}"
+                                                       for p in sorted((PACKAGE_DIR / "fmu3").glob("*.py"))])
         shipped = stage / "pythonfmu"   # the pure-Python part the declarations import (not its builder's binaries)
         shipped.mkdir()
         for path in Path(pythonfmu.__file__).parent.glob("*.py"):
