@@ -1,11 +1,14 @@
-"""The README's Python sweep recipe runs as written, as a plain script without a __main__ guard (its dask
-workers must not re-run the script), in a project folder of its own."""
+"""The README's Python recipes run as written: the sweep as a plain script without a __main__ guard (its dask
+workers must not re-run the script), in a project folder of its own; the plain fmpy script against Hooke's joint."""
 
+import math
 import os
 import re
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 REPO = Path(__file__).parents[1]
 
@@ -51,3 +54,29 @@ def test_the_sweep_recipe_runs_as_written_in_an_unguarded_script(fmu_dir, tmp_pa
     results = tmp_path / "results"
     for name in ("_sweep.csv", "_sweep.png", "_sweep_orders.png", "_sweep.jsonl"):
         assert (results / f"double_cardan_omar_torsional{name}").is_file()
+
+
+def run_fmpy_recipe(tmp_path, fmu_dir, recipe):
+    (tmp_path / "fmus").symlink_to(fmu_dir)
+    script = tmp_path / "plain_fmpy.py"
+    script.write_text(recipe)
+    return subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+
+
+def test_the_plain_fmpy_recipe_gives_the_joints_velocity_ratio_bounds(fmu_dir, tmp_path):
+    """An ideal 30 deg joint at constant input speed: omega_out swings between omega cos(30 deg) and
+    omega / cos(30 deg) (Hooke's joint), which the recipe prints."""
+    recipe = next(block for block in readme_python_blocks() if "simulate_fmu" in block)
+    done = run_fmpy_recipe(tmp_path, fmu_dir, recipe)
+    assert done.returncode == 0, done.stderr[-3000:]
+    low, high = map(float, done.stdout.split()[-2:])
+    c = math.cos(0.5236)
+    assert low == pytest.approx(62.83 * c, rel=1e-4) and high == pytest.approx(62.83 / c, rel=1e-4)
+
+
+def test_the_plain_fmpy_recipe_shows_the_cause_of_a_degree_slip(fmu_dir, tmp_path):
+    recipe = next(block for block in readme_python_blocks() if "simulate_fmu" in block)
+    done = run_fmpy_recipe(tmp_path, fmu_dir, recipe.replace('"bend_angle": 0.5236', '"bend_angle": 30.0'))
+    assert done.returncode != 0 and "status 4" in done.stderr
+    assert "bend_angle = 30.0 is outside its allowed range" in done.stdout + done.stderr
+    assert "(30 deg = 0.5236 rad?)" in done.stdout + done.stderr

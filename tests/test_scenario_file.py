@@ -147,3 +147,72 @@ def test_the_allowed_error_scales_with_the_reference_over_the_run_only():
     run = np.rec.fromarrays([np.linspace(0.0, 2.0, 21), np.linspace(0.0, 20.0, 21) + 0.3], names="time,x")
     (check,) = compare(run, ref, {"x": Tolerance(rel_range=0.01)})
     assert check.reference_range == pytest.approx(20.0) and check.allowed == pytest.approx(0.2) and not check.passed
+
+
+def _reference_made_for(tmp_path, text):
+    """A reference file r.csv whose provenance line names the setup of the scenario text (as `ujfmu references`
+    writes it), covering the run."""
+    from ujfmu.references import SETUP_TAG
+    digest = Scenario(write(tmp_path, text)).setup_digest()
+    (tmp_path / "r.csv").write_text(f'# made by hand {SETUP_TAG}{digest}]\n"time","j.tau_in"\n0,0.0\n1,1.0\n')
+
+
+@pytest.mark.parametrize("old, new", [
+    ("omega_in = 10.0", "omega_in = 12.0"),                                            # a set input
+    ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { J2 = 2e-5 }'),           # a parameter
+    ('fmu = "Load"', 'fmu = "Load"\nparameters = { c2 = 1e-6 }'),                        # another component's
+    ("stop_time = 1.0", "start_time = 0.5\nstop_time = 1.0"),                            # the start time
+    ('[[connections]]\nfrom = "j.omega_out"\nto = "l.omega"\n', 'inputs = { omega = 5.0 }\n'),  # the wiring
+])
+def test_a_reference_made_for_another_setup_is_refused_naming_the_remedy(tmp_path, old, new):
+    """Edit a parameter, a set input, the wiring or the start time after the reference was made: the comparison
+    would check the run against another system, so reading the reference fails and says how to regenerate it."""
+    _reference_made_for(tmp_path, GOOD + REF)
+    changed = (GOOD + REF).replace(old, new)
+    assert changed != GOOD + REF
+    scenario = Scenario(write(tmp_path, changed))
+    with pytest.raises(ScenarioError) as err:
+        scenario.read_reference()
+    assert "made for another setup" in str(err.value) and f"ujfmu references {scenario.path}" in str(err.value)
+
+
+@pytest.mark.parametrize("old, new", [
+    ("omega_in = 10.0", "omega_in = 10"),                                                # 10 and 10.0 are one value
+    ("stop_time = 1.0", "stop_time = 0.5"),                                              # within the reference's span
+    ("step_size = 1e-3", "step_size = 5e-4"),                                            # interpolated
+    ('"j.tau_in" = { rel_range = 0.01 }', '"j.tau_in" = { rel_range = 0.02 }'),           # tolerances
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]\nplot = ["j.tau_in"]'),               # what is plotted
+    ("[experiment]", 'title = "renamed"\n[experiment]'),                                 # the title
+])
+def test_a_reference_stays_valid_when_only_the_run_or_its_checks_change(tmp_path, old, new):
+    _reference_made_for(tmp_path, GOOD + REF)
+    changed = (GOOD + REF).replace(old, new)
+    assert changed != GOOD + REF
+    assert list(Scenario(write(tmp_path, changed)).read_reference()["j.tau_in"]) == [0.0, 1.0]
+
+
+def test_a_reference_without_a_setup_digest_is_read_as_it_is(tmp_path):
+    """A reference made by another tool has no setup digest: it is compared, as before."""
+    (tmp_path / "r.csv").write_text('# measured on the test rig\n"time","j.tau_in"\n0,0.0\n1,1.0\n')
+    assert len(Scenario(write(tmp_path, GOOD + REF)).read_reference()) == 2
+
+
+@pytest.mark.parametrize("old, new", [("cardan_chain", "cardan_joint"), ("double_cardan", "double_cardan_driveline"),
+                                      ("twin_jeffcott", "twin_jeffcott_rotor")])
+def test_a_former_generator_name_is_refused_naming_todays(tmp_path, old, new):
+    from ujfmu.references import generate
+    scenario = Scenario(write(tmp_path, GOOD + REF.replace('file = "r.csv"', f'file = "r.csv"\ngenerator = "{old}"')))
+    with pytest.raises(KeyError) as err:
+        generate(scenario)
+    assert f'generator = "{new}"' in str(err.value)
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ('to = "l.omega"', 'to = "l.omegaa"', "(did you mean l.omega?); its inputs: omega"),
+    ('from = "j.omega_out"', 'from = "j.omega_ou"', "(did you mean j.omega_out?); its outputs: "),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_ni"]', "(did you mean j.tau_in?); its outputs and inputs: "),
+])
+def test_a_misspelt_port_is_named_with_the_closest_port_and_the_components_ports(tmp_path, old, new, words):
+    with pytest.raises(ScenarioError) as err:
+        Scenario(write(tmp_path, GOOD.replace(old, new)))
+    assert words in str(err.value)

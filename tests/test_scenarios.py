@@ -129,3 +129,15 @@ def test_twin_jeffcott_runup_coupling_error_halves_with_the_step(fmu_dir):
         errors.append({c.name: c.max_error for c in compare(table, reference, scenario.tolerances)})
     for name in ("rotor.tau_in", "rotor.secondary_shaft_torque"):
         assert 1.7 < errors[0][name] / errors[1][name] < 2.4, (name, errors)
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
+def test_committed_reference_names_its_generator_module_and_setup(path):
+    """Without regenerating: the provenance line starts with the module of the scenario's generator, and the
+    reference was made for the scenario's present setup (read_reference refuses it otherwise)."""
+    from ujfmu.references import GENERATORS, setup_of
+    scenario = Scenario(path)
+    _, provenance = read_reference(scenario.reference_file)
+    assert provenance.split(":")[0] == GENERATORS[scenario.reference_generator][0]
+    assert setup_of(provenance) == scenario.setup_digest()
+    scenario.read_reference()

@@ -37,7 +37,7 @@ to = "motor.tau_load"
 record = ["motor.omega"]
 [reference]
 file = "{file}"
-generator = "cardan_chain"
+generator = "cardan_joint"
 [reference.tolerance]
 "motor.omega" = {{ rel_range = 0.01 }}
 """

@@ -293,3 +293,47 @@ def test_a_drive_that_misses_its_set_speed_is_off_target(fmu_dir, tmp_path, caps
     assert low["status"] == "off_target"
     assert float(low["speed_mean"]) == pytest.approx(math.sqrt(0.05 / 4e-6), rel=0.01)
     assert "motor.omega = 11" in low["error"] and "set point motor.omega_ref = 150" in low["error"]
+
+
+def test_points_are_reused_by_the_same_code_and_fmu_builds_only(brutti, tmp_path, fmu_dir, monkeypatch):
+    """A journal's points are reused by a rerun of the same code on FMUs of the same build, also rebuilt (the FMU
+    files differ in their time stamps only); another version of the master-side code or another FMU build
+    computes them again."""
+    import shutil
+
+    import ujfmu.sweep
+    from ujfmu.build import build_fmu
+    brutti_sweep(brutti, tmp_path, fmu_dir).run(workers=0, progress=False)
+    rebuilt = tmp_path / "rebuilt"
+    shutil.copytree(fmu_dir, rebuilt)
+    build_fmu("Load", rebuilt)   # the same sources built again: other bytes, the same build digest
+    assert (rebuilt / "Load.fmu").read_bytes() != (fmu_dir / "Load.fmu").read_bytes()
+    assert len(brutti_sweep(brutti, tmp_path, rebuilt).done()) == 3
+    # another build of the Load: its runtime package carries another source hash
+    blob = (fmu_dir / "Load.fmu").read_bytes()
+    digest = ujfmu.sweep.fmu_build_digest(blob)
+    assert digest.startswith("ujfmu_load_")
+    real = ujfmu.sweep.fmu_build_digest
+    monkeypatch.setattr(ujfmu.sweep, "fmu_build_digest", lambda b: "other" if b == blob else real(b))
+    assert brutti_sweep(brutti, tmp_path, fmu_dir).done() == {}
+    monkeypatch.undo()
+    # the master-side code changed (a new ujfmu version, or an edited master.py, steady.py, ...)
+    monkeypatch.setattr(ujfmu.sweep, "code_digest", lambda: "0" * 16)
+    assert brutti_sweep(brutti, tmp_path, fmu_dir).done() == {}
+
+
+def test_the_code_digest_follows_the_sources_that_compute_a_point(tmp_path, monkeypatch):
+    import shutil
+
+    import ujfmu
+    from ujfmu.sweep import POINT_CODE, code_digest
+    package = Path(ujfmu.__file__).parent
+    for name in POINT_CODE:
+        shutil.copy(package / name, tmp_path / name)
+    assert code_digest(tmp_path) == code_digest(package)
+    with open(tmp_path / "steady.py", "a") as f:
+        f.write("\nGROWTH = 2.0\n")
+    assert code_digest(tmp_path) != code_digest(package)
+    before = code_digest(package)
+    monkeypatch.setattr(ujfmu, "__version__", "0.0.0")
+    assert code_digest(package) != before

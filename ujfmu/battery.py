@@ -87,7 +87,7 @@ def _inline(params):
 def scenario_text(setup: dict) -> str:
     """The scenario file of one set-up (1 ms step, monolithic reference, 2% of range on every port signal)."""
     joint = "joint" if setup["kind"] == "CardanJoint" else "driveline"
-    generator = "cardan_chain" if setup["kind"] == "CardanJoint" else "double_cardan"
+    generator = "cardan_joint" if setup["kind"] == "CardanJoint" else "double_cardan_driveline"
     signals = SIGNALS[setup["kind"]]
     lines = [f'title = "Coupling battery {setup["name"]}: motor J {setup["motor"]["J_rotor"]:.3g} kg.m^2, '
              f'{setup["kind"]}, load {setup["load"]["T0"]:.3g} N.m + fan"',
@@ -130,6 +130,7 @@ def regenerate(battery_dir: Path = BATTERY_DIR, progress=None, missing_only: boo
             continue
         with common.solver_override(REFERENCE_RTOL, REFERENCE_ATOL):
             table, provenance = generate(scenario)
+        provenance = provenance.replace("Regenerate: ujfmu references", "Regenerate: ujfmu battery --regenerate")
         provenance = f"{provenance} (solver tolerances overridden for the battery: rtol {REFERENCE_RTOL:g}, " \
                      f"atol {REFERENCE_ATOL:g})"
         write_reference(scenario.reference_file, table, provenance)

@@ -17,7 +17,7 @@
                             outputs = [...], running_speed, settle_time [s], revolutions, orders = [1, 2, 4],
                             steady_tol = 1e-3 (0: no check), max_settle_time [s] (see ujfmu.steady)
     [reference]             optional: file = "references/x.csv" (relative to the scenario; `ujfmu references`
-                            writes it only inside the scenario's folder), generator = "cardan_chain",
+                            writes it only inside the scenario's folder), generator = "cardan_joint",
                             not_compared = { "comp.var" = "why this recorded signal is not compared", ... };
                             without it (or without tolerances) the scenario is run, NOT CHECKED
     [reference.tolerance]   "comp.var" = { rel_range = 0.01, abs = 0.0 }
@@ -28,6 +28,9 @@
     With a reference file, every recorded signal is compared or listed in not_compared with its reason.
 """
 
+import difflib
+import hashlib
+import json
 import math
 import tomllib
 from dataclasses import dataclass
@@ -255,18 +258,39 @@ class Scenario:
         """What the scenario sets in a component before it runs: its parameters and its explicitly set inputs."""
         return {**self.components[component][1], **self.inputs.get(component, {})}
 
+    def setup_digest(self) -> str:
+        """Digest of what a reference solution of this scenario depends on: each component's FMU, parameters and
+        set inputs, the connections and the start time (numbers as floats, so 1 and 1.0 agree). Left out: the
+        step, the stop time, the records and the tolerances (the comparison interpolates the reference and checks
+        that it spans the run and has the compared columns)."""
+        def values(table):
+            return {k: v if isinstance(v, bool) else float(v) for k, v in sorted(table.items())}
+        setup = {"components": {name: [fmu, values(params), values(self.inputs.get(name, {}))]
+                                for name, (fmu, params) in sorted(self.components.items())},
+                 "connections": sorted([c.source, c.target] for c in self.connections),
+                 "start_time": float(self.start_time)}
+        return hashlib.sha256(json.dumps(setup, sort_keys=True).encode()).hexdigest()[:12]
+
     def read_reference(self):
         """The [reference] file as a structured array; ScenarioError naming the scenario and the field when it
-        cannot be read."""
-        from .references import read_reference
+        cannot be read, or when its provenance line names another setup (setup_digest) than the scenario's: a
+        reference left over from other parameters or wiring would compare against another system."""
+        from .references import read_reference, setup_of
         field = f"{self.path}: [reference] file = {self.reference_file_text!r}"
         if not self.reference_file.is_file():
             raise ScenarioError(f"{field}: {self.reference_file} not found (the path is relative to the scenario "
-                                "file; `ujfmu references` regenerates it when the scenario names a generator)")
+                                f"file; `ujfmu references {self.path}` regenerates it when the scenario names a "
+                                "generator)")
         try:
-            table, _ = read_reference(self.reference_file)
+            table, provenance = read_reference(self.reference_file)
         except (ValueError, IndexError, OSError) as exc:
             raise ScenarioError(f"{field}: cannot read {self.reference_file}: {exc}") from None
+        made_for = setup_of(provenance)
+        if made_for is not None and made_for != self.setup_digest():
+            raise ScenarioError(f"{field}: {self.reference_file} was made for another setup of this scenario "
+                                f"(setup {made_for}, the scenario's is now {self.setup_digest()}: a component, "
+                                "parameter, set input, connection or the start time changed since); regenerate it: "
+                                f"`ujfmu references {self.path}`")
         missing = [n for n in ["time", *self.tolerances, *self.extrapolated_tolerances] if n not in table.dtype.names]
         if missing:
             raise ScenarioError(f"{field}: no column {', '.join(missing)} in {self.reference_file}")
@@ -318,8 +342,12 @@ class Scenario:
             raise ScenarioError(f"{self.path}: {field} = {name!r}: unknown component '{comp}'")
         variables = {v.name: v for v in fmu_class(self.components[comp][0]).VARIABLES}
         if var not in variables:
+            kinds = [causality] if causality else ["output", "input"]
+            offered = [n for n, v in variables.items() if v.causality in kinds]
+            close = difflib.get_close_matches(var, offered, n=1)
             raise ScenarioError(f"{self.path}: {field} = {name!r}: {self.components[comp][0]} has no variable "
-                                f"'{var}'")
+                                f"'{var}'{f' (did you mean {comp}.{close[0]}?)' if close else ''}; its "
+                                f"{' and '.join(k + 's' for k in kinds)}: {', '.join(offered)}")
         if causality and variables[var].causality != causality:
             raise ScenarioError(f"{self.path}: {field} = {name!r} is an {variables[var].causality}, "
                                 f"not an {causality}")

@@ -11,9 +11,10 @@ A point's status is ``ok``, ``not_steady``, ``off_target`` or ``error``.
 
 The FMUs go to each dask worker once (a WorkerPlugin writes them to a local folder), so a cluster needs no
 shared file system; the workers need ujfmu installed. Resumable: every finished point is appended at once to
-``<name>.jsonl`` next to the CSV; a rerun with the same settings skips the points already there (failed points
-are tried again), so an interrupted sweep loses nothing. A failing point is recorded with its error and the
-sweep goes on. One journal holds one grid: a sweep of another grid under the same name is refused
+``<name>.jsonl`` next to the CSV; a rerun with the same settings, the same FMU builds and the same code (ujfmu
+version and the modules of POINT_CODE) skips the points already there (failed points are tried again), so an
+interrupted sweep loses nothing and a changed model or master never reuses stale points. A failing point is
+recorded with its error and the sweep goes on. One journal holds one grid: a sweep of another grid under the same name is refused
 (``SweepGridConflict``), so results of different grids never mix.
 
 From Python (keyword arguments of ``SweepSettings.from_scenario`` override the scenario's [sweep] table)::
@@ -28,6 +29,7 @@ From Python (keyword arguments of ``SweepSettings.from_scenario`` override the s
 import contextlib
 import csv
 import hashlib
+import io
 import itertools
 import json
 import math
@@ -36,6 +38,7 @@ import re
 import sys
 import tempfile
 import time
+import zipfile
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -275,6 +278,31 @@ def fmu_installer(blobs, hashes):
     return FmuInstaller()
 
 
+#: the modules that compute a point outside the FMUs: the master, the steady-state check, the reductions, this one
+POINT_CODE = ("master.py", "steady.py", "analysis.py", "sweep.py")
+#: the runtime package an FMU built by ujfmu ships: its name carries the FMU's build digest (``build.source_hash``)
+_RUNTIME_ENTRY = re.compile(r"resources/(ujfmu_\w+_[0-9a-f]{10})_entry\.py")
+
+
+def code_digest(package: Path = Path(__file__).parent) -> str:
+    """SHA-256 (16 hex digits) of the ujfmu version and the sources of POINT_CODE as they are now: the points of
+    a journal are reused only by the code that computed them."""
+    from . import __version__
+    digest = hashlib.sha256(__version__.encode())
+    for name in POINT_CODE:
+        digest.update(b"\0" + name.encode() + b"\0" + (package / name).read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def fmu_build_digest(blob: bytes) -> str:
+    """The build digest of an FMU file: the source hash (ujfmu version and the model's runtime sources) that a
+    ujfmu build puts in its runtime package's name, so a rebuild of unchanged sources keeps it; the SHA-256 of the
+    file for an FMU built otherwise."""
+    with zipfile.ZipFile(io.BytesIO(blob)) as fmu:
+        names = [m.group(1) for m in map(_RUNTIME_ENTRY.fullmatch, fmu.namelist()) if m]
+    return names[0] if len(names) == 1 else hashlib.sha256(blob).hexdigest()[:16]
+
+
 class SweepGridConflict(ScenarioError):
     """The sweep's journal holds points of another grid; the message says how to keep both."""
 
@@ -310,10 +338,11 @@ class Sweep:
                             [(c.source, c.target) for c in self.scenario.connections], self.scenario.step_size,
                             settings, hashes, self.scenario.coupling)
         self.grid = hashlib.sha256(json.dumps([[ax.names, ax.values] for ax in self.axes]).encode()).hexdigest()[:16]
-        # results are only reused for the same FMUs, scenario setup and settings
+        # results are only reused for the same FMU builds, code, scenario setup and settings
+        builds = {f: fmu_build_digest(b) for f, b in self.fmu_blobs.items()}
         self.config = hashlib.sha256(json.dumps([asdict(settings), self.job.components, self.job.connections,
-                                                 self.job.step_size, hashes, self.job.coupling], sort_keys=True,
-                                                default=str).encode()).hexdigest()[:16]
+                                                 self.job.step_size, builds, self.job.coupling, code_digest()],
+                                                sort_keys=True, default=str).encode()).hexdigest()[:16]
 
     @staticmethod
     def key(point):

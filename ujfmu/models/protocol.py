@@ -21,6 +21,10 @@ Standard library only: this module runs inside every FMU. A model's ``model.py``
     an upper bound [1/s] of the fastest rate of y over a step whose input speeds stay within omega_max [rad/s]:
     the RK4 substeps are ``ujfmu.fmu.rk4.RATE_STEP / rate_bound`` long.
 
+A model without a state of its own (a kinematic joint, a load law) takes :class:`NoState`,
+:func:`kinematic_always`, :func:`no_state`, :func:`no_derivatives` and :func:`no_rate` below as its ``State``,
+``kinematic``, ``initial_state``, ``derivatives`` and ``rate_bound``.
+
 Optional: ``kinematic(p) -> bool`` (default False; True: the state is not integrated but held from the first
 step on, the outputs following the inputs alone) and ``check_state(p, y) -> list``
 (messages when a state reached by a step is outside the model's validity; default none).
@@ -71,6 +75,32 @@ def shaft_inertia_problems(names: str, inertia: float, shaft: str) -> list:
         return []
     return [f"{names} = {inertia!r} kg.m2 must be > 0 (allowed range (0, 2000] kg.m2): the {shaft} needs an inertia "
             "to integrate"]
+
+
+# --- the protocol functions of a kinematic model without a state of its own (State has no fields) -------------
+
+class NoState(NamedTuple):
+    """``State``: no integrated variables."""
+
+
+def kinematic_always(p) -> bool:
+    """``kinematic``: the outputs follow the inputs alone."""
+    return True
+
+
+def no_state(p, t: float, u) -> NoState:
+    """``initial_state``: the empty state."""
+    return NoState()
+
+
+def no_derivatives(p, t: float, y: tuple, u) -> tuple:
+    """``derivatives``: nothing to integrate."""
+    return ()
+
+
+def no_rate(p, y: tuple, omega_max: float) -> float:
+    """``rate_bound``: no rate, one substep."""
+    return 0.0
 
 
 class Model(Protocol):

@@ -10,6 +10,7 @@ fmpy's cross-check CSV format. Regenerate all with ``ujfmu references``.
 import gzip
 import importlib
 import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -17,12 +18,15 @@ import numpy as np
 #: generator name (a scenario's [reference] generator) -> (module, function); imported when used (they need scipy
 #: and sympy, the ``references`` extra; reading a reference CSV needs neither)
 GENERATORS = {
-    "cardan_chain": ("ujfmu.models.cardan_joint.reference", "generate"),
-    "double_cardan": ("ujfmu.models.double_cardan_driveline.reference", "generate"),
-    "twin_jeffcott": ("ujfmu.models.twin_jeffcott_rotor.reference", "generate"),
+    "cardan_joint": ("ujfmu.models.cardan_joint.reference", "generate"),
+    "double_cardan_driveline": ("ujfmu.models.double_cardan_driveline.reference", "generate"),
+    "twin_jeffcott_rotor": ("ujfmu.models.twin_jeffcott_rotor.reference", "generate"),
     "ring_coupling": ("ujfmu.models.ring_coupling.reference", "generate"),
     "ring_coupling_pendulum": ("ujfmu.models.ring_coupling.reference", "generate_pendulum"),
 }
+#: former generator names (before the models moved into ujfmu/models/<stem>/) -> today's, for the error message
+RENAMED = {"cardan_chain": "cardan_joint", "double_cardan": "double_cardan_driveline",
+           "twin_jeffcott": "twin_jeffcott_rotor"}
 
 
 def _open(path, mode):
@@ -55,8 +59,12 @@ def read_reference(path):
 
 
 def generate(scenario):
-    """(table, provenance) for a scenario, by its [reference] generator."""
+    """(table, provenance) for a scenario, by its [reference] generator; the provenance ends with the scenario's
+    setup digest, which ``Scenario.read_reference`` checks."""
     name = scenario.reference_generator
+    if name in RENAMED:
+        raise KeyError(f"{scenario.path}: reference generator '{name}' is now called '{RENAMED[name]}': write "
+                       f'generator = "{RENAMED[name]}" in its [reference] table')
     if name not in GENERATORS:
         raise KeyError(f"{scenario.path}: unknown reference generator '{name}' (known: {', '.join(GENERATORS)})")
     for dependency in ("scipy", "sympy"):
@@ -66,4 +74,16 @@ def generate(scenario):
             raise ModuleNotFoundError(f"regenerating a reference solution needs {dependency}, which is not installed: "
                                       "pip install 'ujfmu[references]'", name=dependency) from None
     module, function = GENERATORS[name]
-    return getattr(importlib.import_module(module), function)(scenario)
+    table, provenance = getattr(importlib.import_module(module), function)(scenario)
+    return table, f"{provenance} {SETUP_TAG}{scenario.setup_digest()}]"
+
+
+#: how a provenance line names the scenario setup it was made for (``Scenario.setup_digest``)
+SETUP_TAG = "[scenario setup "
+
+
+def setup_of(provenance: str) -> str | None:
+    """The scenario setup digest a reference's provenance line names, None for a reference made without one
+    (by hand, or by another tool)."""
+    match = re.search(re.escape(SETUP_TAG) + r"([0-9a-f]+)\]", provenance)
+    return match.group(1) if match else None

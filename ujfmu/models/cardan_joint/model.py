@@ -26,7 +26,8 @@ import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
-from ..protocol import Drive, Torques, shaft_inertia_problems, torque_driven_outputs
+from ..protocol import (Drive, NoState, Torques, kinematic_always, no_derivatives, no_rate, no_state,
+                        shaft_inertia_problems, torque_driven_outputs)
 
 #: Largest admissible magnitude of each misalignment angle and of the total shaft angle acos(K_z) [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -157,28 +158,14 @@ class Parameters:
                                  self.error_angle_gamma)
 
 
-class State(NamedTuple):
-    """No state of its own: the driven shaft follows the joint's kinematics exactly."""
+State = NoState   # the driven shaft follows the joint's kinematics exactly
 
 
 Inputs = Drive
 
 
-def kinematic(p: Parameters) -> bool:
-    """Always: theta2 = theta2(theta1), nothing to integrate."""
-    return True
-
-
-def initial_state(p: Parameters, t: float, u: Drive) -> State:
-    return State()
-
-
-def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
-    return ()
-
-
-def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
-    return 0.0
+# theta2 = theta2(theta1): nothing to integrate
+kinematic, initial_state, derivatives, rate_bound = kinematic_always, no_state, no_derivatives, no_rate
 
 
 def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:

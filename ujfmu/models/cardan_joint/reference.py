@@ -78,7 +78,7 @@ def generate(scenario):
       joint.omega_in -> motor.omega, motor.tau_motor -> joint.tau_in, joint.omega_out -> load.omega,
       load.tau -> joint.tau_load.
     """
-    check_chain_wiring(scenario, "cardan_chain", "joint", "CardanJoint")
+    check_chain_wiring(scenario, "cardan_joint", "joint", "CardanJoint")
     pl, pj = scenario.parameters_with_defaults("load"), scenario.parameters_with_defaults("joint")
     pm, jm, w0, torque_driven = drive(scenario, "motor", "joint")
     kin = JointKinematics((pj["bend_angle"], pj["bend_plane_angle"], pj["error_angle_beta"],
@@ -132,7 +132,7 @@ def generate(scenario):
     if torque_driven:
         columns = torque_driven_names("joint", columns)
     table = record_table(scenario, t, columns)
-    return table, f"ujfmu.references.cardan_chain: {how}. Regenerate: ujfmu references"
+    return table, f"{__name__}: {how}. Regenerate: ujfmu references"
 
 
 def self_check(scenario, t: np.ndarray, columns: dict) -> None:

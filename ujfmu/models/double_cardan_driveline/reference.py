@@ -143,7 +143,7 @@ def generate(scenario):
       connections driveline.omega_in -> motor.omega, motor.tau_motor -> driveline.tau_in,
       driveline.omega_out -> load.omega, load.tau -> driveline.tau_load.
     """
-    check_chain_wiring(scenario, "double_cardan", "driveline", "DoubleCardanDriveline")
+    check_chain_wiring(scenario, "double_cardan_driveline", "driveline", "DoubleCardanDriveline")
     pd, pl = scenario.parameters_with_defaults("driveline"), scenario.parameters_with_defaults("load")
     pm, jm, w1_0, torque_driven = drive(scenario, "motor", "driveline")
     ref = DrivelineReference(pd)
@@ -232,7 +232,7 @@ def generate(scenario):
     if torque_driven:
         cols = torque_driven_names("driveline", cols)
     table = record_table(scenario, t, cols)
-    return table, f"ujfmu.references.double_cardan: {how}. Regenerate: ujfmu references"
+    return table, f"{__name__}: {how}. Regenerate: ujfmu references"
 
 
 def self_check(scenario, t: np.ndarray, columns: dict, dissipation=0.0) -> None:

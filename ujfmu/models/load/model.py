@@ -13,6 +13,8 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from ..protocol import NoState, kinematic_always, no_derivatives, no_rate, no_state
+
 
 def load_torque(omega: float, t0: float, c1: float, c2: float, omega_smooth: float) -> float:
     """Resisting torque [N.m] at speed omega [rad/s]; positive opposes positive rotation."""
@@ -32,8 +34,7 @@ class Parameters:
     omega_smooth: float
 
 
-class State(NamedTuple):
-    """Stateless: the torque follows the speed."""
+State = NoState   # the torque follows the speed
 
 
 class Inputs(NamedTuple):
@@ -42,20 +43,7 @@ class Inputs(NamedTuple):
     omega: float
 
 
-def kinematic(p: Parameters) -> bool:
-    return True
-
-
-def initial_state(p: Parameters, t: float, u: Inputs) -> State:
-    return State()
-
-
-def derivatives(p: Parameters, t: float, y: State, u: Inputs) -> tuple:
-    return ()
-
-
-def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
-    return 0.0
+kinematic, initial_state, derivatives, rate_bound = kinematic_always, no_state, no_derivatives, no_rate
 
 
 def outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:

@@ -183,7 +183,7 @@ def generate(scenario):
     rotor R and its load L: motor.omega -> R.omega_in, R.omega_out -> L.omega, L.tau -> R.tau_load. An ideal
     speed source drives any number of rotors (R.tau_in -> motor.tau_load optional, for one of them); a PI motor
     drives exactly one, with R.tau_in -> motor.tau_load."""
-    check_fan_out_wiring(scenario, "twin_jeffcott", "TwinJeffcottRotor", load_optional=False)
+    check_fan_out_wiring(scenario, "twin_jeffcott_rotor", "TwinJeffcottRotor", load_optional=False)
     pm = scenario.parameters_with_defaults("motor")
     load_of = dict(components_with_loads(scenario, "TwinJeffcottRotor"))
     rotors = list(load_of)
@@ -237,7 +237,7 @@ def generate(scenario):
     table = record_table(scenario, t, cols)
     how = (f"monolithic ODE of {drive_name(ideal)} + rotor + load, Lagrange's "
            f"equations formed by sympy from rotation matrices and energies, scipy DOP853 rtol={RTOL:g} atol={ATOL:g}")
-    return table, f"ujfmu.references.twin_jeffcott: {how}. Regenerate: ujfmu references"
+    return table, f"{__name__}: {how}. Regenerate: ujfmu references"
 
 
 def energy_audit(scenario, t: np.ndarray, columns: dict, rotor: str, load: str, motor: str = "motor") -> None:
