@@ -63,9 +63,9 @@ UNITS = {
 def build_hint(fmu_dir) -> str:
     """The command that builds the FMUs into fmu_dir, for "not found" messages."""
     if Path(fmu_dir).absolute() == DEFAULT_FMU_DIR.absolute():
-        return "run `ujfmu build` first"
+        return "run `ujfmu build` first, or give --fmu-dir DIR where they were built: fmus/ is the current directory's"
     if Path(fmu_dir).absolute() == (DEFAULT_FMU_DIR / "fmi3").absolute():
-        return "run `ujfmu build --fmi 3` first"
+        return "run `ujfmu build --fmi 3` first, or give --fmu-dir DIR where they were built"
     return f"run `ujfmu build --fmu-dir {fmu_dir}` first"
 
 
