@@ -200,11 +200,16 @@ def test_a_reference_without_a_setup_digest_is_read_as_it_is(tmp_path):
 @pytest.mark.parametrize("old, new", [("cardan_chain", "cardan_joint"), ("double_cardan", "double_cardan_driveline"),
                                       ("twin_jeffcott", "twin_jeffcott_rotor")])
 def test_a_former_generator_name_is_refused_naming_todays(tmp_path, old, new):
-    from ujfmu.references import generate
-    scenario = Scenario(write(tmp_path, GOOD + REF.replace('file = "r.csv"', f'file = "r.csv"\ngenerator = "{old}"')))
-    with pytest.raises(KeyError) as err:
-        generate(scenario)
-    assert f'generator = "{new}"' in str(err.value)
+    with pytest.raises(ScenarioError) as err:
+        Scenario(write(tmp_path, GOOD + REF.replace('file = "r.csv"', f'file = "r.csv"\ngenerator = "{old}"')))
+    assert f"reference.generator = '{old}' is now called" in str(err.value)
+    assert f'write generator = "{new}"' in str(err.value)
+
+
+def test_an_unknown_generator_is_refused_naming_the_known_ones(tmp_path):
+    with pytest.raises(ScenarioError) as err:
+        Scenario(write(tmp_path, GOOD + REF.replace('file = "r.csv"', 'file = "r.csv"\ngenerator = "cardan"')))
+    assert "reference.generator = 'cardan' is not a reference generator (known: cardan_joint, " in str(err.value)
 
 
 @pytest.mark.parametrize("old, new, words", [

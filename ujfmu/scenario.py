@@ -179,6 +179,7 @@ class Scenario:
                                     "(or a gzipped .csv.gz)")
             self.reference_file = self.path.parent / ref["file"]
         self.reference_generator = ref.get("generator")
+        self._check_generator()
         self.tolerances = self._tolerances(ref, "tolerance")
         self.extrapolated_tolerances = self._tolerances(ref, "extrapolated")
         self.not_compared = {}
@@ -257,6 +258,19 @@ class Scenario:
     def start_values(self, component):
         """What the scenario sets in a component before it runs: its parameters and its explicitly set inputs."""
         return {**self.components[component][1], **self.inputs.get(component, {})}
+
+    def _check_generator(self):
+        """A named reference generator must be one of ujfmu.references.GENERATORS; a former name is refused with
+        today's."""
+        from .references import GENERATORS, RENAMED
+        name = self.reference_generator
+        if name is None or name in GENERATORS:
+            return
+        field = f"{self.path}: reference.generator = {name!r}"
+        if name in RENAMED:
+            raise ScenarioError(f'{field} is now called {RENAMED[name]!r}: write generator = "{RENAMED[name]}"')
+        raise ScenarioError(f"{field} is not a reference generator (known: {', '.join(GENERATORS)}; "
+                            "leave it out for a reference made otherwise)")
 
     def setup_digest(self) -> str:
         """Digest of what a reference solution of this scenario depends on: each component's FMU, parameters and
