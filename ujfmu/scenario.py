@@ -25,7 +25,8 @@
     [reference.extrapolated] "comp.var" = { rel_range = 0.001 }: the same test on the step-halving (Richardson)
                             extrapolation 2 y(h/2) - y(h) of runs at step_size and step_size/2, which removes the
                             first-order coupling error; for scenarios whose [reference.tolerance] must allow for it
-    With a reference file, every recorded signal is compared or listed in not_compared with its reason.
+    With a reference file, every recorded signal is compared or listed in not_compared with its reason; a reference
+    whose provenance names another setup (``Scenario.setup_digest``) than the scenario's is refused.
 """
 
 import difflib
