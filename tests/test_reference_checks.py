@@ -180,9 +180,13 @@ UNLOADED_DRIVELINE = ('[[connections]]\nfrom = "load.tau"\nto = "driveline.tau_l
                                                          'inputs = { tau_load = 5.0 }')
 
 
+#: the driveline component renamed 'shaft' (its generator's name unchanged)
+RENAMED_DRIVELINE = [("[components.driveline]", "[components.shaft]"), ('"driveline.', '"shaft.')]
+
+
 @pytest.mark.parametrize("name, edits, words", [
     ("double_cardan_omar_torsional", UNLOADED_DRIVELINE, ["connection(s) missing: load.tau -> driveline.tau_load"]),
-    ("double_cardan_omar_torsional", [("driveline", "shaft")],
+    ("double_cardan_omar_torsional", RENAMED_DRIVELINE,
      ["no component 'driveline' (DoubleCardanDriveline or DoubleCardanDrivelineTorqueDriven)",
       "component(s) 'shaft' (DoubleCardanDriveline) not part of it", "connection(s) missing: motor.omega -> "
       "driveline.omega_in", "it does not model: motor.omega -> shaft.omega_in"]),
@@ -210,7 +214,7 @@ def test_generators_refuse_a_wiring_they_do_not_model(tmp_path, name, edits, wor
 
 def test_the_command_line_names_the_expected_wiring_without_a_traceback(tmp_path, capsys):
     from ujfmu.cli import main
-    scenario = rewired(tmp_path, "double_cardan_omar_torsional", ("driveline", "shaft"))
+    scenario = rewired(tmp_path, "double_cardan_omar_torsional", *RENAMED_DRIVELINE)
     assert main(["references", str(scenario.path)]) == 2
     err = capsys.readouterr().err
     assert "ujfmu: error:" in err and "components 'motor', 'driveline', 'load'" in err and "Traceback" not in err
