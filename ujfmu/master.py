@@ -518,8 +518,10 @@ class Cosimulation:
         for (a, b), speed_list in speeds.items():
             for w, tau in zip(speed_list, torques.get((b, a), [])):
                 self.bond_energies.append(BondEnergy(self._transfers[w][-1], self._transfers[tau][-1]))
-                # [speed view, torque view, speed's tear position, torque's, previous speed, torque, residual]
-                self._bonds.append([views[w][:1], views[tau][:1], tear_pos.get(w, -1), tear_pos.get(tau, -1),
+                # [speed value, torque value (one-value ctypes arrays in the scratch row), speed's tear position,
+                # torque's, previous speed, previous torque, last residual, the one before, last E_speed]
+                self._bonds.append([self._transfers[w][4], self._transfers[tau][4], tear_pos.get(w, -1),
+                                    tear_pos.get(tau, -1),
                                     float(views[w][0]), float(views[tau][0]), 0.0, 0.0, 0.0])
         self._held = None   # implicit coupling: the torn inputs' values held over the last step
 
@@ -535,7 +537,7 @@ class Cosimulation:
         half, held = 0.5 * self.step_size, self._held
         self._held = None
         for bond, energy in zip(self._bonds, self.bond_energies):
-            w, tau = float(bond[0][0]), float(bond[1][0])
+            w, tau = bond[0][0], bond[1][0]   # ctypes values: Python floats
             w_held = held[bond[2]] if held is not None and bond[2] >= 0 else bond[4]
             tau_held = held[bond[3]] if held is not None and bond[3] >= 0 else bond[5]
             e_speed = tau_held * half * (bond[4] + w)
