@@ -148,6 +148,10 @@ def test_run_without_reference_checks_the_set_point(fmu_dir, tmp_path, capsys, t
         assert line.strip().startswith("FAIL") and "motor.omega_ref = 50 rad/s" in line and "stop_time" in line
         assert "tau_max" in line and 29.9 < reached < 31.0 and out.startswith("FAIL")
         assert "motor.omega" not in np.genfromtxt(tmp_path / "no_reference.csv", delimiter=",", names=True).dtype.names
+        junit = tmp_path / "report.xml"
+        assert main(["--fmu-dir", str(fmu_dir), "check", str(path), "--no-plot", "--out", str(tmp_path),
+                     "--junit", str(junit)]) == 1
+        assert 'failures="1"' in junit.read_text() and 'message="operating point not reached"' in junit.read_text()
     else:
         assert line.strip().startswith("ok") and math.isclose(reached, 50.0, rel_tol=0.01)
         assert out.startswith("NOT CHECKED")

@@ -333,7 +333,11 @@ def write_junit(results, path):
         case = ET.SubElement(suite, "testcase", classname="ujfmu.scenarios", name=r.scenario.name,
                              time=f"{r.wall_time:.3f}")
         if r.failed:
-            failure = ET.SubElement(case, "failure", message="signal outside tolerance of the reference")
+            why = [w for w, bad in (("signal outside tolerance of the reference",
+                                     any(not c.passed for c in r.checks + r.extrapolated_checks)),
+                                    ("operating point not reached", any(not c.passed for c in r.operating_checks)))
+                   if bad]
+            failure = ET.SubElement(case, "failure", message="; ".join(why))
             failure.text = r.summary()
         elif not r.checked:
             ET.SubElement(case, "skipped", message=f"not checked: {r.not_checked_reason()}")
