@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ujfmu.models.cardan_joint import reference as cardan_chain
+from ujfmu.models.cardan_joint import reference as cardan_joint_reference
 from ujfmu.models.double_cardan_driveline import reference as double_cardan
 from ujfmu.models.ring_coupling import reference as ring_coupling
 from ujfmu.models.twin_jeffcott_rotor import reference as twin_jeffcott
@@ -52,10 +52,10 @@ def test_twin_rotor_energy_audit_catches_a_dissipation_sign():
 def test_cardan_reference_checks(bug, law):
     scenario, t, cols = committed("cardan_constant_speed")
     cols["joint.alpha_in"] = np.zeros_like(t)          # ideal constant speed source
-    cardan_chain.self_check(scenario, t, cols)
+    cardan_joint_reference.self_check(scenario, t, cols)
     bug(cols)
     with pytest.raises(ReferenceCheckError, match=law):
-        cardan_chain.self_check(scenario, t, cols)
+        cardan_joint_reference.self_check(scenario, t, cols)
 
 
 def test_cardan_velocity_ratio_limit():
@@ -67,7 +67,7 @@ def test_cardan_velocity_ratio_limit():
     cols["joint.omega_out"] = cols["joint.omega_out"] * 1.2
     cols["load.tau"] = cols["load.tau"] / 1.2
     with pytest.raises(ReferenceCheckError, match="velocity ratio"):
-        cardan_chain.self_check(scenario, t, cols)
+        cardan_joint_reference.self_check(scenario, t, cols)
 
 
 @pytest.mark.parametrize("bug, law", [
