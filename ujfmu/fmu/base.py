@@ -289,7 +289,8 @@ class UjfmuSlave(Fmi2Slave):
             if value == getattr(self, name):   # unchanged (a constant load, a held speed): outputs stay valid
                 return
             setattr(self, name, value)
-            self._stale = True
+            if name not in self._held:
+                self._stale = True
             if not self._running:
                 self._initialized = False
         return set_
@@ -300,6 +301,8 @@ class UjfmuSlave(Fmi2Slave):
     STATE = {}
     #: model attributes computed from the parameters by derive(), recomputed when a state is restored
     DERIVED = ()
+    #: names of the inputs the outputs do not depend on (a change leaves them valid); set by derive()
+    _held = frozenset()
 
     def derive(self):
         """Set the DERIVED attributes from the parameters (runs before initialize and after a state restore)."""
@@ -372,7 +375,8 @@ class ModelSlave(UjfmuSlave):
     - a step: classical RK4 (``rk4.integrate_time``) with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs
       held (a prescribed input shaft extrapolated, see PrescribedInputSlave), then the finite check and
       ``MODEL.check_state`` of the new state;
-    - the outputs: ``MODEL.outputs`` assigned by name.
+    - the outputs: ``MODEL.outputs`` assigned by name, recomputed on the first read after a step or a change of an
+      input outside ``MODEL.held_inputs(p)``.
 
     Subclasses provide ``model_inputs()`` (the model's inputs now) and ``inputs_at(s)`` (at time s into a step, as
     the step extrapolates them) and may extend ``initialize``/``advance`` for what their inputs need
@@ -381,7 +385,7 @@ class ModelSlave(UjfmuSlave):
 
     MODEL = None
     STATE = {"_time": "float", "_started": "bool"}   # plus "_y": the model state, set in __init_subclass__
-    DERIVED = ("_p",)
+    DERIVED = ("_p", "_held")
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -399,6 +403,7 @@ class ModelSlave(UjfmuSlave):
 
     def derive(self):
         self._p = self.parameters()
+        self._held = frozenset(getattr(self.MODEL, "held_inputs", _no_inputs)(self._p))
 
     def initialize(self, start_time):
         self._time, self._started = start_time, False
@@ -463,6 +468,10 @@ def model_parameters(model, fmu):
 
 def _never(p):
     return False
+
+
+def _no_inputs(p):
+    return ()
 
 
 def _none(p, y):
