@@ -417,6 +417,10 @@ class ModelSlave(UjfmuSlave):
         """The model's inputs at time s [s] into the step from now (default: held)."""
         return self.model_inputs()
 
+    def input_path(self):
+        """:meth:`inputs_at` as a function of s alone, for the stages of one step (its inputs read once)."""
+        return self.inputs_at
+
     def current_state(self, u):
         """The model state now: after the first step the integrated (or, kinematic, held) one, before it
         initial_state at the current inputs u (the warm start)."""
@@ -443,9 +447,10 @@ class ModelSlave(UjfmuSlave):
                 def rates(s, y):
                     return model.derivatives(p, t + s, y, u)
             else:
+                inputs_at = self.input_path()
 
                 def rates(s, y):
-                    return model.derivatives(p, t + s, y, self.inputs_at(s))
+                    return model.derivatives(p, t + s, y, inputs_at(s))
             y = tuple(rk4.integrate_time(rates, y, h, n))
             if not all(math.isfinite(x) for x in y):
                 raise ValueError(f"the state became non-finite over the step ({y!r})")
@@ -507,8 +512,14 @@ class PrescribedInputSlave(ModelSlave):
 
     def inputs_at(self, s):
         """The input shaft extrapolated s into the step: angle quadratic, speed linear in s (Eq. above)."""
-        alpha, w0 = self.input_acceleration(), self.omega_in
-        return Drive(self._phi_in + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, alpha, self.tau_load)
+        return self.input_path()(s)
+
+    def input_path(self):
+        phi0, w0, alpha, tau_load = self._phi_in, self.omega_in, self.input_acceleration(), self.tau_load
+
+        def inputs_at(s):
+            return Drive(phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, alpha, tau_load)
+        return inputs_at
 
     def speed_bound(self, h):
         alpha = self.input_acceleration()

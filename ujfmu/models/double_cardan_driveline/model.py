@@ -228,14 +228,39 @@ def flexible_derivatives(p: Parameters, phi1: float, omega1: float, state: Seque
 
 
 def _flexible_rates(p, phi1, omega1, state, tau_load):
-    """(flexible_derivatives, r1, shaft torque k_theta twist + c_theta dtwist); each sine and cosine once."""
+    """(flexible_derivatives, r1, shaft torque k_theta twist + c_theta dtwist), straight-line: the integrator's
+    inner loop. The same equations as :func:`flexible_kinematics` and :func:`output_inertia` (tests compare them),
+    each sine and cosine once, no calls: joint i at yoke angle x and angle b (sx, cx, sb, cb its sines and cosines)
+    has d = 1 - sb^2 cx^2, dy/dx = cb / d, dy/db = sb sx cx / d and y - x = atan2((1 - cb) sin 2x, (1 + cb) -
+    (1 - cb) cos 2x) (Omar Eq. 4); J_out is :func:`cross_inertia` at the static beta2 plus half the intermediate
+    shaft's inertia times (dy/dx)^2."""
+    sin, cos = math.sin, math.cos
     phi4, omega4, phi, dphi = state
     u4 = phi4 + p.delta
-    s4, c4 = math.sin(u4), math.cos(u4)
-    twist, dtwist, r1, r2, g, _ = _kinematics(p, phi1, math.sin(phi1), math.cos(phi1), omega1,
-                                              phi4, s4, c4, omega4, phi, dphi)
-    shaft = p.k_theta * twist + p.c_theta * dtwist
-    j_out, dj_out = _shaft_end_inertia(p, p.J_load, s4, c4, p.sc_beta2)
+    s1, c1, s4, c4 = sin(phi1), cos(phi1), sin(u4), cos(u4)
+    b1 = p.beta1 + phi
+    b2 = p.beta2 + phi * p.cos_plane
+    sb1, cb1, sb2, cb2 = sin(b1), cos(b1), sin(b2), cos(b2)
+    sc1, cc1, sc4, cc4 = s1 * c1, c1 * c1, s4 * c4, c4 * c4
+    # the joints at the dynamic angles b1, b2: ratios r, dtwist/dphi = g, twist = phi2 - phi3
+    d1 = 1.0 - sb1 * sb1 * cc1
+    d2 = 1.0 - sb2 * sb2 * cc4
+    r1, r2 = cb1 / d1, cb2 / d2
+    g = sb1 * sc1 / d1 - p.cos_plane * sb2 * sc4 / d2
+    twist = (phi1 + math.atan2((1.0 - cb1) * 2.0 * sc1, (1.0 + cb1) - (1.0 - cb1) * (cc1 - s1 * s1))
+             - phi4 - math.atan2((1.0 - cb2) * 2.0 * sc4, (1.0 + cb2) - (1.0 - cb2) * (cc4 - s4 * s4)))
+    shaft = p.k_theta * twist + p.c_theta * (r1 * omega1 - r2 * omega4 + g * dphi)
+    # J_out and dJ_out/dphi4: joint 2 at its static angle beta2 (s, c)
+    s, c = p.sc_beta2
+    ss, s2x = s * s, 2.0 * sc4
+    d = 1.0 - ss * cc4
+    dd = ss * s2x
+    r = c / d
+    dr = -r * dd / d
+    half = 0.5 * p.I_intermediate
+    j_out = p.J_load + p.I_cross_pin * ss * (r * r * cc4 + s4 * s4 / d) + p.I_cross_normal * c * c / d + half * r * r
+    dj_out = (p.I_cross_pin * ss * (2.0 * r * dr * cc4 - r * r * s2x + s2x / d - s4 * s4 * dd / (d * d))
+              - p.I_cross_normal * c * c * dd / (d * d) + 2.0 * half * r * dr)
     return (omega4,
             (r2 * shaft - 0.5 * dj_out * omega4 * omega4 - tau_load) / j_out,
             dphi,
