@@ -67,9 +67,9 @@ def test_check_messages_name_the_parameters():
 
 @pytest.mark.parametrize("name", MODEL_FMUS)
 @pytest.mark.parametrize("rigid", [False, True])
-def test_held_inputs_change_neither_outputs_nor_start(name, rigid):
-    """An input a model declares held (the FMU then keeps its outputs when the host sets it) changes neither the
-    outputs at any state nor the initial state; one that does change them is not declared held (a rigid double
+def test_output_free_inputs_change_neither_outputs_nor_start(name, rigid):
+    """An input a model declares output-free (the FMU keeps its outputs when the host sets it) changes neither the
+    outputs at any state nor the initial state; one that does change them is not declared (a rigid double
     Cardan shaft's tau_in carries rho tau_load)."""
     cls = fmu_class(name)
     model = cls.MODEL
@@ -79,17 +79,17 @@ def test_held_inputs_change_neither_outputs_nor_start(name, rigid):
     elif rigid:
         pytest.skip("one parameter set")
     p = model_parameters(model, type("Values", (), values)())
-    held = tuple(getattr(model, "held_inputs", lambda p: ())(p))
+    free = tuple(getattr(model, "output_free_inputs", lambda p: ())(p))
     prescribed = issubclass(cls, PrescribedInputSlave)
     u = Drive(0.3, 20.0, 5.0, 1.5) if prescribed else model.Inputs(*(1.5 for _ in model.Inputs._fields))
     y = tuple(x + 0.01 * (i + 1) for i, x in enumerate(model.initial_state(p, 0.0, u)))
-    for field in held:
+    for field in free:
         assert field in model.Inputs._fields and field in {v.name for v in cls.VARIABLES if v.causality == "input"}
         changed = u._replace(**{field: getattr(u, field) + 7.0})
         assert model.outputs(p, 0.0, y, changed) == model.outputs(p, 0.0, y, u)
         assert model.initial_state(p, 0.0, changed) == model.initial_state(p, 0.0, u)
     if name.startswith("DoubleCardanDriveline"):
-        assert held == (() if rigid else ("tau_load",))
+        assert free == (() if rigid else ("tau_load",))
         if rigid:
             changed = u._replace(tau_load=u.tau_load + 7.0)
             assert model.outputs(p, 0.0, y, changed) != model.outputs(p, 0.0, y, u)

@@ -289,7 +289,7 @@ class UjfmuSlave(Fmi2Slave):
             if value == getattr(self, name):   # unchanged (a constant load, a held speed): outputs stay valid
                 return
             setattr(self, name, value)
-            if name not in self._held:
+            if name not in self._output_free:
                 self._stale = True
             if not self._running:
                 self._initialized = False
@@ -302,7 +302,7 @@ class UjfmuSlave(Fmi2Slave):
     #: model attributes computed from the parameters by derive(), recomputed when a state is restored
     DERIVED = ()
     #: names of the inputs the outputs do not depend on (a change leaves them valid); set by derive()
-    _held = frozenset()
+    _output_free = frozenset()
 
     def derive(self):
         """Set the DERIVED attributes from the parameters (runs before initialize and after a state restore)."""
@@ -376,7 +376,7 @@ class ModelSlave(UjfmuSlave):
       held (a prescribed input shaft extrapolated, see PrescribedInputSlave), then the finite check and
       ``MODEL.check_state`` of the new state;
     - the outputs: ``MODEL.outputs`` assigned by name, recomputed on the first read after a step or a change of an
-      input outside ``MODEL.held_inputs(p)``.
+      input outside ``MODEL.output_free_inputs(p)``.
 
     Subclasses provide ``model_inputs()`` (the model's inputs now) and ``inputs_at(s)`` (at time s into a step, as
     the step extrapolates them) and may extend ``initialize``/``advance`` for what their inputs need
@@ -385,7 +385,7 @@ class ModelSlave(UjfmuSlave):
 
     MODEL = None
     STATE = {"_time": "float", "_started": "bool"}   # plus "_y": the model state, set in __init_subclass__
-    DERIVED = ("_p", "_held")
+    DERIVED = ("_p", "_output_free")
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -403,7 +403,7 @@ class ModelSlave(UjfmuSlave):
 
     def derive(self):
         self._p = self.parameters()
-        self._held = frozenset(getattr(self.MODEL, "held_inputs", _no_inputs)(self._p))
+        self._output_free = frozenset(getattr(self.MODEL, "output_free_inputs", _no_inputs)(self._p))
 
     def initialize(self, start_time):
         self._time, self._started = start_time, False

@@ -372,7 +372,7 @@ def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
     return _flexible_rates(p, u.phi, u.omega, y, u.tau_load)[0]
 
 
-def held_inputs(p: Parameters) -> tuple:
+def output_free_inputs(p: Parameters) -> tuple:
     """A flexible shaft's outputs (:func:`flexible_outputs`) and start do not depend on tau_load, which enters only
     the output shaft's equation of motion; a rigid one's tau_in does (rho tau_load)."""
     return () if p.rigid_intermediate_shaft else ("tau_load",)
@@ -482,10 +482,10 @@ class TorqueDriven:
         return torque_driven_rates(p, p.J_drive, y, u.tau_in, u.tau_load)
 
     @staticmethod
-    def held_inputs(p: TorqueDrivenParameters) -> tuple:
-        """:func:`held_inputs`: with a flexible shaft the input shaft's acceleration (an output) is driven by tau_in
-        and the shaft torque, not by tau_load."""
-        return held_inputs(p)
+    def output_free_inputs(p: TorqueDrivenParameters) -> tuple:
+        """:func:`output_free_inputs`: with a flexible shaft the input shaft's acceleration (an output) is driven by
+        tau_in and the shaft torque, not by tau_load."""
+        return output_free_inputs(p)
 
     @staticmethod
     def rate_bound(p: TorqueDrivenParameters, y: tuple, omega_max: float) -> float:
