@@ -86,6 +86,26 @@ def test_check_step_reports_every_signal(fmu_dir, tmp_path, capsys):
         assert f"ok   {name}" in out
 
 
+@pytest.mark.parametrize("scenario", ["battery/battery_04", "cardan_constant_speed"])
+def test_a_run_split_into_advance_calls_is_the_same_run(fmu_dir, scenario):
+    """The implicit scheme's state (interface Jacobian, extrapolation history, instability watch, open loop)
+    carries across Cosimulation.advance calls: advance(2n) equals advance(n) twice and 10 x advance(1) then
+    advance(2n - 10), bit for bit and with the same iterations and Jacobian builds (a closed loop, and an ideal
+    speed source, whose loop is open)."""
+    s = Scenario(battery.BATTERY_DIR.parent / f"{scenario}.toml")
+    runs = []
+    for split in ((200,), (100, 100), (1,) * 10 + (190,)):
+        with Cosimulation(s.master_components(fmu_dir), s.connections, 1e-3, s.record) as cosim:
+            for n in split:
+                cosim.advance(n)
+            row = np.empty(len(cosim.columns))
+            cosim.read(row)
+            runs.append((row, cosim.iterations, cosim.jacobian_builds, cosim.time))
+    for row, iterations, builds, time in runs[1:]:
+        np.testing.assert_array_equal(row, runs[0][0])
+        assert (iterations, builds, time) == runs[0][1:]
+
+
 def test_open_loop_runs_explicitly_and_bitwise_like_explicit(fmu_dir):
     """An ideal speed source ignores its tau_load: the implicit scheme finds dG/du = 0 at its first Jacobian and
     steps explicitly from then on, giving the explicit result bit for bit."""

@@ -464,7 +464,7 @@ class Cosimulation:
         callable(steps_done, n_steps) called now and then. ``rows_done``: the rows written so far."""
         _check_interval(output_interval)
         h, start = self.step_size, self.start_time
-        implicit = self.coupling == "implicit" and bool(self._tears)
+        implicit = self.coupling == "implicit" and bool(self._tears) and not self.open_loop
         monitor = bool(self._tears)
         every = max(1, n_steps // 200)
         self.rows_done, k = 0, 0
