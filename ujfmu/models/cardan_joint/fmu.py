@@ -33,7 +33,7 @@ class CardanJoint(PrescribedInputSlave):
     """
 
     MODEL = cardan
-    STATE = {**PrescribedInputSlave.STATE, "_omega_prev2": "float|None", "_h_prev2": "float"}
+    ACCELERATION_ORDER = 2
     VARIABLES = (
         parameter("bend_angle", math.radians(30.0), "rad",
                   "Structural misalignment phi, C_phi = R_x(phi) (Feng Eq. 1); laboratory model 30 deg", **_ANGLE),
@@ -67,26 +67,6 @@ class CardanJoint(PrescribedInputSlave):
                ("omega_in",)),
     )
     DEFAULT_EXPERIMENT = (0.0, 1.0, 1.0e-3)
-
-    def start_input(self, phi_start):
-        super().start_input(phi_start)
-        self._omega_prev2, self._h_prev2 = None, 0.0   # omega_in two communication points back
-
-    def input_acceleration(self):
-        """alpha1 at the current communication point t_k, second order: the slope at t_k of the parabola through
-        omega_in at t_k, t_k-1, t_k-2 (BDF2, (3 w_k - 4 w_k-1 + w_k-2) / (2h) for equal steps); the backward
-        difference (w_k - w_k-1)/h after the first step, 0 before it."""
-        if self._omega_prev is None:
-            return 0.0
-        slope = (self.omega_in - self._omega_prev) / self._h_prev
-        if self._omega_prev2 is None:
-            return slope
-        h1, h2 = self._h_prev, self._h_prev2
-        return slope + h1 * (slope - (self._omega_prev - self._omega_prev2) / h2) / (h1 + h2)
-
-    def advance_input(self, h, alpha):
-        self._omega_prev2, self._h_prev2 = self._omega_prev, self._h_prev
-        super().advance_input(h, alpha)
 
 
 class CardanJointTorqueDriven(TorqueDrivenSlave):
