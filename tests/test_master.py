@@ -56,8 +56,9 @@ def test_recorded_time_and_columns_align_with_the_closed_form(fmu_dir):
     phi only). A time column or a recorded column shifted by one step is off by a h (or more) and fails."""
     a, h, t0, phi = 40.0, 1e-3, 0.25, np.radians(30)
     comps = [Component("motor", fmu_dir / "Motor.fmu", dict(ideal_speed_source=True, profile=1, accel=a,
-                                                            omega_set=1e3)),
-             Component("joint", fmu_dir / "CardanJoint.fmu", dict(error_angle_beta=0.0, error_angle_gamma=0.0))]
+                                                            omega_set=1e3, tau_load=0.0)),
+             Component("joint", fmu_dir / "CardanJoint.fmu", dict(error_angle_beta=0.0, error_angle_gamma=0.0,
+                                                                  tau_load=0.0))]
     record = ["joint.omega_out", "motor.omega", "joint.phi_in", "motor.phi", "joint.phi_out"]
     table = cosimulate(comps, [Connection("motor.omega", "joint.omega_in")], 0.75, h, record, start_time=t0)
     assert set(table.dtype.names) == {"time", *record} and len(table) == 501

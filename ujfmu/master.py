@@ -17,14 +17,16 @@ Implicit (default): the torn inputs held over [t_k, t_k+1] are iterated to u = T
 (1 - THETA) G(t_k) by a quasi-Newton method (finite-difference interface Jacobian, Broyden updates), the
 components owning them rolled back with fmi2GetFMUstate/fmi2SetFMUstate; see ``Cosimulation._implicit_step``.
 
-Both watch the torn connections for a diverging coupling (``CouplingInstabilityError``) and keep the recorded
-results up to a failure (``CosimulationError.partial``).
+Both watch the torn connections for a diverging coupling (``CouplingInstabilityError``), account the energy
+residual of every power bond (``Cosimulation.bond_energies``) and keep the recorded results up to a failure
+(``CosimulationError.partial``).
 """
 
 import atexit
 import math
 import shutil
 import tempfile
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -61,6 +63,12 @@ GROWTH_STEPS, GROWTH_FACTOR, GROWTH_FLOOR = 3, 8.0, 1e-3
 #: alternating change is measured from at least this many tolerances (not from a change that happens to be ~0
 #: where a torque ripple turns)
 IMPLICIT_NOISE_TOLERANCES = 10.0
+#: a refused step is blamed on the coupling too when, in the last step, a torn connection's change reversed its
+#: sign while growing GROWTH_FACTOR-fold (a divergence too fast for two alternations), or a power bond's energy
+#: residual exceeded ENERGY_RATIO times the energy it transmitted while growing GROWTH_FACTOR-fold
+ENERGY_RATIO = 1.0
+#: units of the two halves of a power bond (docs/cosimulation.md, "Energy on the power bonds")
+SPEED_UNIT, TORQUE_UNIT = "rad/s", "N.m"
 
 
 class CosimulationError(RuntimeError):
@@ -75,6 +83,10 @@ class CouplingInstabilityError(CosimulationError):
     """The coupling went unstable: the message names the connection, the step, the growth and the remedy."""
 
 
+class HeldInputWarning(UserWarning):
+    """Inputs no connection feeds and no component parameter sets: held at their declared start values."""
+
+
 @dataclass
 class Component:
     name: str
@@ -86,6 +98,52 @@ class Component:
 class Connection:
     source: str   # "component.output"
     target: str   # "component.input"
+
+
+@dataclass
+class BondEnergy:
+    """The energy account of one power bond: a speed connection and a torque connection between the same two
+    components in opposite directions. ``residual`` is the net energy the coupling created (> 0) or destroyed
+    over the run, ``residual_abs`` the sum of its magnitudes per step, ``transmitted`` the sum of the magnitudes of
+    the energy the speed's side exchanged through the bond [J] (docs/cosimulation.md)."""
+
+    speed: Connection
+    torque: Connection
+    residual: float = 0.0
+    residual_abs: float = 0.0
+    transmitted: float = 0.0
+
+    @property
+    def components(self) -> tuple:
+        return self.speed.source.split(".", 1)[0], self.speed.target.split(".", 1)[0]
+
+    @property
+    def relative(self) -> float:
+        """sum |residual per step| / transmitted energy (nan when nothing was transmitted)."""
+        return self.residual_abs / self.transmitted if self.transmitted > 0.0 else math.nan
+
+    def __str__(self):
+        a, b = self.components
+        text = (f"coupling energy {a} <-> {b} ({self.speed.source} x {self.torque.source}): net "
+                f"{self.residual:+.4g} J, sum |per step| {self.residual_abs:.4g} J")
+        if self.transmitted > 0.0:
+            text += f" = {100.0 * self.relative:.3g}% of the {self.transmitted:.4g} J transmitted"
+        return text
+
+
+@dataclass
+class HeldInput:
+    """An input no connection feeds: held at ``value`` (its start value, or the value the component's parameters
+    give it) over the whole run."""
+
+    component: str
+    name: str
+    value: float
+    unit: str = ""
+
+    def __str__(self):
+        return f"{self.component}.{self.name} = {self.value:g}" + (f" {self.unit}" if self.unit else "")
+
 
 
 _STATUS = ["ok", "warning", "discard", "error", "fatal", "pending"]
@@ -389,8 +447,17 @@ class Cosimulation:
         self._plan_tearing(views)
         self._communicate()
         self._fresh = True
-        # per torn connection: [last value, last change, alternations, |change| when they began, max |value|]
-        self._growth = [[v[0], 0.0, 0, 0.0, abs(v[0])] for v in self._tear_views]
+        # per torn connection: [last value, last change, alternations, |change| when they began, max |value|,
+        # the change before the last]
+        self._growth = [[v[0], 0.0, 0, 0.0, abs(v[0]), 0.0] for v in self._tear_views]
+        self._plan_bonds(views)
+        self.held_inputs = held_inputs(self.instances, connections, {c.name: c.parameters for c in components})
+        given = {(c.name, name) for c in components for name in c.parameters}
+        unstated = [h for h in self.held_inputs if (h.component, h.name) not in given]
+        if unstated:
+            warnings.warn(f"input(s) not connected, held at their start values over the whole run: "
+                          f"{', '.join(map(str, unstated))}; connect them, or give each a value in the component's "
+                          "parameters to hold it deliberately", HeldInputWarning, stacklevel=4)
 
     def _plan_tearing(self, views):
         """Torn inputs for implicit coupling: inputs on a loop of connections on which no connected output of
@@ -434,6 +501,62 @@ class Cosimulation:
         self._tear_scale = np.zeros(len(self._tears))
         self._inverse, self._g_past = None, []   # inverse interface Jacobian (dr/du)^-1, G at t - h, t - 2h
 
+    def _plan_bonds(self, views):
+        """Power bonds: a connection carrying a speed (rad/s) from component A to B paired with one carrying a
+        torque (N.m) from B back to A (the k-th speed with the k-th torque when there are several). Their product
+        is the power A and B exchange; ``_account_energy`` keeps each bond's energy residual."""
+        def unit(conn):
+            comp, name = conn.source.split(".", 1)
+            var = self.instances[comp].variables[name]
+            return var.unit or (var.declaredType.unit if var.declaredType is not None else None)
+
+        speeds, torques = {}, {}
+        for i, transfer in enumerate(self._transfers):
+            conn = transfer[-1]
+            pair = (conn.source.split(".", 1)[0], conn.target.split(".", 1)[0])
+            kind = unit(conn)
+            if pair[0] != pair[1] and kind in (SPEED_UNIT, TORQUE_UNIT):
+                (speeds if kind == SPEED_UNIT else torques).setdefault(pair, []).append(i)
+        self.bond_energies, self._bonds = [], []
+        tear_pos = {i: k for k, i in enumerate(self._tears)}
+        for (a, b), speed_list in speeds.items():
+            for w, tau in zip(speed_list, torques.get((b, a), [])):
+                self.bond_energies.append(BondEnergy(self._transfers[w][-1], self._transfers[tau][-1]))
+                # [speed value, torque value (one-value ctypes arrays in the scratch row), speed's tear position,
+                # torque's, previous speed, previous torque, last residual, the one before, last E_speed]
+                self._bonds.append([self._transfers[w][4], self._transfers[tau][4], tear_pos.get(w, -1),
+                                    tear_pos.get(tau, -1),
+                                    float(views[w][0]), float(views[tau][0]), 0.0, 0.0, 0.0])
+        self._held = None   # implicit coupling: the torn inputs' values held over the last step
+
+    def _account_energy(self):
+        """Energy residual of every power bond over the step just taken (Sadjina et al. 2017): each side held
+        its input over [t_k, t_k+1] (u_held) and its own output moved from y_k to y_k+1, so
+
+            E_speed  = tau_held h (w_k + w_k+1)/2,     E_torque = w_held h (tau_k + tau_k+1)/2,
+            dE_k     = E_torque - E_speed
+
+        (explicit coupling: tau_held = tau_k, w_held = w_k, dE_k = h/2 (w_k tau_k+1 - tau_k w_k+1)). A perfect
+        coupling has dE_k = 0; for a speed-driven bond dE_k > 0 is energy the coupling created."""
+        half, held = 0.5 * self.step_size, self._held
+        self._held = None
+        for bond, energy in zip(self._bonds, self.bond_energies):
+            w, tau = bond[0][0], bond[1][0]   # ctypes values: Python floats
+            w_held = held[bond[2]] if held is not None and bond[2] >= 0 else bond[4]
+            tau_held = held[bond[3]] if held is not None and bond[3] >= 0 else bond[5]
+            e_speed = tau_held * half * (bond[4] + w)
+            d_e = w_held * half * (bond[5] + tau) - e_speed
+            energy.residual += d_e
+            energy.residual_abs += abs(d_e)
+            energy.transmitted += abs(e_speed)
+            bond[4], bond[5], bond[6], bond[7], bond[8] = w, tau, d_e, bond[6], e_speed
+
+    def _watch(self):
+        if self._bonds:
+            self._account_energy()
+        if self._tears:
+            self._watch_growth()
+
     def _log_text(self):
         return ("\nFMU log:\n" + "\n".join(self.log)) if self.log else ""
 
@@ -465,7 +588,7 @@ class Cosimulation:
         _check_interval(output_interval)
         h, start = self.step_size, self.start_time
         implicit = self.coupling == "implicit" and bool(self._tears) and not self.open_loop
-        monitor = bool(self._tears)
+        monitor = bool(self._tears or self._bonds)
         every = max(1, n_steps // 200)
         self.rows_done, k = 0, 0
         while k < n_steps:
@@ -487,7 +610,7 @@ class Cosimulation:
                     self.read(rows[self.rows_done])
                     self.rows_done += 1
                 if monitor:
-                    self._watch_growth()
+                    self._watch()
             if progress is not None and k % every == 0:
                 progress(k, n_steps)
 
@@ -497,7 +620,7 @@ class Cosimulation:
         copies of the scratch row, gathered into rows' columns in blocks."""
         h, start, steps = self.step_size, self.start_time, self.steps_done
         steppers, ops, lean, readers = self._bare_steppers, self._ops, self._lean_ops, self._readers
-        watch = self._watch_growth if self._tears else None
+        watch = self._watch if self._tears or self._bonds else None
         step_c, t_c = c_double(h), c_double()
         block, filled, first_row = None, 0, self.rows_done
         if rows is not None:
@@ -546,12 +669,58 @@ class Cosimulation:
                 self._refused(name, t)
 
     def _refused(self, name, t):
-        growing = self._growth_report()
+        growing = self._growth_report() or self._jump_report() or self._energy_report()
         if growing:   # a port left its range because the coupling was diverging
             raise CouplingInstabilityError(
                 f"component '{name}' refused the step at t = {t!r} after the coupling went unstable: "
-                f"{growing}" + self._log_text())
+                f"{growing}; the component's own message follows" + self._log_text())
         raise CosimulationError(f"component '{name}' refused the step at t = {t!r}" + self._log_text())
+
+    def _remedy(self):
+        return ("use coupling = \"implicit\" in [experiment] (the default), which iterates this connection "
+                "every step" if self.coupling == "explicit" else
+                "reduce step_size (try half) and check the step with `ujfmu run --check-step`")
+
+    def _where(self, conn):
+        return conn.source.split(".", 1)[0], conn.target.split(".", 1)[0]
+
+    def _jump_report(self):
+        """Words on a torn connection whose last change reversed the one before it while growing
+        GROWTH_FACTOR-fold, above GROWTH_FLOOR of its largest value ('' if none): a divergence too fast for the
+        alternation count of ``_growth_report``."""
+        worst = None
+        for i, state in zip(self._tears, self._growth):
+            if (state[1] * state[5] < 0.0 and abs(state[1]) > GROWTH_FACTOR * abs(state[5])
+                    and abs(state[1]) > GROWTH_FLOOR * state[4]):
+                ratio = abs(state[1] / state[5])
+                if worst is None or ratio > worst[1]:
+                    worst = (i, ratio, state)
+        if worst is None:
+            return ""
+        i, ratio, state = worst
+        conn = self._transfers[i][-1]
+        src, dst = self._where(conn)
+        return (f"coupling instability between '{src}' and '{dst}': {conn.source} -> {conn.target} reversed its "
+                f"change in the last step and grew x{ratio:.3g} in one step (from {abs(state[5]):.4g} to "
+                f"{abs(state[1]):.4g}, t = {self.time!r}, {self.coupling} coupling, h = {self.step_size!r}); the "
+                f"coupled loop diverges faster than one step can show. Remedy: {self._remedy()}. Results up to "
+                "here are kept")
+
+    def _energy_report(self):
+        """Words on a power bond whose energy residual in the last step exceeded ENERGY_RATIO times the energy it
+        transmitted while growing GROWTH_FACTOR-fold ('' if none)."""
+        for bond, energy in zip(self._bonds, self.bond_energies):
+            d_e, before, e_speed = bond[6], bond[7], bond[8]
+            if abs(d_e) > ENERGY_RATIO * abs(e_speed) and abs(d_e) > GROWTH_FACTOR * abs(before) and d_e != 0.0:
+                a, b = energy.components
+                return (f"coupling instability between '{a}' and '{b}': the power bond {energy.speed.source} -> "
+                        f"{energy.speed.target} / {energy.torque.source} -> {energy.torque.target} had an energy "
+                        f"residual of {abs(d_e):.4g} J in the last step, {abs(d_e / e_speed) if e_speed else math.inf:.3g}x "
+                        f"the {abs(e_speed):.4g} J it transmitted and {abs(d_e / before) if before else math.inf:.3g}x "
+                        f"the step before (t = {self.time!r}, {self.coupling} coupling, h = {self.step_size!r}): "
+                        f"the coupling, not the model, is feeding the motion. Remedy: {self._remedy()}. Results up "
+                        "to here are kept")
+        return ""
 
     def _watch_growth(self):
         """Detect a diverging coupling: per torn connection, the change d_k = g_k - g_k-1 of the value it
@@ -561,7 +730,7 @@ class Cosimulation:
         for state, view in zip(self._growth, self._tear_views):
             g = view[0]
             d = g - state[0]
-            state[0] = g
+            state[0], state[5] = g, state[1]
             state[4] = max(state[4], abs(g))
             if d * state[1] < 0.0 and abs(d) > 0.0:
                 state[2] += 1
@@ -586,10 +755,8 @@ class Cosimulation:
             return ""
         i, ratio, state = worst
         conn = self._transfers[i][-1]
-        src, dst = conn.source.split(".", 1)[0], conn.target.split(".", 1)[0]
-        remedy = ("use coupling = \"implicit\" in [experiment] (the default), which iterates this connection "
-                  "every step" if self.coupling == "explicit" else
-                  "reduce step_size (try half) and check the step with `ujfmu run --check-step`")
+        src, dst = self._where(conn)
+        remedy = self._remedy()
         return (f"coupling instability between '{src}' and '{dst}': {conn.source} -> {conn.target} changes sign at "
                 f"every step for {state[2]} steps, growing x{ratio:.3g} per step (to {abs(state[1]):.4g}, "
                 f"t = {self.time!r}, {self.coupling} coupling, h = {self.step_size!r}); the coupled loop feeds "
@@ -679,6 +846,7 @@ class Cosimulation:
             buffer[0] = value
             if set_(dst, dst_vr, 1, buffer) > 1:
                 raise CosimulationError(f"t = {t!r}: setting {conn.target} failed" + self._log_text())
+        self._held = u
         self._step(self._rolled_steppers, t, h)
         self.time = t + h
         self._communicate()
@@ -739,6 +907,25 @@ class Cosimulation:
         self.close()
 
 
+def held_inputs(instances: dict, connections: list, parameters: dict) -> list:
+    """The inputs no connection feeds, as ``HeldInput``: the master holds each at its start value (or the value
+    the component's parameters give it) over the whole run."""
+    fed = {c.target for c in connections}
+    held = []
+    for comp, inst in instances.items():
+        for var in inst.md.modelVariables:
+            if var.causality != "input" or f"{comp}.{var.name}" in fed:
+                continue
+            value = parameters.get(comp, {}).get(var.name, var.start)
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                value = math.nan
+            unit = var.unit or (var.declaredType.unit if var.declaredType is not None else None) or ""
+            held.append(HeldInput(comp, var.name, value, unit))
+    return held
+
+
 def _check_interval(output_interval):
     if isinstance(output_interval, bool) or not isinstance(output_interval, int) or output_interval < 1:
         raise CosimulationError(f"output interval {output_interval!r} must be a whole number of steps >= 1")
@@ -749,15 +936,19 @@ def _vrs(*refs):
 
 
 def cosimulate(components, connections, stop_time, step_size, record, start_time=0.0, progress=None,
-               coupling=DEFAULT_COUPLING, output_interval=1):
+               coupling=DEFAULT_COUPLING, output_interval=1, diagnostics=None):
     """Run the co-simulation; returns a structured array with 'time' and one column per recorded 'comp.var', a row
     every output_interval communication steps and at stop_time.
 
-    progress: optional callable(steps_done, steps_total) called now and then.
+    progress: optional callable(steps_done, steps_total) called now and then. diagnostics: optional dict, filled
+    (also when the run fails) with "bonds" (``BondEnergy`` per power bond) and "held_inputs" (``HeldInput`` per
+    input no connection feeds).
     """
     n_steps = int(round((stop_time - start_time) / step_size))
     if n_steps < 1 or not math.isclose(start_time + n_steps * step_size, stop_time, rel_tol=1e-9, abs_tol=1e-12):
         raise CosimulationError(f"stop_time - start_time = {stop_time - start_time} is not a whole number of "
                                 f"communication steps of {step_size}")
     with Cosimulation(components, connections, step_size, record, start_time, coupling) as cosim:
+        if diagnostics is not None:
+            diagnostics.update(bonds=cosim.bond_energies, held_inputs=cosim.held_inputs)
         return cosim.run(n_steps, progress, output_interval)

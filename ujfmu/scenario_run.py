@@ -53,6 +53,73 @@ class SignalCheck:
 
 #: a reference range below this multiple of the errors involved counts as constant (no "% of range" figure)
 RANGE_FLOOR = 10.0
+#: operating point: a drive's mean speed over the end window within this fraction of its set point (as sweeps)
+OPERATING_TOL = 0.01
+#: end window of the operating-point check when the scenario has no steady_from: this fraction of the run
+END_WINDOW = 0.1
+
+
+@dataclass
+class OperatingPointCheck:
+    """A drive's speed against its set point over the end of the run (from steady_from, else the last 10%):
+    mean |speed - set point| within OPERATING_TOL of the set point. ``target`` is nan when the set point still
+    moves in the window (a run that ends during its ramp): then nothing is checked."""
+    signal: str
+    set_point: str
+    value: float
+    target: float
+    since: float
+
+    @property
+    def checked(self) -> bool:
+        return not math.isnan(self.target)
+
+    @property
+    def passed(self) -> bool:
+        return not self.checked or abs(self.value - self.target) <= OPERATING_TOL * abs(self.target)
+
+    def __str__(self):
+        if not self.checked:
+            return (f"not checked {self.signal}: its set point {self.set_point} still moves after t = "
+                    f"{self.since:g} s (the run ends before the profile does)")
+        head = "ok  " if self.passed else "FAIL"
+        text = (f"{head} operating point {self.signal}: mean {self.value:.6g} rad/s from t = {self.since:g} s "
+                f"against its set point {self.set_point} = {self.target:.6g} rad/s "
+                f"({100.0 * (self.value - self.target) / abs(self.target):+.2f}%, allowed "
+                f"{100.0 * OPERATING_TOL:g}%)")
+        if not self.passed:
+            text += (": the set point is not reached by the end; lengthen stop_time, or give the drive more torque "
+                     "(tau_max) or gain, or lower the load")
+        return text
+
+
+def operating_pairs(scenario: Scenario) -> list:
+    """(speed, set point) signal pairs of the scenario's drives: every Motor that is not an ideal speed source
+    (omega, omega_ref) and every MotorController (its measured speed input omega, omega_ref)."""
+    pairs = []
+    for name, (fmu, _) in scenario.components.items():
+        if fmu == "Motor" and not scenario.parameters_with_defaults(name).get("ideal_speed_source"):
+            pairs.append((f"{name}.omega", f"{name}.omega_ref"))
+        elif fmu == "MotorController":
+            pairs.append((f"{name}.omega", f"{name}.omega_ref"))
+    return pairs
+
+
+def check_operating_points(scenario: Scenario, table: np.ndarray) -> list:
+    """An OperatingPointCheck per drive whose speed and set point are in table."""
+    t = table["time"]
+    since = scenario.steady_from if scenario.steady_from > scenario.start_time else \
+        float(t[-1] - END_WINDOW * (t[-1] - t[0]))
+    window = t >= since - 1e-9 * max(1.0, abs(since))
+    checks = []
+    for signal, set_point in operating_pairs(scenario):
+        if signal not in table.dtype.names or set_point not in table.dtype.names or not window.any():
+            continue
+        ref = table[set_point][window]
+        moving = float(np.ptp(ref)) > 1e-9 * max(1.0, float(np.max(np.abs(ref))))
+        checks.append(OperatingPointCheck(signal, set_point, float(np.mean(table[signal][window])),
+                                          math.nan if moving else float(ref[-1]), float(t[window][0])))
+    return checks
 
 
 @dataclass
@@ -66,6 +133,8 @@ class ScenarioResult:
     csv: Path = None
     plot: Path = None
     extra_plots: list = field(default_factory=list)   # orbits and spectra, when the scenario asks for them
+    operating_checks: list = field(default_factory=list)   # OperatingPointCheck per drive
+    bonds: list = field(default_factory=list)   # ujfmu.master.BondEnergy per power bond (co-simulation only)
 
     @property
     def checked(self) -> bool:
@@ -90,7 +159,7 @@ class ScenarioResult:
 
     @property
     def failed(self) -> bool:
-        return any(not c.passed for c in self.checks + self.extrapolated_checks)
+        return any(not c.passed for c in self.checks + self.extrapolated_checks + self.operating_checks)
 
     @property
     def verdict(self) -> str:
@@ -108,6 +177,8 @@ class ScenarioResult:
             lines.append(f"  step-halving extrapolation 2 y(h/2) - y(h), h = {self.scenario.step_size:g} s:")
             lines += [f"  {c}" for c in self.extrapolated_checks]
         lines += [f"  not compared: {name}: {why}" for name, why in self.scenario.not_compared.items()]
+        lines += [f"  {c}" for c in self.operating_checks]
+        lines += [f"  {b}" for b in self.bonds]
         if not self.checked:
             lines.append(f"  {self.not_checked_reason()}")
         elif math.isnan(self.fmpy_outlier_fraction):
@@ -185,20 +256,29 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         reference = scenario.read_reference()
         check_reference_span(scenario, reference)
     start = time.perf_counter()
+    diagnostics = {}
+    # the drives' speeds and set points ride along for the operating-point check, then leave the table
+    extra = [x for pair in operating_pairs(scenario) for x in pair if x not in scenario.record]
     try:
         if model_exchange:
             from .model_exchange import simulate_scenario_me
             table = simulate_scenario_me(scenario, fmu_dir)
         else:
             table = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
-                               scenario.step_size, scenario.record, scenario.start_time, progress=progress or None,
-                               coupling=scenario.coupling,
-                               output_interval=scenario.output_interval)
+                               scenario.step_size, scenario.record + extra, scenario.start_time,
+                               progress=progress or None, coupling=scenario.coupling,
+                               output_interval=scenario.output_interval, diagnostics=diagnostics)
     except CosimulationError as exc:
+        if exc.partial is not None and extra:
+            exc.partial = _without(exc.partial, extra)
         if exc.partial is not None and out_dir is not None:
             _write_partial(scenario, exc, Path(out_dir), plot)
         raise
-    result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start)
+    operating = check_operating_points(scenario, table)
+    if extra and not model_exchange:
+        table = _without(table, extra)
+    result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start, operating_checks=operating,
+                            bonds=diagnostics.get("bonds", []))
     if reference is not None and scenario.tolerances:
         result.checks = compare(table, reference, scenario.tolerances)
         # fmpy's band scales with each signal's range: a signal constant to within its absolute tolerance (say the
@@ -224,6 +304,12 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     return result
 
 
+def _without(table: np.ndarray, names: list) -> np.ndarray:
+    """A copy of a structured table without the named columns."""
+    keep = [n for n in table.dtype.names if n not in names]
+    return np.rec.fromarrays([table[n] for n in keep], names=keep)
+
+
 def _write_partial(scenario, exc, out_dir, plot):
     """Write the results up to a failure (CSV, plot) and name them in the error's message."""
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -247,7 +333,11 @@ def write_junit(results, path):
         case = ET.SubElement(suite, "testcase", classname="ujfmu.scenarios", name=r.scenario.name,
                              time=f"{r.wall_time:.3f}")
         if r.failed:
-            failure = ET.SubElement(case, "failure", message="signal outside tolerance of the reference")
+            why = [w for w, bad in (("signal outside tolerance of the reference",
+                                     any(not c.passed for c in r.checks + r.extrapolated_checks)),
+                                    ("operating point not reached", any(not c.passed for c in r.operating_checks)))
+                   if bad]
+            failure = ET.SubElement(case, "failure", message="; ".join(why))
             failure.text = r.summary()
         elif not r.checked:
             ET.SubElement(case, "skipped", message=f"not checked: {r.not_checked_reason()}")

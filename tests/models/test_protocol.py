@@ -63,3 +63,33 @@ def test_check_messages_name_the_parameters():
     p = ring.Parameters(R=0.1, d=0.003, E=2.1e11, e=0.2, I1=0.0, I2=0.05, c_s=0.0, c_d=0.0)
     (message,) = ring.check(p)
     assert "e = 0.2 m" in message and "R = 0.1 m" in message
+
+
+@pytest.mark.parametrize("name", MODEL_FMUS)
+@pytest.mark.parametrize("rigid", [False, True])
+def test_output_free_inputs_change_neither_outputs_nor_start(name, rigid):
+    """An input a model declares output-free (the FMU keeps its outputs when the host sets it) changes neither the
+    outputs at any state nor the initial state; one that does change them is not declared (a rigid double
+    Cardan shaft's tau_in carries rho tau_load)."""
+    cls = fmu_class(name)
+    model = cls.MODEL
+    values = {v.name: v.start for v in cls.VARIABLES}
+    if "rigid_intermediate_shaft" in values:
+        values["rigid_intermediate_shaft"] = rigid
+    elif rigid:
+        pytest.skip("one parameter set")
+    p = model_parameters(model, type("Values", (), values)())
+    free = tuple(getattr(model, "output_free_inputs", lambda p: ())(p))
+    prescribed = issubclass(cls, PrescribedInputSlave)
+    u = Drive(0.3, 20.0, 5.0, 1.5) if prescribed else model.Inputs(*(1.5 for _ in model.Inputs._fields))
+    y = tuple(x + 0.01 * (i + 1) for i, x in enumerate(model.initial_state(p, 0.0, u)))
+    for field in free:
+        assert field in model.Inputs._fields and field in {v.name for v in cls.VARIABLES if v.causality == "input"}
+        changed = u._replace(**{field: getattr(u, field) + 7.0})
+        assert model.outputs(p, 0.0, y, changed) == model.outputs(p, 0.0, y, u)
+        assert model.initial_state(p, 0.0, changed) == model.initial_state(p, 0.0, u)
+    if name.startswith("DoubleCardanDriveline"):
+        assert free == (() if rigid else ("tau_load",))
+        if rigid:
+            changed = u._replace(tau_load=u.tau_load + 7.0)
+            assert model.outputs(p, 0.0, y, changed) != model.outputs(p, 0.0, y, u)

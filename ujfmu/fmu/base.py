@@ -289,7 +289,8 @@ class UjfmuSlave(Fmi2Slave):
             if value == getattr(self, name):   # unchanged (a constant load, a held speed): outputs stay valid
                 return
             setattr(self, name, value)
-            self._stale = True
+            if name not in self._output_free:
+                self._stale = True
             if not self._running:
                 self._initialized = False
         return set_
@@ -300,6 +301,8 @@ class UjfmuSlave(Fmi2Slave):
     STATE = {}
     #: model attributes computed from the parameters by derive(), recomputed when a state is restored
     DERIVED = ()
+    #: names of the inputs the outputs do not depend on (a change leaves them valid); set by derive()
+    _output_free = frozenset()
 
     def derive(self):
         """Set the DERIVED attributes from the parameters (runs before initialize and after a state restore)."""
@@ -372,7 +375,8 @@ class ModelSlave(UjfmuSlave):
     - a step: classical RK4 (``rk4.integrate_time``) with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs
       held (a prescribed input shaft extrapolated, see PrescribedInputSlave), then the finite check and
       ``MODEL.check_state`` of the new state;
-    - the outputs: ``MODEL.outputs`` assigned by name.
+    - the outputs: ``MODEL.outputs`` assigned by name, recomputed on the first read after a step or a change of an
+      input outside ``MODEL.output_free_inputs(p)``.
 
     Subclasses provide ``model_inputs()`` (the model's inputs now) and ``inputs_at(s)`` (at time s into a step, as
     the step extrapolates them) and may extend ``initialize``/``advance`` for what their inputs need
@@ -381,7 +385,7 @@ class ModelSlave(UjfmuSlave):
 
     MODEL = None
     STATE = {"_time": "float", "_started": "bool"}   # plus "_y": the model state, set in __init_subclass__
-    DERIVED = ("_p",)
+    DERIVED = ("_p", "_output_free")
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -399,6 +403,7 @@ class ModelSlave(UjfmuSlave):
 
     def derive(self):
         self._p = self.parameters()
+        self._output_free = frozenset(getattr(self.MODEL, "output_free_inputs", _no_inputs)(self._p))
 
     def initialize(self, start_time):
         self._time, self._started = start_time, False
@@ -411,6 +416,10 @@ class ModelSlave(UjfmuSlave):
     def inputs_at(self, s):
         """The model's inputs at time s [s] into the step from now (default: held)."""
         return self.model_inputs()
+
+    def input_path(self):
+        """:meth:`inputs_at` as a function of s alone, for the stages of one step (its inputs read once)."""
+        return self.inputs_at
 
     def current_state(self, u):
         """The model state now: after the first step the integrated (or, kinematic, held) one, before it
@@ -438,9 +447,10 @@ class ModelSlave(UjfmuSlave):
                 def rates(s, y):
                     return model.derivatives(p, t + s, y, u)
             else:
+                inputs_at = self.input_path()
 
                 def rates(s, y):
-                    return model.derivatives(p, t + s, y, self.inputs_at(s))
+                    return model.derivatives(p, t + s, y, inputs_at(s))
             y = tuple(rk4.integrate_time(rates, y, h, n))
             if not all(math.isfinite(x) for x in y):
                 raise ValueError(f"the state became non-finite over the step ({y!r})")
@@ -463,6 +473,10 @@ def model_parameters(model, fmu):
 
 def _never(p):
     return False
+
+
+def _no_inputs(p):
+    return ()
 
 
 def _none(p, y):
@@ -511,8 +525,14 @@ class PrescribedInputSlave(ModelSlave):
 
     def inputs_at(self, s):
         """The input shaft extrapolated s into the step: angle quadratic, speed linear in s (Eq. above)."""
-        alpha, w0 = self.input_acceleration(), self.omega_in
-        return Drive(self._phi_in + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, alpha, self.tau_load)
+        return self.input_path()(s)
+
+    def input_path(self):
+        phi0, w0, alpha, tau_load = self._phi_in, self.omega_in, self.input_acceleration(), self.tau_load
+
+        def inputs_at(s):
+            return Drive(phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, alpha, tau_load)
+        return inputs_at
 
     def speed_bound(self, h):
         alpha = self.input_acceleration()

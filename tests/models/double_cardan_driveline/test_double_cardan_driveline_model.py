@@ -232,3 +232,23 @@ def test_lateral_force_is_quadratic_in_torque_for_z_and_linear_for_w():
             assert g[1] / g[0] == pytest.approx(2.0, rel=0.02)
         else:
             assert g[1] / g[0] == pytest.approx(1.0, rel=0.02)
+
+
+def test_straight_line_derivatives_are_the_composed_equations():
+    """flexible_derivatives (straight-line code, the integrator's inner loop) is Lagrange's equations assembled from
+    flexible_kinematics and output_inertia (each tested against the kinematics and energies above), at random
+    layouts, inertias, states and inputs."""
+    rng = np.random.default_rng(16)
+    for _ in range(200):
+        b1, b2, phase, plane = rng.uniform(-0.6, 0.6, 4)
+        p = driveline(b1, b2, phase, plane, I_cross_pin=rng.uniform(0, 1e-3), I_cross_normal=rng.uniform(0, 1e-3),
+                      I_intermediate=rng.uniform(0, 1e-2))
+        phi1, w1, tau = rng.uniform(-50, 50), rng.uniform(-100, 100), rng.uniform(-10, 10)
+        phi4, w4, phi, dphi = rng.uniform(-50, 50), rng.uniform(-100, 100), rng.uniform(-0.05, 0.05), rng.uniform(-5, 5)
+        twist, dtwist, r1, r2, g, _ = dc.flexible_kinematics(p, phi1, w1, phi4, w4, phi, dphi)
+        shaft = p.k_theta * twist + p.c_theta * dtwist
+        j_out, dj_out = dc.output_inertia(p, phi4)
+        composed = (w4, (r2 * shaft - 0.5 * dj_out * w4 * w4 - tau) / j_out, dphi,
+                    -(p.c_phi * dphi + p.k_phi * phi) / p.m_s - g * shaft / p.m_lat)
+        ours = dc.flexible_derivatives(p, phi1, w1, (phi4, w4, phi, dphi), tau)
+        np.testing.assert_allclose(ours, composed, rtol=1e-12, atol=1e-12 * max(map(abs, composed)))

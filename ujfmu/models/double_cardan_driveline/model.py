@@ -42,8 +42,12 @@ HALF_PI = 0.5 * math.pi
 
 def joint_error(x: float, b: float) -> float:
     """y - x for tan y = tan x / cos b: atan2((1 - c) sin 2x, (1 + c) - (1 - c) cos 2x), c = cos b (Omar Eq. 4)."""
-    c = math.cos(b)
-    return math.atan2((1.0 - c) * math.sin(2.0 * x), (1.0 + c) - (1.0 - c) * math.cos(2.0 * x))
+    return _error(math.sin(x), math.cos(x), math.cos(b))
+
+
+def _error(sx: float, cx: float, c: float) -> float:
+    """:func:`joint_error` from sin x, cos x and cos b (sin 2x = 2 sx cx, cos 2x = (cx - sx)(cx + sx))."""
+    return math.atan2((1.0 - c) * 2.0 * sx * cx, (1.0 + c) - (1.0 - c) * (cx - sx) * (cx + sx))
 
 
 def joint_inverse(y: Sequence[float], b: float) -> float:
@@ -53,8 +57,11 @@ def joint_inverse(y: Sequence[float], b: float) -> float:
 
 def joint_ratio(x: float, b: float) -> tuple:
     """(dy/dx, d2y/dx2, dy/db) of one joint (Omar eta_1 and eta_1A, corrected)."""
-    s, c = math.sin(b), math.cos(b)
-    sx, cx = math.sin(x), math.cos(x)
+    return _ratio(math.sin(x), math.cos(x), math.sin(b), math.cos(b))
+
+
+def _ratio(sx: float, cx: float, s: float, c: float) -> tuple:
+    """:func:`joint_ratio` from sin x, cos x, sin b, cos b."""
     d = 1.0 - s * s * cx * cx
     r = c / d
     return r, -r * s * s * 2.0 * sx * cx / d, s * sx * cx / d
@@ -66,8 +73,11 @@ def cross_inertia(x: float, b: float, i_pin: float, i_normal: float) -> tuple:
     The cross turns about e_A, e_B (pins, i_pin each) and e_n (normal, i_normal) at rates
     (r w sin b cos x, w sin b sin x / sqrt(d), w cos b / sqrt(d)),  d = 1 - sin^2 b cos^2 x,  r = cos b / d.
     """
-    s, c = math.sin(b), math.cos(b)
-    sx, cx = math.sin(x), math.cos(x)
+    return _cross_inertia(math.sin(x), math.cos(x), math.sin(b), math.cos(b), i_pin, i_normal)
+
+
+def _cross_inertia(sx: float, cx: float, s: float, c: float, i_pin: float, i_normal: float) -> tuple:
+    """:func:`cross_inertia` from sin x, cos x, sin b, cos b."""
     s2x = 2.0 * sx * cx
     d = 1.0 - s * s * cx * cx
     dd = s * s * s2x
@@ -83,8 +93,9 @@ def cross_inertia(x: float, b: float, i_pin: float, i_normal: float) -> tuple:
 class Parameters:
     """The DoubleCardanDriveline FMU's parameters (names as declared there) and the constants the equations use:
     delta = yoke_phase - joint_plane_angle (joint 2's phase relative to joint 1), c = xi k (Omar Eq. 12),
-    lever2 = (L_c cos beta1)^2 and m_lat = m_s lever2 (Omar Eqs. 11, 14), and the natural-rate bound of the
-    flexible equations (0 for a rigid shaft, or where :func:`check` refuses the parameters)."""
+    lever2 = (L_c cos beta1)^2 and m_lat = m_s lever2 (Omar Eqs. 11, 14), sin and cos of the static joint angles
+    (the inertias J_in, J_out are evaluated at them), and the natural-rate bound of the flexible equations (0 for a
+    rigid shaft, or where :func:`check` refuses the parameters)."""
 
     beta1: float
     beta2: float
@@ -109,6 +120,8 @@ class Parameters:
     c_phi: float = field(init=False, repr=False)
     lever2: float = field(init=False, repr=False)
     m_lat: float = field(init=False, repr=False)
+    sc_beta1: tuple = field(init=False, repr=False)
+    sc_beta2: tuple = field(init=False, repr=False)
     natural_rate: float = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -118,25 +131,30 @@ class Parameters:
         self.c_phi = self.xi_phi * self.k_phi
         self.lever2 = (self.L_c * math.cos(self.beta1)) ** 2   # (L_c cos beta0)^2 of Omar Eqs. (11), (12), (14)
         self.m_lat = self.m_s * self.lever2
+        self.sc_beta1 = (math.sin(self.beta1), math.cos(self.beta1))
+        self.sc_beta2 = (math.sin(self.beta2), math.cos(self.beta2))
         self.natural_rate = 0.0 if self.rigid_intermediate_shaft or not self.J_load > 0.0 else \
             natural_rate_bound(self)
 
 
 def input_inertia(p: Parameters, phi1: float) -> tuple:
     """(J_in, dJ_in/dphi1): input shaft, cross 1 and the joint-1 half of the intermediate shaft."""
-    jc, djc = cross_inertia(phi1, p.beta1, p.I_cross_pin, p.I_cross_normal)
-    r, dr, _ = joint_ratio(phi1, p.beta1)
-    half = 0.5 * p.I_intermediate
-    return p.I_input + jc + half * r * r, djc + 2.0 * half * r * dr
+    return _shaft_end_inertia(p, p.I_input, math.sin(phi1), math.cos(phi1), p.sc_beta1)
 
 
 def output_inertia(p: Parameters, phi4: float) -> tuple:
     """(J_out, dJ_out/dphi4): driven load, cross 2 and the joint-2 half of the intermediate shaft."""
     u4 = phi4 + p.delta
-    jc, djc = cross_inertia(u4, p.beta2, p.I_cross_pin, p.I_cross_normal)
-    r, dr, _ = joint_ratio(u4, p.beta2)
+    return _shaft_end_inertia(p, p.J_load, math.sin(u4), math.cos(u4), p.sc_beta2)
+
+
+def _shaft_end_inertia(p: Parameters, shaft: float, sx: float, cx: float, sc_beta: tuple) -> tuple:
+    """(J, dJ/dx) of a shaft of inertia ``shaft``, its joint's cross and the half of the intermediate shaft at that
+    joint, from sin x, cos x of the joint's driving-yoke angle x and (sin b, cos b) of its static angle."""
+    jc, djc = _cross_inertia(sx, cx, sc_beta[0], sc_beta[1], p.I_cross_pin, p.I_cross_normal)
+    r, dr, _ = _ratio(sx, cx, sc_beta[0], sc_beta[1])
     half = 0.5 * p.I_intermediate
-    return p.J_load + jc + half * r * r, djc + 2.0 * half * r * dr
+    return shaft + jc + half * r * r, djc + 2.0 * half * r * dr
 
 
 # --- rigid intermediate shaft (Brutti, section 4): one degree of freedom, phi1 imposed -------------------------
@@ -183,13 +201,20 @@ def flexible_kinematics(p: Parameters, phi1: float, omega1: float,
     e1 = dphi2/db1, g = d(twist)/d(phi) = e1 - cos(plane) dphi3/db2 (Omar eta_1A - eta_2A), and
     dtwist = r1 w1 - r2 w4 + g dphi (Omar Eq. 18 with theta_s = -twist).
     """
+    u4 = phi4 + p.delta
+    return _kinematics(p, phi1, math.sin(phi1), math.cos(phi1), omega1,
+                       phi4, math.sin(u4), math.cos(u4), omega4, phi, dphi)
+
+
+def _kinematics(p, phi1, s1, c1, omega1, phi4, s4, c4, omega4, phi, dphi):
+    """:func:`flexible_kinematics` from the sines and cosines s1, c1 of phi1 and s4, c4 of phi4 + delta."""
     b1 = p.beta1 + phi
     b2 = p.beta2 + phi * p.cos_plane
-    u4 = phi4 + p.delta
-    r1, _, e1 = joint_ratio(phi1, b1)
-    r2, _, e2 = joint_ratio(u4, b2)
+    sb1, cb1, sb2, cb2 = math.sin(b1), math.cos(b1), math.sin(b2), math.cos(b2)
+    r1, _, e1 = _ratio(s1, c1, sb1, cb1)
+    r2, _, e2 = _ratio(s4, c4, sb2, cb2)
     g = e1 - p.cos_plane * e2
-    twist = (phi1 + joint_error(phi1, b1)) - (phi4 + joint_error(u4, b2))
+    twist = (phi1 + _error(s1, c1, cb1)) - (phi4 + _error(s4, c4, cb2))
     return twist, r1 * omega1 - r2 * omega4 + g * dphi, r1, r2, g, e1
 
 
@@ -203,11 +228,39 @@ def flexible_derivatives(p: Parameters, phi1: float, omega1: float, state: Seque
 
 
 def _flexible_rates(p, phi1, omega1, state, tau_load):
-    """(flexible_derivatives, r1, shaft torque k_theta twist + c_theta dtwist)."""
+    """(flexible_derivatives, r1, shaft torque k_theta twist + c_theta dtwist), straight-line: the integrator's
+    inner loop. The same equations as :func:`flexible_kinematics` and :func:`output_inertia` (tests compare them),
+    each sine and cosine once, no calls: joint i at yoke angle x and angle b (sx, cx, sb, cb its sines and cosines)
+    has d = 1 - sb^2 cx^2, dy/dx = cb / d, dy/db = sb sx cx / d and y - x = atan2((1 - cb) sin 2x, (1 + cb) -
+    (1 - cb) cos 2x) (Omar Eq. 4); J_out is :func:`cross_inertia` at the static beta2 plus half the intermediate
+    shaft's inertia times (dy/dx)^2."""
+    sin, cos = math.sin, math.cos
     phi4, omega4, phi, dphi = state
-    twist, dtwist, r1, r2, g, _ = flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi)
-    shaft = p.k_theta * twist + p.c_theta * dtwist
-    j_out, dj_out = output_inertia(p, phi4)
+    u4 = phi4 + p.delta
+    s1, c1, s4, c4 = sin(phi1), cos(phi1), sin(u4), cos(u4)
+    b1 = p.beta1 + phi
+    b2 = p.beta2 + phi * p.cos_plane
+    sb1, cb1, sb2, cb2 = sin(b1), cos(b1), sin(b2), cos(b2)
+    sc1, cc1, sc4, cc4 = s1 * c1, c1 * c1, s4 * c4, c4 * c4
+    # the joints at the dynamic angles b1, b2: ratios r, dtwist/dphi = g, twist = phi2 - phi3
+    d1 = 1.0 - sb1 * sb1 * cc1
+    d2 = 1.0 - sb2 * sb2 * cc4
+    r1, r2 = cb1 / d1, cb2 / d2
+    g = sb1 * sc1 / d1 - p.cos_plane * sb2 * sc4 / d2
+    twist = (phi1 + math.atan2((1.0 - cb1) * 2.0 * sc1, (1.0 + cb1) - (1.0 - cb1) * (cc1 - s1 * s1))
+             - phi4 - math.atan2((1.0 - cb2) * 2.0 * sc4, (1.0 + cb2) - (1.0 - cb2) * (cc4 - s4 * s4)))
+    shaft = p.k_theta * twist + p.c_theta * (r1 * omega1 - r2 * omega4 + g * dphi)
+    # J_out and dJ_out/dphi4: joint 2 at its static angle beta2 (s, c)
+    s, c = p.sc_beta2
+    ss, s2x = s * s, 2.0 * sc4
+    d = 1.0 - ss * cc4
+    dd = ss * s2x
+    r = c / d
+    dr = -r * dd / d
+    half = 0.5 * p.I_intermediate
+    j_out = p.J_load + p.I_cross_pin * ss * (r * r * cc4 + s4 * s4 / d) + p.I_cross_normal * c * c / d + half * r * r
+    dj_out = (p.I_cross_pin * ss * (2.0 * r * dr * cc4 - r * r * s2x + s2x / d - s4 * s4 * dd / (d * d))
+              - p.I_cross_normal * c * c * dd / (d * d) + 2.0 * half * r * dr)
     return (omega4,
             (r2 * shaft - 0.5 * dj_out * omega4 * omega4 - tau_load) / j_out,
             dphi,
@@ -221,10 +274,12 @@ def flexible_outputs(p: Parameters, phi1: float, omega1: float, alpha1: float, s
     power balance: tau_in w1 - tau_load w4 = dE/dt + c_theta dtwist^2 + c_phi (L_c cos beta1)^2 dphi^2.
     """
     phi4, omega4, phi, dphi = state
-    twist, dtwist, r1, _, _, e1 = flexible_kinematics(p, phi1, omega1, phi4, omega4, phi, dphi)
+    u4 = phi4 + p.delta
+    s1, c1, s4, c4 = math.sin(phi1), math.cos(phi1), math.sin(u4), math.cos(u4)
+    twist, dtwist, r1, _, _, e1 = _kinematics(p, phi1, s1, c1, omega1, phi4, s4, c4, omega4, phi, dphi)
     shaft = p.k_theta * twist + p.c_theta * dtwist
-    j_in, dj_in = input_inertia(p, phi1)
-    j_out, _ = output_inertia(p, phi4)
+    j_in, dj_in = _shaft_end_inertia(p, p.I_input, s1, c1, p.sc_beta1)
+    j_out, _ = _shaft_end_inertia(p, p.J_load, s4, c4, p.sc_beta2)
     energy = 0.5 * (j_in * omega1 * omega1 + j_out * omega4 * omega4 + p.m_lat * dphi * dphi
                     + p.k_theta * twist * twist + p.k_phi * p.lever2 * phi * phi)
     # joint-1 end of the intermediate shaft: phi2 depends on phi1 and, through b1, on phi
@@ -250,7 +305,7 @@ def natural_rate_bound(p: Parameters, input_inertia: float = math.inf) -> float:
 
 def flexible_substeps(natural_rate: float, h: float, omega1_max: float) -> int:
     """RK4 substeps for a step h: each at most RATE_STEP / (natural_rate + 4 |omega1|) long (the kinematics carry
-    harmonics 2x, 4x, ... of the input angle with amplitudes q, q^2, ...)."""
+    harmonics 2x, 4x, ... of the input angle with amplitudes q, q^2, ...; :func:`rate_bound`)."""
     return rk4.substeps(natural_rate + 4.0 * omega1_max, h)
 
 
@@ -317,8 +372,18 @@ def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
     return _flexible_rates(p, u.phi, u.omega, y, u.tau_load)[0]
 
 
+def output_free_inputs(p: Parameters) -> tuple:
+    """A flexible shaft's outputs (:func:`flexible_outputs`) and start do not depend on tau_load, which enters only
+    the output shaft's equation of motion; a rigid one's tau_in does (rho tau_load)."""
+    return () if p.rigid_intermediate_shaft else ("tau_load",)
+
+
 def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
-    """The natural-rate bound plus 4 |omega1| (the kinematics carry harmonics 2x, 4x, ... of the input angle)."""
+    """The natural-rate bound plus 4 |omega1| (the kinematics carry harmonics 2x, 4x, ... of the input angle).
+
+    The sum, not ``rk4.fastest_rate``'s max: with the max (one substep instead of two at Omar's 684 rpm) the
+    error against the monolithic reference grows 16x, as RK4's fourth order says (2^4), to 3.7-4.9x the tolerance
+    of double_cardan_omar_torsional, which is set at a few times the error of these substeps."""
     return p.natural_rate + 4.0 * omega_max
 
 
@@ -417,8 +482,15 @@ class TorqueDriven:
         return torque_driven_rates(p, p.J_drive, y, u.tau_in, u.tau_load)
 
     @staticmethod
+    def output_free_inputs(p: TorqueDrivenParameters) -> tuple:
+        """:func:`output_free_inputs`: with a flexible shaft the input shaft's acceleration (an output) is driven by
+        tau_in and the shaft torque, not by tau_load."""
+        return output_free_inputs(p)
+
+    @staticmethod
     def rate_bound(p: TorqueDrivenParameters, y: tuple, omega_max: float) -> float:
-        """The natural-rate bound with the input shaft free plus 4 |omega1| (the kinematics' harmonics)."""
+        """The natural-rate bound with the input shaft free plus 4 |omega1| (the kinematics' harmonics; the sum as
+        in :func:`rate_bound`)."""
         return p.natural_rate + 4.0 * omega_max
 
     @staticmethod

@@ -25,6 +25,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
+from ...fmu import rk4
 from ..protocol import Drive
 
 #: Eq. (5)/(7): M_p = MP_COEFFICIENT (EI/R^3) e^2 cos(phi1 + phi2)
@@ -132,8 +133,9 @@ def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
 
 
 def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
-    """The natural rate plus the 2x forcing of either shaft's speed, 4 max(|w1|, |w2|) (the 4 as a margin)."""
-    return p.natural_rate + 4.0 * max(omega_max, abs(y[1]))
+    """max(natural rate, 4 max(|w1|, |w2|)): the 2x forcing of either shaft's speed (the 4 as a margin;
+    ``rk4.fastest_rate``)."""
+    return rk4.fastest_rate(p.natural_rate, 4.0 * max(omega_max, abs(y[1])))
 
 
 def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:

@@ -1,0 +1,77 @@
+"""The FMUs' integrator (ujfmu.fmu.rk4): classical RK4 is fourth order on a model with a closed-form solution, driven
+through the model protocol as the FMU base drives it, and its stability limits are those the substep rule
+(``rk4.fastest_rate``, ``rk4.RATE_STEP``) relies on."""
+
+import math
+
+import pytest
+
+from ujfmu.fmu import rk4
+from ujfmu.models.double_cardan_driveline import model as dc
+from ujfmu.models.protocol import Drive
+
+#: Omar's driveline with both joints straight (r = 1, dy/db = 0, J_out = J_load): the twist x = phi1 - phi4 obeys
+#: J x'' + c_theta x' + k_theta x = J alpha1 + tau_load under an input angle phi1 = w0 t + alpha1 t^2 / 2, and the
+#: lateral misalignment m_s phi'' + c_phi phi' + k_phi phi = 0 stays at rest: a damped oscillator at 143 rad/s
+STRAIGHT = dict(beta1=0.0, beta2=0.0, yoke_phase=0.0, joint_plane_angle=0.0, I_input=0.0, I_cross_pin=0.0,
+                I_cross_normal=0.0, I_intermediate=0.0, J_load=0.0045, k_theta=92.2, xi_theta=0.002, m_s=4.09,
+                k_phi=26331.0, xi_phi=0.002, L_c=0.325)
+W0, ALPHA, TAU = 70.0, 40.0, 3.0
+X0, V0 = 0.01, -0.5   # the lateral phi starts and stays 0 (it would enter the joint angles)
+
+
+def oscillator(m, c, k, force, x0, v0, t):
+    """(x, x') of m x'' + c x' + k x = force (constant), x(0) = x0, x'(0) = v0, underdamped: closed form."""
+    sigma = c / (2.0 * m)
+    wd = math.sqrt(k / m - sigma * sigma)
+    a = x0 - force / k
+    b = (v0 + sigma * a) / wd
+    decay, cos, sin = math.exp(-sigma * t), math.cos(wd * t), math.sin(wd * t)
+    return (force / k + decay * (a * cos + b * sin),
+            decay * ((b * wd - sigma * a) * cos - (a * wd + sigma * b) * sin))
+
+
+def exact_state(p, t):
+    """(phi4, w4, phi, dphi) at t from the closed forms (phi1(0) = 0)."""
+    x, dx = oscillator(p.J_load, p.c_theta, p.k_theta, p.J_load * ALPHA + TAU, X0, V0, t)
+    return (W0 * t + 0.5 * ALPHA * t * t - x, W0 + ALPHA * t - dx, 0.0, 0.0)
+
+
+def rk4_error(p, duration, n):
+    """Largest state error at the end of n RK4 substeps of the protocol's derivatives, the input extrapolated over
+    the step as the FMU base does (angle quadratic, speed linear in time, tau_load held)."""
+    def rates(s, y):
+        return dc.derivatives(p, s, y, Drive(s * (W0 + 0.5 * ALPHA * s), W0 + ALPHA * s, ALPHA, TAU))
+    y = rk4.integrate_time(rates, exact_state(p, 0.0), duration, n)
+    return max(abs(a - b) for a, b in zip(y, exact_state(p, duration)))
+
+
+def test_classical_rk4_is_fourth_order_on_a_closed_form_solution():
+    """Halving the substep divides the error by 2^4: observed order 4 (a wrong stage weight or stage time
+    would show order 1-3)."""
+    p = dc.Parameters(**STRAIGHT)
+    errors = [rk4_error(p, 0.1, n) for n in (80, 160, 320)]   # 143 rad/s x h = 0.18, 0.09, 0.045
+    orders = [math.log2(a / b) for a, b in zip(errors, errors[1:])]
+    assert errors[-1] < 1e-6
+    assert orders == pytest.approx([4.0, 4.0], abs=0.2)
+
+
+def _amplification(z):
+    """|y(h) / y(0)| of one RK4 step of y' = lambda y with h lambda = z, through rk4.integrate_time (as a real
+    2-vector)."""
+    def rates(t, y):
+        return (z.real * y[0] - z.imag * y[1], z.imag * y[0] + z.real * y[1])
+    y = rk4.integrate_time(rates, (1.0, 0.0), 1.0, 1)
+    return math.hypot(*y)
+
+
+def test_stability_interval_is_2_83_on_the_imaginary_axis_and_2_78_on_the_real_one():
+    """|R(z)| <= 1 up to h |lambda| = 2 sqrt(2) for oscillation and 2.785 for decay: RATE_STEP keeps 5.6x from both."""
+    assert _amplification(2.82j) < 1.0 < _amplification(2.84j)
+    assert _amplification(-2.78 + 0j) < 1.0 < _amplification(-2.80 + 0j)
+    assert 2.78 / rk4.RATE_STEP > 5.5
+
+
+def test_fastest_rate_resolves_the_larger_of_the_natural_and_forcing_rates():
+    assert rk4.fastest_rate(225.0, 286.5) == 286.5 and rk4.fastest_rate(1741.0, 240.0) == 1741.0
+    assert rk4.substeps(rk4.fastest_rate(225.0, 286.5), 1e-3) == 1
