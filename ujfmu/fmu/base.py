@@ -511,11 +511,12 @@ class PrescribedInputSlave(ModelSlave):
     def input_acceleration(self):
         """alpha at t_k: the backward difference (w_k - w_k-1)/h (0 before the first step); with
         ACCELERATION_ORDER 2, from the third point on, the slope at t_k of the parabola through w_k, w_k-1, w_k-2
-        (BDF2, (3 w_k - 4 w_k-1 + w_k-2) / 2h for equal steps)."""
+        (BDF2, (3 w_k - 4 w_k-1 + w_k-2) / 2h for equal steps). An input unchanged since the last point (a host
+        reading outputs after a step before setting new inputs, or a constant speed) gives 0 either way."""
         if self._omega_prev is None:
             return 0.0
         slope = (self.omega_in - self._omega_prev) / self._h_prev
-        if self.ACCELERATION_ORDER == 1 or self._omega_prev2 is None:
+        if self.ACCELERATION_ORDER == 1 or self._omega_prev2 is None or slope == 0.0:
             return slope
         h1, h2 = self._h_prev, self._h_prev2
         return slope + h1 * (slope - (self._omega_prev - self._omega_prev2) / h2) / (h1 + h2)
