@@ -30,9 +30,11 @@ def test_only_the_driver_torque_is_torn_and_only_the_motor_rolled_back(fmu_dir):
         assert cosim.jacobian_builds == 1 and 20 <= cosim.iterations <= 60
 
 
-def test_explicit_diverges_at_any_step_where_implicit_converges_at_first_order(fmu_dir):
+def test_explicit_diverges_at_any_step_where_implicit_converges(fmu_dir):
     """Driven inertia 7.4x the motor's: explicit coupling diverges at 1 ms and at 0.25 ms (the amplification
-    -J_r/J_m has no h in it); the implicit scheme's error against the monolithic reference halves with the step."""
+    -J_r/J_m has no h in it); the implicit scheme's error against the monolithic reference falls with the step at
+    first order or better (the joint's second-order acceleration estimate makes the speeds' error fall faster than
+    first order: 3.4x from 1 to 0.5 ms in motor.omega; joint.tau_in, with the theta blend's first-order term, less)."""
     for h in (1e-3, 2.5e-4):
         with pytest.raises(CouplingInstabilityError):
             _run(HEAVY, fmu_dir, h, "explicit")
@@ -43,12 +45,13 @@ def test_explicit_diverges_at_any_step_where_implicit_converges_at_first_order(f
         table = _run(HEAVY, fmu_dir, h, "implicit")
         errors.append({c.name: c.max_error for c in compare(table, reference, s.tolerances)})
     for name in ("motor.omega", "joint.omega_out", "joint.tau_in"):
-        assert 1.5 < errors[0][name] / errors[1][name] < 2.7, (name, errors)
+        assert 1.4 < errors[0][name] / errors[1][name] < 5.0, (name, errors)
 
 
 def test_step_halving_estimate_matches_the_error_against_the_reference(fmu_dir):
-    """2 |y(h) - y(h/2)| estimates the error at h (first order): within a factor 2 of the true error, per signal
-    with a visible error."""
+    """2 |y(h) - y(h/2)| estimates the error at h (exact for a first-order error; a second-order part makes it
+    overestimate, by 1.5x for a purely second-order one): within a factor 2.5 of the true error, per signal with a
+    visible error."""
     s = Scenario(LIGHT)
     reference, _ = read_reference(s.reference_file)
     coarse = _run(LIGHT, fmu_dir, s.step_size, s.coupling)
@@ -57,7 +60,7 @@ def test_step_halving_estimate_matches_the_error_against_the_reference(fmu_dir):
     assert est.passed and set(est.errors) == set(true)
     for name, err in true.items():
         if err > 2e-4:
-            assert 0.5 < est.errors[name] / err < 2.0, (name, est.errors[name], err)
+            assert 0.5 < est.errors[name] / err < 2.5, (name, est.errors[name], err)
 
 
 def test_run_stops_an_unstable_run_names_it_and_keeps_the_results(fmu_dir, tmp_path, capsys):
@@ -83,6 +86,26 @@ def test_check_step_reports_every_signal(fmu_dir, tmp_path, capsys):
         assert f"ok   {name}" in out
 
 
+@pytest.mark.parametrize("scenario", ["battery/battery_04", "cardan_constant_speed"])
+def test_a_run_split_into_advance_calls_is_the_same_run(fmu_dir, scenario):
+    """The implicit scheme's state (interface Jacobian, extrapolation history, instability watch, open loop)
+    carries across Cosimulation.advance calls: advance(2n) equals advance(n) twice and 10 x advance(1) then
+    advance(2n - 10), bit for bit and with the same iterations and Jacobian builds (a closed loop, and an ideal
+    speed source, whose loop is open)."""
+    s = Scenario(battery.BATTERY_DIR.parent / f"{scenario}.toml")
+    runs = []
+    for split in ((200,), (100, 100), (1,) * 10 + (190,)):
+        with Cosimulation(s.master_components(fmu_dir), s.connections, 1e-3, s.record) as cosim:
+            for n in split:
+                cosim.advance(n)
+            row = np.empty(len(cosim.columns))
+            cosim.read(row)
+            runs.append((row, cosim.iterations, cosim.jacobian_builds, cosim.time))
+    for row, iterations, builds, time in runs[1:]:
+        np.testing.assert_array_equal(row, runs[0][0])
+        assert (iterations, builds, time) == runs[0][1:]
+
+
 def test_open_loop_runs_explicitly_and_bitwise_like_explicit(fmu_dir):
     """An ideal speed source ignores its tau_load: the implicit scheme finds dG/du = 0 at its first Jacobian and
     steps explicitly from then on, giving the explicit result bit for bit."""
@@ -102,7 +125,7 @@ def test_battery_command_tabulates_each_scheme(fmu_dir, monkeypatch, capsys):
     out = capsys.readouterr().out
     assert code == 1   # explicit cannot run the heavy set-up
     assert "| battery_04 | Cardan | coupling instability between 'joint' and 'motor' (failed) |" in out
-    assert "explicit: 1 of 2 within 2%, 1 stopped" in out and "implicit: 1 of 2 within 2%, 0 stopped" in out
+    assert "explicit: 1 of 2 within 2%, 1 stopped" in out and "implicit: 2 of 2 within 2%, 0 stopped" in out
 
 
 def test_a_speed_fed_forward_is_not_torn(fmu_dir):

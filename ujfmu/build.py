@@ -242,9 +242,10 @@ does. A drivetrain FMU is driven by the speed <code>omega_in</code> and answers 
 contains the inertia torques of what it drives (an inertia times the acceleration it estimates from the speed
 history). With an explicit master (Jacobi or Gauss-Seidel, no iteration) this is stable only when the inertia
 reflected through <code>tau_in</code> is smaller than the driver's own inertia (a motor rotor, say), whatever the
-step: give the driver the larger inertia, or use an iterating master. A stiff spring between two FMUs needs
-h well below 2/omega_n of that spring, and a load whose slope d(tau)/d(omega) is large compared with J/h (J the
-inertia it acts on) needs a smaller step. The default experiment's step ({step} s) is what the ujfmu scenarios use;
+step, and smaller than half of it for the CardanJoint (whose acceleration estimate is second order): give the
+driver the larger inertia, use an iterating master, or use the torque-driven variant. A stiff spring between two
+FMUs needs h well below 2/omega_n of that spring, and a load whose slope d(tau)/d(omega) is large compared with
+J/h (J the inertia it acts on) needs a smaller step. The default experiment's step ({step} s) is what the ujfmu scenarios use;
 they are checked against independent reference solutions at 1 ms. Check a new layout by halving the step: the
 results must not change beyond your tolerance.</p>
 <h2>Errors and logging</h2>

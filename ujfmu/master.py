@@ -59,6 +59,10 @@ THETA = 0.6
 #: GROWTH_STEPS steps while growing GROWTH_FACTOR-fold, to at least GROWTH_FLOOR of its largest |value|; a step
 #: refused after 2 or more alternations growing 1.5-fold each is blamed on the coupling too
 GROWTH_STEPS, GROWTH_FACTOR, GROWTH_FLOOR = 3, 8.0, 1e-3
+#: implicit coupling: the iterated torn values carry step-to-step noise of a few coupling tolerances; growth of an
+#: alternating change is measured from at least this many tolerances (not from a change that happens to be ~0
+#: where a torque ripple turns)
+IMPLICIT_NOISE_TOLERANCES = 10.0
 #: a refused step is blamed on the coupling too when, in the last step, a torn connection's change reversed its
 #: sign while growing GROWTH_FACTOR-fold (a divergence too fast for two alternations), or a power bond's energy
 #: residual exceeded ENERGY_RATIO times the energy it transmitted while growing GROWTH_FACTOR-fold
@@ -583,7 +587,7 @@ class Cosimulation:
         callable(steps_done, n_steps) called now and then. ``rows_done``: the rows written so far."""
         _check_interval(output_interval)
         h, start = self.step_size, self.start_time
-        implicit = self.coupling == "implicit" and bool(self._tears)
+        implicit = self.coupling == "implicit" and bool(self._tears) and not self.open_loop
         monitor = bool(self._tears or self._bonds)
         every = max(1, n_steps // 200)
         self.rows_done, k = 0, 0
@@ -722,6 +726,7 @@ class Cosimulation:
         """Detect a diverging coupling: per torn connection, the change d_k = g_k - g_k-1 of the value it
         carries alternating in sign at every step while |d| grows (the explicit inertia coupling's mode
         d_k = -(J_driven / J_driver) d_k-1, docs/cosimulation.md). Raises CouplingInstabilityError."""
+        noise = IMPLICIT_NOISE_TOLERANCES * COUPLING_RTOL if self.coupling == "implicit" else 0.0
         for state, view in zip(self._growth, self._tear_views):
             g = view[0]
             d = g - state[0]
@@ -730,7 +735,7 @@ class Cosimulation:
             if d * state[1] < 0.0 and abs(d) > 0.0:
                 state[2] += 1
                 if state[2] == 1:
-                    state[3] = abs(d)
+                    state[3] = max(abs(d), noise * state[4])
             else:
                 state[2], state[3] = 0, abs(d)
             state[1] = d

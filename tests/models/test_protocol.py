@@ -53,7 +53,7 @@ def test_fmu_module_is_a_declaration(name):
     methods = {k for k, v in vars(cls).items() if inspect.isfunction(v)}
     assert methods <= {"model_inputs"}, methods
     assert {k for k in vars(cls) if not k.startswith("_")} <= {"MODEL", "VARIABLES", "DEFAULT_EXPERIMENT", "PHYSICS",
-                                                              "STATE", "model_inputs"}
+                                                              "STATE", "ACCELERATION_ORDER", "model_inputs"}
     assert inspect.getmodule(cls.MODEL).__name__ == cls.__module__.rsplit(".", 1)[0] + ".model"
 
 

@@ -488,13 +488,16 @@ class PrescribedInputSlave(ModelSlave):
     are ``ujfmu.models.protocol.Drive`` (angle, speed, acceleration of the input shaft, load torque).
 
     Over a communication step h the input angle is phi(t) = phi + omega_in t + alpha t^2 / 2, alpha the backward
-    difference of omega_in over the previous step (0 before the first): exact for constant speed and constant
+    difference of omega_in over the previous step (0 before the first), or its second-order estimate where the FMU
+    declares ACCELERATION_ORDER = 2 (``input_acceleration``): exact for constant speed and constant
     acceleration. The angle is summed with Kahan's compensation, so after 10^6 steps its round-off is a few ulps
     of the angle, not 10^6 of them. The outputs phi_in and alpha_in are the shaft's angle and acceleration.
     """
 
     STATE = {**ModelSlave.STATE, "_phi_in": "float", "_phi_in_carry": "float", "_omega_prev": "float|None",
-             "_h_prev": "float"}
+             "_h_prev": "float", "_omega_prev2": "float|None", "_h_prev2": "float"}
+    #: 1: alpha the backward difference of omega_in over the last step; 2: the second-order (BDF2) slope at t_k
+    ACCELERATION_ORDER = 1
 
     def initialize(self, start_time):
         self.start_input(self.phi_in_start)
@@ -502,10 +505,21 @@ class PrescribedInputSlave(ModelSlave):
 
     def start_input(self, phi_start):
         self._phi_in, self._phi_in_carry = phi_start, 0.0
-        self._omega_prev, self._h_prev = None, 0.0   # omega_in at the previous communication point
+        self._omega_prev, self._h_prev = None, 0.0     # omega_in at the previous communication point
+        self._omega_prev2, self._h_prev2 = None, 0.0   # and at the one before
 
     def input_acceleration(self):
-        return 0.0 if self._omega_prev is None else (self.omega_in - self._omega_prev) / self._h_prev
+        """alpha at t_k: the backward difference (w_k - w_k-1)/h (0 before the first step); with
+        ACCELERATION_ORDER 2, from the third point on, the slope at t_k of the parabola through w_k, w_k-1, w_k-2
+        (BDF2, (3 w_k - 4 w_k-1 + w_k-2) / 2h for equal steps). An input unchanged since the last point (a host
+        reading outputs after a step before setting new inputs, or a constant speed) gives 0 either way."""
+        if self._omega_prev is None:
+            return 0.0
+        slope = (self.omega_in - self._omega_prev) / self._h_prev
+        if self.ACCELERATION_ORDER == 1 or self._omega_prev2 is None or slope == 0.0:
+            return slope
+        h1, h2 = self._h_prev, self._h_prev2
+        return slope + h1 * (slope - (self._omega_prev - self._omega_prev2) / h2) / (h1 + h2)
 
     def model_inputs(self):
         return Drive(self._phi_in, self.omega_in, self.input_acceleration(), self.tau_load)
@@ -538,6 +552,7 @@ class PrescribedInputSlave(ModelSlave):
         total = self._phi_in + increment
         self._phi_in_carry = (total - self._phi_in) - increment
         self._phi_in = total
+        self._omega_prev2, self._h_prev2 = self._omega_prev, self._h_prev
         self._omega_prev, self._h_prev = self.omega_in, h
 
 

@@ -46,7 +46,8 @@ from typing import NamedTuple, Protocol
 
 class Drive(NamedTuple):
     """Inputs of a model whose input shaft follows a prescribed motion: the shaft's angle [rad], speed [rad/s] and
-    acceleration [rad/s2] (the backward difference of omega_in), and the load torque [N.m] (held over a step)."""
+    acceleration [rad/s2] (estimated from omega_in's history: the backward difference, or to second order where
+    the FMU says so), and the load torque [N.m] (held over a step)."""
 
     phi: float
     omega: float

@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
 
+from ujfmu.models.cardan_joint import model as cardan
+
 OUT = ("omega_out", "phi_out", "tau_in", "M_x", "M_y", "M_z", "phi_in", "alpha_in")
 
 
@@ -53,11 +55,25 @@ def test_moment_components_satisfy_the_torque_balance(open_fmu, drive, tau_load)
 
 
 def test_driving_acceleration_from_speed_history_is_exact_for_a_ramp(open_fmu, drive):
-    """alpha1 = backward difference of omega_in; theta1 advanced with linear extrapolation: exact for a ramp."""
+    """alpha1 estimated from the omega_in history; theta1 advanced with linear extrapolation: exact for a ramp."""
     a, h = 30.0, 1e-3
     rows = drive(open_fmu("CardanJoint"), lambda t: a * t, 0.3, h, 2000, OUT, dict(J2=1e-5))
     np.testing.assert_allclose(rows.alpha_in[1:], a, rtol=1e-9)
     np.testing.assert_allclose(rows.phi_in[2:], 0.5 * a * rows.time[2:] ** 2, atol=a * h * h)
+
+
+def test_fmu_estimates_the_acceleration_to_second_order(open_fmu, drive):
+    """The CardanJoint FMU's alpha_in fed a speed quadratic in time is its exact derivative from the third point
+    on (the backward difference would be off by b h); alpha_in is the alpha1 in its tau_in."""
+    a, b, h = 30.0, 400.0, 1e-3
+    rows = drive(open_fmu("CardanJoint"), lambda t: 5.0 + a * t + b * t * t, 0.3, h, 50,
+                 ("alpha_in", "phi_in", "tau_in"), dict(J2=1e-5))
+    np.testing.assert_allclose(rows.alpha_in[2:], a + 2.0 * b * rows.time[2:], rtol=1e-9)
+    np.testing.assert_allclose(rows.alpha_in[1], a + b * h, rtol=1e-9)   # one difference only: backward
+    frame = cardan.joint_frame(math.radians(30.0), 0.0, math.radians(0.3), math.radians(0.3))
+    tau = [cardan.joint_torques(frame, p, w, al, 0.3, 2e-7, 1e-5)[0]
+           for p, w, al in zip(rows.phi_in, rows.omega_in, rows.alpha_in)]
+    np.testing.assert_allclose(rows.tau_in, tau, rtol=1e-12)
 
 
 def test_combined_shaft_angle_beyond_limit_is_rejected(open_fmu):

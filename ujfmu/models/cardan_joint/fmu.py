@@ -19,10 +19,13 @@ class CardanJoint(PrescribedInputSlave):
     then give the moment vector (M_x, M_y, M_z) in the driven xyz frame and the driving torque
     tau_in = J1*alpha1 + M (e_n . K) that the joint demands from the driver.
 
-    Driving acceleration from the input speed history: alpha1 is the backward difference of omega_in over the
-    last communication step, (omega_in(t_k) - omega_in(t_k-1)) / h (zero before the first step). Over a step the
-    driving angle is advanced with the input extrapolated linearly, theta1 += omega_in*h + alpha1*h^2/2, which
-    is exact for constant speed and for constant acceleration (Feng's start-up).
+    Driving acceleration from the input speed history, to second order: alpha1 at t_k is the slope at t_k of the
+    parabola through omega_in at t_k, t_k-1 and t_k-2 (BDF2, (3 w_k - 4 w_k-1 + w_k-2) / 2h for equal steps;
+    the backward difference after the first step, zero before it), so that tau_in at t_k is the instantaneous
+    torque, not the one of half a step earlier. Over a step the driving angle is advanced with the input
+    extrapolated linearly, theta1 += omega_in*h + alpha1*h^2/2, which is exact for constant speed and for
+    constant acceleration (Feng's start-up). In a host that couples explicitly (no iteration) the speed-driven
+    joint is stable while its inertia reflected to the input, J1 + J2 r^2, is below half the driver's.
 
     Signs: omega_in, omega_out > 0 turn the shafts the same way; tau_in > 0 is the torque the driver applies in
     the direction of rotation; tau_load > 0 opposes the driven shaft's rotation; M_z > 0 drives the driven shaft.
@@ -30,6 +33,7 @@ class CardanJoint(PrescribedInputSlave):
     """
 
     MODEL = cardan
+    ACCELERATION_ORDER = 2
     VARIABLES = (
         parameter("bend_angle", math.radians(30.0), "rad",
                   "Structural misalignment phi, C_phi = R_x(phi) (Feng Eq. 1); laboratory model 30 deg", **_ANGLE),
