@@ -195,3 +195,16 @@ def test_output_interval_thins_the_written_rows_and_keeps_the_verdict(fmu_dir, t
     assert [float(r.split(",")[0]) for r in rows] == pytest.approx([0.05 * k for k in range(11)], abs=1e-12)
     with pytest.raises(SystemExit):
         main(["run", str(path), "--output-interval", "0"])
+
+
+def test_a_failed_signal_names_the_step_check_as_a_remedy():
+    """A FAIL on a signal says how to tell a coarse step from a wrong model (--check-step, --step auto); a PASS
+    does not; the missing scipy band is not repeated per scenario."""
+    from ujfmu.scenario import Scenario
+    from ujfmu.scenario_run import ScenarioResult, SignalCheck
+    scenario = Scenario(SCENARIOS / "cardan_constant_speed.toml")
+    failing = ScenarioResult(scenario, None, checks=[SignalCheck("joint.tau_in", 0.05, 1e-3, 0.1)]).summary()
+    assert failing.startswith("FAIL") and f"ujfmu run {scenario.path} --check-step" in failing
+    assert "--step auto" in failing and "validate_result" not in failing
+    passing = ScenarioResult(scenario, None, checks=[SignalCheck("joint.tau_in", 1e-5, 1e-3, 0.1)]).summary()
+    assert passing.startswith("PASS") and "--check-step" not in passing

@@ -98,6 +98,13 @@ def _positive_int(text):
     return value
 
 
+def _band_missing(results) -> None:
+    """Say once that fmpy's validate_result band was not computed (it needs scipy)."""
+    from .scenario_run import SCIPY_NOTE
+    if any(r.checked and math.isnan(r.fmpy_outlier_fraction) for r in results):
+        print(f"  {SCIPY_NOTE}", file=sys.stderr)
+
+
 def _plots_missing(args):
     if not args.no_plot and not available("matplotlib"):
         print("  no plots: matplotlib is not installed (pip install 'ujfmu[plot]'; --no-plot silences this)",
@@ -134,6 +141,7 @@ def cmd_run(args):
     for extra in result.extra_plots:
         _say(args, f"  plot:    {extra}")
     _plots_missing(args)
+    _band_missing([result])
     step_ok = True
     if args.check_step:
         estimate = stepsize.estimate(scenario, fmu_dir=args.fmu_dir, coarse=result.table)
@@ -146,6 +154,7 @@ def cmd_check(args):
     from .scenario_run import write_junit
     results = [_run_one(args, path) for path in _scenarios(args.scenarios)]
     _plots_missing(args)
+    _band_missing(results)
     if args.junit:
         print(f"JUnit report: {write_junit(results, args.junit)}")
     failed = [r for r in results if r.failed]

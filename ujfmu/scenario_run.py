@@ -179,14 +179,22 @@ class ScenarioResult:
         lines += [f"  not compared: {name}: {why}" for name, why in self.scenario.not_compared.items()]
         lines += [f"  {c}" for c in self.operating_checks]
         lines += [f"  {b}" for b in self.bonds]
+        if any(not c.passed for c in self.checks + self.extrapolated_checks):
+            lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the coupling's "
+                         f"(ujfmu run {self.scenario.path} --check-step estimates it per signal, --step auto picks "
+                         f"a step); otherwise check the parameters against the reference's set-up")
         if not self.checked:
             lines.append(f"  {self.not_checked_reason()}")
         elif math.isnan(self.fmpy_outlier_fraction):
-            lines.append("  fmpy.util.validate_result: not computed (it needs scipy: pip install 'ujfmu[references]')")
+            pass   # fmpy's band needs scipy; the command line says so once per run (SCIPY_NOTE)
         else:
             lines.append(f"  fmpy.util.validate_result: fraction of samples outside fmpy's band = "
                          f"{self.fmpy_outlier_fraction:.4f}")
         return "\n".join(lines)
+
+
+#: said once per command when fmpy's validate_result band could not be computed
+SCIPY_NOTE = "fmpy.util.validate_result: not computed (it needs scipy: pip install 'ujfmu[references]')"
 
 
 def compare(table, reference, tolerances):
