@@ -208,3 +208,18 @@ def test_a_failed_signal_names_the_step_check_as_a_remedy():
     assert "--step auto" in failing and "validate_result" not in failing
     passing = ScenarioResult(scenario, None, checks=[SignalCheck("joint.tau_in", 1e-5, 1e-3, 0.1)]).summary()
     assert passing.startswith("PASS") and "--check-step" not in passing
+
+
+def test_runs_of_different_fmu_kinds_write_to_different_folders(monkeypatch, tmp_path):
+    """FMI 2.0, FMI 3.0 and Model Exchange runs of one scenario do not overwrite each other's results by default;
+    an explicit --out is taken as given."""
+    import ujfmu.cli as cli
+    seen = []
+    monkeypatch.setattr(cli, "cmd_run", lambda args: seen.append(args.out) or 0)
+    monkeypatch.setattr(cli, "cmd_check", lambda args: seen.append(args.out) or 0)
+    scenario = str(SCENARIOS / "cardan_constant_speed.toml")
+    for argv in (["run", scenario], ["run", scenario, "--fmi", "3"], ["run", scenario, "--model-exchange"],
+                 ["check", "--fmi", "3"], ["run", scenario, "--fmi", "3", "--out", str(tmp_path)]):
+        assert cli.main(argv) == 0
+    assert seen == [Path("results"), Path("results/fmi3"), Path("results/model_exchange"), Path("results/fmi3"),
+                    tmp_path]

@@ -400,7 +400,8 @@ def main(argv=None):
         else:
             p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")
-        _out(p, "results/", "output folder")
+        _out(p, "results/", "output folder; results/fmi3/ with --fmi 3, results/model_exchange/ with "
+                             "--model-exchange, so that runs of different FMU kinds do not overwrite each other")
         p.add_argument("--no-plot", action="store_true")
         _fmi(p, "run the FMI 3.0 Co-Simulation FMUs")
         p.add_argument("--model-exchange", action="store_true",
@@ -485,6 +486,10 @@ def main(argv=None):
                      (" (FMUs go to --fmu-dir)" if args.command == "build" else ""))
     if "out" not in args:
         args.out = args.out_default
+        if args.command in ("run", "check") and args.model_exchange:
+            args.out = args.out / "model_exchange"
+        elif args.command in ("run", "check") and args.fmi == 3:
+            args.out = args.out / "fmi3"
     if getattr(args, "model_exchange", False):
         args.fmi = 3
     if getattr(args, "fmi", 2) == 3 and args.fmu_dir == DEFAULT_FMU_DIR:   # --fmi 3: fmus/fmi3/ by default
