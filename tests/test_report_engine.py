@@ -52,3 +52,14 @@ def test_axis_objects_are_what_the_command_line_parses():
     assert linked == parse_axis("driveline.beta1,driveline.beta2=15,30deg", scenario)
     with pytest.raises(Exception, match="outside its allowed range"):
         Axis.of("driveline.beta1", [95], "deg").check(scenario)
+
+
+def test_an_axis_says_its_si_unit_and_flags_a_speed_given_without_one():
+    """A plain number on a speed axis is rad/s: the sweep's header says so and how to give rpm."""
+    scenario = Scenario(REPO_DIR / "scenarios" / "double_cardan_omar_torsional.toml")
+    plain = parse_axis("motor.omega_set=100:300:100", scenario).describe(scenario)
+    assert plain.startswith("3 motor.omega_set 100..300 rad/s") and "taken as rad/s" in plain and "rpm" in plain
+    rpm = parse_axis("motor.omega_set=955:2865:955rpm", scenario).describe(scenario)
+    assert "rad/s" in rpm and "given as 955..2865 rpm" in rpm and "taken as" not in rpm
+    angle = parse_axis("driveline.beta1=5,10deg", scenario).describe(scenario)
+    assert "rad" in angle and "given as 5..10 deg" in angle

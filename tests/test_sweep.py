@@ -170,7 +170,8 @@ def test_cli_sweep_writes_table_and_plots_and_reports_bad_parameters(fmu_dir, tm
             "--steady-tol", "0", "--workers", "0", "--out", str(tmp_path), "--no-progress"]
     assert main(args) == 0
     out = capsys.readouterr().out
-    assert "4 points (2 motor.omega_set x 2 driveline.beta1,driveline.beta2)" in out
+    assert "4 points (2 motor.omega_set 104.7..209.4 rad/s (given as 1000..2000 rpm) x " \
+           "2 driveline.beta1,driveline.beta2 0.08727..0.1745 rad (given as 5..10 deg))" in out
     for name in ("double_cardan_brutti_rigid_sweep.csv", "double_cardan_brutti_rigid_sweep.png",
                  "double_cardan_brutti_rigid_sweep_orders.png"):
         assert (tmp_path / name).is_file()

@@ -216,7 +216,7 @@ def cmd_sweep(args):
                                            orders=args.orders, steady_tol=args.steady_tol,
                                            max_settle_time=args.max_settle)
     sweep = Sweep(scenario, axes, settings, out_dir=args.out, name=args.name, fmu_dir=args.fmu_dir)
-    grid = " x ".join(f"{len(a.values)} {','.join(a.names)}" for a in axes)
+    grid = " x ".join(a.describe(scenario) for a in axes)
     print(f"{sweep.name}: {len(sweep.points)} points ({grid}), "
           f"settle {settings.settle_time:g} s, {settings.revolutions:g} revolutions measured")
     with _progress(args, sweep.name, "point") as progress:

@@ -65,6 +65,10 @@ def unit_problem(unit: str, declared: str | None) -> str:
             f"it takes {takes}")
 
 
+#: the human unit a sweep axis can be given in, by the parameter's SI unit
+HUMAN_UNIT = {"rad/s": "rpm", "rad": "deg"}
+
+
 @dataclass
 class Axis:
     """One sweep axis: the parameters it sets together (``component.parameter``) and their SI values.
@@ -100,6 +104,19 @@ class Axis:
     def display(self, value):
         """value in the unit it was given in."""
         return value / UNITS[self.unit]
+
+    def describe(self, scenario) -> str:
+        """'count label first..last unit' in SI, with the human unit the values were given in, or a hint when a
+        speed or angle was given without one (a plain number is taken as rad/s or rad)."""
+        comp, _, par = self.names[0].partition(".")
+        declared = {v.name: v for v in fmu_class(scenario.components[comp][0]).VARIABLES}
+        si = declared[par].unit if par in declared else ""
+        text = f"{len(self.values)} {self.label} {min(self.values):.4g}..{max(self.values):.4g} {si}".rstrip()
+        if self.unit:
+            text += f" (given as {self.display(min(self.values)):g}..{self.display(max(self.values)):g} {self.unit})"
+        elif si in HUMAN_UNIT:
+            text += f" (no unit after the values: taken as {si}; write e.g. ...{HUMAN_UNIT[si]} for {HUMAN_UNIT[si]})"
+        return text
 
     def check(self, scenario, what: str = "") -> None:
         """ScenarioError (prefixed by what, default 'axis <label>') unless every name is a parameter of a component
