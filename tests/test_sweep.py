@@ -288,6 +288,7 @@ def test_a_drive_that_misses_its_set_speed_is_off_target(fmu_dir, tmp_path, caps
     assert main(args) == 1
     err = capsys.readouterr().err
     assert "2 points: 1 ok (steady at the operating point), 1 off_target (operating point not reached)" in err
+    assert "point motor.profile = 0, motor.tau_max = 0.25 N.m: off_target:" in err   # the point with its units
     with open(tmp_path / "cardan_startup_sweep.csv") as f:
         low, high = list(csv.DictReader(f))
     assert high["status"] == "ok" and float(high["speed_mean"]) == pytest.approx(150.0, rel=1e-3)

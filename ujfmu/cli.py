@@ -230,7 +230,9 @@ def cmd_sweep(args):
     _plots_missing(args)
     failed = sweep.failed()
     for record in failed[:10]:
-        print(f"  point {record['point']} {record['status']}: {record['error']}", file=sys.stderr)
+        where = ", ".join(f"{name} = {axis.value_text(scenario, value)}" for name, value in record["point"].items()
+                          for axis in axes if name in axis.names)
+        print(f"  point {where}: {record['status']}: {record['error']}", file=sys.stderr)
     print(_status_summary(sweep.status_counts(), len(sweep.points)), file=sys.stderr if failed else sys.stdout)
     return 1 if failed else 0
 

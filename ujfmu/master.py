@@ -760,7 +760,7 @@ class Cosimulation:
         return (f"coupling instability between '{src}' and '{dst}': {conn.source} -> {conn.target} changes sign at "
                 f"every step for {state[2]} steps, growing x{ratio:.3g} per step (to {abs(state[1]):.4g}, "
                 f"t = {self.time!r}, {self.coupling} coupling, h = {self.step_size!r}); the coupled loop feeds "
-                f"energy into an oscillation at the step rate. Remedy: {remedy}. Results up to here are kept")
+                f"energy into an oscillation at the step rate. Remedy: {remedy}")
 
     def _implicit_step(self, t, h):
         """One implicitly coupled step [t, t + h]: the torn inputs u held over the step are iterated until

@@ -110,13 +110,21 @@ class Axis:
         speed or angle was given without one (a plain number is taken as rad/s or rad)."""
         comp, _, par = self.names[0].partition(".")
         declared = {v.name: v for v in fmu_class(scenario.components[comp][0]).VARIABLES}
-        si = declared[par].unit if par in declared else ""
+        si = declared[par].unit if par in declared and declared[par].unit != "1" else ""
         text = f"{len(self.values)} {self.label} {min(self.values):.4g}..{max(self.values):.4g} {si}".rstrip()
         if self.unit:
             text += f" (given as {self.display(min(self.values)):g}..{self.display(max(self.values)):g} {self.unit})"
         elif si in HUMAN_UNIT:
             text += f" (no unit after the values: taken as {si}; write e.g. ...{HUMAN_UNIT[si]} for {HUMAN_UNIT[si]})"
         return text
+
+    def value_text(self, scenario, value: float) -> str:
+        """One of the axis's values with its SI unit, and in the unit it was given in."""
+        comp, _, par = self.names[0].partition(".")
+        declared = {v.name: v for v in fmu_class(scenario.components[comp][0]).VARIABLES}
+        si = declared[par].unit if par in declared and declared[par].unit != "1" else ""
+        text = f"{value:.6g} {si}".rstrip()
+        return text + (f" ({self.display(value):.6g} {self.unit})" if self.unit else "")
 
     def check(self, scenario, what: str = "") -> None:
         """ScenarioError (prefixed by what, default 'axis <label>') unless every name is a parameter of a component
