@@ -129,7 +129,10 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
                 inst.time = t
 
         def get_nominals(ptr, n):
-            np.ctypeslib.as_array(ptr, (n,))[:] = 1.0
+            nominals = np.ctypeslib.as_array(ptr, (n,))
+            for inst, part in parts:
+                inst.slave.getNominalsOfContinuousStates(inst.buffer, inst.nx)
+                nominals[part] = inst.buffer[:inst.nx]
 
         solver = CVodeSolver(nx=nx, nz=0, get_x=get_x, set_x=set_x, get_dx=get_dx, get_z=lambda ptr, n: None,
                              get_nominals=get_nominals, set_time=set_time, input=_NoInput(), startTime=start_time,

@@ -59,6 +59,16 @@ class ContinuousStates:
     def set_time(self, core, time: float) -> None:
         pass
 
+    def nominals(self) -> list:
+        """The states' nominal magnitudes (NOMINALS by unit): a host's solver scales its absolute tolerance by
+        them, so the disc displacements (tens of micrometres) are resolved as finely as the angles."""
+        return [NOMINALS.get(unit, 1.0) for _, unit, _ in self.names]
+
+
+#: nominal magnitude of a continuous state by unit (1 for the others): a disc-centre displacement of a Jeffcott
+#: rotor is of the order of 1e-4 m and its velocity of 1e-2 m/s
+NOMINALS = {"m": 1.0e-4, "m/s": 1.0e-2}
+
 
 class ModelStates(ContinuousStates):
     """The state of a core over a model of the protocol (ujfmu.models.protocol): the core's model state (the
@@ -91,6 +101,19 @@ STATES = {
         ("omega4", "rad/s", "Output shaft speed (flexible shaft; 0 with a rigid one)"),
         ("phi", "rad", "Dynamic misalignment angle (flexible shaft; 0 with a rigid one)"),
         ("dphi", "rad/s", "Rate of the dynamic misalignment (flexible shaft; 0 with a rigid one)"))),
+    "TwinJeffcottRotorTorqueDriven": ModelStates((
+        ("phi_in", "rad", "Gearbox flange (input) angle"), ("omega_in", "rad/s", "Gearbox flange (input) speed"),
+        ("theta1", "rad", "Disc 1 angle"), ("omega1", "rad/s", "Disc 1 speed"),
+        ("X1", "m", "Disc 1 centre displacement X"), ("dX1", "m/s", "Disc 1 centre velocity X"),
+        ("Y1", "m", "Disc 1 centre displacement Y"), ("dY1", "m/s", "Disc 1 centre velocity Y"),
+        ("theta2", "rad", "Disc 2 angle"), ("omega2", "rad/s", "Disc 2 speed"),
+        ("X2", "m", "Disc 2 centre displacement X"), ("dX2", "m/s", "Disc 2 centre velocity X"),
+        ("Y2", "m", "Disc 2 centre displacement Y"), ("dY2", "m/s", "Disc 2 centre velocity Y"),
+        ("dissipated_energy", "J", "Energy dissipated by the dampers since the start"),
+        ("input_work", "J", "Work into the rotor through the input shaft end since the start"))),
+    "RingCouplingTorqueDriven": ModelStates((
+        ("phi1", "rad", "Shaft 1 angle"), ("omega1", "rad/s", "Shaft 1 speed"),
+        ("phi2", "rad", "Shaft 2 angle"), ("omega2", "rad/s", "Shaft 2 speed"))),
     "MotorController": ModelStates((("integral", "rad", "Integral of the speed error"),)),
     "Load": ContinuousStates(),
 }
@@ -109,7 +132,7 @@ def state_variables(model) -> tuple:
 
 
 def _per_second(unit):
-    return {"rad": "rad/s", "rad/s": "rad/s2"}[unit]
+    return {"rad": "rad/s", "rad/s": "rad/s2", "m": "m/s", "m/s": "m/s2", "J": "W"}[unit]
 
 
 def fmi3_variables(model) -> tuple:
@@ -316,7 +339,7 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         self._core._stale = True
 
     def get_nominals_of_continuous_states(self, size):
-        return [1.0] * size
+        return self._states.nominals()[:size]
 
 
 class ModelExchangeFmu(Fmi3Model, ModelExchange):
