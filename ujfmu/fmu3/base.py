@@ -91,6 +91,14 @@ class ModelStates(ContinuousStates):
     def set_time(self, core, time):
         core._time = time
 
+    def indicators(self, core) -> list:
+        """The model's event indicators (``MODEL.event_indicators``, none without) at the current state and inputs."""
+        function = getattr(core.MODEL, "event_indicators", None)
+        if function is None:
+            return []
+        u = core.model_inputs()
+        return list(function(core._p, core._time, core.current_state(u), u))
+
 
 _JOINT = (("phi1", "rad", "Input shaft angle"), ("omega1", "rad/s", "Input shaft speed"))
 #: model name -> its continuous states, for the models offered as Model Exchange
@@ -135,11 +143,20 @@ def _per_second(unit):
     return {"rad": "rad/s", "rad/s": "rad/s2", "m": "m/s", "m/s": "m/s2", "J": "W"}[unit]
 
 
+def event_indicator_variables(model) -> tuple:
+    """The event indicators of model (a ujfmu.fmu class) that offers Model Exchange: local continuous variables
+    ``z.<name>`` (its MODEL's EVENT_INDICATORS), as (Var, None)."""
+    if model.__name__ not in STATES:
+        return ()
+    return tuple((fmu_base.Var(f"z.{n}", "local", "N.m" if "limit" in n else "rad/s", f"Event indicator: {d}"), None)
+                 for n, d in getattr(model.MODEL, "EVENT_INDICATORS", ()))
+
+
 def fmi3_variables(model) -> tuple:
     """Every variable of the FMI 3.0 FMU of model in value-reference order (value reference = position + 1; 0 is
     the independent variable time), as
     (Var, derivative-of name or None): the model's VARIABLES, then its Model Exchange states and derivatives."""
-    return tuple((v, None) for v in model.VARIABLES) + state_variables(model)
+    return tuple((v, None) for v in model.VARIABLES) + state_variables(model) + event_indicator_variables(model)
 
 
 # --- the FMU -------------------------------------------------------------------------------------------------------
@@ -203,6 +220,10 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         self.vars[vr] = variable
 
     def _state_getter(self, name):
+        indicators = [f"z.{n}" for n, _ in getattr(self.MODEL.MODEL, "EVENT_INDICATORS", ())]
+        if name in indicators:
+            i = indicators.index(name)
+            return lambda: self._continuous(self._states.indicators)[i]
         index = [f"x.{n}" for n, _, _ in self._states.names]
         if name in index:
             i = index.index(name)
@@ -337,6 +358,18 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         self.time = time
         self._states.set_time(self._core, time)
         self._core._stale = True
+
+    def get_number_of_event_indicators(self):
+        return len(getattr(self.MODEL.MODEL, "EVENT_INDICATORS", ())) if self.MODEL.__name__ in STATES else 0
+
+    def get_event_indicators(self):
+        """The event indicators; NaN (with the reason logged) instead of an exception, as for the derivatives."""
+        try:
+            return [float(z) for z in self._continuous(self._states.indicators)]
+        except Exception as exc:
+            self.log(f"{self._core.modelName} '{self.instance_name}': event indicators at t = {self.time!r} refused: "
+                     f"{exc}", Fmi3Status.error)
+            return [math.nan] * self.get_number_of_event_indicators()
 
     def get_nominals_of_continuous_states(self, size):
         return self._states.nominals()[:size]
