@@ -4,9 +4,10 @@ one solver, fmpy's CVode (BDF, SUNDIALS), as a system simulator that imports the
 There is no communication step: at every right-hand-side evaluation the solver sets the time and every FMU's
 continuous states, the connections are transferred in the order of the direct-feedthrough graph (as in
 ``ujfmu.master``), and the state derivatives are read. So there is no coupling delay and no explicit-coupling
-instability; the accuracy is the solver's. Components must offer Model Exchange: the torque-driven joints,
-MotorController and Load (``ujfmu build --fmi 3``; the speed-driven joints would need the driver's acceleration,
-an input derivative Model Exchange does not provide).
+instability; the accuracy is the solver's. Components must offer Model Exchange: the torque-driven variants
+(CardanJoint, DoubleCardanDriveline, TwinJeffcottRotor, RingCoupling), MotorController and Load (``ujfmu build
+--fmi 3``; the speed-driven models would need the driver's acceleration, an input derivative Model Exchange does
+not provide). The FMUs' event indicators are the solver's root functions (``simulate_me``).
 """
 
 import math

@@ -9,11 +9,13 @@ is M's data-only state (``ujfmu.fmu.base.encode_state``/``decode_state``: a vers
 numbers, never executed). So the two FMI versions of one model give the same numbers.
 
 Model Exchange (``ModelExchangeFmu``) is offered for the models whose equations are derivatives of a state at
-the current inputs: the torque-driven joints (driving torque in, input shaft speed out, the input shaft with
+the current inputs: the torque-driven variants (driving torque in, input shaft speed out, the input shaft with
 the driver's rotor inertia as a state), the MotorController (its PI integral) and the Load (no state). The
-continuous states are the core's model state (``STATES`` names them); their derivatives are the model's
-``derivatives`` (ujfmu.models.protocol), so ME and CS share the equations, CS integrating them with RK4 inside the step and ME leaving it to
-the host's solver.
+continuous states are the core's model state (``STATES`` names them, with nominals by unit); their derivatives
+are the model's ``derivatives`` (ujfmu.models.protocol), so ME and CS share the equations, CS integrating them
+with RK4 inside the step and ME leaving it to the host's solver. A model whose right-hand side switches declares
+``EVENT_INDICATORS`` and ``event_indicators`` (the MotorController: its torque limit), offered as local variables
+``z.<name>`` and through fmi3GetEventIndicators.
 
 Error handling (pythonfmu3 0.3.4, like pythonfmu 0.7.0, turns a Python exception into fmi3Fatal and then
 releases the instance, its class and its log queue, and releases them again in fmi3FreeInstance; it has no path
