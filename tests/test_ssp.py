@@ -18,9 +18,10 @@ SCENARIOS = sorted((Path(__file__).parents[1] / "scenarios").glob("*.toml"))
 #: libcosim transfers every connection after all steps (Jacobi, no feedthrough ordering): a first-order
 #: coupling difference from our master (tests/test_scenarios.py shows it halving with the step), within 3% of
 #: each signal's range except in the PI start-up through Feng's joint (5%) and the torque-driven heavy Cardan
-#: case, where the sampled controller sees the speed one step later than in ours (7%), plus one step's change of
-#: the signal (a feedthrough output such as the ideal source's tau_motor lags one step under Jacobi).
-JACOBI_GAP = {"cardan_startup": 0.05, "cardan_heavy_torque_driven": 0.07}
+#: case, where the sampled controller sees the speed one step later than in ours (7%), and the torque-driven twin
+#: rotor, whose dissipated energy integrates that difference in the lateral motion (4.7% measured), plus one step's
+#: change of the signal (a feedthrough output such as the ideal source's tau_motor lags one step under Jacobi).
+JACOBI_GAP = {"cardan_startup": 0.05, "cardan_heavy_torque_driven": 0.07, "twin_jeffcott_torque_driven": 0.06}
 
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)

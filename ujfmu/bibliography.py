@@ -62,6 +62,8 @@ FMU_SOURCES = {
     "CardanJointTorqueDriven": ("Feng2012",),
     "DoubleCardanDrivelineTorqueDriven": ("Brutti1999", "Omar2023"),
     "MotorController": (),
+    "TwinJeffcottRotorTorqueDriven": ("Tchomeni2019",),
+    "RingCouplingTorqueDriven": ("Turla2002",),
 }
 
 

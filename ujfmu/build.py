@@ -37,6 +37,8 @@ FMUS = {
     "CardanJointTorqueDriven": ("cardan_joint", "CardanJointTorqueDriven"),
     "DoubleCardanDrivelineTorqueDriven": ("double_cardan_driveline", "DoubleCardanDrivelineTorqueDriven"),
     "MotorController": ("motor", "MotorController"),
+    "TwinJeffcottRotorTorqueDriven": ("twin_jeffcott_rotor", "TwinJeffcottRotorTorqueDriven"),
+    "RingCouplingTorqueDriven": ("ring_coupling", "RingCouplingTorqueDriven"),
 }
 
 #: unit -> ((kg, m, s, rad) exponents, {display unit: factor})
@@ -57,6 +59,9 @@ UNITS = {
     "N.s/m": ((1, 0, -1, 0), {}),
     "Pa": ((1, -1, -2, 0), {"GPa": 1.0e-9}),
     "J": ((1, 2, -2, 0), {}),
+    "m/s": ((0, 1, -1, 0), {}),
+    "m/s2": ((0, 1, -2, 0), {}),
+    "W": ((1, 2, -3, 0), {}),
 }
 
 

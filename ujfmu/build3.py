@@ -136,12 +136,12 @@ def _xml(root) -> bytes:
 
 def model_description3(name: str, model, pythonfmu3_version: str = "") -> bytes:
     """modelDescription.xml (FMI 3.0) of the FMU of model, from its declaration."""
-    from .fmu3.base import STATES, fmi3_variables
+    from .fmu3.base import STATES, event_indicator_variables, fmi3_variables
 
     variables = fmi3_variables(model)
     vr = {var.name: i for i, (var, _) in enumerate(variables, start=1)}
     me = name in STATES
-    states = [vr[v.name] for v, der in variables if v.causality == "local" and der is None]
+    states = [vr[v.name] for v, der in variables if v.causality == "local" and der is None and v.name[:2] == "x."]
     doc = next(c.__doc__ for c in model.__mro__ if c.__doc__).strip().splitlines()[0]
     token = uuid.uuid5(uuid.NAMESPACE_URL, f"ujfmu3/{name}/{fmi3_hash(FMUS[name][0])}")
     root = ET.Element("fmiModelDescription", fmiVersion="3.0", modelName=name,
@@ -194,8 +194,11 @@ def model_description3(name: str, model, pythonfmu3_version: str = "") -> bytes:
     derivatives = [v for v, der in variables if der is not None]
     for v in derivatives:
         ET.SubElement(structure, "ContinuousStateDerivative", valueReference=str(vr[v.name]))
-    for v in outputs + [v for v, der in variables if v.causality == "local" and der is None] + derivatives:
+    for v in outputs + [v for v, der in variables if v.causality == "local" and der is None
+                        and v.name.startswith("x.")] + derivatives:
         ET.SubElement(structure, "InitialUnknown", valueReference=str(vr[v.name]))
+    for v, _ in event_indicator_variables(model):
+        ET.SubElement(structure, "EventIndicator", valueReference=str(vr[v.name]))
     return _xml(root)
 
 

@@ -408,7 +408,7 @@ def main(argv=None):
         _fmi(p, "run the FMI 3.0 Co-Simulation FMUs")
         p.add_argument("--model-exchange", action="store_true",
                        help="run the FMI 3.0 Model Exchange FMUs together under fmpy's CVode instead of "
-                            "co-simulating (implies --fmi 3; torque-driven joints, MotorController, Load)")
+                            "co-simulating (implies --fmi 3; torque-driven variants, MotorController, Load)")
         p.add_argument("--output-interval", type=_positive_int, metavar="N",
                        help="record every N-th communication step and the last (default: the scenario's "
                             "[experiment] output_interval, else 1)")

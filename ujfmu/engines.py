@@ -6,7 +6,9 @@ starts, as ``taskset -c 0`` does: a multithreaded engine's worker threads all ta
 FMU, and on several cores they spend more time handing it over than stepping (README, "Using the FMUs in another
 simulator"). Only the stepping loop is timed, with every recorded signal of the scenario recorded at every step
 by the engine's own recorder: our master's result table, Ecos's CSV writer, libcosim's time-series observer.
-Ecos and libcosim are the ``bench`` extra; ``missing`` names what is not installed.
+Ecos and libcosim are the ``bench`` extra; ``missing`` names what is not installed. ``cosimulate_ecos`` runs an
+SSP package in Ecos in this process and returns its results (the tests run the FMI 3.0 packages with it: libcosim
+loads FMI 2.0 only).
 """
 
 import argparse
@@ -21,6 +23,8 @@ import tempfile
 import time
 import zipfile
 from pathlib import Path
+
+import numpy as np
 
 #: engine -> (importable modules it needs, pip distributions that bring them)
 ENGINES = {"ujfmu": ((), ()), "ecos": (("ecospy",), ("ecospy", "tbb==2022.*")),
@@ -79,15 +83,39 @@ def _step_ujfmu(ssp, scenario, n_steps, work):
         return ready, _clocks(), len(table)
 
 
-def _step_ecos(ssp, scenario, n_steps, work):
+def _ecos_simulation(ssp, scenario, csv, log_level="warn"):
+    """An initialized Ecos simulation of the SSP package (its 'scenario' parameter set) writing every recorded
+    signal to csv at every step."""
     ctypes.CDLL(_tbb_library(), mode=ctypes.RTLD_GLOBAL)   # before ecospy loads libecosc
     from ecospy import EcosLib, EcosSimulation
-    EcosLib.set_log_level("warn")
+    EcosLib.set_log_level(log_level)
     sim = EcosSimulation(ssp_path=str(Path(ssp).resolve()), step_size=scenario.step_size)
-    csv = Path(work) / "ecos.csv"
     sim.add_csv_writer(str(csv), identifiers=[name.replace(".", "::", 1) for name in scenario.record])
     if not sim.init(start_time=scenario.start_time, parameter_set="scenario"):
         raise RuntimeError("Ecos could not initialize the system: " + EcosLib.get_last_error())
+    return sim
+
+
+def cosimulate_ecos(ssp: Path, scenario, work: Path) -> np.ndarray:
+    """The scenario's SSP package (FMI 2.0 or 3.0 FMUs) run by Ecos in this process up to the scenario's stop
+    time; a structured array with 'time' and one column per recorded signal, as ``master.cosimulate`` returns.
+    Needs the ``bench`` extra (ecospy, tbb)."""
+    csv = Path(work) / "ecos.csv"
+    sim = _ecos_simulation(ssp, scenario, csv, "err")
+    sim.step(int(round((scenario.stop_time - scenario.start_time) / scenario.step_size)))
+    sim.terminate()
+    sim.free()
+    with open(csv) as f:
+        header = [h.strip().split("[")[0].replace("::", ".", 1) for h in f.readline().split(",")]
+        data = np.loadtxt(f, delimiter=",", ndmin=2)
+    columns = {name: data[:, i] for i, name in enumerate(header)}
+    return np.rec.fromarrays([columns["time"]] + [columns[n] for n in scenario.record],
+                             names=["time"] + list(scenario.record))
+
+
+def _step_ecos(ssp, scenario, n_steps, work):
+    sim = _ecos_simulation(ssp, scenario, Path(work) / "ecos.csv")
+    csv = Path(work) / "ecos.csv"
     ready = _clocks()
     sim.step(n_steps)
     stopped = _clocks()

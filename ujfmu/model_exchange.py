@@ -4,9 +4,10 @@ one solver, fmpy's CVode (BDF, SUNDIALS), as a system simulator that imports the
 There is no communication step: at every right-hand-side evaluation the solver sets the time and every FMU's
 continuous states, the connections are transferred in the order of the direct-feedthrough graph (as in
 ``ujfmu.master``), and the state derivatives are read. So there is no coupling delay and no explicit-coupling
-instability; the accuracy is the solver's. Components must offer Model Exchange: the torque-driven joints,
-MotorController and Load (``ujfmu build --fmi 3``; the speed-driven joints would need the driver's acceleration,
-an input derivative Model Exchange does not provide).
+instability; the accuracy is the solver's. Components must offer Model Exchange: the torque-driven variants
+(CardanJoint, DoubleCardanDriveline, TwinJeffcottRotor, RingCoupling), MotorController and Load (``ujfmu build
+--fmi 3``; the speed-driven models would need the driver's acceleration, an input derivative Model Exchange does
+not provide). The FMUs' event indicators are the solver's root functions (``simulate_me``).
 """
 
 import math
@@ -36,8 +37,10 @@ class MeInstance(FmuInstance3):
                                      "the torque-driven variant with a MotorController)")
         super().__init__(component, unzip_dir, model_description, log)
         self.nx = self.slave.getNumberOfContinuousStates()
+        self.nz = self.slave.getNumberOfEventIndicators()
         self.time = 0.0
         self.buffer = (c_double * max(self.nx, 1))()
+        self.z_buffer = (c_double * max(self.nz, 1))()
 
 
 class _NoInput:
@@ -47,9 +50,16 @@ class _NoInput:
 
 
 def simulate_me(components, connections, stop_time: float, output_interval: float, record, start_time=0.0,
-                relative_tolerance: float = 1e-8) -> np.ndarray:
+                relative_tolerance: float = 1e-8, events: list | None = None,
+                event_indicators: bool = True) -> np.ndarray:
     """Integrate the components' Model Exchange FMUs together with CVode; a structured array with 'time' and one
-    column per recorded 'comp.var' at start_time + k * output_interval (as ``master.cosimulate`` returns)."""
+    column per recorded 'comp.var' at start_time + k * output_interval (as ``master.cosimulate`` returns).
+
+    The FMUs' event indicators (the MotorController's torque limit and anti-windup switches) are CVode's root
+    functions: the solver stops where one changes sign (located to its tolerance), every FMU goes through event
+    mode and the solver restarts there, so no step straddles a switch of the right-hand side. Each such event is
+    appended to ``events`` (if given) as (time, 'comp.indicator'); ``event_indicators=False`` leaves the switches
+    to the solver's error control."""
     from fmpy.sundials import CVodeSolver
 
     n_out = int(round((stop_time - start_time) / output_interval))
@@ -96,6 +106,37 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
                 parts.append((inst, slice(offset, offset + inst.nx)))
                 offset += inst.nx
         nx = offset
+        z_parts, offset, z_names = [], 0, []
+        for name, inst in instances.items():
+            if inst.nz and event_indicators:
+                z_parts.append((inst, slice(offset, offset + inst.nz)))
+                offset += inst.nz
+                z_names += [f"{name}.{u.variable.name}" for u in inst.md.eventIndicators]
+        nz = offset
+
+        def get_z(ptr, n):
+            z = np.ctypeslib.as_array(ptr, (n,))
+            try:
+                transfer()
+                for inst, part in z_parts:
+                    inst.slave.getEventIndicators(inst.z_buffer, inst.nz)
+                    z[part] = inst.z_buffer[:inst.nz]
+            except Exception as exc:    # from a C callback: make the solver fail, report the cause after it
+                failed("event indicators", exc)
+                z[:] = np.nan
+
+        def event(t, roots):
+            """Event mode for every FMU at a located switch, then continuous-time mode and a solver restart."""
+            set_time(t)
+            transfer()
+            for inst in instances.values():
+                inst.slave.enterEventMode()
+                while inst.slave.updateDiscreteStates()[0]:
+                    pass
+                inst.slave.enterContinuousTimeMode()
+            solver.reset(t)
+            if events is not None:
+                events.extend((t, z_names[i]) for i in np.flatnonzero(roots))
 
         def get_x(ptr, n):
             x = np.ctypeslib.as_array(ptr, (n,))
@@ -129,9 +170,12 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
                 inst.time = t
 
         def get_nominals(ptr, n):
-            np.ctypeslib.as_array(ptr, (n,))[:] = 1.0
+            nominals = np.ctypeslib.as_array(ptr, (n,))
+            for inst, part in parts:
+                inst.slave.getNominalsOfContinuousStates(inst.buffer, inst.nx)
+                nominals[part] = inst.buffer[:inst.nx]
 
-        solver = CVodeSolver(nx=nx, nz=0, get_x=get_x, set_x=set_x, get_dx=get_dx, get_z=lambda ptr, n: None,
+        solver = CVodeSolver(nx=nx, nz=nz, get_x=get_x, set_x=set_x, get_dx=get_dx, get_z=get_z,
                              get_nominals=get_nominals, set_time=set_time, input=_NoInput(), startTime=start_time,
                              relativeTolerance=relative_tolerance, maxNumSteps=100_000)
         values = np.empty((n_out + 1, len(record)))
@@ -144,13 +188,18 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
         t = start_time
         for k in range(1, n_out + 1):
             t_next = start_time + k * output_interval
-            try:
-                solver.step(t, t_next)
-            except RuntimeError as exc:
-                raise ModelExchangeError(f"CVode failed between t = {t!r} and {t_next!r}: "
-                                         + "; ".join(failure or [str(exc)])) from None
-            if failure:
-                raise ModelExchangeError(f"between t = {t!r} and {t_next!r}: " + "; ".join(failure))
+            while True:
+                try:
+                    state_event, roots, t_reached = solver.step(t, t_next)
+                except RuntimeError as exc:
+                    raise ModelExchangeError(f"CVode failed between t = {t!r} and {t_next!r}: "
+                                             + "; ".join(failure or [str(exc)])) from None
+                if failure:
+                    raise ModelExchangeError(f"between t = {t!r} and {t_next!r}: " + "; ".join(failure))
+                if not state_event or t_reached >= t_next:
+                    break
+                event(t_reached, roots)
+                t = t_reached
             t = t_next
             set_time(t)
             read(values[k])

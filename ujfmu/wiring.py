@@ -21,7 +21,8 @@ from .scenario import Scenario
 
 #: torque-driven FMU -> its speed-driven original
 SPEED_DRIVEN = {"CardanJointTorqueDriven": "CardanJoint",
-                "DoubleCardanDrivelineTorqueDriven": "DoubleCardanDriveline"}
+                "DoubleCardanDrivelineTorqueDriven": "DoubleCardanDriveline",
+                "TwinJeffcottRotorTorqueDriven": "TwinJeffcottRotor", "RingCouplingTorqueDriven": "RingCoupling"}
 #: the limit runs lift the torque limit, which would otherwise bound a diverging loop in a limit cycle
 UNLIMITED = {"motor.tau_max": 1.0e5}
 SCENARIO_DIR = Path(__file__).resolve().parent.parent / "scenarios"

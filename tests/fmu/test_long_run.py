@@ -39,7 +39,8 @@ def rss_mb():
 #: the torque-driven variants and their controller have no periodic steady state under constant inputs (the
 #: input shaft accelerates unless tau_in balances the load exactly); their integrated angles and states use the
 #: same RK4 and plain sums as the flexible models here, and 10^6 more steps each would cost ~30 s of suite time
-NO_STEADY_STATE = {"CardanJointTorqueDriven", "DoubleCardanDrivelineTorqueDriven", "MotorController"}
+NO_STEADY_STATE = {"CardanJointTorqueDriven", "DoubleCardanDrivelineTorqueDriven", "TwinJeffcottRotorTorqueDriven",
+                   "RingCouplingTorqueDriven", "MotorController"}
 
 
 class WorkCounter:

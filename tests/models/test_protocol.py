@@ -15,7 +15,8 @@ MODEL_FMUS = [name for name in FMUS if issubclass(fmu_class(name), ModelSlave)]
 def test_every_model_fmu_is_a_protocol_fmu():
     assert sorted(MODEL_FMUS) == ["CardanJoint", "CardanJointTorqueDriven", "DoubleCardanDriveline",
                                   "DoubleCardanDrivelineTorqueDriven", "Load", "Motor", "MotorController",
-                                  "RingCoupling", "TwinJeffcottRotor"]
+                                  "RingCoupling", "RingCouplingTorqueDriven", "TwinJeffcottRotor",
+                                  "TwinJeffcottRotorTorqueDriven"]
 
 
 @pytest.mark.parametrize("name", MODEL_FMUS)

@@ -105,3 +105,30 @@ def test_a_torque_that_would_overspeed_the_input_shaft_within_the_step_is_refuse
     inst.set(tau_in=1.0)    # usable again with a sane torque
     inst.slave.doStep(0.0, H)
     assert inst.get("omega_in")[0] == pytest.approx(1.0 / (1e-3 + 2e-7) * H, rel=1e-12)
+
+
+def test_aligned_twin_rotor_conserves_angular_momentum(open_fmu):
+    """beta = 0, no unbalance: the shaft torques are internal, so (J_drive + J_gb) w_in + J_M1 w1 + J_M2 w2 grows
+    at exactly tau_in - tau_load (a linear invariant, which RK4 keeps to round-off), while the shafts twist."""
+    params = dict(beta=0.0, m_u1=0.0, m_u2=0.0, J_drive=0.02, omega_in_start=10.0)
+    inst = open_fmu("TwinJeffcottRotorTorqueDriven")
+    out = _run(inst, params, dict(tau_in=3.0, tau_load=1.0), 400,
+               ("omega_in", "omega_disc1", "omega_out", "primary_shaft_torque", "X1", "Y2"))
+    j_gb, j1, j2 = (inst.get(n)[0] for n in ("J_gb", "J_M1", "J_M2"))
+    momentum = (0.02 + j_gb) * out["omega_in"] + j1 * out["omega_disc1"] + j2 * out["omega_out"]
+    assert momentum == pytest.approx((0.02 + j_gb + j1 + j2) * 10.0 + 2.0 * 400 * H, rel=1e-12)
+    assert out["primary_shaft_torque"] > 0.1     # twisted: the flange drives the discs
+    assert out["X1"] == out["Y2"] == 0.0
+
+
+def test_aligned_ring_coupling_conserves_angular_momentum(open_fmu):
+    """e = 0 (no misalignment moment): the coupling's torque is internal, so (J_drive + I1) w1 + I2 w2 grows at
+    exactly tau_in - tau_load; the coupling twists by the torque it passes to shaft 2, x_e -> -(I2 alpha + tau_load)
+    / c_s with alpha = (tau_in - tau_load) / (J_in + I2), once the two-mass mode has decayed."""
+    params = dict(e=0.0, I1=0.01, I2=0.05, J_drive=0.04, c_d=2.0, omega_in_start=5.0)
+    inst = open_fmu("RingCouplingTorqueDriven")
+    out = _run(inst, params, dict(tau_in=6.0, tau_load=2.0), 1500, ("omega_in", "omega_out", "x_e", "M_p"))
+    c_s = inst.get("c_s")[0]
+    assert 0.05 * out["omega_in"] + 0.05 * out["omega_out"] == pytest.approx(0.1 * 5.0 + 4.0 * 1500 * H, rel=1e-12)
+    assert out["M_p"] == 0.0
+    assert out["x_e"] == pytest.approx(-(0.05 * 4.0 / 0.1 + 2.0) / c_s, rel=1e-3)

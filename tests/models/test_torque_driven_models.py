@@ -1,5 +1,6 @@
-"""Torque-driven equations (torque_driven_rates of cardan_joint and double_cardan_driveline): power balance of the whole
-system, driver's rotor included, and the speed-driven models' tau_in recovered from the accelerations."""
+"""Torque-driven equations (the TorqueDriven protocols of cardan_joint, double_cardan_driveline, twin_jeffcott_rotor,
+ring_coupling): power balance of the whole system, driver's rotor included, and the speed-driven models' tau_in
+recovered from the accelerations."""
 
 import math
 
@@ -7,6 +8,7 @@ import pytest
 
 from ujfmu.models.cardan_joint import model as cardan
 from ujfmu.models.double_cardan_driveline import model as dc
+from ujfmu.models.protocol import Torques
 
 
 def _power_residual(energy, rates, state, power_in):
@@ -99,3 +101,79 @@ def test_natural_rate_bound_covers_the_free_input_shaft():
     p = _driveline(I_input=0.0, I_cross_pin=0.0, I_cross_normal=0.0, I_intermediate=0.0)
     two_mass = math.sqrt(p.k_theta * (1.0 / p.J_load + 1.0 / 0.05))
     assert dc.natural_rate_bound(p) < two_mass <= dc.natural_rate_bound(p, 0.05)
+
+
+def _twin(**kw):
+    from ujfmu.models.twin_jeffcott_rotor import model as tj
+    args = dict(tj.rig_parameters(), phase_u1=0.4, phase_u2=-1.1, J_drive=0.02, omega_in_start=30.0)
+    args.update(kw)
+    return tj, tj.TorqueDrivenParameters(**args)
+
+
+def test_twin_rotor_torque_driven_power_balance():
+    """d/dt (E + J_d w_in^2/2) = tau_drive w_in - tau_load w2 - dissipation (E the rotor's stored energy with the
+    gearbox flange), and the audit states integrate the dissipation and the power through the input shaft end,
+    (tau_drive - J_d alpha_in) w_in; a bent, unbalanced rotor at a general state."""
+    tj, p = _twin()
+    tau, load = 3.0, 1.2
+    state = [0.3, 31.0, 0.28, 30.5, 2e-5, 1e-3, -1e-5, 2e-3, 0.25, 30.2, 3e-5, -1e-3, 1e-5, 5e-4, 0.0, 0.0]
+
+    def energy(y):
+        return tj.stored_energy(p, y[0], y[1], y[2:]) + 0.5 * p.J_drive * y[1] ** 2
+
+    def rates(y):
+        return tj.TorqueDriven.derivatives(p, 0.0, y, Torques(tau, load))
+
+    def power(y, d):
+        return tau * y[1] - load * y[9] - d[14]
+
+    assert abs(_power_residual(energy, rates, state, power)) < 1e-6 * (abs(tau) + abs(load)) * 31.0
+    d = rates(state)
+    assert d[15] == pytest.approx((tau - p.J_drive * d[1]) * state[1], rel=1e-12)
+    assert d[14] > 0.0
+
+
+def test_twin_rotor_torque_driven_reproduces_the_speed_driven_torque():
+    """The speed-driven rotor driven at the acceleration the torque-driven one computes demands tau_drive less the
+    rotor's J_d alpha_in, and its rates are the torque-driven ones."""
+    tj, p = _twin()
+    y = (0.3, 31.0, 0.28, 30.5, 2e-5, 1e-3, -1e-5, 2e-3, 0.25, 30.2, 3e-5, -1e-3, 1e-5, 5e-4, 0.0, 0.0)
+    d = tj.TorqueDriven.derivatives(p, 0.0, y, Torques(3.0, 1.2))
+    tau_in = tj.torque_outputs(p, y[0], y[1], d[1], y[2:])["tau_in"]
+    assert tau_in + p.J_drive * d[1] == pytest.approx(3.0, rel=1e-12)
+    assert d[2:] == tuple(tj.rates(p, y[0], y[1], d[1], y[2:], 1.2))
+
+
+def _ring(**kw):
+    from ujfmu.models.ring_coupling import model as rc
+    args = dict(R=0.1, d=0.003, E=2.1e11, e=0.003, I1=0.01, I2=0.05, c_s=726.0, c_d=1.2, J_drive=0.04,
+                omega_in_start=0.0, phi_in_start=0.2, phi_out_start=0.5)
+    args.update(kw)
+    return rc, rc.TorqueDrivenParameters(**args)
+
+
+def test_ring_coupling_torque_driven_power_balance():
+    """E = (J_d + I1) w1^2/2 + I2 w2^2/2 - 157 (EI/R^3) e^2 sin(phi1 + phi2) + c_s x_e^2/2 (written out here):
+    dE/dt = tau_drive w1 - tau_load w2 - c_d (w2 - w1)^2."""
+    rc, p = _ring()
+    tau, load = 4.0, 1.5
+    ei = 2.1e11 * math.pi * 0.003 ** 4 / 64
+
+    def energy(y):
+        x_e = y[2] - y[0] - (0.5 - 0.2)
+        return (0.5 * ((0.04 + 0.01) * y[1] ** 2 + 0.05 * y[3] ** 2) - 157 * ei / 0.1 ** 3 * 0.003 ** 2
+                * math.sin(y[0] + y[2]) + 0.5 * 726.0 * x_e ** 2)
+
+    def rates(y):
+        return rc.TorqueDriven.derivatives(p, 0.0, y, Torques(tau, load))
+
+    def power(y, d):
+        return tau * y[1] - load * y[3] - 1.2 * (y[3] - y[1]) ** 2
+
+    assert abs(_power_residual(energy, rates, [0.7, 40.0, 1.02, 41.0], power)) < 1e-6 * (tau + load) * 41.0
+
+
+def test_ring_coupling_torque_driven_natural_rate_covers_the_two_mass_mode():
+    """With the input shaft free, the aligned coupling (e = 0) is a two-mass oscillator, sqrt(c_s (1/I2 + 1/J_in))."""
+    _, p = _ring(e=0.0, c_d=0.0)
+    assert p.natural_rate >= math.sqrt(726.0 * (1 / 0.05 + 1 / 0.05)) * (1 - 1e-12)

@@ -9,11 +9,13 @@ is M's data-only state (``ujfmu.fmu.base.encode_state``/``decode_state``: a vers
 numbers, never executed). So the two FMI versions of one model give the same numbers.
 
 Model Exchange (``ModelExchangeFmu``) is offered for the models whose equations are derivatives of a state at
-the current inputs: the torque-driven joints (driving torque in, input shaft speed out, the input shaft with
+the current inputs: the torque-driven variants (driving torque in, input shaft speed out, the input shaft with
 the driver's rotor inertia as a state), the MotorController (its PI integral) and the Load (no state). The
-continuous states are the core's model state (``STATES`` names them); their derivatives are the model's
-``derivatives`` (ujfmu.models.protocol), so ME and CS share the equations, CS integrating them with RK4 inside the step and ME leaving it to
-the host's solver.
+continuous states are the core's model state (``STATES`` names them, with nominals by unit); their derivatives
+are the model's ``derivatives`` (ujfmu.models.protocol), so ME and CS share the equations, CS integrating them
+with RK4 inside the step and ME leaving it to the host's solver. A model whose right-hand side switches declares
+``EVENT_INDICATORS`` and ``event_indicators`` (the MotorController: its torque limit), offered as local variables
+``z.<name>`` and through fmi3GetEventIndicators.
 
 Error handling (pythonfmu3 0.3.4, like pythonfmu 0.7.0, turns a Python exception into fmi3Fatal and then
 releases the instance, its class and its log queue, and releases them again in fmi3FreeInstance; it has no path
@@ -59,6 +61,16 @@ class ContinuousStates:
     def set_time(self, core, time: float) -> None:
         pass
 
+    def nominals(self) -> list:
+        """The states' nominal magnitudes (NOMINALS by unit): a host's solver scales its absolute tolerance by
+        them, so the disc displacements (tens of micrometres) are resolved as finely as the angles."""
+        return [NOMINALS.get(unit, 1.0) for _, unit, _ in self.names]
+
+
+#: nominal magnitude of a continuous state by unit (1 for the others): a disc-centre displacement of a Jeffcott
+#: rotor is of the order of 1e-4 m and its velocity of 1e-2 m/s
+NOMINALS = {"m": 1.0e-4, "m/s": 1.0e-2}
+
 
 class ModelStates(ContinuousStates):
     """The state of a core over a model of the protocol (ujfmu.models.protocol): the core's model state (the
@@ -81,6 +93,14 @@ class ModelStates(ContinuousStates):
     def set_time(self, core, time):
         core._time = time
 
+    def indicators(self, core) -> list:
+        """The model's event indicators (``MODEL.event_indicators``, none without) at the current state and inputs."""
+        function = getattr(core.MODEL, "event_indicators", None)
+        if function is None:
+            return []
+        u = core.model_inputs()
+        return list(function(core._p, core._time, core.current_state(u), u))
+
 
 _JOINT = (("phi1", "rad", "Input shaft angle"), ("omega1", "rad/s", "Input shaft speed"))
 #: model name -> its continuous states, for the models offered as Model Exchange
@@ -91,6 +111,19 @@ STATES = {
         ("omega4", "rad/s", "Output shaft speed (flexible shaft; 0 with a rigid one)"),
         ("phi", "rad", "Dynamic misalignment angle (flexible shaft; 0 with a rigid one)"),
         ("dphi", "rad/s", "Rate of the dynamic misalignment (flexible shaft; 0 with a rigid one)"))),
+    "TwinJeffcottRotorTorqueDriven": ModelStates((
+        ("phi_in", "rad", "Gearbox flange (input) angle"), ("omega_in", "rad/s", "Gearbox flange (input) speed"),
+        ("theta1", "rad", "Disc 1 angle"), ("omega1", "rad/s", "Disc 1 speed"),
+        ("X1", "m", "Disc 1 centre displacement X"), ("dX1", "m/s", "Disc 1 centre velocity X"),
+        ("Y1", "m", "Disc 1 centre displacement Y"), ("dY1", "m/s", "Disc 1 centre velocity Y"),
+        ("theta2", "rad", "Disc 2 angle"), ("omega2", "rad/s", "Disc 2 speed"),
+        ("X2", "m", "Disc 2 centre displacement X"), ("dX2", "m/s", "Disc 2 centre velocity X"),
+        ("Y2", "m", "Disc 2 centre displacement Y"), ("dY2", "m/s", "Disc 2 centre velocity Y"),
+        ("dissipated_energy", "J", "Energy dissipated by the dampers since the start"),
+        ("input_work", "J", "Work into the rotor through the input shaft end since the start"))),
+    "RingCouplingTorqueDriven": ModelStates((
+        ("phi1", "rad", "Shaft 1 angle"), ("omega1", "rad/s", "Shaft 1 speed"),
+        ("phi2", "rad", "Shaft 2 angle"), ("omega2", "rad/s", "Shaft 2 speed"))),
     "MotorController": ModelStates((("integral", "rad", "Integral of the speed error"),)),
     "Load": ContinuousStates(),
 }
@@ -109,14 +142,23 @@ def state_variables(model) -> tuple:
 
 
 def _per_second(unit):
-    return {"rad": "rad/s", "rad/s": "rad/s2"}[unit]
+    return {"rad": "rad/s", "rad/s": "rad/s2", "m": "m/s", "m/s": "m/s2", "J": "W"}[unit]
+
+
+def event_indicator_variables(model) -> tuple:
+    """The event indicators of model (a ujfmu.fmu class) that offers Model Exchange: local continuous variables
+    ``z.<name>`` (its MODEL's EVENT_INDICATORS), as (Var, None)."""
+    if model.__name__ not in STATES:
+        return ()
+    return tuple((fmu_base.Var(f"z.{n}", "local", "N.m" if "limit" in n else "rad/s", f"Event indicator: {d}"), None)
+                 for n, d in getattr(model.MODEL, "EVENT_INDICATORS", ()))
 
 
 def fmi3_variables(model) -> tuple:
     """Every variable of the FMI 3.0 FMU of model in value-reference order (value reference = position + 1; 0 is
     the independent variable time), as
     (Var, derivative-of name or None): the model's VARIABLES, then its Model Exchange states and derivatives."""
-    return tuple((v, None) for v in model.VARIABLES) + state_variables(model)
+    return tuple((v, None) for v in model.VARIABLES) + state_variables(model) + event_indicator_variables(model)
 
 
 # --- the FMU -------------------------------------------------------------------------------------------------------
@@ -180,6 +222,10 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         self.vars[vr] = variable
 
     def _state_getter(self, name):
+        indicators = [f"z.{n}" for n, _ in getattr(self.MODEL.MODEL, "EVENT_INDICATORS", ())]
+        if name in indicators:
+            i = indicators.index(name)
+            return lambda: self._continuous(self._states.indicators)[i]
         index = [f"x.{n}" for n, _, _ in self._states.names]
         if name in index:
             i = index.index(name)
@@ -315,8 +361,20 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         self._states.set_time(self._core, time)
         self._core._stale = True
 
+    def get_number_of_event_indicators(self):
+        return len(getattr(self.MODEL.MODEL, "EVENT_INDICATORS", ())) if self.MODEL.__name__ in STATES else 0
+
+    def get_event_indicators(self):
+        """The event indicators; NaN (with the reason logged) instead of an exception, as for the derivatives."""
+        try:
+            return [float(z) for z in self._continuous(self._states.indicators)]
+        except Exception as exc:
+            self.log(f"{self._core.modelName} '{self.instance_name}': event indicators at t = {self.time!r} refused: "
+                     f"{exc}", Fmi3Status.error)
+            return [math.nan] * self.get_number_of_event_indicators()
+
     def get_nominals_of_continuous_states(self, size):
-        return [1.0] * size
+        return self._states.nominals()[:size]
 
 
 class ModelExchangeFmu(Fmi3Model, ModelExchange):

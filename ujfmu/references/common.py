@@ -222,6 +222,17 @@ def check_fan_out_wiring(scenario, generator: str, fmu: str, load_optional: bool
     check_wiring(scenario, generator, expects, components, connections, optional, problems)
 
 
+def machines_and_loads(scenario, generator: str, machine: str, fmu: str, load_optional: bool) -> list:
+    """[(machine component, its Load component or None)] once the wiring is checked: the torque-driven chain
+    motor -> machine -> load of check_chain_wiring when the scenario holds fmu's TorqueDriven variant, else a
+    Motor driving fmu components of any names (check_fan_out_wiring)."""
+    if any(name == fmu + "TorqueDriven" for name, _ in scenario.components.values()):
+        check_chain_wiring(scenario, generator, machine, fmu)
+        return [(machine, "load")]
+    check_fan_out_wiring(scenario, generator, fmu, load_optional)
+    return components_with_loads(scenario, fmu)
+
+
 def components_with_loads(scenario, fmu):
     """[(component, its Load component or None)] for every component of the given FMU, the load being the
     component whose omega input is fed from the component's omega_out."""

@@ -186,3 +186,16 @@ class Controller:
     def check(p: ControllerParameters) -> list:
         """:func:`check` (the profile's parameters, named as the Motor's)."""
         return check(p)
+
+    #: names of the event indicators (FMI 3.0 Model Exchange): where the right-hand side switches
+    EVENT_INDICATORS = (("upper_limit", "Kp e + Ki I - tau_max: > 0 while the torque limit +tau_max holds"),
+                        ("lower_limit", "Kp e + Ki I + tau_max: < 0 while the torque limit -tau_max holds"),
+                        ("speed_error", "e = omega_ref - omega: its sign switches the anti-windup while limited"))
+
+    @staticmethod
+    def event_indicators(p: ControllerParameters, t: float, y: tuple, u: tuple) -> tuple:
+        """(u - tau_max, u + tau_max, e) with u = Kp e + Ki I: :func:`pi_torque` changes branch exactly where one
+        of them changes sign (the clamp at +-tau_max, the conditional integration at e = 0 while clamped)."""
+        e = reference(p, t)[0] - u.omega
+        v = p.Kp * e + p.Ki * y[0]
+        return v - p.tau_max, v + p.tau_max, e

@@ -2,6 +2,7 @@
 
 from . import model as rc
 from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
+from ...fmu.torque_driven import TorqueDrivenSlave, driven_ports
 
 #: the paper's Fig. 3 set: steel wire d = 3 mm, R = 0.1 m, e = 3 mm, I2 = 0.05 kg.m^2
 _E, _D, _R = 2.1e11, 0.003, 0.1
@@ -63,3 +64,20 @@ class RingCoupling(PrescribedInputSlave):
                "-157 (EI/R^3) e^2 sin(phi1 + phi2) + c_s x_e^2 / 2", ("omega_in",)),
     )
     DEFAULT_EXPERIMENT = (0.0, 2.0, 1.0e-3)
+
+
+class RingCouplingTorqueDriven(TorqueDrivenSlave):
+    """Torque-driven RingCoupling: driving torque tau_in in, shaft 1 speed omega_in out.
+
+    The same coupling as RingCoupling (Turla, Iljin Eqs. 5-22), with shaft 1 free: its angle and speed are a
+    state integrated from (J_drive + I1) alpha_in = tau_in + M_p + c_s x_e + c_d x_e', J_drive the driver's rotor
+    inertia lumped on shaft 1 (model.TorqueDriven); shaft 2 as in RingCoupling; tau_in and tau_load held over each
+    step (classical RK4, substeps from the two-mass natural rate and the 2x forcing). Outputs as RingCoupling's;
+    tau_input_shaft = tau_in - J_drive*alpha_in is what RingCoupling calls tau_in. start_at_input_speed starts
+    shaft 2 at omega_in_start. Offers Model Exchange (FMI 3.0). Wire it to MotorController (tau_motor -> tau_in,
+    omega_in -> omega) and a Load (omega_out -> omega, tau -> tau_load). Signs as RingCoupling's.
+    """
+
+    MODEL = rc.TorqueDriven
+    VARIABLES = driven_ports(RingCoupling)
+    DEFAULT_EXPERIMENT = RingCoupling.DEFAULT_EXPERIMENT

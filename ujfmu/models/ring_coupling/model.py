@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from ...fmu import rk4
-from ..protocol import Drive
+from ..protocol import Drive, Torques, shaft_inertia_problems, torque_driven_outputs
 
 #: Eq. (5)/(7): M_p = MP_COEFFICIENT (EI/R^3) e^2 cos(phi1 + phi2)
 MP_COEFFICIENT = 157.0
@@ -148,3 +148,79 @@ def check(p: Parameters) -> list:
     if not p.e < p.R:
         return [f"e = {p.e!r} m must be smaller than the ring radius R = {p.R!r} m (allowed range [0, R) m)"]
     return []
+
+
+# --- the torque-driven coupling (RingCouplingTorqueDriven): shaft 1 free, its motion in the state ----------------
+
+@dataclass(slots=True, kw_only=True)
+class TorqueDrivenParameters(Parameters):
+    """RingCouplingTorqueDriven's parameters: RingCoupling's, the driver's rotor inertia J_drive lumped on shaft 1
+    [kg.m2] and shaft 1's speed at the start time [rad/s]; natural_rate is the bound with shaft 1 free,
+    sqrt((c_s + M_p amplitude) (1/I2 + 1/J_in)) + c_d (1/I2 + 1/J_in), J_in = J_drive + I1 (the two-mass mode;
+    0 where :meth:`TorqueDriven.check` refuses J_in)."""
+
+    J_drive: float
+    omega_in_start: float
+
+    def __post_init__(self):
+        Parameters.__post_init__(self)
+        j_in = self.J_drive + self.I1
+        if j_in > 0.0:
+            mobility = 1.0 / self.I2 + 1.0 / j_in
+            self.natural_rate = math.sqrt((self.c_s + self.mp_amplitude) * mobility) + self.c_d * mobility
+
+
+def input_acceleration(p: TorqueDrivenParameters, y: Sequence[float], tau_in: float) -> float:
+    """alpha1 of the free shaft 1, (J_drive + I1) alpha1 = tau_in + M_p + c_s x_e + c_d x_e' (the ring's torque on
+    shaft 1: -dPi/dphi1 = M_p and the elastic torque's reaction, see the module docstring); y = (phi1, w1, phi2,
+    w2)."""
+    m_p, _, elastic = torques(p, y[0], y[1], y[2], y[3])
+    return (tau_in + m_p - elastic) / (p.J_drive + p.I1)
+
+
+class TorqueDriven:
+    """The protocol of the torque-driven coupling: state (phi1, w1) of shaft 1, driven by tau_in with the driver's
+    rotor inertia J_drive lumped on it (:func:`input_acceleration`), then shaft 2's (phi2, w2) (:func:`derivatives`
+    at that motion); every other output is the speed-driven coupling's (stored_energy counts I1, not J_drive)."""
+
+    Parameters = TorqueDrivenParameters
+    Inputs = Torques
+
+    class State(NamedTuple):
+        """Shaft 1's angle phi1 [rad] and speed [rad/s], then shaft 2's."""
+
+        phi_in: float
+        omega_in: float
+        phi_out: float
+        omega_out: float
+
+    @staticmethod
+    def initial_state(p: TorqueDrivenParameters, t: float, u: Torques) -> tuple:
+        """Shaft 1 at phi_in_start turning at omega_in_start; shaft 2 at phi_out_start, turning with shaft 1
+        (start_at_input_speed) or at omega_out_start."""
+        w2 = p.omega_in_start if p.start_at_input_speed else p.omega_out_start
+        return TorqueDriven.State(p.phi_in_start, p.omega_in_start, p.phi_out_start, w2)
+
+    @staticmethod
+    def derivatives(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> tuple:
+        """(w1, alpha1 of :func:`input_acceleration`) and :func:`derivatives` of shaft 2 at that motion."""
+        alpha = input_acceleration(p, y, u.tau_in)
+        return (y[1], alpha) + derivatives(p, t, State(y[2], y[3]), Drive(y[0], y[1], alpha, u.tau_load))
+
+    @staticmethod
+    def rate_bound(p: TorqueDrivenParameters, y: tuple, omega_max: float) -> float:
+        """The natural-rate bound with shaft 1 free plus 4 max(|w1|, |w2|) (the 2x forcing, 4 as a margin)."""
+        return p.natural_rate + 4.0 * max(omega_max, abs(y[3]))
+
+    @staticmethod
+    def outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
+        """Shaft 1's motion from the state and :func:`input_acceleration`, the rest from :func:`outputs` at that
+        motion."""
+        alpha = input_acceleration(p, y, u.tau_in)
+        return torque_driven_outputs(outputs(p, t, State(y[2], y[3]), Drive(y[0], y[1], alpha, u.tau_load)), y,
+                                     alpha)
+
+    @staticmethod
+    def check(p: TorqueDrivenParameters) -> list:
+        """:func:`check`, and shaft 1 needs an inertia to integrate."""
+        return check(p) + shaft_inertia_problems("J_drive + I1", p.J_drive + p.I1, "shaft 1")

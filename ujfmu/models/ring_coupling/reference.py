@@ -16,8 +16,9 @@ import sympy as sp
 from scipy import special
 
 from ...references.common import (check_energy_balance, check_fan_out_wiring, components_with_loads, drive_name,
-                                  feeds, load_torque, pi_law, profile, record_table, solve_piecewise, source_torque,
-                                  WiringError)
+                                  feeds, load_torque, machines_and_loads, pi_law, profile, record_table,
+                                  solve_piecewise, source_torque, torque_driven_names, WiringError)
+from ...references.common import drive as motor_drive
 
 RTOL, ATOL = 1e-11, 1e-12
 _PARAMS = ("R", "d", "E", "e", "I1", "I2", "c_s", "c_d", "phi_in_start", "phi_out_start")
@@ -48,11 +49,10 @@ def generate(scenario):
     differs) for any other wiring. Connections, for every coupling C and its load L: motor.omega -> C.omega_in,
     C.omega_out -> L.omega, L.tau -> C.tau_load. An ideal speed source drives any number of couplings
     (C.tau_in -> motor.tau_load optional, for one of them); a PI motor exactly one, with C.tau_in -> motor.tau_load."""
-    check_fan_out_wiring(scenario, "ring_coupling", "RingCoupling", load_optional=True)
-    pm = scenario.parameters_with_defaults("motor")
+    rings = machines_and_loads(scenario, "ring_coupling", "coupling", "RingCoupling", load_optional=True)
+    pm, j_motor, w_start, torque_driven = motor_drive(scenario, "motor", rings[0][0])
     force2, drive, potential = _equations()
     ideal = pm["ideal_speed_source"]
-    rings = components_with_loads(scenario, "RingCoupling")
     t = scenario.time_grid()
     w_m, a_m, ang = profile(pm, t)
     ang0 = float(ang[0])
@@ -61,7 +61,7 @@ def generate(scenario):
         pr = scenario.parameters_with_defaults(name)
         pl = scenario.parameters_with_defaults(load) if load else None
         k = (_mp_amplitude(pr), pr["c_s"], pr["c_d"], pr["phi_out_start"] - pr["phi_in_start"])
-        w2_0 = float(w_m[0]) if pr["start_at_input_speed"] else pr["omega_out_start"]
+        w2_0 = w_start if pr["start_at_input_speed"] else pr["omega_out_start"]
 
         def tau_l(w2, pl=pl):
             return load_torque(pl, w2) if pl else 0.0 * w2
@@ -79,13 +79,13 @@ def generate(scenario):
                 phi_m, w, integral, phi2, w2 = y
                 tau_m, di = pi_law(pm, time, w, integral)
                 phi1 = pr["phi_in_start"] + phi_m
-                a = (float(tau_m) - drive(phi1, phi2, w, w2, *k)) / (pm["J_rotor"] + pr["I1"])
+                a = (float(tau_m) - drive(phi1, phi2, w, w2, *k)) / (j_motor + pr["I1"])
                 return [w, a, float(di), w2, (force2(phi1, phi2, w, w2, *k) - tau_l(w2)) / pr["I2"]]
-            ys = solve_piecewise(rhs, [0.0, float(w_m[0]), 0.0, pr["phi_out_start"], w2_0], t, pm, RTOL, ATOL)
+            ys = solve_piecewise(rhs, [0.0, w_start, 0.0, pr["phi_out_start"], w2_0], t, pm, RTOL, ATOL)
             phi_m, w1, integral, phi2, w2 = ys
             tau_m, _ = pi_law(pm, t, w1, integral)
             phi1 = pr["phi_in_start"] + phi_m
-            a1 = (tau_m - drive(phi1, phi2, w1, w2, *k)) / (pm["J_rotor"] + pr["I1"])
+            a1 = (tau_m - drive(phi1, phi2, w1, w2, *k)) / (j_motor + pr["I1"])
             cols["motor.tau_motor"] = tau_m
         phi1 = pr["phi_in_start"] + phi_m
         tau_in = pr["I1"] * a1 + drive(phi1, phi2, w1, w2, *k)
@@ -94,14 +94,17 @@ def generate(scenario):
                      f"{name}.x_e": phi2 - phi1 - k[3], f"{name}.M_p": m_p,
                      f"{name}.transmitted_torque": force2(phi1, phi2, w1, w2, *k) * np.ones_like(t),
                      f"{name}.stored_energy": 0.5 * (pr["I1"] * w1 ** 2 + pr["I2"] * w2 ** 2)
-                     + potential(phi1, phi2, w1, w2, *k), f"{name}.phi_in": phi1})
+                     + potential(phi1, phi2, w1, w2, *k), f"{name}.phi_in": phi1,
+                     f"{name}.alpha_in": a1 * np.ones_like(t)})
         if load:
             cols[f"{load}.tau"] = tau_l(w2)
         if ideal and feeds(scenario, f"{name}.tau_in", "motor.tau_load"):
-            cols["motor.tau_motor"] = source_torque(pm["J_rotor"], a1, tau_in)
+            cols["motor.tau_motor"] = source_torque(j_motor, a1, tau_in)
     cols.update({"motor.omega": w1, "motor.phi": phi_m})
     for name, load in rings:
         self_check(scenario, t, cols, name, load)
+    if torque_driven:
+        cols = torque_driven_names("coupling", cols)
     how = (f"monolithic ODE of {drive_name(ideal)} + coupling + load, Lagrange's "
            f"equations formed by sympy from the ring's potential, scipy DOP853 rtol={RTOL:g} atol={ATOL:g}")
     return record_table(scenario, t, cols), f"{__name__}: {how}. Regenerate: ujfmu references"

@@ -4,6 +4,7 @@ import math
 
 from . import model as tj
 from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
+from ...fmu.torque_driven import TorqueDrivenSlave, driven_ports
 
 _RIG = tj.rig_parameters()
 _MASS = dict(min=1.0e-6, max=1.0e6)
@@ -87,3 +88,21 @@ class TwinJeffcottRotor(PrescribedInputSlave):
         output("input_work", "J", "Work done on the rotor through the input since the start"),
     )
     DEFAULT_EXPERIMENT = (0.0, 4.0, 1.0e-3)
+
+
+class TwinJeffcottRotorTorqueDriven(TorqueDrivenSlave):
+    """Torque-driven TwinJeffcottRotor: driving torque tau_in in, input (gearbox flange) speed omega_in out.
+
+    The same rotor as TwinJeffcottRotor (Tchomeni, Alugongo, Masu Eqs. 1-11, re-derived), with the gearbox flange
+    free: its angle and speed are a state integrated from (J_drive + J_gb) alpha_in = tau_in - T1, T1 the primary
+    shaft torque, J_drive the driver's rotor inertia lumped on the flange (model.TorqueDriven); tau_in and tau_load
+    held over each step (classical RK4, substeps from the natural rates with the flange free and 4|omega_in|).
+    Outputs as TwinJeffcottRotor's; tau_input_shaft = tau_in - J_drive*alpha_in is what TwinJeffcottRotor calls
+    tau_in, and input_work its integral times omega_in. Offers Model Exchange (FMI 3.0): no input derivative is
+    needed. Wire it to MotorController (tau_motor -> tau_in, omega_in -> omega) and a Load (omega_out -> omega,
+    tau -> tau_load). Signs as TwinJeffcottRotor's.
+    """
+
+    MODEL = tj.TorqueDriven
+    VARIABLES = driven_ports(TwinJeffcottRotor)
+    DEFAULT_EXPERIMENT = TwinJeffcottRotor.DEFAULT_EXPERIMENT

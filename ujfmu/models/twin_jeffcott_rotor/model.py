@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from ...fmu import rk4
-from ..protocol import Drive
+from ..protocol import Drive, Torques, shaft_inertia_problems, torque_driven_outputs
 
 #: Largest admissible joint angle magnitude [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -348,3 +348,90 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
 def check(p: Parameters) -> list:
     """Every parameter's own range suffices."""
     return []
+
+
+# --- the torque-driven rotor (TwinJeffcottRotorTorqueDriven): the input flange free, its motion in the state -------
+
+@dataclass(slots=True, kw_only=True)
+class TorqueDrivenParameters(Parameters):
+    """TwinJeffcottRotorTorqueDriven's parameters: TwinJeffcottRotor's, the driver's rotor inertia J_drive lumped on
+    the gearbox flange [kg.m2] and the flange's speed at the start time [rad/s]; natural_rate is the bound with
+    the flange free, :func:`natural_rate_bound` plus the flange on the primary shaft,
+    sqrt(K1T / J_in) + C1T / J_in with J_in = J_drive + J_gb (0 where :meth:`TorqueDriven.check` refuses it)."""
+
+    J_drive: float
+    omega_in_start: float
+
+    def __post_init__(self):
+        Parameters.__post_init__(self)
+        j_in = self.J_drive + self.J_gb
+        if j_in > 0.0:
+            self.natural_rate += math.sqrt(self.K1T / j_in) + self.C1T / j_in
+
+
+def input_acceleration(p: TorqueDrivenParameters, y: Sequence[float], tau_in: float) -> float:
+    """alpha_in of the free gearbox flange, (J_drive + J_gb) alpha_in = tau_in - T1 with the primary shaft torque
+    T1 = K1T (phi_in - theta1) + C1T (omega_in - theta1') (the flange's coordinate in Lagrange's equations, Eq. 8,
+    with V and D above); y = (phi_in, omega_in, theta1, theta1', ...)."""
+    t1 = p.K1T * (y[0] - y[2]) + p.C1T * (y[1] - y[3])
+    return (tau_in - t1) / (p.J_drive + p.J_gb)
+
+
+class TorqueDriven:
+    """The protocol of the torque-driven rotor: state (phi_in, omega_in) of the gearbox flange, driven by tau_in
+    with the driver's rotor inertia J_drive lumped on it (:func:`input_acceleration`), then the speed-driven
+    rotor's :class:`State` driven by that motion (:func:`rates`); every other output is the speed-driven rotor's.
+    input_work is the work into the rotor through the flange's shaft end, the integral of
+    tau_input_shaft omega_in (tau_input_shaft = tau_in - J_drive alpha_in = J_gb alpha_in + T1); stored_energy
+    counts J_gb, not J_drive."""
+
+    Parameters = TorqueDrivenParameters
+    Inputs = Torques
+
+    class State(NamedTuple):
+        """Gearbox flange angle and speed, then the speed-driven rotor's :class:`State`."""
+
+        phi_in: float
+        omega_in: float
+        theta1: float
+        omega1: float
+        X1: float
+        dX1: float
+        Y1: float
+        dY1: float
+        theta2: float
+        omega2: float
+        X2: float
+        dX2: float
+        Y2: float
+        dY2: float
+        dissipated_energy: float
+        input_work: float
+
+    @staticmethod
+    def initial_state(p: TorqueDrivenParameters, t: float, u: Torques) -> tuple:
+        """The flange at phi_in_start turning at omega_in_start, the rotor at :func:`rest_state` of that motion."""
+        return TorqueDriven.State(p.phi_in_start, p.omega_in_start, *rest_state(p, p.phi_in_start, p.omega_in_start))
+
+    @staticmethod
+    def derivatives(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> tuple:
+        """(omega_in, alpha_in of :func:`input_acceleration`) and :func:`rates` at that motion."""
+        alpha = input_acceleration(p, y, u.tau_in)
+        return (y[1], alpha) + tuple(rates(p, y[0], y[1], alpha, y[2:], u.tau_load))
+
+    @staticmethod
+    def rate_bound(p: TorqueDrivenParameters, y: tuple, omega_max: float) -> float:
+        """The natural-rate bound with the flange free plus 4 |omega_in| (the 1x, 2x, 4x forcing)."""
+        return p.natural_rate + 4.0 * omega_max
+
+    @staticmethod
+    def outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
+        """The flange's motion from the state and :func:`input_acceleration`, the rest from :func:`outputs` at that
+        motion."""
+        alpha = input_acceleration(p, y, u.tau_in)
+        return torque_driven_outputs(outputs(p, t, State(*y[2:]), Drive(y[0], y[1], alpha, u.tau_load)), y, alpha)
+
+    @staticmethod
+    def check(p: TorqueDrivenParameters) -> list:
+        """:func:`check`, and the flange needs an inertia to integrate."""
+        return check(p) + shaft_inertia_problems("J_drive + J_gb", p.J_drive + p.J_gb, "gearbox flange")

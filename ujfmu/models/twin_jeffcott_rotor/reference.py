@@ -22,7 +22,7 @@ import math
 import numpy as np
 import sympy as sp
 
-from ...references.common import (check_close, check_energy_balance, check_fan_out_wiring, components_with_loads,
+from ...references.common import (check_close, check_energy_balance, drive, machines_and_loads, torque_driven_names,
                                   drive_name, feeds, load_torque, pi_law, profile, record_table, solve_piecewise,
                                   source_torque, work)
 from ...references.rotations import ry, rz
@@ -183,10 +183,10 @@ def generate(scenario):
     rotor R and its load L: motor.omega -> R.omega_in, R.omega_out -> L.omega, L.tau -> R.tau_load. An ideal
     speed source drives any number of rotors (R.tau_in -> motor.tau_load optional, for one of them); a PI motor
     drives exactly one, with R.tau_in -> motor.tau_load."""
-    check_fan_out_wiring(scenario, "twin_jeffcott_rotor", "TwinJeffcottRotor", load_optional=False)
-    pm = scenario.parameters_with_defaults("motor")
-    load_of = dict(components_with_loads(scenario, "TwinJeffcottRotor"))
+    load_of = dict(machines_and_loads(scenario, "twin_jeffcott_rotor", "rotor", "TwinJeffcottRotor",
+                                      load_optional=False))
     rotors = list(load_of)
+    pm, j_motor, w_start, torque_driven = drive(scenario, "motor", rotors[0])
     ideal = pm["ideal_speed_source"]
     t = scenario.time_grid()
     w_m, a_m, ang = profile(pm, t)
@@ -197,7 +197,7 @@ def generate(scenario):
         pl = scenario.parameters_with_defaults(load_of[name])
         ref = RotorReference(pr)
         phi0 = pr["phi_in_start"]
-        y0 = _initial(ref, phi0, float(w_m[0]))
+        y0 = _initial(ref, phi0, w_start)
         if ideal:
             def rhs(time, y, ref=ref, pl=pl, phi0=phi0):
                 w, a, angle = profile(pm, time)
@@ -209,17 +209,17 @@ def generate(scenario):
                 phi_m, w, integral = y[14:]
                 tau_m, di = pi_law(pm, time, w, integral)
                 shaft1 = ref.outputs(y[:6], y[6:12], phi0 + phi_m, w)[0]
-                a = (float(tau_m) - shaft1) / (pm["J_rotor"] + ref.pr["J_gb"])
+                a = (float(tau_m) - shaft1) / (j_motor + ref.pr["J_gb"])
                 rot = _rotor_rhs(ref, y[:14], phi0 + phi_m, w, a, load_torque(pl, y[9]))
                 return np.concatenate([rot, [w, a, float(di)]])
-            ys = solve_piecewise(rhs, np.concatenate([y0, [0.0, float(w_m[0]), 0.0]]), t, pm, RTOL, ATOL)
+            ys = solve_piecewise(rhs, np.concatenate([y0, [0.0, w_start, 0.0]]), t, pm, RTOL, ATOL)
             phi_m, w_in, integral = ys[14:]
             tau_m, _ = pi_law(pm, t, w_in, integral)
         q, qd = ys[:6], ys[6:12]
         phi_in = phi0 + phi_m
         shaft1, shaft2, energy, _ = ref.outputs(q, qd, phi_in, w_in)
         if not ideal:
-            a_in = (tau_m - shaft1) / (pm["J_rotor"] + pr["J_gb"])
+            a_in = (tau_m - shaft1) / (j_motor + pr["J_gb"])
             cols["motor.tau_motor"] = tau_m
         tau_in = pr["J_gb"] * a_in + shaft1
         tau_l = load_torque(pl, qd[3])
@@ -227,13 +227,15 @@ def generate(scenario):
             phi_disc1=q[0], X1=q[1], Y1=q[2], phi_out=q[3], X2=q[4], Y2=q[5], omega_disc1=qd[0], omega_out=qd[3],
             tau_in=tau_in, primary_shaft_torque=shaft1, secondary_shaft_torque=shaft2,
             stored_energy=energy + 0.5 * pr["J_gb"] * w_in ** 2, input_work=ys[12], dissipated_energy=ys[13],
-            phi_in=phi_in).items()})
+            phi_in=phi_in, alpha_in=a_in * np.ones_like(t)).items()})
         cols[f"{load_of[name]}.tau"] = tau_l
         if ideal and feeds(scenario, f"{name}.tau_in", "motor.tau_load"):
-            cols["motor.tau_motor"] = source_torque(pm["J_rotor"], a_in, tau_in)
+            cols["motor.tau_motor"] = source_torque(j_motor, a_in, tau_in)
     cols.update({"motor.omega": w_in, "motor.phi": phi_m})
     for name in rotors:
         energy_audit(scenario, t, cols, name, load_of[name])
+    if torque_driven:
+        cols = torque_driven_names("rotor", cols)
     table = record_table(scenario, t, cols)
     how = (f"monolithic ODE of {drive_name(ideal)} + rotor + load, Lagrange's "
            f"equations formed by sympy from rotation matrices and energies, scipy DOP853 rtol={RTOL:g} atol={ATOL:g}")
