@@ -135,6 +135,7 @@ class ScenarioResult:
     extra_plots: list = field(default_factory=list)   # orbits and spectra, when the scenario asks for them
     operating_checks: list = field(default_factory=list)   # OperatingPointCheck per drive
     bonds: list = field(default_factory=list)   # ujfmu.master.BondEnergy per power bond (co-simulation only)
+    model_exchange: bool = False   # run under CVode (ujfmu.model_exchange) instead of co-simulated
 
     @property
     def checked(self) -> bool:
@@ -173,7 +174,9 @@ class ScenarioResult:
     def summary(self):
         head = f"{self.verdict} {self.scenario.name}: {self.scenario.title} ({self.wall_time:.1f} s wall)"
         lines = [head] + [f"  {c}" for c in self.checks]
-        if self.extrapolated_checks:
+        if self.extrapolated_checks and self.model_exchange:
+            lines.append("  Model Exchange run (no communication step) against the [reference.extrapolated] bands:")
+        elif self.extrapolated_checks:
             lines.append(f"  step-halving extrapolation 2 y(h/2) - y(h), h = {self.scenario.step_size:g} s:")
             lines += [f"  {c}" for c in self.extrapolated_checks]
         lines += [f"  not compared: {name}: {why}" for name, why in self.scenario.not_compared.items()]
@@ -286,7 +289,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     if extra and not model_exchange:
         table = _without(table, extra)
     result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start, operating_checks=operating,
-                            bonds=diagnostics.get("bonds", []))
+                            bonds=diagnostics.get("bonds", []), model_exchange=model_exchange)
     if reference is not None and scenario.tolerances:
         result.checks = compare(table, reference, scenario.tolerances)
         # fmpy's band scales with each signal's range: a signal constant to within its absolute tolerance (say the
