@@ -153,6 +153,42 @@ def test_disc_accelerations_solve_the_mass_matrix():
     np.testing.assert_allclose(tj._disc_accelerations(d, angle, w, *q), np.linalg.solve(mass, rhs), rtol=1e-12)
 
 
+
+def test_straight_line_rates_are_the_composed_equations():
+    """rates (straight-line code, the integrator's inner loop) is Lagrange's equations assembled from joint (its
+    derivatives tested against finite differences, its tilts against scipy's rotations above) and
+    _disc_accelerations (against numpy's solve), at random joint angles, unbalance phases, rigs, states and inputs,
+    end slopes in both branches of the Rodrigues coefficients."""
+    rng = np.random.default_rng(16)
+    for i in range(300):
+        p = rotor(beta=rng.uniform(-1.2, 1.2), phase_u1=rng.uniform(-6.0, 6.0), phase_u2=rng.uniform(-6.0, 6.0),
+                  m_u1=rng.uniform(0.0, 0.05), m_u2=rng.uniform(0.0, 0.05), L1=rng.uniform(0.2, 1.0),
+                  L2=rng.uniform(0.2, 1.0), C1X=rng.uniform(0.0, 50.0), K2Y=rng.uniform(1e4, 1e6))
+        lateral = 10.0 ** rng.uniform(-7.0, -1.5)   # end slopes 3 X / L from 1e-7 to 0.15 rad
+        y = [rng.uniform(-50.0, 50.0), rng.uniform(-300.0, 300.0), *rng.normal(scale=lateral, size=2) * (1, 100),
+             *rng.normal(scale=lateral, size=2) * (1, 100), rng.uniform(-50.0, 50.0), rng.uniform(-300.0, 300.0),
+             *rng.normal(scale=lateral, size=2) * (1, 100), *rng.normal(scale=lateral, size=2) * (1, 100), 0.3, 0.7]
+        phi_in, w_in, alpha_in, tau = rng.uniform(-50.0, 50.0), rng.uniform(-300.0, 300.0), *rng.uniform(-500, 500, 2)
+        th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
+        s1, s2 = p.slope1, p.slope2
+        psi, g_th, g_u1, g_v1, g_u2, g_v2 = tj.joint(p, th1, s1 * x1, s1 * y1, s2 * x2, s2 * y2)
+        dpsi = g_th * w1 + s1 * (g_u1 * vx1 + g_v1 * vy1) + s2 * (g_u2 * vx2 + g_v2 * vy2)
+        t1 = p.K1T * (phi_in - th1) + p.C1T * (w_in - w1)
+        t2 = p.K2T * (psi - th2) + p.C2T * (dpsi - w2)
+        disc1 = tj._disc_accelerations(p.disc1, th1 + p.phase_u1, w1, t1 - t2 * g_th,
+                                       -p.K1X * x1 - p.C1X * vx1 - t2 * s1 * g_u1,
+                                       -p.K1Y * y1 - p.C1Y * vy1 - t2 * s1 * g_v1)
+        disc2 = tj._disc_accelerations(p.disc2, th2 + p.phase_u2, w2, t2 - tau,
+                                       -p.K2X * x2 - p.C2X * vx2 - t2 * s2 * g_u2,
+                                       -p.K2Y * y2 - p.C2Y * vy2 - t2 * s2 * g_v2)
+        dissipation = (p.C1T * (w_in - w1) ** 2 + p.C2T * (dpsi - w2) ** 2 + p.C1X * vx1 ** 2 + p.C1Y * vy1 ** 2
+                       + p.C2X * vx2 ** 2 + p.C2Y * vy2 ** 2)
+        composed = np.array([w1, disc1[0], vx1, disc1[1], vy1, disc1[2], w2, disc2[0], vx2, disc2[1], vy2, disc2[2],
+                             dissipation, (p.J_gb * alpha_in + t1) * w_in])
+        ours = np.array(tj.rates(p, phi_in, w_in, alpha_in, y, tau))
+        # each component against its own scale: the lateral ones are tiny beside the torsional ones
+        np.testing.assert_allclose(ours, composed, rtol=1e-12, atol=1e-300)
+
 def _energy_audit_error(p, h, alpha=60.0, tau=2.0, duration=3.0):
     """(|input work - load work - dissipation - change of stored energy|, input work) of an RK4 run-up."""
     y, phi, w = tj.rest_state(p, 0.0, 0.0), 0.0, 0.0

@@ -109,12 +109,27 @@ class Parameters:
     disc1: dict = field(init=False, repr=False)
     disc2: dict = field(init=False, repr=False)
     natural_rate: float = field(init=False, repr=False)
+    a1: float = field(init=False, repr=False)
+    m1: float = field(init=False, repr=False)
+    j_eff1: float = field(init=False, repr=False)
+    sin_phase1: float = field(init=False, repr=False)
+    cos_phase1: float = field(init=False, repr=False)
+    a2: float = field(init=False, repr=False)
+    m2: float = field(init=False, repr=False)
+    j_eff2: float = field(init=False, repr=False)
+    sin_phase2: float = field(init=False, repr=False)
+    cos_phase2: float = field(init=False, repr=False)
 
     def __post_init__(self):
         self.sin_beta, self.cos_beta = math.sin(self.beta), math.cos(self.beta)
         self.slope1, self.slope2 = 3.0 / self.L1, 3.0 / self.L2   # end slope per unit mid-span displacement
         self.disc1 = _disc_constants(self.M1, self.J_M1, self.m_u1, self.e)
         self.disc2 = _disc_constants(self.M2, self.J_M2, self.m_u2, self.e)
+        # the same per disc as plain attributes for :func:`rates`
+        self.a1, self.m1, self.j_eff1 = self.disc1["a"], self.disc1["m"], self.disc1["j_eff"]
+        self.a2, self.m2, self.j_eff2 = self.disc2["a"], self.disc2["m"], self.disc2["j_eff"]
+        self.sin_phase1, self.cos_phase1 = math.sin(self.phase_u1), math.cos(self.phase_u1)
+        self.sin_phase2, self.cos_phase2 = math.sin(self.phase_u2), math.cos(self.phase_u2)
         self.natural_rate = natural_rate_bound(self)
 
 
@@ -220,20 +235,85 @@ def shaft_torques(p: Parameters, phi_in: float, w_in: float, y: Sequence[float])
 
 
 def rates(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequence[float], tau_load: float) -> tuple:
-    """dy/dt of the 14 states (Lagrange, Eq. 8, with the energies above); tau_load acts on disc 2."""
+    """dy/dt of the 14 states (Lagrange, Eq. 8, with the energies above); tau_load acts on disc 2.
+
+    Straight-line, the integrator's inner loop: the same equations as :func:`shaft_torques` (:func:`joint` and
+    `_tilt` at u = 3 X / L, v = 3 Y / L) and `_disc_accelerations` (paper Eq. 10), which the tests compare it with;
+    each sine and cosine once (those of theta + phase_u by the angle sum), no calls while the end slopes are in the
+    short series of `_tilt_coefficients` (always, but for parameters far outside a real rotor)."""
     th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
-    s1, s2 = p.slope1, p.slope2
-    t1, t2, g, dpsi = shaft_torques(p, phi_in, w_in, y)
-    a1, ax1, ay1 = _disc_accelerations(p.disc1, th1 + p.phase_u1, w1, t1 - t2 * g[1],
-                                       -p.K1X * x1 - p.C1X * vx1 - t2 * s1 * g[2],
-                                       -p.K1Y * y1 - p.C1Y * vy1 - t2 * s1 * g[3])
-    a2, ax2, ay2 = _disc_accelerations(p.disc2, th2 + p.phase_u2, w2, t2 - tau_load,
-                                       -p.K2X * x2 - p.C2X * vx2 - t2 * s2 * g[4],
-                                       -p.K2Y * y2 - p.C2Y * vy2 - t2 * s2 * g[5])
+    sl1, sl2 = p.slope1, p.slope2
+    u1, v1, u2, v2 = sl1 * x1, sl1 * y1, sl2 * x2, sl2 * y2
+    sin, cos = math.sin, math.cos
+    s, c = sin(th1), cos(th1)
+    sb, cb = p.sin_beta, p.cos_beta
+    # Rodrigues' coefficients S, F, dS/dx, dF/dx of both end tilts, x = angle^2 (`_tilt_coefficients`)
+    x = u1 * u1 + v1 * v1
+    if x < 1e-4:
+        s1, f1 = 1.0 - x / 6.0 * (1.0 - x / 20.0), 0.5 - x / 24.0 * (1.0 - x / 30.0)
+        ds1, df1 = -1.0 / 6.0 + x / 60.0 - x * x / 1680.0, -1.0 / 24.0 + x / 360.0 - x * x / 13440.0
+    else:
+        s1, f1, ds1, df1 = _tilt_coefficients(x)
+    x = u2 * u2 + v2 * v2
+    if x < 1e-4:
+        s2, f2 = 1.0 - x / 6.0 * (1.0 - x / 20.0), 0.5 - x / 24.0 * (1.0 - x / 30.0)
+        ds2, df2 = -1.0 / 6.0 + x / 60.0 - x * x / 1680.0, -1.0 / 24.0 + x / 360.0 - x * x / 13440.0
+    else:
+        s2, f2, ds2, df2 = _tilt_coefficients(x)
+    # driving pin e1 = R1 (-s, c, 0), R1 = exp([(v1, -u1, 0)]x), and its derivatives d/dv1 (ea), d/d(-u1) (eb)
+    m = v1 * c - u1 * s
+    n = f1 * m
+    e1x, e1y, e1z = -s - u1 * n, c - v1 * n, s1 * m
+    g = 2.0 * df1 * m
+    na, nb = v1 * g + f1 * c, f1 * s - u1 * g
+    h = 2.0 * ds1 * m
+    eax, eay, eaz = -u1 * na, -n - v1 * na, v1 * h + s1 * c
+    ebx, eby, ebz = n - u1 * nb, -v1 * nb, s1 * s - u1 * h
+    # p = R2^T R_y(-beta) e1, R2^T = exp([(v2, -u2, 0)]x), and its derivatives (x, y components)
+    rx, ry, rz = cb * e1x - sb * e1z, e1y, sb * e1x + cb * e1z
+    m = v2 * ry + u2 * rx
+    pn = s2 * rz + f2 * m
+    px, py = rx - u2 * pn, ry - v2 * pn
+    g = 2.0 * (ds2 * rz + df2 * m)
+    pna, pnb = v2 * g + f2 * ry, -u2 * g - f2 * rx
+    den = px * px + py * py
+    psi = th1 + math.atan2(-px * c - py * s, py * c - px * s)
+    # w = R_y(beta) R2 (-p_y, p_x, 0) / den: the gradient of psi with respect to e1
+    qx, qy = -py / den, px / den
+    m = -v2 * qy - u2 * qx
+    n = f2 * m
+    qx, qy, qz = qx + u2 * n, qy + v2 * n, s2 * m
+    wx, wy, wz = cb * qx + sb * qz, qy, cb * qz - sb * qx
+    # dpsi/dtheta1 = w . R1 (-c, -s, 0); dpsi/du, dpsi/dv of both ends
+    m = -v1 * s - u1 * c
+    n = f1 * m
+    g_th = wx * (-c - u1 * n) + wy * (-s - v1 * n) + wz * s1 * m
+    g_u1 = -(wx * ebx + wy * eby + wz * ebz)
+    g_v1 = wx * eax + wy * eay + wz * eaz
+    g_u2 = -(px * (-v2 * pnb) - py * (pn - u2 * pnb)) / den
+    g_v2 = (px * (-pn - v2 * pna) - py * (-u2 * pna)) / den
+    # shaft torques (`shaft_torques`)
+    dpsi = g_th * w1 + sl1 * (g_u1 * vx1 + g_v1 * vy1) + sl2 * (g_u2 * vx2 + g_v2 * vy2)
     d1, d2 = w_in - w1, dpsi - w2
+    t1 = p.K1T * (phi_in - th1) + p.C1T * d1
+    t2 = p.K2T * (psi - th2) + p.C2T * d2
+    # each disc's 3x3 block of M q'' = Q (`_disc_accelerations`), sin and cos of theta + phase_u by the angle sum
+    a, mass = p.a1, p.m1
+    sa, ca = s * p.cos_phase1 + c * p.sin_phase1, c * p.cos_phase1 - s * p.sin_phase1
+    fx = -p.K1X * x1 - p.C1X * vx1 - t2 * sl1 * g_u1 + a * ca * w1 * w1
+    fy = -p.K1Y * y1 - p.C1Y * vy1 - t2 * sl1 * g_v1 + a * sa * w1 * w1
+    acc1 = (t1 - t2 * g_th + a / mass * (sa * fx - ca * fy)) / p.j_eff1
+    ax1, ay1 = (fx + a * sa * acc1) / mass, (fy - a * ca * acc1) / mass
+    a, mass = p.a2, p.m2
+    s, c = sin(th2), cos(th2)
+    sa, ca = s * p.cos_phase2 + c * p.sin_phase2, c * p.cos_phase2 - s * p.sin_phase2
+    fx = -p.K2X * x2 - p.C2X * vx2 - t2 * sl2 * g_u2 + a * ca * w2 * w2
+    fy = -p.K2Y * y2 - p.C2Y * vy2 - t2 * sl2 * g_v2 + a * sa * w2 * w2
+    acc2 = (t2 - tau_load + a / mass * (sa * fx - ca * fy)) / p.j_eff2
+    ax2, ay2 = (fx + a * sa * acc2) / mass, (fy - a * ca * acc2) / mass
     dissipation = (p.C1T * d1 * d1 + p.C2T * d2 * d2 + p.C1X * vx1 * vx1 + p.C1Y * vy1 * vy1
                    + p.C2X * vx2 * vx2 + p.C2Y * vy2 * vy2)
-    return (w1, a1, vx1, ax1, vy1, ay1, w2, a2, vx2, ax2, vy2, ay2, dissipation,
+    return (w1, acc1, vx1, ax1, vy1, ay1, w2, acc2, vx2, ax2, vy2, ay2, dissipation,
             (p.J_gb * alpha_in + t1) * w_in)
 
 
@@ -345,6 +425,12 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
             "secondary_shaft_torque": out["secondary_shaft_torque"]}
 
 
+def output_free_inputs(p: Parameters) -> tuple:
+    """The outputs (:func:`torque_outputs`) and the start do not depend on tau_load, which enters only disc 2's
+    equation of motion."""
+    return ("tau_load",)
+
+
 def check(p: Parameters) -> list:
     """Every parameter's own range suffices."""
     return []
@@ -430,6 +516,12 @@ class TorqueDriven:
         motion."""
         alpha = input_acceleration(p, y, u.tau_in)
         return torque_driven_outputs(outputs(p, t, State(*y[2:]), Drive(y[0], y[1], alpha, u.tau_load)), y, alpha)
+
+    @staticmethod
+    def output_free_inputs(p: TorqueDrivenParameters) -> tuple:
+        """:func:`output_free_inputs`: the flange's acceleration (an output) is driven by tau_in and the primary
+        shaft torque, not by tau_load."""
+        return output_free_inputs(p)
 
     @staticmethod
     def check(p: TorqueDrivenParameters) -> list:
