@@ -110,11 +110,13 @@ class Parameters:
     disc2: dict = field(init=False, repr=False)
     natural_rate: float = field(init=False, repr=False)
     a1: float = field(init=False, repr=False)
+    a_m1: float = field(init=False, repr=False)
     m1: float = field(init=False, repr=False)
     j_eff1: float = field(init=False, repr=False)
     sin_phase1: float = field(init=False, repr=False)
     cos_phase1: float = field(init=False, repr=False)
     a2: float = field(init=False, repr=False)
+    a_m2: float = field(init=False, repr=False)
     m2: float = field(init=False, repr=False)
     j_eff2: float = field(init=False, repr=False)
     sin_phase2: float = field(init=False, repr=False)
@@ -128,6 +130,7 @@ class Parameters:
         # the same per disc as plain attributes for :func:`rates`
         self.a1, self.m1, self.j_eff1 = self.disc1["a"], self.disc1["m"], self.disc1["j_eff"]
         self.a2, self.m2, self.j_eff2 = self.disc2["a"], self.disc2["m"], self.disc2["j_eff"]
+        self.a_m1, self.a_m2 = self.a1 / self.m1, self.a2 / self.m2
         self.sin_phase1, self.cos_phase1 = math.sin(self.phase_u1), math.cos(self.phase_u1)
         self.sin_phase2, self.cos_phase2 = math.sin(self.phase_u2), math.cos(self.phase_u2)
         self.natural_rate = natural_rate_bound(self)
@@ -241,7 +244,7 @@ def rates(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequenc
     `_tilt` at u = 3 X / L, v = 3 Y / L) and `_disc_accelerations` (paper Eq. 10), which the tests compare it with;
     each sine and cosine once (those of theta + phase_u by the angle sum), no calls while the end slopes are in the
     short series of `_tilt_coefficients` (always, but for parameters far outside a real rotor)."""
-    th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
+    th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2, _, _ = y
     sl1, sl2 = p.slope1, p.slope2
     u1, v1, u2, v2 = sl1 * x1, sl1 * y1, sl2 * x2, sl2 * y2
     sin, cos = math.sin, math.cos
@@ -302,14 +305,14 @@ def rates(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequenc
     sa, ca = s * p.cos_phase1 + c * p.sin_phase1, c * p.cos_phase1 - s * p.sin_phase1
     fx = -p.K1X * x1 - p.C1X * vx1 - t2 * sl1 * g_u1 + a * ca * w1 * w1
     fy = -p.K1Y * y1 - p.C1Y * vy1 - t2 * sl1 * g_v1 + a * sa * w1 * w1
-    acc1 = (t1 - t2 * g_th + a / mass * (sa * fx - ca * fy)) / p.j_eff1
+    acc1 = (t1 - t2 * g_th + p.a_m1 * (sa * fx - ca * fy)) / p.j_eff1
     ax1, ay1 = (fx + a * sa * acc1) / mass, (fy - a * ca * acc1) / mass
     a, mass = p.a2, p.m2
     s, c = sin(th2), cos(th2)
     sa, ca = s * p.cos_phase2 + c * p.sin_phase2, c * p.cos_phase2 - s * p.sin_phase2
     fx = -p.K2X * x2 - p.C2X * vx2 - t2 * sl2 * g_u2 + a * ca * w2 * w2
     fy = -p.K2Y * y2 - p.C2Y * vy2 - t2 * sl2 * g_v2 + a * sa * w2 * w2
-    acc2 = (t2 - tau_load + a / mass * (sa * fx - ca * fy)) / p.j_eff2
+    acc2 = (t2 - tau_load + p.a_m2 * (sa * fx - ca * fy)) / p.j_eff2
     ax2, ay2 = (fx + a * sa * acc2) / mass, (fy - a * ca * acc2) / mass
     dissipation = (p.C1T * d1 * d1 + p.C2T * d2 * d2 + p.C1X * vx1 * vx1 + p.C1Y * vy1 * vy1
                    + p.C2X * vx2 * vx2 + p.C2Y * vy2 * vy2)
