@@ -296,7 +296,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     try:
         if model_exchange:
             from .model_exchange import simulate_scenario_me
-            table = simulate_scenario_me(scenario, fmu_dir)
+            table = simulate_scenario_me(scenario, fmu_dir, extra=extra)
         else:
             table = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
                                scenario.step_size, scenario.record + extra, scenario.start_time,
@@ -309,7 +309,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
             _write_partial(scenario, exc, Path(out_dir), plot)
         raise
     operating = check_operating_points(scenario, table)
-    if extra and not model_exchange:
+    if extra:
         table = _without(table, extra)
     result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start, operating_checks=operating,
                             bonds=diagnostics.get("bonds", []), model_exchange=model_exchange)
