@@ -31,6 +31,10 @@ class MeInstance(FmuInstance3):
     FMU_CLASS = FMU3Model
 
     def __init__(self, component, unzip_dir, model_description, log):
+        if not model_description.fmiVersion.startswith("3"):
+            raise ModelExchangeError(f"component '{component.name}': {model_description.modelName} is an FMI "
+                                     f"{model_description.fmiVersion} FMU; Model Exchange runs take the FMI 3.0 "
+                                     "FMUs (ujfmu build --fmi 3)")
         if model_description.modelExchange is None:
             raise ModelExchangeError(f"component '{component.name}': {model_description.modelName} has no Model "
                                      "Exchange interface (speed-driven joints need the driver's acceleration; use "

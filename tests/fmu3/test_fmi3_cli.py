@@ -75,3 +75,19 @@ def test_model_exchange_run_checks_the_operating_point(fmu3_dir, tmp_path, capsy
                  "--no-plot", "-q"]) == 1
     out = capsys.readouterr().out
     assert out.startswith("FAIL weak") and "motor.omega" in out and "not reached" in out
+
+
+def test_fmi3_runs_refuse_fmi2_fmus_and_check_skips_speed_driven_scenarios(fmu_dir, fmu3_dir, tmp_path, capsys):
+    """--fmi 3 on a folder of FMI 2.0 FMUs is refused with the build command (not run as FMI 2.0); `check
+    --model-exchange` checks the torque-driven scenarios and lists the speed-driven ones it cannot run."""
+    scenario = str(SCENARIOS / "cardan_heavy_torque_driven.toml")
+    for flag in ("--fmi=3", "--model-exchange"):
+        assert main(["run", flag, "--fmu-dir", str(fmu_dir), scenario, "--out", str(tmp_path), "--no-plot"]) == 2
+        err = capsys.readouterr().err
+        assert "is an FMI 2.0 FMU" in err and f"ujfmu build --fmi 3 --fmu-dir {fmu_dir}" in err
+    assert main(["run", "--fmi=3", "--fmu-dir", str(tmp_path), scenario, "--no-plot"]) == 2
+    assert f"ujfmu build --fmi 3 --fmu-dir {tmp_path}" in capsys.readouterr().err
+    assert main(["check", "--model-exchange", "--fmu-dir", str(fmu3_dir), str(SCENARIOS / "cardan_startup.toml"),
+                 scenario, "--out", str(tmp_path), "--no-plot", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "SKIPPED cardan_startup" in out and "1 passed, 0 failed, 0 not checked, 1 skipped" in out
