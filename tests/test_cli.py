@@ -254,3 +254,10 @@ def test_extrapolated_bands_are_left_out_at_a_coarser_step_and_said_so(fmu_dir, 
                  "--no-plot", "-q", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert out.startswith("PASS") and "[reference.extrapolated] bands not checked" in out and "0.002 s" in out
+
+
+def test_a_large_error_on_a_varying_signal_keeps_its_share_of_the_range():
+    """16% of a varying reference's range is said as such, however far outside the band it is."""
+    from ujfmu.scenario_run import SignalCheck
+    text = str(SignalCheck("motor.tau_motor", 0.061, 7.6e-4, 0.38))
+    assert text.startswith("FAIL") and "16.1% of the reference's range" in text

@@ -46,12 +46,12 @@ class SignalCheck:
         text = (f"{verdict} {self.name:20s} max|err| = {self.max_error:.3e}  allowed {self.allowed:.3e}  "
                 f"({self.fraction_of_allowed:.3g} of allowed")
         # the error relative to the reference's range means something only when the reference varies
-        if self.reference_range > RANGE_FLOOR * max(self.allowed, self.max_error):
+        if self.reference_range > RANGE_FLOOR * self.allowed:
             text += f", {100 * self.max_error / self.reference_range:.3g}% of the reference's range"
         return text + ")"
 
 
-#: a reference range below this multiple of the errors involved counts as constant (no "% of range" figure)
+#: a reference range below this multiple of the allowed error counts as constant (no "% of range" figure)
 RANGE_FLOOR = 10.0
 #: operating point: a drive's mean speed over the end window within this fraction of its set point (as sweeps)
 OPERATING_TOL = 0.01
