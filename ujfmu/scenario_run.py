@@ -85,7 +85,7 @@ class OperatingPointCheck:
         head = "ok  " if self.passed else "FAIL"
         text = (f"{head} operating point {self.signal}: mean {self.value:.6g} rad/s from t = {self.since:g} s "
                 f"against its set point {self.set_point} = {self.target:.6g} rad/s "
-                f"({100.0 * (self.value - self.target) / abs(self.target):+.2f}%, allowed "
+                f"({100.0 * (self.value - self.target) / abs(self.target):+.3g}%, allowed "
                 f"{100.0 * OPERATING_TOL:g}%)")
         if not self.passed:
             text += (": the set point is not reached by the end; lengthen stop_time, or give the drive more torque "
