@@ -4,6 +4,8 @@ from pathlib import Path
 
 import importlib.util
 
+import pytest
+
 from ujfmu import engines
 from ujfmu.bench import bench_engines, bench_schemes, render, render_engines, render_schemes, run_bench
 
@@ -52,3 +54,13 @@ def test_engines_run_the_same_ssp_side_by_side_and_a_missing_one_is_named(fmu_di
     table = render_engines(figures)
     assert "| cardan_constant_speed |" in table and "ujfmu / libcosim" in table
     assert "not measured: ecos is not installed" in table
+
+
+def test_ecos_runs_without_ecos_name_the_extra(monkeypatch, tmp_path):
+    """ujfmu.engines.cosimulate_ecos where Ecos is missing: an error naming the extra to install, not a bare
+    ModuleNotFoundError."""
+    from ujfmu import engines
+    from ujfmu.extras import MissingExtraError
+    monkeypatch.setattr(engines.importlib.util, "find_spec", lambda name: None)
+    with pytest.raises(MissingExtraError, match=r"pip install 'ujfmu\[bench\]'"):
+        engines.cosimulate_ecos(tmp_path / "x.ssp", None, tmp_path)

@@ -3,6 +3,7 @@
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import ujfmu
@@ -223,3 +224,40 @@ def test_runs_of_different_fmu_kinds_write_to_different_folders(monkeypatch, tmp
         assert cli.main(argv) == 0
     assert seen == [Path("results"), Path("results/fmi3"), Path("results/model_exchange"), Path("results/fmi3"),
                     tmp_path]
+
+
+def test_a_finer_step_is_compared_where_the_reference_has_samples():
+    """A reference sampled at 1 ms holding a fast ripple, a result at 0.5 ms equal to the exact signal: compared
+    at the shared instants the error is nil; interpolating the reference to the half steps would have charged the
+    result with the reference's own sampling error (about w^2 h^2 / 8 of the amplitude)."""
+    from ujfmu.scenario import Tolerance
+    from ujfmu.scenario_run import compare
+    exact = lambda t: 40.0 * np.sin(600.0 * t)   # noqa: E731  2x-per-revolution ripple at 300 rad/s
+    t_ref, t_run = np.linspace(0.0, 1.0, 1001), np.linspace(0.0, 1.0, 2001)
+    reference = np.rec.fromarrays([t_ref, exact(t_ref)], names=["time", "x"])
+    result = np.rec.fromarrays([t_run, exact(t_run)], names=["time", "x"])
+    (check,) = compare(result, reference, {"x": Tolerance(rel_range=1e-6, abs=0.0)})
+    assert check.passed and check.max_error < 1e-9
+    interpolated = np.max(np.abs(exact(t_run) - np.interp(t_run, t_ref, exact(t_ref))))
+    assert interpolated > 1.0   # what the old comparison charged: far outside the band
+    # a short run on a grid sharing almost no instants with the reference (0.7 ms) falls back to interpolation
+    t_odd = np.arange(0.0, 0.01, 7e-4)
+    odd = np.rec.fromarrays([t_odd, exact(t_odd)], names=["time", "x"])
+    (check,) = compare(odd, reference, {"x": Tolerance(rel_range=1e-6, abs=0.0)})
+    assert check.max_error > 0.1
+
+
+def test_extrapolated_bands_are_left_out_at_a_coarser_step_and_said_so(fmu_dir, tmp_path, capsys):
+    """The [reference.extrapolated] bands hold at the scenario's own step; a coarser --step checks the direct
+    tolerances and names the bands it left out."""
+    assert main(["--fmu-dir", str(fmu_dir), "run", str(SCENARIOS / "cardan_startup.toml"), "--step", "0.002",
+                 "--no-plot", "-q", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("PASS") and "[reference.extrapolated] bands not checked" in out and "0.002 s" in out
+
+
+def test_a_large_error_on_a_varying_signal_keeps_its_share_of_the_range():
+    """16% of a varying reference's range is said as such, however far outside the band it is."""
+    from ujfmu.scenario_run import SignalCheck
+    text = str(SignalCheck("motor.tau_motor", 0.061, 7.6e-4, 0.38))
+    assert text.startswith("FAIL") and "16.1% of the reference's range" in text

@@ -339,3 +339,13 @@ def test_the_code_digest_follows_the_sources_that_compute_a_point(tmp_path, monk
     before = code_digest(package)
     monkeypatch.setattr(ujfmu, "__version__", "0.0.0")
     assert code_digest(package) != before
+
+
+def test_a_motor_controller_is_checked_at_its_operating_point_by_default():
+    """A torque-driven wiring's drive (MotorController) is held to its set point as a Motor is."""
+    from ujfmu.scenario import Scenario
+    from ujfmu.sweep import SweepSettings
+    scenario = Scenario(SCENARIOS / "cardan_heavy_torque_driven.toml")
+    settings = SweepSettings.from_scenario(scenario, outputs=["joint.tau_input_shaft"],
+                                           running_speed="joint.omega_in", settle_time=1.0)
+    assert settings.operating_point == (("motor.omega", "motor.omega_ref"),)

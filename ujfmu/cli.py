@@ -74,10 +74,26 @@ def cmd_build(args):
     return 0
 
 
+def _check_fmi3(scenario, fmu_dir) -> None:
+    """UsageError unless every FMU of the scenario in fmu_dir is an FMI 3.0 FMU (--fmi 3, --model-exchange)."""
+    from fmpy import read_model_description
+    for fmu in sorted({fmu for fmu, _ in scenario.components.values()}):
+        path = Path(fmu_dir) / f"{fmu}.fmu"
+        if not path.is_file():
+            raise UsageError(f"{path} not found: build the FMI 3.0 FMUs with `ujfmu build --fmi 3 --fmu-dir "
+                             f"{fmu_dir}`")
+        if not read_model_description(str(path)).fmiVersion.startswith("3"):
+            raise UsageError(f"{path} is an FMI 2.0 FMU; --fmi 3 and --model-exchange run FMI 3.0 FMUs: build them "
+                             f"with `ujfmu build --fmi 3 --fmu-dir {fmu_dir}` or leave --fmu-dir out (fmus/fmi3/)")
+
+
 def _run_one(args, path, scenario=None):
     from .scenario import Scenario
     from .scenario_run import run_scenario
     plot = not args.no_plot and available("matplotlib")
+    if args.fmi == 3:
+        scenario = scenario if scenario is not None else Scenario(path)
+        _check_fmi3(scenario, args.fmu_dir)
     if args.output_interval is not None:
         scenario = scenario if scenario is not None else Scenario(path)
         scenario.output_interval = args.output_interval
@@ -152,7 +168,17 @@ def cmd_run(args):
 
 def cmd_check(args):
     from .scenario_run import write_junit
-    results = [_run_one(args, path) for path in _scenarios(args.scenarios)]
+    results, skipped = [], []
+    for path in _scenarios(args.scenarios):
+        if args.model_exchange:
+            from .model_exchange import ModelExchangeError
+            try:
+                results.append(_run_one(args, path))
+            except ModelExchangeError as exc:   # a speed-driven scenario: nothing to integrate in ME
+                skipped.append(Path(path).stem)
+                print(f"SKIPPED {Path(path).stem}: {exc}")
+        else:
+            results.append(_run_one(args, path))
     _plots_missing(args)
     _band_missing(results)
     if args.junit:
@@ -160,10 +186,15 @@ def cmd_check(args):
     failed = [r for r in results if r.failed]
     unchecked = [r for r in results if not r.checked]
     print(f"{len(results) - len(failed) - len(unchecked)} passed, {len(failed)} failed, "
-          f"{len(unchecked)} not checked")
+          f"{len(unchecked)} not checked" + (f", {len(skipped)} skipped (no Model Exchange wiring: "
+                                              f"{', '.join(skipped)})" if skipped else ""))
     if unchecked:
         print(f"not checked (no [reference] with tolerances): {', '.join(r.scenario.name for r in unchecked)}",
               file=sys.stderr)
+    if not results:
+        print("ujfmu: error: no scenario could run in Model Exchange (only torque-driven wirings can)",
+              file=sys.stderr)
+        return 1
     if len(unchecked) == len(results):
         print(f"ujfmu: error: nothing was checked: none of the {len(results)} scenario(s) compares a signal with a "
               "reference (add [reference] file and [reference.tolerance] to a scenario)", file=sys.stderr)

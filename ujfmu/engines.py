@@ -99,7 +99,11 @@ def _ecos_simulation(ssp, scenario, csv, log_level="warn"):
 def cosimulate_ecos(ssp: Path, scenario, work: Path) -> np.ndarray:
     """The scenario's SSP package (FMI 2.0 or 3.0 FMUs) run by Ecos in this process up to the scenario's stop
     time; a structured array with 'time' and one column per recorded signal, as ``master.cosimulate`` returns.
-    Needs the ``bench`` extra (ecospy, tbb)."""
+    Needs the ``bench`` extra (ecospy, tbb): MissingExtraError naming it otherwise."""
+    reason = missing("ecos")
+    if reason:
+        from .extras import MissingExtraError
+        raise MissingExtraError(f"ujfmu.engines.cosimulate_ecos: {reason}")
     csv = Path(work) / "ecos.csv"
     sim = _ecos_simulation(ssp, scenario, csv, "err")
     sim.step(int(round((scenario.stop_time - scenario.start_time) / scenario.step_size)))

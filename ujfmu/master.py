@@ -496,8 +496,19 @@ class Cosimulation:
         self._tear_views = [views[i][:1] for i in self._tears]
         rolled = dict.fromkeys(self._transfers[i][-1].target.split(".", 1)[0] for i in self._tears)
         self._rolled = [(self.instances[name], name) for name in rolled]
-        self._rolled_steppers = [s for s in self._steppers if s[2] in rolled]
-        self._fixed_steppers = [s for s in self._steppers if s[2] not in rolled]
+        # per rolled-back component: (fmi2GetFMUstate, fmi2SetFMUstate, fmi2FreeFMUstate, component, name), the
+        # stepping loop's fast path (FmuInstance.bare: ctypes arguments only)
+        self._state_ops = [(*(inst.bare(f"fmi2{op}FMUstate") for op in ("Get", "Set", "Free")),
+                            c_void_p(inst.slave.component), name) for inst, name in self._rolled]
+        self._rolled_steppers = [s for s in self._bare_steppers if s[2] in rolled]
+        self._fixed_steppers = [s for s in self._bare_steppers if s[2] not in rolled]
+        # per torn connection: (fmi2SetReal of its target, target, its vr, 1, the value), bare as above
+        self._tear_sets = [(self.instances[self._transfers[i][-1].target.split(".", 1)[0]].bare("fmi2SetReal"),
+                            c_void_p(self._transfers[i][6]), self._transfers[i][7], c_size_t(1), self._transfers[i][4])
+                           for i in self._tears]
+        # where the torn connections' values are in the scratch row (the views above, gathered at once)
+        self._tear_index = np.array([(addressof(self._transfers[i][4]) - addressof(self._scratch)) // sizeof(fmi2Real)
+                                     for i in self._tears], dtype=np.intp)
         self._tear_scale = np.zeros(len(self._tears))
         self._inverse, self._g_past = None, []   # inverse interface Jacobian (dr/du)^-1, G at t - h, t - 2h
 
@@ -664,9 +675,10 @@ class Cosimulation:
                 flush()
 
     def _step(self, steppers, t, h):
+        """fmi2DoStep of each of steppers (bare: t and h as c_double)."""
         for do_step, comp, name in steppers:
             if do_step(comp, t, h, 1) > 1:
-                self._refused(name, t)
+                self._refused(name, t.value)
 
     def _refused(self, name, t):
         growing = self._growth_report() or self._jump_report() or self._energy_report()
@@ -776,14 +788,14 @@ class Cosimulation:
         Ends with the FMUs at t + h and every connection transferred there.
         """
         states = []
-        for inst, name in self._rolled:
+        for get_state, _, _, comp, name in self._state_ops:
             state = fmi2FMUstate()
-            if inst.raw("fmi2GetFMUstate")(inst.slave.component, byref(state)) > 1:
+            if get_state(comp, byref(state)) > 1:
                 raise CosimulationError(f"component '{name}' could not save its state at t = {t!r}" + self._log_text())
             states.append(state)
         try:
-            self._step(self._fixed_steppers, t, h)
-            g_start = np.array([v[0] for v in self._tear_views])
+            self._step(self._fixed_steppers, c_double(t), c_double(h))
+            g_start = self._scratch_view[self._tear_index]
             self._g_start = g_start
             past = self._g_past
             if len(past) == 2:    # G at t + h extrapolated quadratically from t, t - h, t - 2h
@@ -797,7 +809,7 @@ class Cosimulation:
             scale = self._tear_scale
             np.maximum(scale, np.abs(g_start), out=scale)
             tol = COUPLING_RTOL * scale + COUPLING_ATOL
-            best = (np.max(np.abs(r) / tol), u, r)
+            best = ((np.abs(r) / tol).max(), u, r)
             rebuilds = 0
             while best[0] > 1.0:
                 if self._inverse is None or rebuilds:
@@ -814,7 +826,7 @@ class Cosimulation:
                     if denominator != 0.0:   # Broyden's update of the inverse (Sherman-Morrison)
                         inverse += np.outer(du - h_dr, du @ inverse) / denominator
                     u, r = u + du, r_new
-                    error = np.max(np.abs(r) / tol)
+                    error = (np.abs(r) / tol).max()
                     if error < best[0]:
                         best = (error, u, r)
                     if error <= 1.0:
@@ -830,27 +842,28 @@ class Cosimulation:
                     self._evaluate(best[1], t, h, states)
                 break
         finally:
-            for (inst, _), state in zip(self._rolled, states):
-                inst.raw("fmi2FreeFMUstate")(inst.slave.component, byref(state))
+            for (_, _, free_state, comp, _), state in zip(self._state_ops, states):
+                free_state(comp, byref(state))
 
     def _evaluate(self, u, t, h, states, restore=True):
         """r(u) = G(u) - u: step the rolled-back components with the torn inputs held at u, transfer everything
         at t + h, and read what the torn connections carry."""
         self.iterations += 1
-        for (inst, name), state in zip(self._rolled, states):
-            if restore and inst.raw("fmi2SetFMUstate")(inst.slave.component, state) > 1:
-                raise CosimulationError(f"component '{name}' could not restore its state at t = {t!r}"
-                                        + self._log_text())
-        for i, value in zip(self._tears, u):
-            _, _, _, _, buffer, set_, dst, dst_vr, conn = self._transfers[i]
+        if restore:
+            for (_, set_state, _, comp, name), state in zip(self._state_ops, states):
+                if set_state(comp, state) > 1:
+                    raise CosimulationError(f"component '{name}' could not restore its state at t = {t!r}"
+                                            + self._log_text())
+        for (set_, dst, dst_vr, one, buffer), i, value in zip(self._tear_sets, self._tears, u):
             buffer[0] = value
-            if set_(dst, dst_vr, 1, buffer) > 1:
-                raise CosimulationError(f"t = {t!r}: setting {conn.target} failed" + self._log_text())
+            if set_(dst, dst_vr, one, buffer) > 1:
+                raise CosimulationError(f"t = {t!r}: setting {self._transfers[i][-1].target} failed"
+                                        + self._log_text())
         self._held = u
-        self._step(self._rolled_steppers, t, h)
+        self._step(self._rolled_steppers, c_double(t), c_double(h))
         self.time = t + h
         self._communicate()
-        g = np.array([v[0] for v in self._tear_views])
+        g = self._scratch_view[self._tear_index]
         return THETA * g + (1.0 - THETA) * self._g_start - u
 
     def _fd_jacobian(self, u, r, t, h, states, tol):

@@ -31,6 +31,10 @@ class MeInstance(FmuInstance3):
     FMU_CLASS = FMU3Model
 
     def __init__(self, component, unzip_dir, model_description, log):
+        if not model_description.fmiVersion.startswith("3"):
+            raise ModelExchangeError(f"component '{component.name}': {model_description.modelName} is an FMI "
+                                     f"{model_description.fmiVersion} FMU; Model Exchange runs take the FMI 3.0 "
+                                     "FMUs (ujfmu build --fmi 3)")
         if model_description.modelExchange is None:
             raise ModelExchangeError(f"component '{component.name}': {model_description.modelName} has no Model "
                                      "Exchange interface (speed-driven joints need the driver's acceleration; use "
@@ -223,9 +227,10 @@ def _log_text(log):
     return ("\nFMU log:\n  " + "\n  ".join(log[-20:])) if log else ""
 
 
-def simulate_scenario_me(scenario, fmu_dir, relative_tolerance: float = 1e-8) -> np.ndarray:
+def simulate_scenario_me(scenario, fmu_dir, relative_tolerance: float = 1e-8, extra: list = ()) -> np.ndarray:
     """The scenario (a ``ujfmu.scenario.Scenario``) run with the Model Exchange FMUs of fmu_dir, output at its
-    communication step."""
+    communication step; extra: signals recorded besides the scenario's."""
     scenario.check_fmus(fmu_dir)
     return simulate_me(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
-                       scenario.step_size, scenario.record, scenario.start_time, relative_tolerance)
+                       scenario.step_size, list(scenario.record) + list(extra), scenario.start_time,
+                       relative_tolerance)

@@ -101,6 +101,7 @@ class Scenario:
         self.start_time = self._number(exp, "experiment.start_time", 0.0)
         self.stop_time = self._number(exp, "experiment.stop_time")
         self.step_size = self._number(exp, "experiment.step_size")
+        self.declared_step = self.step_size   # the file's step, which [reference.extrapolated] bands are made for
         if not self.step_size > 0 or not self.stop_time > self.start_time:
             raise ScenarioError(f"{self.path}: [experiment] needs step_size > 0 and stop_time > start_time")
         unknown = set(exp) - EXPERIMENT_KEYS

@@ -186,7 +186,7 @@ class SweepSettings:
     orders: tuple = (1, 2, 4)
     steady_tol: float = 1e-3            # 0: no steady-state check (a measurement during a transient)
     max_settle_time: float = None       # s; default 8x the first settle time
-    operating_point: tuple = ()         # (signal, set point signal) pairs; default every Motor's omega, omega_ref
+    operating_point: tuple = ()         # (signal, set point signal) pairs; default every Motor's and MotorController's omega, omega_ref
     operating_tol: float = 0.01         # relative to the set point
 
     @classmethod
@@ -222,8 +222,8 @@ class SweepSettings:
 
 
 def _steady_settings(scenario, table):
-    """(steady_tol, max_settle_time, operating_point) from the [sweep] table or overrides; by default every Motor
-    component's speed is checked against its reference speed."""
+    """(steady_tol, max_settle_time, operating_point) from the [sweep] table or overrides; by default every Motor's
+    and MotorController's speed is checked against its reference speed."""
     where = f"{scenario.path}: [sweep]"
     tol = float(table.get("steady_tol", 1e-3))
     cap = table.get("max_settle_time")
@@ -231,7 +231,7 @@ def _steady_settings(scenario, table):
     if not (tol >= 0 and (cap is None or cap >= float(table["settle_time"]))):
         raise ScenarioError(f"{where} needs steady_tol >= 0 (0: no check) and max_settle_time >= settle_time")
     pairs = tuple((f"{name}.omega", f"{name}.omega_ref") for name, (fmu, _) in scenario.components.items()
-                  if fmu == "Motor")
+                  if fmu in ("Motor", "MotorController"))
     return tol, cap, pairs
 
 

@@ -8,6 +8,8 @@ from fmpy import read_model_description
 from ujfmu.cli import main
 from ujfmu.scenario import Scenario
 
+SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
+
 
 def test_build_fmi3_writes_an_fmi3_fmu(tmp_path):
     assert main(["build", "--fmi", "3", "Load", "--fmu-dir", str(tmp_path), "-q"]) == 0
@@ -59,3 +61,33 @@ def test_run_model_exchange_refuses_a_speed_driven_scenario_and_step_checks(fmu3
     assert main(["run", "--model-exchange", "--check-step", "--fmu-dir", str(fmu3_dir),
                  "scenarios/cardan_heavy_torque_driven.toml", "--no-plot", "-q"]) == 2
     assert "has none" in capsys.readouterr().err
+
+
+def test_model_exchange_run_checks_the_operating_point(fmu3_dir, tmp_path, capsys):
+    """A MotorController limited to 0.5 N.m against the load's 5 N.m cannot run the heavy torque-driven driveline
+    up to its 60 rad/s: the Model Exchange run says the operating point is not reached and exits 1, as the
+    co-simulation does."""
+    text = (SCENARIOS / "cardan_heavy_torque_driven.toml").read_text()
+    assert "tau_max = 100.0" in text
+    weak = tmp_path / "weak.toml"
+    weak.write_text(text.replace("tau_max = 100.0", "tau_max = 0.5").split("[reference]")[0])
+    assert main(["run", "--model-exchange", "--fmu-dir", str(fmu3_dir), str(weak), "--out", str(tmp_path),
+                 "--no-plot", "-q"]) == 1
+    out = capsys.readouterr().out
+    assert out.startswith("FAIL weak") and "motor.omega" in out and "not reached" in out
+
+
+def test_fmi3_runs_refuse_fmi2_fmus_and_check_skips_speed_driven_scenarios(fmu_dir, fmu3_dir, tmp_path, capsys):
+    """--fmi 3 on a folder of FMI 2.0 FMUs is refused with the build command (not run as FMI 2.0); `check
+    --model-exchange` checks the torque-driven scenarios and lists the speed-driven ones it cannot run."""
+    scenario = str(SCENARIOS / "cardan_heavy_torque_driven.toml")
+    for flag in ("--fmi=3", "--model-exchange"):
+        assert main(["run", flag, "--fmu-dir", str(fmu_dir), scenario, "--out", str(tmp_path), "--no-plot"]) == 2
+        err = capsys.readouterr().err
+        assert "is an FMI 2.0 FMU" in err and f"ujfmu build --fmi 3 --fmu-dir {fmu_dir}" in err
+    assert main(["run", "--fmi=3", "--fmu-dir", str(tmp_path), scenario, "--no-plot"]) == 2
+    assert f"ujfmu build --fmi 3 --fmu-dir {tmp_path}" in capsys.readouterr().err
+    assert main(["check", "--model-exchange", "--fmu-dir", str(fmu3_dir), str(SCENARIOS / "cardan_startup.toml"),
+                 scenario, "--out", str(tmp_path), "--no-plot", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "SKIPPED cardan_startup" in out and "1 passed, 0 failed, 0 not checked, 1 skipped" in out

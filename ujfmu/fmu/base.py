@@ -231,13 +231,24 @@ class UjfmuSlave(Fmi2Slave):
             kinds.update(cls.STATE)
         return kinds
 
+    @classmethod
+    def _capture_plan(cls, initialized):
+        """(field name, normalizer of its kind) per field of ``state_kinds``, built once per class: what
+        ``_capture`` applies at every save."""
+        plans = cls.__dict__.get("_CAPTURE_PLANS")
+        if plans is None:
+            plans = {flag: tuple((name, _NORMALIZERS.get(kind) or _normalize_vector)
+                                 for name, kind in cls.state_kinds(flag).items()) for flag in (False, True)}
+            cls._CAPTURE_PLANS = plans
+        return plans[initialized]
+
     def _capture(self):
         """The current FMU state, each value normalized to its kind (a tuple of floats for a float[n])."""
-        undeclared = self.__dict__.keys() - self._known
-        if undeclared:
+        if not self.__dict__.keys() <= self._known:
+            undeclared = self.__dict__.keys() - self._known
             raise ValueError(f"attributes {sorted(undeclared)} are neither in STATE nor in DERIVED")
-        kinds = self.state_kinds(self._initialized)
-        return FmuState(type(self), {k: _normalize(kind, getattr(self, k)) for k, kind in kinds.items()})
+        plan = self._capture_plan(bool(self._initialized))
+        return FmuState(type(self), {k: normalize(getattr(self, k)) for k, normalize in plan})
 
     def _get_fmu_state(self):
         try:
@@ -581,10 +592,24 @@ class FmuState:
 
 def _normalize(kind, value):
     if kind.startswith("float["):
-        return tuple(float(x) for x in value)
-    if kind == "float" or (kind == "float|None" and value is not None):
-        return float(value)
+        return _normalize_vector(value)
+    return _NORMALIZERS.get(kind, _same)(value)
+
+
+def _normalize_vector(value):
+    return tuple(map(float, value))
+
+
+def _same(value):
     return value
+
+
+def _optional_float(value):
+    return None if value is None else float(value)
+
+
+#: kind -> its normalizer (float[n]: _normalize_vector)
+_NORMALIZERS = {"float": float, "float|None": _optional_float, "int": _same, "bool": _same}
 
 
 _BUILD = {}
