@@ -477,25 +477,8 @@ class TorqueDriven:
     Parameters = TorqueDrivenParameters
     Inputs = Torques
 
-    class State(NamedTuple):
-        """Gearbox flange angle and speed, then the speed-driven rotor's :class:`State`."""
-
-        phi_in: float
-        omega_in: float
-        theta1: float
-        omega1: float
-        X1: float
-        dX1: float
-        Y1: float
-        dY1: float
-        theta2: float
-        omega2: float
-        X2: float
-        dX2: float
-        Y2: float
-        dY2: float
-        dissipated_energy: float
-        input_work: float
+    #: gearbox flange angle and speed, then the speed-driven rotor's :class:`State`
+    State = NamedTuple("State", [("phi_in", float), ("omega_in", float)] + list(State.__annotations__.items()))
 
     @staticmethod
     def initial_state(p: TorqueDrivenParameters, t: float, u: Torques) -> tuple:
