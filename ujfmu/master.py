@@ -696,17 +696,23 @@ class Cosimulation:
     def _where(self, conn):
         return conn.source.split(".", 1)[0], conn.target.split(".", 1)[0]
 
+    def _worst_tear(self, ratio_of):
+        """(index, ratio, growth state) of the torn connection with the largest ratio_of(growth state), None
+        where ratio_of gives None for every one."""
+        worst = None
+        for i, state in zip(self._tears, self._growth):
+            ratio = ratio_of(state)
+            if ratio is not None and (worst is None or ratio > worst[1]):
+                worst = (i, ratio, state)
+        return worst
+
     def _jump_report(self):
         """Words on a torn connection whose last change reversed the one before it while growing
         GROWTH_FACTOR-fold, above GROWTH_FLOOR of its largest value ('' if none): a divergence too fast for the
         alternation count of ``_growth_report``."""
-        worst = None
-        for i, state in zip(self._tears, self._growth):
-            if (state[1] * state[5] < 0.0 and abs(state[1]) > GROWTH_FACTOR * abs(state[5])
-                    and abs(state[1]) > GROWTH_FLOOR * state[4]):
-                ratio = abs(state[1] / state[5])
-                if worst is None or ratio > worst[1]:
-                    worst = (i, ratio, state)
+        worst = self._worst_tear(lambda state: abs(state[1] / state[5]) if (
+            state[1] * state[5] < 0.0 and abs(state[1]) > GROWTH_FACTOR * abs(state[5])
+            and abs(state[1]) > GROWTH_FLOOR * state[4]) else None)
         if worst is None:
             return ""
         i, ratio, state = worst
@@ -757,12 +763,8 @@ class Cosimulation:
 
     def _growth_report(self, force=False):
         """Words on the fastest-growing alternating torn connection ('' if none is growing)."""
-        worst = None
-        for i, state in zip(self._tears, self._growth):
-            if state[2] >= 2 and state[3] > 0.0 and abs(state[1]) > 1.5 ** state[2] * state[3]:
-                ratio = (abs(state[1]) / state[3]) ** (1.0 / state[2])
-                if worst is None or ratio > worst[1]:
-                    worst = (i, ratio, state)
+        worst = self._worst_tear(lambda state: (abs(state[1]) / state[3]) ** (1.0 / state[2]) if (
+            state[2] >= 2 and state[3] > 0.0 and abs(state[1]) > 1.5 ** state[2] * state[3]) else None)
         if worst is None:
             return ""
         i, ratio, state = worst
