@@ -234,21 +234,52 @@ def test_lateral_force_is_quadratic_in_torque_for_z_and_linear_for_w():
             assert g[1] / g[0] == pytest.approx(1.0, rel=0.02)
 
 
-def test_straight_line_derivatives_are_the_composed_equations():
+def _random_rig(rng, massless):
+    """Parameters at a random layout, with random cross and intermediate-shaft inertias or (massless) none, which
+    takes the straight-line code's constant-inertia branch."""
+    b1, b2, phase, plane = rng.uniform(-0.6, 0.6, 4)
+    inertias = {} if massless else dict(I_cross_pin=rng.uniform(0, 1e-3), I_cross_normal=rng.uniform(0, 1e-3),
+                                        I_intermediate=rng.uniform(0, 1e-2))
+    p = driveline(b1, b2, phase, plane, I_input=rng.uniform(0, 1e-2), **inertias)
+    assert p.constant_inertias == massless
+    return p
+
+
+@pytest.mark.parametrize("massless", [False, True])
+def test_straight_line_derivatives_are_the_composed_equations(massless):
     """flexible_derivatives (straight-line code, the integrator's inner loop) is Lagrange's equations assembled from
     flexible_kinematics and output_inertia (each tested against the kinematics and energies above), at random
-    layouts, inertias, states and inputs."""
+    layouts, inertias (none: the constant-inertia branch), states and inputs."""
     rng = np.random.default_rng(16)
     for _ in range(200):
-        b1, b2, phase, plane = rng.uniform(-0.6, 0.6, 4)
-        p = driveline(b1, b2, phase, plane, I_cross_pin=rng.uniform(0, 1e-3), I_cross_normal=rng.uniform(0, 1e-3),
-                      I_intermediate=rng.uniform(0, 1e-2))
+        p = _random_rig(rng, massless)
         phi1, w1, tau = rng.uniform(-50, 50), rng.uniform(-100, 100), rng.uniform(-10, 10)
         phi4, w4, phi, dphi = rng.uniform(-50, 50), rng.uniform(-100, 100), rng.uniform(-0.05, 0.05), rng.uniform(-5, 5)
         twist, dtwist, r1, r2, g, _ = dc.flexible_kinematics(p, phi1, w1, phi4, w4, phi, dphi)
         shaft = p.k_theta * twist + p.c_theta * dtwist
         j_out, dj_out = dc.output_inertia(p, phi4)
+        if not massless:
+            assert dj_out != 0.0   # the branch with a varying J_out
         composed = (w4, (r2 * shaft - 0.5 * dj_out * w4 * w4 - tau) / j_out, dphi,
                     -(p.c_phi * dphi + p.k_phi * phi) / p.m_s - g * shaft / p.m_lat)
         ours = dc.flexible_derivatives(p, phi1, w1, (phi4, w4, phi, dphi), tau)
         np.testing.assert_allclose(ours, composed, rtol=1e-12, atol=1e-12 * max(map(abs, composed)))
+
+
+@pytest.mark.parametrize("massless", [False, True])
+def test_fmu_outputs_are_the_composed_flexible_outputs(massless):
+    """The FMU's outputs (``outputs``: the kinematics of the straight-line code) are flexible_outputs (power balance
+    tested above) and the state, at random layouts, inertias, states and inputs."""
+    rng = np.random.default_rng(17)
+    for _ in range(200):
+        p = _random_rig(rng, massless)
+        phi1, w1, alpha1, tau = rng.uniform(-50, 50), rng.uniform(-100, 100), rng.uniform(-500, 500), rng.uniform(-9, 9)
+        y = dc.State(rng.uniform(-50, 50), rng.uniform(-100, 100), rng.uniform(-0.05, 0.05), rng.uniform(-5, 5))
+        out = dc.flexible_outputs(p, phi1, w1, alpha1, y)
+        ours = dc.outputs(p, 0.0, y, dc.Drive(phi1, w1, alpha1, tau))
+        expected = {"phi_out": y.phi4, "omega_out": y.omega4, "dynamic_misalignment": y.phi, "twist": out["twist"],
+                    "tau_in": out["tau_in"], "shaft_torque": out["shaft_torque"], "omega_intermediate": out["omega2"],
+                    "stored_energy": out["energy"]}
+        assert ours.keys() == expected.keys()
+        for key, value in expected.items():
+            assert ours[key] == pytest.approx(value, rel=1e-12, abs=1e-12 * (1.0 + abs(value))), key

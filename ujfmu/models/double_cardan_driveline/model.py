@@ -94,8 +94,9 @@ class Parameters:
     """The DoubleCardanDriveline FMU's parameters (names as declared there) and the constants the equations use:
     delta = yoke_phase - joint_plane_angle (joint 2's phase relative to joint 1), c = xi k (Omar Eq. 12),
     lever2 = (L_c cos beta1)^2 and m_lat = m_s lever2 (Omar Eqs. 11, 14), sin and cos of the static joint angles
-    (the inertias J_in, J_out are evaluated at them), and the natural-rate bound of the flexible equations (0 for a
-    rigid shaft, or where :func:`check` refuses the parameters)."""
+    (the inertias J_in, J_out are evaluated at them), whether the crosses and the intermediate shaft have no
+    inertia (constant_inertias: J_in = I_input and J_out = J_load at every angle), and the natural-rate bound of
+    the flexible equations (0 for a rigid shaft, or where :func:`check` refuses the parameters)."""
 
     beta1: float
     beta2: float
@@ -123,6 +124,7 @@ class Parameters:
     sc_beta1: tuple = field(init=False, repr=False)
     sc_beta2: tuple = field(init=False, repr=False)
     natural_rate: float = field(init=False, repr=False)
+    constant_inertias: bool = field(init=False, repr=False)
 
     def __post_init__(self):
         self.delta = self.yoke_phase - self.joint_plane_angle
@@ -133,6 +135,7 @@ class Parameters:
         self.m_lat = self.m_s * self.lever2
         self.sc_beta1 = (math.sin(self.beta1), math.cos(self.beta1))
         self.sc_beta2 = (math.sin(self.beta2), math.cos(self.beta2))
+        self.constant_inertias = self.I_cross_pin == 0.0 and self.I_cross_normal == 0.0 and self.I_intermediate == 0.0
         self.natural_rate = 0.0 if self.rigid_intermediate_shaft or not self.J_load > 0.0 else \
             natural_rate_bound(self)
 
@@ -150,7 +153,10 @@ def output_inertia(p: Parameters, phi4: float) -> tuple:
 
 def _shaft_end_inertia(p: Parameters, shaft: float, sx: float, cx: float, sc_beta: tuple) -> tuple:
     """(J, dJ/dx) of a shaft of inertia ``shaft``, its joint's cross and the half of the intermediate shaft at that
-    joint, from sin x, cos x of the joint's driving-yoke angle x and (sin b, cos b) of its static angle."""
+    joint, from sin x, cos x of the joint's driving-yoke angle x and (sin b, cos b) of its static angle; (shaft, 0)
+    without crosses and intermediate-shaft inertia (``constant_inertias``)."""
+    if p.constant_inertias:
+        return shaft, 0.0
     jc, djc = _cross_inertia(sx, cx, sc_beta[0], sc_beta[1], p.I_cross_pin, p.I_cross_normal)
     r, dr, _ = _ratio(sx, cx, sc_beta[0], sc_beta[1])
     half = 0.5 * p.I_intermediate
@@ -228,12 +234,14 @@ def flexible_derivatives(p: Parameters, phi1: float, omega1: float, state: Seque
 
 
 def _flexible_rates(p, phi1, omega1, state, tau_load):
-    """(flexible_derivatives, r1, shaft torque k_theta twist + c_theta dtwist), straight-line: the integrator's
-    inner loop. The same equations as :func:`flexible_kinematics` and :func:`output_inertia` (tests compare them),
-    each sine and cosine once, no calls: joint i at yoke angle x and angle b (sx, cx, sb, cb its sines and cosines)
-    has d = 1 - sb^2 cx^2, dy/dx = cb / d, dy/db = sb sx cx / d and y - x = atan2((1 - cb) sin 2x, (1 + cb) -
-    (1 - cb) cos 2x) (Omar Eq. 4); J_out is :func:`cross_inertia` at the static beta2 plus half the intermediate
-    shaft's inertia times (dy/dx)^2."""
+    """(flexible_derivatives, r1, shaft torque k_theta twist + c_theta dtwist, twist, e1 = dphi2/db1),
+    straight-line: the integrator's inner loop and the outputs' kinematics. The same equations as
+    :func:`flexible_kinematics` and :func:`output_inertia` (tests compare them), each sine and cosine once, no
+    calls: joint i at yoke angle x and angle b (sx, cx, sb, cb its sines and cosines) has d = 1 - sb^2 cx^2,
+    dy/dx = cb / d, dy/db = sb sx cx / d and y - x = atan2((1 - cb) sin 2x, (1 + cb) - (1 - cb) cos 2x) (Omar
+    Eq. 4); J_out is :func:`cross_inertia` at the static beta2 plus half the intermediate shaft's inertia times
+    (dy/dx)^2, or J_load (dJ_out = 0) without crosses and intermediate-shaft inertia (``constant_inertias``: the
+    terms it skips are all zero then)."""
     sin, cos = math.sin, math.cos
     phi4, omega4, phi, dphi = state
     u4 = phi4 + p.delta
@@ -246,10 +254,14 @@ def _flexible_rates(p, phi1, omega1, state, tau_load):
     d1 = 1.0 - sb1 * sb1 * cc1
     d2 = 1.0 - sb2 * sb2 * cc4
     r1, r2 = cb1 / d1, cb2 / d2
-    g = sb1 * sc1 / d1 - p.cos_plane * sb2 * sc4 / d2
+    e1 = sb1 * sc1 / d1
+    g = e1 - p.cos_plane * sb2 * sc4 / d2
     twist = (phi1 + math.atan2((1.0 - cb1) * 2.0 * sc1, (1.0 + cb1) - (1.0 - cb1) * (cc1 - s1 * s1))
              - phi4 - math.atan2((1.0 - cb2) * 2.0 * sc4, (1.0 + cb2) - (1.0 - cb2) * (cc4 - s4 * s4)))
     shaft = p.k_theta * twist + p.c_theta * (r1 * omega1 - r2 * omega4 + g * dphi)
+    lateral = -(p.c_phi * dphi + p.k_phi * phi) / p.m_s - g * shaft / p.m_lat
+    if p.constant_inertias:
+        return (omega4, (r2 * shaft - tau_load) / p.J_load, dphi, lateral), r1, shaft, twist, e1
     # J_out and dJ_out/dphi4: joint 2 at its static angle beta2 (s, c)
     s, c = p.sc_beta2
     ss, s2x = s * s, 2.0 * sc4
@@ -261,10 +273,8 @@ def _flexible_rates(p, phi1, omega1, state, tau_load):
     j_out = p.J_load + p.I_cross_pin * ss * (r * r * cc4 + s4 * s4 / d) + p.I_cross_normal * c * c / d + half * r * r
     dj_out = (p.I_cross_pin * ss * (2.0 * r * dr * cc4 - r * r * s2x + s2x / d - s4 * s4 * dd / (d * d))
               - p.I_cross_normal * c * c * dd / (d * d) + 2.0 * half * r * dr)
-    return (omega4,
-            (r2 * shaft - 0.5 * dj_out * omega4 * omega4 - tau_load) / j_out,
-            dphi,
-            -(p.c_phi * dphi + p.k_phi * phi) / p.m_s - g * shaft / p.m_lat), r1, shaft
+    return ((omega4, (r2 * shaft - 0.5 * dj_out * omega4 * omega4 - tau_load) / j_out, dphi, lateral), r1, shaft,
+            twist, e1)
 
 
 def flexible_outputs(p: Parameters, phi1: float, omega1: float, alpha1: float, state: Sequence[float]) -> dict:
@@ -335,7 +345,7 @@ def torque_driven_rates(p: Parameters, j_drive: float, state, tau_drive: float, 
     if len(state) == 2:
         rest = rigid_state(p, phi1, omega1, 0.0, tau_load)
         return omega1, (tau_drive - rest["tau_in"]) / (j_drive + rest["inertia"])
-    rates, r1, shaft = _flexible_rates(p, phi1, omega1, state[2:], tau_load)
+    rates, r1, shaft = _flexible_rates(p, phi1, omega1, state[2:], tau_load)[:3]
     j_in, dj_in = input_inertia(p, phi1)
     return (omega1, (tau_drive - 0.5 * dj_in * omega1 * omega1 - r1 * shaft) / (j_drive + j_in)) + rates
 
@@ -388,16 +398,27 @@ def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
 
 
 def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
-    """Rigid: :func:`rigid_state`; flexible: :func:`flexible_outputs` at state y."""
+    """Rigid: :func:`rigid_state`; flexible: :func:`flexible_outputs` at state y (computed straight-line)."""
     if p.rigid_intermediate_shaft:
         out = rigid_state(p, u.phi, u.omega, u.alpha, u.tau_load)
-        values = {"phi_out": out["phi4"], "omega_out": out["omega4"], "twist": 0.0, "dynamic_misalignment": 0.0}
-    else:
-        out = flexible_outputs(p, u.phi, u.omega, u.alpha, y)
-        values = {"phi_out": y[0], "omega_out": y[1], "dynamic_misalignment": y[2], "twist": out["twist"]}
-    values.update(tau_in=out["tau_in"], shaft_torque=out["shaft_torque"], omega_intermediate=out["omega2"],
-                  stored_energy=out["energy"])
-    return values
+        return {"phi_out": out["phi4"], "omega_out": out["omega4"], "twist": 0.0, "dynamic_misalignment": 0.0,
+                "tau_in": out["tau_in"], "shaft_torque": out["shaft_torque"], "omega_intermediate": out["omega2"],
+                "stored_energy": out["energy"]}
+    return _flexible_output_values(p, u.phi, u.omega, u.alpha, y)
+
+
+def _flexible_output_values(p, phi1, omega1, alpha1, y):
+    """The FMU's outputs: :func:`flexible_outputs` with its kinematics from :func:`_flexible_rates` (tau_load
+    0: the rates are not used), one call instead of eight (tests compare them)."""
+    phi4, omega4, phi, dphi = y
+    r1, shaft, twist, e1 = _flexible_rates(p, phi1, omega1, y, 0.0)[1:]
+    j_in, dj_in = input_inertia(p, phi1)
+    j_out = output_inertia(p, phi4)[0]
+    return {"phi_out": phi4, "omega_out": omega4, "dynamic_misalignment": phi, "twist": twist,
+            "tau_in": j_in * alpha1 + 0.5 * dj_in * omega1 * omega1 + r1 * shaft, "shaft_torque": shaft,
+            "omega_intermediate": r1 * omega1 + e1 * dphi,
+            "stored_energy": 0.5 * (j_in * omega1 * omega1 + j_out * omega4 * omega4 + p.m_lat * dphi * dphi
+                                    + p.k_theta * twist * twist + p.k_phi * p.lever2 * phi * phi)}
 
 
 def check(p: Parameters) -> list:
