@@ -3,7 +3,8 @@
 import math
 
 from . import model as dc
-from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
+from ...fmu import rk4
+from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, ModelSlave, PrescribedInputSlave, input_, output, parameter
 from ...fmu.torque_driven import TorqueDrivenSlave, driven_ports
 
 _ANGLE = dict(min=-dc.MAX_ANGLE, max=dc.MAX_ANGLE)
@@ -11,7 +12,27 @@ _PHASE = dict(min=-2.0 * math.pi, max=2.0 * math.pi)
 _INERTIA = dict(min=0.0, max=1.0e3)
 
 
-class DoubleCardanDriveline(PrescribedInputSlave):
+class FlexibleSteps(ModelSlave):
+    """A flexible shaft's step by model.integrate: the base's RK4 substeps (``rate_bound``), or the fifth-order
+    formula where it is cheaper for at least their accuracy (model.fifth_order_steps); the new state checked as the
+    base checks it. A rigid shaft's step is the base's."""
+
+    def advance(self, t, h):
+        p = self._p
+        if not p.natural_rate > 0.0:
+            return super().advance(t, h)
+        u = self.model_inputs()
+        y = self.current_state(u)
+        y = self.flexible_step(u, y, h, rk4.substeps(self.MODEL.rate_bound(p, y, self.speed_bound(h)), h))
+        if not all(math.isfinite(x) for x in y):
+            raise ValueError(f"the state became non-finite over the step ({y!r})")
+        problems = self.MODEL.check_state(p, y)
+        if problems:
+            raise ValueError("; ".join(problems))
+        self._y, self._started, self._time = y, True, t + h
+
+
+class DoubleCardanDriveline(PrescribedInputSlave, FlexibleSteps):
     """Input shaft, Cardan joint 1, intermediate shaft, Cardan joint 2, output shaft with the driven load.
 
     The input shaft follows omega_in (angle advanced with the input extrapolated linearly over each step, its
@@ -82,8 +103,12 @@ class DoubleCardanDriveline(PrescribedInputSlave):
     )
     DEFAULT_EXPERIMENT = (0.0, 3.0, 1.0e-3)
 
+    def flexible_step(self, u, y, h, substeps):
+        """model.flexible_step over h, the input angle extrapolated as PrescribedInputSlave does."""
+        return dc.flexible_step(self._p, h, u.phi, u.omega, u.alpha, y, u.tau_load, substeps)
 
-class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
+
+class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave, FlexibleSteps):
     """Torque-driven DoubleCardanDriveline: driving torque tau_in in, input shaft speed omega_in out (stable in
     explicit hosts).
 
@@ -102,3 +127,7 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
     MODEL = dc.TorqueDriven
     VARIABLES = driven_ports(DoubleCardanDriveline)
     DEFAULT_EXPERIMENT = DoubleCardanDriveline.DEFAULT_EXPERIMENT
+
+    def flexible_step(self, u, y, h, substeps):
+        """model.torque_driven_step over h, the torques held."""
+        return dc.torque_driven_step(self._p, h, y, u.tau_in, u.tau_load, substeps)
