@@ -335,11 +335,13 @@ def fifth_order_steps(substeps: int) -> int:
     """Dormand-Prince steps that replace ``substeps`` RK4 substeps: each as long as two of them, used where they take
     fewer derivative evaluations (6 a step against RK4's 4: for 2 and from 4 substeps on), else 0.
 
-    Accuracy. On a component of frequency w the local error is (w h)^5 / 120 for RK4 and (w h)^6 / 3600 for the
-    fifth-order formula (its stability polynomial ends in z^6 / 600 where exp has z^6 / 720). The RK4 rule
-    (:func:`rate_bound`, ``rk4.RATE_STEP`` = 0.5) bounds w h <= 0.5 a substep; two substeps' length gives w h <= 1,
-    where the error per unit time, w (w h)^5 / 3600 <= w / 3600, is 0.53x RK4's at its limit, w 0.5^4 / 120.
-    Stability: w h <= 1 keeps 3.3x from the formula's stability boundary on both axes.
+    Accuracy. The RK4 rule (:func:`rate_bound`, ``rk4.RATE_STEP`` = 0.5) bounds w h <= 0.5 a substep for every
+    rate w of the model, so w h <= 1 a fifth-order step. One step multiplies a mode exp(z), z = h lambda, by
+    R(z) = 1 + z + ... + z^5 / 120 + z^6 / 600 (RK4: to z^4 / 24); for an undamped oscillation at the limits,
+    |exp(z) - R(z)| / |z| is 3.6e-4 at w h = 1 against RK4's 5.2e-4 at w h = 0.5: 0.69x the error per radian,
+    and less below the limit (fifth order against fourth: 0.1x at w h = 0.7). Stability: |R| <= 1 for
+    |z| <= 1 wherever the mode has any damping (Re z <= -0.001); an undamped mode exactly at the bound would grow
+    by at most 1.4e-6 a step (|R(i)|); decay is stable to h |lambda| = 3.3.
     """
     steps = (substeps + 1) // 2
     return steps if 6 * steps < 4 * substeps else 0
