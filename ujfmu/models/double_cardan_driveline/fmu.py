@@ -43,7 +43,8 @@ class DoubleCardanDriveline(PrescribedInputSlave, FlexibleSteps):
     - false (Omar et al., Eqs. 3-19 re-derived): a torsional spring-damper k_theta, c_theta = xi_theta k_theta in
       the intermediate shaft and a suspended mass m_s on a lateral support k_phi, c_phi = xi_phi k_phi at lever
       L_c give two degrees of freedom, the output angle and the dynamic misalignment phi that adds to both joint
-      angles; integrated with classical RK4 substeps sized from the fastest natural frequency and input speed.
+      angles; integrated with classical RK4 substeps sized from the fastest natural frequency and input speed, or
+      Dormand and Prince's fifth-order formula with one step per two of them where that takes fewer evaluations.
       The intermediate shaft's inertia is lumped half at each end. The driveline starts untwisted, phi = 0, with
       the output at the kinematic speed of omega_in as it is at the first step.
     Layout: yoke_phase = joint_plane_angle and beta1 = beta2 (Z) or beta1 = -beta2 (W) is constant velocity.
@@ -117,7 +118,8 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave, FlexibleSteps):
     the input shaft (model.TorqueDriven): rigid, (J_drive + J_eq) alpha1 =
     tau_in - J_eq' omega1^2/2 - rho tau_load; flexible, (J_drive + J_in) alpha1 = tau_in - J_in' omega1^2/2 -
     r1 (k_theta twist + c_theta dtwist), with the output and lateral equations unchanged. tau_in and tau_load are
-    held over each step (classical RK4, substeps from the torsional mode of both shaft ends and 4|omega1|). The
+    held over each step (classical RK4, substeps from the torsional mode of both shaft ends and 4|omega1|, or the
+    fifth-order formula as in DoubleCardanDriveline). The
     driveline starts untwisted at omega_in_start, the output at the kinematic speed. Outputs as
     DoubleCardanDriveline's; tau_input_shaft = tau_in - J_drive*alpha1 is what DoubleCardanDriveline calls tau_in.
     Wire it to MotorController (tau_motor -> tau_in, omega_in -> omega) and a Load. Signs as
