@@ -283,3 +283,28 @@ def test_fmu_outputs_are_the_composed_flexible_outputs(massless):
         assert ours.keys() == expected.keys()
         for key, value in expected.items():
             assert ours[key] == pytest.approx(value, rel=1e-12, abs=1e-12 * (1.0 + abs(value))), key
+
+
+@pytest.mark.parametrize("massless", [False, True])
+def test_torque_driven_outputs_are_the_speed_driven_ones_at_the_accelerating_input(massless):
+    """DoubleCardanDrivelineTorqueDriven's outputs (one evaluation of the kinematics) are the speed-driven outputs
+    at the input shaft's motion, its acceleration from the equation of motion (torque_driven_rates), at random
+    rigs, states and torques."""
+    rng = np.random.default_rng(18)
+    for _ in range(100):
+        base = _random_rig(rng, massless)
+        fields = {f: getattr(base, f) for f in ("beta1", "beta2", "yoke_phase", "joint_plane_angle", *OMAR,
+                                                "I_input")}
+        p = dc.TorqueDrivenParameters(**fields, J_drive=rng.uniform(1e-3, 0.1), omega_in_start=0.0)
+        y = (rng.uniform(-50, 50), rng.uniform(-100, 100), rng.uniform(-50, 50), rng.uniform(-100, 100),
+             rng.uniform(-0.05, 0.05), rng.uniform(-5, 5))
+        u = dc.TorqueDriven.Inputs(rng.uniform(-50, 50), rng.uniform(-9, 9))
+        alpha = dc.torque_driven_rates(p, p.J_drive, y, u.tau_in, u.tau_load)[1]
+        speed_driven = dc.flexible_outputs(p, y[0], y[1], alpha, y[2:])
+        ours = dc.TorqueDriven.outputs(p, 0.0, y, u)
+        assert ours["alpha_in"] == pytest.approx(alpha, rel=1e-12, abs=1e-9)
+        for key, out_key in (("tau_input_shaft", "tau_in"), ("twist", "twist"), ("shaft_torque", "shaft_torque"),
+                             ("omega_intermediate", "omega2"), ("stored_energy", "energy")):
+            value = speed_driven[out_key]
+            assert ours[key] == pytest.approx(value, rel=1e-12, abs=1e-12 * (1.0 + abs(value))), key
+        assert (ours["phi_in"], ours["omega_in"], ours["phi_out"], ours["omega_out"]) == (y[0], y[1], y[2], y[3])

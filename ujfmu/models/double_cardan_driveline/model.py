@@ -465,18 +465,25 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
     return _flexible_output_values(p, u.phi, u.omega, u.alpha, y)
 
 
-def _flexible_output_values(p, phi1, omega1, alpha1, y):
+def _flexible_output_values(p, phi1, omega1, alpha1, y, tau_drive=0.0, j_drive=None):
     """The FMU's outputs: :func:`flexible_outputs` with its kinematics from :func:`_flexible_rates` (tau_load
-    0: the rates are not used), one call instead of eight (tests compare them)."""
+    0: the rates are not used), one call instead of eight (tests compare them). With j_drive (the torque-driven
+    driveline), alpha1 is the input shaft's acceleration under tau_drive (:func:`torque_driven_rates`), returned as
+    alpha_in."""
     phi4, omega4, phi, dphi = y
     r1, shaft, twist, e1 = _flexible_rates(p, phi1, omega1, y, 0.0)[1:]
     j_in, dj_in = input_inertia(p, phi1)
     j_out = output_inertia(p, phi4)[0]
-    return {"phi_out": phi4, "omega_out": omega4, "dynamic_misalignment": phi, "twist": twist,
-            "tau_in": j_in * alpha1 + 0.5 * dj_in * omega1 * omega1 + r1 * shaft, "shaft_torque": shaft,
-            "omega_intermediate": r1 * omega1 + e1 * dphi,
-            "stored_energy": 0.5 * (j_in * omega1 * omega1 + j_out * omega4 * omega4 + p.m_lat * dphi * dphi
-                                    + p.k_theta * twist * twist + p.k_phi * p.lever2 * phi * phi)}
+    if j_drive is not None:
+        alpha1 = (tau_drive - 0.5 * dj_in * omega1 * omega1 - r1 * shaft) / (j_drive + j_in)
+    values = {"phi_out": phi4, "omega_out": omega4, "dynamic_misalignment": phi, "twist": twist,
+              "tau_in": j_in * alpha1 + 0.5 * dj_in * omega1 * omega1 + r1 * shaft, "shaft_torque": shaft,
+              "omega_intermediate": r1 * omega1 + e1 * dphi,
+              "stored_energy": 0.5 * (j_in * omega1 * omega1 + j_out * omega4 * omega4 + p.m_lat * dphi * dphi
+                                      + p.k_theta * twist * twist + p.k_phi * p.lever2 * phi * phi)}
+    if j_drive is not None:
+        values["alpha_in"] = alpha1
+    return values
 
 
 def check(p: Parameters) -> list:
@@ -575,7 +582,10 @@ class TorqueDriven:
     @staticmethod
     def outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
         """The input shaft's motion from the state and :func:`torque_driven_rates`, the rest from :func:`outputs`
-        at that motion."""
+        at that motion (flexible: both from one evaluation of the kinematics)."""
+        if not p.rigid_intermediate_shaft:
+            values = _flexible_output_values(p, y[0], y[1], None, y[2:], u.tau_in, p.J_drive)
+            return torque_driven_outputs(values, y, values.pop("alpha_in"))
         alpha = TorqueDriven.derivatives(p, t, y, u)[1]
         return torque_driven_outputs(outputs(p, t, State(*y[2:]), Drive(y[0], y[1], alpha, u.tau_load)), y, alpha)
 
