@@ -383,7 +383,8 @@ class ModelSlave(UjfmuSlave):
     - the parameters object ``MODEL.Parameters`` from the FMU's parameters (by name), and ``MODEL.check`` on it;
     - the state: ``MODEL.initial_state`` at the current inputs until the first step (the warm start: a host may
       set the inputs after initialization), then integrated, or held while ``MODEL.kinematic(p)``;
-    - a step: classical RK4 (``rk4.integrate_time``) with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs
+    - a step: classical RK4 (``rk4.integrate_time``, or ``MODEL.integrate`` with its signature where the model has
+      one) with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs
       held (a prescribed input shaft extrapolated, see PrescribedInputSlave), then the finite check and
       ``MODEL.check_state`` of the new state;
     - the outputs: ``MODEL.outputs`` assigned by name, recomputed on the first read after a step or a change of an
@@ -462,7 +463,7 @@ class ModelSlave(UjfmuSlave):
 
                 def rates(s, y):
                     return model.derivatives(p, t + s, y, inputs_at(s))
-            y = tuple(rk4.integrate_time(rates, y, h, n))
+            y = tuple(getattr(model, "integrate", rk4.integrate_time)(rates, y, h, n))
             if not all(math.isfinite(x) for x in y):
                 raise ValueError(f"the state became non-finite over the step ({y!r})")
             problems = getattr(model, "check_state", _none)(p, y)

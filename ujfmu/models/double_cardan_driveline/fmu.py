@@ -3,8 +3,7 @@
 import math
 
 from . import model as dc
-from ...fmu import rk4
-from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, ModelSlave, PrescribedInputSlave, input_, output, parameter
+from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_, output, parameter
 from ...fmu.torque_driven import TorqueDrivenSlave, driven_ports
 
 _ANGLE = dict(min=-dc.MAX_ANGLE, max=dc.MAX_ANGLE)
@@ -12,27 +11,7 @@ _PHASE = dict(min=-2.0 * math.pi, max=2.0 * math.pi)
 _INERTIA = dict(min=0.0, max=1.0e3)
 
 
-class FlexibleSteps(ModelSlave):
-    """A flexible shaft's step by model.integrate: the base's RK4 substeps (``rate_bound``), or the fifth-order
-    formula where it is cheaper for at least their accuracy (model.fifth_order_steps); the new state checked as the
-    base checks it. A rigid shaft's step is the base's."""
-
-    def advance(self, t, h):
-        p = self._p
-        if not p.natural_rate > 0.0:
-            return super().advance(t, h)
-        u = self.model_inputs()
-        y = self.current_state(u)
-        y = self.flexible_step(u, y, h, rk4.substeps(self.MODEL.rate_bound(p, y, self.speed_bound(h)), h))
-        if not all(math.isfinite(x) for x in y):
-            raise ValueError(f"the state became non-finite over the step ({y!r})")
-        problems = self.MODEL.check_state(p, y)
-        if problems:
-            raise ValueError("; ".join(problems))
-        self._y, self._started, self._time = y, True, t + h
-
-
-class DoubleCardanDriveline(PrescribedInputSlave, FlexibleSteps):
+class DoubleCardanDriveline(PrescribedInputSlave):
     """Input shaft, Cardan joint 1, intermediate shaft, Cardan joint 2, output shaft with the driven load.
 
     The input shaft follows omega_in (angle advanced with the input extrapolated linearly over each step, its
@@ -44,7 +23,8 @@ class DoubleCardanDriveline(PrescribedInputSlave, FlexibleSteps):
       the intermediate shaft and a suspended mass m_s on a lateral support k_phi, c_phi = xi_phi k_phi at lever
       L_c give two degrees of freedom, the output angle and the dynamic misalignment phi that adds to both joint
       angles; integrated with classical RK4 substeps sized from the fastest natural frequency and input speed, or
-      Dormand and Prince's fifth-order formula with one step per two of them where that takes fewer evaluations.
+      Dormand and Prince's fifth-order formula with one step per two of them where that takes fewer evaluations
+      (model.integrate).
       The intermediate shaft's inertia is lumped half at each end. The driveline starts untwisted, phi = 0, with
       the output at the kinematic speed of omega_in as it is at the first step.
     Layout: yoke_phase = joint_plane_angle and beta1 = beta2 (Z) or beta1 = -beta2 (W) is constant velocity.
@@ -104,12 +84,8 @@ class DoubleCardanDriveline(PrescribedInputSlave, FlexibleSteps):
     )
     DEFAULT_EXPERIMENT = (0.0, 3.0, 1.0e-3)
 
-    def flexible_step(self, u, y, h, substeps):
-        """model.flexible_step over h, the input angle extrapolated as PrescribedInputSlave does."""
-        return dc.flexible_step(self._p, h, u.phi, u.omega, u.alpha, y, u.tau_load, substeps)
 
-
-class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave, FlexibleSteps):
+class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
     """Torque-driven DoubleCardanDriveline: driving torque tau_in in, input shaft speed omega_in out (stable in
     explicit hosts).
 
@@ -129,7 +105,3 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave, FlexibleSteps):
     MODEL = dc.TorqueDriven
     VARIABLES = driven_ports(DoubleCardanDriveline)
     DEFAULT_EXPERIMENT = DoubleCardanDriveline.DEFAULT_EXPERIMENT
-
-    def flexible_step(self, u, y, h, substeps):
-        """model.torque_driven_step over h, the torques held."""
-        return dc.torque_driven_step(self._p, h, y, u.tau_in, u.tau_load, substeps)

@@ -349,7 +349,8 @@ def fifth_order_steps(substeps: int) -> int:
 
 def integrate(rates, y: Sequence[float], t_span: float, substeps: int) -> list:
     """y advanced over t_span under y' = rates(t, y) (t from the step's start): ``rk4.integrate_time`` with
-    ``substeps`` substeps, or :func:`dormand_prince` with :func:`fifth_order_steps` steps where that is cheaper."""
+    ``substeps`` substeps, or :func:`dormand_prince` with :func:`fifth_order_steps` steps where that is cheaper.
+    The model protocol's ``integrate``: the FMU base steps with it."""
     steps = fifth_order_steps(substeps)
     if steps:
         return dormand_prince(rates, y, t_span, steps)
@@ -397,15 +398,6 @@ def torque_driven_rates(p: Parameters, j_drive: float, state, tau_drive: float, 
     rates, r1, shaft = _flexible_rates(p, phi1, omega1, state[2:], tau_load)[:3]
     j_in, dj_in = input_inertia(p, phi1)
     return (omega1, (tau_drive - 0.5 * dj_in * omega1 * omega1 - r1 * shaft) / (j_drive + j_in)) + rates
-
-
-def torque_driven_step(p: "TorqueDrivenParameters", t_span: float, state: Sequence[float], tau_drive: float,
-        tau_load: float, substeps: int) -> tuple:
-    """The torque-driven flexible driveline (:func:`torque_driven_rates`) advanced over t_span, tau_drive and
-    tau_load held, by :func:`integrate` with ``substeps`` RK4 substeps' worth of accuracy."""
-    def rates(t, y):
-        return torque_driven_rates(p, p.J_drive, y, tau_drive, tau_load)
-    return tuple(integrate(rates, state, t_span, substeps))
 
 
 # --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
@@ -539,6 +531,7 @@ class TorqueDriven:
 
     Parameters = TorqueDrivenParameters
     Inputs = Torques
+    integrate = staticmethod(integrate)
 
     class State(NamedTuple):
         """Input shaft angle and speed, then the speed-driven driveline's :class:`State`."""
