@@ -500,6 +500,10 @@ class Cosimulation:
         # stepping loop's fast path (FmuInstance.bare: ctypes arguments only)
         self._state_ops = [(*(inst.bare(f"fmi2{op}FMUstate") for op in ("Get", "Set", "Free")),
                             c_void_p(inst.slave.component), name) for inst, name in self._rolled]
+        # their saved states, one slot each reused every step (NULL again after each fmi2FreeFMUstate), and the
+        # slots' addresses for fmi2GetFMUstate and fmi2FreeFMUstate
+        self._states = [fmi2FMUstate() for _ in self._rolled]
+        self._state_refs = [byref(state) for state in self._states]
         self._rolled_steppers = [s for s in self._bare_steppers if s[2] in rolled]
         self._fixed_steppers = [s for s in self._bare_steppers if s[2] not in rolled]
         # per torn connection: (fmi2SetReal of its target, target, its vr, 1, the value), bare as above
@@ -789,12 +793,10 @@ class Cosimulation:
         components owning torn inputs are restored with fmi2SetFMUstate before each re-step; the others step once.
         Ends with the FMUs at t + h and every connection transferred there.
         """
-        states = []
-        for get_state, _, _, comp, name in self._state_ops:
-            state = fmi2FMUstate()
-            if get_state(comp, byref(state)) > 1:
+        states = self._states
+        for (get_state, _, _, comp, name), ref in zip(self._state_ops, self._state_refs):
+            if get_state(comp, ref) > 1:
                 raise CosimulationError(f"component '{name}' could not save its state at t = {t!r}" + self._log_text())
-            states.append(state)
         try:
             self._step(self._fixed_steppers, c_double(t), c_double(h))
             g_start = self._scratch_view[self._tear_index]
@@ -844,8 +846,9 @@ class Cosimulation:
                     self._evaluate(best[1], t, h, states)
                 break
         finally:
-            for (_, _, free_state, comp, _), state in zip(self._state_ops, states):
-                free_state(comp, byref(state))
+            for (_, _, free_state, comp, _), state, ref in zip(self._state_ops, states, self._state_refs):
+                free_state(comp, ref)
+                state.value = None
 
     def _evaluate(self, u, t, h, states, restore=True):
         """r(u) = G(u) - u: step the rolled-back components with the torn inputs held at u, transfer everything
