@@ -13,20 +13,20 @@ it has no path to fmi2Error):
   need more than rk4.MAX_SUBSTEPS substeps, or any exception while stepping: the message is logged at fmi2Error
   and the step is refused (fmi2Discard); the instance and the host process stay alive.
 
-FMU state (canGetAndSetFMUstate, canSerializeFMUstate), data only: the values of the variables, the life-cycle
-flags and the attributes each model declares in ``STATE`` (name -> kind, see ``KINDS``). Attributes that follow from
-the parameters (a parameters object, cached rates) are declared in ``DERIVED`` and recomputed by ``derive()`` on
-restore, never stored; a restore skips that recomputation only when the state was saved by this instance since its
-last ``derive()`` and no parameter was set since (``_set_fmu_state``), since the DERIVED attributes then already
-follow from the restored parameters. An attribute a model sets that is in neither makes fmi2GetFMUstate fail (and the tests),
-so nothing can be forgotten. fmi2GetFMUstate returns an :class:`FmuState`; fmi2SetFMUstate restores exactly its
-fields, the same ones a serialized state restores. The serialized form (``encode_state``) is a versioned header
-(magic, format version, model name, build digest of the FMU's sources), JSON of plain numbers, and a SHA-256 of
-all of it. ``decode_state`` rejects a truncated or corrupted blob, another format version, another FMU, another
-build, a wrong field set, a wrong type or length, a non-finite number where a finite one is required, and
-parameters outside their ranges; it never imports, constructs or calls anything the blob names. pythonfmu turns
-the rejection into fmi2Fatal with the reason in the log message; the instance is left unchanged and usable (the
-objects pythonfmu releases twice are pinned, as above). docs/security.md has the threat model.
+FMU state (canGetAndSetFMUstate, canSerializeFMUstate), data only: the values of the variables, the life-cycle flags
+and the attributes each model declares in ``STATE`` (name -> kind, see ``KINDS``). Attributes that follow from the
+parameters (a parameters object, cached rates) are declared in ``DERIVED``, never stored, and recomputed by
+``derive()`` on restore unless they already follow from the restored parameters (a state this instance saved under
+its current ``derive()``, no parameter set since: see ``_set_fmu_state``). An attribute a model sets that is in
+neither makes fmi2GetFMUstate fail (and the tests), so nothing can be forgotten. fmi2GetFMUstate returns an
+:class:`FmuState`; fmi2SetFMUstate restores exactly its fields, the same ones a serialized state restores. The
+serialized form (``encode_state``) is a versioned header (magic, format version, model name, build digest of the
+FMU's sources), JSON of plain numbers, and a SHA-256 of all of it. ``decode_state`` rejects a truncated or corrupted
+blob, another format version, another FMU, another build, a wrong field set, a wrong type or length, a non-finite
+number where a finite one is required, and parameters outside their ranges; it never imports, constructs or calls
+anything the blob names. pythonfmu turns the rejection into fmi2Fatal with the reason in the log message; the
+instance is left unchanged and usable (the objects pythonfmu releases twice are pinned, as above). docs/security.md
+has the threat model.
 """
 
 import dataclasses
