@@ -33,7 +33,6 @@ import dataclasses
 import hashlib
 import json
 import math
-import operator
 import struct
 import sys
 import weakref
@@ -628,23 +627,16 @@ class FmuState:
 class _CapturePlan:
     """How the fields of one ``state_kinds`` of an FMU class are read and normalized at a save.
 
-    ``per_field``: (name, normalizer of its kind) per field; ``fields(inst)`` applies it group by group instead
-    (the fields of one kind read from the instance's attributes at once and normalized by one ``map``, into a copy
-    of ``template``, which fixes the ``state_kinds`` order), and field by field where that cannot apply (a field
-    not among the instance's own attributes, a value its kind rejects: the same values, or the same error).
-    ``plain``: every field is an ordinary instance attribute (no data descriptor of that name on the class, no
-    ``__setattr__`` of its own), so reading and writing ``__dict__`` is reading and writing the attribute."""
+    ``per_field``: (name, normalizer of its kind) per field, in ``state_kinds`` order. ``plain``: every field is an
+    ordinary instance attribute (no data descriptor of that name on the class, no ``__setattr__`` of its own), so
+    reading and writing the instance's ``__dict__`` is reading and writing the attribute; ``fields`` then reads the
+    values from it (a field missing there is read again as an attribute, field by field: the same values, or the
+    same error)."""
 
-    __slots__ = ("per_field", "template", "groups", "plain")
+    __slots__ = ("per_field", "plain")
 
     def __init__(self, cls, kinds):
         self.per_field = tuple((name, _NORMALIZERS.get(kind) or _normalize_vector) for name, kind in kinds.items())
-        self.template = dict.fromkeys(kinds)
-        by_normalizer = {}
-        for name, normalize in self.per_field:
-            by_normalizer.setdefault(None if normalize is _same else normalize, []).append(name)
-        self.groups = tuple((tuple(names), _values_getter(names), normalize)
-                            for normalize, names in by_normalizer.items())
         self.plain = cls.__setattr__ is object.__setattr__ and not any(
             hasattr(type(klass.__dict__[name]), "__set__")
             for name in kinds for klass in cls.__mro__ if name in klass.__dict__)
@@ -652,23 +644,12 @@ class _CapturePlan:
     def fields(self, inst):
         """The fields of inst, normalized, in ``state_kinds`` order."""
         if self.plain:
-            attributes, fields = inst.__dict__, self.template.copy()
+            attributes = inst.__dict__
             try:
-                for names, values_of, normalize in self.groups:
-                    values = values_of(attributes)
-                    fields.update(zip(names, values if normalize is None else map(normalize, values)))
-                return fields
-            except Exception:   # field by field below: the same values, or the error of the first wrong field
+                return {name: normalize(attributes[name]) for name, normalize in self.per_field}
+            except KeyError:
                 pass
         return {name: normalize(getattr(inst, name)) for name, normalize in self.per_field}
-
-
-def _values_getter(names):
-    """attributes -> the tuple of their values under names."""
-    if len(names) == 1:
-        name = names[0]
-        return lambda attributes: (attributes[name],)
-    return operator.itemgetter(*names)
 
 
 def _normalize(kind, value):
