@@ -275,6 +275,30 @@ def test_a_response_that_never_settles_is_not_steady_and_kept(tmp_path, fmu_dir)
     assert sweep.journal.read_text().splitlines() == lines
 
 
+@pytest.mark.parametrize("cap", [0.2, 0.26, 0.4])
+def test_a_not_steady_message_states_the_settle_time_used_and_why_it_passed_max_settle_time(tmp_path, fmu_dir, cap):
+    """The criterion needs a settle time of at least four measurement windows (1 revolution at 100 rad/s: 63 steps
+    of 1 ms) and lays whole windows back to back: with max_settle_time 0.2 s (under four windows) or 0.26 s (the
+    last window starts past it) the message gives the settle time actually used (settled_s) and says why it is
+    past the maximum; with 0.4 s the maximum holds and the message says nothing of it."""
+    sweep = ring_sweep(tmp_path, fmu_dir, ["coupling.e=0.001"], f"cap{cap}", settle_time=0.1, max_settle_time=cap,
+                       revolutions=1, steady_tol=1e-12)
+    sweep.run(workers=0, progress=False)
+    (r,) = sweep.table()
+    window = 0.063
+    assert r["status"] == "not_steady" and r["settled_s"] >= 4 * window - 1e-9
+    assert r["error"].startswith(f"not steady after {r['settled_s']:.4g} s of settling")
+    if r["settled_s"] <= cap:
+        assert "past max_settle_time" not in r["error"] and cap == 0.4
+    elif 4 * window > cap:
+        assert f"past max_settle_time = {cap:g} s because the check needs a settle time of at least four " \
+               f"measurement windows of 1 revolution of motor.omega ({window:.3g} s each)" in r["error"]
+        assert f"above {4 * window:.3g} s" in r["error"] and cap == 0.2
+    else:
+        assert f"past max_settle_time = {cap:g} s by {r['settled_s'] - cap:.3g} s because the check lays whole " \
+               "measurement windows" in r["error"] and cap == 0.26
+
+
 def test_a_drive_that_misses_its_set_speed_is_off_target(fmu_dir, tmp_path, capsys):
     """cardan_startup at a constant 150 rad/s set point: with its 5 N.m torque limit the PI motor holds it; limited
     to 0.25 N.m against the load 0.2 + 4e-6 w^2 N.m it settles where they balance, w = sqrt(0.05 / 4e-6) = 112 rad/s,
