@@ -318,7 +318,9 @@ def test_a_drive_that_misses_its_set_speed_is_off_target(fmu_dir, tmp_path, caps
     assert high["status"] == "ok" and float(high["speed_mean"]) == pytest.approx(150.0, rel=1e-3)
     assert low["status"] == "off_target"
     assert float(low["speed_mean"]) == pytest.approx(math.sqrt(0.05 / 4e-6), rel=0.01)
-    assert "motor.omega = 11" in low["error"] and "set point motor.omega_ref = 150" in low["error"]
+    assert "motor.omega = 11" in low["error"] and "set point motor.omega_ref = 150 rad/s (1432.39 rpm)" in low["error"]
+    reached = float(low["error"].split("motor.omega = ")[1].split()[0])   # in SI, then in rpm
+    assert f"motor.omega = {reached:.6g} rad/s ({reached * 30 / math.pi:.6g} rpm) (mean)" in low["error"]
 
 
 def test_points_are_reused_by_the_same_code_and_fmu_builds_only(brutti, tmp_path, fmu_dir, monkeypatch):

@@ -20,6 +20,7 @@ from .build import DEFAULT_FMU_DIR
 from .extras import available, preload
 from .master import CosimulationError, cosimulate
 from .scenario import Scenario, ScenarioError
+from .steady import speed_text
 
 DEFAULT_OUT_DIR = Path("results")
 preload()   # before any FMU is loaded (see extras.preload)
@@ -83,8 +84,8 @@ class OperatingPointCheck:
             return (f"not checked {self.signal}: its set point {self.set_point} still moves after t = "
                     f"{self.since:g} s (the run ends before the profile does)")
         head = "ok  " if self.passed else "FAIL"
-        text = (f"{head} operating point {self.signal}: mean {self.value:.6g} rad/s from t = {self.since:g} s "
-                f"against its set point {self.set_point} = {self.target:.6g} rad/s "
+        text = (f"{head} operating point {self.signal}: mean {speed_text(self.value)} from t = {self.since:g} s "
+                f"against its set point {self.set_point} = {speed_text(self.target)} "
                 f"({100.0 * (self.value - self.target) / abs(self.target):+.3g}%, allowed "
                 f"{100.0 * OPERATING_TOL:g}%)")
         if not self.passed:

@@ -200,15 +200,22 @@ def _measured(window, s):
     return out
 
 
+def speed_text(value: float) -> str:
+    """A speed for a human-facing message: SI, with rpm in parentheses (rpm = rad/s * 30 / pi)."""
+    return f"{value:.6g} rad/s ({value * 30.0 / math.pi:.6g} rpm)"
+
+
 def _check_operating_point(window, s, record):
-    """Flag the point when a signal's mean misses its set point's mean by more than operating_tol."""
+    """Flag the point when a signal's mean misses its set point's mean by more than operating_tol (the pairs are
+    drive speeds, rad/s)."""
     record.setdefault("status", OK)
     record.setdefault("error", "")
     for signal, target in s.operating_point:
         value, goal = float(window.table[signal].mean()), float(window.table[target].mean())
         if not abs(value - goal) <= s.operating_tol * max(abs(goal), 1e-12):
-            message = (f"operating point not reached: {signal} = {value:.6g} against its set point {target} = "
-                       f"{goal:.6g} ({100.0 * (value - goal) / max(abs(goal), 1e-12):+.1f}%, allowed "
+            miss = 100.0 * (value - goal) / max(abs(goal), 1e-12)
+            message = (f"operating point not reached: {signal} = {speed_text(value)} (mean) against its set point "
+                       f"{target} = {speed_text(goal)} ({miss:+.1f}%, allowed "
                        f"{100.0 * s.operating_tol:g}%); a drive at its torque limit cannot hold the speed: raise "
                        "its torque limit or lower the load")
             record["error"] = "; ".join(m for m in (message, record["error"]) if m)
