@@ -74,6 +74,37 @@ def test_a_unit_suffix_must_match_the_parameters_unit(brutti, spec, words):
     assert words in str(err.value)
 
 
+def test_every_problem_of_a_sweeps_settings_is_reported_at_once(brutti, fmu_dir, tmp_path, capsys):
+    """Six mistakes in one command line (an unknown component, a value outside its range, an unknown output, a
+    negative settle time, no revolutions, a negative tolerance): one error lists all six, nothing runs."""
+    args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_brutti_rigid.toml"),
+            "--param", "nope.omega_set=1:2:1", "--param", "driveline.beta1=0,95,100deg", "--output", "driveline.tau",
+            "--running-speed", "motor.omega", "--settle", "-1", "--revolutions", "0", "--steady-tol", "-1",
+            "--workers", "0", "--out", str(tmp_path), "--no-progress", "--no-plot"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "6 problems with the sweep's axes and settings:" in err
+    for words in ("no component 'nope'", "driveline.beta1 = 1.658", "(and 1 more of its 3 values)",
+                  "'driveline.tau'", "settle_time (--settle) = -1 must be >= 0", "revolutions (--revolutions) = 0 must be > 0",
+                  "steady_tol (--steady-tol) = -1 must be >= 0"):
+        assert words in err, words
+    assert not list(tmp_path.iterdir())
+
+
+def test_sweep_settings_from_python_list_every_problem(brutti):
+    """The same from Python: SweepSettings.from_scenario and Sweep list every problem in one SweepSettingsError."""
+    from ujfmu.sweep import Axis, Sweep, SweepSettingsError
+    with pytest.raises(SweepSettingsError) as err:
+        SweepSettings.from_scenario(brutti, outputs=["driveline.nope"], running_speed="motor.omega",
+                                    settle_time=2.0, max_settle_time=1.0, orders=(0, 2))
+    assert len(err.value.problems) == 3, err.value.problems
+    assert "max_settle_time (--max-settle) = 1 must be >= settle_time (2 s)" in str(err.value) and "orders" in str(err.value)
+    settings = SweepSettings.from_scenario(brutti, running_speed="motor.omega", settle_time=0.1)
+    with pytest.raises(SweepSettingsError) as err:
+        Sweep(brutti, [Axis.of("motor.omega_sett", [1.0]), Axis.of("load.c9", [1.0])], settings)
+    assert len(err.value.problems) == 2 and "did you mean motor.omega_set?" in str(err.value)
+
+
 def test_unit_suffixes_are_case_insensitive(brutti):
     assert parse_axis("motor.omega_set=1000:2000:500RPM", brutti) == parse_axis("motor.omega_set=1000:2000:500rpm",
                                                                                   brutti)
