@@ -133,11 +133,13 @@ def test_twin_jeffcott_runup_coupling_error_halves_with_the_step(fmu_dir):
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
 def test_committed_reference_names_its_generator_module_and_setup(path):
-    """Without regenerating: the provenance line starts with the module of the scenario's generator, and the
-    reference was made for the scenario's present setup (read_reference refuses it otherwise)."""
+    """Without regenerating: the provenance line starts with the module of the scenario's generator, names the
+    exact command that regenerates the file, and the reference was made for the scenario's present setup
+    (read_reference refuses it otherwise)."""
     from ujfmu.references import GENERATORS, setup_of
     scenario = Scenario(path)
     _, provenance = read_reference(scenario.reference_file)
     assert provenance.split(":")[0] == GENERATORS[scenario.reference_generator][0]
     assert setup_of(provenance) == scenario.setup_digest()
+    assert f". Regenerate: ujfmu references scenarios/{path.name} [scenario setup " in provenance   # the command
     scenario.read_reference()
