@@ -53,6 +53,37 @@ def test_committed_reference_regenerates(path):
         assert np.max(np.abs(committed[name] - fresh[name])) <= 1e-9 * span, name
 
 
+#: steady_from windows must repeat to the sweeps' default steady-state tolerance (SweepSettings.steady_tol)
+STEADY_TOL = 1e-3
+#: recorded signals that grow in any steady state (energy integrals) besides the running angles
+GROWING = ("input_work", "dissipated_energy")
+STEADY_FROM = [p for p in SCENARIOS if "steady_from" in p.read_text()]
+
+
+def test_the_steady_from_scenarios_are_the_twin_rotors():
+    assert {p.stem for p in STEADY_FROM} == {"twin_jeffcott_steady", "twin_jeffcott_aligned_vs_misaligned"}
+
+
+@pytest.mark.parametrize("path", STEADY_FROM, ids=lambda p: p.stem)
+def test_a_steady_from_window_is_steady(path):
+    """From steady_from to the end the response repeats: by ujfmu.steady.halves_change (the mean and the 1x, 2x,
+    4x running-speed order amplitudes of the window's first and second halves, on the running angle) every
+    recorded signal but the running angles and the energy integrals agrees within STEADY_TOL, in the committed
+    reference (the co-simulation agrees with it within the scenario's tolerances). A window opened while the
+    twin rotor's first torsional mode still rings (it decays as exp(-0.69 t); steady_from = 3 s left 230% in
+    the order amplitudes of tau_in) fails."""
+    from ujfmu.steady import halves_change, is_running_angle
+    scenario = Scenario(path)
+    reference, _ = read_reference(scenario.reference_file)
+    window = reference[reference["time"] >= scenario.steady_from - 1e-9]
+    assert window["time"][-1] - window["time"][0] >= 0.5, "a window too short to judge"
+    speed = window[scenario.running_speed]
+    angle = np.concatenate(([0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(window["time"]))))
+    signals = [n for n in scenario.record if not is_running_angle(n) and not n.endswith(GROWING)]
+    changes = {name: halves_change(angle, window, [name])[0] for name in signals}
+    assert max(changes.values()) <= STEADY_TOL, {n: f"{c:.2g}" for n, c in changes.items() if c > STEADY_TOL}
+
+
 def test_coupling_bound_scenarios_have_the_tight_extrapolated_comparison(results):
     """Every scenario driven by a PI motor (explicitly coupled, first-order error) checks the step-halving
     extrapolation of every recorded signal, 10-20x tighter than its own band."""
@@ -133,11 +164,13 @@ def test_twin_jeffcott_runup_coupling_error_halves_with_the_step(fmu_dir):
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
 def test_committed_reference_names_its_generator_module_and_setup(path):
-    """Without regenerating: the provenance line starts with the module of the scenario's generator, and the
-    reference was made for the scenario's present setup (read_reference refuses it otherwise)."""
+    """Without regenerating: the provenance line starts with the module of the scenario's generator, names the
+    exact command that regenerates the file, and the reference was made for the scenario's present setup
+    (read_reference refuses it otherwise)."""
     from ujfmu.references import GENERATORS, setup_of
     scenario = Scenario(path)
     _, provenance = read_reference(scenario.reference_file)
     assert provenance.split(":")[0] == GENERATORS[scenario.reference_generator][0]
     assert setup_of(provenance) == scenario.setup_digest()
+    assert f". Regenerate: ujfmu references scenarios/{path.name} [scenario setup " in provenance   # the command
     scenario.read_reference()

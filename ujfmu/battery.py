@@ -115,7 +115,7 @@ def regenerate(battery_dir: Path = BATTERY_DIR, progress=None, missing_only: boo
     """Write every set-up's scenario file and its monolithic reference (gzipped CSV), solved at REFERENCE_RTOL:
     the PI's torque limit slides along its bound while the joints' torque ripple crosses it, where DOP853 at the
     bundled references' 1e-11 crawls; 1e-8 is still 10^6 times below the battery's 2% tolerance."""
-    from .references import common, generate, write_reference
+    from .references import common, generate, regenerate_text, write_reference
     from .scenario import Scenario
     battery_dir = Path(battery_dir)
     battery_dir.mkdir(parents=True, exist_ok=True)
@@ -130,7 +130,7 @@ def regenerate(battery_dir: Path = BATTERY_DIR, progress=None, missing_only: boo
             continue
         with common.solver_override(REFERENCE_RTOL, REFERENCE_ATOL):
             table, provenance = generate(scenario)
-        provenance = provenance.replace("Regenerate: ujfmu references", "Regenerate: ujfmu battery --regenerate")
+        provenance = provenance.replace(regenerate_text(scenario), "Regenerate: ujfmu battery --regenerate")
         provenance = f"{provenance} (solver tolerances overridden for the battery: rtol {REFERENCE_RTOL:g}, " \
                      f"atol {REFERENCE_ATOL:g})"
         write_reference(scenario.reference_file, table, provenance)

@@ -232,20 +232,15 @@ def cmd_references(args):
 def cmd_sweep(args):
     if args.workers != 0 or args.scheduler:
         require("distributed", "sweep", "ujfmu sweep (--workers 0 runs in this process without it)")
-    from .scenario import Scenario, ScenarioError
-    from .sweep import Sweep, SweepSettings, parse_axis
+    from .scenario import Scenario
+    from .sweep import Sweep, sweep_setup
     scenario = Scenario(args.scenario)
     if args.step is not None:
         scenario.step_size = _step_size(args.step)
-    specs = args.param or scenario.sweep.get("params", [])
-    if not specs:
-        raise ScenarioError(f"{scenario.path}: nothing to sweep: give --param comp.par=START:STOP:STEP "
-                            "or [sweep] params in the scenario")
-    axes = [parse_axis(spec, scenario) for spec in specs]
-    settings = SweepSettings.from_scenario(scenario, outputs=args.output, running_speed=args.running_speed,
-                                           settle_time=args.settle, revolutions=args.revolutions,
-                                           orders=args.orders, steady_tol=args.steady_tol,
-                                           max_settle_time=args.max_settle)
+    axes, settings = sweep_setup(scenario, args.param or scenario.sweep.get("params", []), outputs=args.output,
+                                 running_speed=args.running_speed, settle_time=args.settle,
+                                 revolutions=args.revolutions, orders=args.orders, steady_tol=args.steady_tol,
+                                 max_settle_time=args.max_settle)
     sweep = Sweep(scenario, axes, settings, out_dir=args.out, name=args.name, fmu_dir=args.fmu_dir)
     grid = " x ".join(a.describe(scenario) for a in axes)
     print(f"{sweep.name}: {len(sweep.points)} points ({grid}), "
