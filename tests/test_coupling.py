@@ -123,7 +123,7 @@ def test_open_loop_runs_explicitly_and_bitwise_like_explicit(fmu_dir):
 
 
 def test_battery_command_tabulates_each_scheme(fmu_dir, monkeypatch, capsys):
-    monkeypatch.setattr(battery, "paths", lambda: [LIGHT, HEAVY])
+    monkeypatch.setattr(battery, "paths", lambda *where: [LIGHT, HEAVY])
     code = main(["--fmu-dir", str(fmu_dir), "battery"])
     out = capsys.readouterr().out
     assert code == 1   # explicit cannot run the heavy set-up
