@@ -134,8 +134,11 @@ def test_libcosim_difference_shrinks_with_step_size(fmu_dir):
     assert 1.6 < diffs[0] / diffs[1] < 2.6, diffs
 
 
-def test_cosimulation_error_converges_at_first_order(fmu_dir):
-    """Against the monolithic reference, the start-up's coupling error falls ~linearly with the step."""
+def test_cosimulation_error_converges_at_second_order(fmu_dir):
+    """Against the monolithic reference, the start-up's coupling error falls with the square of the step: the
+    light joint leaves the implicit scheme's blend at 1/2, the trapezoidal mean of the torn torque, and the joint's
+    acceleration estimate is second order (docs/cosimulation.md, "Accuracy"). joint.tau_in, which carries the
+    iteration's tolerance besides, falls faster than first order."""
     errors = []
     for h in (2e-3, 1e-3, 5e-4):
         scenario = Scenario(SCENARIOS[0].parent / "cardan_startup.toml")
@@ -143,14 +146,14 @@ def test_cosimulation_error_converges_at_first_order(fmu_dir):
         table = run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, progress=False).table
         reference, _ = generate(scenario)
         errors.append({c.name: c.max_error for c in compare(table, reference, scenario.tolerances)})
-    for name in ("joint.tau_in", "motor.omega"):
+    for name, low in (("motor.omega", 3.4), ("motor.tau_motor", 3.4), ("joint.tau_in", 2.5)):
         ratios = [errors[i][name] / errors[i + 1][name] for i in range(2)]
-        assert all(1.5 < r < 2.6 for r in ratios), (name, ratios)
+        assert all(low < r < 4.6 for r in ratios), (name, ratios)
 
 
-def test_twin_jeffcott_runup_coupling_error_halves_with_the_step(fmu_dir):
-    """The run-up's torque tolerance (3%) covers an explicit-coupling error, not a model error: up to the first
-    torsional crossing (where it peaks) it halves with the step."""
+def test_twin_jeffcott_runup_coupling_error_falls_at_second_order(fmu_dir):
+    """The run-up's torque tolerance (3%) covers a coupling error, not a model error: up to the first torsional
+    crossing (where it peaks) it falls 4-fold when the step halves (second-order implicit coupling)."""
     errors = []
     for h in (1e-3, 5e-4):
         scenario = Scenario(SCENARIOS[0].parent / "twin_jeffcott_runup.toml")
@@ -159,7 +162,7 @@ def test_twin_jeffcott_runup_coupling_error_halves_with_the_step(fmu_dir):
         reference, _ = generate(scenario)
         errors.append({c.name: c.max_error for c in compare(table, reference, scenario.tolerances)})
     for name in ("rotor.tau_in", "rotor.secondary_shaft_torque"):
-        assert 1.7 < errors[0][name] / errors[1][name] < 2.4, (name, errors)
+        assert 3.4 < errors[0][name] / errors[1][name] < 5.5, (name, errors)
 
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)

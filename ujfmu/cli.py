@@ -309,13 +309,17 @@ def cmd_bench(args):
 
 def cmd_battery(args):
     from . import battery
+    seed = battery.SEED if args.seed is None else args.seed
+    where = args.dir or (battery.BATTERY_DIR if seed == battery.SEED else Path("results") / f"battery_seed{seed}")
     if args.regenerate:
-        battery.regenerate(progress=print)
+        battery.regenerate(where, progress=print, seed=seed)
         return 0
+    if seed != battery.SEED:   # a hold-out draw: its set-ups and references are made where missing
+        battery.regenerate(where, progress=None if args.quiet else print, missing_only=True, seed=seed)
     runs = []
     print("| set-up | joint | " + " | ".join(f"{c}: worst error / range" for c in args.coupling) + " |")
     print("| --- | --- | " + " | ".join("---" for _ in args.coupling) + " |")
-    for path in battery.paths():
+    for path in battery.paths(where):
         row = [battery.run_one(path, c, args.fmu_dir) for c in args.coupling]
         runs += row
         kind = "double Cardan" if "driveline" in path.read_text() else "Cardan"
@@ -489,6 +493,10 @@ def main(argv=None):
     p.add_argument("--coupling", action="append", choices=["explicit", "implicit"],
                    help="scheme(s) to run (default: both)")
     p.add_argument("--regenerate", action="store_true", help="redraw the set-ups and re-solve their references")
+    p.add_argument("--seed", type=int, help="draw a hold-out battery from the same ranges with this seed (its "
+                                            "set-ups and monolithic references are made where missing)")
+    p.add_argument("--dir", type=Path, help="where a hold-out battery's scenario files and references are kept "
+                                            "(default: results/battery_seed<SEED>)")
     p = command("report", cmd_report,
                 "re-create the papers' published results with sweeps; write docs/validation.md (in a clone)")
     _out(p, "docs/validation.md", "markdown file to write")
