@@ -41,3 +41,16 @@ def test_order_fit_mean_does_not_depend_on_where_a_window_ends():
     c0, amplitudes, _ = order_fit(angle, signal, range(1, 9))
     assert c0 == pytest.approx(0.3, abs=1e-12) and amplitudes[1] == pytest.approx(2.0, abs=1e-12)
     assert abs(signal.mean() - 0.3) > 1e-2
+
+
+def test_natural_frequencies_of_a_damped_oscillator_and_a_rigid_body():
+    """x'' + 2 zeta w x' + w^2 x = 0 (w = 50 rad/s, zeta = 0.1) beside a free body (theta'' = 0): one natural
+    frequency, the undamped w (|lambda|, not the damped w sqrt(1 - zeta^2)); the rigid body has none."""
+    from ujfmu.analysis import natural_frequencies
+    w, zeta = 50.0, 0.1
+
+    def rhs(y):
+        x, v, theta, omega = y
+        return [v, -2 * zeta * w * v - w * w * x, omega, 0.0]
+
+    assert natural_frequencies(rhs, [0.0, 0.0, 0.0, 0.0]) == pytest.approx([w], rel=1e-6)

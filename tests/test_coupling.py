@@ -1,12 +1,15 @@
 """Coupling schemes: which inputs are torn, implicit stability and convergence where explicit diverges at any step,
 step-halving error estimates against a monolithic reference, and what `ujfmu run` does when a run goes unstable."""
 
+import math
+
 import numpy as np
 import pytest
 
 from ujfmu import battery, stepsize
 from ujfmu.cli import main
-from ujfmu.master import Cosimulation, CouplingInstabilityError, cosimulate
+from ujfmu.master import (AMPLIFICATION_BOUND, THETA, Cosimulation, CouplingInstabilityError, blend_weight, cosimulate,
+                          inertia_amplification)
 from ujfmu.references import read_reference
 from ujfmu.scenario import Scenario
 from ujfmu.scenario_run import compare
@@ -120,7 +123,7 @@ def test_open_loop_runs_explicitly_and_bitwise_like_explicit(fmu_dir):
 
 
 def test_battery_command_tabulates_each_scheme(fmu_dir, monkeypatch, capsys):
-    monkeypatch.setattr(battery, "paths", lambda: [LIGHT, HEAVY])
+    monkeypatch.setattr(battery, "paths", lambda *where: [LIGHT, HEAVY])
     code = main(["--fmu-dir", str(fmu_dir), "battery"])
     out = capsys.readouterr().out
     assert code == 1   # explicit cannot run the heavy set-up
@@ -133,3 +136,60 @@ def test_a_speed_fed_forward_is_not_torn(fmu_dir):
     s = Scenario(battery.BATTERY_DIR.parent / "ring_coupling_speed_study.toml")
     with Cosimulation(s.master_components(fmu_dir), s.connections, 1e-3, s.record) as cosim:
         assert cosim._tears == [] and cosim._rolled == []
+
+
+def _simulated_amplification(d, theta, steps=400):
+    """Growth per step of a perturbation of the iterated heavy loop, stepped directly, for a torn torque with
+    dG/du = d < 0: motor J_m = 1 holding u_k over the step (alpha_k+1 = -u_k), joint torque rho times its
+    acceleration estimate at t_k+1, u_k = theta G_k+1 + (1 - theta) G_k solved for u_k; the larger growth of the
+    two estimates the joints use: backward difference alpha_k+1 (rho = -d) and BDF2 (3 alpha_k+1 - alpha_k)/2
+    (rho = -d/1.5)."""
+    growths = []
+    for c1, c0 in ((-d, 0.0), (-d, -d / 3.0)):   # G_k+1 = -c1 u_k + c0 u_k-1
+        u_prev, g, log_growth = 0.3, 1.0, []
+        for _ in range(steps):
+            u = (theta * c0 * u_prev + (1.0 - theta) * g) / (1.0 + theta * c1)
+            g, u_prev = -c1 * u + c0 * u_prev, u
+            norm = math.hypot(u, g)
+            g, u_prev = g / norm, u_prev / norm
+            log_growth.append(math.log(norm))
+        growths.append(math.exp(np.mean(log_growth[steps // 2:])))
+    return max(growths)
+
+
+@pytest.mark.parametrize("d", [-0.03, -0.75, -3.0, -7.5, -45.0, -4500.0])
+def test_blend_is_the_least_that_keeps_the_stated_amplification(d):
+    """The blend chosen from dG/du keeps the iterated loop's inertia amplification within (1 - THETA)/THETA (the
+    bound THETA guarantees for any inertia ratio), measured by stepping the loop directly for both acceleration
+    estimates the joints use, and is the least that does: a blend 0.005 lower exceeds the bound (or the blend is
+    1/2, the trapezoidal mean). Light loops get 1/2; the heavy limit tends to THETA."""
+    d_g = np.array([[d]])   # dG/du as the finite-difference Jacobian sees it
+    theta = blend_weight(d_g)
+    assert 0.5 <= theta <= THETA
+    measured = _simulated_amplification(d, theta)
+    assert measured <= AMPLIFICATION_BOUND + 1e-3, (d, theta, measured)
+    assert inertia_amplification(d_g, theta) == pytest.approx(measured, abs=1e-3)
+    if theta > 0.5:
+        assert _simulated_amplification(d, theta - 0.005) > AMPLIFICATION_BOUND, (d, theta)
+    assert (theta == 0.5) == (d > -2.5) and (d > -1000.0 or theta > THETA - 0.005)
+
+
+def test_stiff_shaft_gets_the_trapezoidal_blend_and_second_order(fmu_dir):
+    """battery_15 (flexible DoubleCardanDriveline, k_theta 1.6e4 N.m/rad): its spring torque barely depends on
+    the motor torque held over one step, so the blend is 1/2 and the motor torque's error against the monolithic
+    reference falls 4-fold when the step halves; the heavy CardanJoint of battery_00 (J2 30x the rotor) keeps a
+    blend near THETA."""
+    path = battery.BATTERY_DIR / "battery_15.toml"
+    s = Scenario(path)
+    reference, _ = read_reference(s.reference_file)
+    errors = []
+    for h in (1e-3, 5e-4):
+        with Cosimulation(s.master_components(fmu_dir), s.connections, h, s.record) as cosim:
+            table = cosim.run(int(round(s.stop_time / h)))
+            assert cosim.theta == 0.5
+        errors.append({c.name: c.max_error for c in compare(table, reference, s.tolerances)})
+    assert 3.4 < errors[0]["motor.tau_motor"] / errors[1]["motor.tau_motor"] < 5.0, errors
+    heavy = Scenario(battery.BATTERY_DIR / "battery_00.toml")
+    with Cosimulation(heavy.master_components(fmu_dir), heavy.connections, 1e-3, heavy.record) as cosim:
+        cosim.advance(5)
+        assert 0.57 < cosim.theta < THETA

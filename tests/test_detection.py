@@ -145,7 +145,8 @@ def test_run_without_reference_checks_the_set_point(fmu_dir, tmp_path, capsys, t
     line = next(x for x in out.splitlines() if "operating point motor.omega" in x)
     reached = float(line.split("mean ")[1].split()[0])
     if code:
-        assert line.strip().startswith("FAIL") and "motor.omega_ref = 50 rad/s" in line and "stop_time" in line
+        assert line.strip().startswith("FAIL") and "motor.omega_ref = 50 rad/s (477.465 rpm)" in line
+        assert f"mean {reached:.6g} rad/s ({reached * 30 / math.pi:.6g} rpm) from t = 0.9 s" in line and "stop_time" in line
         assert "tau_max" in line and 29.9 < reached < 31.0 and out.startswith("FAIL")
         assert "motor.omega" not in np.genfromtxt(tmp_path / "no_reference.csv", delimiter=",", names=True).dtype.names
         junit = tmp_path / "report.xml"

@@ -221,3 +221,23 @@ def test_a_misspelt_port_is_named_with_the_closest_port_and_the_components_ports
     with pytest.raises(ScenarioError) as err:
         Scenario(write(tmp_path, GOOD.replace(old, new)))
     assert words in str(err.value)
+
+
+def test_a_scenario_path_without_toml_names_the_file_that_exists(tmp_path, capsys, monkeypatch):
+    """`ujfmu run scenarios/x` when scenarios/x.toml exists: the error names scenarios/x.toml; a mistyped name
+    gets the closest names of its folder and of the bundled scenarios; a name like none of them gets no guess."""
+    from ujfmu.cli import main
+    from ujfmu.scenario import BUNDLED_SCENARIOS
+    (tmp_path / "scenarios").mkdir()
+    (tmp_path / "scenarios" / "my_rig.toml").write_text(GOOD)
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "scenarios/my_rig", "--no-plot"]) == 2
+    assert "scenarios/my_rig: scenario file not found; did you mean scenarios/my_rig.toml?" in capsys.readouterr().err
+    with pytest.raises(ScenarioError, match=r"did you mean scenarios/my_rig.toml\?"):
+        Scenario("scenarios/my_rgi.toml")
+    with pytest.raises(ScenarioError) as err:
+        Scenario("scenarios/twin_jefcott_steady")
+    assert f"did you mean {BUNDLED_SCENARIOS / 'twin_jeffcott_steady.toml'} or " in str(err.value)   # closest first
+    with pytest.raises(ScenarioError) as err:
+        Scenario("scenarios/zzzz")
+    assert str(err.value) == "scenarios/zzzz: scenario file not found"

@@ -53,6 +53,37 @@ def test_committed_reference_regenerates(path):
         assert np.max(np.abs(committed[name] - fresh[name])) <= 1e-9 * span, name
 
 
+#: steady_from windows must repeat to the sweeps' default steady-state tolerance (SweepSettings.steady_tol)
+STEADY_TOL = 1e-3
+#: recorded signals that grow in any steady state (energy integrals) besides the running angles
+GROWING = ("input_work", "dissipated_energy")
+STEADY_FROM = [p for p in SCENARIOS if "steady_from" in p.read_text()]
+
+
+def test_the_steady_from_scenarios_are_the_twin_rotors():
+    assert {p.stem for p in STEADY_FROM} == {"twin_jeffcott_steady", "twin_jeffcott_aligned_vs_misaligned"}
+
+
+@pytest.mark.parametrize("path", STEADY_FROM, ids=lambda p: p.stem)
+def test_a_steady_from_window_is_steady(path):
+    """From steady_from to the end the response repeats: by ujfmu.steady.halves_change (the mean and the 1x, 2x,
+    4x running-speed order amplitudes of the window's first and second halves, on the running angle) every
+    recorded signal but the running angles and the energy integrals agrees within STEADY_TOL, in the committed
+    reference (the co-simulation agrees with it within the scenario's tolerances). A window opened while the
+    twin rotor's first torsional mode still rings (it decays as exp(-0.69 t); steady_from = 3 s left 230% in
+    the order amplitudes of tau_in) fails."""
+    from ujfmu.steady import halves_change, is_running_angle
+    scenario = Scenario(path)
+    reference, _ = read_reference(scenario.reference_file)
+    window = reference[reference["time"] >= scenario.steady_from - 1e-9]
+    assert window["time"][-1] - window["time"][0] >= 0.5, "a window too short to judge"
+    speed = window[scenario.running_speed]
+    angle = np.concatenate(([0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(window["time"]))))
+    signals = [n for n in scenario.record if not is_running_angle(n) and not n.endswith(GROWING)]
+    changes = {name: halves_change(angle, window, [name])[0] for name in signals}
+    assert max(changes.values()) <= STEADY_TOL, {n: f"{c:.2g}" for n, c in changes.items() if c > STEADY_TOL}
+
+
 def test_coupling_bound_scenarios_have_the_tight_extrapolated_comparison(results):
     """Every scenario driven by a PI motor (explicitly coupled, first-order error) checks the step-halving
     extrapolation of every recorded signal, 10-20x tighter than its own band."""
@@ -103,8 +134,11 @@ def test_libcosim_difference_shrinks_with_step_size(fmu_dir):
     assert 1.6 < diffs[0] / diffs[1] < 2.6, diffs
 
 
-def test_cosimulation_error_converges_at_first_order(fmu_dir):
-    """Against the monolithic reference, the start-up's coupling error falls ~linearly with the step."""
+def test_cosimulation_error_converges_at_second_order(fmu_dir):
+    """Against the monolithic reference, the start-up's coupling error falls with the square of the step: the
+    light joint leaves the implicit scheme's blend at 1/2, the trapezoidal mean of the torn torque, and the joint's
+    acceleration estimate is second order (docs/cosimulation.md, "Accuracy"). joint.tau_in, which carries the
+    iteration's tolerance besides, falls faster than first order."""
     errors = []
     for h in (2e-3, 1e-3, 5e-4):
         scenario = Scenario(SCENARIOS[0].parent / "cardan_startup.toml")
@@ -112,14 +146,14 @@ def test_cosimulation_error_converges_at_first_order(fmu_dir):
         table = run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, progress=False).table
         reference, _ = generate(scenario)
         errors.append({c.name: c.max_error for c in compare(table, reference, scenario.tolerances)})
-    for name in ("joint.tau_in", "motor.omega"):
+    for name, low in (("motor.omega", 3.4), ("motor.tau_motor", 3.4), ("joint.tau_in", 2.5)):
         ratios = [errors[i][name] / errors[i + 1][name] for i in range(2)]
-        assert all(1.5 < r < 2.6 for r in ratios), (name, ratios)
+        assert all(low < r < 4.6 for r in ratios), (name, ratios)
 
 
-def test_twin_jeffcott_runup_coupling_error_halves_with_the_step(fmu_dir):
-    """The run-up's torque tolerance (3%) covers an explicit-coupling error, not a model error: up to the first
-    torsional crossing (where it peaks) it halves with the step."""
+def test_twin_jeffcott_runup_coupling_error_falls_at_second_order(fmu_dir):
+    """The run-up's torque tolerance (3%) covers a coupling error, not a model error: up to the first torsional
+    crossing (where it peaks) it falls 4-fold when the step halves (second-order implicit coupling)."""
     errors = []
     for h in (1e-3, 5e-4):
         scenario = Scenario(SCENARIOS[0].parent / "twin_jeffcott_runup.toml")
@@ -128,16 +162,18 @@ def test_twin_jeffcott_runup_coupling_error_halves_with_the_step(fmu_dir):
         reference, _ = generate(scenario)
         errors.append({c.name: c.max_error for c in compare(table, reference, scenario.tolerances)})
     for name in ("rotor.tau_in", "rotor.secondary_shaft_torque"):
-        assert 1.7 < errors[0][name] / errors[1][name] < 2.4, (name, errors)
+        assert 3.4 < errors[0][name] / errors[1][name] < 5.5, (name, errors)
 
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
 def test_committed_reference_names_its_generator_module_and_setup(path):
-    """Without regenerating: the provenance line starts with the module of the scenario's generator, and the
-    reference was made for the scenario's present setup (read_reference refuses it otherwise)."""
+    """Without regenerating: the provenance line starts with the module of the scenario's generator, names the
+    exact command that regenerates the file, and the reference was made for the scenario's present setup
+    (read_reference refuses it otherwise)."""
     from ujfmu.references import GENERATORS, setup_of
     scenario = Scenario(path)
     _, provenance = read_reference(scenario.reference_file)
     assert provenance.split(":")[0] == GENERATORS[scenario.reference_generator][0]
     assert setup_of(provenance) == scenario.setup_digest()
+    assert f". Regenerate: ujfmu references scenarios/{path.name} [scenario setup " in provenance   # the command
     scenario.read_reference()

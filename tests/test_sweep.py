@@ -74,6 +74,37 @@ def test_a_unit_suffix_must_match_the_parameters_unit(brutti, spec, words):
     assert words in str(err.value)
 
 
+def test_every_problem_of_a_sweeps_settings_is_reported_at_once(brutti, fmu_dir, tmp_path, capsys):
+    """Six mistakes in one command line (an unknown component, a value outside its range, an unknown output, a
+    negative settle time, no revolutions, a negative tolerance): one error lists all six, nothing runs."""
+    args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_brutti_rigid.toml"),
+            "--param", "nope.omega_set=1:2:1", "--param", "driveline.beta1=0,95,100deg", "--output", "driveline.tau",
+            "--running-speed", "motor.omega", "--settle", "-1", "--revolutions", "0", "--steady-tol", "-1",
+            "--workers", "0", "--out", str(tmp_path), "--no-progress", "--no-plot"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "6 problems with the sweep's axes and settings:" in err
+    for words in ("no component 'nope'", "driveline.beta1 = 1.658", "(and 1 more of its 3 values)",
+                  "'driveline.tau'", "settle_time (--settle) = -1 must be >= 0", "revolutions (--revolutions) = 0 must be > 0",
+                  "steady_tol (--steady-tol) = -1 must be >= 0"):
+        assert words in err, words
+    assert not list(tmp_path.iterdir())
+
+
+def test_sweep_settings_from_python_list_every_problem(brutti):
+    """The same from Python: SweepSettings.from_scenario and Sweep list every problem in one SweepSettingsError."""
+    from ujfmu.sweep import Axis, Sweep, SweepSettingsError
+    with pytest.raises(SweepSettingsError) as err:
+        SweepSettings.from_scenario(brutti, outputs=["driveline.nope"], running_speed="motor.omega",
+                                    settle_time=2.0, max_settle_time=1.0, orders=(0, 2))
+    assert len(err.value.problems) == 3, err.value.problems
+    assert "max_settle_time (--max-settle) = 1 must be >= settle_time (2 s)" in str(err.value) and "orders" in str(err.value)
+    settings = SweepSettings.from_scenario(brutti, running_speed="motor.omega", settle_time=0.1)
+    with pytest.raises(SweepSettingsError) as err:
+        Sweep(brutti, [Axis.of("motor.omega_sett", [1.0]), Axis.of("load.c9", [1.0])], settings)
+    assert len(err.value.problems) == 2 and "did you mean motor.omega_set?" in str(err.value)
+
+
 def test_unit_suffixes_are_case_insensitive(brutti):
     assert parse_axis("motor.omega_set=1000:2000:500RPM", brutti) == parse_axis("motor.omega_set=1000:2000:500rpm",
                                                                                   brutti)
@@ -275,6 +306,30 @@ def test_a_response_that_never_settles_is_not_steady_and_kept(tmp_path, fmu_dir)
     assert sweep.journal.read_text().splitlines() == lines
 
 
+@pytest.mark.parametrize("cap", [0.2, 0.26, 0.4])
+def test_a_not_steady_message_states_the_settle_time_used_and_why_it_passed_max_settle_time(tmp_path, fmu_dir, cap):
+    """The criterion needs a settle time of at least four measurement windows (1 revolution at 100 rad/s: 63 steps
+    of 1 ms) and lays whole windows back to back: with max_settle_time 0.2 s (under four windows) or 0.26 s (the
+    last window starts past it) the message gives the settle time actually used (settled_s) and says why it is
+    past the maximum; with 0.4 s the maximum holds and the message says nothing of it."""
+    sweep = ring_sweep(tmp_path, fmu_dir, ["coupling.e=0.001"], f"cap{cap}", settle_time=0.1, max_settle_time=cap,
+                       revolutions=1, steady_tol=1e-12)
+    sweep.run(workers=0, progress=False)
+    (r,) = sweep.table()
+    window = 0.063
+    assert r["status"] == "not_steady" and r["settled_s"] >= 4 * window - 1e-9
+    assert r["error"].startswith(f"not steady after {r['settled_s']:.4g} s of settling")
+    if r["settled_s"] <= cap:
+        assert "past max_settle_time" not in r["error"] and cap == 0.4
+    elif 4 * window > cap:
+        assert f"past max_settle_time = {cap:g} s because the check needs a settle time of at least four " \
+               f"measurement windows of 1 revolution of motor.omega ({window:.3g} s each)" in r["error"]
+        assert f"above {4 * window:.3g} s" in r["error"] and cap == 0.2
+    else:
+        assert f"past max_settle_time = {cap:g} s by {r['settled_s'] - cap:.3g} s because the check lays whole " \
+               "measurement windows" in r["error"] and cap == 0.26
+
+
 def test_a_drive_that_misses_its_set_speed_is_off_target(fmu_dir, tmp_path, capsys):
     """cardan_startup at a constant 150 rad/s set point: with its 5 N.m torque limit the PI motor holds it; limited
     to 0.25 N.m against the load 0.2 + 4e-6 w^2 N.m it settles where they balance, w = sqrt(0.05 / 4e-6) = 112 rad/s,
@@ -294,7 +349,9 @@ def test_a_drive_that_misses_its_set_speed_is_off_target(fmu_dir, tmp_path, caps
     assert high["status"] == "ok" and float(high["speed_mean"]) == pytest.approx(150.0, rel=1e-3)
     assert low["status"] == "off_target"
     assert float(low["speed_mean"]) == pytest.approx(math.sqrt(0.05 / 4e-6), rel=0.01)
-    assert "motor.omega = 11" in low["error"] and "set point motor.omega_ref = 150" in low["error"]
+    assert "motor.omega = 11" in low["error"] and "set point motor.omega_ref = 150 rad/s (1432.39 rpm)" in low["error"]
+    reached = float(low["error"].split("motor.omega = ")[1].split()[0])   # in SI, then in rpm
+    assert f"motor.omega = {reached:.6g} rad/s ({reached * 30 / math.pi:.6g} rpm) (mean)" in low["error"]
 
 
 def test_points_are_reused_by_the_same_code_and_fmu_builds_only(brutti, tmp_path, fmu_dir, monkeypatch):

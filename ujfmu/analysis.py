@@ -37,10 +37,8 @@ def amplitude_spectrum(time, signal):
     return np.fft.rfftfreq(n, d=(time[-1] - time[0]) / (n - 1)), amplitude
 
 
-def decay_rates(rhs, y0, step=1e-7):
-    """Decay rates -Re(lambda) [1/s] of the linearisation of y' = rhs(y) at y0, slowest first: the eigenvalues
-    lambda of the Jacobian (central differences of relative size step). A transient of mode i falls as
-    exp(-rate_i t), so the slowest rate bounds how long a run needs to reach its steady state."""
+def jacobian(rhs, y0, step=1e-7) -> np.ndarray:
+    """d rhs / d y at y0 by central differences of relative size step."""
     y0 = np.asarray(y0, float)
     jac = np.empty((len(y0), len(y0)))
     for i in range(len(y0)):
@@ -49,4 +47,33 @@ def decay_rates(rhs, y0, step=1e-7):
         hi[i] += d
         lo[i] -= d
         jac[:, i] = (np.asarray(rhs(hi), float) - np.asarray(rhs(lo), float)) / (2.0 * d)
-    return np.sort(-np.linalg.eigvals(jac).real)
+    return jac
+
+
+def decay_rates(rhs, y0, step=1e-7):
+    """Decay rates -Re(lambda) [1/s] of the linearisation of y' = rhs(y) at y0, slowest first: the eigenvalues
+    lambda of the Jacobian (central differences of relative size step). A transient of mode i falls as
+    exp(-rate_i t), so the slowest rate bounds how long a run needs to reach its steady state."""
+    return np.sort(-np.linalg.eigvals(jacobian(rhs, y0, step)).real)
+
+
+def natural_frequencies(rhs, y0, step=1e-7) -> np.ndarray:
+    """Undamped natural frequencies [rad/s] of the linearisation of y' = rhs(y) at y0, ascending: |lambda| of each
+    eigenvalue pair lambda = -zeta w_n +- i w_n sqrt(1 - zeta^2) of the Jacobian (|lambda| = w_n); real
+    eigenvalues (rigid-body motion, integrators, overdamped modes) have none."""
+    lam = np.linalg.eigvals(jacobian(rhs, y0, step))
+    return np.sort(np.abs(lam[lam.imag > 1e-9 * np.maximum(1.0, np.abs(lam))]))
+
+
+def model_natural_frequencies(model, parameters: dict) -> np.ndarray:
+    """Natural frequencies [rad/s] of a model (a module or class of the ``ujfmu.models.protocol``) at parameters
+    (by name; the FMU's declared defaults for those missing are the caller's), linearised about its initial state
+    at rest with its inputs zero (input shaft held, no load): ``natural_frequencies`` of ``derivatives``. Empty for a
+    model without a state of its own or held kinematically."""
+    import dataclasses
+    p = model.Parameters(**{f.name: parameters[f.name] for f in dataclasses.fields(model.Parameters) if f.init})
+    if not model.State._fields or (hasattr(model, "kinematic") and model.kinematic(p)):
+        return np.zeros(0)
+    u = model.Inputs(*[0.0] * len(model.Inputs._fields))
+    y0 = np.asarray(model.initial_state(p, 0.0, u), float)
+    return natural_frequencies(lambda y: model.derivatives(p, 0.0, model.State(*y), u), y0)

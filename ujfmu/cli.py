@@ -232,20 +232,15 @@ def cmd_references(args):
 def cmd_sweep(args):
     if args.workers != 0 or args.scheduler:
         require("distributed", "sweep", "ujfmu sweep (--workers 0 runs in this process without it)")
-    from .scenario import Scenario, ScenarioError
-    from .sweep import Sweep, SweepSettings, parse_axis
+    from .scenario import Scenario
+    from .sweep import Sweep, sweep_setup
     scenario = Scenario(args.scenario)
     if args.step is not None:
         scenario.step_size = _step_size(args.step)
-    specs = args.param or scenario.sweep.get("params", [])
-    if not specs:
-        raise ScenarioError(f"{scenario.path}: nothing to sweep: give --param comp.par=START:STOP:STEP "
-                            "or [sweep] params in the scenario")
-    axes = [parse_axis(spec, scenario) for spec in specs]
-    settings = SweepSettings.from_scenario(scenario, outputs=args.output, running_speed=args.running_speed,
-                                           settle_time=args.settle, revolutions=args.revolutions,
-                                           orders=args.orders, steady_tol=args.steady_tol,
-                                           max_settle_time=args.max_settle)
+    axes, settings = sweep_setup(scenario, args.param or scenario.sweep.get("params", []), outputs=args.output,
+                                 running_speed=args.running_speed, settle_time=args.settle,
+                                 revolutions=args.revolutions, orders=args.orders, steady_tol=args.steady_tol,
+                                 max_settle_time=args.max_settle)
     sweep = Sweep(scenario, axes, settings, out_dir=args.out, name=args.name, fmu_dir=args.fmu_dir)
     grid = " x ".join(a.describe(scenario) for a in axes)
     print(f"{sweep.name}: {len(sweep.points)} points ({grid}), "
@@ -314,13 +309,17 @@ def cmd_bench(args):
 
 def cmd_battery(args):
     from . import battery
+    seed = battery.SEED if args.seed is None else args.seed
+    where = args.dir or (battery.BATTERY_DIR if seed == battery.SEED else Path("results") / f"battery_seed{seed}")
     if args.regenerate:
-        battery.regenerate(progress=print)
+        battery.regenerate(where, progress=print, seed=seed)
         return 0
+    if seed != battery.SEED:   # a hold-out draw: its set-ups and references are made where missing
+        battery.regenerate(where, progress=None if args.quiet else print, missing_only=True, seed=seed)
     runs = []
     print("| set-up | joint | " + " | ".join(f"{c}: worst error / range" for c in args.coupling) + " |")
     print("| --- | --- | " + " | ".join("---" for _ in args.coupling) + " |")
-    for path in battery.paths():
+    for path in battery.paths(where):
         row = [battery.run_one(path, c, args.fmu_dir) for c in args.coupling]
         runs += row
         kind = "double Cardan" if "driveline" in path.read_text() else "Cardan"
@@ -494,6 +493,10 @@ def main(argv=None):
     p.add_argument("--coupling", action="append", choices=["explicit", "implicit"],
                    help="scheme(s) to run (default: both)")
     p.add_argument("--regenerate", action="store_true", help="redraw the set-ups and re-solve their references")
+    p.add_argument("--seed", type=int, help="draw a hold-out battery from the same ranges with this seed (its "
+                                            "set-ups and monolithic references are made where missing)")
+    p.add_argument("--dir", type=Path, help="where a hold-out battery's scenario files and references are kept "
+                                            "(default: results/battery_seed<SEED>)")
     p = command("report", cmd_report,
                 "re-create the papers' published results with sweeps; write docs/validation.md (in a clone)")
     _out(p, "docs/validation.md", "markdown file to write")

@@ -13,9 +13,11 @@ Explicit: record, step every FMU from t_k to t_k + h with its inputs held, trans
 inputs (the driver's tau_load) lag by a step: unstable at any h when the driven inertia reflected to the driver
 exceeds the driver's own.
 
-Implicit (default): the torn inputs held over [t_k, t_k+1] are iterated to u = THETA G(t_k+1; u) +
-(1 - THETA) G(t_k) by a quasi-Newton method (finite-difference interface Jacobian, Broyden updates), the
-components owning them rolled back with fmi2GetFMUstate/fmi2SetFMUstate; see ``Cosimulation._implicit_step``.
+Implicit (default): the torn inputs held over [t_k, t_k+1] are iterated to u = theta G(t_k+1; u) +
+(1 - theta) G(t_k) by a quasi-Newton method (finite-difference interface Jacobian, Broyden updates), the
+components owning them rolled back with fmi2GetFMUstate/fmi2SetFMUstate; theta is the least blend in
+[1/2, THETA] whose inertia amplification, read from the interface Jacobian, stays within (1 - THETA)/THETA
+(``blend_weight``); see ``Cosimulation._implicit_step``.
 
 Both watch the torn connections for a diverging coupling (``CouplingInstabilityError``), account the energy
 residual of every power bond (``Cosimulation.bond_energies``) and keep the recorded results up to a failure
@@ -50,9 +52,11 @@ STALL_FACTOR = 100.0
 #: implicit coupling: quasi-Newton iterations per step before the interface Jacobian is rebuilt by finite
 #: differences, and rebuilds per step before the step is declared not converging
 MAX_ITERATIONS, MAX_REBUILDS = 6, 2
-#: implicit coupling: the torn inputs are held at THETA G(t_k+1) + (1 - THETA) G(t_k); inertia amplification of
-#: the iterated loop at most (1 - THETA)/THETA (docs/cosimulation.md)
+#: implicit coupling: the torn inputs are held at theta G(t_k+1) + (1 - theta) G(t_k), theta in [1/2, THETA]: the
+#: least blend whose inertia amplification stays within AMPLIFICATION_BOUND = (1 - THETA)/THETA, the bound
+#: THETA guarantees for any inertia ratio (``blend_weight``, docs/cosimulation.md)
 THETA = 0.6
+AMPLIFICATION_BOUND = (1.0 - THETA) / THETA
 
 
 #: instability detection: a torn connection whose step-to-step change alternates in sign for at least
@@ -500,6 +504,10 @@ class Cosimulation:
         # stepping loop's fast path (FmuInstance.bare: ctypes arguments only)
         self._state_ops = [(*(inst.bare(f"fmi2{op}FMUstate") for op in ("Get", "Set", "Free")),
                             c_void_p(inst.slave.component), name) for inst, name in self._rolled]
+        # their saved states, one slot each reused every step (NULL again after each fmi2FreeFMUstate), and the
+        # slots' addresses for fmi2GetFMUstate and fmi2FreeFMUstate
+        self._states = [fmi2FMUstate() for _ in self._rolled]
+        self._state_refs = [byref(state) for state in self._states]
         self._rolled_steppers = [s for s in self._bare_steppers if s[2] in rolled]
         self._fixed_steppers = [s for s in self._bare_steppers if s[2] not in rolled]
         # per torn connection: (fmi2SetReal of its target, target, its vr, 1, the value), bare as above
@@ -511,6 +519,7 @@ class Cosimulation:
                                      for i in self._tears], dtype=np.intp)
         self._tear_scale = np.zeros(len(self._tears))
         self._inverse, self._g_past = None, []   # inverse interface Jacobian (dr/du)^-1, G at t - h, t - 2h
+        self.theta = THETA   # implicit coupling: the blend of G(t_k+1) and G(t_k), chosen at every interface Jacobian
 
     def _plan_bonds(self, views):
         """Power bonds: a connection carrying a speed (rad/s) from component A to B paired with one carrying a
@@ -789,21 +798,19 @@ class Cosimulation:
         components owning torn inputs are restored with fmi2SetFMUstate before each re-step; the others step once.
         Ends with the FMUs at t + h and every connection transferred there.
         """
-        states = []
-        for get_state, _, _, comp, name in self._state_ops:
-            state = fmi2FMUstate()
-            if get_state(comp, byref(state)) > 1:
+        states = self._states
+        for (get_state, _, _, comp, name), ref in zip(self._state_ops, self._state_refs):
+            if get_state(comp, ref) > 1:
                 raise CosimulationError(f"component '{name}' could not save its state at t = {t!r}" + self._log_text())
-            states.append(state)
         try:
             self._step(self._fixed_steppers, c_double(t), c_double(h))
             g_start = self._scratch_view[self._tear_index]
             self._g_start = g_start
             past = self._g_past
             if len(past) == 2:    # G at t + h extrapolated quadratically from t, t - h, t - 2h
-                u = g_start + THETA * (2.0 * g_start - 3.0 * past[1] + past[0])
+                u = g_start + self.theta * (2.0 * g_start - 3.0 * past[1] + past[0])
             elif past:
-                u = g_start + THETA * (g_start - past[-1])
+                u = g_start + self.theta * (g_start - past[-1])
             else:
                 u = g_start
             self._g_past = (past + [g_start])[-2:]
@@ -816,6 +823,14 @@ class Cosimulation:
             while best[0] > 1.0:
                 if self._inverse is None or rebuilds:
                     jacobian = self._fd_jacobian(u, r, t, h, states, tol)
+                    # dG/du from dr/du = theta dG/du - I; the blend re-chosen for it, r and dr/du re-expressed
+                    theta, d_g = self.theta, (jacobian + np.eye(len(u))) / self.theta
+                    self.theta = blend_weight(d_g)
+                    if self.theta != theta:
+                        g = (r + u - (1.0 - theta) * g_start) / theta
+                        r = self.theta * g + (1.0 - self.theta) * g_start - u
+                        jacobian = self.theta * d_g - np.eye(len(u))
+                        best = ((np.abs(r) / tol).max(), u, r)
                     self._inverse = np.linalg.inv(jacobian)
                     # G independent of u (an ideal speed source): no loop to iterate; explicit from the next step on
                     self.open_loop = bool(np.allclose(jacobian, -np.eye(len(u)), rtol=0.0, atol=1e-9))
@@ -844,8 +859,9 @@ class Cosimulation:
                     self._evaluate(best[1], t, h, states)
                 break
         finally:
-            for (_, _, free_state, comp, _), state in zip(self._state_ops, states):
-                free_state(comp, byref(state))
+            for (_, _, free_state, comp, _), state, ref in zip(self._state_ops, states, self._state_refs):
+                free_state(comp, ref)
+                state.value = None
 
     def _evaluate(self, u, t, h, states, restore=True):
         """r(u) = G(u) - u: step the rolled-back components with the torn inputs held at u, transfer everything
@@ -866,7 +882,7 @@ class Cosimulation:
         self.time = t + h
         self._communicate()
         g = self._scratch_view[self._tear_index]
-        return THETA * g + (1.0 - THETA) * self._g_start - u
+        return self.theta * g + (1.0 - self.theta) * self._g_start - u
 
     def _fd_jacobian(self, u, r, t, h, states, tol):
         """dr/du by forward differences, one torn input at a time (n re-steps)."""
@@ -920,6 +936,40 @@ class Cosimulation:
 
     def __exit__(self, *exc):
         self.close()
+
+
+def inertia_amplification(d_g: np.ndarray, theta: float) -> float:
+    """Largest step-to-step amplification of a perturbation of the torn values in the iterated loop
+    u_k = theta G_k+1 + (1 - theta) G_k, G_k+1 = D u_k + (memory), for each eigenvalue D of dG/du.
+
+    Two memories, those of the kinematically driven joints' acceleration estimates: none (backward difference,
+    G_k+1 = D u_k: z = (1 - theta) D / (1 - theta D)), and that of the second-order (BDF2) slope, whose torque
+    also carries -D/3 of the previous step's input (3 z^2 = D (3 z - 1)(theta z + 1 - theta)); the larger modulus
+    of the two. Heavy driven side (D -> -inf): (1 - theta)/theta for both (docs/cosimulation.md, "Implicit").
+    """
+    worst = 0.0
+    for d in np.linalg.eigvals(np.atleast_2d(d_g)):
+        memoryless = abs((1.0 - theta) * d / (1.0 - theta * d)) if theta * d != 1.0 else math.inf
+        bdf2 = np.roots([3.0 - 3.0 * d * theta, -d * (3.0 - 4.0 * theta), d * (1.0 - theta)])
+        worst = max(worst, memoryless, float(np.max(np.abs(bdf2))) if len(bdf2) else 0.0)
+    return worst
+
+
+def blend_weight(d_g: np.ndarray) -> float:
+    """The least theta in [1/2, THETA] with ``inertia_amplification``(dG/du, theta) <= AMPLIFICATION_BOUND (THETA
+    where none is): theta = 1/2 holds the step mean of a smoothly varying torn value to second order (the
+    trapezoidal rule), each increment of theta adds the first-order error (theta - 1/2) h dG/dt, so the blend is
+    raised above 1/2 only as far as the loop's inertia feedback needs to keep the bound THETA guarantees for any
+    inertia ratio. Bisection; the amplification falls with theta for the inertia feedback (D < 0)."""
+    if inertia_amplification(d_g, 0.5) <= AMPLIFICATION_BOUND:
+        return 0.5
+    if inertia_amplification(d_g, THETA) > AMPLIFICATION_BOUND:
+        return THETA
+    lo, hi = 0.5, THETA
+    while hi - lo > 1e-4:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if inertia_amplification(d_g, mid) <= AMPLIFICATION_BOUND else (mid, hi)
+    return hi
 
 
 def held_inputs(instances: dict, connections: list, parameters: dict) -> list:

@@ -167,11 +167,39 @@ def _plot_points_not_ok(ax, sweep, xs, out, k):
     return drawn
 
 
+#: FMUs whose eigenvalues are not modes of the driveline (the drive's speed loop, a load law)
+DRIVES_AND_LOADS = ("Motor", "MotorController", "Load")
+
+
+def natural_frequency_lines(scenario, point: dict) -> list:
+    """[(component, natural frequency [rad/s], multiplicity)] of every machine component of scenario at its
+    parameters with point's ({comp.par: value}) applied: ``analysis.model_natural_frequencies`` (the model's own
+    linearisation at rest), frequencies within 0.5% of each other merged (e.g. the X and Y modes of a round
+    shaft)."""
+    from .analysis import model_natural_frequencies
+    from .build import fmu_class
+    lines = []
+    for name, (fmu, _) in scenario.components.items():
+        if fmu in DRIVES_AND_LOADS:
+            continue
+        parameters = scenario.parameters_with_defaults(name)
+        parameters.update({k.partition(".")[2]: v for k, v in point.items() if k.partition(".")[0] == name})
+        merged = []
+        for omega in model_natural_frequencies(fmu_class(fmu).MODEL, parameters):
+            if merged and omega <= merged[-1][0] * 1.005:
+                merged[-1][1] += 1
+            else:
+                merged.append([float(omega), 1])
+        lines += [(name, omega, count) for omega, count in merged]
+    return lines
+
+
 def plot_sweep(sweep, out_dir):
     """Sweep figures against the first axis (in the unit it was given in): results/<name>.png with max and min of
     every output, one curve per combination of the other axes; results/<name>_orders.png with the order
     amplitudes of the first output (order tracks, log scale) and, when the first axis is a speed, a Campbell
-    diagram (frequency of each order against the swept speed, marker area by amplitude). Returns the paths."""
+    diagram (frequency of each order against the swept speed, marker area by amplitude, with the machines' natural
+    frequencies as labelled lines: a critical speed is where an order crosses one). Returns the paths."""
     scenario = sweep.scenario
     first, others = sweep.axes[0], sweep.axes[1:]
     records = [r for r in sweep.records() if r["status"] == "ok"]
@@ -244,6 +272,13 @@ def plot_sweep(sweep, out_dir):
         for order in orders:
             amp = np.array([r[f"{out}.h{order}"] for r in rows])
             ax2.scatter(x, order * speed_hz, s=2 + 200 * amp / top, alpha=0.6, label=f"{order}x")
+        modes = natural_frequency_lines(scenario, rows[0]["point"] if rows else {})
+        for i, (component, omega_n, count) in enumerate(modes):
+            f_n = omega_n / (2 * np.pi)
+            ax2.axhline(f_n, color="0.35", ls=":", lw=0.9, label="natural frequencies (at rest)" if i == 0 else None)
+            ax2.annotate(f"{component}: {f_n:.4g} Hz ({omega_n:.4g} rad/s){f' x{count}' if count > 1 else ''}",
+                         xy=(0.99, f_n), xycoords=("axes fraction", "data"), ha="right", va="bottom", fontsize=6,
+                         color="0.25")
         ax2.set_xlabel(xlabel)
         ax2.set_ylabel("frequency [Hz]")
         ax2.set_title(f"Campbell diagram of {out} (marker area ~ amplitude)", fontsize=9, loc="left")

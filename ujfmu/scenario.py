@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .build import DEFAULT_FMU_DIR, FMUS, build_hint, fmu_class
+from .build import DEFAULT_FMU_DIR, FMUS, REPO_DIR, build_hint, fmu_class
 from .master import COUPLINGS, DEFAULT_COUPLING, Component, Connection
 
 
@@ -68,6 +68,28 @@ def _expected(var):
     return f"a number{unit}{hint}"
 
 
+#: the scenarios that come with ujfmu (a clone's scenarios/ folder), offered for a mistyped name
+BUNDLED_SCENARIOS = REPO_DIR / "scenarios"
+
+
+def not_found_hint(path: Path) -> str:
+    """'; did you mean ...?' for a scenario path that does not exist: the same path with .toml when that file
+    exists, else the closest names (difflib) among the .toml files of its folder and the bundled scenarios."""
+    path = Path(path)
+    if path.suffix != ".toml" and path.with_name(path.name + ".toml").is_file():
+        return f"; did you mean {path.with_name(path.name + '.toml')}? (scenario files end in .toml)"
+    candidates = {}
+    for folder, shown in ((path.parent, path.parent), (BUNDLED_SCENARIOS, BUNDLED_SCENARIOS)):
+        if folder.is_dir():
+            for file in sorted(folder.glob("*.toml")):
+                candidates.setdefault(file.stem, shown / file.name)
+    stem = path.name[:-len(".toml")] if path.name.endswith(".toml") else path.name
+    close = [stem] if stem in candidates else difflib.get_close_matches(stem, list(candidates), n=3, cutoff=0.6)
+    if not close:
+        return ""
+    return f"; did you mean {' or '.join(str(candidates[name]) for name in close)}?"
+
+
 class ScenarioError(ValueError):
     """A scenario file is invalid; the message names the file and the field."""
 
@@ -84,7 +106,7 @@ class Scenario:
         try:
             data = tomllib.loads(self.path.read_text())
         except FileNotFoundError:
-            raise ScenarioError(f"{self.path}: scenario file not found") from None
+            raise ScenarioError(f"{self.path}: scenario file not found{not_found_hint(self.path)}") from None
         except tomllib.TOMLDecodeError as exc:
             raise ScenarioError(f"{self.path}: {exc}") from None
         self.name = self.path.stem

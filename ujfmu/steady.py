@@ -12,7 +12,9 @@ revolutions and reduces each output to its figures. Whether it was steady is mea
   variation within the quarter). A transient decaying as exp(-sigma t) changes by A exp(-sigma T) (exp(sigma T/4) -
   1) between 3T/4 and T and leaves A exp(-sigma T) at T: once sigma T >= 4 ln 2 = 2.8 the error left is below the
   change measured. Otherwise T grows by GROWTH (1.5x), up to ``max_settle_time`` (default 8x the first T), so any
-  decay slower than that shows as a change. T is at least four windows long. A decay or drift much slower than 1/T
+  decay slower than that shows as a change. T is at least four windows long, and windows are whole revolutions
+  laid back to back from 3T/4 until one starts at T or later: the settle time used can pass ``max_settle_time``
+  (by up to one window, or up to four windows when the cap is shorter), and the not_steady message says so. A decay or drift much slower than 1/T
   changes too little within the last quarter to be seen, so the first T must be of the order of the slowest time
   constant: where a model's slowest decay rate is known (``analysis.decay_rates`` of its linearisation), a settle
   time of 2.8 / sigma or more makes the check decisive (the report does this for the twin rotor).
@@ -146,8 +148,10 @@ def settle_and_measure(cosim, settings) -> dict:
     while True:
         cosim.advance(max(0, int(round((start + 0.75 * settle - cosim.time) / h))))
         window = record_window(cosim, s.running_speed, s.revolutions)
+        first = window.start - start
         if cap is None:   # the first window fixes the shortest settle time and the default cap
-            settle = max(settle, 4.0 * (window.table["time"][-1] - window.table["time"][0]))
+            length = window.table["time"][-1] - window.table["time"][0]
+            settle = max(settle, 4.0 * length)
             cap = s.max_settle_time if s.max_settle_time is not None else 8.0 * settle
         earlier = [periodic_figures(window, signals, s.orders)]
         while True:   # back-to-back windows until one starts at T or later
@@ -163,11 +167,30 @@ def settle_and_measure(cosim, settings) -> dict:
     if change <= s.steady_tol:
         record.update(status=OK, error="")
     else:
-        record.update(status=NOT_STEADY,
-                      error=f"not steady after {settle:g} s: the {worst} changed by {change:.3g} of itself "
-                            f"since {0.75 * settle:g} s (allowed {s.steady_tol:g}); raise max_settle_time "
-                            "(--max-settle) or check for an unstable or non-periodic response")
+        record.update(status=NOT_STEADY, error=not_steady_message(
+            window.start - start, first, cap, length, s, worst, change))
     return _check_operating_point(window, s, record)
+
+
+def not_steady_message(settled: float, earlier_start: float, cap: float, length: float, s, worst: str,
+                       change: float) -> str:
+    """Why a point is not steady, with the settle time actually used (the start of the measured window) and, when
+    that is past ``max_settle_time`` (cap), why: the criterion needs T >= 4 windows (module docstring), and
+    windows are whole revolutions laid back to back from 3T/4, so the last starts up to one window after T."""
+    text = (f"not steady after {settled:.4g} s of settling: the {worst} changed by {change:.3g} of itself since "
+            f"{earlier_start:.4g} s (allowed {s.steady_tol:g})")
+    if settled > cap * (1.0 + 1e-9):
+        windows = (f"measurement windows of {s.revolutions:g} revolution{'' if s.revolutions == 1 else 's'} of "
+                   f"{s.running_speed} "
+                   f"({length:.3g} s each)")
+        if 4.0 * length > cap * (1.0 + 1e-9):
+            return text + (f"; that is past max_settle_time = {cap:g} s because the check needs a settle time of at "
+                           f"least four {windows}: raise max_settle_time (--max-settle) above "
+                           f"{4.0 * length:.3g} s or measure fewer revolutions (--revolutions), or check for an "
+                           "unstable or non-periodic response")
+        text += (f"; that is past max_settle_time = {cap:g} s by {settled - cap:.3g} s because the check lays whole "
+                 f"{windows} back to back")
+    return text + "; raise max_settle_time (--max-settle) or check for an unstable or non-periodic response"
 
 
 def _measured(window, s):
@@ -177,15 +200,22 @@ def _measured(window, s):
     return out
 
 
+def speed_text(value: float) -> str:
+    """A speed for a human-facing message: SI, with rpm in parentheses (rpm = rad/s * 30 / pi)."""
+    return f"{value:.6g} rad/s ({value * 30.0 / math.pi:.6g} rpm)"
+
+
 def _check_operating_point(window, s, record):
-    """Flag the point when a signal's mean misses its set point's mean by more than operating_tol."""
+    """Flag the point when a signal's mean misses its set point's mean by more than operating_tol (the pairs are
+    drive speeds, rad/s)."""
     record.setdefault("status", OK)
     record.setdefault("error", "")
     for signal, target in s.operating_point:
         value, goal = float(window.table[signal].mean()), float(window.table[target].mean())
         if not abs(value - goal) <= s.operating_tol * max(abs(goal), 1e-12):
-            message = (f"operating point not reached: {signal} = {value:.6g} against its set point {target} = "
-                       f"{goal:.6g} ({100.0 * (value - goal) / max(abs(goal), 1e-12):+.1f}%, allowed "
+            miss = 100.0 * (value - goal) / max(abs(goal), 1e-12)
+            message = (f"operating point not reached: {signal} = {speed_text(value)} (mean) against its set point "
+                       f"{target} = {speed_text(goal)} ({miss:+.1f}%, allowed "
                        f"{100.0 * s.operating_tol:g}%); a drive at its torque limit cannot hold the speed: raise "
                        "its torque limit or lower the load")
             record["error"] = "; ".join(m for m in (message, record["error"]) if m)

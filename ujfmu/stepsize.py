@@ -1,7 +1,9 @@
 """Communication step help without a reference: the coupling error estimated by step halving.
 
-Both coupling schemes are first order in the step h (the input held over a step), so with y_h the result at step h
-and y_h/2 at half of it, y_h - y_exact = 2 (y_h - y_h/2) + O(h^2) (Richardson). ``estimate`` reports that per
+For a first-order error in the step h (the explicit scheme; the implicit one where its blend is above 1/2), with
+y_h the result at step h and y_h/2 at half of it, y_h - y_exact = 2 (y_h - y_h/2) + O(h^2) (Richardson); a
+second-order error (the implicit scheme's where its blend is 1/2) is 4/3 (y_h - y_h/2), so the first-order estimate
+errs on the safe side by 1.5x there. ``estimate`` reports the first-order estimate per
 recorded signal as a fraction of the signal's range; ``choose`` halves the step until every signal's estimate is
 within its allowance. Both only rerun the scenario: no reference is needed.
 """

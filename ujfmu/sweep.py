@@ -28,6 +28,7 @@ From Python (keyword arguments of ``SweepSettings.from_scenario`` override the s
 
 import contextlib
 import csv
+import difflib
 import hashlib
 import io
 import itertools
@@ -126,26 +127,54 @@ class Axis:
         text = f"{value:.6g} {si}".rstrip()
         return text + (f" ({self.display(value):.6g} {self.unit})" if self.unit else "")
 
-    def check(self, scenario, what: str = "") -> None:
-        """ScenarioError (prefixed by what, default 'axis <label>') unless every name is a parameter of a component
-        of scenario and every value is within its declared range."""
+    def problems(self, scenario, what: str = "") -> list:
+        """Every reason the axis cannot run on scenario, each prefixed by what (default 'axis <label>'): a name that
+        is not a parameter of a component of scenario, a unit suffix its unit does not take, values outside its
+        declared range (the first named, the others counted)."""
         what = what or f"axis {self.label}"
+        found = []
         for name in self.names:
             comp, _, par = name.partition(".")
             if comp not in scenario.components:
-                raise ScenarioError(f"{what}: {scenario.path} has no component '{comp}' "
-                                    f"(it has {', '.join(scenario.components)})")
+                found.append(f"{what}: {scenario.path} has no component '{comp}' "
+                             f"(it has {', '.join(scenario.components)})")
+                continue
             fmu = scenario.components[comp][0]
             declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
             if par not in declared:
-                raise ScenarioError(f"{what}: {fmu} has no parameter '{par}' (it has {', '.join(declared)})")
+                close = difflib.get_close_matches(par, declared, n=1)
+                found.append(f"{what}: {fmu} has no parameter '{par}'"
+                             f"{f' (did you mean {comp}.{close[0]}?)' if close else ''} (it has {', '.join(declared)})")
+                continue
             problem = unit_problem(self.unit, declared[par].unit)
             if problem:
-                raise ScenarioError(f"{what}: {comp}.{par}: {problem}")
-            for value in self.values:
-                problem = declared[par].check(declared[par].type(value))
-                if problem:
-                    raise ScenarioError(f"{what}: {comp}.{problem}")
+                found.append(f"{what}: {comp}.{par}: {problem}")
+                continue
+            bad = [p for p in (declared[par].check(declared[par].type(v)) for v in self.values) if p]
+            if bad:
+                more = f" (and {len(bad) - 1} more of its {len(self.values)} values)" if len(bad) > 1 else ""
+                found.append(f"{what}: {comp}.{bad[0]}{more}")
+        return found
+
+    def check(self, scenario, what: str = "") -> None:
+        """ScenarioError listing every problem of :meth:`problems` (prefixed by what, default 'axis <label>')
+        unless every name is a parameter of a component of scenario and every value is within its declared
+        range."""
+        problems = self.problems(scenario, what)
+        if problems:
+            raise SweepSettingsError(problems)
+
+
+class SweepSettingsError(ScenarioError):
+    """Everything wrong with a sweep's axes and settings at once (``problems``), so that one run lists it all."""
+
+    def __init__(self, problems: list):
+        self.problems = list(problems)
+        if len(self.problems) == 1:
+            super().__init__(self.problems[0])
+        else:
+            super().__init__(f"{len(self.problems)} problems with the sweep's axes and settings:\n  - "
+                             + "\n  - ".join(self.problems))
 
 
 def parse_axis(text: str, scenario) -> Axis:
@@ -176,6 +205,36 @@ def parse_axis(text: str, scenario) -> Axis:
     return axis
 
 
+def sweep_setup(scenario, specs, **overrides) -> tuple:
+    """(axes, settings) of a sweep of scenario: specs are ``--param`` texts (``parse_axis``), overrides the
+    keywords of ``SweepSettings.from_scenario``. Every axis and every setting is checked before one
+    SweepSettingsError lists all that is wrong, so that one run shows every fix needed."""
+    scenario = scenario if isinstance(scenario, Scenario) else Scenario(scenario)
+    axes, problems = [], []
+    if not specs:
+        problems.append(f"{scenario.path}: nothing to sweep: give --param comp.par=START:STOP:STEP or [sweep] "
+                        "params in the scenario")
+    for spec in specs:
+        try:
+            axes.append(parse_axis(spec, scenario))
+        except SweepSettingsError as exc:
+            problems += exc.problems
+        except ScenarioError as exc:
+            problems.append(str(exc))
+    try:
+        settings = SweepSettings.from_scenario(scenario, **overrides)
+    except SweepSettingsError as exc:
+        problems += exc.problems
+    if problems:
+        raise SweepSettingsError(problems)
+    return axes, settings
+
+
+#: the command-line option of each [sweep] setting, for messages
+OPTION = {"settle_time": "--settle", "revolutions": "--revolutions", "steady_tol": "--steady-tol",
+          "max_settle_time": "--max-settle"}
+
+
 @dataclass
 class SweepSettings:
     """What each point does; from the scenario's [sweep] table, overridden by the command line."""
@@ -199,40 +258,57 @@ class SweepSettings:
         table = dict(scenario.sweep)
         table.update({k: v for k, v in overrides.items() if v is not None})
         where = f"{scenario.path}: [sweep]"
+        problems = []
+
+        def number(key, default=None, test=lambda x: True, needs=""):
+            value = table.get(key, default)
+            field = f"{where} {key} ({OPTION[key]})"
+            try:
+                value = None if value is None else float(value)
+            except (TypeError, ValueError):
+                problems.append(f"{field} = {value!r} must be a number{needs}")
+                return None
+            if value is not None and not (math.isfinite(value) and test(value)):
+                problems.append(f"{field} = {value:g} must be{needs}")
+                return None
+            return value
+
         outputs = list(table.get("outputs") or scenario.tolerances or scenario.record)
         running_speed = table.get("running_speed") or scenario.running_speed
         if not running_speed:
-            raise ScenarioError(f"{where} running_speed (or output.running_speed; --running-speed on the command "
-                                "line, running_speed=... from Python) is needed to measure whole revolutions")
-        for name in outputs + [running_speed]:
-            scenario._check_signal(name, "sweep signal")
-        settle = table.get("settle_time")
-        if settle is None:
-            raise ScenarioError(f"{where} settle_time (--settle on the command line, settle_time=... from Python) "
-                                "is needed: the time to reach steady state")
-        settings = cls(outputs, running_speed, float(settle), float(table.get("revolutions", 4.0)),
-                       tuple(int(k) for k in table.get("orders", (1, 2, 4))))
-        settings.steady_tol, settings.max_settle_time, settings.operating_point = _steady_settings(scenario, table)
-        if not (settings.settle_time >= 0 and settings.revolutions > 0 and all(k > 0 for k in settings.orders)):
-            raise ScenarioError(f"{where} needs settle_time >= 0, revolutions > 0 and positive orders")
+            problems.append(f"{where} running_speed (or output.running_speed; --running-speed on the command "
+                            "line, running_speed=... from Python) is needed to measure whole revolutions")
+        for name in outputs + ([running_speed] if running_speed else []):
+            try:
+                scenario._check_signal(name, "sweep signal")
+            except ScenarioError as exc:
+                problems.append(str(exc))
+        settle = number("settle_time", test=lambda x: x >= 0, needs=" >= 0 [s]")
+        if "settle_time" not in table:
+            problems.append(f"{where} settle_time (--settle on the command line, settle_time=... from Python) "
+                            "is needed: the time to reach steady state")
+        revolutions = number("revolutions", 4.0, lambda x: x > 0, " > 0")
+        tol = number("steady_tol", 1e-3, lambda x: x >= 0, " >= 0 (0: no steady-state check)")
+        cap = number("max_settle_time", None, lambda x: settle is None or x >= settle,
+                     f" >= settle_time ({settle:g} s)" if settle is not None else " a time [s]")
+        try:
+            orders = tuple(int(k) for k in table.get("orders", (1, 2, 4)))
+            if not orders or any(k <= 0 for k in orders):
+                raise ValueError
+        except (TypeError, ValueError):
+            problems.append(f"{where} orders (--orders) = {table.get('orders')!r} must be positive whole numbers, "
+                            "e.g. 1,2,4")
+            orders = ()
+        if problems:
+            raise SweepSettingsError(problems)
+        settings = cls(outputs, running_speed, settle, revolutions, orders)
+        settings.steady_tol, settings.max_settle_time = tol, cap
+        settings.operating_point = tuple((f"{name}.omega", f"{name}.omega_ref") for name, (fmu, _) in
+                                         scenario.components.items() if fmu in ("Motor", "MotorController"))
         return settings
 
     def columns(self):
         return [f"{out}.{fig}" for out in self.outputs for fig in FIGURES + tuple(f"h{k}" for k in self.orders)]
-
-
-def _steady_settings(scenario, table):
-    """(steady_tol, max_settle_time, operating_point) from the [sweep] table or overrides; by default every Motor's
-    and MotorController's speed is checked against its reference speed."""
-    where = f"{scenario.path}: [sweep]"
-    tol = float(table.get("steady_tol", 1e-3))
-    cap = table.get("max_settle_time")
-    cap = None if cap is None else float(cap)
-    if not (tol >= 0 and (cap is None or cap >= float(table["settle_time"]))):
-        raise ScenarioError(f"{where} needs steady_tol >= 0 (0: no check) and max_settle_time >= settle_time")
-    pairs = tuple((f"{name}.omega", f"{name}.omega_ref") for name, (fmu, _) in scenario.components.items()
-                  if fmu in ("Motor", "MotorController"))
-    return tol, cap, pairs
 
 
 @dataclass
@@ -338,8 +414,9 @@ class Sweep:
     def __init__(self, scenario, axes, settings, out_dir=Path("results"), name=None, fmu_dir=DEFAULT_FMU_DIR):
         self.scenario = scenario if isinstance(scenario, Scenario) else Scenario(scenario)
         self.axes, self.settings = list(axes), settings
-        for axis in self.axes:
-            axis.check(self.scenario)
+        problems = [p for axis in self.axes for p in axis.problems(self.scenario)]
+        if problems:
+            raise SweepSettingsError(problems)
         self.name = name or f"{self.scenario.name}_sweep"
         if self.name.startswith(".") or any(c in self.name for c in "/\\\0"):
             raise ScenarioError(f"sweep name {self.name!r} must be a plain file name (no path separators, not "

@@ -13,18 +13,20 @@ it has no path to fmi2Error):
   need more than rk4.MAX_SUBSTEPS substeps, or any exception while stepping: the message is logged at fmi2Error
   and the step is refused (fmi2Discard); the instance and the host process stay alive.
 
-FMU state (canGetAndSetFMUstate, canSerializeFMUstate), data only: the values of the variables, the life-cycle
-flags and the attributes each model declares in ``STATE`` (name -> kind, see ``KINDS``). Attributes that follow from
-the parameters (a parameters object, cached rates) are declared in ``DERIVED`` and recomputed by ``derive()`` on
-restore, never stored. An attribute a model sets that is in neither makes fmi2GetFMUstate fail (and the tests),
-so nothing can be forgotten. fmi2GetFMUstate returns an :class:`FmuState`; fmi2SetFMUstate restores exactly its
-fields, the same ones a serialized state restores. The serialized form (``encode_state``) is a versioned header
-(magic, format version, model name, build digest of the FMU's sources), JSON of plain numbers, and a SHA-256 of
-all of it. ``decode_state`` rejects a truncated or corrupted blob, another format version, another FMU, another
-build, a wrong field set, a wrong type or length, a non-finite number where a finite one is required, and
-parameters outside their ranges; it never imports, constructs or calls anything the blob names. pythonfmu turns
-the rejection into fmi2Fatal with the reason in the log message; the instance is left unchanged and usable (the
-objects pythonfmu releases twice are pinned, as above). docs/security.md has the threat model.
+FMU state (canGetAndSetFMUstate, canSerializeFMUstate), data only: the values of the variables, the life-cycle flags
+and the attributes each model declares in ``STATE`` (name -> kind, see ``KINDS``). Attributes that follow from the
+parameters (a parameters object, cached rates) are declared in ``DERIVED``, never stored, and recomputed by
+``derive()`` on restore unless they already follow from the restored parameters (a state this instance saved under
+its current ``derive()``, no parameter set since: see ``_set_fmu_state``). An attribute a model sets that is in
+neither makes fmi2GetFMUstate fail (and the tests), so nothing can be forgotten. fmi2GetFMUstate returns an
+:class:`FmuState`; fmi2SetFMUstate restores exactly its fields, the same ones a serialized state restores. The
+serialized form (``encode_state``) is a versioned header (magic, format version, model name, build digest of the
+FMU's sources), JSON of plain numbers, and a SHA-256 of all of it. ``decode_state`` rejects a truncated or corrupted
+blob, another format version, another FMU, another build, a wrong field set, a wrong type or length, a non-finite
+number where a finite one is required, and parameters outside their ranges; it never imports, constructs or calls
+anything the blob names. pythonfmu turns the rejection into fmi2Fatal with the reason in the log message; the
+instance is left unchanged and usable (the objects pythonfmu releases twice are pinned, as above). docs/security.md
+has the threat model.
 """
 
 import dataclasses
@@ -165,13 +167,15 @@ class UjfmuSlave(Fmi2Slave):
         self._running = False      # past fmi2ExitInitializationMode
         self._inputs = tuple(v for v in self.VARIABLES if v.causality == "input")
         self._start_time = 0.0
+        self._derivation = None    # token of the derive() the DERIVED attributes come from (see _set_fmu_state)
         for var in self.VARIABLES:
             if var.causality == "output":
                 setattr(self, var.name, 0.0)
                 getter, setter = self._output_getter(var.name), None
             else:
                 setattr(self, var.name, var.type(var.start))
-                getter, setter = None, self._input_setter(var.name, var.type)
+                setter = (self._parameter_setter if var.causality == "parameter" else self._input_setter)
+                getter, setter = None, setter(var.name, var.type)
             self.register_variable(_TYPES[var.type](
                 var.name, causality=Fmi2Causality[var.causality],
                 variability=Fmi2Variability[var.variability], description=var.description,
@@ -233,22 +237,24 @@ class UjfmuSlave(Fmi2Slave):
 
     @classmethod
     def _capture_plan(cls, initialized):
-        """(field name, normalizer of its kind) per field of ``state_kinds``, built once per class: what
-        ``_capture`` applies at every save."""
+        """The :class:`_CapturePlan` of ``state_kinds(initialized)``, built once per class: what ``_capture`` and
+        ``_set_fmu_state`` apply at every save and restore."""
         plans = cls.__dict__.get("_CAPTURE_PLANS")
         if plans is None:
-            plans = {flag: tuple((name, _NORMALIZERS.get(kind) or _normalize_vector)
-                                 for name, kind in cls.state_kinds(flag).items()) for flag in (False, True)}
+            plans = {flag: _CapturePlan(cls, cls.state_kinds(flag)) for flag in (False, True)}
             cls._CAPTURE_PLANS = plans
         return plans[initialized]
 
     def _capture(self):
-        """The current FMU state, each value normalized to its kind (a tuple of floats for a float[n])."""
-        if not self.__dict__.keys() <= self._known:
-            undeclared = self.__dict__.keys() - self._known
+        """The current FMU state, each value normalized to its kind (a tuple of floats for a float[n]), the fields
+        in ``state_kinds`` order; an initialized one carries the token of the current derivation."""
+        attributes = self.__dict__
+        if not attributes.keys() <= self._known:
+            undeclared = attributes.keys() - self._known
             raise ValueError(f"attributes {sorted(undeclared)} are neither in STATE nor in DERIVED")
-        plan = self._capture_plan(bool(self._initialized))
-        return FmuState(type(self), {k: normalize(getattr(self, k)) for k, normalize in plan})
+        initialized = bool(self._initialized)
+        fields = self._capture_plan(initialized).fields(self)
+        return FmuState(type(self), fields, self._derivation if initialized else None)
 
     def _get_fmu_state(self):
         try:
@@ -257,14 +263,31 @@ class UjfmuSlave(Fmi2Slave):
             self._raise_to_host(f"{self.modelName} '{self.instance_name}': cannot save the FMU state: {exc}")
 
     def _set_fmu_state(self, state):
-        """Restore a state of this FMU (values are immutable: one saved state can be restored many times)."""
+        """Restore a state of this FMU (values are immutable: one saved state can be restored many times).
+
+        The DERIVED attributes are recomputed from the restored parameters (``derive()``) unless the state carries
+        the token of the derivation in place now: ``_derive`` makes a new token at every ``derive()``, a parameter
+        set through FMI drops it (``_parameter_setter``), a restore keeps it only when the state carries it, and a
+        state carries the token in place when it was saved. So while a token is in place the parameters are those
+        it was derived from, and a state carrying it holds the same parameters: the DERIVED attributes already
+        follow from them. A deserialized state carries none."""
         if not isinstance(state, FmuState) or state.origin != (type(self).__module__, type(self).__name__):
             self._raise_to_host(f"{self.modelName} '{self.instance_name}': fmi2SetFMUstate was given a state that "
                                 "is not one of this FMU's; the instance is unchanged")
-        for key, value in state.fields.items():
-            setattr(self, key, value)
-        if self._initialized:
-            self.derive()
+        if self._capture_plan(True).plain:
+            self.__dict__.update(state.fields)
+        else:
+            for key, value in state.fields.items():
+                setattr(self, key, value)
+        if not self._initialized:
+            self._derivation = None
+        elif state.derivation is None or state.derivation is not self._derivation:
+            self._derive()
+
+    def _derive(self):
+        """``derive()``, and a new token for the derivation now in place (see ``_set_fmu_state``)."""
+        self.derive()
+        self._derivation = object()
 
     @staticmethod
     def _fmu_state_to_bytes(state):
@@ -304,6 +327,16 @@ class UjfmuSlave(Fmi2Slave):
                 self._stale = True
             if not self._running:
                 self._initialized = False
+        return set_
+
+    def _parameter_setter(self, name, cast):
+        """The setter of parameter ``name``: as an input's, and the DERIVED attributes no longer count as following
+        from the parameters (a later restore recomputes them)."""
+        set_value = self._input_setter(name, cast)
+
+        def set_(value):
+            set_value(value)
+            self._derivation = None
         return set_
 
     # --- hooks for the models ---
@@ -350,7 +383,7 @@ class UjfmuSlave(Fmi2Slave):
         return "; ".join(f"invalid {c}s: " + "; ".join(ms) for c, ms in self._problems(causalities).items())
 
     def _start(self):
-        self.derive()
+        self._derive()
         self.initialize(self._start_time)
 
     def exit_initialization_mode(self):
@@ -583,12 +616,41 @@ class StateError(ValueError):
 
 
 class FmuState:
-    """An FMU state: the model's name and its fields (name -> immutable plain value)."""
+    """An FMU state: the model's name and its fields (name -> immutable plain value); in memory, also the token of
+    the derivation the saving instance had in place (``UjfmuSlave._set_fmu_state``), never serialized."""
 
-    __slots__ = ("origin", "fields")
+    __slots__ = ("origin", "fields", "derivation")
 
-    def __init__(self, cls, fields):
-        self.origin, self.fields = (cls.__module__, cls.__name__), fields
+    def __init__(self, cls, fields, derivation=None):
+        self.origin, self.fields, self.derivation = (cls.__module__, cls.__name__), fields, derivation
+
+
+class _CapturePlan:
+    """How the fields of one ``state_kinds`` of an FMU class are read and normalized at a save.
+
+    ``per_field``: (name, normalizer of its kind) per field, in ``state_kinds`` order. ``plain``: every field is an
+    ordinary instance attribute (no data descriptor of that name on the class, no ``__setattr__`` of its own), so
+    reading and writing the instance's ``__dict__`` is reading and writing the attribute; ``fields`` then reads the
+    values from it (a field missing there is read again as an attribute, field by field: the same values, or the
+    same error)."""
+
+    __slots__ = ("per_field", "plain")
+
+    def __init__(self, cls, kinds):
+        self.per_field = tuple((name, _NORMALIZERS.get(kind) or _normalize_vector) for name, kind in kinds.items())
+        self.plain = cls.__setattr__ is object.__setattr__ and not any(
+            hasattr(type(klass.__dict__[name]), "__set__")
+            for name in kinds for klass in cls.__mro__ if name in klass.__dict__)
+
+    def fields(self, inst):
+        """The fields of inst, normalized, in ``state_kinds`` order."""
+        if self.plain:
+            attributes = inst.__dict__
+            try:
+                return {name: normalize(attributes[name]) for name, normalize in self.per_field}
+            except KeyError:
+                pass
+        return {name: normalize(getattr(inst, name)) for name, normalize in self.per_field}
 
 
 def _normalize(kind, value):

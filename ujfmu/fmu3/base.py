@@ -180,6 +180,7 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         core.instance_name, core.modelName, core.log_queue = self.instance_name, model.__name__, self.log_queue
         core.log = self._log_from_core
         core._stale, core._initialized, core._running, core._start_time = True, False, False, 0.0
+        core._derivation = None
         core._inputs = tuple(v for v in model.VARIABLES if v.causality == "input")
         for var in model.VARIABLES:
             setattr(core, var.name, 0.0 if var.causality == "output" else var.type(var.start))
@@ -208,7 +209,8 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         elif var.causality == "local":
             getter = self._state_getter(var.name)
         else:
-            getter, setter = (lambda name=var.name: getattr(core, name)), core._input_setter(var.name, var.type)
+            setter = core._parameter_setter if var.causality == "parameter" else core._input_setter
+            getter, setter = (lambda name=var.name: getattr(core, name)), setter(var.name, var.type)
         kwargs = dict(causality=Fmi3Causality[var.causality], variability=Fmi3Variability[var.variability],
                       description=var.description, getter=getter, setter=setter)
         if var.type is float:

@@ -4,7 +4,8 @@ Each model's derivation is in its folder (``ujfmu/models/<stem>/reference.py``);
 references' own Motor and Load laws, the ideal-source/PI drive, the checks) are in ``ujfmu.references.common``.
 Each generator takes a scenario (ujfmu.scenario.Scenario) and returns a structured array sampled on the
 scenario's communication grid. Reference CSV files start with one '#' line saying how they were made; the rest is
-fmpy's cross-check CSV format. Regenerate all with ``ujfmu references``.
+fmpy's cross-check CSV format, the line ending with the exact command that regenerates the file
+(``ujfmu references scenarios/<name>.toml``); ``ujfmu references`` regenerates all.
 """
 
 import gzip
@@ -75,7 +76,22 @@ def generate(scenario):
                                       "pip install 'ujfmu[references]'", name=dependency) from None
     module, function = GENERATORS[name]
     table, provenance = getattr(importlib.import_module(module), function)(scenario)
-    return table, f"{provenance} {SETUP_TAG}{scenario.setup_digest()}]"
+    return table, f"{provenance}. {regenerate_text(scenario)} {SETUP_TAG}{scenario.setup_digest()}]"
+
+
+#: the clone this package lives in (an editable install): committed scenarios are named relative to it
+_REPO_DIR = Path(__file__).resolve().parents[2]
+
+
+def regenerate_text(scenario) -> str:
+    """'Regenerate: ujfmu references <scenario file>': the exact command, with the scenario's path relative to the
+    clone (committed scenarios: ``scenarios/<name>.toml``), else to the current directory, else absolute."""
+    path = Path(scenario.path).resolve()
+    for base in (_REPO_DIR, Path.cwd().resolve()):
+        if path.is_relative_to(base):
+            path = path.relative_to(base)
+            break
+    return f"Regenerate: ujfmu references {path.as_posix()}"
 
 
 #: how a provenance line names the scenario setup it was made for (``Scenario.setup_digest``)

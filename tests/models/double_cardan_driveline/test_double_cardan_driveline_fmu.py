@@ -41,3 +41,15 @@ def test_inconsistent_parameters_are_errors_naming_them(open_fmu, params, needle
     with pytest.raises(FMICallException):
         inst.initialize(params)
     assert any(needle in m for m in inst._log), inst._log
+
+
+@pytest.mark.parametrize("rigid", [True, False])
+def test_fmu_estimates_the_input_acceleration_to_second_order(open_fmu, drive, rigid):
+    """Fed a speed quadratic in time, alpha_in is its exact derivative at t_k from the third point on (BDF2; the
+    backward difference would be off by b h, half a step late), in both modes; the first step has one difference
+    only (backward)."""
+    a, b, h = 30.0, 400.0, 1e-3
+    r = drive(open_fmu("DoubleCardanDriveline"), lambda t: 5.0 + a * t + b * t * t, 5.0, h, 40, ("alpha_in",),
+              dict(rigid_intermediate_shaft=rigid))
+    np.testing.assert_allclose(r.alpha_in[2:], a + 2.0 * b * r.time[2:], rtol=1e-9)
+    np.testing.assert_allclose(r.alpha_in[1], a + b * h, rtol=1e-9)

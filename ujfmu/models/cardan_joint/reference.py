@@ -132,7 +132,7 @@ def generate(scenario):
     if torque_driven:
         columns = torque_driven_names("joint", columns)
     table = record_table(scenario, t, columns)
-    return table, f"{__name__}: {how}. Regenerate: ujfmu references"
+    return table, f"{__name__}: {how}"
 
 
 def self_check(scenario, t: np.ndarray, columns: dict) -> None:

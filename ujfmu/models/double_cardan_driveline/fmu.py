@@ -15,7 +15,8 @@ class DoubleCardanDriveline(PrescribedInputSlave):
     """Input shaft, Cardan joint 1, intermediate shaft, Cardan joint 2, output shaft with the driven load.
 
     The input shaft follows omega_in (angle advanced with the input extrapolated linearly over each step, its
-    acceleration alpha_in the backward difference of omega_in). Two modes (README.md):
+    acceleration alpha_in the second-order (BDF2) slope of omega_in at t_k, so that neither tau_in nor the
+    extrapolated angle lags by half a step). Two modes (README.md):
     - rigid_intermediate_shaft = true (Brutti et al., section 4): one degree of freedom; the output follows the
       joints' kinematics and tau_in = J_eq alpha1 + J_eq' omega1^2/2 + (dphi4/dphi1) tau_load from the kinetic
       energy J_eq(phi1) omega1^2/2 of every inertia (input shaft, crosses, intermediate shaft, output and load).
@@ -33,6 +34,7 @@ class DoubleCardanDriveline(PrescribedInputSlave):
     """
 
     MODEL = dc
+    ACCELERATION_ORDER = 2
     VARIABLES = (
         parameter("beta1", math.radians(15.0), "rad",
                   "Static angle of joint 1 between input and intermediate shaft (Omar beta0 = 15 deg)", **_ANGLE),

@@ -232,7 +232,7 @@ def generate(scenario):
     if torque_driven:
         cols = torque_driven_names("driveline", cols)
     table = record_table(scenario, t, cols)
-    return table, f"{__name__}: {how}. Regenerate: ujfmu references"
+    return table, f"{__name__}: {how}"
 
 
 def self_check(scenario, t: np.ndarray, columns: dict, dissipation=0.0) -> None:

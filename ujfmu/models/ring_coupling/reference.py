@@ -107,7 +107,7 @@ def generate(scenario):
         cols = torque_driven_names("coupling", cols)
     how = (f"monolithic ODE of {drive_name(ideal)} + coupling + load, Lagrange's "
            f"equations formed by sympy from the ring's potential, scipy DOP853 rtol={RTOL:g} atol={ATOL:g}")
-    return record_table(scenario, t, cols), f"{__name__}: {how}. Regenerate: ujfmu references"
+    return record_table(scenario, t, cols), f"{__name__}: {how}"
 
 
 def pendulum_angle(a_e, y0, v0, t):
@@ -164,7 +164,7 @@ def generate_pendulum(scenario):
         self_check(scenario, t, cols, name, load)
     how = ("closed form: the pendulum y'' + A_e sin y = 0 of Eq. (12) solved with Jacobi elliptic functions "
            "(scipy.special.ellipj, ellipkinc)")
-    return record_table(scenario, t, cols), f"{__name__}: {how}. Regenerate: ujfmu references"
+    return record_table(scenario, t, cols), f"{__name__}: {how}"
 
 
 def self_check(scenario, t: np.ndarray, columns: dict, coupling: str, load: str | None) -> None:

@@ -239,7 +239,7 @@ def generate(scenario):
     table = record_table(scenario, t, cols)
     how = (f"monolithic ODE of {drive_name(ideal)} + rotor + load, Lagrange's "
            f"equations formed by sympy from rotation matrices and energies, scipy DOP853 rtol={RTOL:g} atol={ATOL:g}")
-    return table, f"{__name__}: {how}. Regenerate: ujfmu references"
+    return table, f"{__name__}: {how}"
 
 
 def energy_audit(scenario, t: np.ndarray, columns: dict, rotor: str, load: str, motor: str = "motor") -> None:
