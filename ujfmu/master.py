@@ -515,10 +515,12 @@ class Cosimulation:
                             c_void_p(self._transfers[i][6]), self._transfers[i][7], c_size_t(1), self._transfers[i][4])
                            for i in self._tears]
         # where the torn connections' values are in the scratch row (the views above, gathered at once)
-        self._tear_index = np.array([(addressof(self._transfers[i][4]) - addressof(self._scratch)) // sizeof(fmi2Real)
-                                     for i in self._tears], dtype=np.intp)
-        self._tear_scale = np.zeros(len(self._tears))
-        self._inverse, self._g_past = None, []   # inverse interface Jacobian (dr/du)^-1, G at t - h, t - 2h
+        # the torn connections' values (one-value ctypes arrays in the scratch row: v[0] is a Python float); the
+        # implicit loop works on lists of floats, numpy costing a microsecond per operation on these 1-2 values
+        self._tear_values = [self._transfers[i][4] for i in self._tears]
+        self._tear_scale = [0.0] * len(self._tears)
+        # inverse interface Jacobian (dr/du)^-1 (list of rows), G at t - h, t - 2h
+        self._inverse, self._g_past = None, []
         self.theta = THETA   # implicit coupling: the blend of G(t_k+1) and G(t_k), chosen at every interface Jacobian
 
     def _plan_bonds(self, views):
@@ -804,21 +806,23 @@ class Cosimulation:
                 raise CosimulationError(f"component '{name}' could not save its state at t = {t!r}" + self._log_text())
         try:
             self._step(self._fixed_steppers, c_double(t), c_double(h))
-            g_start = self._scratch_view[self._tear_index]
+            g_start = [v[0] for v in self._tear_values]
             self._g_start = g_start
-            past = self._g_past
+            past, theta = self._g_past, self.theta
             if len(past) == 2:    # G at t + h extrapolated quadratically from t, t - h, t - 2h
-                u = g_start + self.theta * (2.0 * g_start - 3.0 * past[1] + past[0])
+                u = [g + theta * (2.0 * g - 3.0 * g1 + g2) for g, g1, g2 in zip(g_start, past[1], past[0])]
             elif past:
-                u = g_start + self.theta * (g_start - past[-1])
+                u = [g + theta * (g - g1) for g, g1 in zip(g_start, past[-1])]
             else:
                 u = g_start
             self._g_past = (past + [g_start])[-2:]
             r = self._evaluate(u, t, h, states, restore=False)
             scale = self._tear_scale
-            np.maximum(scale, np.abs(g_start), out=scale)
-            tol = COUPLING_RTOL * scale + COUPLING_ATOL
-            best = ((np.abs(r) / tol).max(), u, r)
+            for j, g in enumerate(g_start):   # the running max |G|, NaN kept as np.maximum keeps it
+                if abs(g) > scale[j] or g != g:
+                    scale[j] = abs(g)
+            tol = [COUPLING_RTOL * s + COUPLING_ATOL for s in scale]
+            best = (_worst(r, tol), u, r)
             rebuilds = 0
             while best[0] > 1.0:
                 if self._inverse is None or rebuilds:
@@ -827,23 +831,24 @@ class Cosimulation:
                     theta, d_g = self.theta, (jacobian + np.eye(len(u))) / self.theta
                     self.theta = blend_weight(d_g)
                     if self.theta != theta:
-                        g = (r + u - (1.0 - theta) * g_start) / theta
-                        r = self.theta * g + (1.0 - self.theta) * g_start - u
+                        g = (np.add(r, u) - (1.0 - theta) * np.array(g_start)) / theta
+                        r = (self.theta * g + (1.0 - self.theta) * np.array(g_start) - u).tolist()
                         jacobian = self.theta * d_g - np.eye(len(u))
-                        best = ((np.abs(r) / tol).max(), u, r)
-                    self._inverse = np.linalg.inv(jacobian)
+                        best = (_worst(r, tol), u, r)
+                    self._inverse = np.linalg.inv(jacobian).tolist()
                     # G independent of u (an ideal speed source): no loop to iterate; explicit from the next step on
                     self.open_loop = bool(np.allclose(jacobian, -np.eye(len(u)), rtol=0.0, atol=1e-9))
                 inverse = self._inverse
                 for _ in range(MAX_ITERATIONS):
-                    du = -(inverse @ r)
-                    r_new = self._evaluate(u + du, t, h, states)
-                    h_dr = inverse @ (r_new - r)
-                    denominator = du @ h_dr
+                    du = [-_dot(row, r) for row in inverse]
+                    u_new = [a + b for a, b in zip(u, du)]
+                    r_new = self._evaluate(u_new, t, h, states)
+                    h_dr = [_dot(row, [a - b for a, b in zip(r_new, r)]) for row in inverse]
+                    denominator = _dot(du, h_dr)
                     if denominator != 0.0:   # Broyden's update of the inverse (Sherman-Morrison)
-                        inverse += np.outer(du - h_dr, du @ inverse) / denominator
-                    u, r = u + du, r_new
-                    error = (np.abs(r) / tol).max()
+                        _broyden(inverse, du, h_dr, denominator)
+                    u, r = u_new, r_new
+                    error = _worst(r, tol)
                     if error < best[0]:
                         best = (error, u, r)
                     if error <= 1.0:
@@ -881,8 +886,8 @@ class Cosimulation:
         self._step(self._rolled_steppers, c_double(t), c_double(h))
         self.time = t + h
         self._communicate()
-        g = self._scratch_view[self._tear_index]
-        return self.theta * g + (1.0 - self.theta) * self._g_start - u
+        theta = self.theta
+        return [theta * v[0] + (1.0 - theta) * g0 - ui for v, g0, ui in zip(self._tear_values, self._g_start, u)]
 
     def _fd_jacobian(self, u, r, t, h, states, tol):
         """dr/du by forward differences, one torn input at a time (n re-steps)."""
@@ -891,9 +896,9 @@ class Cosimulation:
         jac = np.empty((n, n))
         for j in range(n):
             du = max(1e-6 * max(abs(u[j]), self._tear_scale[j]), 1e3 * COUPLING_ATOL)
-            probe = u.copy()
+            probe = list(u)
             probe[j] += du
-            jac[:, j] = (self._evaluate(probe, t, h, states) - r) / du
+            jac[:, j] = (np.array(self._evaluate(probe, t, h, states)) - r) / du
         if not np.all(np.isfinite(jac)) or abs(np.linalg.det(jac)) < 1e-12:
             raise CosimulationError(self._divergence_message(t, r, tol, "its interface Jacobian is singular"))
         return jac
@@ -970,6 +975,36 @@ def blend_weight(d_g: np.ndarray) -> float:
         mid = 0.5 * (lo + hi)
         lo, hi = (lo, mid) if inertia_amplification(d_g, mid) <= AMPLIFICATION_BOUND else (mid, hi)
     return hi
+
+
+def _dot(a: list, b: list) -> float:
+    """sum_i a_i b_i, summed in order."""
+    total = 0.0
+    for x, y in zip(a, b):
+        total += x * y
+    return total
+
+
+def _worst(r: list, tol: list) -> float:
+    """max_i |r_i| / tol_i, NaN if any is (as numpy's max)."""
+    worst = 0.0
+    for ri, ti in zip(r, tol):
+        ratio = abs(ri) / ti
+        if ratio > worst or ratio != ratio:
+            worst = ratio
+            if ratio != ratio:
+                break
+    return worst
+
+
+def _broyden(inverse: list, du: list, h_dr: list, denominator: float) -> None:
+    """Broyden's update of the inverse Jacobian H (rows, in place) by Sherman-Morrison:
+    H += (du - H dr) (du^T H) / (du^T H dr), h_dr = H dr."""
+    du_h = [_dot(du, column) for column in zip(*inverse)]
+    for row, a, b in zip(inverse, du, h_dr):
+        c = a - b
+        for j, w in enumerate(du_h):
+            row[j] += c * w / denominator
 
 
 def held_inputs(instances: dict, connections: list, parameters: dict) -> list:
