@@ -121,6 +121,10 @@ class Parameters:
     j_eff2: float = field(init=False, repr=False)
     sin_phase2: float = field(init=False, repr=False)
     cos_phase2: float = field(init=False, repr=False)
+    linear: tuple = field(init=False, repr=False)
+    linear_rate: float = field(init=False, repr=False)
+    remainder_rate: float = field(init=False, repr=False)
+    propagators: dict = field(init=False, repr=False)
 
     def __post_init__(self):
         self.sin_beta, self.cos_beta = math.sin(self.beta), math.cos(self.beta)
@@ -134,6 +138,10 @@ class Parameters:
         self.sin_phase1, self.cos_phase1 = math.sin(self.phase_u1), math.cos(self.phase_u1)
         self.sin_phase2, self.cos_phase2 = math.sin(self.phase_u2), math.cos(self.phase_u2)
         self.natural_rate = natural_rate_bound(self)
+        self.linear = linear_part(self)
+        self.linear_rate = _rate(self.linear)
+        self.remainder_rate = remainder_rate_bound(self)
+        self.propagators = {}   # substep length -> _propagators
 
 
 def _disc_constants(mass, inertia, m_u, e):
@@ -346,8 +354,14 @@ def rest_state(p: Parameters, phi_in: float, w_in: float) -> list:
 def natural_rate_bound(p: Parameters) -> float:
     """An upper bound [1/s] of the fastest free motion: sqrt of the trace of M^-1 K plus the trace of M^-1 C, with
     |dpsi/dtheta1| <= 1 / cos(beta) and |dpsi/du|, |dpsi/dv| <= tan(beta) (plus margin for the tilts)."""
-    r = 1.0 / p.cos_beta
-    g = 1.1 * abs(p.sin_beta) / p.cos_beta + 0.01
+    stiffness, decay = _rate_traces(p, p.cos_beta, p.sin_beta)
+    return math.sqrt(stiffness) + decay
+
+
+def _rate_traces(p: Parameters, cos_beta: float, sin_beta: float) -> tuple:
+    """(trace M^-1 K, trace M^-1 C) bounds of :func:`natural_rate_bound` at the joint angle given by its cos, sin."""
+    r = 1.0 / cos_beta
+    g = 1.1 * abs(sin_beta) / cos_beta + 0.01
     j1, j2 = p.disc1["j_eff"], p.disc2["j_eff"]
     m1, m2 = p.disc1["M"], p.disc2["M"]
     lat1, lat2 = p.slope1 ** 2 * g * g, p.slope2 ** 2 * g * g
@@ -355,7 +369,7 @@ def natural_rate_bound(p: Parameters) -> float:
                  + (p.K2X + p.K2Y + 2.0 * p.K2T * lat2) / m2)
     decay = ((p.C1T + p.C2T * r * r) / j1 + p.C2T / j2 + (p.C1X + p.C1Y + 2.0 * p.C2T * lat1) / m1
              + (p.C2X + p.C2Y + 2.0 * p.C2T * lat2) / m2)
-    return math.sqrt(stiffness) + decay
+    return stiffness, decay
 
 
 def step(p: Parameters, t_span: float, phi_in: float, w_in: float,
@@ -367,6 +381,188 @@ def step(p: Parameters, t_span: float, phi_in: float, w_in: float,
     def f(phi, w, state):
         return rates(p, phi, w, alpha_in, state, tau_load)
     return rk4.integrate(f, y, t_span, rk4.substeps(natural_rate + 4.0 * w_max, t_span), phi_in, w_in, alpha_in)
+
+
+# --- the exponential integrator (the FMU's stepper) -------------------------------------------------------------
+#
+# Twist coordinates z = y - r(t), r(t) the rigid rotation with the input (theta1 = theta2 = phi_in(t),
+# theta1' = theta2' = omega_in(t), discs centred): z' = L z + N(t, z), L the constant-coefficient linear part
+# (:func:`linear_part`), N(t, z) = f(t, r + z) - r'(t) - L z the remainder (the joint's kinematic modulation, the
+# unbalance forcing, the discs' mass coupling, the input's acceleration). Only the speed rows of N are non-zero:
+# the angle rows of f are the speeds, which r' and L z reproduce exactly.
+
+def linear_part(p: Parameters) -> tuple:
+    """L in twist coordinates, block-diagonal: the torsional chain on (z_theta1, z_omega1, z_theta2, z_omega2),
+    input -- K1T, C1T -- J_eff1 -- K2T, C2T -- J_eff2 with the joint's mean speed ratio 1, and per disc and direction
+    the Jeffcott oscillator [[0, 1], [-K/m, -C/m]], m = M + m_u (X1, Y1, X2, Y2). J_eff = J + m_u e^2 - (m_u e)^2 / m
+    as in the disc equations (paper Eq. 10 solved by its Schur complement)."""
+    j1, j2 = p.j_eff1, p.j_eff2
+    torsion = [[0.0, 1.0, 0.0, 0.0],
+               [-(p.K1T + p.K2T) / j1, -(p.C1T + p.C2T) / j1, p.K2T / j1, p.C2T / j1],
+               [0.0, 0.0, 0.0, 1.0],
+               [p.K2T / j2, p.C2T / j2, -p.K2T / j2, -p.C2T / j2]]
+    lateral = [[[0.0, 1.0], [-k / m, -c / m]] for k, c, m in ((p.K1X, p.C1X, p.m1), (p.K1Y, p.C1Y, p.m1),
+                                                              (p.K2X, p.C2X, p.m2), (p.K2Y, p.C2Y, p.m2))]
+    return (torsion, *lateral)
+
+
+def _rate(blocks) -> float:
+    """An upper bound of the spectral radius of L: for each block sqrt of the sum of its stiffness terms plus the
+    sum of its damping terms (the traces of M^-1 K and M^-1 C: rows of the speeds)."""
+    torsion, *lateral = blocks
+    stiffness = -torsion[1][0] - torsion[3][2] + sum(-b[1][0] for b in lateral)
+    decay = -torsion[1][1] - torsion[3][3] + sum(-b[1][1] for b in lateral)
+    return math.sqrt(stiffness) + decay
+
+
+def remainder_rate_bound(p: Parameters) -> float:
+    """Bound [1/s] of the fastest rate of N's own stiffness and damping: the terms of :func:`natural_rate_bound`
+    that the joint angle adds to those of the aligned joint (which L holds, up to the tilt margin): the joint's
+    kinematic modulation of the torsional stiffness and its lateral coupling, sqrt(d trace M^-1 K) + d trace M^-1 C."""
+    stiffness, decay = _rate_traces(p, p.cos_beta, p.sin_beta)
+    aligned_stiffness, aligned_decay = _rate_traces(p, 1.0, 0.0)
+    return math.sqrt(max(0.0, stiffness - aligned_stiffness)) + max(0.0, decay - aligned_decay)
+
+
+def _phi_functions(a, h: float) -> list:
+    """[phi_0(h a), ..., phi_3(h a)] of a small square matrix a, phi_k(X) = sum_j X^j / (j + k)! (phi_0 = exp),
+    by the Taylor series to 30 terms: the substep rule keeps h |lambda| <= 1 for L's eigenvalues, where the
+    truncation is below 1e-30."""
+    n = len(a)
+    x = [[h * v for v in row] for row in a]
+    power = [[1.0 if i == j else 0.0 for j in range(n)] for i in range(n)]
+    phis = [[[0.0] * n for _ in range(n)] for _ in range(4)]
+    factorial = 1.0
+    for j in range(34):
+        if j:
+            factorial *= j
+            power = [[sum(power[i][m] * x[m][k] for m in range(n)) for k in range(n)] for i in range(n)]
+        f = factorial
+        for k in range(4):   # X^j / (j + k)!
+            if j + k >= 1 and k:
+                f *= j + k
+            for i in range(n):
+                row, prow = phis[k][i], power[i]
+                for c in range(n):
+                    row[c] += prow[c] / f
+    return phis
+
+
+def _propagators(p: Parameters, h: float) -> tuple:
+    """The operators of one Krogstad substep of length h (:func:`_krogstad_substep`), from the phi-functions of
+    L's blocks at h/2 and h: full-state ones (E(h/2) = exp(h L / 2), E(h) = exp(h L)) as 32 numbers (the torsional
+    4x4 row by row, then each lateral 2x2), and ones applied to N (only its speed columns: the torsional columns of
+    omega1 and omega2, then each lateral block's speed column) as 16 numbers:
+    Q1 = (h/2) phi_1(h L/2), Q2 = h phi_2(h L/2), R1 = h phi_1(h L), R2 = 2 h phi_2(h L),
+    S1 = h (2 phi_2 - 4 phi_3)(h L), S2 = h (4 phi_3 - phi_2)(h L)."""
+    cached = p.propagators.get(h)
+    if cached is not None:
+        return cached
+    half = [_phi_functions(block, 0.5 * h) for block in p.linear]
+    full = [_phi_functions(block, h) for block in p.linear]
+
+    def speed_op(phis, weights, factor):
+        blocks = [[[factor * sum(w * phi[k][i][j] for k, w in weights) for j in range(len(phi[0]))]
+                   for i in range(len(phi[0]))] for phi in phis]
+        t, lateral = blocks[0], blocks[1:]
+        return tuple([t[r][1] for r in range(4)] + [t[r][3] for r in range(4)]
+                     + [b[r][1] for b in lateral for r in range(2)])
+
+    def state_op(phis):
+        t, lateral = phis[0][0], [phi[0] for phi in phis[1:]]
+        return tuple([v for row in t for v in row] + [v for b in lateral for row in b for v in row])
+
+    ops = (state_op(half), speed_op(half, ((1, 1.0),), 0.5 * h), speed_op(half, ((2, 1.0),), h),
+           state_op(full), speed_op(full, ((1, 1.0),), h), speed_op(full, ((2, 1.0),), 2.0 * h),
+           speed_op(full, ((2, 2.0), (3, -4.0)), h), speed_op(full, ((3, 4.0), (2, -1.0)), h))
+    if len(p.propagators) >= 16:   # varying steps: keep the cache small
+        p.propagators.clear()
+    p.propagators[h] = ops
+    return ops
+
+
+def _state_op(f: tuple, z: Sequence[float], g: tuple, d: Sequence[float]) -> list:
+    """F z + G d: F a full-state operator on the 12 twist coordinates, G a speed-column operator on the speed rows
+    d = (omega1, X1', Y1', omega2, X2', Y2') of N (layouts: :func:`_propagators`)."""
+    z0, z1, z2, z3, z4, z5, z6, z7, z8, z9, z10, z11 = z
+    a, dx1, dy1, b, dx2, dy2 = d[:6]
+    return [f[0] * z0 + f[1] * z1 + f[2] * z6 + f[3] * z7 + g[0] * a + g[4] * b,
+            f[4] * z0 + f[5] * z1 + f[6] * z6 + f[7] * z7 + g[1] * a + g[5] * b,
+            f[16] * z2 + f[17] * z3 + g[8] * dx1, f[18] * z2 + f[19] * z3 + g[9] * dx1,
+            f[20] * z4 + f[21] * z5 + g[10] * dy1, f[22] * z4 + f[23] * z5 + g[11] * dy1,
+            f[8] * z0 + f[9] * z1 + f[10] * z6 + f[11] * z7 + g[2] * a + g[6] * b,
+            f[12] * z0 + f[13] * z1 + f[14] * z6 + f[15] * z7 + g[3] * a + g[7] * b,
+            f[24] * z8 + f[25] * z9 + g[12] * dx2, f[26] * z8 + f[27] * z9 + g[13] * dx2,
+            f[28] * z10 + f[29] * z11 + g[14] * dy2, f[30] * z10 + f[31] * z11 + g[15] * dy2]
+
+
+def _shift(v: Sequence[float], g: tuple, d: Sequence[float]) -> list:
+    """v + G d (G a speed-column operator, d N's speed rows: :func:`_state_op`)."""
+    a, dx1, dy1, b, dx2, dy2 = d[:6]
+    return [v[0] + g[0] * a + g[4] * b, v[1] + g[1] * a + g[5] * b, v[2] + g[8] * dx1, v[3] + g[9] * dx1,
+            v[4] + g[10] * dy1, v[5] + g[11] * dy1, v[6] + g[2] * a + g[6] * b, v[7] + g[3] * a + g[7] * b,
+            v[8] + g[12] * dx2, v[9] + g[13] * dx2, v[10] + g[14] * dy2, v[11] + g[15] * dy2]
+
+
+def _remainder(p: Parameters, phi: float, w: float, alpha: float, z: Sequence[float], tau_load: float) -> tuple:
+    """N's speed rows (omega1, X1', Y1', omega2, X2', Y2') and the rates of the dissipated energy and input work at
+    the input motion (phi, w, alpha) and twist coordinates z: f(r + z) - r' - L z (:func:`rates`, :func:`linear_part`)."""
+    z0, z1, z2, z3, z4, z5, z6, z7, z8, z9, z10, z11 = z
+    f = rates(p, phi, w, alpha, (phi + z0, w + z1, z2, z3, z4, z5, phi + z6, w + z7, z8, z9, z10, z11, 0.0, 0.0),
+              tau_load)
+    t, l1x, l1y, l2x, l2y = p.linear
+    r1, r3 = t[1], t[3]
+    return (f[1] - alpha - (r1[0] * z0 + r1[1] * z1 + r1[2] * z6 + r1[3] * z7),
+            f[3] - (l1x[1][0] * z2 + l1x[1][1] * z3), f[5] - (l1y[1][0] * z4 + l1y[1][1] * z5),
+            f[7] - alpha - (r3[0] * z0 + r3[1] * z1 + r3[2] * z6 + r3[3] * z7),
+            f[9] - (l2x[1][0] * z8 + l2x[1][1] * z9), f[11] - (l2y[1][0] * z10 + l2y[1][1] * z11), f[12], f[13])
+
+
+def exponential_substeps(p: Parameters, t_span: float, w_in: float, alpha_in: float) -> int:
+    """Substeps of :func:`exponential_step`: each resolves N's own rates (:func:`remainder_rate_bound`) and the
+    1x and 2x forcing by the unbalance and the joint, 2 |omega_in|, and keeps h |lambda| <= 1 over L's eigenvalues
+    (``rk4.substeps``: h rate <= RATE_STEP = 0.5), so the phi-functions' series converge fast."""
+    w_max = max(abs(w_in), abs(w_in + alpha_in * t_span))
+    return rk4.substeps(max(p.remainder_rate + 2.0 * w_max, 0.5 * p.linear_rate), t_span)
+
+
+def exponential_step(p: Parameters, t_span: float, phi_in: float, w_in: float, alpha_in: float,
+                     y: Sequence[float], tau_load: float) -> list:
+    """Advance the state over t_span (input angle quadratic in time, tau_load held, as :func:`step`) with
+    Krogstad's fourth-order exponential Runge-Kutta method (ETDRK4-B: Krogstad, "Generalized integrating factor
+    methods for stiff PDEs", J. Comput. Phys. 203, 2005) in twist coordinates: L's part exactly, N by four
+    evaluations of :func:`rates` per substep, :func:`exponential_substeps` substeps. Per substep of length h from
+    z (N_u = N(t, z), D_i = N(stage i) - N_u, N's time the stage's):
+        a = E(h/2) z + Q1 N_u                         (at t + h/2)
+        b = a + Q2 D_a                                (at t + h/2)
+        c = E(h) z + R1 N_u + R2 D_b                  (at t + h)
+        z+ = E(h) z + R1 N_u + S1 (D_a + D_b) + S2 D_c
+    (operators: :func:`_propagators`). Order 4 (tests); with L = 0 it is classical RK4, which is how the
+    dissipated energy and input work rows are integrated: q+ = q + h (N_u + (D_a + D_b) / 3 + D_c / 6)."""
+    n = exponential_substeps(p, t_span, w_in, alpha_in)
+    h = t_span / n
+    e_half, q1, q2, e_full, r1, r2, s1, s2 = _propagators(p, h)
+    z = [y[0] - phi_in, y[1] - w_in, y[2], y[3], y[4], y[5], y[6] - phi_in, y[7] - w_in, y[8], y[9], y[10], y[11]]
+    dissipated, work = y[12], y[13]
+    for k in range(n):
+        t0 = k * h
+        tm, te = t0 + 0.5 * h, t0 + h
+        nu = _remainder(p, phi_in + t0 * (w_in + 0.5 * alpha_in * t0), w_in + alpha_in * t0, alpha_in, z, tau_load)
+        phi_m, w_m = phi_in + tm * (w_in + 0.5 * alpha_in * tm), w_in + alpha_in * tm
+        a = _state_op(e_half, z, q1, nu)
+        da = [x - u for x, u in zip(_remainder(p, phi_m, w_m, alpha_in, a, tau_load), nu)]
+        b = _shift(a, q2, da)
+        db = [x - u for x, u in zip(_remainder(p, phi_m, w_m, alpha_in, b, tau_load), nu)]
+        ec = _state_op(e_full, z, r1, nu)
+        c = _shift(ec, r2, db)
+        dc = [x - u for x, u in zip(_remainder(p, phi_in + te * (w_in + 0.5 * alpha_in * te), w_in + alpha_in * te,
+                                               alpha_in, c, tau_load), nu)]
+        z = _shift(_shift(ec, s1, [x + u for x, u in zip(da, db)]), s2, dc)
+        dissipated += h * (nu[6] + (da[6] + db[6]) / 3.0 + dc[6] / 6.0)
+        work += h * (nu[7] + (da[7] + db[7]) / 3.0 + dc[7] / 6.0)
+    phi_end, w_end = phi_in + t_span * (w_in + 0.5 * alpha_in * t_span), w_in + alpha_in * t_span
+    return [phi_end + z[0], w_end + z[1], z[2], z[3], z[4], z[5], phi_end + z[6], w_end + z[7], z[8], z[9], z[10],
+            z[11], dissipated, work]
 
 
 def torque_outputs(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequence[float]) -> dict:
