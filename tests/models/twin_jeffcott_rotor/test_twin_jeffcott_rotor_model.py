@@ -156,9 +156,9 @@ def test_disc_accelerations_solve_the_mass_matrix():
 
 
 def test_straight_line_rates_are_the_composed_equations():
-    """rates (straight-line code, the integrator's inner loop) is Lagrange's equations assembled from joint (its
-    derivatives tested against finite differences, its tilts against scipy's rotations above) and
-    _disc_accelerations (against numpy's solve), at random joint angles, unbalance phases, rigs, states and inputs,
+    """joint_gradient (straight-line) is joint, and rates (straight-line code, the integrator's inner loop) is
+    Lagrange's equations assembled from joint (its derivatives tested against finite differences, its tilts against
+    scipy's rotations above) and _disc_accelerations (against numpy's solve), at random joint angles, unbalance phases, rigs, states and inputs,
     end slopes in both branches of the Rodrigues coefficients."""
     rng = np.random.default_rng(16)
     for i in range(300):
@@ -173,6 +173,9 @@ def test_straight_line_rates_are_the_composed_equations():
         th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
         s1, s2 = p.slope1, p.slope2
         psi, g_th, g_u1, g_v1, g_u2, g_v2 = tj.joint(p, th1, s1 * x1, s1 * y1, s2 * x2, s2 * y2)
+        np.testing.assert_allclose(tj.joint_gradient(p, th1, s1 * x1, s1 * y1, s2 * x2, s2 * y2, math.sin(th1),
+                                                     math.cos(th1)), (psi, g_th, g_u1, g_v1, g_u2, g_v2),
+                                   rtol=1e-12, atol=1e-300)
         dpsi = g_th * w1 + s1 * (g_u1 * vx1 + g_v1 * vy1) + s2 * (g_u2 * vx2 + g_v2 * vy2)
         t1 = p.K1T * (phi_in - th1) + p.C1T * (w_in - w1)
         t2 = p.K2T * (psi - th2) + p.C2T * (dpsi - w2)

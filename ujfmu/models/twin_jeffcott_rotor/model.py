@@ -122,6 +122,7 @@ class Parameters:
     sin_phase2: float = field(init=False, repr=False)
     cos_phase2: float = field(init=False, repr=False)
     linear: tuple = field(init=False, repr=False)
+    linear_rows: tuple = field(init=False, repr=False)
     linear_rate: float = field(init=False, repr=False)
     remainder_rate: float = field(init=False, repr=False)
     propagators: dict = field(init=False, repr=False)
@@ -139,6 +140,8 @@ class Parameters:
         self.sin_phase2, self.cos_phase2 = math.sin(self.phase_u2), math.cos(self.phase_u2)
         self.natural_rate = natural_rate_bound(self)
         self.linear = linear_part(self)
+        t, *lateral = self.linear   # L's speed rows, flat for _remainder
+        self.linear_rows = tuple(t[1] + t[3] + [v for b in lateral for v in b[1]])
         self.linear_rate = _rate(self.linear)
         self.remainder_rate = remainder_rate_bound(self)
         self.propagators = {}   # substep length -> _propagators
@@ -238,25 +241,19 @@ def shaft_torques(p: Parameters, phi_in: float, w_in: float, y: Sequence[float])
     """(T1, T2, psi, joint derivatives, rates) along a state: primary and secondary shaft torques, T > 0 driving."""
     th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
     s1, s2 = p.slope1, p.slope2
-    g = joint(p, th1, s1 * x1, s1 * y1, s2 * x2, s2 * y2)
+    g = joint_gradient(p, th1, s1 * x1, s1 * y1, s2 * x2, s2 * y2, math.sin(th1), math.cos(th1))
     dpsi = g[1] * w1 + s1 * (g[2] * vx1 + g[3] * vy1) + s2 * (g[4] * vx2 + g[5] * vy2)
     t1 = p.K1T * (phi_in - th1) + p.C1T * (w_in - w1)
     t2 = p.K2T * (g[0] - th2) + p.C2T * (dpsi - w2)
     return t1, t2, g, dpsi
 
 
-def rates(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequence[float], tau_load: float) -> tuple:
-    """dy/dt of the 14 states (Lagrange, Eq. 8, with the energies above); tau_load acts on disc 2.
-
-    Straight-line, the integrator's inner loop: the same equations as :func:`shaft_torques` (:func:`joint` and
-    `_tilt` at u = 3 X / L, v = 3 Y / L) and `_disc_accelerations` (paper Eq. 10), which the tests compare it with;
-    each sine and cosine once (those of theta + phase_u by the angle sum), no calls while the end slopes are in the
-    short series of `_tilt_coefficients` (always, but for parameters far outside a real rotor)."""
-    th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2, _, _ = y
-    sl1, sl2 = p.slope1, p.slope2
-    u1, v1, u2, v2 = sl1 * x1, sl1 * y1, sl2 * x2, sl2 * y2
-    sin, cos = math.sin, math.cos
-    s, c = sin(th1), cos(th1)
+def joint_gradient(p: Parameters, th1: float, u1: float, v1: float, u2: float, v2: float, s: float,
+                   c: float) -> tuple:
+    """:func:`joint` written straight-line (s, c = sin, cos of theta1 given): (psi, dpsi/dtheta1, dpsi/du1,
+    dpsi/dv1, dpsi/du2, dpsi/dv2), no calls while the end slopes are in the short series of
+    `_tilt_coefficients` (always, but for parameters far outside a real rotor). The integrator's inner loop
+    (:func:`rates`) and the outputs (:func:`shaft_torques`) use it; tests compare it with :func:`joint`."""
     sb, cb = p.sin_beta, p.cos_beta
     # Rodrigues' coefficients S, F, dS/dx, dF/dx of both end tilts, x = angle^2 (`_tilt_coefficients`)
     x = u1 * u1 + v1 * v1
@@ -303,6 +300,21 @@ def rates(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequenc
     g_v1 = wx * eax + wy * eay + wz * eaz
     g_u2 = -(px * (-v2 * pnb) - py * (pn - u2 * pnb)) / den
     g_v2 = (px * (-pn - v2 * pna) - py * (-u2 * pna)) / den
+    return psi, g_th, g_u1, g_v1, g_u2, g_v2
+
+
+def rates(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequence[float], tau_load: float) -> tuple:
+    """dy/dt of the 14 states (Lagrange, Eq. 8, with the energies above); tau_load acts on disc 2.
+
+    Straight-line, the integrator's inner loop: the same equations as :func:`shaft_torques` (the joint at
+    u = 3 X / L, v = 3 Y / L by :func:`joint_gradient`) and `_disc_accelerations` (paper Eq. 10), which the tests
+    compare it with; each sine and cosine once (those of theta + phase_u by the angle sum)."""
+    th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2, _, _ = y
+    sl1, sl2 = p.slope1, p.slope2
+    u1, v1, u2, v2 = sl1 * x1, sl1 * y1, sl2 * x2, sl2 * y2
+    sin, cos = math.sin, math.cos
+    s, c = sin(th1), cos(th1)
+    psi, g_th, g_u1, g_v1, g_u2, g_v2 = joint_gradient(p, th1, u1, v1, u2, v2, s, c)
     # shaft torques (`shaft_torques`)
     dpsi = g_th * w1 + sl1 * (g_u1 * vx1 + g_v1 * vy1) + sl2 * (g_u2 * vx2 + g_v2 * vy2)
     d1, d2 = w_in - w1, dpsi - w2
@@ -335,14 +347,18 @@ def stored_energy(p: Parameters, phi_in: float, w_in: float, y: Sequence[float])
 
 
 def _stored_energy(p: Parameters, w_in: float, twist1: float, twist2: float, y: Sequence[float]) -> float:
-    """:func:`stored_energy` with the shafts' twists phi_in - theta1 and psi - theta2 given."""
+    """:func:`stored_energy` with the shafts' twists phi_in - theta1 and psi - theta2 given (T of each disc, module
+    docstring: sin and cos of theta + phase_u by the angle sum)."""
     th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
-    energy = 0.5 * p.J_gb * w_in * w_in
-    for d, th, w, vx, vy, phase in ((p.disc1, th1, w1, vx1, vy1, p.phase_u1), (p.disc2, th2, w2, vx2, vy2, p.phase_u2)):
-        energy += (0.5 * d["jt"] * w * w + 0.5 * d["m"] * (vx * vx + vy * vy)
-                   + d["a"] * w * (-math.sin(th + phase) * vx + math.cos(th + phase) * vy))
-    return energy + 0.5 * (p.K1T * twist1 * twist1 + p.K2T * twist2 * twist2 + p.K1X * x1 * x1 + p.K1Y * y1 * y1
-                           + p.K2X * x2 * x2 + p.K2Y * y2 * y2)
+    s, c = math.sin(th1), math.cos(th1)
+    sa1, ca1 = s * p.cos_phase1 + c * p.sin_phase1, c * p.cos_phase1 - s * p.sin_phase1
+    s, c = math.sin(th2), math.cos(th2)
+    sa2, ca2 = s * p.cos_phase2 + c * p.sin_phase2, c * p.cos_phase2 - s * p.sin_phase2
+    kinetic = (p.J_gb * w_in * w_in + p.disc1["jt"] * w1 * w1 + p.m1 * (vx1 * vx1 + vy1 * vy1)
+               + p.disc2["jt"] * w2 * w2 + p.m2 * (vx2 * vx2 + vy2 * vy2))
+    return (0.5 * kinetic + p.a1 * w1 * (ca1 * vy1 - sa1 * vx1) + p.a2 * w2 * (ca2 * vy2 - sa2 * vx2)
+            + 0.5 * (p.K1T * twist1 * twist1 + p.K2T * twist2 * twist2 + p.K1X * x1 * x1 + p.K1Y * y1 * y1
+                     + p.K2X * x2 * x2 + p.K2Y * y2 * y2))
 
 
 def rest_state(p: Parameters, phi_in: float, w_in: float) -> list:
@@ -504,18 +520,37 @@ def _shift(v: Sequence[float], g: tuple, d: Sequence[float]) -> list:
             v[8] + g[12] * dx2, v[9] + g[13] * dx2, v[10] + g[14] * dy2, v[11] + g[15] * dy2]
 
 
-def _remainder(p: Parameters, phi: float, w: float, alpha: float, z: Sequence[float], tau_load: float) -> tuple:
+def _last_stage(v: Sequence[float], g: tuple, d: Sequence[float], e: Sequence[float], k: tuple,
+                f: Sequence[float]) -> list:
+    """v + G (d + e) + K f: :func:`_shift` by G for the sum of two remainders and by K for a third."""
+    a, dx1, dy1, b, dx2, dy2 = d[0] + e[0], d[1] + e[1], d[2] + e[2], d[3] + e[3], d[4] + e[4], d[5] + e[5]
+    c, fx1, fy1, q, fx2, fy2 = f[:6]
+    return [v[0] + g[0] * a + g[4] * b + k[0] * c + k[4] * q, v[1] + g[1] * a + g[5] * b + k[1] * c + k[5] * q,
+            v[2] + g[8] * dx1 + k[8] * fx1, v[3] + g[9] * dx1 + k[9] * fx1,
+            v[4] + g[10] * dy1 + k[10] * fy1, v[5] + g[11] * dy1 + k[11] * fy1,
+            v[6] + g[2] * a + g[6] * b + k[2] * c + k[6] * q, v[7] + g[3] * a + g[7] * b + k[3] * c + k[7] * q,
+            v[8] + g[12] * dx2 + k[12] * fx2, v[9] + g[13] * dx2 + k[13] * fx2,
+            v[10] + g[14] * dy2 + k[14] * fy2, v[11] + g[15] * dy2 + k[15] * fy2]
+
+
+#: no remainder to subtract (:func:`_remainder`)
+_NONE = (0.0,) * 8
+
+
+def _remainder(p: Parameters, phi: float, w: float, alpha: float, z: Sequence[float], tau_load: float,
+               less: Sequence[float] = _NONE) -> tuple:
     """N's speed rows (omega1, X1', Y1', omega2, X2', Y2') and the rates of the dissipated energy and input work at
-    the input motion (phi, w, alpha) and twist coordinates z: f(r + z) - r' - L z (:func:`rates`, :func:`linear_part`)."""
+    the input motion (phi, w, alpha) and twist coordinates z, f(r + z) - r' - L z (:func:`rates`,
+    :func:`linear_part`), each less the one of ``less`` (a stage's D = N - N_u)."""
     z0, z1, z2, z3, z4, z5, z6, z7, z8, z9, z10, z11 = z
     f = rates(p, phi, w, alpha, (phi + z0, w + z1, z2, z3, z4, z5, phi + z6, w + z7, z8, z9, z10, z11, 0.0, 0.0),
               tau_load)
-    t, l1x, l1y, l2x, l2y = p.linear
-    r1, r3 = t[1], t[3]
-    return (f[1] - alpha - (r1[0] * z0 + r1[1] * z1 + r1[2] * z6 + r1[3] * z7),
-            f[3] - (l1x[1][0] * z2 + l1x[1][1] * z3), f[5] - (l1y[1][0] * z4 + l1y[1][1] * z5),
-            f[7] - alpha - (r3[0] * z0 + r3[1] * z1 + r3[2] * z6 + r3[3] * z7),
-            f[9] - (l2x[1][0] * z8 + l2x[1][1] * z9), f[11] - (l2y[1][0] * z10 + l2y[1][1] * z11), f[12], f[13])
+    a0, a1, a2, a3, b0, b1, b2, b3, kx1, cx1, ky1, cy1, kx2, cx2, ky2, cy2 = p.linear_rows
+    return (f[1] - alpha - (a0 * z0 + a1 * z1 + a2 * z6 + a3 * z7) - less[0],
+            f[3] - (kx1 * z2 + cx1 * z3) - less[1], f[5] - (ky1 * z4 + cy1 * z5) - less[2],
+            f[7] - alpha - (b0 * z0 + b1 * z1 + b2 * z6 + b3 * z7) - less[3],
+            f[9] - (kx2 * z8 + cx2 * z9) - less[4], f[11] - (ky2 * z10 + cy2 * z11) - less[5],
+            f[12] - less[6], f[13] - less[7])
 
 
 def exponential_substeps(p: Parameters, t_span: float, w_in: float, alpha_in: float) -> int:
@@ -550,14 +585,12 @@ def exponential_step(p: Parameters, t_span: float, phi_in: float, w_in: float, a
         nu = _remainder(p, phi_in + t0 * (w_in + 0.5 * alpha_in * t0), w_in + alpha_in * t0, alpha_in, z, tau_load)
         phi_m, w_m = phi_in + tm * (w_in + 0.5 * alpha_in * tm), w_in + alpha_in * tm
         a = _state_op(e_half, z, q1, nu)
-        da = [x - u for x, u in zip(_remainder(p, phi_m, w_m, alpha_in, a, tau_load), nu)]
-        b = _shift(a, q2, da)
-        db = [x - u for x, u in zip(_remainder(p, phi_m, w_m, alpha_in, b, tau_load), nu)]
+        da = _remainder(p, phi_m, w_m, alpha_in, a, tau_load, nu)
+        db = _remainder(p, phi_m, w_m, alpha_in, _shift(a, q2, da), tau_load, nu)
         ec = _state_op(e_full, z, r1, nu)
-        c = _shift(ec, r2, db)
-        dc = [x - u for x, u in zip(_remainder(p, phi_in + te * (w_in + 0.5 * alpha_in * te), w_in + alpha_in * te,
-                                               alpha_in, c, tau_load), nu)]
-        z = _shift(_shift(ec, s1, [x + u for x, u in zip(da, db)]), s2, dc)
+        dc = _remainder(p, phi_in + te * (w_in + 0.5 * alpha_in * te), w_in + alpha_in * te, alpha_in,
+                        _shift(ec, r2, db), tau_load, nu)
+        z = _last_stage(ec, s1, da, db, s2, dc)
         dissipated += h * (nu[6] + (da[6] + db[6]) / 3.0 + dc[6] / 6.0)
         work += h * (nu[7] + (da[7] + db[7]) / 3.0 + dc[7] / 6.0)
     phi_end, w_end = phi_in + t_span * (w_in + 0.5 * alpha_in * t_span), w_in + alpha_in * t_span
