@@ -158,8 +158,8 @@ def test_disc_accelerations_solve_the_mass_matrix():
 def test_straight_line_rates_are_the_composed_equations():
     """joint_gradient (straight-line) is joint, and rates (straight-line code, the integrator's inner loop) is
     Lagrange's equations assembled from joint (its derivatives tested against finite differences, its tilts against
-    scipy's rotations above) and _disc_accelerations (against numpy's solve), at random joint angles, unbalance phases, rigs, states and inputs,
-    end slopes in both branches of the Rodrigues coefficients."""
+    scipy's rotations above) and _disc_accelerations (against numpy's solve), at random joint angles, unbalance
+    phases, rigs, states and inputs, end slopes in both branches of the Rodrigues coefficients."""
     rng = np.random.default_rng(16)
     for i in range(300):
         p = rotor(beta=rng.uniform(-1.2, 1.2), phase_u1=rng.uniform(-6.0, 6.0), phase_u2=rng.uniform(-6.0, 6.0),
