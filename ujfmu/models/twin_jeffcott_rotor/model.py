@@ -391,7 +391,8 @@ def _rate_traces(p: Parameters, cos_beta: float, sin_beta: float) -> tuple:
 def step(p: Parameters, t_span: float, phi_in: float, w_in: float,
         alpha_in: float, y: Sequence[float], tau_load: float, natural_rate: float) -> list:
     """Advance the state over t_span with RK4 substeps (input angle quadratic in time, tau_load held); the
-    substeps resolve the natural rate and the 1x, 2x, 4x forcing by the unbalance and the joint."""
+    substeps resolve the natural rate and the 1x, 2x, 4x forcing by the unbalance and the joint. The RK4 path, kept
+    for comparison (tests); the FMU steps with :func:`exponential_step`."""
     w_max = max(abs(w_in), abs(w_in + alpha_in * t_span))
 
     def f(phi, w, state):
@@ -640,7 +641,8 @@ def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
 
 
 def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
-    """The natural-rate bound plus 4 |omega_in| (the 1x, 2x, 4x forcing by the unbalance and the joint).
+    """The natural-rate bound plus 4 |omega_in| (the 1x, 2x, 4x forcing by the unbalance and the joint): the
+    protocol's RK4 rule (the FMU overrides the step with :func:`exponential_step`, one substep where RK4 takes two).
 
     The sum, not ``rk4.fastest_rate``'s max: with the max (one substep instead of two at 100 rad/s) the truncation
     error of the run-up energy audit (tests) grows 10x, to 1.2e-7 of the input work, past its bound: the
