@@ -89,17 +89,6 @@ class TwinJeffcottRotor(PrescribedInputSlave):
     )
     DEFAULT_EXPERIMENT = (0.0, 4.0, 1.0e-3)
 
-    def advance(self, t, h):
-        """One step by the model's exponential integrator (``model.exponential_step``: the linear part exactly,
-        fourth order), not the shared RK4; then, as every prescribed-input FMU, the finite check and the input
-        angle."""
-        u = self.model_inputs()
-        y = tj.exponential_step(self._p, h, u.phi, u.omega, u.alpha, self.current_state(u), u.tau_load)
-        if not math.isfinite(sum(y)) and not all(math.isfinite(x) for x in y):   # a finite sum: all finite
-            raise ValueError(f"the state became non-finite over the step ({tuple(y)!r})")
-        self._y, self._started, self._time = tuple(y), True, t + h
-        self.advance_input(h, u.alpha)
-
 
 class TwinJeffcottRotorTorqueDriven(TorqueDrivenSlave):
     """Torque-driven TwinJeffcottRotor: driving torque tau_in in, input (gearbox flange) speed omega_in out.

@@ -640,9 +640,15 @@ def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
     return rates(p, u.phi, u.omega, u.alpha, y, u.tau_load)
 
 
+def integrate(p: Parameters, t: float, h: float, y: State, u: Drive) -> list:
+    """The FMU's step: :func:`exponential_step` from the input motion u at the step's start (angle quadratic,
+    speed linear in time over the step, tau_load held)."""
+    return exponential_step(p, h, u.phi, u.omega, u.alpha, y, u.tau_load)
+
+
 def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
     """The natural-rate bound plus 4 |omega_in| (the 1x, 2x, 4x forcing by the unbalance and the joint): the
-    protocol's RK4 rule (the FMU overrides the step with :func:`exponential_step`, one substep where RK4 takes two).
+    protocol's RK4 rule, not used by the FMU, which steps with :func:`integrate` (one substep where RK4 takes two).
 
     The sum, not ``rk4.fastest_rate``'s max: with the max (one substep instead of two at 100 rad/s) the truncation
     error of the run-up energy audit (tests) grows 10x, to 1.2e-7 of the input work, past its bound: the
