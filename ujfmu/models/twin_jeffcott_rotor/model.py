@@ -26,6 +26,7 @@ the joint transmits then loads the shafts laterally (its secondary couple), whic
 components into the lateral response when beta != 0.
 """
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -125,7 +126,6 @@ class Parameters:
     linear_rows: tuple = field(init=False, repr=False)
     linear_rate: float = field(init=False, repr=False)
     remainder_rate: float = field(init=False, repr=False)
-    propagators: dict = field(init=False, repr=False)
 
     def __post_init__(self):
         self.sin_beta, self.cos_beta = math.sin(self.beta), math.cos(self.beta)
@@ -141,10 +141,9 @@ class Parameters:
         self.natural_rate = natural_rate_bound(self)
         self.linear = linear_part(self)
         t, *lateral = self.linear   # L's speed rows, flat for _remainder
-        self.linear_rows = tuple(t[1] + t[3] + [v for b in lateral for v in b[1]])
+        self.linear_rows = t[1] + t[3] + tuple(v for b in lateral for v in b[1])
         self.linear_rate = _rate(self.linear)
         self.remainder_rate = remainder_rate_bound(self)
-        self.propagators = {}   # substep length -> _propagators
 
 
 def _disc_constants(mass, inertia, m_u, e):
@@ -414,12 +413,12 @@ def linear_part(p: Parameters) -> tuple:
     the Jeffcott oscillator [[0, 1], [-K/m, -C/m]], m = M + m_u (X1, Y1, X2, Y2). J_eff = J + m_u e^2 - (m_u e)^2 / m
     as in the disc equations (paper Eq. 10 solved by its Schur complement)."""
     j1, j2 = p.j_eff1, p.j_eff2
-    torsion = [[0.0, 1.0, 0.0, 0.0],
-               [-(p.K1T + p.K2T) / j1, -(p.C1T + p.C2T) / j1, p.K2T / j1, p.C2T / j1],
-               [0.0, 0.0, 0.0, 1.0],
-               [p.K2T / j2, p.C2T / j2, -p.K2T / j2, -p.C2T / j2]]
-    lateral = [[[0.0, 1.0], [-k / m, -c / m]] for k, c, m in ((p.K1X, p.C1X, p.m1), (p.K1Y, p.C1Y, p.m1),
-                                                              (p.K2X, p.C2X, p.m2), (p.K2Y, p.C2Y, p.m2))]
+    torsion = ((0.0, 1.0, 0.0, 0.0),
+               (-(p.K1T + p.K2T) / j1, -(p.C1T + p.C2T) / j1, p.K2T / j1, p.C2T / j1),
+               (0.0, 0.0, 0.0, 1.0),
+               (p.K2T / j2, p.C2T / j2, -p.K2T / j2, -p.C2T / j2))
+    lateral = (((0.0, 1.0), (-k / m, -c / m)) for k, c, m in ((p.K1X, p.C1X, p.m1), (p.K1Y, p.C1Y, p.m1),
+                                                              (p.K2X, p.C2X, p.m2), (p.K2Y, p.C2Y, p.m2)))
     return (torsion, *lateral)
 
 
@@ -466,17 +465,21 @@ def _phi_functions(a, h: float) -> list:
 
 
 def _propagators(p: Parameters, h: float) -> tuple:
-    """The operators of one Krogstad substep of length h (:func:`_krogstad_substep`), from the phi-functions of
-    L's blocks at h/2 and h: full-state ones (E(h/2) = exp(h L / 2), E(h) = exp(h L)) as 32 numbers (the torsional
+    """:func:`_propagators_of` p's linear part (:func:`linear_part`) and h."""
+    return _propagators_of(p.linear, h)
+
+
+@functools.lru_cache(maxsize=64)
+def _propagators_of(linear: tuple, h: float) -> tuple:
+    """The operators of one Krogstad substep of length h (:func:`exponential_step`), memoized (a function of L's
+    blocks and h alone; varying steps evict the oldest), from the phi-functions of L's blocks at h/2 and h:
+    full-state ones (E(h/2) = exp(h L / 2), E(h) = exp(h L)) as 32 numbers (the torsional
     4x4 row by row, then each lateral 2x2), and ones applied to N (only its speed columns: the torsional columns of
     omega1 and omega2, then each lateral block's speed column) as 16 numbers:
     Q1 = (h/2) phi_1(h L/2), Q2 = h phi_2(h L/2), R1 = h phi_1(h L), R2 = 2 h phi_2(h L),
     S1 = h (2 phi_2 - 4 phi_3)(h L), S2 = h (4 phi_3 - phi_2)(h L)."""
-    cached = p.propagators.get(h)
-    if cached is not None:
-        return cached
-    half = [_phi_functions(block, 0.5 * h) for block in p.linear]
-    full = [_phi_functions(block, h) for block in p.linear]
+    half = [_phi_functions(block, 0.5 * h) for block in linear]
+    full = [_phi_functions(block, h) for block in linear]
 
     def speed_op(phis, weights, factor):
         blocks = [[[factor * sum(w * phi[k][i][j] for k, w in weights) for j in range(len(phi[0]))]
@@ -492,9 +495,6 @@ def _propagators(p: Parameters, h: float) -> tuple:
     ops = (state_op(half), speed_op(half, ((1, 1.0),), 0.5 * h), speed_op(half, ((2, 1.0),), h),
            state_op(full), speed_op(full, ((1, 1.0),), h), speed_op(full, ((2, 1.0),), 2.0 * h),
            speed_op(full, ((2, 2.0), (3, -4.0)), h), speed_op(full, ((3, 4.0), (2, -1.0)), h))
-    if len(p.propagators) >= 16:   # varying steps: keep the cache small
-        p.propagators.clear()
-    p.propagators[h] = ops
     return ops
 
 
