@@ -416,9 +416,9 @@ class ModelSlave(UjfmuSlave):
     - the parameters object ``MODEL.Parameters`` from the FMU's parameters (by name), and ``MODEL.check`` on it;
     - the state: ``MODEL.initial_state`` at the current inputs until the first step (the warm start: a host may
       set the inputs after initialization), then integrated, or held while ``MODEL.kinematic(p)``;
-    - a step: classical RK4 (``rk4.integrate_time``, or ``MODEL.integrate`` with its signature where the model has
-      one) with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs
-      held (a prescribed input shaft extrapolated, see PrescribedInputSlave), then the finite check and
+    - a step: classical RK4 (``rk4.integrate_time``, or ``MODEL.integrate_substeps`` where the model has one)
+      with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs held (a prescribed input shaft extrapolated, see
+      PrescribedInputSlave), or the model's own ``integrate`` where it has one; then the finite check and
       ``MODEL.check_state`` of the new state;
     - the outputs: ``MODEL.outputs`` assigned by name, recomputed on the first read after a step or a change of an
       input outside ``MODEL.output_free_inputs(p)``.
@@ -486,17 +486,21 @@ class ModelSlave(UjfmuSlave):
         else:
             u = self.model_inputs()
             y = self.current_state(u)
-            n = rk4.substeps(model.rate_bound(p, y, self.speed_bound(h)), h)
-            if type(self).inputs_at is ModelSlave.inputs_at:   # inputs held over the step
-
-                def rates(s, y):
-                    return model.derivatives(p, t + s, y, u)
+            own = getattr(model, "integrate", None)   # optional: a model that integrates its own steps
+            if own is not None:
+                y = tuple(own(p, t, h, y, u))
             else:
-                inputs_at = self.input_path()
+                n = rk4.substeps(model.rate_bound(p, y, self.speed_bound(h)), h)
+                if type(self).inputs_at is ModelSlave.inputs_at:   # inputs held over the step
 
-                def rates(s, y):
-                    return model.derivatives(p, t + s, y, inputs_at(s))
-            y = tuple(getattr(model, "integrate", rk4.integrate_time)(rates, y, h, n))
+                    def rates(s, y):
+                        return model.derivatives(p, t + s, y, u)
+                else:
+                    inputs_at = self.input_path()
+
+                    def rates(s, y):
+                        return model.derivatives(p, t + s, y, inputs_at(s))
+                y = tuple(getattr(model, "integrate_substeps", rk4.integrate_time)(rates, y, h, n))
             if not all(math.isfinite(x) for x in y):
                 raise ValueError(f"the state became non-finite over the step ({y!r})")
             problems = getattr(model, "check_state", _none)(p, y)

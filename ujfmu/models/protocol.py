@@ -31,8 +31,10 @@ step on, the outputs following the inputs alone) and ``check_state(p, y) -> list
 ``output_free_inputs(p) -> tuple`` (names of FMU inputs that neither ``outputs`` nor ``initial_state`` depend on at
 these parameters, e.g. a load torque that only enters the derivatives: a change of them leaves the outputs valid,
 so the FMU does not recompute them when a host sets them after reading the outputs; default none) and
-``integrate(rates, y, t_span, substeps) -> list`` (the model's own integrator for a step, given the RK4 substeps
-its ``rate_bound`` asks for; default ``ujfmu.fmu.rk4.integrate_time``).
+``integrate_substeps(rates, y, t_span, substeps) -> list`` (the model's own formula for the RK4 substeps its
+``rate_bound`` asks for; default ``ujfmu.fmu.rk4.integrate_time``) and ``integrate(p, t, h, y, u) -> tuple`` (the
+state y at time t advanced over a step of h from the inputs u at its start, a Drive extrapolated as the FMU does, by
+the model's own integrator, substep rule included; default the FMU's RK4 substeps from ``rate_bound``).
 
 The inputs ``u`` are the model's own NamedTuple ``Inputs``; a model whose input shaft follows a prescribed speed
 (``omega_in``) uses :class:`Drive`, which the base extrapolates over a step (angle quadratic, speed linear in time:

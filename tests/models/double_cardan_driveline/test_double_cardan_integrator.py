@@ -1,4 +1,4 @@
-"""The flexible driveline's integrator (model.integrate): Dormand and Prince's fifth-order formula is fifth order on
+"""The flexible driveline's integrator (model.integrate_substeps): Dormand and Prince's fifth-order formula is fifth order on
 a closed-form solution, replaces the RK4 substeps only where it needs fewer evaluations, is then at least as
 accurate, and its stability covers the step the rule gives it."""
 
@@ -62,12 +62,12 @@ def test_fifth_order_steps_only_where_they_take_fewer_evaluations(substeps, step
 
 @pytest.mark.parametrize("substeps", [2, 4])
 def test_the_fifth_order_steps_are_at_least_as_accurate_as_the_rk4_substeps_they_replace(substeps):
-    """At the substep rule's limit (the torsional mode's |lambda| x substep = RATE_STEP), model.integrate (the
+    """At the substep rule's limit (the torsional mode's |lambda| x substep = RATE_STEP), model.integrate_substeps (the
     fifth-order formula, one step per two substeps) errs less than the RK4 substeps over 15 such intervals."""
     p = dc.Parameters(**STRAIGHT)
     interval = substeps * rk4.RATE_STEP / math.sqrt(p.k_theta / p.J_load)
     assert rk4.substeps(math.sqrt(p.k_theta / p.J_load), interval) == substeps
-    ours = error(p, interval, 15, lambda f, y, t: dc.integrate(f, y, t, substeps))
+    ours = error(p, interval, 15, lambda f, y, t: dc.integrate_substeps(f, y, t, substeps))
     classical = error(p, interval, 15, lambda f, y, t: rk4.integrate_time(f, y, t, substeps))
     assert ours < 0.8 * classical
 

@@ -25,7 +25,7 @@ class DoubleCardanDriveline(PrescribedInputSlave):
       L_c give two degrees of freedom, the output angle and the dynamic misalignment phi that adds to both joint
       angles; integrated with classical RK4 substeps sized from the fastest natural frequency and input speed, or
       Dormand and Prince's fifth-order formula with one step per two of them where that takes fewer evaluations
-      (model.integrate).
+      (model.integrate_substeps).
       The intermediate shaft's inertia is lumped half at each end. The driveline starts untwisted, phi = 0, with
       the output at the kinematic speed of omega_in as it is at the first step.
     Layout: yoke_phase = joint_plane_angle and beta1 = beta2 (Z) or beta1 = -beta2 (W) is constant velocity.

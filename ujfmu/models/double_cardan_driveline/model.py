@@ -323,10 +323,10 @@ def flexible_substeps(natural_rate: float, h: float, omega1_max: float) -> int:
 def flexible_step(p: Parameters, t_span: float, phi1: float, omega1: float,
         alpha1: float, state: Sequence[float], tau_load: float, substeps: int) -> tuple:
     """Advance the flexible states over t_span, phi1(t) = phi1 + w1 t + alpha1 t^2/2 and tau_load held, by
-    :func:`integrate` with ``substeps`` RK4 substeps' worth of accuracy. Returns the new state."""
+    :func:`integrate_substeps` with ``substeps`` RK4 substeps' worth of accuracy. Returns the new state."""
     def rates(t, y):
         return _flexible_rates(p, phi1 + t * (omega1 + 0.5 * alpha1 * t), omega1 + alpha1 * t, y, tau_load)[0]
-    return tuple(integrate(rates, state, t_span, substeps))
+    return tuple(integrate_substeps(rates, state, t_span, substeps))
 
 
 # --- the integrator: classical RK4, or Dormand-Prince's fifth-order formula where it is cheaper ----------------
@@ -347,10 +347,10 @@ def fifth_order_steps(substeps: int) -> int:
     return steps if 6 * steps < 4 * substeps else 0
 
 
-def integrate(rates, y: Sequence[float], t_span: float, substeps: int) -> list:
+def integrate_substeps(rates, y: Sequence[float], t_span: float, substeps: int) -> list:
     """y advanced over t_span under y' = rates(t, y) (t from the step's start): ``rk4.integrate_time`` with
     ``substeps`` substeps, or :func:`dormand_prince` with :func:`fifth_order_steps` steps where that is cheaper.
-    The model protocol's ``integrate``: the FMU base steps with it."""
+    The model protocol's ``integrate_substeps``: the FMU base steps with it."""
     steps = fifth_order_steps(substeps)
     if steps:
         return dormand_prince(rates, y, t_span, steps)
@@ -531,7 +531,7 @@ class TorqueDriven:
 
     Parameters = TorqueDrivenParameters
     Inputs = Torques
-    integrate = staticmethod(integrate)
+    integrate_substeps = staticmethod(integrate_substeps)
 
     class State(NamedTuple):
         """Input shaft angle and speed, then the speed-driven driveline's :class:`State`."""

@@ -26,6 +26,7 @@ the joint transmits then loads the shafts laterally (its secondary couple), whic
 components into the lateral response when beta != 0.
 """
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -121,6 +122,10 @@ class Parameters:
     j_eff2: float = field(init=False, repr=False)
     sin_phase2: float = field(init=False, repr=False)
     cos_phase2: float = field(init=False, repr=False)
+    linear: tuple = field(init=False, repr=False)
+    linear_rows: tuple = field(init=False, repr=False)
+    linear_rate: float = field(init=False, repr=False)
+    remainder_rate: float = field(init=False, repr=False)
 
     def __post_init__(self):
         self.sin_beta, self.cos_beta = math.sin(self.beta), math.cos(self.beta)
@@ -134,6 +139,11 @@ class Parameters:
         self.sin_phase1, self.cos_phase1 = math.sin(self.phase_u1), math.cos(self.phase_u1)
         self.sin_phase2, self.cos_phase2 = math.sin(self.phase_u2), math.cos(self.phase_u2)
         self.natural_rate = natural_rate_bound(self)
+        self.linear = linear_part(self)
+        t, *lateral = self.linear   # L's speed rows, flat for _remainder
+        self.linear_rows = t[1] + t[3] + tuple(v for b in lateral for v in b[1])
+        self.linear_rate = _rate(self.linear)
+        self.remainder_rate = remainder_rate_bound(self)
 
 
 def _disc_constants(mass, inertia, m_u, e):
@@ -230,25 +240,19 @@ def shaft_torques(p: Parameters, phi_in: float, w_in: float, y: Sequence[float])
     """(T1, T2, psi, joint derivatives, rates) along a state: primary and secondary shaft torques, T > 0 driving."""
     th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
     s1, s2 = p.slope1, p.slope2
-    g = joint(p, th1, s1 * x1, s1 * y1, s2 * x2, s2 * y2)
+    g = joint_gradient(p, th1, s1 * x1, s1 * y1, s2 * x2, s2 * y2, math.sin(th1), math.cos(th1))
     dpsi = g[1] * w1 + s1 * (g[2] * vx1 + g[3] * vy1) + s2 * (g[4] * vx2 + g[5] * vy2)
     t1 = p.K1T * (phi_in - th1) + p.C1T * (w_in - w1)
     t2 = p.K2T * (g[0] - th2) + p.C2T * (dpsi - w2)
     return t1, t2, g, dpsi
 
 
-def rates(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequence[float], tau_load: float) -> tuple:
-    """dy/dt of the 14 states (Lagrange, Eq. 8, with the energies above); tau_load acts on disc 2.
-
-    Straight-line, the integrator's inner loop: the same equations as :func:`shaft_torques` (:func:`joint` and
-    `_tilt` at u = 3 X / L, v = 3 Y / L) and `_disc_accelerations` (paper Eq. 10), which the tests compare it with;
-    each sine and cosine once (those of theta + phase_u by the angle sum), no calls while the end slopes are in the
-    short series of `_tilt_coefficients` (always, but for parameters far outside a real rotor)."""
-    th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2, _, _ = y
-    sl1, sl2 = p.slope1, p.slope2
-    u1, v1, u2, v2 = sl1 * x1, sl1 * y1, sl2 * x2, sl2 * y2
-    sin, cos = math.sin, math.cos
-    s, c = sin(th1), cos(th1)
+def joint_gradient(p: Parameters, th1: float, u1: float, v1: float, u2: float, v2: float, s: float,
+                   c: float) -> tuple:
+    """:func:`joint` written straight-line (s, c = sin, cos of theta1 given): (psi, dpsi/dtheta1, dpsi/du1,
+    dpsi/dv1, dpsi/du2, dpsi/dv2), no calls while the end slopes are in the short series of
+    `_tilt_coefficients` (always, but for parameters far outside a real rotor). The integrator's inner loop
+    (:func:`rates`) and the outputs (:func:`shaft_torques`) use it; tests compare it with :func:`joint`."""
     sb, cb = p.sin_beta, p.cos_beta
     # Rodrigues' coefficients S, F, dS/dx, dF/dx of both end tilts, x = angle^2 (`_tilt_coefficients`)
     x = u1 * u1 + v1 * v1
@@ -295,6 +299,21 @@ def rates(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequenc
     g_v1 = wx * eax + wy * eay + wz * eaz
     g_u2 = -(px * (-v2 * pnb) - py * (pn - u2 * pnb)) / den
     g_v2 = (px * (-pn - v2 * pna) - py * (-u2 * pna)) / den
+    return psi, g_th, g_u1, g_v1, g_u2, g_v2
+
+
+def rates(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequence[float], tau_load: float) -> tuple:
+    """dy/dt of the 14 states (Lagrange, Eq. 8, with the energies above); tau_load acts on disc 2.
+
+    Straight-line, the integrator's inner loop: the same equations as :func:`shaft_torques` (the joint at
+    u = 3 X / L, v = 3 Y / L by :func:`joint_gradient`) and `_disc_accelerations` (paper Eq. 10), which the tests
+    compare it with; each sine and cosine once (those of theta + phase_u by the angle sum)."""
+    th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2, _, _ = y
+    sl1, sl2 = p.slope1, p.slope2
+    u1, v1, u2, v2 = sl1 * x1, sl1 * y1, sl2 * x2, sl2 * y2
+    sin, cos = math.sin, math.cos
+    s, c = sin(th1), cos(th1)
+    psi, g_th, g_u1, g_v1, g_u2, g_v2 = joint_gradient(p, th1, u1, v1, u2, v2, s, c)
     # shaft torques (`shaft_torques`)
     dpsi = g_th * w1 + sl1 * (g_u1 * vx1 + g_v1 * vy1) + sl2 * (g_u2 * vx2 + g_v2 * vy2)
     d1, d2 = w_in - w1, dpsi - w2
@@ -327,14 +346,18 @@ def stored_energy(p: Parameters, phi_in: float, w_in: float, y: Sequence[float])
 
 
 def _stored_energy(p: Parameters, w_in: float, twist1: float, twist2: float, y: Sequence[float]) -> float:
-    """:func:`stored_energy` with the shafts' twists phi_in - theta1 and psi - theta2 given."""
+    """:func:`stored_energy` with the shafts' twists phi_in - theta1 and psi - theta2 given (T of each disc, module
+    docstring: sin and cos of theta + phase_u by the angle sum)."""
     th1, w1, x1, vx1, y1, vy1, th2, w2, x2, vx2, y2, vy2 = y[:12]
-    energy = 0.5 * p.J_gb * w_in * w_in
-    for d, th, w, vx, vy, phase in ((p.disc1, th1, w1, vx1, vy1, p.phase_u1), (p.disc2, th2, w2, vx2, vy2, p.phase_u2)):
-        energy += (0.5 * d["jt"] * w * w + 0.5 * d["m"] * (vx * vx + vy * vy)
-                   + d["a"] * w * (-math.sin(th + phase) * vx + math.cos(th + phase) * vy))
-    return energy + 0.5 * (p.K1T * twist1 * twist1 + p.K2T * twist2 * twist2 + p.K1X * x1 * x1 + p.K1Y * y1 * y1
-                           + p.K2X * x2 * x2 + p.K2Y * y2 * y2)
+    s, c = math.sin(th1), math.cos(th1)
+    sa1, ca1 = s * p.cos_phase1 + c * p.sin_phase1, c * p.cos_phase1 - s * p.sin_phase1
+    s, c = math.sin(th2), math.cos(th2)
+    sa2, ca2 = s * p.cos_phase2 + c * p.sin_phase2, c * p.cos_phase2 - s * p.sin_phase2
+    kinetic = (p.J_gb * w_in * w_in + p.disc1["jt"] * w1 * w1 + p.m1 * (vx1 * vx1 + vy1 * vy1)
+               + p.disc2["jt"] * w2 * w2 + p.m2 * (vx2 * vx2 + vy2 * vy2))
+    return (0.5 * kinetic + p.a1 * w1 * (ca1 * vy1 - sa1 * vx1) + p.a2 * w2 * (ca2 * vy2 - sa2 * vx2)
+            + 0.5 * (p.K1T * twist1 * twist1 + p.K2T * twist2 * twist2 + p.K1X * x1 * x1 + p.K1Y * y1 * y1
+                     + p.K2X * x2 * x2 + p.K2Y * y2 * y2))
 
 
 def rest_state(p: Parameters, phi_in: float, w_in: float) -> list:
@@ -346,8 +369,14 @@ def rest_state(p: Parameters, phi_in: float, w_in: float) -> list:
 def natural_rate_bound(p: Parameters) -> float:
     """An upper bound [1/s] of the fastest free motion: sqrt of the trace of M^-1 K plus the trace of M^-1 C, with
     |dpsi/dtheta1| <= 1 / cos(beta) and |dpsi/du|, |dpsi/dv| <= tan(beta) (plus margin for the tilts)."""
-    r = 1.0 / p.cos_beta
-    g = 1.1 * abs(p.sin_beta) / p.cos_beta + 0.01
+    stiffness, decay = _rate_traces(p, p.cos_beta, p.sin_beta)
+    return math.sqrt(stiffness) + decay
+
+
+def _rate_traces(p: Parameters, cos_beta: float, sin_beta: float) -> tuple:
+    """(trace M^-1 K, trace M^-1 C) bounds of :func:`natural_rate_bound` at the joint angle given by its cos, sin."""
+    r = 1.0 / cos_beta
+    g = 1.1 * abs(sin_beta) / cos_beta + 0.01
     j1, j2 = p.disc1["j_eff"], p.disc2["j_eff"]
     m1, m2 = p.disc1["M"], p.disc2["M"]
     lat1, lat2 = p.slope1 ** 2 * g * g, p.slope2 ** 2 * g * g
@@ -355,18 +384,219 @@ def natural_rate_bound(p: Parameters) -> float:
                  + (p.K2X + p.K2Y + 2.0 * p.K2T * lat2) / m2)
     decay = ((p.C1T + p.C2T * r * r) / j1 + p.C2T / j2 + (p.C1X + p.C1Y + 2.0 * p.C2T * lat1) / m1
              + (p.C2X + p.C2Y + 2.0 * p.C2T * lat2) / m2)
-    return math.sqrt(stiffness) + decay
+    return stiffness, decay
 
 
 def step(p: Parameters, t_span: float, phi_in: float, w_in: float,
         alpha_in: float, y: Sequence[float], tau_load: float, natural_rate: float) -> list:
     """Advance the state over t_span with RK4 substeps (input angle quadratic in time, tau_load held); the
-    substeps resolve the natural rate and the 1x, 2x, 4x forcing by the unbalance and the joint."""
+    substeps resolve the natural rate and the 1x, 2x, 4x forcing by the unbalance and the joint. The RK4 path, kept
+    for comparison (tests); the FMU steps with :func:`exponential_step`."""
     w_max = max(abs(w_in), abs(w_in + alpha_in * t_span))
 
     def f(phi, w, state):
         return rates(p, phi, w, alpha_in, state, tau_load)
     return rk4.integrate(f, y, t_span, rk4.substeps(natural_rate + 4.0 * w_max, t_span), phi_in, w_in, alpha_in)
+
+
+# --- the exponential integrator (the FMU's stepper) -------------------------------------------------------------
+#
+# Twist coordinates z = y - r(t), r(t) the rigid rotation with the input (theta1 = theta2 = phi_in(t),
+# theta1' = theta2' = omega_in(t), discs centred): z' = L z + N(t, z), L the constant-coefficient linear part
+# (:func:`linear_part`), N(t, z) = f(t, r + z) - r'(t) - L z the remainder (the joint's kinematic modulation, the
+# unbalance forcing, the discs' mass coupling, the input's acceleration). Only the speed rows of N are non-zero:
+# the angle rows of f are the speeds, which r' and L z reproduce exactly.
+
+def linear_part(p: Parameters) -> tuple:
+    """L in twist coordinates, block-diagonal: the torsional chain on (z_theta1, z_omega1, z_theta2, z_omega2),
+    input -- K1T, C1T -- J_eff1 -- K2T, C2T -- J_eff2 with the joint's mean speed ratio 1, and per disc and direction
+    the Jeffcott oscillator [[0, 1], [-K/m, -C/m]], m = M + m_u (X1, Y1, X2, Y2). J_eff = J + m_u e^2 - (m_u e)^2 / m
+    as in the disc equations (paper Eq. 10 solved by its Schur complement)."""
+    j1, j2 = p.j_eff1, p.j_eff2
+    torsion = ((0.0, 1.0, 0.0, 0.0),
+               (-(p.K1T + p.K2T) / j1, -(p.C1T + p.C2T) / j1, p.K2T / j1, p.C2T / j1),
+               (0.0, 0.0, 0.0, 1.0),
+               (p.K2T / j2, p.C2T / j2, -p.K2T / j2, -p.C2T / j2))
+    lateral = (((0.0, 1.0), (-k / m, -c / m)) for k, c, m in ((p.K1X, p.C1X, p.m1), (p.K1Y, p.C1Y, p.m1),
+                                                              (p.K2X, p.C2X, p.m2), (p.K2Y, p.C2Y, p.m2)))
+    return (torsion, *lateral)
+
+
+def _rate(blocks) -> float:
+    """An upper bound of the spectral radius of L: for each block sqrt of the sum of its stiffness terms plus the
+    sum of its damping terms (the traces of M^-1 K and M^-1 C: rows of the speeds)."""
+    torsion, *lateral = blocks
+    stiffness = -torsion[1][0] - torsion[3][2] + sum(-b[1][0] for b in lateral)
+    decay = -torsion[1][1] - torsion[3][3] + sum(-b[1][1] for b in lateral)
+    return math.sqrt(stiffness) + decay
+
+
+def remainder_rate_bound(p: Parameters) -> float:
+    """Bound [1/s] of the fastest rate of N's own stiffness and damping: the terms of :func:`natural_rate_bound`
+    that the joint angle adds to those of the aligned joint (which L holds, up to the tilt margin): the joint's
+    kinematic modulation of the torsional stiffness and its lateral coupling, sqrt(d trace M^-1 K) + d trace M^-1 C."""
+    stiffness, decay = _rate_traces(p, p.cos_beta, p.sin_beta)
+    aligned_stiffness, aligned_decay = _rate_traces(p, 1.0, 0.0)
+    return math.sqrt(max(0.0, stiffness - aligned_stiffness)) + max(0.0, decay - aligned_decay)
+
+
+def _phi_functions(a, h: float) -> list:
+    """[phi_0(h a), ..., phi_3(h a)] of a small square matrix a, phi_k(X) = sum_j X^j / (j + k)! (phi_0 = exp),
+    by the Taylor series to 30 terms: the substep rule keeps h |lambda| <= 1 for L's eigenvalues, where the
+    truncation is below 1e-30."""
+    n = len(a)
+    x = [[h * v for v in row] for row in a]
+    power = [[1.0 if i == j else 0.0 for j in range(n)] for i in range(n)]
+    phis = [[[0.0] * n for _ in range(n)] for _ in range(4)]
+    factorial = 1.0
+    for j in range(34):
+        if j:
+            factorial *= j
+            power = [[sum(power[i][m] * x[m][k] for m in range(n)) for k in range(n)] for i in range(n)]
+        f = factorial
+        for k in range(4):   # X^j / (j + k)!
+            if j + k >= 1 and k:
+                f *= j + k
+            for i in range(n):
+                row, prow = phis[k][i], power[i]
+                for c in range(n):
+                    row[c] += prow[c] / f
+    return phis
+
+
+def _propagators(p: Parameters, h: float) -> tuple:
+    """:func:`_propagators_of` p's linear part (:func:`linear_part`) and h."""
+    return _propagators_of(p.linear, h)
+
+
+@functools.lru_cache(maxsize=64)
+def _propagators_of(linear: tuple, h: float) -> tuple:
+    """The operators of one Krogstad substep of length h (:func:`exponential_step`), memoized (a function of L's
+    blocks and h alone; varying steps evict the oldest), from the phi-functions of L's blocks at h/2 and h:
+    full-state ones (E(h/2) = exp(h L / 2), E(h) = exp(h L)) as 32 numbers (the torsional
+    4x4 row by row, then each lateral 2x2), and ones applied to N (only its speed columns: the torsional columns of
+    omega1 and omega2, then each lateral block's speed column) as 16 numbers:
+    Q1 = (h/2) phi_1(h L/2), Q2 = h phi_2(h L/2), R1 = h phi_1(h L), R2 = 2 h phi_2(h L),
+    S1 = h (2 phi_2 - 4 phi_3)(h L), S2 = h (4 phi_3 - phi_2)(h L)."""
+    half = [_phi_functions(block, 0.5 * h) for block in linear]
+    full = [_phi_functions(block, h) for block in linear]
+
+    def speed_op(phis, weights, factor):
+        blocks = [[[factor * sum(w * phi[k][i][j] for k, w in weights) for j in range(len(phi[0]))]
+                   for i in range(len(phi[0]))] for phi in phis]
+        t, lateral = blocks[0], blocks[1:]
+        return tuple([t[r][1] for r in range(4)] + [t[r][3] for r in range(4)]
+                     + [b[r][1] for b in lateral for r in range(2)])
+
+    def state_op(phis):
+        t, lateral = phis[0][0], [phi[0] for phi in phis[1:]]
+        return tuple([v for row in t for v in row] + [v for b in lateral for row in b for v in row])
+
+    ops = (state_op(half), speed_op(half, ((1, 1.0),), 0.5 * h), speed_op(half, ((2, 1.0),), h),
+           state_op(full), speed_op(full, ((1, 1.0),), h), speed_op(full, ((2, 1.0),), 2.0 * h),
+           speed_op(full, ((2, 2.0), (3, -4.0)), h), speed_op(full, ((3, 4.0), (2, -1.0)), h))
+    return ops
+
+
+def _state_op(f: tuple, z: Sequence[float], g: tuple, d: Sequence[float]) -> list:
+    """F z + G d: F a full-state operator on the 12 twist coordinates, G a speed-column operator on the speed rows
+    d = (omega1, X1', Y1', omega2, X2', Y2') of N (layouts: :func:`_propagators`)."""
+    z0, z1, z2, z3, z4, z5, z6, z7, z8, z9, z10, z11 = z
+    a, dx1, dy1, b, dx2, dy2 = d[:6]
+    return [f[0] * z0 + f[1] * z1 + f[2] * z6 + f[3] * z7 + g[0] * a + g[4] * b,
+            f[4] * z0 + f[5] * z1 + f[6] * z6 + f[7] * z7 + g[1] * a + g[5] * b,
+            f[16] * z2 + f[17] * z3 + g[8] * dx1, f[18] * z2 + f[19] * z3 + g[9] * dx1,
+            f[20] * z4 + f[21] * z5 + g[10] * dy1, f[22] * z4 + f[23] * z5 + g[11] * dy1,
+            f[8] * z0 + f[9] * z1 + f[10] * z6 + f[11] * z7 + g[2] * a + g[6] * b,
+            f[12] * z0 + f[13] * z1 + f[14] * z6 + f[15] * z7 + g[3] * a + g[7] * b,
+            f[24] * z8 + f[25] * z9 + g[12] * dx2, f[26] * z8 + f[27] * z9 + g[13] * dx2,
+            f[28] * z10 + f[29] * z11 + g[14] * dy2, f[30] * z10 + f[31] * z11 + g[15] * dy2]
+
+
+def _shift(v: Sequence[float], g: tuple, d: Sequence[float]) -> list:
+    """v + G d (G a speed-column operator, d N's speed rows: :func:`_state_op`)."""
+    a, dx1, dy1, b, dx2, dy2 = d[:6]
+    return [v[0] + g[0] * a + g[4] * b, v[1] + g[1] * a + g[5] * b, v[2] + g[8] * dx1, v[3] + g[9] * dx1,
+            v[4] + g[10] * dy1, v[5] + g[11] * dy1, v[6] + g[2] * a + g[6] * b, v[7] + g[3] * a + g[7] * b,
+            v[8] + g[12] * dx2, v[9] + g[13] * dx2, v[10] + g[14] * dy2, v[11] + g[15] * dy2]
+
+
+def _last_stage(v: Sequence[float], g: tuple, d: Sequence[float], e: Sequence[float], k: tuple,
+                f: Sequence[float]) -> list:
+    """v + G (d + e) + K f: :func:`_shift` by G for the sum of two remainders and by K for a third."""
+    a, dx1, dy1, b, dx2, dy2 = d[0] + e[0], d[1] + e[1], d[2] + e[2], d[3] + e[3], d[4] + e[4], d[5] + e[5]
+    c, fx1, fy1, q, fx2, fy2 = f[:6]
+    return [v[0] + g[0] * a + g[4] * b + k[0] * c + k[4] * q, v[1] + g[1] * a + g[5] * b + k[1] * c + k[5] * q,
+            v[2] + g[8] * dx1 + k[8] * fx1, v[3] + g[9] * dx1 + k[9] * fx1,
+            v[4] + g[10] * dy1 + k[10] * fy1, v[5] + g[11] * dy1 + k[11] * fy1,
+            v[6] + g[2] * a + g[6] * b + k[2] * c + k[6] * q, v[7] + g[3] * a + g[7] * b + k[3] * c + k[7] * q,
+            v[8] + g[12] * dx2 + k[12] * fx2, v[9] + g[13] * dx2 + k[13] * fx2,
+            v[10] + g[14] * dy2 + k[14] * fy2, v[11] + g[15] * dy2 + k[15] * fy2]
+
+
+#: no remainder to subtract (:func:`_remainder`)
+_NONE = (0.0,) * 8
+
+
+def _remainder(p: Parameters, phi: float, w: float, alpha: float, z: Sequence[float], tau_load: float,
+               less: Sequence[float] = _NONE) -> tuple:
+    """N's speed rows (omega1, X1', Y1', omega2, X2', Y2') and the rates of the dissipated energy and input work at
+    the input motion (phi, w, alpha) and twist coordinates z, f(r + z) - r' - L z (:func:`rates`,
+    :func:`linear_part`), each less the one of ``less`` (a stage's D = N - N_u)."""
+    z0, z1, z2, z3, z4, z5, z6, z7, z8, z9, z10, z11 = z
+    f = rates(p, phi, w, alpha, (phi + z0, w + z1, z2, z3, z4, z5, phi + z6, w + z7, z8, z9, z10, z11, 0.0, 0.0),
+              tau_load)
+    a0, a1, a2, a3, b0, b1, b2, b3, kx1, cx1, ky1, cy1, kx2, cx2, ky2, cy2 = p.linear_rows
+    return (f[1] - alpha - (a0 * z0 + a1 * z1 + a2 * z6 + a3 * z7) - less[0],
+            f[3] - (kx1 * z2 + cx1 * z3) - less[1], f[5] - (ky1 * z4 + cy1 * z5) - less[2],
+            f[7] - alpha - (b0 * z0 + b1 * z1 + b2 * z6 + b3 * z7) - less[3],
+            f[9] - (kx2 * z8 + cx2 * z9) - less[4], f[11] - (ky2 * z10 + cy2 * z11) - less[5],
+            f[12] - less[6], f[13] - less[7])
+
+
+def exponential_substeps(p: Parameters, t_span: float, w_in: float, alpha_in: float) -> int:
+    """Substeps of :func:`exponential_step`: each resolves N's own rates (:func:`remainder_rate_bound`) and the
+    1x and 2x forcing by the unbalance and the joint, 2 |omega_in|, and keeps h |lambda| <= 1 over L's eigenvalues
+    (``rk4.substeps``: h rate <= RATE_STEP = 0.5), so the phi-functions' series converge fast."""
+    w_max = max(abs(w_in), abs(w_in + alpha_in * t_span))
+    return rk4.substeps(max(p.remainder_rate + 2.0 * w_max, 0.5 * p.linear_rate), t_span)
+
+
+def exponential_step(p: Parameters, t_span: float, phi_in: float, w_in: float, alpha_in: float,
+                     y: Sequence[float], tau_load: float) -> list:
+    """Advance the state over t_span (input angle quadratic in time, tau_load held, as :func:`step`) with
+    Krogstad's fourth-order exponential Runge-Kutta method (ETDRK4-B: Krogstad, "Generalized integrating factor
+    methods for stiff PDEs", J. Comput. Phys. 203, 2005) in twist coordinates: L's part exactly, N by four
+    evaluations of :func:`rates` per substep, :func:`exponential_substeps` substeps. Per substep of length h from
+    z (N_u = N(t, z), D_i = N(stage i) - N_u, N's time the stage's):
+        a = E(h/2) z + Q1 N_u                         (at t + h/2)
+        b = a + Q2 D_a                                (at t + h/2)
+        c = E(h) z + R1 N_u + R2 D_b                  (at t + h)
+        z+ = E(h) z + R1 N_u + S1 (D_a + D_b) + S2 D_c
+    (operators: :func:`_propagators`). Order 4 (tests); with L = 0 it is classical RK4, which is how the
+    dissipated energy and input work rows are integrated: q+ = q + h (N_u + (D_a + D_b) / 3 + D_c / 6)."""
+    n = exponential_substeps(p, t_span, w_in, alpha_in)
+    h = t_span / n
+    e_half, q1, q2, e_full, r1, r2, s1, s2 = _propagators(p, h)
+    z = [y[0] - phi_in, y[1] - w_in, y[2], y[3], y[4], y[5], y[6] - phi_in, y[7] - w_in, y[8], y[9], y[10], y[11]]
+    dissipated, work = y[12], y[13]
+    for k in range(n):
+        t0 = k * h
+        tm, te = t0 + 0.5 * h, t0 + h
+        nu = _remainder(p, phi_in + t0 * (w_in + 0.5 * alpha_in * t0), w_in + alpha_in * t0, alpha_in, z, tau_load)
+        phi_m, w_m = phi_in + tm * (w_in + 0.5 * alpha_in * tm), w_in + alpha_in * tm
+        a = _state_op(e_half, z, q1, nu)
+        da = _remainder(p, phi_m, w_m, alpha_in, a, tau_load, nu)
+        db = _remainder(p, phi_m, w_m, alpha_in, _shift(a, q2, da), tau_load, nu)
+        ec = _state_op(e_full, z, r1, nu)
+        dc = _remainder(p, phi_in + te * (w_in + 0.5 * alpha_in * te), w_in + alpha_in * te, alpha_in,
+                        _shift(ec, r2, db), tau_load, nu)
+        z = _last_stage(ec, s1, da, db, s2, dc)
+        dissipated += h * (nu[6] + (da[6] + db[6]) / 3.0 + dc[6] / 6.0)
+        work += h * (nu[7] + (da[7] + db[7]) / 3.0 + dc[7] / 6.0)
+    phi_end, w_end = phi_in + t_span * (w_in + 0.5 * alpha_in * t_span), w_in + alpha_in * t_span
+    return [phi_end + z[0], w_end + z[1], z[2], z[3], z[4], z[5], phi_end + z[6], w_end + z[7], z[8], z[9], z[10],
+            z[11], dissipated, work]
 
 
 def torque_outputs(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequence[float]) -> dict:
@@ -410,8 +640,15 @@ def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
     return rates(p, u.phi, u.omega, u.alpha, y, u.tau_load)
 
 
+def integrate(p: Parameters, t: float, h: float, y: State, u: Drive) -> list:
+    """The FMU's step: :func:`exponential_step` from the input motion u at the step's start (angle quadratic,
+    speed linear in time over the step, tau_load held)."""
+    return exponential_step(p, h, u.phi, u.omega, u.alpha, y, u.tau_load)
+
+
 def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
-    """The natural-rate bound plus 4 |omega_in| (the 1x, 2x, 4x forcing by the unbalance and the joint).
+    """The natural-rate bound plus 4 |omega_in| (the 1x, 2x, 4x forcing by the unbalance and the joint): the
+    protocol's RK4 rule, not used by the FMU, which steps with :func:`integrate` (one substep where RK4 takes two).
 
     The sum, not ``rk4.fastest_rate``'s max: with the max (one substep instead of two at 100 rad/s) the truncation
     error of the run-up energy audit (tests) grows 10x, to 1.2e-7 of the input work, past its bound: the
