@@ -514,7 +514,6 @@ class Cosimulation:
         self._tear_sets = [(self.instances[self._transfers[i][-1].target.split(".", 1)[0]].bare("fmi2SetReal"),
                             c_void_p(self._transfers[i][6]), self._transfers[i][7], c_size_t(1), self._transfers[i][4])
                            for i in self._tears]
-        # where the torn connections' values are in the scratch row (the views above, gathered at once)
         # the torn connections' values (one-value ctypes arrays in the scratch row: v[0] is a Python float); the
         # implicit loop works on lists of floats, numpy costing a microsecond per operation on these 1-2 values
         self._tear_values = [self._transfers[i][4] for i in self._tears]
