@@ -34,6 +34,7 @@ import math
 import struct
 import sys
 import weakref
+from collections.abc import Callable
 from pathlib import Path
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
@@ -383,20 +384,20 @@ class ModelSlave(UjfmuSlave):
     - the parameters object ``MODEL.Parameters`` from the FMU's parameters (by name), and ``MODEL.check`` on it;
     - the state: ``MODEL.initial_state`` at the current inputs until the first step (the warm start: a host may
       set the inputs after initialization), then integrated, or held while ``MODEL.kinematic(p)``;
-    - a step: classical RK4 (``rk4.integrate_time``) with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs
+    - a step: classical RK4 (``rk4.integrate_held``) with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs
       held (a prescribed input shaft extrapolated, see PrescribedInputSlave), then the finite check and
       ``MODEL.check_state`` of the new state;
     - the outputs: ``MODEL.outputs`` assigned by name, recomputed on the first read after a step or a change of an
       input outside ``MODEL.output_free_inputs(p)``.
 
-    Subclasses provide ``model_inputs()`` (the model's inputs now) and ``inputs_at(s)`` (at time s into a step, as
-    the step extrapolates them) and may extend ``initialize``/``advance`` for what their inputs need
-    (PrescribedInputSlave: the input shaft's angle).
+    Subclasses provide ``model_inputs()`` (the model's inputs now) and may replace ``integrate`` (the RK4 substeps
+    of one step, inputs held) and extend ``initialize``/``advance`` for what their inputs need
+    (PrescribedInputSlave: the input shaft's angle, extrapolated over the step).
     """
 
     MODEL = None
     STATE = {"_time": "float", "_started": "bool"}   # plus "_y": the model state, set in __init_subclass__
-    DERIVED = ("_p", "_output_free")
+    DERIVED = ("_p", "_output_free", "_kinematic")
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -415,6 +416,7 @@ class ModelSlave(UjfmuSlave):
     def derive(self):
         self._p = self.parameters()
         self._output_free = frozenset(getattr(self.MODEL, "output_free_inputs", _no_inputs)(self._p))
+        self._kinematic = bool(getattr(self.MODEL, "kinematic", _never)(self._p))
 
     def initialize(self, start_time):
         self._time, self._started = start_time, False
@@ -424,14 +426,6 @@ class ModelSlave(UjfmuSlave):
         """The model's inputs (its Inputs) now, from the FMU's input variables."""
         raise NotImplementedError
 
-    def inputs_at(self, s):
-        """The model's inputs at time s [s] into the step from now (default: held)."""
-        return self.model_inputs()
-
-    def input_path(self):
-        """:meth:`inputs_at` as a function of s alone, for the stages of one step (its inputs read once)."""
-        return self.inputs_at
-
     def current_state(self, u):
         """The model state now: after the first step the integrated (or, kinematic, held) one, before it
         initial_state at the current inputs u (the warm start)."""
@@ -440,39 +434,38 @@ class ModelSlave(UjfmuSlave):
         return tuple(self.MODEL.initial_state(self._p, self._time, u))
 
     def compute_outputs(self):
-        u = self.model_inputs()
-        for name, value in self.MODEL.outputs(self._p, self._time, self.current_state(u), u).items():
-            setattr(self, name, value)
+        self.set_outputs(self.model_inputs())
+
+    def set_outputs(self, u):
+        """The output variables from ``MODEL.outputs`` at the current time and state and the inputs u."""
+        vars(self).update(self.MODEL.outputs(self._p, self._time, self.current_state(u), u))
 
     def advance(self, t, h):
-        model, p = self.MODEL, self._p
-        if getattr(model, "kinematic", _never)(p):
+        """Step the state from t to t + h; returns the inputs (``model_inputs()``) held over the step."""
+        u = self.model_inputs()
+        if self._kinematic:
             if not self._started:
-                self._y, self._started = self.current_state(self.model_inputs()), True
+                self._y, self._started = self.current_state(u), True
         else:
-            u = self.model_inputs()
+            model, p = self.MODEL, self._p
             y = self.current_state(u)
-            n = rk4.substeps(model.rate_bound(p, y, self.speed_bound(h)), h)
-            if type(self).inputs_at is ModelSlave.inputs_at:   # inputs held over the step
-
-                def rates(s, y):
-                    return model.derivatives(p, t + s, y, u)
-            else:
-                inputs_at = self.input_path()
-
-                def rates(s, y):
-                    return model.derivatives(p, t + s, y, inputs_at(s))
-            y = tuple(rk4.integrate_time(rates, y, h, n))
-            if not all(math.isfinite(x) for x in y):
+            y = self.integrate(t, h, rk4.substeps(model.rate_bound(p, y, self.speed_bound(h, u)), h), y, u)
+            if not all(map(math.isfinite, y)):
                 raise ValueError(f"the state became non-finite over the step ({y!r})")
             problems = getattr(model, "check_state", _none)(p, y)
             if problems:
                 raise ValueError("; ".join(problems))
             self._y, self._started = y, True
         self._time = t + h
+        return u
 
-    def speed_bound(self, h):
-        """Bound [rad/s] of the input speeds over the next step of h (0: the model has no input speed)."""
+    def integrate(self, t, h, n, y, u):
+        """The state y at t advanced by n RK4 substeps to t + h, the inputs u (``model_inputs()``) held."""
+        return rk4.integrate_held(self.MODEL.derivatives, self._p, t, u, y, h, n)
+
+    def speed_bound(self, h, u):
+        """Bound [rad/s] of the input speeds over the next step of h from the inputs u now (0: the model has no
+        input speed)."""
         return 0.0
 
 
@@ -484,6 +477,20 @@ def model_parameters(model, fmu):
 
 def _never(p):
     return False
+
+
+def drive_derivatives(model) -> Callable:
+    """The ``drive_derivatives(p, t, y, phi, omega, alpha, tau_load)`` of a model whose inputs are a Drive: its
+    own (the protocol's optional plain-float form), else its ``derivatives`` at ``Drive(phi, omega, alpha,
+    tau_load)``."""
+    own = getattr(model, "drive_derivatives", None)
+    if own is not None:
+        return own
+    derivatives = model.derivatives
+
+    def at_drive(p, t, y, phi, omega, alpha, tau_load):
+        return derivatives(p, t, y, Drive(phi, omega, alpha, tau_load))
+    return at_drive
 
 
 def _no_inputs(p):
@@ -532,31 +539,32 @@ class PrescribedInputSlave(ModelSlave):
         h1, h2 = self._h_prev, self._h_prev2
         return slope + h1 * (slope - (self._omega_prev - self._omega_prev2) / h2) / (h1 + h2)
 
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        model = cls.__dict__.get("MODEL")
+        if model is not None:
+            cls._drive_derivatives = staticmethod(drive_derivatives(model))
+
     def model_inputs(self):
         return Drive(self._phi_in, self.omega_in, self.input_acceleration(), self.tau_load)
 
-    def inputs_at(self, s):
-        """The input shaft extrapolated s into the step: angle quadratic, speed linear in s (Eq. above)."""
-        return self.input_path()(s)
+    def integrate(self, t, h, n, y, u):
+        """The RK4 substeps with the input shaft extrapolated from u over the step (angle quadratic, speed linear
+        in time: Eq. above) and tau_load held, through the model's ``drive_derivatives``."""
+        return rk4.integrate_drive(self._drive_derivatives, self._p, t, y, h, n, u.phi, u.omega, u.alpha, u.tau_load)
 
-    def input_path(self):
-        phi0, w0, alpha, tau_load = self._phi_in, self.omega_in, self.input_acceleration(), self.tau_load
-
-        def inputs_at(s):
-            return Drive(phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, alpha, tau_load)
-        return inputs_at
-
-    def speed_bound(self, h):
-        alpha = self.input_acceleration()
-        return max(abs(self.omega_in), abs(self.omega_in + alpha * h))
+    def speed_bound(self, h, u):
+        return max(abs(u.omega), abs(u.omega + u.alpha * h))
 
     def compute_outputs(self):
-        super().compute_outputs()
-        self.phi_in, self.alpha_in = self._phi_in, self.input_acceleration()
+        u = self.model_inputs()
+        self.set_outputs(u)
+        self.phi_in, self.alpha_in = u.phi, u.alpha
 
     def advance(self, t, h):
-        super().advance(t, h)
-        self.advance_input(h, self.input_acceleration())
+        u = super().advance(t, h)
+        self.advance_input(h, u.alpha)
+        return u
 
     def advance_input(self, h, alpha):
         increment = h * (self.omega_in + 0.5 * alpha * h) - self._phi_in_carry

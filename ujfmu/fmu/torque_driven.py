@@ -57,10 +57,9 @@ class TorqueDrivenSlave(ModelSlave):
     def model_inputs(self):
         return Torques(self.tau_in, self.tau_load)
 
-    def speed_bound(self, h):
-        """|omega_in| + |alpha_in| h from the state and the equations of motion now (ValueError if it exceeds the
-        speed range)."""
-        u = self.model_inputs()
+    def speed_bound(self, h, u):
+        """|omega_in| + |alpha_in| h from the state and the equations of motion now, under the inputs u (ValueError
+        if it exceeds the speed range)."""
         omega, alpha = self.MODEL.derivatives(self._p, self._time, self.current_state(u), u)[:2]
         reach = abs(omega) + abs(alpha) * h
         if not reach <= SPEED_RANGE["max"]:

@@ -30,7 +30,11 @@ step on, the outputs following the inputs alone) and ``check_state(p, y) -> list
 (messages when a state reached by a step is outside the model's validity; default none) and
 ``output_free_inputs(p) -> tuple`` (names of FMU inputs that neither ``outputs`` nor ``initial_state`` depend on at
 these parameters, e.g. a load torque that only enters the derivatives: a change of them leaves the outputs valid,
-so the FMU does not recompute them when a host sets them after reading the outputs; default none).
+so the FMU does not recompute them when a host sets them after reading the outputs; default none) and, for a model
+whose inputs are a :class:`Drive`, ``drive_derivatives(p, t, y, phi, omega, alpha, tau_load) -> tuple`` (the same
+numbers as ``derivatives(p, t, y, Drive(phi, omega, alpha, tau_load))`` from plain floats: the FMU calls it at
+every RK4 stage, where building a Drive costs as much as a small model's equations; default built from
+``derivatives``).
 
 The inputs ``u`` are the model's own NamedTuple ``Inputs``; a model whose input shaft follows a prescribed speed
 (``omega_in``) uses :class:`Drive`, which the base extrapolates over a step (angle quadratic, speed linear in time:

@@ -372,6 +372,12 @@ def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
     return _flexible_rates(p, u.phi, u.omega, y, u.tau_load)[0]
 
 
+def drive_derivatives(p: Parameters, t: float, y: State, phi: float, omega: float, alpha: float,
+        tau_load: float) -> tuple:
+    """:func:`derivatives` at the input motion (phi, omega, alpha) and tau_load as plain floats."""
+    return _flexible_rates(p, phi, omega, y, tau_load)[0]
+
+
 def output_free_inputs(p: Parameters) -> tuple:
     """A flexible shaft's outputs (:func:`flexible_outputs`) and start do not depend on tau_load, which enters only
     the output shaft's equation of motion; a rigid one's tau_in does (rho tau_load)."""

@@ -410,6 +410,12 @@ def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
     return rates(p, u.phi, u.omega, u.alpha, y, u.tau_load)
 
 
+def drive_derivatives(p: Parameters, t: float, y: State, phi: float, omega: float, alpha: float,
+        tau_load: float) -> tuple:
+    """:func:`derivatives` at the input motion (phi, omega, alpha) and tau_load as plain floats."""
+    return rates(p, phi, omega, alpha, y, tau_load)
+
+
 def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
     """The natural-rate bound plus 4 |omega_in| (the 1x, 2x, 4x forcing by the unbalance and the joint).
 
