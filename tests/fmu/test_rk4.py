@@ -113,3 +113,14 @@ def test_the_unrolled_integrators_compute_the_readable_schemes_numbers_bit_for_b
         expected = rk4.integrate_time(lambda s, y: drive(p, t0 + s, y, phi0 + s * (w0 + 0.5 * alpha * s),
                                                          w0 + alpha * s, alpha, tau), y0, span, n)
         assert rk4.integrate_drive(drive, p, t0, y0, span, n, phi0, w0, alpha, tau) == tuple(expected)
+
+
+def test_given_first_stage_rates_are_used_as_they_are():
+    """integrate_held with k1 (the rates at the start, which the torque-driven FMUs have from their speed bound)
+    gives the same numbers as evaluating them, and the given ones enter the result (a k1 off by a tenth moves it)."""
+    p, t0, u, y0 = (3.0, 0.7), 2.5, (1.3, -0.4, 0.9), (0.2, -0.1, 0.4, 0.3)
+    k1 = _nonlinear(p, t0, y0, u)
+    assert rk4.integrate_held(_nonlinear, p, t0, u, y0, 0.01, 3, k1) == rk4.integrate_held(_nonlinear, p, t0, u, y0,
+                                                                                          0.01, 3)
+    assert rk4.integrate_held(_nonlinear, p, t0, u, y0, 0.01, 3, tuple(1.1 * k for k in k1)) != \
+        rk4.integrate_held(_nonlinear, p, t0, u, y0, 0.01, 3)

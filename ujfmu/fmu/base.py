@@ -177,10 +177,14 @@ class UjfmuSlave(Fmi2Slave):
                 var.name, causality=Fmi2Causality[var.causality],
                 variability=Fmi2Variability[var.variability], description=var.description,
                 getter=getter, setter=setter))
-        # the per-step hot path: Real getters/setters by value reference, input bounds (+-DBL_MAX: inf fails too)
+        # the per-step hot path: Real getters/setters by value reference, the attribute of each Real (every
+        # variable is a plain attribute; an output is valid once it is not stale), input bounds (+-DBL_MAX: inf
+        # fails too)
         reals = {vr: var for vr, var in self.vars.items() if isinstance(var, Real)}
         self._real_getters = {vr: var.getter for vr, var in reals.items()}
         self._real_setters = {vr: var.setter for vr, var in reals.items() if var.setter is not None}
+        self._real_names = {vr: var.name for vr, var in reals.items()}
+        self._real_outputs = frozenset(vr for vr, var in reals.items() if var.causality == Fmi2Causality.output)
         big = sys.float_info.max
         self._input_bounds = tuple((v.name, -big if v.min is None else v.min, big if v.max is None else v.max, v)
                                    for v in self._inputs)
@@ -207,10 +211,14 @@ class UjfmuSlave(Fmi2Slave):
         return get
 
     def get_real(self, vrs):
-        """fmi2GetReal without pythonfmu's per-variable type dispatch (its own version reports a wrong type)."""
+        """fmi2GetReal without pythonfmu's per-variable type dispatch (its own version reports a wrong type): stale
+        outputs among vrs are computed first (through an output's getter, which names it in an error), then every
+        value is read from the instance's attributes."""
         try:
-            getters = self._real_getters
-            return [getters[vr]() for vr in vrs]
+            if self._stale and not self._real_outputs.isdisjoint(vrs):
+                self._real_getters[next(vr for vr in vrs if vr in self._real_outputs)]()
+            names, values = self._real_names, self.__dict__
+            return [values[names[vr]] for vr in vrs]
         except KeyError:
             return super().get_real(vrs)
 
@@ -365,9 +373,10 @@ class UjfmuSlave(Fmi2Slave):
         try:
             if not (step_size > 0.0 and math.isfinite(step_size)):
                 raise ValueError(f"communication step size = {step_size!r} must be finite and > 0")
+            values = self.__dict__
             for name, lo, hi, var in self._input_bounds:
-                if not lo <= getattr(self, name) <= hi:   # NaN and inf fail too
-                    raise ValueError(var.check(getattr(self, name)))
+                if not lo <= values[name] <= hi:   # NaN and inf fail too
+                    raise ValueError(var.check(values[name]))
             self.advance(current_time, step_size)
             self._stale = True
             return True
@@ -448,8 +457,7 @@ class ModelSlave(UjfmuSlave):
                 self._y, self._started = self.current_state(u), True
         else:
             model, p = self.MODEL, self._p
-            y = self.current_state(u)
-            y = self.integrate(t, h, rk4.substeps(model.rate_bound(p, y, self.speed_bound(h, u)), h), y, u)
+            y = self.integrate(t, h, self.current_state(u), u)
             if not all(map(math.isfinite, y)):
                 raise ValueError(f"the state became non-finite over the step ({y!r})")
             problems = getattr(model, "check_state", _none)(p, y)
@@ -459,9 +467,17 @@ class ModelSlave(UjfmuSlave):
         self._time = t + h
         return u
 
-    def integrate(self, t, h, n, y, u):
-        """The state y at t advanced by n RK4 substeps to t + h, the inputs u (``model_inputs()``) held."""
-        return rk4.integrate_held(self.MODEL.derivatives, self._p, t, u, y, h, n)
+    def integrate(self, t, h, y, u):
+        """The state y at t advanced to t + h by RK4 substeps (``substeps``), the inputs u (``model_inputs()``)
+        held."""
+        return rk4.integrate_held(self.MODEL.derivatives, self._p, t, u, y, h, self.substeps(h, y, u))
+
+    def substeps(self, h, y, u, omega_max=None):
+        """RK4 substeps for a step of h from state y under the inputs u: ``rk4.substeps`` of ``MODEL.rate_bound``
+        at omega_max, the bound of the input speeds over the step (default ``speed_bound``)."""
+        if omega_max is None:
+            omega_max = self.speed_bound(h, u)
+        return rk4.substeps(self.MODEL.rate_bound(self._p, y, omega_max), h)
 
     def speed_bound(self, h, u):
         """Bound [rad/s] of the input speeds over the next step of h from the inputs u now (0: the model has no
@@ -548,10 +564,11 @@ class PrescribedInputSlave(ModelSlave):
     def model_inputs(self):
         return Drive(self._phi_in, self.omega_in, self.input_acceleration(), self.tau_load)
 
-    def integrate(self, t, h, n, y, u):
+    def integrate(self, t, h, y, u):
         """The RK4 substeps with the input shaft extrapolated from u over the step (angle quadratic, speed linear
         in time: Eq. above) and tau_load held, through the model's ``drive_derivatives``."""
-        return rk4.integrate_drive(self._drive_derivatives, self._p, t, y, h, n, u.phi, u.omega, u.alpha, u.tau_load)
+        return rk4.integrate_drive(self._drive_derivatives, self._p, t, y, h, self.substeps(h, y, u), u.phi, u.omega,
+                                   u.alpha, u.tau_load)
 
     def speed_bound(self, h, u):
         return max(abs(u.omega), abs(u.omega + u.alpha * h))

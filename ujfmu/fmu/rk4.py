@@ -84,10 +84,13 @@ def integrate_time(rates: Callable, y: Sequence[float], t_span: float, n: int) -
     return y
 
 
-def integrate_held(derivatives: Callable, p, t0: float, u, y: Sequence[float], t_span: float, n: int) -> tuple:
+def integrate_held(derivatives: Callable, p, t0: float, u, y: Sequence[float], t_span: float, n: int,
+        k1: Sequence[float] | None = None) -> tuple:
     """:func:`integrate_time` of y' = derivatives(p, t0 + t, y, u), the inputs u held over the step (the model
-    protocol's ``derivatives``), with the stage arithmetic unrolled over the state (:func:`unrolled`)."""
-    return unrolled("held", len(y))(derivatives, p, t0, u, y, t_span, n)
+    protocol's ``derivatives``), with the stage arithmetic unrolled over the state (:func:`unrolled`).
+
+    k1: derivatives(p, t0, y, u) if the caller has it already (it is not evaluated again)."""
+    return unrolled("held", len(y))(derivatives, p, t0, u, y, t_span, n, k1)
 
 
 def integrate_drive(derivatives: Callable, p, t0: float, y: Sequence[float], t_span: float, n: int,
@@ -101,8 +104,8 @@ def integrate_drive(derivatives: Callable, p, t0: float, y: Sequence[float], t_s
 #: per kind of stage evaluation: the integrator's parameters, the right-hand side's call at stage time ``{t}``,
 #: state ``{y}`` and input motion ``{phi}``, ``{w}``, and the input motion at stage time ``{t}`` (drive only)
 _KINDS = {
-    "held": ("derivatives, p, t0, u, y, t_span, n", "derivatives(p, t0 + {t}, {y}, u)", None),
-    "drive": ("derivatives, p, t0, y, t_span, n, phi0, w0, alpha, tau_load",
+    "held": ("derivatives, p, t0, u, y, t_span, n, k1", "derivatives(p, t0 + {t}, {y}, u)", None),
+    "drive": ("derivatives, p, t0, y, t_span, n, phi0, w0, alpha, tau_load, k1=None",
               "derivatives(p, t0 + {t}, {y}, {phi}, {w}, alpha, tau_load)",
               "{phi}, {w} = phi0 + {t} * (w0 + 0.5 * alpha * {t}), w0 + alpha * {t}"),
 }
@@ -118,7 +121,11 @@ def integrate({params}):
         {motion_m}
         {motion_e}
         {y} = y
-        {k1} = {f1}
+        if k1 is None:
+            {k1} = {f1}
+        else:   # the first stage's rates, given
+            {k1} = k1
+            k1 = None
         {k2} = {f2}
         {k3} = {f3}
         {k4} = {f4}
@@ -133,7 +140,7 @@ _UNROLLED = {}
 
 def unrolled(kind: str, size: int) -> Callable:
     """The RK4 integrator of :func:`integrate_time`'s scheme for a state of ``size`` floats and a right-hand side
-    called as ``_KINDS[kind]`` says, its stage arithmetic written out per state component (no per-component loop,
+    called as ``_KINDS[kind]`` says (k1: the rates at the start, when the caller has them), its stage arithmetic written out per state component (no per-component loop,
     list or zip: about 2.5x less time than the loops outside the right-hand side). Built from
     ``_UNROLLED_SOURCE`` on first use for each kind and size (as ``collections.namedtuple`` builds its class);
     the same operations in the same order as :func:`integrate_time`, so the same numbers bit for bit (tests)."""

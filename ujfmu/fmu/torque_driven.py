@@ -14,6 +14,7 @@ Exchange export can hand them to the host's solver.
 """
 
 from ..models.protocol import Torques
+from . import rk4
 from .base import SPEED_RANGE, TORQUE_RANGE, ModelSlave, input_, output, parameter
 
 
@@ -57,10 +58,16 @@ class TorqueDrivenSlave(ModelSlave):
     def model_inputs(self):
         return Torques(self.tau_in, self.tau_load)
 
-    def speed_bound(self, h, u):
-        """|omega_in| + |alpha_in| h from the state and the equations of motion now, under the inputs u (ValueError
-        if it exceeds the speed range)."""
-        omega, alpha = self.MODEL.derivatives(self._p, self._time, self.current_state(u), u)[:2]
+    def integrate(self, t, h, y, u):
+        """The RK4 substeps, the input speed over the step bounded from the rates at its start (:meth:`speed_reach`),
+        which are the first stage's."""
+        k1 = self.MODEL.derivatives(self._p, t, y, u)
+        return rk4.integrate_held(self.MODEL.derivatives, self._p, t, u, y, h,
+                                  self.substeps(h, y, u, self.speed_reach(h, k1[0], k1[1])), k1)
+
+    def speed_reach(self, h, omega, alpha):
+        """|omega_in| + |alpha_in| h from the input shaft's speed omega and acceleration alpha (ValueError if it
+        exceeds the speed range)."""
         reach = abs(omega) + abs(alpha) * h
         if not reach <= SPEED_RANGE["max"]:
             raise ValueError(f"tau_in = {self.tau_in!r} N.m and tau_load = {self.tau_load!r} N.m: the input shaft "
