@@ -215,8 +215,12 @@ class UjfmuSlave(Fmi2Slave):
         outputs among vrs are computed first (through an output's getter, which names it in an error), then every
         value is read from the instance's attributes."""
         try:
-            if self._stale and not self._real_outputs.isdisjoint(vrs):
-                self._real_getters[next(vr for vr in vrs if vr in self._real_outputs)]()
+            if self._stale:
+                outputs = self._real_outputs
+                for vr in vrs:
+                    if vr in outputs:
+                        self._real_getters[vr]()
+                        break
             names, values = self._real_names, self.__dict__
             return [values[names[vr]] for vr in vrs]
         except KeyError:
