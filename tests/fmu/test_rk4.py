@@ -3,10 +3,11 @@ through the model protocol as the FMU base drives it, and its stability limits a
 (``rk4.fastest_rate``, ``rk4.RATE_STEP``) relies on."""
 
 import math
+from pathlib import Path
 
 import pytest
 
-from ujfmu.fmu import rk4
+from ujfmu.fmu import rk4, rk4_unrolled
 from ujfmu.models.double_cardan_driveline import model as dc
 from ujfmu.models.protocol import Drive
 
@@ -96,11 +97,17 @@ def _nonlinear(p, t, y, u):
     return tuple(math.sin(c * (i + 1) * t + x) * u[0] - 0.3 * total * x + tau * u[i % len(u)] for i, x in enumerate(y))
 
 
-@pytest.mark.parametrize("size", [0, 1, 2, 3, 4, 6, 14, 16])
+def test_the_committed_unrolled_integrators_are_what_the_generator_writes():
+    """ujfmu/fmu/rk4_unrolled.py is generated (``python -m ujfmu.fmu.rk4``): edited by hand or stale, it fails."""
+    assert Path(rk4_unrolled.__file__).read_text() == rk4.unrolled_source()
+
+
+@pytest.mark.parametrize("size", [0, 1, 2, 3, 4, 5, 6, 14, 16])
 def test_the_unrolled_integrators_compute_the_readable_schemes_numbers_bit_for_bit(size):
     """integrate_held and integrate_drive (what the FMUs run) give exactly integrate_time's numbers: the same
     operations in the same order, for held inputs and for the extrapolated input shaft, at every state size the
-    models have (a swapped stage, weight or stage time would differ in the last bits at least)."""
+    models have (rk4.SIZES, unrolled) and at others (looped; a swapped stage, weight or stage time would differ in
+    the last bits at least)."""
     y0 = tuple(0.1 * (i + 1) - 0.4 for i in range(size))
     p, t0, u, span = (3.0, 0.7), 2.5, (1.3, -0.4, 0.9), 0.01
     for n in (1, 3):
@@ -113,6 +120,14 @@ def test_the_unrolled_integrators_compute_the_readable_schemes_numbers_bit_for_b
         expected = rk4.integrate_time(lambda s, y: drive(p, t0 + s, y, phi0 + s * (w0 + 0.5 * alpha * s),
                                                          w0 + alpha * s, alpha, tau), y0, span, n)
         assert rk4.integrate_drive(drive, p, t0, y0, span, n, phi0, w0, alpha, tau) == tuple(expected)
+
+
+def test_every_model_state_size_has_its_unrolled_integrators():
+    from ujfmu.build import FMUS, fmu_class
+    from ujfmu.fmu.base import ModelSlave
+    sizes = {len(fmu_class(name).MODEL.State._fields) for name in FMUS if issubclass(fmu_class(name), ModelSlave)}
+    assert sizes - {0} <= set(rk4.SIZES)
+    assert rk4.unrolled("drive", 14) is rk4_unrolled.drive_14
 
 
 def test_given_first_stage_rates_are_used_as_they_are():
