@@ -397,7 +397,7 @@ class ModelSlave(UjfmuSlave):
     - the parameters object ``MODEL.Parameters`` from the FMU's parameters (by name), and ``MODEL.check`` on it;
     - the state: ``MODEL.initial_state`` at the current inputs until the first step (the warm start: a host may
       set the inputs after initialization), then integrated, or held while ``MODEL.kinematic(p)``;
-    - a step: classical RK4 (``rk4.integrate_held``) with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs
+    - a step: classical RK4 (``rk4.unrolled``) with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs
       held (a prescribed input shaft extrapolated, see PrescribedInputSlave), then the finite check and
       ``MODEL.check_state`` of the new state;
     - the outputs: ``MODEL.outputs`` assigned by name, recomputed on the first read after a step or a change of an
@@ -410,6 +410,8 @@ class ModelSlave(UjfmuSlave):
 
     MODEL = None
     STATE = {"_time": "float", "_started": "bool"}   # plus "_y": the model state, set in __init_subclass__
+    #: how the RK4 stages call the model (``rk4._KINDS``); ``_rk4``, set in __init_subclass__, integrates a step
+    RK4_KIND = "held"
     DERIVED = ("_p", "_output_free", "_kinematic")
 
     def __init_subclass__(cls, **kwargs):
@@ -418,6 +420,7 @@ class ModelSlave(UjfmuSlave):
         if model is not None:   # a model module, or a variant's protocol class inside one (documented: the module)
             cls.PHYSICS = sys.modules[model.__module__] if isinstance(model, type) else model
             cls.STATE = {**cls.STATE, "_y": f"float[{len(model.State._fields)}]"}
+            cls._rk4 = staticmethod(rk4.unrolled(cls.RK4_KIND, len(model.State._fields)))
 
     def parameters(self):
         """The FMU's parameters as the model's Parameters."""
@@ -474,7 +477,7 @@ class ModelSlave(UjfmuSlave):
     def integrate(self, t, h, y, u):
         """The state y at t advanced to t + h by RK4 substeps (``substeps``), the inputs u (``model_inputs()``)
         held."""
-        return rk4.integrate_held(self.MODEL.derivatives, self._p, t, u, y, h, self.substeps(h, y, u))
+        return self._rk4(self.MODEL.derivatives, self._p, t, u, y, h, self.substeps(h, y, u))
 
     def substeps(self, h, y, u, omega_max=None):
         """RK4 substeps for a step of h from state y under the inputs u: ``rk4.substeps`` of ``MODEL.rate_bound``
@@ -534,6 +537,7 @@ class PrescribedInputSlave(ModelSlave):
 
     STATE = {**ModelSlave.STATE, "_phi_in": "float", "_phi_in_carry": "float", "_omega_prev": "float|None",
              "_h_prev": "float", "_omega_prev2": "float|None", "_h_prev2": "float"}
+    RK4_KIND = "drive"
     #: 1: alpha the backward difference of omega_in over the last step; 2: the second-order (BDF2) slope at t_k
     ACCELERATION_ORDER = 1
 
@@ -571,8 +575,8 @@ class PrescribedInputSlave(ModelSlave):
     def integrate(self, t, h, y, u):
         """The RK4 substeps with the input shaft extrapolated from u over the step (angle quadratic, speed linear
         in time: Eq. above) and tau_load held, through the model's ``drive_derivatives``."""
-        return rk4.integrate_drive(self._drive_derivatives, self._p, t, y, h, self.substeps(h, y, u), u.phi, u.omega,
-                                   u.alpha, u.tau_load)
+        return self._rk4(self._drive_derivatives, self._p, t, y, h, self.substeps(h, y, u), u.phi, u.omega, u.alpha,
+                         u.tau_load)
 
     def speed_bound(self, h, u):
         return max(abs(u.omega), abs(u.omega + u.alpha * h))

@@ -14,7 +14,6 @@ Exchange export can hand them to the host's solver.
 """
 
 from ..models.protocol import Torques
-from . import rk4
 from .base import SPEED_RANGE, TORQUE_RANGE, ModelSlave, input_, output, parameter
 
 
@@ -62,8 +61,8 @@ class TorqueDrivenSlave(ModelSlave):
         """The RK4 substeps, the input speed over the step bounded from the rates at its start (:meth:`speed_reach`),
         which are the first stage's."""
         k1 = self.MODEL.derivatives(self._p, t, y, u)
-        return rk4.integrate_held(self.MODEL.derivatives, self._p, t, u, y, h,
-                                  self.substeps(h, y, u, self.speed_reach(h, k1[0], k1[1])), k1)
+        return self._rk4(self.MODEL.derivatives, self._p, t, u, y, h,
+                         self.substeps(h, y, u, self.speed_reach(h, k1[0], k1[1])), k1)
 
     def speed_reach(self, h, omega, alpha):
         """|omega_in| + |alpha_in| h from the input shaft's speed omega and acceleration alpha (ValueError if it
