@@ -447,6 +447,8 @@ class ModelSlave(UjfmuSlave):
     STATE = {"_time": "float", "_started": "bool"}   # plus "_y": the model state, set in __init_subclass__
     #: how the RK4 stages call the model (``rk4._KINDS``); ``_rk4``, set in __init_subclass__, integrates a step
     RK4_KIND = "held"
+    #: the model's own ``integrate(p, t, h, y, u)`` where it has one (the protocol's optional whole-step integrator)
+    _own_step = None
     DERIVED = ("_p", "_output_free", "_kinematic")
 
     def __init_subclass__(cls, **kwargs):
@@ -460,7 +462,7 @@ class ModelSlave(UjfmuSlave):
                 cls._rk4 = staticmethod(rk4.with_own_substeps(cls._rk4, cls.RK4_KIND, model.integrate_substeps,
                                                               model.own_substeps))
             if hasattr(model, "integrate"):   # the model integrates its own steps
-                cls.integrate = _own_integrate(model.integrate)
+                cls._own_step = staticmethod(model.integrate)
 
     def parameters(self):
         """The FMU's parameters as the model's Parameters."""
@@ -504,7 +506,9 @@ class ModelSlave(UjfmuSlave):
                 self._y, self._started = self.current_state(u), True
         else:
             model, p = self.MODEL, self._p
-            y = self.integrate(t, h, self.current_state(u), u)
+            own = self._own_step
+            y = self.current_state(u)
+            y = tuple(own(p, t, h, y, u)) if own is not None else self.integrate(t, h, y, u)
             if not all(map(math.isfinite, y)):
                 raise ValueError(f"the state became non-finite over the step ({y!r})")
             problems = getattr(model, "check_state", _none)(p, y)
@@ -530,14 +534,6 @@ class ModelSlave(UjfmuSlave):
         """Bound [rad/s] of the input speeds over the next step of h from the inputs u now (0: the model has no
         input speed)."""
         return 0.0
-
-
-def _own_integrate(integrate: Callable) -> Callable:
-    """A ModelSlave.integrate that steps with the model's own ``integrate(p, t, h, y, u)``."""
-    def own(self, t, h, y, u):
-        return tuple(integrate(self._p, t, h, y, u))
-    own.__doc__ = "The model's own integrator over the step (the protocol's optional ``integrate``)."
-    return own
 
 
 def model_parameters(model, fmu):
