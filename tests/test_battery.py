@@ -5,6 +5,8 @@ The default (implicit) scheme must run every set-up at 1 ms, within 2% of each s
 instability on heavy driven sides must be detected and named; the set-up left out must be outside the model's
 valid range."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -65,7 +67,7 @@ def test_explicit_instability_is_detected_and_named(fmu_dir):
 
 def test_left_out_setup_leaves_the_models_valid_range(fmu_dir, tmp_path):
     """battery_11 is left out for its physics, not for the coupling: its suspended mass's lateral mode grows in the
-    run-up until joint 1's angle plus the dynamic misalignment passes 89 deg at t = 0.33 s. The default scheme stops
+    run-up until a joint's angle plus the dynamic misalignment passes 89 deg at t = 0.33 s. The default scheme stops
     there with the driveline's own range error (no coupling instability) and keeps the results so far."""
     setup = next(s for s in battery.draw() if s["name"] == "battery_11")
     assert set(battery.EXCLUDED) == {"battery_11"}
@@ -76,7 +78,8 @@ def test_left_out_setup_leaves_the_models_valid_range(fmu_dir, tmp_path):
         cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
                    scenario.step_size, scenario.record)
     assert not isinstance(info.value, CouplingInstabilityError)
-    assert "beta1 + dynamic misalignment" in str(info.value) and "left its allowed range" in str(info.value)
+    message = str(info.value)
+    assert re.search(r"beta[12] \+ dynamic misalignment", message) and "left its allowed range" in message
     assert 0.30 < info.value.partial["time"][-1] < 0.34
 
 

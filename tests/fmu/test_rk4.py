@@ -3,10 +3,11 @@ through the model protocol as the FMU base drives it, and its stability limits a
 (``rk4.fastest_rate``, ``rk4.RATE_STEP``) relies on."""
 
 import math
+from pathlib import Path
 
 import pytest
 
-from ujfmu.fmu import rk4
+from ujfmu.fmu import rk4, rk4_unrolled
 from ujfmu.models.double_cardan_driveline import model as dc
 from ujfmu.models.protocol import Drive
 
@@ -37,20 +38,31 @@ def exact_state(p, t):
     return (W0 * t + 0.5 * ALPHA * t * t - x, W0 + ALPHA * t - dx, 0.0, 0.0)
 
 
-def rk4_error(p, duration, n):
-    """Largest state error at the end of n RK4 substeps of the protocol's derivatives, the input extrapolated over
-    the step as the FMU base does (angle quadratic, speed linear in time, tau_load held)."""
+def _readable(p, y, duration, n):
+    """rk4.integrate_time of the protocol's derivatives, the input extrapolated over the step as the FMU base
+    does (angle quadratic, speed linear in time, tau_load held)."""
     def rates(s, y):
         return dc.derivatives(p, s, y, Drive(s * (W0 + 0.5 * ALPHA * s), W0 + ALPHA * s, ALPHA, TAU))
-    y = rk4.integrate_time(rates, exact_state(p, 0.0), duration, n)
+    return rk4.integrate_time(rates, y, duration, n)
+
+
+def _unrolled(p, y, duration, n):
+    """What the FMU runs: rk4.integrate_drive of the protocol's drive_derivatives."""
+    return rk4.integrate_drive(dc.drive_derivatives, p, 0.0, y, duration, n, 0.0, W0, ALPHA, TAU)
+
+
+def rk4_error(p, duration, n, integrate=_readable):
+    """Largest state error at the end of n RK4 substeps."""
+    y = integrate(p, exact_state(p, 0.0), duration, n)
     return max(abs(a - b) for a, b in zip(y, exact_state(p, duration)))
 
 
-def test_classical_rk4_is_fourth_order_on_a_closed_form_solution():
+@pytest.mark.parametrize("integrate", [_readable, _unrolled])
+def test_classical_rk4_is_fourth_order_on_a_closed_form_solution(integrate):
     """Halving the substep divides the error by 2^4: observed order 4 (a wrong stage weight or stage time
-    would show order 1-3)."""
+    would show order 1-3), in the readable statement of the scheme and in the unrolled one the FMUs run."""
     p = dc.Parameters(**STRAIGHT)
-    errors = [rk4_error(p, 0.1, n) for n in (80, 160, 320)]   # 143 rad/s x h = 0.18, 0.09, 0.045
+    errors = [rk4_error(p, 0.1, n, integrate) for n in (80, 160, 320)]   # 143 rad/s x h = 0.18, 0.09, 0.045
     orders = [math.log2(a / b) for a, b in zip(errors, errors[1:])]
     assert errors[-1] < 1e-6
     assert orders == pytest.approx([4.0, 4.0], abs=0.2)
@@ -75,3 +87,55 @@ def test_stability_interval_is_2_83_on_the_imaginary_axis_and_2_78_on_the_real_o
 def test_fastest_rate_resolves_the_larger_of_the_natural_and_forcing_rates():
     assert rk4.fastest_rate(225.0, 286.5) == 286.5 and rk4.fastest_rate(1741.0, 240.0) == 1741.0
     assert rk4.substeps(rk4.fastest_rate(225.0, 286.5), 1e-3) == 1
+
+
+def _nonlinear(p, t, y, u):
+    """A right-hand side of every state entry, the time and every input, nonlinear and coupling the entries (each
+    of the integrator's stage terms enters the result)."""
+    c, tau = p
+    total = sum(y)
+    return tuple(math.sin(c * (i + 1) * t + x) * u[0] - 0.3 * total * x + tau * u[i % len(u)] for i, x in enumerate(y))
+
+
+def test_the_committed_unrolled_integrators_are_what_the_generator_writes():
+    """ujfmu/fmu/rk4_unrolled.py is generated (``python -m ujfmu.fmu.rk4``): edited by hand or stale, it fails."""
+    assert Path(rk4_unrolled.__file__).read_text() == rk4.unrolled_source()
+
+
+@pytest.mark.parametrize("size", [0, 1, 2, 3, 4, 5, 6, 14, 16])
+def test_the_unrolled_integrators_compute_the_readable_schemes_numbers_bit_for_bit(size):
+    """integrate_held and integrate_drive (what the FMUs run) give exactly integrate_time's numbers: the same
+    operations in the same order, for held inputs and for the extrapolated input shaft, at every state size the
+    models have (rk4.SIZES, unrolled) and at others (looped; a swapped stage, weight or stage time would differ in
+    the last bits at least)."""
+    y0 = tuple(0.1 * (i + 1) - 0.4 for i in range(size))
+    p, t0, u, span = (3.0, 0.7), 2.5, (1.3, -0.4, 0.9), 0.01
+    for n in (1, 3):
+        expected = rk4.integrate_time(lambda s, y: _nonlinear(p, t0 + s, y, u), y0, span, n)
+        assert rk4.integrate_held(_nonlinear, p, t0, u, y0, span, n) == tuple(expected)
+
+        def drive(p, t, y, phi, omega, alpha, tau_load):
+            return _nonlinear(p, t, y, (phi, omega, alpha, tau_load))
+        phi0, w0, alpha, tau = 0.2, 31.0, -12.0, 4.0
+        expected = rk4.integrate_time(lambda s, y: drive(p, t0 + s, y, phi0 + s * (w0 + 0.5 * alpha * s),
+                                                         w0 + alpha * s, alpha, tau), y0, span, n)
+        assert rk4.integrate_drive(drive, p, t0, y0, span, n, phi0, w0, alpha, tau) == tuple(expected)
+
+
+def test_every_model_state_size_has_its_unrolled_integrators():
+    from ujfmu.build import FMUS, fmu_class
+    from ujfmu.fmu.base import ModelSlave
+    sizes = {len(fmu_class(name).MODEL.State._fields) for name in FMUS if issubclass(fmu_class(name), ModelSlave)}
+    assert sizes - {0} <= set(rk4.SIZES)
+    assert rk4.unrolled("drive", 14) is rk4_unrolled.drive_14
+
+
+def test_given_first_stage_rates_are_used_as_they_are():
+    """integrate_held with k1 (the rates at the start, which the torque-driven FMUs have from their speed bound)
+    gives the same numbers as evaluating them, and the given ones enter the result (a k1 off by a tenth moves it)."""
+    p, t0, u, y0 = (3.0, 0.7), 2.5, (1.3, -0.4, 0.9), (0.2, -0.1, 0.4, 0.3)
+    k1 = _nonlinear(p, t0, y0, u)
+    assert rk4.integrate_held(_nonlinear, p, t0, u, y0, 0.01, 3, k1) == rk4.integrate_held(_nonlinear, p, t0, u, y0,
+                                                                                          0.01, 3)
+    assert rk4.integrate_held(_nonlinear, p, t0, u, y0, 0.01, 3, tuple(1.1 * k for k in k1)) != \
+        rk4.integrate_held(_nonlinear, p, t0, u, y0, 0.01, 3)

@@ -6,7 +6,7 @@ import inspect
 import pytest
 
 from ujfmu.build import FMUS, fmu_class
-from ujfmu.fmu.base import ModelSlave, PrescribedInputSlave, model_parameters
+from ujfmu.fmu.base import ModelSlave, PrescribedInputSlave, drive_derivatives, model_parameters
 from ujfmu.models.protocol import Drive
 
 MODEL_FMUS = [name for name in FMUS if issubclass(fmu_class(name), ModelSlave)]
@@ -56,6 +56,18 @@ def test_fmu_module_is_a_declaration(name):
     assert {k for k in vars(cls) if not k.startswith("_")} <= {"MODEL", "VARIABLES", "DEFAULT_EXPERIMENT", "PHYSICS",
                                                               "STATE", "ACCELERATION_ORDER", "model_inputs"}
     assert inspect.getmodule(cls.MODEL).__name__ == cls.__module__.rsplit(".", 1)[0] + ".model"
+
+
+@pytest.mark.parametrize("name", [n for n in MODEL_FMUS if issubclass(fmu_class(n), PrescribedInputSlave)])
+def test_drive_derivatives_are_the_derivatives_at_the_drive(name):
+    """The plain-float form the FMU integrates (its own, or the base's from derivatives) gives exactly the
+    derivatives at the same Drive, at a state off equilibrium."""
+    cls = fmu_class(name)
+    model = cls.MODEL
+    p = model_parameters(model, type("Defaults", (), {v.name: v.start for v in cls.VARIABLES})())
+    u = Drive(0.3, 20.0, 5.0, 1.5)
+    y = tuple(x + 0.01 * (i + 1) for i, x in enumerate(model.initial_state(p, 0.0, u)))
+    assert drive_derivatives(model)(p, 0.4, y, *u) == model.derivatives(p, 0.4, y, u)
 
 
 def test_check_messages_name_the_parameters():

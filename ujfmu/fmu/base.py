@@ -36,6 +36,7 @@ import math
 import struct
 import sys
 import weakref
+from collections.abc import Callable
 from pathlib import Path
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
@@ -180,10 +181,14 @@ class UjfmuSlave(Fmi2Slave):
                 var.name, causality=Fmi2Causality[var.causality],
                 variability=Fmi2Variability[var.variability], description=var.description,
                 getter=getter, setter=setter))
-        # the per-step hot path: Real getters/setters by value reference, input bounds (+-DBL_MAX: inf fails too)
+        # the per-step hot path: Real getters/setters by value reference, the attribute of each Real (every
+        # variable is a plain attribute; an output is valid once it is not stale), input bounds (+-DBL_MAX: inf
+        # fails too)
         reals = {vr: var for vr, var in self.vars.items() if isinstance(var, Real)}
         self._real_getters = {vr: var.getter for vr, var in reals.items()}
         self._real_setters = {vr: var.setter for vr, var in reals.items() if var.setter is not None}
+        self._real_names = {vr: var.name for vr, var in reals.items()}
+        self._real_outputs = frozenset(vr for vr, var in reals.items() if var.causality == Fmi2Causality.output)
         big = sys.float_info.max
         self._input_bounds = tuple((v.name, -big if v.min is None else v.min, big if v.max is None else v.max, v)
                                    for v in self._inputs)
@@ -210,10 +215,18 @@ class UjfmuSlave(Fmi2Slave):
         return get
 
     def get_real(self, vrs):
-        """fmi2GetReal without pythonfmu's per-variable type dispatch (its own version reports a wrong type)."""
+        """fmi2GetReal without pythonfmu's per-variable type dispatch (its own version reports a wrong type): stale
+        outputs among vrs are computed first (through an output's getter, which names it in an error), then every
+        value is read from the instance's attributes."""
         try:
-            getters = self._real_getters
-            return [getters[vr]() for vr in vrs]
+            if self._stale:
+                outputs = self._real_outputs
+                for vr in vrs:
+                    if vr in outputs:
+                        self._real_getters[vr]()
+                        break
+            names, values = self._real_names, self.__dict__
+            return [values[names[vr]] for vr in vrs]
         except KeyError:
             return super().get_real(vrs)
 
@@ -397,9 +410,10 @@ class UjfmuSlave(Fmi2Slave):
         try:
             if not (step_size > 0.0 and math.isfinite(step_size)):
                 raise ValueError(f"communication step size = {step_size!r} must be finite and > 0")
+            values = self.__dict__
             for name, lo, hi, var in self._input_bounds:
-                if not lo <= getattr(self, name) <= hi:   # NaN and inf fail too
-                    raise ValueError(var.check(getattr(self, name)))
+                if not lo <= values[name] <= hi:   # NaN and inf fail too
+                    raise ValueError(var.check(values[name]))
             self.advance(current_time, step_size)
             self._stale = True
             return True
@@ -416,21 +430,26 @@ class ModelSlave(UjfmuSlave):
     - the parameters object ``MODEL.Parameters`` from the FMU's parameters (by name), and ``MODEL.check`` on it;
     - the state: ``MODEL.initial_state`` at the current inputs until the first step (the warm start: a host may
       set the inputs after initialization), then integrated, or held while ``MODEL.kinematic(p)``;
-    - a step: classical RK4 (``rk4.integrate_time``, or ``MODEL.integrate_substeps`` where the model has one)
-      with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs held (a prescribed input shaft extrapolated, see
-      PrescribedInputSlave), or the model's own ``integrate`` where it has one; then the finite check and
+    - a step: classical RK4 (``rk4.unrolled``; where the model has ``integrate_substeps``, its own formula for
+      the substep counts its ``own_substeps`` claims) with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs
+      held (a prescribed input shaft extrapolated, see PrescribedInputSlave), or the model's own ``integrate``
+      where it has one; then the finite check and
       ``MODEL.check_state`` of the new state;
     - the outputs: ``MODEL.outputs`` assigned by name, recomputed on the first read after a step or a change of an
       input outside ``MODEL.output_free_inputs(p)``.
 
-    Subclasses provide ``model_inputs()`` (the model's inputs now) and ``inputs_at(s)`` (at time s into a step, as
-    the step extrapolates them) and may extend ``initialize``/``advance`` for what their inputs need
-    (PrescribedInputSlave: the input shaft's angle).
+    Subclasses provide ``model_inputs()`` (the model's inputs now) and may replace ``integrate`` (the RK4 substeps
+    of one step, inputs held) and extend ``initialize``/``advance`` for what their inputs need
+    (PrescribedInputSlave: the input shaft's angle, extrapolated over the step).
     """
 
     MODEL = None
     STATE = {"_time": "float", "_started": "bool"}   # plus "_y": the model state, set in __init_subclass__
-    DERIVED = ("_p", "_output_free")
+    #: how the RK4 stages call the model (``rk4._KINDS``); ``_rk4``, set in __init_subclass__, integrates a step
+    RK4_KIND = "held"
+    #: the model's own ``integrate(p, t, h, y, u)`` where it has one (the protocol's optional whole-step integrator)
+    _own_step = None
+    DERIVED = ("_p", "_output_free", "_kinematic")
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -438,6 +457,12 @@ class ModelSlave(UjfmuSlave):
         if model is not None:   # a model module, or a variant's protocol class inside one (documented: the module)
             cls.PHYSICS = sys.modules[model.__module__] if isinstance(model, type) else model
             cls.STATE = {**cls.STATE, "_y": f"float[{len(model.State._fields)}]"}
+            cls._rk4 = staticmethod(rk4.unrolled(cls.RK4_KIND, len(model.State._fields)))
+            if hasattr(model, "integrate_substeps"):   # the model's own formula for some substep counts
+                cls._rk4 = staticmethod(rk4.with_own_substeps(cls._rk4, cls.RK4_KIND, model.integrate_substeps,
+                                                              model.own_substeps))
+            if hasattr(model, "integrate"):   # the model integrates its own steps
+                cls._own_step = staticmethod(model.integrate)
 
     def parameters(self):
         """The FMU's parameters as the model's Parameters."""
@@ -449,6 +474,7 @@ class ModelSlave(UjfmuSlave):
     def derive(self):
         self._p = self.parameters()
         self._output_free = frozenset(getattr(self.MODEL, "output_free_inputs", _no_inputs)(self._p))
+        self._kinematic = bool(getattr(self.MODEL, "kinematic", _never)(self._p))
 
     def initialize(self, start_time):
         self._time, self._started = start_time, False
@@ -458,14 +484,6 @@ class ModelSlave(UjfmuSlave):
         """The model's inputs (its Inputs) now, from the FMU's input variables."""
         raise NotImplementedError
 
-    def inputs_at(self, s):
-        """The model's inputs at time s [s] into the step from now (default: held)."""
-        return self.model_inputs()
-
-    def input_path(self):
-        """:meth:`inputs_at` as a function of s alone, for the stages of one step (its inputs read once)."""
-        return self.inputs_at
-
     def current_state(self, u):
         """The model state now: after the first step the integrated (or, kinematic, held) one, before it
         initial_state at the current inputs u (the warm start)."""
@@ -474,43 +492,47 @@ class ModelSlave(UjfmuSlave):
         return tuple(self.MODEL.initial_state(self._p, self._time, u))
 
     def compute_outputs(self):
-        u = self.model_inputs()
-        for name, value in self.MODEL.outputs(self._p, self._time, self.current_state(u), u).items():
-            setattr(self, name, value)
+        self.set_outputs(self.model_inputs())
+
+    def set_outputs(self, u):
+        """The output variables from ``MODEL.outputs`` at the current time and state and the inputs u."""
+        vars(self).update(self.MODEL.outputs(self._p, self._time, self.current_state(u), u))
 
     def advance(self, t, h):
-        model, p = self.MODEL, self._p
-        if getattr(model, "kinematic", _never)(p):
+        """Step the state from t to t + h; returns the inputs (``model_inputs()``) held over the step."""
+        u = self.model_inputs()
+        if self._kinematic:
             if not self._started:
-                self._y, self._started = self.current_state(self.model_inputs()), True
+                self._y, self._started = self.current_state(u), True
         else:
-            u = self.model_inputs()
+            model, p = self.MODEL, self._p
+            own = self._own_step
             y = self.current_state(u)
-            own = getattr(model, "integrate", None)   # optional: a model that integrates its own steps
-            if own is not None:
-                y = tuple(own(p, t, h, y, u))
-            else:
-                n = rk4.substeps(model.rate_bound(p, y, self.speed_bound(h)), h)
-                if type(self).inputs_at is ModelSlave.inputs_at:   # inputs held over the step
-
-                    def rates(s, y):
-                        return model.derivatives(p, t + s, y, u)
-                else:
-                    inputs_at = self.input_path()
-
-                    def rates(s, y):
-                        return model.derivatives(p, t + s, y, inputs_at(s))
-                y = tuple(getattr(model, "integrate_substeps", rk4.integrate_time)(rates, y, h, n))
-            if not all(math.isfinite(x) for x in y):
+            y = tuple(own(p, t, h, y, u)) if own is not None else self.integrate(t, h, y, u)
+            if not all(map(math.isfinite, y)):
                 raise ValueError(f"the state became non-finite over the step ({y!r})")
             problems = getattr(model, "check_state", _none)(p, y)
             if problems:
                 raise ValueError("; ".join(problems))
             self._y, self._started = y, True
         self._time = t + h
+        return u
 
-    def speed_bound(self, h):
-        """Bound [rad/s] of the input speeds over the next step of h (0: the model has no input speed)."""
+    def integrate(self, t, h, y, u):
+        """The state y at t advanced to t + h by RK4 substeps (``substeps``), the inputs u (``model_inputs()``)
+        held."""
+        return self._rk4(self.MODEL.derivatives, self._p, t, u, y, h, self.substeps(h, y, u))
+
+    def substeps(self, h, y, u, omega_max=None):
+        """RK4 substeps for a step of h from state y under the inputs u: ``rk4.substeps`` of ``MODEL.rate_bound``
+        at omega_max, the bound of the input speeds over the step (default ``speed_bound``)."""
+        if omega_max is None:
+            omega_max = self.speed_bound(h, u)
+        return rk4.substeps(self.MODEL.rate_bound(self._p, y, omega_max), h)
+
+    def speed_bound(self, h, u):
+        """Bound [rad/s] of the input speeds over the next step of h from the inputs u now (0: the model has no
+        input speed)."""
         return 0.0
 
 
@@ -522,6 +544,20 @@ def model_parameters(model, fmu):
 
 def _never(p):
     return False
+
+
+def drive_derivatives(model) -> Callable:
+    """The ``drive_derivatives(p, t, y, phi, omega, alpha, tau_load)`` of a model whose inputs are a Drive: its
+    own (the protocol's optional plain-float form), else its ``derivatives`` at ``Drive(phi, omega, alpha,
+    tau_load)``."""
+    own = getattr(model, "drive_derivatives", None)
+    if own is not None:
+        return own
+    derivatives = model.derivatives
+
+    def at_drive(p, t, y, phi, omega, alpha, tau_load):
+        return derivatives(p, t, y, Drive(phi, omega, alpha, tau_load))
+    return at_drive
 
 
 def _no_inputs(p):
@@ -545,6 +581,7 @@ class PrescribedInputSlave(ModelSlave):
 
     STATE = {**ModelSlave.STATE, "_phi_in": "float", "_phi_in_carry": "float", "_omega_prev": "float|None",
              "_h_prev": "float", "_omega_prev2": "float|None", "_h_prev2": "float"}
+    RK4_KIND = "drive"
     #: 1: alpha the backward difference of omega_in over the last step; 2: the second-order (BDF2) slope at t_k
     ACCELERATION_ORDER = 1
 
@@ -570,31 +607,33 @@ class PrescribedInputSlave(ModelSlave):
         h1, h2 = self._h_prev, self._h_prev2
         return slope + h1 * (slope - (self._omega_prev - self._omega_prev2) / h2) / (h1 + h2)
 
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        model = cls.__dict__.get("MODEL")
+        if model is not None:
+            cls._drive_derivatives = staticmethod(drive_derivatives(model))
+
     def model_inputs(self):
         return Drive(self._phi_in, self.omega_in, self.input_acceleration(), self.tau_load)
 
-    def inputs_at(self, s):
-        """The input shaft extrapolated s into the step: angle quadratic, speed linear in s (Eq. above)."""
-        return self.input_path()(s)
+    def integrate(self, t, h, y, u):
+        """The RK4 substeps with the input shaft extrapolated from u over the step (angle quadratic, speed linear
+        in time: Eq. above) and tau_load held, through the model's ``drive_derivatives``."""
+        return self._rk4(self._drive_derivatives, self._p, t, y, h, self.substeps(h, y, u), u.phi, u.omega, u.alpha,
+                         u.tau_load)
 
-    def input_path(self):
-        phi0, w0, alpha, tau_load = self._phi_in, self.omega_in, self.input_acceleration(), self.tau_load
-
-        def inputs_at(s):
-            return Drive(phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, alpha, tau_load)
-        return inputs_at
-
-    def speed_bound(self, h):
-        alpha = self.input_acceleration()
-        return max(abs(self.omega_in), abs(self.omega_in + alpha * h))
+    def speed_bound(self, h, u):
+        return max(abs(u.omega), abs(u.omega + u.alpha * h))
 
     def compute_outputs(self):
-        super().compute_outputs()
-        self.phi_in, self.alpha_in = self._phi_in, self.input_acceleration()
+        u = self.model_inputs()
+        self.set_outputs(u)
+        self.phi_in, self.alpha_in = u.phi, u.alpha
 
     def advance(self, t, h):
-        super().advance(t, h)
-        self.advance_input(h, self.input_acceleration())
+        u = super().advance(t, h)
+        self.advance_input(h, u.alpha)
+        return u
 
     def advance_input(self, h, alpha):
         increment = h * (self.omega_in + 0.5 * alpha * h) - self._phi_in_carry

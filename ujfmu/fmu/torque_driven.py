@@ -57,11 +57,16 @@ class TorqueDrivenSlave(ModelSlave):
     def model_inputs(self):
         return Torques(self.tau_in, self.tau_load)
 
-    def speed_bound(self, h):
-        """|omega_in| + |alpha_in| h from the state and the equations of motion now (ValueError if it exceeds the
-        speed range)."""
-        u = self.model_inputs()
-        omega, alpha = self.MODEL.derivatives(self._p, self._time, self.current_state(u), u)[:2]
+    def integrate(self, t, h, y, u):
+        """The RK4 substeps, the input speed over the step bounded from the rates at its start (:meth:`speed_reach`),
+        which are the first stage's."""
+        k1 = self.MODEL.derivatives(self._p, t, y, u)
+        return self._rk4(self.MODEL.derivatives, self._p, t, u, y, h,
+                         self.substeps(h, y, u, self.speed_reach(h, k1[0], k1[1])), k1)
+
+    def speed_reach(self, h, omega, alpha):
+        """|omega_in| + |alpha_in| h from the input shaft's speed omega and acceleration alpha (ValueError if it
+        exceeds the speed range)."""
         reach = abs(omega) + abs(alpha) * h
         if not reach <= SPEED_RANGE["max"]:
             raise ValueError(f"tau_in = {self.tau_in!r} N.m and tau_load = {self.tau_load!r} N.m: the input shaft "

@@ -30,11 +30,15 @@ step on, the outputs following the inputs alone) and ``check_state(p, y) -> list
 (messages when a state reached by a step is outside the model's validity; default none) and
 ``output_free_inputs(p) -> tuple`` (names of FMU inputs that neither ``outputs`` nor ``initial_state`` depend on at
 these parameters, e.g. a load torque that only enters the derivatives: a change of them leaves the outputs valid,
-so the FMU does not recompute them when a host sets them after reading the outputs; default none) and
-``integrate_substeps(rates, y, t_span, substeps) -> list`` (the model's own formula for the RK4 substeps its
-``rate_bound`` asks for; default ``ujfmu.fmu.rk4.integrate_time``) and ``integrate(p, t, h, y, u) -> tuple`` (the
-state y at time t advanced over a step of h from the inputs u at its start, a Drive extrapolated as the FMU does, by
-the model's own integrator, substep rule included; default the FMU's RK4 substeps from ``rate_bound``).
+so the FMU does not recompute them when a host sets them after reading the outputs; default none), for a model
+whose inputs are a :class:`Drive`, ``drive_derivatives(p, t, y, phi, omega, alpha, tau_load) -> tuple`` (the same
+numbers as ``derivatives(p, t, y, Drive(phi, omega, alpha, tau_load))`` from plain floats: the FMU calls it at
+every RK4 stage, where building a Drive costs as much as a small model's equations; default built from
+``derivatives``), ``integrate_substeps(rates, y, t_span, substeps) -> list`` with ``own_substeps(substeps) -> bool``
+(the model's own formula for the RK4 substeps its ``rate_bound`` asks for, used where ``own_substeps`` is true;
+default ``ujfmu.fmu.rk4``'s classical RK4) and ``integrate(p, t, h, y, u) -> tuple`` (the state y at time t
+advanced over a step of h from the inputs u at its start, a Drive extrapolated as the FMU does, by the model's own
+integrator, substep rule included; default the FMU's RK4 substeps from ``rate_bound``).
 
 The inputs ``u`` are the model's own NamedTuple ``Inputs``; a model whose input shaft follows a prescribed speed
 (``omega_in``) uses :class:`Drive`, which the base extrapolates over a step (angle quadratic, speed linear in time:

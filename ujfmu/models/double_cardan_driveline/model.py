@@ -347,6 +347,11 @@ def fifth_order_steps(substeps: int) -> int:
     return steps if 6 * steps < 4 * substeps else 0
 
 
+def own_substeps(substeps: int) -> bool:
+    """True where :func:`integrate_substeps` departs from classical RK4 (the model protocol's ``own_substeps``)."""
+    return fifth_order_steps(substeps) > 0
+
+
 def integrate_substeps(rates, y: Sequence[float], t_span: float, substeps: int) -> list:
     """y advanced over t_span under y' = rates(t, y) (t from the step's start): ``rk4.integrate_time`` with
     ``substeps`` substeps, or :func:`dormand_prince` with :func:`fifth_order_steps` steps where that is cheaper.
@@ -430,6 +435,12 @@ def initial_state(p: Parameters, t: float, u: Drive) -> State:
 def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
     """:func:`flexible_derivatives` at the input motion u."""
     return _flexible_rates(p, u.phi, u.omega, y, u.tau_load)[0]
+
+
+def drive_derivatives(p: Parameters, t: float, y: State, phi: float, omega: float, alpha: float,
+        tau_load: float) -> tuple:
+    """:func:`derivatives` at the input motion (phi, omega, alpha) and tau_load as plain floats."""
+    return _flexible_rates(p, phi, omega, y, tau_load)[0]
 
 
 def output_free_inputs(p: Parameters) -> tuple:
@@ -532,6 +543,7 @@ class TorqueDriven:
     Parameters = TorqueDrivenParameters
     Inputs = Torques
     integrate_substeps = staticmethod(integrate_substeps)
+    own_substeps = staticmethod(own_substeps)
 
     class State(NamedTuple):
         """Input shaft angle and speed, then the speed-driven driveline's :class:`State`."""

@@ -127,9 +127,16 @@ def initial_state(p: Parameters, t: float, u: Drive) -> State:
 
 
 def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
-    """d/dt (phi2, w2), Eq. (9) with the elastic torque and the load."""
-    m_p, _, elastic = torques(p, u.phi, u.omega, y[0], y[1])
-    return (y[1], (m_p + elastic - u.tau_load) / p.I2)
+    """:func:`drive_derivatives` at the input motion u."""
+    return drive_derivatives(p, t, y, u.phi, u.omega, u.alpha, u.tau_load)
+
+
+def drive_derivatives(p: Parameters, t: float, y: State, phi: float, omega: float, alpha: float,
+        tau_load: float) -> tuple:
+    """d/dt (phi2, w2), Eq. (9) with the elastic torque and the load, at the input shaft's angle phi and speed
+    omega."""
+    m_p, _, elastic = torques(p, phi, omega, y[0], y[1])
+    return (y[1], (m_p + elastic - tau_load) / p.I2)
 
 
 def rate_bound(p: Parameters, y: State, omega_max: float) -> float:

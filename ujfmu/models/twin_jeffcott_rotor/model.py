@@ -646,6 +646,12 @@ def integrate(p: Parameters, t: float, h: float, y: State, u: Drive) -> list:
     return exponential_step(p, h, u.phi, u.omega, u.alpha, y, u.tau_load)
 
 
+def drive_derivatives(p: Parameters, t: float, y: State, phi: float, omega: float, alpha: float,
+        tau_load: float) -> tuple:
+    """:func:`derivatives` at the input motion (phi, omega, alpha) and tau_load as plain floats."""
+    return rates(p, phi, omega, alpha, y, tau_load)
+
+
 def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
     """The natural-rate bound plus 4 |omega_in| (the 1x, 2x, 4x forcing by the unbalance and the joint): the
     protocol's RK4 rule, not used by the FMU, which steps with :func:`integrate` (one substep where RK4 takes two).
