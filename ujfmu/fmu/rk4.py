@@ -36,8 +36,10 @@ def fastest_rate(natural: float, forcing: float) -> float:
     substep of an O(q) part, below the 2.6e-4 of a full-amplitude part at w h = 0.5 once q < 0.13.
     Whether that is accurate enough is decided by the tolerances the model must meet, which the error scales
     with h^4: the RingCoupling uses it (every scenario's agreement the same to the printed digits); the
-    DoubleCardanDriveline and the TwinJeffcottRotor keep the sum natural + forcing (with the max their errors grow
-    16x and 10x, past a scenario tolerance and the energy audit's bound: see their ``rate_bound``).
+    DoubleCardanDriveline and the TwinJeffcottRotor's RK4 keep the sum natural + forcing (with the max their errors
+    grow 16x and 10x, past a scenario tolerance and the energy audit's bound: see their ``rate_bound``); the
+    speed-driven TwinJeffcottRotor's FMU steps with its exponential integrator instead (``model.integrate``), whose
+    free modes are exact, so its own rule resolves only the remainder's rates.
     """
     return max(natural, forcing)
 
