@@ -183,3 +183,36 @@ def test_symmetry_mirror_bend():
     _, _, mz_pos = moments(frame(PHI), 0.3)
     _, _, mz_neg = moments(frame(-PHI), 0.3)
     np.testing.assert_allclose(mz_pos, mz_neg, rtol=1e-13)
+
+
+def test_straight_line_joint_is_the_composed_kinematics_at_random_joints_states_and_inputs():
+    """joint_motion and the torque-driven derivatives and outputs (the FMUs' straight-line code, one sine and
+    cosine) against the composed joint_torques, driven_angle and torque_driven_rates, rtol 1e-12 of each sum's
+    terms (a slip in r', in the pin or in the lumped inertia is far outside)."""
+    from ujfmu.models.protocol import Drive, Torques
+    rng = np.random.default_rng(16)
+    for _ in range(400):
+        angles = rng.uniform(-0.6, 0.6, 4)
+        j1, j2, jd = rng.uniform(0.0, 1e-2), rng.uniform(0.0, 1.0), rng.uniform(1e-3, 1.0)
+        p = cardan.TorqueDrivenParameters(*angles, J1=j1, J2=j2, J_drive=jd, omega_in_start=0.0)
+        theta, omega, alpha, load, drive = (rng.uniform(-20, 20), rng.uniform(-300, 300), rng.uniform(-1e3, 1e3),
+                                            rng.uniform(-50, 50), rng.uniform(-50, 50))
+        r, dr = cardan.velocity_ratio_and_slope(p.frame, theta)
+        scale = abs(j1 * alpha) + (1 + r) * (j2 * (abs(r * alpha) + abs(dr) * omega ** 2) + abs(load))
+
+        composed = cardan.joint_torques(p.frame, theta, omega, alpha, load, j1, j2)[:5]
+        straight = cardan.joint_motion(p, theta, omega, alpha, load)
+        assert straight[0] == alpha
+        assert straight[1:6] == pytest.approx(composed, rel=1e-12, abs=1e-12 * scale)
+        assert straight[6] == pytest.approx(cardan.driven_angle(p.frame, theta), rel=1e-12, abs=1e-12)
+
+        rates = cardan.torque_driven_rates(p.frame, (theta, omega), drive, load, jd, j1, j2)
+        y, u = cardan.TorqueDriven.State(theta, omega), Torques(drive, load)
+        assert cardan.TorqueDriven.derivatives(p, 0.0, y, u) == pytest.approx(
+            rates, rel=1e-12, abs=1e-12 * (abs(drive) + scale) / (jd + j1))
+        out = cardan.TorqueDriven.outputs(p, 0.0, y, u)
+        speed_driven = cardan.outputs(p, 0.0, cardan.State(), Drive(theta, omega, rates[1], load))
+        assert out["alpha_in"] == pytest.approx(rates[1], rel=1e-12, abs=1e-12 * (abs(drive) + scale) / (jd + j1))
+        assert out["tau_input_shaft"] == pytest.approx(drive - jd * out["alpha_in"], rel=1e-12, abs=1e-12 * scale)
+        for name in ("M_x", "M_y", "M_z", "omega_out", "phi_out"):
+            assert out[name] == pytest.approx(speed_driven[name], rel=1e-11, abs=1e-11 * scale)

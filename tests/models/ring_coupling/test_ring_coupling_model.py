@@ -69,3 +69,24 @@ def test_eq3_eq4_do_not_give_the_published_157():
     assert sp.simplify(m_p - 4 * b * sp.cos(2 * g)) == 0
     assert float(4 * b) == pytest.approx(-0.5465, abs=1e-4)
     assert rc.MP_COEFFICIENT == 157.0 and rc.SMALL_PARAMETER_COEFFICIENT == 39.25
+
+
+def test_written_out_derivatives_are_the_torques_of_eq9_on_both_shafts():
+    """drive_derivatives and the torque-driven derivatives (the ring's torques written out, evaluated once) against
+    torques(): I2 w2' = M_p + elastic - tau_load, (J_drive + I1) w1' = tau_in + M_p - elastic, bit for bit."""
+    import random
+    from ujfmu.models.protocol import Torques
+    rng = random.Random(16)
+    for _ in range(300):
+        p = rc.TorqueDrivenParameters(R=rng.uniform(0.05, 0.3), d=D, E=E, e=rng.uniform(0.0, 0.01),
+                                      I1=rng.uniform(0.0, 0.1), I2=rng.uniform(0.01, 0.1), c_s=rng.uniform(0, 1e3),
+                                      c_d=rng.uniform(0.0, 2.0), phi_in_start=rng.uniform(-3, 3),
+                                      phi_out_start=rng.uniform(-3, 3), J_drive=rng.uniform(0.01, 0.1),
+                                      omega_in_start=0.0)
+        y = [rng.uniform(-50, 50), rng.uniform(-200, 200), rng.uniform(-50, 50), rng.uniform(-200, 200)]
+        tau_in, tau_load = rng.uniform(-30, 30), rng.uniform(-30, 30)
+        m_p, _, elastic = rc.torques(p, *y)
+        shaft2 = (y[3], (m_p + elastic - tau_load) / p.I2)
+        assert rc.drive_derivatives(p, 0.0, y[2:], y[0], y[1], 0.0, tau_load) == shaft2
+        assert rc.TorqueDriven.derivatives(p, 0.0, y, Torques(tau_in, tau_load)) == (
+            (y[1], (tau_in + m_p - elastic) / (p.J_drive + p.I1)) + shaft2)

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from ..protocol import (Drive, NoState, Torques, kinematic_always, no_derivatives, no_rate, no_state,
-                        shaft_inertia_problems, torque_driven_outputs)
+                        shaft_inertia_problems)
 
 #: Largest admissible magnitude of each misalignment angle and of the total shaft angle acos(K_z) [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -138,6 +138,34 @@ def torque_driven_rates(frame: tuple, state, tau_drive: float, tau_load: float, 
     return omega1, (tau_drive - tau_at_rest) / (j_drive + j1 + j2 * r * r)
 
 
+def joint_motion(p: "Parameters", theta1: float, omega1: float, alpha1: float, tau_load: float,
+                 tau_drive: float | None = None) -> tuple:
+    """(alpha1, tau_in, M_x, M_y, M_z, omega2, theta2) of :func:`joint_torques` and :func:`driven_angle` as
+    straight-line code (what the FMUs evaluate: one sine and cosine, no calls; a test checks it against the composed
+    functions). With tau_drive (the torque-driven joint), alpha1 is :func:`torque_driven_rates`' with the driver's
+    J_drive lumped on the driving shaft (p.J_drive), not the given one.
+
+    With e1 = -s a + c b, f1 = de1/dtheta1 = -c a - s b (s, c = sin, cos theta1; a, b, K the columns of C):
+    r = K_z/xi^2, r' = -2 r (e1 . f1)_xy / xi^2, alpha2 = r alpha1 + r' omega1^2, M_z = J2 alpha2 + tau_load,
+    (M_x, M_y) = -M_z e1z (e1x, e1y) / xi^2 (Eq. 10 with e_n = (-e1x e1z, -e1y e1z, xi^2)/xi, M = M_z/e_n,z) and
+    tau_in = J1 alpha1 + r M_z (Eq. 8 with e_n . K = K_z/xi).
+    """
+    ax, ay, az, bx, by, bz, kz = p.coefficients
+    s, c = math.sin(theta1), math.cos(theta1)
+    e1x, e1y, e1z = c * bx - s * ax, c * by - s * ay, c * bz - s * az
+    xi2 = e1x * e1x + e1y * e1y
+    r = kz / xi2
+    dr = 2.0 * r * (e1x * (c * ax + s * bx) + e1y * (c * ay + s * by)) / xi2
+    w2 = dr * omega1 * omega1
+    j2 = p.J2
+    if tau_drive is not None:
+        alpha1 = (tau_drive - r * (j2 * w2 + tau_load)) / (p.J_drive + p.J1 + j2 * r * r)
+    m_z = j2 * (r * alpha1 + w2) + tau_load
+    q = -m_z * e1z / xi2
+    return (alpha1, p.J1 * alpha1 + r * m_z, q * e1x, q * e1y, m_z, r * omega1,
+            theta1 + math.atan2(-e1x * c - e1y * s, e1y * c - e1x * s))
+
+
 # --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
 
 @dataclass(slots=True)
@@ -152,10 +180,14 @@ class Parameters:
     J2: float
     phi_in_start: float = 0.0
     frame: tuple = field(init=False, repr=False)
+    #: the components (a_x, a_y, a_z, b_x, b_y, b_z, K_z) of the frame :func:`joint_motion` uses
+    coefficients: tuple = field(init=False, repr=False)
 
     def __post_init__(self):
         self.frame = joint_frame(self.bend_angle, self.bend_plane_angle, self.error_angle_beta,
                                  self.error_angle_gamma)
+        a, b, k = self.frame
+        self.coefficients = (*a, *b, k[2])
 
 
 State = NoState   # the driven shaft follows the joint's kinematics exactly
@@ -169,10 +201,10 @@ kinematic, initial_state, derivatives, rate_bound = kinematic_always, no_state, 
 
 
 def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
-    """tau_in, the moment (M_x, M_y, M_z) of Eqs. (8), (10) and the driven shaft's motion (joint_torques)."""
-    tau_in, m_x, m_y, m_z, omega_out, _ = joint_torques(p.frame, u.phi, u.omega, u.alpha, u.tau_load, p.J1, p.J2)
-    return {"tau_in": tau_in, "M_x": m_x, "M_y": m_y, "M_z": m_z, "omega_out": omega_out,
-            "phi_out": driven_angle(p.frame, u.phi)}
+    """tau_in, the moment (M_x, M_y, M_z) of Eqs. (8), (10) and the driven shaft's motion (:func:`joint_motion`:
+    :func:`joint_torques` and :func:`driven_angle` as straight-line code)."""
+    _, tau_in, m_x, m_y, m_z, omega_out, phi_out = joint_motion(p, u.phi, u.omega, u.alpha, u.tau_load)
+    return {"tau_in": tau_in, "M_x": m_x, "M_y": m_y, "M_z": m_z, "omega_out": omega_out, "phi_out": phi_out}
 
 
 def check(p: Parameters) -> list:
@@ -217,8 +249,17 @@ class TorqueDriven:
 
     @staticmethod
     def derivatives(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> tuple:
-        """(J_d + J1 + J2 r^2) alpha1 = tau_in - J2 r r' omega1^2 - r tau_load (:func:`torque_driven_rates`)."""
-        return torque_driven_rates(p.frame, y, u.tau_in, u.tau_load, p.J_drive, p.J1, p.J2)
+        """(J_d + J1 + J2 r^2) alpha1 = tau_in - J2 r r' omega1^2 - r tau_load (:func:`torque_driven_rates`) as
+        straight-line code (:func:`joint_motion`'s first lines; a test checks it against the composed function)."""
+        theta1, omega1 = y
+        ax, ay, _, bx, by, _, kz = p.coefficients
+        s, c = math.sin(theta1), math.cos(theta1)
+        e1x, e1y = c * bx - s * ax, c * by - s * ay
+        xi2 = e1x * e1x + e1y * e1y
+        r = kz / xi2
+        dr = 2.0 * r * (e1x * (c * ax + s * bx) + e1y * (c * ay + s * by)) / xi2
+        j2 = p.J2
+        return omega1, (u.tau_in - r * (j2 * dr * omega1 * omega1 + u.tau_load)) / (p.J_drive + p.J1 + j2 * r * r)
 
     @staticmethod
     def rate_bound(p: TorqueDrivenParameters, y: tuple, omega_max: float) -> float:
@@ -227,10 +268,14 @@ class TorqueDriven:
 
     @staticmethod
     def outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
-        """The driving shaft's motion from the state and Eq. of :func:`torque_driven_rates`, the rest from
-        :func:`outputs` at that motion."""
-        alpha = TorqueDriven.derivatives(p, t, y, u)[1]
-        return torque_driven_outputs(outputs(p, t, State(), Drive(y[0], y[1], alpha, u.tau_load)), y, alpha)
+        """The driving shaft's motion from the state and Eq. of :func:`torque_driven_rates`, the rest as
+        :func:`outputs` at that motion (:func:`joint_motion` with the driving torque; tau_in is tau_input_shaft,
+        as ``protocol.torque_driven_outputs`` names it)."""
+        theta1, omega1 = y
+        alpha, tau_shaft, m_x, m_y, m_z, omega_out, phi_out = joint_motion(p, theta1, omega1, 0.0, u.tau_load,
+                                                                           u.tau_in)
+        return {"phi_in": theta1, "omega_in": omega1, "alpha_in": alpha, "tau_input_shaft": tau_shaft, "M_x": m_x,
+                "M_y": m_y, "M_z": m_z, "omega_out": omega_out, "phi_out": phi_out}
 
     @staticmethod
     def check(p: TorqueDrivenParameters) -> list:

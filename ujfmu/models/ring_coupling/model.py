@@ -134,9 +134,10 @@ def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
 def drive_derivatives(p: Parameters, t: float, y: State, phi: float, omega: float, alpha: float,
         tau_load: float) -> tuple:
     """d/dt (phi2, w2), Eq. (9) with the elastic torque and the load, at the input shaft's angle phi and speed
-    omega."""
-    m_p, _, elastic = torques(p, phi, omega, y[0], y[1])
-    return (y[1], (m_p + elastic - tau_load) / p.I2)
+    omega: I2 w2' = M_p - (c_s x_e + c_d x_e') - tau_load (:func:`torques` written out: the same numbers)."""
+    phi2, w2 = y
+    return (w2, (p.mp_amplitude * math.cos(phi + phi2) - (p.c_s * (phi2 - phi - p.offset) + p.c_d * (w2 - omega))
+                 - tau_load) / p.I2)
 
 
 def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
@@ -210,9 +211,12 @@ class TorqueDriven:
 
     @staticmethod
     def derivatives(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> tuple:
-        """(w1, alpha1 of :func:`input_acceleration`) and :func:`derivatives` of shaft 2 at that motion."""
-        alpha = input_acceleration(p, y, u.tau_in)
-        return (y[1], alpha) + derivatives(p, t, State(y[2], y[3]), Drive(y[0], y[1], alpha, u.tau_load))
+        """(w1, alpha1 of :func:`input_acceleration`) and :func:`derivatives` of shaft 2 at that motion, with the
+        ring's torques (:func:`torques`) evaluated once and written out (the same numbers)."""
+        phi1, w1, phi2, w2 = y
+        m_p = p.mp_amplitude * math.cos(phi1 + phi2)
+        elastic = p.c_s * (phi2 - phi1 - p.offset) + p.c_d * (w2 - w1)
+        return w1, (u.tau_in + m_p + elastic) / (p.J_drive + p.I1), w2, (m_p - elastic - u.tau_load) / p.I2
 
     @staticmethod
     def rate_bound(p: TorqueDrivenParameters, y: tuple, omega_max: float) -> float:
