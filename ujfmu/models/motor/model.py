@@ -207,17 +207,19 @@ def integrate(p: Parameters, t: float, h: float, y: State, u: Inputs) -> tuple:
     corner = profile_corner(p)
     if corner is None or not t < corner < t + h:
         r0, a, _ = reference(p, t)
-        tau_load = u[0]
-        cw, ci = (p.Kp * r0 - tau_load) / p.J_rotor, r0
-        dw, di = p.Kp * a / p.J_rotor, a
-        phi, omega, integral = y
+        tau_load, kp, j = u[0], p.Kp, p.J_rotor
+        cw, dw = (kp * r0 - tau_load) / j, kp * a / j
+        _, omega, integral = y
         p0, p1, p2 = pi_propagator(p, h)
-        y1 = (phi + p0[1] * omega + p0[2] * integral + p0[3] * cw + p0[4] * ci + p0[5] * dw + p0[6] * di,
-              p1[1] * omega + p1[2] * integral + p1[3] * cw + p1[4] * ci + p1[5] * dw + p1[6] * di,
-              p2[1] * omega + p2[2] * integral + p2[3] * cw + p2[4] * ci + p2[5] * dw + p2[6] * di)
+        y1 = (y[0] + p0[1] * omega + p0[2] * integral + p0[3] * cw + p0[4] * r0 + p0[5] * dw + p0[6] * a,
+              p1[1] * omega + p1[2] * integral + p1[3] * cw + p1[4] * r0 + p1[5] * dw + p1[6] * a,
+              p2[1] * omega + p2[2] * integral + p2[3] * cw + p2[4] * r0 + p2[5] * dw + p2[6] * a)
         if pi_torque_bound(p, h, y, y1, r0, a, tau_load) <= p.tau_max:
             return y1
-    return rk4.unrolled("held", 3)(derivatives, p, t, u, y, h, rk4.substeps(rate_bound(p, y, 0.0), h))
+    return _RK4_3(derivatives, p, t, u, y, h, rk4.substeps(rate_bound(p, y, 0.0), h))
+
+
+_RK4_3 = rk4.unrolled("held", 3)
 
 
 def outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
@@ -235,6 +237,13 @@ def output_free_inputs(p: Parameters) -> tuple:
     """PI mode: no output depends on tau_load (it enters only domega/dt, so the outputs change with it only after the
     next step); the ideal source's tau_motor = J alpha_ref + tau_load does."""
     return () if p.ideal_speed_source else ("tau_load",)
+
+
+def load_outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
+    """The outputs of :func:`outputs` that depend on tau_load: the ideal source's tau_motor; none in PI mode."""
+    if p.ideal_speed_source:
+        return {"tau_motor": p.J_rotor * reference(p, t)[1] + u.tau_load}
+    return {}
 
 
 def check(p: Parameters) -> list:
