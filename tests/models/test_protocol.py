@@ -106,3 +106,29 @@ def test_output_free_inputs_change_neither_outputs_nor_start(name, rigid):
         if rigid:
             changed = u._replace(tau_load=u.tau_load + 7.0)
             assert model.outputs(p, 0.0, y, changed) != model.outputs(p, 0.0, y, u)
+
+
+@pytest.mark.parametrize("name", [n for n in MODEL_FMUS if hasattr(fmu_class(n).MODEL, "load_outputs")])
+@pytest.mark.parametrize("ideal", [False, True])
+def test_load_outputs_are_every_output_that_moves_with_tau_load(name, ideal):
+    """load_outputs gives exactly the outputs' values for its names, and every output it leaves out is the same at
+    another tau_load (the FMU keeps those when only tau_load changed); the Motor's ideal source's tau_motor moves."""
+    cls = fmu_class(name)
+    model = cls.MODEL
+    values = {v.name: v.start for v in cls.VARIABLES}
+    if "ideal_speed_source" in values:
+        values["ideal_speed_source"] = ideal
+    elif ideal:
+        pytest.skip("one parameter set")
+    p = model_parameters(model, type("Values", (), values)())
+    u = Drive(0.3, 20.0, 5.0, 1.5) if issubclass(cls, PrescribedInputSlave) else model.Inputs(
+        *(1.5 for _ in model.Inputs._fields))
+    y = tuple(x + 0.01 * (i + 1) for i, x in enumerate(model.initial_state(p, 0.0, u)))
+    changed = u._replace(tau_load=u.tau_load + 7.0)
+    for inputs in (u, changed):
+        load = model.load_outputs(p, 0.4, y, inputs)
+        full = model.outputs(p, 0.4, y, inputs)
+        assert load == {k: full[k] for k in load}
+    moved = {k for k, v in model.outputs(p, 0.4, y, changed).items() if v != model.outputs(p, 0.4, y, u)[k]}
+    assert moved == set(model.load_outputs(p, 0.4, y, u))
+    assert ("tau_motor" in moved) == ideal if name == "Motor" else moved

@@ -164,6 +164,7 @@ class UjfmuSlave(Fmi2Slave):
         start, stop, step = self.DEFAULT_EXPERIMENT
         self.default_experiment = DefaultExperiment(start_time=start, stop_time=stop, step_size=step)
         self._stale = True
+        self._partial = False      # stale only in the outputs of load_outputs (see _input_setter); plumbing
         self._initialized = False  # initialize() has run with the current parameters
         self._running = False      # past fmi2ExitInitializationMode
         self._inputs = tuple(v for v in self.VARIABLES if v.causality == "input")
@@ -207,10 +208,13 @@ class UjfmuSlave(Fmi2Slave):
                             raise ValueError(invalid)
                         self._start()
                         self._initialized = True
-                    self.compute_outputs()
+                    if self._partial:
+                        self.compute_load_outputs()
+                    else:
+                        self.compute_outputs()
                 except Exception as exc:
                     self._raise_to_host(f"{self.modelName} '{self.instance_name}': cannot compute {name}: {exc}")
-                self._stale = False
+                self._stale = self._partial = False
             return getattr(self, name)
         return get
 
@@ -292,6 +296,7 @@ class UjfmuSlave(Fmi2Slave):
         else:
             for key, value in state.fields.items():
                 setattr(self, key, value)
+        self._partial = False
         if not self._initialized:
             self._derivation = None
         elif state.derivation is None or state.derivation is not self._derivation:
@@ -331,12 +336,16 @@ class UjfmuSlave(Fmi2Slave):
         raise ValueError(message)
 
     def _input_setter(self, name, cast):
+        """The setter of input ``name``: an input the outputs do not depend on (``_output_free``) leaves them valid;
+        one of ``_load_inputs`` set while they are valid, or stale only in the outputs of ``compute_load_outputs``,
+        leaves them stale only there (``_partial``); any other input makes all of them stale."""
         def set_(value):
             value = cast(value)
             if value == getattr(self, name):   # unchanged (a constant load, a held speed): outputs stay valid
                 return
             setattr(self, name, value)
             if name not in self._output_free:
+                self._partial = name in self._load_inputs and self._running and (self._partial or not self._stale)
                 self._stale = True
             if not self._running:
                 self._initialized = False
@@ -360,6 +369,8 @@ class UjfmuSlave(Fmi2Slave):
     DERIVED = ()
     #: names of the inputs the outputs do not depend on (a change leaves them valid); set by derive()
     _output_free = frozenset()
+    #: names of the inputs only the outputs of ``compute_load_outputs`` depend on; set by derive()
+    _load_inputs = frozenset()
 
     def derive(self):
         """Set the DERIVED attributes from the parameters (runs before initialize and after a state restore)."""
@@ -373,6 +384,11 @@ class UjfmuSlave(Fmi2Slave):
 
     def compute_outputs(self):
         raise NotImplementedError
+
+    def compute_load_outputs(self):
+        """The outputs that depend on the ``_load_inputs``, when only those changed since the outputs were last
+        computed (default: all of them)."""
+        self.compute_outputs()
 
     def advance(self, t, h):
         raise NotImplementedError
@@ -405,6 +421,7 @@ class UjfmuSlave(Fmi2Slave):
             self._raise_to_host(f"{self.modelName} '{self.instance_name}': {invalid}")
         self._start()
         self._initialized = self._running = self._stale = True
+        self._partial = False
 
     def do_step(self, current_time, step_size):
         try:
@@ -415,7 +432,7 @@ class UjfmuSlave(Fmi2Slave):
                 if not lo <= values[name] <= hi:   # NaN and inf fail too
                     raise ValueError(var.check(values[name]))
             self.advance(current_time, step_size)
-            self._stale = True
+            self._stale, self._partial = True, False
             return True
         except Exception as exc:  # reported to the host, never raised into it
             self.log(f"{self.modelName} '{self.instance_name}': step at t = {current_time!r} refused: {exc}",
@@ -436,7 +453,8 @@ class ModelSlave(UjfmuSlave):
       where it has one; then the finite check and
       ``MODEL.check_state`` of the new state;
     - the outputs: ``MODEL.outputs`` assigned by name, recomputed on the first read after a step or a change of an
-      input outside ``MODEL.output_free_inputs(p)``.
+      input outside ``MODEL.output_free_inputs(p)``; where only tau_load changed since they were computed and the
+      model has ``load_outputs``, only those (the others do not depend on it).
 
     Subclasses provide ``model_inputs()`` (the model's inputs now) and may replace ``integrate`` (the RK4 substeps
     of one step, inputs held) and extend ``initialize``/``advance`` for what their inputs need
@@ -449,7 +467,7 @@ class ModelSlave(UjfmuSlave):
     RK4_KIND = "held"
     #: the model's own ``integrate(p, t, h, y, u)`` where it has one (the protocol's optional whole-step integrator)
     _own_step = None
-    DERIVED = ("_p", "_output_free", "_kinematic")
+    DERIVED = ("_p", "_output_free", "_kinematic", "_load_inputs")
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -474,6 +492,9 @@ class ModelSlave(UjfmuSlave):
     def derive(self):
         self._p = self.parameters()
         self._output_free = frozenset(getattr(self.MODEL, "output_free_inputs", _no_inputs)(self._p))
+        loads = {"tau_load"} if hasattr(self.MODEL, "load_outputs") else set()
+        self._load_inputs = frozenset(loads & {v.name for v in self.VARIABLES if v.causality == "input"}
+                                      - self._output_free)
         self._kinematic = bool(getattr(self.MODEL, "kinematic", _never)(self._p))
 
     def initialize(self, start_time):
@@ -493,6 +514,11 @@ class ModelSlave(UjfmuSlave):
 
     def compute_outputs(self):
         self.set_outputs(self.model_inputs())
+
+    def compute_load_outputs(self):
+        """``MODEL.load_outputs``: the outputs that depend on tau_load, at the current time, state and inputs."""
+        u = self.model_inputs()
+        vars(self).update(self.MODEL.load_outputs(self._p, self._time, self.current_state(u), u))
 
     def set_outputs(self, u):
         """The output variables from ``MODEL.outputs`` at the current time and state and the inputs u."""

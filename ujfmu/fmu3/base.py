@@ -180,6 +180,7 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         core.instance_name, core.modelName, core.log_queue = self.instance_name, model.__name__, self.log_queue
         core.log = self._log_from_core
         core._stale, core._initialized, core._running, core._start_time = True, False, False, 0.0
+        core._partial = False
         core._derivation = None
         core._inputs = tuple(v for v in model.VARIABLES if v.causality == "input")
         for var in model.VARIABLES:
@@ -334,7 +335,7 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
 
     def set_continuous_states(self, values):
         self._continuous(lambda core: self._states.set(core, values))
-        self._core._stale = True
+        self._core._stale, self._core._partial = True, False
 
     def get_continuous_state_derivatives(self):
         """The state derivatives; NaN for each, with the reason logged at error level, when the inputs are
@@ -361,7 +362,7 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
     def set_time(self, time):
         self.time = time
         self._states.set_time(self._core, time)
-        self._core._stale = True
+        self._core._stale, self._core._partial = True, False
 
     def get_number_of_event_indicators(self):
         return len(getattr(self.MODEL.MODEL, "EVENT_INDICATORS", ())) if self.MODEL.__name__ in STATES else 0

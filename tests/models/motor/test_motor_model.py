@@ -61,3 +61,96 @@ def test_closed_loop_step_response_matches_linear_closed_form():
     # closed loop W/Wref = (kp s + ki)/(J s^2 + kp s + ki) = (2 wn s + wn^2)/(s + wn)^2; unit step response:
     exact = 1 - math.exp(-wn * t) * (1 - wn * t)
     assert state[1] == pytest.approx(exact, abs=1e-7)  # RK4 at |lambda| h_sub <= 0.2
+
+
+# --- the PI motor's own step (model.integrate): exact while linear, RK4 where the limit or a corner acts ----------
+
+def rk4_step(p, t, h, y, tau_load):
+    """The classical RK4 substeps of rate_bound (the FMU's default step, and integrate's fallback)."""
+    u = motor.Inputs(tau_load)
+    return rk4.unrolled("held", 3)(motor.derivatives, p, t, u, y, h, rk4.substeps(motor.rate_bound(p, y, 0.0), h))
+
+
+def fine_solve(p, t0, y0, t1, tau_load):
+    """An independent solve of the loop (scipy DOP853 at rtol 1e-13) of model.derivatives."""
+    solve_ivp = pytest.importorskip("scipy.integrate").solve_ivp
+    sol = solve_ivp(lambda t, y: motor.derivatives(p, t, y, motor.Inputs(tau_load)), (t0, t1), list(y0),
+                    method="DOP853", rtol=1e-13, atol=1e-15)
+    return sol.y[:, -1]
+
+
+@pytest.mark.parametrize("h", [1e-3, 1e-2])
+def test_exact_step_matches_the_closed_form_step_response(h):
+    """Critically damped loop (omega_n = 100 rad/s), unit speed step: omega(t) = 1 - exp(-wn t) (1 - wn t) to
+    round-off at any step (RK4 at this step is 1e-7 off, see above), and the angle is its integral."""
+    J, wn = 1e-3, 100.0
+    p = motor.Parameters(2 * wn * J, wn * wn * J, 1e9, motor.CONSTANT, 1.0, 1.0, 0.0, 0.0, J_rotor=J)
+    y, t = (0.0, 0.0, 0.0), 0.0
+    for _ in range(round(0.03 / h)):
+        y = motor.integrate(p, t, h, y, motor.Inputs(0.0))
+        t += h
+    assert y[1] == pytest.approx(1 - math.exp(-wn * t) * (1 - wn * t), abs=1e-14)
+    phi = t * (1 - math.exp(-wn * t))      # the integral of omega from 0
+    assert y[0] == pytest.approx(phi, abs=1e-15)
+
+
+def test_exact_step_follows_a_ramp_with_load_to_round_off():
+    """Ramp reference (alpha = 30 rad/s^2) and a held load, from 2 rad/s off the reference, unsaturated: 20
+    exact steps agree with a fine independent solve to round-off, while RK4 at the same steps is off by far more."""
+    p = motor.Parameters(0.2, 10.0, 5.0, motor.RAMP, 150.0, 30.0, 0.0, 0.0, J_rotor=1e-3)
+    y = z = y0 = (0.0, 2.0, 0.01)
+    for k in range(20):
+        y = motor.integrate(p, k * 1e-3, 1e-3, y, motor.Inputs(0.25))
+        z = rk4_step(p, k * 1e-3, 1e-3, z, 0.25)
+    ref = fine_solve(p, 0.0, y0, 0.02, 0.25)
+    assert max(abs(a - b) for a, b in zip(y, ref)) < 1e-13
+    assert max(abs(a - b) for a, b in zip(z, ref)) > 1e3 * max(abs(a - b) for a, b in zip(y, ref))
+
+
+BOUND_CASES = [  # (Kp, Ki, J, profile, omega_set, accel, tau_load, state, h): |torque| peaks inside the step
+    (0.02, 10.0, 1e-3, motor.CONSTANT, 100.0, 1.0, 0.0, (0.0, 99.0, 0.0), 0.03),     # zeta = 0.1, half a period
+    (0.02, 10.0, 1e-3, motor.CONSTANT, 100.0, 1.0, 0.0, (0.0, 101.0, 0.0), 0.03),    # the same, downwards
+    (0.2, 10.0, 1e-3, motor.CONSTANT, 100.0, 1.0, 0.0, (0.0, 99.0, -0.02), 0.03),    # critically damped
+    (5.0, 125.0, 0.05, motor.RAMP, 1e4, 15.0, 3.0, (0.0, -0.5, 0.01), 0.06),         # ramp and load, zeta = 1
+]
+@pytest.mark.parametrize("kp, ki, j, profile, omega_set, accel, tau_load, y0, h", BOUND_CASES)
+def test_torque_bound_holds_the_torque_inside_the_step(kp, ki, j, profile, omega_set, accel, tau_load, y0, h):
+    """pi_torque_bound is an upper bound of |Kp e + Ki I| all along a step of the linear loop (sampled at 400
+    points by exact sub-steps); the cases are chosen so that the sampled maximum lies inside the step, above both
+    ends (a bound from the ends alone would fail)."""
+    p = motor.Parameters(kp, ki, 1e9, profile, omega_set, accel, 0.0, 0.0, J_rotor=j)
+    r0, a, _ = motor.reference(p, 0.0)
+    y1 = motor.integrate(p, 0.0, h, y0, motor.Inputs(tau_load))
+    bound = motor.pi_torque_bound(p, h, y0, y1, r0, a, tau_load)
+    y, torques = y0, []
+    for k in range(400):
+        y = motor.integrate(p, k * h / 400, h / 400, y, motor.Inputs(tau_load))
+        torques.append(abs(kp * (motor.reference(p, (k + 1) * h / 400)[0] - y[1]) + ki * y[2]))
+    ends = max(abs(kp * (r0 - y0[1]) + ki * y0[2]), torques[-1])
+    assert y == pytest.approx(y1, rel=1e-11, abs=1e-13)
+    assert max(torques) > ends * (1 + 1e-9)
+    assert max(torques) <= bound
+
+
+def test_step_reaching_the_torque_limit_falls_back_to_rk4():
+    """A load step beyond tau_max: the step in which the torque reaches the limit, and the saturated steps after,
+    are the RK4 substeps bit for bit (the clamp and anti-windup as before); the unsaturated steps before are not."""
+    p = motor.Parameters(0.2, 10.0, 0.5, motor.CONSTANT, 100.0, 1.0, 0.0, 0.0, J_rotor=1e-3)
+    y, h, fell_back = (0.0, 100.0, 0.0), 1e-3, []
+    for k in range(60):
+        load = 0.3 if k < 20 else 0.8
+        fell_back.append(motor.integrate(p, k * h, h, y, motor.Inputs(load)) == rk4_step(p, k * h, h, y, load))
+        y = motor.integrate(p, k * h, h, y, motor.Inputs(load))
+    first = fell_back.index(True)
+    assert 20 <= first < 40 and all(fell_back[first:]) and not any(fell_back[1:20])
+    assert motor.pi_torque(p.omega_set - y[1], y[2], p.Kp, p.Ki, p.tau_max)[0] == p.tau_max
+
+
+def test_step_across_a_profile_corner_falls_back_to_rk4():
+    """The ramp's end (t = omega_set / accel = 0.1005 s) inside a step: RK4 substeps there; the steps that end or
+    start at a corner are exact."""
+    p = motor.Parameters(0.2, 10.0, 5.0, motor.RAMP, 3.015, 30.0, 0.0, 0.0, J_rotor=1e-3)
+    y = (0.0, 3.0, 0.0)
+    assert motor.integrate(p, 0.1, 1e-3, y, motor.Inputs(0.1)) == rk4_step(p, 0.1, 1e-3, y, 0.1)
+    assert motor.integrate(p, 0.0995, 1e-3, y, motor.Inputs(0.1)) != rk4_step(p, 0.0995, 1e-3, y, 0.1)
+    assert motor.integrate(p, 0.1005, 1e-3, y, motor.Inputs(0.1)) != rk4_step(p, 0.1005, 1e-3, y, 0.1)

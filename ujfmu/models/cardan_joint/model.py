@@ -207,6 +207,13 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
     return {"tau_in": tau_in, "M_x": m_x, "M_y": m_y, "M_z": m_z, "omega_out": omega_out, "phi_out": phi_out}
 
 
+def load_outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
+    """The outputs of :func:`outputs` that depend on tau_load: tau_in and the moment (joint_torques); the driven
+    shaft's motion does not."""
+    tau_in, m_x, m_y, m_z, _, _ = joint_torques(p.frame, u.phi, u.omega, u.alpha, u.tau_load, p.J1, p.J2)
+    return {"tau_in": tau_in, "M_x": m_x, "M_y": m_y, "M_z": m_z}
+
+
 def check(p: Parameters) -> list:
     """The total shaft angle acos(K_z) must stay within MAX_ANGLE."""
     angle = shaft_angle(p.frame)

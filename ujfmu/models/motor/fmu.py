@@ -11,8 +11,9 @@ class Motor(ModelSlave):
 
     PI mode (ideal_speed_source = false): J_rotor*domega/dt = tau_motor - tau_load with
     tau_motor = clamp(Kp*e + Ki*integral(e), -tau_max, tau_max), e = omega_ref - omega, conditional-integration
-    anti-windup. Integrated over each communication step with tau_load held (classical RK4, substeps chosen from
-    the closed loop's fastest pole). Starts at omega = omega_ref(start), integral 0.
+    anti-windup. Integrated over each communication step with tau_load held: exactly (a matrix exponential) while
+    the torque stays within its limit and no profile corner falls inside the step, else classical RK4 with
+    substeps chosen from the closed loop's fastest pole. Starts at omega = omega_ref(start), integral 0.
     Ideal mode (ideal_speed_source = true): omega = omega_ref(t), phi = its integral, and
     tau_motor = J_rotor*alpha_ref + tau_load is the torque a perfect drive would deliver (a step has no impulse).
 

@@ -9,6 +9,8 @@ Speed profiles omega_ref(t) (Feng et al. accelerate the driving shaft at alpha =
     CONSTANT: omega_ref = omega_set
     RAMP:     omega_ref = min(accel * t, omega_set)  (from rest)
     STEP:     omega_ref = omega_initial before t_step, omega_set from t_step on
+Numerics (PI mode, :func:`integrate`): exact to round-off while the loop is linear over the step (the torque
+within its limit all along, :func:`pi_torque_bound`; no profile corner inside), else classical RK4 (order 4).
 Source: none; a generic drive (PI speed control with conditional-integration anti-windup, the textbook law).
 Standard library only: runs inside the Motor and MotorController FMUs (``Controller``: the PI controller without
 its rotor, for the torque-driven joints).
@@ -122,6 +124,106 @@ def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
     return (p.Kp / p.J_rotor + math.sqrt(p.Ki / p.J_rotor)) * (rk4.RATE_STEP / POLE_STEP)
 
 
+def profile_corner(p: ControllerParameters) -> float | None:
+    """The time where omega_ref(t) leaves one linear piece for the next (ramp end omega_set/accel, step time
+    t_step), None for the constant profile: between corners omega_ref(t) = omega_ref(t0) + alpha_ref (t - t0)."""
+    if p.profile == RAMP:
+        return p.omega_set / p.accel
+    if p.profile == STEP:
+        return p.t_step
+    return None
+
+
+def _expm(m: list) -> list:
+    """exp(m) of a small square matrix (lists of floats): Taylor series of m / 2^s, ||m / 2^s||_1 <= 1/2, summed
+    until a term no longer changes the sum (error below round-off), then squared s times."""
+    n = len(m)
+    norm = max(sum(abs(m[i][j]) for i in range(n)) for j in range(n))
+    s = max(0, math.ceil(math.log2(norm / 0.5))) if norm > 0.5 else 0
+    a = [[x / 2.0 ** s for x in row] for row in m]
+    total = [[float(i == j) for j in range(n)] for i in range(n)]
+    term = [row[:] for row in total]
+    for k in range(1, 40):
+        term = [[sum(term[i][l] * a[l][j] for l in range(n)) / k for j in range(n)] for i in range(n)]
+        before = [row[:] for row in total]
+        total = [[x + y for x, y in zip(r, q)] for r, q in zip(total, term)]
+        if total == before:
+            break
+    for _ in range(s):
+        total = [[sum(total[i][l] * total[l][j] for l in range(n)) for j in range(n)] for i in range(n)]
+    return total
+
+
+#: (J_rotor, Kp, Ki, h) -> the propagator rows of :func:`pi_propagator`; bounded (a sweep may visit many)
+_PROPAGATORS = {}
+
+
+def pi_propagator(p: Parameters, h: float) -> tuple:
+    """Rows P (3 x 7) of the exact step of the unsaturated PI loop with a reference linear in time, tau_load held:
+
+        x = (phi, omega, I),  x' = A x + F (c + d s),   A = [[0, 1, 0], [0, -Kp/J, Ki/J], [0, -1, 0]],
+        F c = (0, c_w, c_I):  c = ((Kp r0 - tau_load)/J, r0),  d = (Kp a / J, a)   (omega_ref = r0 + a s),
+        x(h) = P (x(0), c, d),  P = the first three rows of exp(M h),  M = [[A, F, 0], [0, 0, 1], [0, 0, 0]]
+
+    (M augments x with c + d s and d, whose derivatives are d and 0: Van Loan's block exponential). Computed in
+    plain Python (:func:`_expm`) once per (J_rotor, Kp, Ki, h)."""
+    key = (p.J_rotor, p.Kp, p.Ki, h)
+    rows = _PROPAGATORS.get(key)
+    if rows is None:
+        m = [[0.0] * 7 for _ in range(7)]
+        m[0][1] = h
+        m[1][1], m[1][2], m[1][3] = -p.Kp / p.J_rotor * h, p.Ki / p.J_rotor * h, h
+        m[2][1], m[2][4] = -h, h
+        m[3][5], m[4][6] = h, h
+        rows = tuple(tuple(row) for row in _expm(m)[:3])
+        if len(_PROPAGATORS) >= 64:
+            _PROPAGATORS.clear()
+        _PROPAGATORS[key] = rows
+    return rows
+
+
+def pi_torque_bound(p: Parameters, h: float, y0: tuple, y1: tuple, r0: float, a: float, tau_load: float) -> float:
+    """An upper bound of |u(s)|, u = Kp e + Ki I, over a step of h of the unsaturated loop from y0 to y1 (the
+    reference r0 + a s, tau_load held). With e = omega_ref - omega the loop gives
+
+        u' = -(Kp/J) u + Ki e + Kp a + Kp tau_load / J,    u'' + (Kp/J) u' + (Ki/J) u = (Ki/J) u*,  u* = J a + tau_load
+
+    so v = u - u* is a damped oscillator whose energy (Ki/J) v^2 + v'^2 never grows (its rate is -2 (Kp/J) v'^2):
+    |u''| = |(Kp/J) v' + (Ki/J) v| <= sqrt((Kp/J)^2 + Ki/J) sqrt((Ki/J) v(0)^2 + v'(0)^2) = M2 over the step, and
+    a function deviates from its chord by at most h^2/8 max|u''|: |u| <= max(|u(0)|, |u(h)|) + h^2 M2 / 8."""
+    kj, w2 = p.Kp / p.J_rotor, p.Ki / p.J_rotor
+    e0 = r0 - y0[1]
+    u0 = p.Kp * e0 + p.Ki * y0[2]
+    u1 = p.Kp * (r0 + a * h - y1[1]) + p.Ki * y1[2]
+    v = u0 - p.J_rotor * a - tau_load
+    dv = -kj * u0 + p.Ki * e0 + p.Kp * a + kj * tau_load
+    curvature = math.sqrt((kj * kj + w2) * (w2 * v * v + dv * dv))
+    return max(abs(u0), abs(u1)) + 0.125 * h * h * curvature
+
+
+def integrate(p: Parameters, t: float, h: float, y: State, u: Inputs) -> tuple:
+    """The PI motor's step, tau_load held: exact (to round-off) where the loop is linear over the whole step,
+    i.e. no profile corner inside (t, t + h) and the torque within its limit all along (:func:`pi_torque_bound`
+    <= tau_max): y(t + h) = P (y, c, d) of :func:`pi_propagator`; elsewhere (the limit reached or crossed, a
+    corner inside the step) the classical RK4 substeps of :func:`rate_bound` (order 4), as the FMU's default."""
+    corner = profile_corner(p)
+    if corner is None or not t < corner < t + h:
+        r0, a, _ = reference(p, t)
+        tau_load, kp, j = u[0], p.Kp, p.J_rotor
+        cw, dw = (kp * r0 - tau_load) / j, kp * a / j
+        _, omega, integral = y
+        p0, p1, p2 = pi_propagator(p, h)
+        y1 = (y[0] + p0[1] * omega + p0[2] * integral + p0[3] * cw + p0[4] * r0 + p0[5] * dw + p0[6] * a,
+              p1[1] * omega + p1[2] * integral + p1[3] * cw + p1[4] * r0 + p1[5] * dw + p1[6] * a,
+              p2[1] * omega + p2[2] * integral + p2[3] * cw + p2[4] * r0 + p2[5] * dw + p2[6] * a)
+        if pi_torque_bound(p, h, y, y1, r0, a, tau_load) <= p.tau_max:
+            return y1
+    return _RK4_3(derivatives, p, t, u, y, h, rk4.substeps(rate_bound(p, y, 0.0), h))
+
+
+_RK4_3 = rk4.unrolled("held", 3)
+
+
 def outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
     """Speed, angle and drive torque (ideal source: the profile, and the torque J alpha_ref + tau_load a perfect
     drive delivers; PI: the state and the PI law)."""
@@ -131,6 +233,19 @@ def outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
                 "tau_motor": p.J_rotor * alpha_ref + u.tau_load}
     return {"omega_ref": omega_ref, "phi": y[0], "omega": y[1],
             "tau_motor": pi_torque(omega_ref - y[1], y[2], p.Kp, p.Ki, p.tau_max)[0]}
+
+
+def output_free_inputs(p: Parameters) -> tuple:
+    """PI mode: no output depends on tau_load (it enters only domega/dt, so the outputs change with it only after the
+    next step); the ideal source's tau_motor = J alpha_ref + tau_load does."""
+    return () if p.ideal_speed_source else ("tau_load",)
+
+
+def load_outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
+    """The outputs of :func:`outputs` that depend on tau_load: the ideal source's tau_motor; none in PI mode."""
+    if p.ideal_speed_source:
+        return {"tau_motor": p.J_rotor * reference(p, t)[1] + u.tau_load}
+    return {}
 
 
 def check(p: Parameters) -> list:
