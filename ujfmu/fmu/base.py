@@ -461,7 +461,8 @@ class ModelSlave(UjfmuSlave):
             if hasattr(model, "integrate_substeps"):   # the model's own formula for some substep counts
                 cls._rk4 = staticmethod(rk4.with_own_substeps(cls._rk4, cls.RK4_KIND, model.integrate_substeps,
                                                               model.own_substeps))
-            if hasattr(model, "integrate"):   # the model integrates its own steps
+            if hasattr(model, "integrate") and "integrate" not in cls.__dict__:   # the model integrates its own
+                # steps, unless the FMU class does (with state of its own beside the model's)
                 cls._own_step = staticmethod(model.integrate)
 
     def parameters(self):
