@@ -633,6 +633,12 @@ _POINT = 11
 HISTORY_SIZE = 5 + HISTORY_POINTS * _POINT
 #: no history: the next step starts with :func:`exponential_step`'s substeps
 NO_HISTORY = (0.0,) * HISTORY_SIZE
+#: a change of the held inputs between steps [rad/s^2] (tau_load / J_eff2, alpha_in, omega_in's jump from the
+#: speed the newest point extrapolates to / h) above which the history is discarded: N's time derivative jumps with
+#: the discs' accelerations, which no polynomial through the history follows (an 18 N.m load step, 1840 rad/s^2,
+#: leaves 55x ETDRK4-B's error, so 20 rad/s^2 adds at most about half of it; a PI motor's run-up changes alpha_in
+#: by up to 9 rad/s^2 per 1 ms step)
+INPUT_JUMP = 20.0
 
 
 def _input_columns(p: Parameters, theta2: float) -> tuple:
@@ -667,10 +673,28 @@ def _rebase(p: Parameters, points: list, count: int, d_tau: float, d_alpha: floa
 
 def multistep_step(p: Parameters, t: float, t_span: float, phi_in: float, w_in: float, alpha_in: float,
                    y: Sequence[float], tau_load: float, history: Sequence[float]) -> tuple:
-    """(state, history) after t_span from t by an exponential Adams predictor-corrector (PEC)."""
+    """(state, history) after t_span from t by an exponential Adams predictor-corrector in twist coordinates
+    (Hochbruck, Ostermann, "Exponential multistep methods of Adams-type", BIT Numer. Math. 51, 2011; Cox, Matthews,
+    "Exponential time differencing for stiff systems", J. Comput. Phys. 176, 2002) in PEC mode: per substep of h
+    from z_n, N_j = N(t_n + j h) of the history (j = 0, -1, ..., -5), p the quintic through them, and the
+    variation-of-constants integral of the interpolated N taken exactly (L's part exact, as in
+    :func:`exponential_step`),
+        predict   z* = E(h) z_n + sum_j W_j N_j,       W_j = h sum_m c_jm m! phi_(m+1)(h L)
+        evaluate  N_1 = N(t_n + h, z*)                 (ONE evaluation of :func:`rates` per substep)
+        correct   z_n+1 = z* + Psi (N_1 - p(1)),       Psi = h sum_m l_m m! phi_(m+1)(h L)
+    c_jm the coefficients of theta^m of the Lagrange basis polynomial of node j, l_m those of
+    prod_j (theta - j) / prod_j (1 - j), 1 at theta = 1 (the corrector is the Adams-Moulton one through N_1 and the
+    six points, in Newton form; :func:`_adams_operators`); N_1 joins the history. The energy rows (L = 0) by the
+    same weights, scalar. Observed order 5 from a start (tests: the five ETDRK4-B start steps dominate; the
+    predictor alone is of order 6). tau_load and alpha_in enter N linearly (:func:`_rebase`), so the history is
+    recombined with each step's held inputs; a history of another substep length, not ending at t, or across a
+    jump of the inputs (``INPUT_JUMP``) is discarded and rebuilt by :func:`exponential_step`'s substeps, each
+    adding its N_u."""
     n = exponential_substeps(p, t_span, w_in, alpha_in)
     h = t_span / n
-    if history[0] != h or abs(history[1] - t) > 1e-6 * h:
+    w_next = history[15] + (history[4] * h if history[2] < HISTORY_POINTS else 0.0)   # the newest point's speed
+    if (history[0] != h or abs(history[1] - t) > 1e-6 * h or abs(tau_load - history[3]) / p.j_eff2
+            + abs(alpha_in - history[4]) + abs(w_in - w_next) / h > INPUT_JUMP):
         history = NO_HISTORY
     count = int(history[2])
     points = list(history[5:5 + _POINT * count])
@@ -839,9 +863,15 @@ def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
 
 
 def integrate(p: Parameters, t: float, h: float, y: State, u: Drive) -> list:
-    """The FMU's step: :func:`exponential_step` from the input motion u at the step's start (angle quadratic,
+    """One step without history: :func:`exponential_step` from the input motion u at the step's start (angle quadratic,
     speed linear in time over the step, tau_load held)."""
     return exponential_step(p, h, u.phi, u.omega, u.alpha, y, u.tau_load)
+
+
+def integrate_with_history(p: Parameters, t: float, h: float, y: State, u: Drive, history: tuple) -> tuple:
+    """The FMU's step: (state, history) of :func:`multistep_step` from the input motion u at the step's start
+    (angle quadratic, speed linear in time over the step, tau_load held); :func:`integrate` without a history."""
+    return multistep_step(p, t, h, u.phi, u.omega, u.alpha, y, u.tau_load, history)
 
 
 def drive_derivatives(p: Parameters, t: float, y: State, phi: float, omega: float, alpha: float,
