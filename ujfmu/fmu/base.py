@@ -467,6 +467,8 @@ class ModelSlave(UjfmuSlave):
     RK4_KIND = "held"
     #: the model's own ``integrate(p, t, h, y, u)`` where it has one (the protocol's optional whole-step integrator)
     _own_step = None
+    #: the model's own ``integrate_with_history(p, t, h, y, u, history)`` where it has one (the protocol's option)
+    _history_step = None
     DERIVED = ("_p", "_output_free", "_kinematic", "_load_inputs")
 
     def __init_subclass__(cls, **kwargs):
@@ -481,6 +483,9 @@ class ModelSlave(UjfmuSlave):
                                                               model.own_substeps))
             if hasattr(model, "integrate"):   # the model integrates its own steps
                 cls._own_step = staticmethod(model.integrate)
+            if hasattr(model, "integrate_with_history"):   # a multistep integrator: its history is FMU state
+                cls._history_step = staticmethod(model.integrate_with_history)
+                cls.STATE = {**cls.STATE, "_history": f"float[{len(model.NO_HISTORY)}]"}
 
     def parameters(self):
         """The FMU's parameters as the model's Parameters."""
@@ -500,6 +505,8 @@ class ModelSlave(UjfmuSlave):
     def initialize(self, start_time):
         self._time, self._started = start_time, False
         self._y = tuple(self.MODEL.initial_state(self._p, start_time, self.model_inputs()))
+        if self._history_step is not None:
+            self._history = self.MODEL.NO_HISTORY
 
     def model_inputs(self):
         """The model's inputs (its Inputs) now, from the FMU's input variables."""
@@ -534,7 +541,11 @@ class ModelSlave(UjfmuSlave):
             model, p = self.MODEL, self._p
             own = self._own_step
             y = self.current_state(u)
-            y = tuple(own(p, t, h, y, u)) if own is not None else self.integrate(t, h, y, u)
+            if self._history_step is not None:
+                y, self._history = self._history_step(p, t, h, y, u, self._history)
+                y = tuple(y)
+            else:
+                y = tuple(own(p, t, h, y, u)) if own is not None else self.integrate(t, h, y, u)
             if not all(map(math.isfinite, y)):
                 raise ValueError(f"the state became non-finite over the step ({y!r})")
             problems = getattr(model, "check_state", _none)(p, y)

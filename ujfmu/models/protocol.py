@@ -38,10 +38,12 @@ every RK4 stage, where building a Drive costs as much as a small model's equatio
 (the model's own formula for the RK4 substeps its ``rate_bound`` asks for, used where ``own_substeps`` is true;
 default ``ujfmu.fmu.rk4``'s classical RK4) and ``integrate(p, t, h, y, u) -> tuple`` (the state y at time t
 advanced over a step of h from the inputs u at its start, a Drive extrapolated as the FMU does, by the model's own
-integrator, substep rule included; default the FMU's RK4 substeps from ``rate_bound``) and ``load_outputs(p, t, y,
-u) -> dict`` (the outputs that depend on the input tau_load, the same numbers as ``outputs`` gives for them; every
-other output must not depend on it: when a host sets tau_load after reading the outputs, the FMU recomputes only
-these; default all of ``outputs``).
+integrator, substep rule included; default the FMU's RK4 substeps from ``rate_bound``), or
+``integrate_with_history(p, t, h, y, u, history) -> (state, history)`` with ``NO_HISTORY`` (a multistep
+integrator: its history, a tuple of floats of NO_HISTORY's length, is FMU state, NO_HISTORY after initialization),
+and ``load_outputs(p, t, y, u) -> dict`` (the outputs that depend on the input tau_load, the same numbers as
+``outputs`` gives for them; every other output must not depend on it: when a host sets tau_load after reading the
+outputs, the FMU recomputes only these; default all of ``outputs``).
 
 The inputs ``u`` are the model's own NamedTuple ``Inputs``; a model whose input shaft follows a prescribed speed
 (``omega_in``) uses :class:`Drive`, which the base extrapolates over a step (angle quadratic, speed linear in time:

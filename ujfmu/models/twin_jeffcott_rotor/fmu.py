@@ -46,9 +46,12 @@ class TwinJeffcottRotor(PrescribedInputSlave):
     Six degrees of freedom (theta1, X1, Y1, theta2, X2, Y2) from Lagrange's equations with the paper's energies
     (Eqs. 4-8, re-derived: README.md), exact Hooke kinematics tan(psi) = cos(beta) tan(theta1) between
     the shafts' bent end sections, so that the joint's transmitted torque loads the shafts laterally (secondary
-    couple, twice running speed). Integrated by a fourth-order exponential Runge-Kutta method (the torsional chain
-    and the Jeffcott oscillators exactly; model.exponential_step), one substep per 1 ms step on the default rig;
-    the input angle follows omega_in extrapolated linearly over each step (alpha_in the backward difference). Starts with untwisted shafts and centred discs turning with the input until the first step.
+    couple, twice running speed). Integrated by an exponential Adams predictor-corrector, one evaluation of the
+    equations per substep (the torsional chain and the Jeffcott oscillators exactly; model.multistep_step, its
+    history of the equations' values part of the FMU state), started and restarted by a fourth-order exponential
+    Runge-Kutta method (model.exponential_step), one substep per 1 ms step on the default rig; the input angle
+    follows omega_in extrapolated linearly over each step (alpha_in the backward difference). Starts with untwisted
+    shafts and centred discs turning with the input until the first step.
     Signs: tau_in > 0 drives; tau_load > 0 opposes disc 2's rotation; shaft torques > 0 while transmitting drive.
     X1, Y1 in the primary shaft's frame, X2, Y2 in the secondary's; X lies in the plane of the two shafts.
     """

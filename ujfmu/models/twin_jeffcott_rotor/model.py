@@ -440,21 +440,21 @@ def remainder_rate_bound(p: Parameters) -> float:
     return math.sqrt(max(0.0, stiffness - aligned_stiffness)) + max(0.0, decay - aligned_decay)
 
 
-def _phi_functions(a, h: float) -> list:
-    """[phi_0(h a), ..., phi_3(h a)] of a small square matrix a, phi_k(X) = sum_j X^j / (j + k)! (phi_0 = exp),
-    by the Taylor series to 30 terms: the substep rule keeps h |lambda| <= 1 for L's eigenvalues, where the
-    truncation is below 1e-30."""
+def _phi_functions(a, h: float, count: int = 4) -> list:
+    """[phi_0(h a), ..., phi_(count-1)(h a)] of a small square matrix a, phi_k(X) = sum_j X^j / (j + k)!
+    (phi_0 = exp), by the Taylor series to 30 terms: the substep rule keeps h |lambda| <= 1 for L's eigenvalues,
+    where the truncation is below 1e-30."""
     n = len(a)
     x = [[h * v for v in row] for row in a]
     power = [[1.0 if i == j else 0.0 for j in range(n)] for i in range(n)]
-    phis = [[[0.0] * n for _ in range(n)] for _ in range(4)]
+    phis = [[[0.0] * n for _ in range(n)] for _ in range(count)]
     factorial = 1.0
     for j in range(34):
         if j:
             factorial *= j
             power = [[sum(power[i][m] * x[m][k] for m in range(n)) for k in range(n)] for i in range(n)]
         f = factorial
-        for k in range(4):   # X^j / (j + k)!
+        for k in range(count):   # X^j / (j + k)!
             if j + k >= 1 and k:
                 f *= j + k
             for i in range(n):
@@ -577,26 +577,248 @@ def exponential_step(p: Parameters, t_span: float, phi_in: float, w_in: float, a
     dissipated energy and input work rows are integrated: q+ = q + h (N_u + (D_a + D_b) / 3 + D_c / 6)."""
     n = exponential_substeps(p, t_span, w_in, alpha_in)
     h = t_span / n
-    e_half, q1, q2, e_full, r1, r2, s1, s2 = _propagators(p, h)
-    z = [y[0] - phi_in, y[1] - w_in, y[2], y[3], y[4], y[5], y[6] - phi_in, y[7] - w_in, y[8], y[9], y[10], y[11]]
-    dissipated, work = y[12], y[13]
+    ops = _propagators(p, h)
+    z = _twist(y, phi_in, w_in)
+    q = [y[12], y[13]]
     for k in range(n):
         t0 = k * h
-        tm, te = t0 + 0.5 * h, t0 + h
         nu = _remainder(p, phi_in + t0 * (w_in + 0.5 * alpha_in * t0), w_in + alpha_in * t0, alpha_in, z, tau_load)
-        phi_m, w_m = phi_in + tm * (w_in + 0.5 * alpha_in * tm), w_in + alpha_in * tm
-        a = _state_op(e_half, z, q1, nu)
-        da = _remainder(p, phi_m, w_m, alpha_in, a, tau_load, nu)
-        db = _remainder(p, phi_m, w_m, alpha_in, _shift(a, q2, da), tau_load, nu)
-        ec = _state_op(e_full, z, r1, nu)
-        dc = _remainder(p, phi_in + te * (w_in + 0.5 * alpha_in * te), w_in + alpha_in * te, alpha_in,
-                        _shift(ec, r2, db), tau_load, nu)
-        z = _last_stage(ec, s1, da, db, s2, dc)
-        dissipated += h * (nu[6] + (da[6] + db[6]) / 3.0 + dc[6] / 6.0)
-        work += h * (nu[7] + (da[7] + db[7]) / 3.0 + dc[7] / 6.0)
+        z = _krogstad_substep(p, ops, h, t0, phi_in, w_in, alpha_in, z, tau_load, nu, q)
+    return _untwist(z, q, phi_in, w_in, alpha_in, t_span)
+
+
+def _twist(y: Sequence[float], phi: float, w: float) -> list:
+    """The twist coordinates z = y - r of the 12 motion states at the rigid motion r of angle phi, speed w."""
+    return [y[0] - phi, y[1] - w, y[2], y[3], y[4], y[5], y[6] - phi, y[7] - w, y[8], y[9], y[10], y[11]]
+
+
+def _untwist(z: Sequence[float], q: Sequence[float], phi_in: float, w_in: float, alpha_in: float,
+             t_span: float) -> list:
+    """The state from twist coordinates z and the energy rows q at t_span along the input motion."""
     phi_end, w_end = phi_in + t_span * (w_in + 0.5 * alpha_in * t_span), w_in + alpha_in * t_span
     return [phi_end + z[0], w_end + z[1], z[2], z[3], z[4], z[5], phi_end + z[6], w_end + z[7], z[8], z[9], z[10],
-            z[11], dissipated, work]
+            z[11], q[0], q[1]]
+
+
+def _krogstad_substep(p: Parameters, ops: tuple, h: float, t0: float, phi_in: float, w_in: float, alpha_in: float,
+                      z: Sequence[float], tau_load: float, nu: Sequence[float], q: list) -> list:
+    """One substep of :func:`exponential_step` from z at t0 (N_u = nu given): z+, the energy rows q advanced in
+    place."""
+    e_half, q1, q2, e_full, r1, r2, s1, s2 = ops
+    tm, te = t0 + 0.5 * h, t0 + h
+    phi_m, w_m = phi_in + tm * (w_in + 0.5 * alpha_in * tm), w_in + alpha_in * tm
+    a = _state_op(e_half, z, q1, nu)
+    da = _remainder(p, phi_m, w_m, alpha_in, a, tau_load, nu)
+    db = _remainder(p, phi_m, w_m, alpha_in, _shift(a, q2, da), tau_load, nu)
+    ec = _state_op(e_full, z, r1, nu)
+    dc = _remainder(p, phi_in + te * (w_in + 0.5 * alpha_in * te), w_in + alpha_in * te, alpha_in,
+                    _shift(ec, r2, db), tau_load, nu)
+    q[0] += h * (nu[6] + (da[6] + db[6]) / 3.0 + dc[6] / 6.0)
+    q[1] += h * (nu[7] + (da[7] + db[7]) / 3.0 + dc[7] / 6.0)
+    return _last_stage(ec, s1, da, db, s2, dc)
+
+
+# --- the exponential Adams method (the FMU's stepper once it has a history) -------------------------------------
+#
+# N(t, z) = N_0(t, z) + tau_load G(z) + alpha_in B(t): the load and the input acceleration, held over a step, enter
+# N linearly (:func:`_input_columns`), so the history keeps N_0 and G, B per point and each step recombines them
+# with its own held inputs: a load step or a change of acceleration is then exact, not extrapolated across.
+
+#: the points of N the method keeps: N at t, t - h, ..., t - 5h
+HISTORY_POINTS = 6
+#: per history point: N's 8 rows, G's lateral rows (X2', Y2'), the input speed (B's input-work row / J_gb)
+_POINT = 11
+#: the history (FMU state): substep h, the time the next step starts at, points held, the tau_load and alpha_in
+#: its points are evaluated at, then the points (newest first)
+HISTORY_SIZE = 5 + HISTORY_POINTS * _POINT
+#: no history: the next step starts with :func:`exponential_step`'s substeps
+NO_HISTORY = (0.0,) * HISTORY_SIZE
+#: a change of the held inputs between steps [rad/s^2] (tau_load / J_eff2, alpha_in, omega_in's jump from the
+#: speed the newest point extrapolates to / h) above which the history is discarded: N's time derivative jumps with
+#: the discs' accelerations, which no polynomial through the history follows (an 18 N.m load step, 1840 rad/s^2,
+#: leaves 55x ETDRK4-B's error, so 20 rad/s^2 adds at most about half of it; a PI motor's run-up changes alpha_in
+#: by up to 9 rad/s^2 per 1 ms step)
+INPUT_JUMP = 20.0
+
+
+def _input_columns(p: Parameters, theta2: float) -> tuple:
+    """(dN/dtau_load of the rows X2'', Y2'') at disc 2's angle: acc2 of :func:`rates` is linear in tau_load with
+    slope -1 / J_eff2 and X2'', Y2'' follow it through a sin, -a cos of theta2 + phase_u2 over m2 (paper Eq. 10
+    solved for disc 2)."""
+    s, c = math.sin(theta2), math.cos(theta2)
+    sa, ca = s * p.cos_phase2 + c * p.sin_phase2, c * p.cos_phase2 - s * p.sin_phase2
+    k = p.a2 / (p.m2 * p.j_eff2)
+    return -k * sa, k * ca
+
+
+def _history_point(p: Parameters, phi: float, w: float, alpha_in: float, z: Sequence[float], tau_load: float
+                   ) -> list:
+    """N (:func:`_remainder`) at the input motion (phi, w, alpha_in), twist z and tau_load, with G's lateral rows
+    and w (the layout of ``_POINT``)."""
+    return [*_remainder(p, phi, w, alpha_in, z, tau_load), *_input_columns(p, phi + z[6]), w]
+
+
+def _rebase(p: Parameters, points: list, count: int, d_tau: float, d_alpha: float) -> list:
+    """The history points at inputs changed by d_tau, d_alpha: N + d_tau G + d_alpha B, G = (0, 0, 0, -1 / J_eff2,
+    G_X2, G_Y2, 0, 0), B = (-1, 0, 0, -1, 0, 0, 0, J_gb omega_in) (:func:`rates`: tau_load and alpha_in enter
+    linearly)."""
+    g2, jb = -d_tau / p.j_eff2, d_alpha * p.J_gb
+    out = []
+    for i in range(0, _POINT * count, _POINT):
+        a, dx1, dy1, b, dx2, dy2, dis, work, gx, gy, w = points[i:i + _POINT]
+        out += (a - d_alpha, dx1, dy1, b + g2 - d_alpha, dx2 + d_tau * gx, dy2 + d_tau * gy, dis, work + jb * w,
+                gx, gy, w)
+    return out
+
+
+def multistep_step(p: Parameters, t: float, t_span: float, phi_in: float, w_in: float, alpha_in: float,
+                   y: Sequence[float], tau_load: float, history: Sequence[float]) -> tuple:
+    """(state, history) after t_span from t by an exponential Adams predictor-corrector in twist coordinates
+    (Hochbruck, Ostermann, "Exponential multistep methods of Adams-type", BIT Numer. Math. 51, 2011; Cox, Matthews,
+    "Exponential time differencing for stiff systems", J. Comput. Phys. 176, 2002) in PEC mode: per substep of h
+    from z_n, N_j = N(t_n + j h) of the history (j = 0, -1, ..., -5), p the quintic through them, and the
+    variation-of-constants integral of the interpolated N taken exactly (L's part exact, as in
+    :func:`exponential_step`),
+        predict   z* = E(h) z_n + sum_j W_j N_j,       W_j = h sum_m c_jm m! phi_(m+1)(h L)
+        evaluate  N_1 = N(t_n + h, z*)                 (ONE evaluation of :func:`rates` per substep)
+        correct   z_n+1 = z* + Psi (N_1 - p(1)),       Psi = h sum_m l_m m! phi_(m+1)(h L)
+    c_jm the coefficients of theta^m of the Lagrange basis polynomial of node j, l_m those of
+    prod_j (theta - j) / prod_j (1 - j), 1 at theta = 1 (the corrector is the Adams-Moulton one through N_1 and the
+    six points, in Newton form; :func:`_adams_operators`); N_1 joins the history. The energy rows (L = 0) by the
+    same weights, scalar. Observed order 5 from a start (tests: the five ETDRK4-B start steps dominate; the
+    predictor alone is of order 6). tau_load and alpha_in enter N linearly (:func:`_rebase`), so the history is
+    recombined with each step's held inputs; a history of another substep length, not ending at t, or across a
+    jump of the inputs (``INPUT_JUMP``) is discarded and rebuilt by :func:`exponential_step`'s substeps, each
+    adding its N_u."""
+    n = exponential_substeps(p, t_span, w_in, alpha_in)
+    h = t_span / n
+    w_next = history[15] + (history[4] * h if history[2] < HISTORY_POINTS else 0.0)   # the newest point's speed
+    if (history[0] != h or abs(history[1] - t) > 1e-6 * h or abs(tau_load - history[3]) / p.j_eff2
+            + abs(alpha_in - history[4]) + abs(w_in - w_next) / h > INPUT_JUMP):
+        history = NO_HISTORY
+    count = int(history[2])
+    points = list(history[5:5 + _POINT * count])
+    if count and (history[3] != tau_load or history[4] != alpha_in):
+        points = _rebase(p, points, count, tau_load - history[3], alpha_in - history[4])
+    z = _twist(y, phi_in, w_in)
+    q = [y[12], y[13]]
+    ops = None
+    for k in range(n):
+        t0 = k * h
+        if count < HISTORY_POINTS:
+            point = _history_point(p, phi_in + t0 * (w_in + 0.5 * alpha_in * t0), w_in + alpha_in * t0, alpha_in, z,
+                                   tau_load)
+            points, count = point + points, count + 1
+            if count < HISTORY_POINTS:
+                if ops is None:
+                    ops = _propagators(p, h)
+                z = _krogstad_substep(p, ops, h, t0, phi_in, w_in, alpha_in, z, tau_load, point, q)
+                continue
+        te = t0 + h
+        z, point = _adams_substep(p, h, z, q, points, phi_in + te * (w_in + 0.5 * alpha_in * te),
+                                  w_in + alpha_in * te, alpha_in, tau_load)
+        points = (point + points)[:_POINT * HISTORY_POINTS]
+    history = (h, t + t_span, float(count), tau_load, alpha_in, *points,
+               *(0.0,) * (_POINT * (HISTORY_POINTS - count)))
+    return _untwist(z, q, phi_in, w_in, alpha_in, t_span), history
+
+
+def _adams_substep(p: Parameters, h: float, z: Sequence[float], q: list, points: list, phi_e: float, w_e: float,
+                   alpha_in: float, tau_load: float) -> tuple:
+    """One PEC substep of :func:`multistep_step` from z with the history points (newest, at z, first), the input
+    motion (phi_e, w_e) at its end: (z+, the new history point); the energy rows q advanced in place."""
+    e, psi, *weights = _adams_operators(p.linear, h)
+    extrapolation, quadrature, gamma = _ADAMS_SCALARS
+    z0, z1, z2, z3, z4, z5, z6, z7, z8, z9, z10, z11 = z
+    # predictor: E z + sum_j W_j N_j (layouts: _state_op), N extrapolated to the end and the energy rows' quadrature
+    r0, r1 = e[0] * z0 + e[1] * z1 + e[2] * z6 + e[3] * z7, e[4] * z0 + e[5] * z1 + e[6] * z6 + e[7] * z7
+    r6, r7 = e[8] * z0 + e[9] * z1 + e[10] * z6 + e[11] * z7, e[12] * z0 + e[13] * z1 + e[14] * z6 + e[15] * z7
+    r2, r3, r4, r5 = e[16] * z2 + e[17] * z3, e[18] * z2 + e[19] * z3, e[20] * z4 + e[21] * z5, e[22] * z4 + e[23] * z5
+    r8, r9 = e[24] * z8 + e[25] * z9, e[26] * z8 + e[27] * z9
+    r10, r11 = e[28] * z10 + e[29] * z11, e[30] * z10 + e[31] * z11
+    n0 = n1 = n2 = n3 = n4 = n5 = n6 = n7 = q6 = q7 = 0.0
+    for i, (g, c, w) in enumerate(zip(weights, extrapolation, quadrature)):
+        a, x1, y1, b, x2, y2, dis, work = points[_POINT * i:_POINT * i + 8]
+        t0, t1, t2, t3, t4, t5, t6, t7, g8, g9, g10, g11, g12, g13, g14, g15 = g
+        r0 += t0 * a + t4 * b
+        r1 += t1 * a + t5 * b
+        r6 += t2 * a + t6 * b
+        r7 += t3 * a + t7 * b
+        r2 += g8 * x1
+        r3 += g9 * x1
+        r4 += g10 * y1
+        r5 += g11 * y1
+        r8 += g12 * x2
+        r9 += g13 * x2
+        r10 += g14 * y2
+        r11 += g15 * y2
+        n0 += c * a
+        n1 += c * x1
+        n2 += c * y1
+        n3 += c * b
+        n4 += c * x2
+        n5 += c * y2
+        n6 += c * dis
+        n7 += c * work
+        q6 += w * dis
+        q7 += w * work
+    point = _history_point(p, phi_e, w_e, alpha_in, (r0, r1, r2, r3, r4, r5, r6, r7, r8, r9, r10, r11), tau_load)
+    # corrector: + Psi (N_1 - N extrapolated)
+    d = (point[0] - n0, point[1] - n1, point[2] - n2, point[3] - n3, point[4] - n4, point[5] - n5)
+    q[0] += h * (q6 + gamma * (point[6] - n6))
+    q[1] += h * (q7 + gamma * (point[7] - n7))
+    return _shift((r0, r1, r2, r3, r4, r5, r6, r7, r8, r9, r10, r11), psi, d), point
+
+
+def _lagrange_coefficients(nodes: Sequence[float]) -> list:
+    """c[j][m]: the coefficient of theta^m of the Lagrange basis polynomial of nodes[j] (1 there, 0 at the others)."""
+    rows = []
+    for j, node in enumerate(nodes):
+        poly, scale = [1.0], 1.0
+        for i, other in enumerate(nodes):
+            if i != j:   # poly *= (theta - other)
+                poly = [(poly[m - 1] if m else 0.0) - other * (poly[m] if m < len(poly) else 0.0)
+                        for m in range(len(poly) + 1)]
+                scale *= node - other
+        rows.append([c / scale for c in poly])
+    return rows
+
+
+def _newton_coefficients(nodes: Sequence[float]) -> list:
+    """Coefficients of theta^m of prod_j (theta - node_j) / prod_j (1 - node_j): 0 at the nodes, 1 at theta = 1."""
+    poly, scale = [1.0], 1.0
+    for other in nodes:
+        poly = [(poly[m - 1] if m else 0.0) - other * (poly[m] if m < len(poly) else 0.0) for m in range(len(poly) + 1)]
+        scale *= 1.0 - other
+    return [c / scale for c in poly]
+
+
+_NODES = tuple(-float(j) for j in range(HISTORY_POINTS))
+#: (values at theta = 1 of the predictor's Lagrange basis, their integrals over [0, 1], the integral of the
+#: corrector's Newton polynomial): the scalar weights at L = 0
+_ADAMS_SCALARS = (tuple(sum(c) for c in _lagrange_coefficients(_NODES)),
+                  tuple(sum(c[m] / (m + 1) for m in range(len(c))) for c in _lagrange_coefficients(_NODES)),
+                  sum(c / (m + 1) for m, c in enumerate(_newton_coefficients(_NODES))))
+
+
+def _phi_operator(phis: list, h: float, c: Sequence[float]) -> tuple:
+    """h sum_m c_m m! phi_(m+1)(h L) on N's speed columns (16 numbers, :func:`_propagators`' layout): the
+    variation-of-constants integral h int_0^1 exp((1 - theta) h L) sum_m c_m theta^m d theta."""
+    blocks = [[[h * sum(c[m] * math.factorial(m) * phi[m + 1][i][k] for m in range(len(c)))
+                for k in range(len(phi[0]))] for i in range(len(phi[0]))] for phi in phis]
+    t, lateral = blocks[0], blocks[1:]
+    return tuple([t[r][1] for r in range(4)] + [t[r][3] for r in range(4)]
+                 + [b[r][1] for b in lateral for r in range(2)])
+
+
+@functools.lru_cache(maxsize=16)
+def _adams_operators(linear: tuple, h: float) -> tuple:
+    """(E(h), Psi, W_0, ..., W_-3) of :func:`multistep_step` for L's blocks and h, memoized."""
+    phis = [_phi_functions(block, h, HISTORY_POINTS + 2) for block in linear]
+    t, lateral = phis[0][0], [phi[0] for phi in phis[1:]]
+    e = tuple([v for row in t for v in row] + [v for b in lateral for row in b for v in row])
+    return (e, _phi_operator(phis, h, _newton_coefficients(_NODES)),
+            *(_phi_operator(phis, h, c) for c in _lagrange_coefficients(_NODES)))
 
 
 def torque_outputs(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequence[float]) -> dict:
@@ -641,9 +863,15 @@ def derivatives(p: Parameters, t: float, y: State, u: Drive) -> tuple:
 
 
 def integrate(p: Parameters, t: float, h: float, y: State, u: Drive) -> list:
-    """The FMU's step: :func:`exponential_step` from the input motion u at the step's start (angle quadratic,
+    """One step without history: :func:`exponential_step` from the input motion u at the step's start (angle quadratic,
     speed linear in time over the step, tau_load held)."""
     return exponential_step(p, h, u.phi, u.omega, u.alpha, y, u.tau_load)
+
+
+def integrate_with_history(p: Parameters, t: float, h: float, y: State, u: Drive, history: tuple) -> tuple:
+    """The FMU's step: (state, history) of :func:`multistep_step` from the input motion u at the step's start
+    (angle quadratic, speed linear in time over the step, tau_load held); :func:`integrate` without a history."""
+    return multistep_step(p, t, h, u.phi, u.omega, u.alpha, y, u.tau_load, history)
 
 
 def drive_derivatives(p: Parameters, t: float, y: State, phi: float, omega: float, alpha: float,
