@@ -697,7 +697,6 @@ class TorqueDrivenParameters(Parameters):
     torque_linear: tuple = field(init=False, repr=False)
     torque_linear_rows: tuple = field(init=False, repr=False)
     torque_linear_rate: float = field(init=False, repr=False)
-    torque_operators: dict = field(init=False, repr=False)
 
     def __post_init__(self):
         Parameters.__post_init__(self)
@@ -709,7 +708,6 @@ class TorqueDrivenParameters(Parameters):
         t, *lateral = self.torque_linear   # L's disc speed rows and lateral speed rows, flat for _flange_remainder
         self.torque_linear_rows = t[3] + t[5] + tuple(v for b in lateral for v in b[1])
         self.torque_linear_rate = _rate_of_chain(self.torque_linear)
-        self.torque_operators = {}   # h -> :func:`_torque_propagators` (filled as steps need them)
 
 
 def input_acceleration(p: TorqueDrivenParameters, y: Sequence[float], tau_in: float) -> float:
@@ -790,14 +788,9 @@ def phi_functions(a: Sequence[Sequence[float]], h: float) -> list:
 
 
 def _torque_propagators(p: TorqueDrivenParameters, h: float) -> tuple:
-    """:func:`_torque_propagators_of` p's :func:`torque_linear_part` and h, kept in p per h (a dict look-up: hashing
-    L's blocks for the shared cache costs as much as an operator application)."""
-    ops = p.torque_operators.get(h)
-    if ops is None:
-        if len(p.torque_operators) >= 64:
-            p.torque_operators.clear()
-        ops = p.torque_operators[h] = _torque_propagators_of(p.torque_linear, h)
-    return ops
+    """:func:`_torque_propagators_of` p's :func:`torque_linear_part` and h (memoized there: the parameters are
+    derived once and never change as the FMU steps)."""
+    return _torque_propagators_of(p.torque_linear, h)
 
 
 @functools.lru_cache(maxsize=64)
