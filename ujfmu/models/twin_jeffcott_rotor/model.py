@@ -815,7 +815,7 @@ def _torque_propagators_of(linear: tuple, h: float) -> tuple:
 
     return (state_op(half), speed_op(half, ((1, 1.0),), 0.5 * h), speed_op(half, ((2, 1.0),), h),
             state_op(full), speed_op(full, ((1, 1.0),), h), speed_op(full, ((2, 1.0),), 2.0 * h),
-            speed_op(full, ((2, 2.0), (3, -4.0)), h), speed_op(full, ((3, 4.0), (2, -1.0)), h))
+            speed_op(full, ((3, -4.0), (2, 2.0)), h), speed_op(full, ((2, -1.0), (3, 4.0)), h))
 
 
 def _chain_state_op(f: tuple, z: Sequence[float], g: tuple, d: Sequence[float]) -> list:
