@@ -9,8 +9,8 @@ remains for the host's explicit loop is the driver's controller (torque from the
 (torque from the output speed), both ordinary step-size conditions.
 
 The equations are the ``TorqueDriven`` protocol of the model module (derivatives of a state, its
-``torque_driven_rates``), integrated over each step by the shared ModelSlave with classical RK4, so a Model
-Exchange export can hand them to the host's solver.
+``torque_driven_rates``), integrated over each step by the shared ModelSlave with classical RK4 (or the protocol's
+own ``integrate`` where it has one), so a Model Exchange export can hand them to the host's solver.
 """
 
 from ..models.protocol import Torques
@@ -54,12 +54,24 @@ class TorqueDrivenSlave(ModelSlave):
     model module), whose inputs are ``Torques(tau_in, tau_load)`` held over a step and whose state starts with the
     input shaft's angle and speed. A step whose input shaft would leave the speed range is refused."""
 
+    #: the model's own ``integrate(p, t, h, y, u)`` (with ``input_acceleration(p, y, u)``) where it has one, called
+    #: by :meth:`integrate` after the speed check (instead of ModelSlave's ``_own_step``, which skips it)
+    _whole_step = None
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls._own_step is not None:
+            cls._whole_step, cls._own_step = staticmethod(cls._own_step), None
+
     def model_inputs(self):
         return Torques(self.tau_in, self.tau_load)
 
     def integrate(self, t, h, y, u):
         """The RK4 substeps, the input speed over the step bounded from the rates at its start (:meth:`speed_reach`),
-        which are the first stage's."""
+        which are the first stage's; or the model's own integrator after the same bound."""
+        if self._whole_step is not None:
+            self.speed_reach(h, y[1], self.MODEL.input_acceleration(self._p, y, u))
+            return tuple(self._whole_step(self._p, t, h, y, u))
         k1 = self.MODEL.derivatives(self._p, t, y, u)
         return self._rk4(self.MODEL.derivatives, self._p, t, u, y, h,
                          self.substeps(h, y, u, self.speed_reach(h, k1[0], k1[1])), k1)

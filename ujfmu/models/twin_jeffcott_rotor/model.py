@@ -921,12 +921,21 @@ class TorqueDrivenParameters(Parameters):
 
     J_drive: float
     omega_in_start: float
+    inverse_j_in: float = field(init=False, repr=False)
+    torque_linear: tuple = field(init=False, repr=False)
+    torque_linear_rows: tuple = field(init=False, repr=False)
+    torque_linear_rate: float = field(init=False, repr=False)
 
     def __post_init__(self):
         Parameters.__post_init__(self)
         j_in = self.J_drive + self.J_gb
+        self.inverse_j_in = 1.0 / j_in if j_in > 0.0 else 0.0
         if j_in > 0.0:
             self.natural_rate += math.sqrt(self.K1T / j_in) + self.C1T / j_in
+        self.torque_linear = torque_linear_part(self)
+        t, *lateral = self.torque_linear   # L's disc speed rows and lateral speed rows, flat for _flange_remainder
+        self.torque_linear_rows = t[3] + t[5] + tuple(v for b in lateral for v in b[1])
+        self.torque_linear_rate = _rate_of_chain(self.torque_linear)
 
 
 def input_acceleration(p: TorqueDrivenParameters, y: Sequence[float], tau_in: float) -> float:
@@ -935,6 +944,212 @@ def input_acceleration(p: TorqueDrivenParameters, y: Sequence[float], tau_in: fl
     with V and D above); y = (phi_in, omega_in, theta1, theta1', ...)."""
     t1 = p.K1T * (y[0] - y[2]) + p.C1T * (y[1] - y[3])
     return (tau_in - t1) / (p.J_drive + p.J_gb)
+
+
+# --- the torque-driven rotor's exponential integrator -------------------------------------------------------------
+#
+# The same splitting as the speed-driven rotor's, with the flange in the state: twist coordinates
+# z = y - r(t) about the rigid rotation r(t) = (phi_0 + omega_0 t, omega_0) of the whole rotor at the flange's motion
+# at the step's start (every angle, flange included, at phi_0 + omega_0 t, every speed at omega_0, discs centred;
+# r'' = 0), z' = L z + N(t, z) with L the flange -- disc 1 -- disc 2 torsional chain (a 6x6 block with a rigid-body
+# mode, so L is singular) and the Jeffcott oscillators. The state layout of z is the torque-driven state's:
+# (flange, omega_in, theta1, omega1, X1, X1', Y1, Y1', theta2, omega2, X2, X2', Y2, Y2').
+
+def torque_linear_part(p: TorqueDrivenParameters) -> tuple:
+    """L of the torque-driven rotor in twist coordinates, block-diagonal: the torsional chain on (z_phi_in, z_omega_in,
+    z_theta1, z_omega1, z_theta2, z_omega2), flange J_in = J_drive + J_gb -- K1T, C1T -- J_eff1 -- K2T, C2T -- J_eff2
+    (the joint's mean speed ratio 1; :func:`input_acceleration` and :func:`linear_part`'s disc rows), and the Jeffcott
+    oscillators of :func:`linear_part`. Its rigid-body mode (every angle and speed equal) has eigenvalue 0."""
+    ji, j1, j2 = p.inverse_j_in, 1.0 / p.j_eff1, 1.0 / p.j_eff2
+    k1, c1, k2, c2 = p.K1T, p.C1T, p.K2T, p.C2T
+    torsion = ((0.0, 1.0, 0.0, 0.0, 0.0, 0.0),
+               (-k1 * ji, -c1 * ji, k1 * ji, c1 * ji, 0.0, 0.0),
+               (0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
+               (k1 * j1, c1 * j1, -(k1 + k2) * j1, -(c1 + c2) * j1, k2 * j1, c2 * j1),
+               (0.0, 0.0, 0.0, 0.0, 0.0, 1.0),
+               (0.0, 0.0, k2 * j2, c2 * j2, -k2 * j2, -c2 * j2))
+    return (torsion, *linear_part(p)[1:])
+
+
+def _rate_of_chain(blocks: tuple) -> float:
+    """Upper bound of the spectral radius of :func:`torque_linear_part`: sqrt of the trace of M^-1 K plus the trace
+    of M^-1 C (the diagonal stiffness and damping terms of its speed rows, as :func:`_rate`)."""
+    torsion, *lateral = blocks
+    stiffness = -torsion[1][0] - torsion[3][2] - torsion[5][4] - sum(b[1][0] for b in lateral)
+    decay = -torsion[1][1] - torsion[3][3] - torsion[5][5] - sum(b[1][1] for b in lateral)
+    return math.sqrt(stiffness) + decay
+
+
+def _matrix_product(a: list, b: list) -> list:
+    columns = list(zip(*b))
+    return [[sum(x * y for x, y in zip(row, column)) for column in columns] for row in a]
+
+
+def phi_functions(a: Sequence[Sequence[float]], h: float) -> list:
+    """[phi_0(h a), ..., phi_3(h a)] of a square matrix a (phi_0 = exp, phi_k(X) = sum_j X^j / (j + k)!), singular
+    or not (no inverse of a is formed), at any h: the top block row of the exponential of the augmented matrix
+    M = [[h a, I, 0, 0], [0, 0, I, 0], [0, 0, 0, I], [0, 0, 0, 0]], exp(M) = [[phi_0, phi_1, phi_2, phi_3], ...]
+    (Saad, "Analysis of some Krylov subspace approximations to the matrix exponential operator", SIAM J. Numer.
+    Anal. 29, 1992, Lemma 1 extended by Sidje, "Expokit", ACM TOMS 24, 1998, Theorem 1), by scaling and squaring:
+    exp(M) = exp(M / 2^s)^(2^s), 2^s the first power with ||M||_inf / 2^s <= 1/2, the Taylor series of the scaled
+    exponential to 20 terms (truncation below 1e-25 of the leading term)."""
+    n = len(a)
+    size = 4 * n
+    m = [[0.0] * size for _ in range(size)]
+    for i in range(n):
+        for j in range(n):
+            m[i][j] = h * a[i][j]
+        for k in range(1, 4):
+            m[(k - 1) * n + i][k * n + i] = 1.0
+    norm = max(sum(abs(v) for v in row) for row in m)
+    squarings = max(0, math.ceil(math.log2(2.0 * norm))) if norm > 0.0 else 0
+    scale = 0.5 ** squarings
+    x = [[scale * v for v in row] for row in m]
+    result = [[1.0 if i == j else 0.0 for j in range(size)] for i in range(size)]
+    term = [row[:] for row in result]
+    for j in range(1, 21):
+        term = [[v / j for v in row] for row in _matrix_product(term, x)]
+        result = [[r + t for r, t in zip(rrow, trow)] for rrow, trow in zip(result, term)]
+    for _ in range(squarings):
+        result = _matrix_product(result, result)
+    return [[row[k * n:(k + 1) * n] for row in result[:n]] for k in range(4)]
+
+
+def _torque_propagators(p: TorqueDrivenParameters, h: float) -> tuple:
+    """:func:`_torque_propagators_of` p's :func:`torque_linear_part` and h (memoized there: the parameters are
+    derived once and never change as the FMU steps)."""
+    return _torque_propagators_of(p.torque_linear, h)
+
+
+@functools.lru_cache(maxsize=64)
+def _torque_propagators_of(linear: tuple, h: float) -> tuple:
+    """The operators of one Krogstad substep of length h (:func:`torque_exponential_step`; the weights of
+    :func:`_propagators_of`), memoized, from :func:`phi_functions` of the blocks of L at h/2 and h: full-state
+    ones (E(h/2), E(h)) as 52 numbers (the torsional 6x6 row by row in the order (phi_in, omega_in, theta1, omega1,
+    theta2, omega2), then each lateral 2x2 in the order X1, Y1, X2, Y2), ones applied to N (its speed rows only)
+    as 26 numbers (per torsional row its columns omega_in, omega1, omega2; then each lateral block's speed column):
+    Q1 = (h/2) phi_1(h L/2), Q2 = h phi_2(h L/2), R1 = h phi_1(h L), R2 = 2 h phi_2(h L),
+    S1 = h (2 phi_2 - 4 phi_3)(h L), S2 = h (4 phi_3 - phi_2)(h L)."""
+    half = [phi_functions(block, 0.5 * h) for block in linear]
+    full = [phi_functions(block, h) for block in linear]
+
+    def speed_op(phis, weights, factor):
+        t, *lateral = [[[factor * sum(w * phi[k][i][j] for k, w in weights) for j in range(len(phi[0]))]
+                        for i in range(len(phi[0]))] for phi in phis]
+        return tuple([t[r][c] for r in range(6) for c in (1, 3, 5)] + [b[r][1] for b in lateral for r in range(2)])
+
+    def state_op(phis):
+        return tuple(v for phi in phis for row in phi[0] for v in row)
+
+    return (state_op(half), speed_op(half, ((1, 1.0),), 0.5 * h), speed_op(half, ((2, 1.0),), h),
+            state_op(full), speed_op(full, ((1, 1.0),), h), speed_op(full, ((2, 1.0),), 2.0 * h),
+            speed_op(full, ((3, -4.0), (2, 2.0)), h), speed_op(full, ((2, -1.0), (3, 4.0)), h))
+
+
+def _chain_state_op(f: tuple, z: Sequence[float], g: tuple, d: Sequence[float]) -> list:
+    """F z + G d: F a full-state operator on the 14 twist coordinates, G a speed-column operator on N's speed rows
+    d = (omega_in, omega1, X1', Y1', omega2, X2', Y2') (layouts: :func:`_torque_propagators_of`)."""
+    z0, z1, z2, z3, z4, z5, z6, z7, z8, z9, z10, z11, z12, z13 = z
+    a, b, dx1, dy1, c, dx2, dy2 = d[:7]
+    return [f[0] * z0 + f[1] * z1 + f[2] * z2 + f[3] * z3 + f[4] * z8 + f[5] * z9 + g[0] * a + g[1] * b + g[2] * c,
+            f[6] * z0 + f[7] * z1 + f[8] * z2 + f[9] * z3 + f[10] * z8 + f[11] * z9 + g[3] * a + g[4] * b + g[5] * c,
+            f[12] * z0 + f[13] * z1 + f[14] * z2 + f[15] * z3 + f[16] * z8 + f[17] * z9 + g[6] * a + g[7] * b
+            + g[8] * c,
+            f[18] * z0 + f[19] * z1 + f[20] * z2 + f[21] * z3 + f[22] * z8 + f[23] * z9 + g[9] * a + g[10] * b
+            + g[11] * c,
+            f[36] * z4 + f[37] * z5 + g[18] * dx1, f[38] * z4 + f[39] * z5 + g[19] * dx1,
+            f[40] * z6 + f[41] * z7 + g[20] * dy1, f[42] * z6 + f[43] * z7 + g[21] * dy1,
+            f[24] * z0 + f[25] * z1 + f[26] * z2 + f[27] * z3 + f[28] * z8 + f[29] * z9 + g[12] * a + g[13] * b
+            + g[14] * c,
+            f[30] * z0 + f[31] * z1 + f[32] * z2 + f[33] * z3 + f[34] * z8 + f[35] * z9 + g[15] * a + g[16] * b
+            + g[17] * c,
+            f[44] * z10 + f[45] * z11 + g[22] * dx2, f[46] * z10 + f[47] * z11 + g[23] * dx2,
+            f[48] * z12 + f[49] * z13 + g[24] * dy2, f[50] * z12 + f[51] * z13 + g[25] * dy2]
+
+
+def _chain_shift(v: Sequence[float], g: tuple, d: Sequence[float]) -> list:
+    """v + G d for a difference d of N's speed rows (:func:`_chain_state_op`), whose omega_in row is 0: N's flange
+    row is the constant tau_in / J_in (:func:`_flange_remainder`)."""
+    b, dx1, dy1, c, dx2, dy2 = d[1:7]
+    return [v[0] + g[1] * b + g[2] * c, v[1] + g[4] * b + g[5] * c, v[2] + g[7] * b + g[8] * c,
+            v[3] + g[10] * b + g[11] * c, v[4] + g[18] * dx1, v[5] + g[19] * dx1, v[6] + g[20] * dy1,
+            v[7] + g[21] * dy1, v[8] + g[13] * b + g[14] * c, v[9] + g[16] * b + g[17] * c, v[10] + g[22] * dx2,
+            v[11] + g[23] * dx2, v[12] + g[24] * dy2, v[13] + g[25] * dy2]
+
+
+def _chain_last_stage(v: Sequence[float], g: tuple, d: Sequence[float], e: Sequence[float], k: tuple,
+                      f: Sequence[float]) -> list:
+    """v + G (d + e) + K f: :func:`_chain_shift` by G for the sum of two differences and by K for a third."""
+    b, dx1, dy1, c, dx2, dy2 = d[1] + e[1], d[2] + e[2], d[3] + e[3], d[4] + e[4], d[5] + e[5], d[6] + e[6]
+    q, fx1, fy1, r, fx2, fy2 = f[1:7]
+    return [v[0] + g[1] * b + g[2] * c + k[1] * q + k[2] * r, v[1] + g[4] * b + g[5] * c + k[4] * q + k[5] * r,
+            v[2] + g[7] * b + g[8] * c + k[7] * q + k[8] * r, v[3] + g[10] * b + g[11] * c + k[10] * q + k[11] * r,
+            v[4] + g[18] * dx1 + k[18] * fx1, v[5] + g[19] * dx1 + k[19] * fx1,
+            v[6] + g[20] * dy1 + k[20] * fy1, v[7] + g[21] * dy1 + k[21] * fy1,
+            v[8] + g[13] * b + g[14] * c + k[13] * q + k[14] * r, v[9] + g[16] * b + g[17] * c + k[16] * q + k[17] * r,
+            v[10] + g[22] * dx2 + k[22] * fx2, v[11] + g[23] * dx2 + k[23] * fx2,
+            v[12] + g[24] * dy2 + k[24] * fy2, v[13] + g[25] * dy2 + k[25] * fy2]
+
+
+#: no remainder to subtract (:func:`_flange_remainder`)
+_NONE9 = (0.0,) * 9
+
+
+def _flange_remainder(p: TorqueDrivenParameters, phi: float, w: float, z: Sequence[float], tau_in: float,
+                      tau_load: float, less: Sequence[float] = _NONE9) -> tuple:
+    """N's speed rows (omega_in, omega1, X1', Y1', omega2, X2', Y2') and the rates of the dissipated energy and input
+    work at the twist coordinates z about the rigid rotation (phi, w) (r'' = 0), f(r + z) - L z
+    (:meth:`TorqueDriven.derivatives`, :func:`torque_linear_part`), each less the one of ``less``. The flange's row is
+    tau_in / J_in: its equation of motion is linear, (tau_in - T1) / J_in with T1 in L."""
+    z0, z1, z2, z3, z4, z5, z6, z7, z8, z9, z10, z11, z12, z13 = z
+    alpha = (tau_in - p.K1T * (z0 - z2) - p.C1T * (z1 - z3)) * p.inverse_j_in
+    f = rates(p, phi + z0, w + z1, alpha,
+              (phi + z2, w + z3, z4, z5, z6, z7, phi + z8, w + z9, z10, z11, z12, z13, 0.0, 0.0), tau_load)
+    a0, a1, a2, a3, a4, a5, b0, b1, b2, b3, b4, b5, kx1, cx1, ky1, cy1, kx2, cx2, ky2, cy2 = p.torque_linear_rows
+    return (tau_in * p.inverse_j_in - less[0],
+            f[1] - (a0 * z0 + a1 * z1 + a2 * z2 + a3 * z3 + a4 * z8 + a5 * z9) - less[1],
+            f[3] - (kx1 * z4 + cx1 * z5) - less[2], f[5] - (ky1 * z6 + cy1 * z7) - less[3],
+            f[7] - (b0 * z0 + b1 * z1 + b2 * z2 + b3 * z3 + b4 * z8 + b5 * z9) - less[4],
+            f[9] - (kx2 * z10 + cx2 * z11) - less[5], f[11] - (ky2 * z12 + cy2 * z13) - less[6],
+            f[12] - less[7], f[13] - less[8])
+
+
+def torque_exponential_substeps(p: TorqueDrivenParameters, t_span: float, w_max: float) -> int:
+    """Substeps of :func:`torque_exponential_step`, the rule of :func:`exponential_substeps` with the flange free:
+    h times the larger of N's own rate plus 2 w_max (w_max a bound of |omega_in| over the step) and half the rate
+    bound of :func:`torque_linear_part` within ``rk4.RATE_STEP``."""
+    return rk4.substeps(max(p.remainder_rate + 2.0 * w_max, 0.5 * p.torque_linear_rate), t_span)
+
+
+def torque_exponential_step(p: TorqueDrivenParameters, t_span: float, y: Sequence[float], tau_in: float,
+                            tau_load: float) -> list:
+    """Advance the torque-driven state y (:attr:`TorqueDriven.State`) over t_span, tau_in and tau_load held, with
+    Krogstad's fourth-order ETDRK4-B (:func:`exponential_step`'s stages and weights) in twist coordinates about the
+    rigid rotation at the flange's speed at the step's start: L (:func:`torque_linear_part`, flange included) exactly,
+    N by four evaluations of the equations per substep (:func:`_flange_remainder`), the dissipated energy and input
+    work by classical RK4 (L = 0 on those rows). Order 4 (tests); the rigid-body motion under constant torques
+    (uniform acceleration) and the free torsional and lateral vibrations exact. Substeps:
+    :func:`torque_exponential_substeps` at |omega_in| + |alpha_in| t_span."""
+    phi, w = y[0], y[1]
+    n = torque_exponential_substeps(p, t_span, abs(w) + abs(input_acceleration(p, y, tau_in)) * t_span)
+    h = t_span / n
+    e_half, q1, q2, e_full, r1, r2, s1, s2 = _torque_propagators(p, h)
+    z = [0.0, 0.0, y[2] - phi, y[3] - w, y[4], y[5], y[6], y[7], y[8] - phi, y[9] - w, y[10], y[11], y[12], y[13]]
+    dissipated, work = y[14], y[15]
+    for k in range(n):
+        start, middle = phi + k * h * w, phi + (k + 0.5) * h * w
+        nu = _flange_remainder(p, start, w, z, tau_in, tau_load)
+        a = _chain_state_op(e_half, z, q1, nu)
+        da = _flange_remainder(p, middle, w, a, tau_in, tau_load, nu)
+        db = _flange_remainder(p, middle, w, _chain_shift(a, q2, da), tau_in, tau_load, nu)
+        ec = _chain_state_op(e_full, z, r1, nu)
+        dc = _flange_remainder(p, phi + (k + 1) * h * w, w, _chain_shift(ec, r2, db), tau_in, tau_load, nu)
+        z = _chain_last_stage(ec, s1, da, db, s2, dc)
+        dissipated += h * (nu[7] + (da[7] + db[7]) / 3.0 + dc[7] / 6.0)
+        work += h * (nu[8] + (da[8] + db[8]) / 3.0 + dc[8] / 6.0)
+    end = phi + t_span * w
+    return [end + z[0], w + z[1], end + z[2], w + z[3], z[4], z[5], z[6], z[7], end + z[8], w + z[9], z[10], z[11],
+            z[12], z[13], dissipated, work]
 
 
 class TorqueDriven:
@@ -964,8 +1179,20 @@ class TorqueDriven:
 
     @staticmethod
     def rate_bound(p: TorqueDrivenParameters, y: tuple, omega_max: float) -> float:
-        """The natural-rate bound with the flange free plus 4 |omega_in| (the 1x, 2x, 4x forcing)."""
+        """The natural-rate bound with the flange free plus 4 |omega_in| (the 1x, 2x, 4x forcing): the protocol's RK4
+        rule, not used by the FMU, which steps with :meth:`integrate`."""
         return p.natural_rate + 4.0 * omega_max
+
+    @staticmethod
+    def integrate(p: TorqueDrivenParameters, t: float, h: float, y: tuple, u: Torques) -> list:
+        """The FMU's step: :func:`torque_exponential_step`, tau_in and tau_load held."""
+        return torque_exponential_step(p, h, y, u.tau_in, u.tau_load)
+
+    @staticmethod
+    def input_acceleration(p: TorqueDrivenParameters, y: tuple, u: Torques) -> float:
+        """alpha_in of :func:`input_acceleration` at the inputs u (the FMU bounds the flange's speed over a step by
+        it before :meth:`integrate`)."""
+        return input_acceleration(p, y, u.tau_in)
 
     @staticmethod
     def outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
