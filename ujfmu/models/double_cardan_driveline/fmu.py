@@ -24,8 +24,8 @@ class DoubleCardanDriveline(PrescribedInputSlave):
       the intermediate shaft and a suspended mass m_s on a lateral support k_phi, c_phi = xi_phi k_phi at lever
       L_c give two degrees of freedom, the output angle and the dynamic misalignment phi that adds to both joint
       angles; integrated with classical RK4 substeps sized from the fastest natural frequency and input speed, or
-      Dormand and Prince's fifth-order formula with one step per two of them where that takes fewer evaluations
-      (model.integrate_substeps).
+      Dormand and Prince's fifth-order formula where that takes fewer evaluations, its steps sized from a bound of
+      the modes' |lambda| (model.flexible_step).
       The intermediate shaft's inertia is lumped half at each end. The driveline starts untwisted, phi = 0, with
       the output at the kinematic speed of omega_in as it is at the first step.
     Layout: yoke_phase = joint_plane_angle and beta1 = beta2 (Z) or beta1 = -beta2 (W) is constant velocity.
@@ -86,6 +86,11 @@ class DoubleCardanDriveline(PrescribedInputSlave):
     )
     DEFAULT_EXPERIMENT = (0.0, 3.0, 1.0e-3)
 
+    def integrate(self, t, h, y, u):
+        """The step from y at t under the extrapolated input motion u: RK4's substeps (``substeps``), or the
+        fifth-order steps where they are fewer evaluations (model.flexible_step, model.fifth_order_steps)."""
+        return dc.flexible_step(self._p, h, u.phi, u.omega, u.alpha, y, u.tau_load, self.substeps(h, y, u))
+
 
 class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
     """Torque-driven DoubleCardanDriveline: driving torque tau_in in, input shaft speed omega_in out (stable in
@@ -107,3 +112,11 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
     MODEL = dc.TorqueDriven
     VARIABLES = driven_ports(DoubleCardanDriveline)
     DEFAULT_EXPERIMENT = DoubleCardanDriveline.DEFAULT_EXPERIMENT
+
+    def integrate(self, t, h, y, u):
+        """As DoubleCardanDriveline's, the input speed over the step bounded from the rates at its start
+        (``speed_reach``), which are the first stage's (model.torque_driven_step)."""
+        p = self._p
+        k1 = self.MODEL.derivatives(p, t, y, u)
+        omega_max = self.speed_reach(h, k1[0], k1[1])
+        return dc.torque_driven_step(p, t, h, y, u, omega_max, self.substeps(h, y, u, omega_max), k1)
