@@ -28,6 +28,7 @@ J_in, J_out: the inertias kinematically tied to phi1 / phi4, evaluated at the st
 """
 
 import math
+from math import atan2, cos, sin
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -238,15 +239,14 @@ def flexible_derivatives(p: Parameters, phi1: float, omega1: float, state: Seque
 
 
 def _flexible_rates(p, phi1, omega1, state, tau_load):
-    """(flexible_derivatives, r1, shaft torque k_theta twist + c_theta dtwist, twist, e1 = dphi2/db1),
-    straight-line: the integrator's inner loop and the outputs' kinematics. The same equations as
+    """(flexible_derivatives, r1, shaft torque k_theta twist + c_theta dtwist, twist, e1 = dphi2/db1, the output
+    shaft's torque before the load r2 S - J_out' w4^2 / 2, J_out), straight-line: the integrator's inner loop and the outputs' kinematics. The same equations as
     :func:`flexible_kinematics` and :func:`output_inertia` (tests compare them), each sine and cosine once, no
     calls: joint i at yoke angle x and angle b (sx, cx, sb, cb its sines and cosines) has d = 1 - sb^2 cx^2,
     dy/dx = cb / d, dy/db = sb sx cx / d and y - x = atan2((1 - cb) sin 2x, (1 + cb) - (1 - cb) cos 2x) (Omar
-    Eq. 4); J_out is :func:`cross_inertia` at the static beta2 plus half the intermediate shaft's inertia times
+    Eq. 4) = atan2(q sx cx, 1 - q cx^2), q = 1 - cb (both arguments halved, cos 2x = 2 cx^2 - 1); J_out is :func:`cross_inertia` at the static beta2 plus half the intermediate shaft's inertia times
     (dy/dx)^2, or J_load (dJ_out = 0) without crosses and intermediate-shaft inertia (``constant_inertias``: the
     terms it skips are all zero then)."""
-    sin, cos = math.sin, math.cos
     phi4, omega4, phi, dphi = state
     u4 = phi4 + p.delta
     s1, c1, s4, c4 = sin(phi1), cos(phi1), sin(u4), cos(u4)
@@ -260,12 +260,13 @@ def _flexible_rates(p, phi1, omega1, state, tau_load):
     r1, r2 = cb1 / d1, cb2 / d2
     e1 = sb1 * sc1 / d1
     g = e1 - p.cos_plane * sb2 * sc4 / d2
-    twist = (phi1 + math.atan2((1.0 - cb1) * 2.0 * sc1, (1.0 + cb1) - (1.0 - cb1) * (cc1 - s1 * s1))
-             - phi4 - math.atan2((1.0 - cb2) * 2.0 * sc4, (1.0 + cb2) - (1.0 - cb2) * (cc4 - s4 * s4)))
+    q1, q2 = 1.0 - cb1, 1.0 - cb2
+    twist = phi1 + atan2(q1 * sc1, 1.0 - q1 * cc1) - phi4 - atan2(q2 * sc4, 1.0 - q2 * cc4)
     shaft = p.k_theta * twist + p.c_theta * (r1 * omega1 - r2 * omega4 + g * dphi)
     lateral = -(p.c_phi * dphi + p.k_phi * phi) / p.m_s - g * shaft / p.m_lat
     if p.constant_inertias:
-        return (omega4, (r2 * shaft - tau_load) / p.J_load, dphi, lateral), r1, shaft, twist, e1
+        net = r2 * shaft
+        return (omega4, (net - tau_load) / p.J_load, dphi, lateral), r1, shaft, twist, e1, net, p.J_load
     # J_out and dJ_out/dphi4: joint 2 at its static angle beta2 (s, c)
     s, c = p.sc_beta2
     ss, s2x = s * s, 2.0 * sc4
@@ -277,8 +278,8 @@ def _flexible_rates(p, phi1, omega1, state, tau_load):
     j_out = p.J_load + p.I_cross_pin * ss * (r * r * cc4 + s4 * s4 / d) + p.I_cross_normal * c * c / d + half * r * r
     dj_out = (p.I_cross_pin * ss * (2.0 * r * dr * cc4 - r * r * s2x + s2x / d - s4 * s4 * dd / (d * d))
               - p.I_cross_normal * c * c * dd / (d * d) + 2.0 * half * r * dr)
-    return ((omega4, (r2 * shaft - 0.5 * dj_out * omega4 * omega4 - tau_load) / j_out, dphi, lateral), r1, shaft,
-            twist, e1)
+    net = r2 * shaft - 0.5 * dj_out * omega4 * omega4
+    return (omega4, (net - tau_load) / j_out, dphi, lateral), r1, shaft, twist, e1, net, j_out
 
 
 def flexible_outputs(p: Parameters, phi1: float, omega1: float, alpha1: float, state: Sequence[float]) -> dict:
@@ -351,15 +352,17 @@ def flexible_substeps(natural_rate: float, h: float, omega1_max: float) -> int:
     return rk4.substeps(natural_rate + 4.0 * omega1_max, h)
 
 
-def flexible_step(p: Parameters, t_span: float, phi1: float, omega1: float,
-        alpha1: float, state: Sequence[float], tau_load: float, substeps: int) -> tuple:
+def flexible_step(p: Parameters, t_span: float, phi1: float, omega1: float, alpha1: float, state: Sequence[float],
+        tau_load: float, substeps: int, k1: Sequence[float] | None = None) -> tuple:
     """Advance the flexible states over t_span, phi1(t) = phi1 + w1 t + alpha1 t^2/2 and tau_load held, where RK4's
     rule asks for ``substeps`` substeps: :func:`fifth_order_steps` steps of :func:`dormand_prince` where it gives
-    any, else the RK4 substeps (``rk4.integrate_drive``). Returns the new state."""
+    any, else the RK4 substeps (``rk4.unrolled``); k1: the rates at the start, if the caller has them (not
+    evaluated again). Returns the new state."""
     steps = fifth_order_steps(p, t_span, max(abs(omega1), abs(omega1 + alpha1 * t_span)), substeps)
     if steps:
-        return _dp5_drive_4(_flexible_rates, p, state, t_span, steps, phi1, omega1, alpha1, tau_load)
-    return rk4.integrate_drive(drive_derivatives, p, 0.0, state, t_span, substeps, phi1, omega1, alpha1, tau_load)
+        return _dp5_drive_4(_flexible_rates, p, state, t_span, steps, phi1, omega1, alpha1, tau_load, k1)
+    return rk4.unrolled("drive", 4)(drive_derivatives, p, 0.0, state, t_span, substeps, phi1, omega1, alpha1,
+                                    tau_load, k1)
 
 
 def torque_driven_step(p: "TorqueDrivenParameters", t: float, t_span: float, y: Sequence[float], u: Torques,
@@ -544,28 +547,42 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
         return {"phi_out": out["phi4"], "omega_out": out["omega4"], "twist": 0.0, "dynamic_misalignment": 0.0,
                 "tau_in": out["tau_in"], "shaft_torque": out["shaft_torque"], "omega_intermediate": out["omega2"],
                 "stored_energy": out["energy"]}
-    return _flexible_output_values(p, u.phi, u.omega, u.alpha, y)
+    return flexible_output_values(p, u.phi, u.omega, u.alpha, y)[0]
 
 
-def _flexible_output_values(p, phi1, omega1, alpha1, y, tau_drive=0.0, j_drive=None):
-    """The FMU's outputs: :func:`flexible_outputs` with its kinematics from :func:`_flexible_rates` (tau_load
-    0: the rates are not used), one call instead of eight (tests compare them). With j_drive (the torque-driven
-    driveline), alpha1 is the input shaft's acceleration under tau_drive (:func:`torque_driven_rates`), returned as
-    alpha_in."""
+def flexible_output_values(p: Parameters, phi1: float, omega1: float, alpha1: float | None, y: Sequence[float],
+        tau_drive: float = 0.0, j_drive: float | None = None) -> tuple:
+    """(the FMU's outputs, start): :func:`flexible_outputs` with its kinematics from :func:`_flexible_rates`
+    (tau_load 0), one call instead of eight (tests compare them); start: what :func:`start_rates` needs for the
+    rates at this state and input motion under any torques (the integrator's first stage, which the step after
+    this output evaluation takes from it). With j_drive (the torque-driven driveline), alpha1 is the input shaft's
+    acceleration under tau_drive (:func:`torque_driven_rates`), returned as alpha_in."""
     phi4, omega4, phi, dphi = y
-    r1, shaft, twist, e1 = _flexible_rates(p, phi1, omega1, y, 0.0)[1:]
+    rates, r1, shaft, twist, e1, net, j_out = _flexible_rates(p, phi1, omega1, y, 0.0)
     j_in, dj_in = input_inertia(p, phi1)
-    j_out = output_inertia(p, phi4)[0]
+    spin, driven = 0.5 * dj_in * omega1 * omega1, r1 * shaft
     if j_drive is not None:
-        alpha1 = (tau_drive - 0.5 * dj_in * omega1 * omega1 - r1 * shaft) / (j_drive + j_in)
+        j_drive += j_in
+        alpha1 = (tau_drive - spin - driven) / j_drive
     values = {"phi_out": phi4, "omega_out": omega4, "dynamic_misalignment": phi, "twist": twist,
-              "tau_in": j_in * alpha1 + 0.5 * dj_in * omega1 * omega1 + r1 * shaft, "shaft_torque": shaft,
+              "tau_in": j_in * alpha1 + spin + driven, "shaft_torque": shaft,
               "omega_intermediate": r1 * omega1 + e1 * dphi,
               "stored_energy": 0.5 * (j_in * omega1 * omega1 + j_out * omega4 * omega4 + p.m_lat * dphi * dphi
                                       + p.k_theta * twist * twist + p.k_phi * p.lever2 * phi * phi)}
     if j_drive is not None:
         values["alpha_in"] = alpha1
-    return values
+    return values, (omega1, omega4, dphi, rates[3], net, j_out, spin, driven, j_drive)
+
+
+def start_rates(start: tuple, tau_drive: float, tau_load: float) -> tuple:
+    """The rates at the state and input motion of the output evaluation that gave ``start``
+    (:func:`flexible_output_values`) under tau_load, and tau_drive where the input shaft is free: bit for bit
+    :func:`flexible_derivatives`, or :func:`torque_driven_rates` (the same operations on the same numbers)."""
+    omega1, omega4, dphi, lateral, net, j_out, spin, driven, j_free = start
+    rates = (omega4, (net - tau_load) / j_out, dphi, lateral)
+    if j_free is None:
+        return rates
+    return (omega1, (tau_drive - spin - driven) / j_free) + rates
 
 
 def check(p: Parameters) -> list:
@@ -668,10 +685,16 @@ class TorqueDriven:
         """The input shaft's motion from the state and :func:`torque_driven_rates`, the rest from :func:`outputs`
         at that motion (flexible: both from one evaluation of the kinematics)."""
         if not p.rigid_intermediate_shaft:
-            values = _flexible_output_values(p, y[0], y[1], None, y[2:], u.tau_in, p.J_drive)
-            return torque_driven_outputs(values, y, values.pop("alpha_in"))
+            return TorqueDriven.flexible_outputs(p, y, u)[0]
         alpha = TorqueDriven.derivatives(p, t, y, u)[1]
         return torque_driven_outputs(outputs(p, t, State(*y[2:]), Drive(y[0], y[1], alpha, u.tau_load)), y, alpha)
+
+    @staticmethod
+    def flexible_outputs(p: TorqueDrivenParameters, y: tuple, u: Torques) -> tuple:
+        """(:meth:`outputs`, start) of a flexible shaft: :func:`flexible_output_values` at the state's input
+        motion under u.tau_in."""
+        values, start = flexible_output_values(p, y[0], y[1], None, y[2:], u.tau_in, p.J_drive)
+        return torque_driven_outputs(values, y, values.pop("alpha_in")), start
 
     @staticmethod
     def check(p: TorqueDrivenParameters) -> list:
