@@ -126,10 +126,11 @@ def test_the_committed_unrolled_integrators_are_what_the_generator_writes():
 
 
 @pytest.mark.parametrize("steps", [1, 3])
-def test_the_unrolled_integrators_compute_the_readable_formula_s_numbers_bit_for_bit(steps):
-    """model._dp5_drive_4 and _dp5_held_6 (what the FMUs run) against dormand_prince with the same rates."""
-    p = _driveline(beta1=0.3, beta2=-0.2, joint_plane_angle=0.4, I_cross_pin=1e-4, I_cross_normal=1e-4,
-                   I_intermediate=1e-3)
+@pytest.mark.parametrize("inertias", [dict(I_cross_pin=1e-4, I_cross_normal=1e-4, I_intermediate=1e-3), {}])
+def test_the_unrolled_integrators_compute_the_readable_formula_s_numbers_bit_for_bit(steps, inertias):
+    """model._dp5_drive_4 and _dp5_held_6 (what the FMUs run) against dormand_prince with the protocol's rates,
+    with and without the crosses' and intermediate shaft's inertia."""
+    p = _driveline(beta1=0.3, beta2=-0.2, joint_plane_angle=0.4, **inertias)
     phi0, w0, alpha, tau_load, t0 = 0.3, 70.0, 150.0, 4.0, 0.25
     y4 = (0.21, 69.0, 1e-4, -2e-3)
 
@@ -139,9 +140,9 @@ def test_the_unrolled_integrators_compute_the_readable_formula_s_numbers_bit_for
         tuple(dc.dormand_prince(drive, y4, 2e-3, steps))
     u, y6 = dc.Torques(30.0, tau_load), (phi0, w0) + y4
     readable = dc.dormand_prince(lambda s, y: dc.TorqueDriven.derivatives(p, t0 + s, y, u), y6, 2e-3, steps)
-    assert dc._dp5_held_6(dc.TorqueDriven.derivatives, p, t0, u, y6, 2e-3, steps) == tuple(readable)
-    k1 = dc.TorqueDriven.derivatives(p, t0, y6, u)
-    assert dc._dp5_held_6(dc.TorqueDriven.derivatives, p, t0, u, y6, 2e-3, steps, k1) == tuple(readable)
+    held = (dc._driven_rates, p, p.J_drive, y6, 2e-3, steps, u.tau_in, u.tau_load)
+    assert dc._dp5_held_6(*held) == tuple(readable)
+    assert dc._dp5_held_6(*held, dc.TorqueDriven.derivatives(p, t0, y6, u)) == tuple(readable)
 
 
 def _amplification(z):
