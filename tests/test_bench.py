@@ -3,11 +3,14 @@
 from pathlib import Path
 
 import importlib.util
+import warnings
 
 import pytest
 
 from ujfmu import engines
-from ujfmu.bench import bench_engines, bench_schemes, render, render_engines, render_schemes, run_bench
+from ujfmu.bench import bench_engines, bench_scenario, bench_schemes, render, render_engines, render_schemes, run_bench
+from ujfmu.build import build_fmu
+from ujfmu.master import HeldInputWarning
 
 SCENARIOS = Path(__file__).parents[1] / "scenarios"
 
@@ -21,6 +24,17 @@ def test_bench_measures_floor_and_monolithic_ratios(fmu_dir):
     assert constant["monolithic_s"] is None and "closed form" in constant["note"]
     table = render(result)
     assert "cardan_startup" in table and "x floor" in table
+
+
+def test_floor_run_holds_the_inputs_the_scenario_holds_without_a_warning(fmu_dir, tmp_path):
+    """ring_coupling_fig3 holds the coupling's tau_load at a value it states: its pass-through twins take the same
+    parameters, so the floor run holds it deliberately too (a held-input warning there would be noise)."""
+    for name in ("Motor", "RingCoupling", "Load"):
+        build_fmu(name, tmp_path, pass_through=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", HeldInputWarning)
+        row = bench_scenario(SCENARIOS / "ring_coupling_fig3.toml", fmu_dir, tmp_path, repeats=1)
+    assert row["floor_us_per_step"] > 0 and row["floor_ratio"] > 0
 
 
 def test_bench_costs_each_coupling_scheme_in_one_run(fmu_dir):

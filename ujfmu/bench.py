@@ -53,7 +53,9 @@ def bench_scenario(path, fmu_dir, floor_dir, repeats=REPEATS):
     scenario = Scenario(path)
     duration = scenario.stop_time - scenario.start_time
     n_steps = int(round(duration / STEP))
-    twins = [Component(c.name, Path(floor_dir) / f"{Path(c.fmu).stem}PassThrough.fmu", {})
+    # the twins take the scenario's parameters (same variables): the same set-up, and an input the scenario holds
+    # deliberately is held in the floor run too (no held-input warning)
+    twins = [Component(c.name, Path(floor_dir) / f"{Path(c.fmu).stem}PassThrough.fmu", c.parameters)
              for c in scenario.master_components(fmu_dir)]
     wall = floor = setup = math.inf
     for _ in range(repeats):   # alternating, keeping the fastest of each: noise only ever adds time
