@@ -88,7 +88,13 @@ class DoubleCardanDriveline(PrescribedInputSlave):
 
     #: (parameters, state, input angle and speed, start) of the last output evaluation of a flexible shaft:
     #: model.start_rates gives the next step's first stage from it while the state and input motion are the same
+    #: (a cache, keyed by what it depends on: not part of the FMU state, reset when the parameters are derived)
     _first_stage = None
+    DERIVED = PrescribedInputSlave.DERIVED + ("_first_stage",)
+
+    def derive(self):
+        super().derive()
+        self._first_stage = None
 
     def set_outputs(self, u):
         if self._kinematic:
@@ -129,7 +135,12 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
     VARIABLES = driven_ports(DoubleCardanDriveline)
     DEFAULT_EXPERIMENT = DoubleCardanDriveline.DEFAULT_EXPERIMENT
 
-    _first_stage = None   # (parameters, state, start) of the last output evaluation of a flexible shaft
+    _first_stage = None   # (parameters, state, start) of the last output evaluation of a flexible shaft (as above)
+    DERIVED = TorqueDrivenSlave.DERIVED + ("_first_stage",)
+
+    def derive(self):
+        super().derive()
+        self._first_stage = None
 
     def set_outputs(self, u):
         p = self._p
