@@ -88,13 +88,13 @@ class DoubleCardanDriveline(PrescribedInputSlave):
 
     #: (parameters, state, input angle and speed, start) of the last output evaluation of a flexible shaft:
     #: model.start_rates gives the next step's first stage from it while the state and input motion are the same
-    #: (a cache, keyed by what it depends on: not part of the FMU state, reset when the parameters are derived)
+    #: (a cache keyed by everything it depends on, plumbing set before the base's __init__: not part of the FMU
+    #: state, whose restore gives a state object it does not match unless the values are the same)
     _first_stage = None
-    DERIVED = PrescribedInputSlave.DERIVED + ("_first_stage",)
 
-    def derive(self):
-        super().derive()
+    def __init__(self, **kwargs):
         self._first_stage = None
+        super().__init__(**kwargs)
 
     def set_outputs(self, u):
         if self._kinematic:
@@ -136,11 +136,10 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
     DEFAULT_EXPERIMENT = DoubleCardanDriveline.DEFAULT_EXPERIMENT
 
     _first_stage = None   # (parameters, state, start) of the last output evaluation of a flexible shaft (as above)
-    DERIVED = TorqueDrivenSlave.DERIVED + ("_first_stage",)
 
-    def derive(self):
-        super().derive()
+    def __init__(self, **kwargs):
         self._first_stage = None
+        super().__init__(**kwargs)
 
     def set_outputs(self, u):
         p = self._p
