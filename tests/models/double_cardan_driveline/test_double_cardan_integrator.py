@@ -1,9 +1,12 @@
-"""The flexible driveline's integrator (model.integrate_substeps): Dormand and Prince's fifth-order formula is fifth order on
-a closed-form solution, replaces the RK4 substeps only where it needs fewer evaluations, is then at least as
-accurate, and its stability covers the step the rule gives it."""
+"""The flexible driveline's integrator (model.flexible_step, model.torque_driven_step): Dormand and Prince's
+fifth-order formula is fifth order on a closed-form solution, replaces the RK4 substeps only where it needs fewer
+evaluations, is then at least as accurate, its stability covers the step the rule gives it, the rule's bound of
+|lambda| (model.mode_rate_bound) bounds the linearised equations' eigenvalues, and the unrolled integrators the FMUs
+run are the readable formula's numbers and what the generator writes."""
 
 import cmath
 import math
+from pathlib import Path
 
 import pytest
 
@@ -52,24 +55,94 @@ def test_dormand_prince_is_fifth_order_on_a_closed_form_solution():
     assert orders == pytest.approx([5.0, 5.0], abs=0.3)
 
 
-@pytest.mark.parametrize("substeps, steps", [(1, 0), (2, 1), (3, 0), (4, 2), (5, 3), (8, 4), (29, 15)])
-def test_fifth_order_steps_only_where_they_take_fewer_evaluations(substeps, steps):
-    """Each fifth-order step spans two RK4 substeps (6 evaluations against 8); 0: RK4 is as cheap or cheaper."""
-    assert dc.fifth_order_steps(substeps) == steps
+@pytest.mark.parametrize("substeps, omega, steps", [(1, 0.0, 0), (2, 0.0, 1), (4, 0.0, 1), (4, 300.0, 2),
+                                                     (3, 300.0, 0), (8, 300.0, 2), (29, 3000.0, 13)])
+def test_fifth_order_steps_only_where_they_take_fewer_evaluations(substeps, omega, steps):
+    """ceil(h (mode_rate + 4 |omega|)) fifth-order steps of h = 1 ms, where RK4's rule asks for two substeps or
+    more and the steps take fewer evaluations (6 each against 4); 0: RK4."""
+    p = dc.Parameters(**STRAIGHT)
+    assert 1e-3 * (p.mode_rate + 4.0 * omega) <= steps or not steps
+    assert dc.fifth_order_steps(p, 1e-3, omega, substeps) == steps
     if steps:
         assert 6 * steps < 4 * substeps
 
 
-@pytest.mark.parametrize("substeps", [2, 4])
-def test_the_fifth_order_steps_are_at_least_as_accurate_as_the_rk4_substeps_they_replace(substeps):
-    """At the substep rule's limit (the torsional mode's |lambda| x substep = RATE_STEP), model.integrate_substeps (the
-    fifth-order formula, one step per two substeps) errs less than the RK4 substeps over 15 such intervals."""
+@pytest.mark.parametrize("steps", [1, 2])
+def test_the_fifth_order_steps_at_their_limit_are_more_accurate_than_rk4_substeps_at_theirs(steps):
+    """With the torsional mode's |lambda| x step at the limits of the two rules (1 a fifth-order step, RATE_STEP =
+    0.5 an RK4 substep), the fifth-order steps err less than twice as many RK4 substeps over 15 such intervals."""
     p = dc.Parameters(**STRAIGHT)
-    interval = substeps * rk4.RATE_STEP / math.sqrt(p.k_theta / p.J_load)
-    assert rk4.substeps(math.sqrt(p.k_theta / p.J_load), interval) == substeps
-    ours = error(p, interval, 15, lambda f, y, t: dc.integrate_substeps(f, y, t, substeps))
-    classical = error(p, interval, 15, lambda f, y, t: rk4.integrate_time(f, y, t, substeps))
+    interval = steps * 2 * rk4.RATE_STEP / math.sqrt(p.k_theta / p.J_load)
+    ours = error(p, interval, 15, lambda f, y, t: dc.dormand_prince(f, y, t, steps))
+    classical = error(p, interval, 15, lambda f, y, t: rk4.integrate_time(f, y, t, 2 * steps))
     assert ours < 0.8 * classical
+
+
+def _driveline(**changes):
+    return dc.TorqueDrivenParameters(**{**STRAIGHT, "J_drive": 0.05, "omega_in_start": 0.0, **changes})
+
+
+@pytest.mark.parametrize("changes", [
+    dict(beta1=0.349, beta2=0.349, yoke_phase=0.524, k_theta=2e4, J_load=0.5),             # the stiff scenario's
+    dict(beta1=0.26, beta2=0.26),                                                              # Omar's, input free
+    dict(beta1=0.3, beta2=-0.2, joint_plane_angle=0.4, xi_theta=0.05, I_cross_pin=1e-4,     # overdamped torsion
+         I_cross_normal=1e-4, I_intermediate=1e-3),
+    dict(beta1=0.2, beta2=0.2, xi_phi=0.2, k_theta=500.0),                                  # overdamped support
+])
+def test_mode_rate_bounds_the_linearised_equations_eigenvalues(changes):
+    """max |lambda| of the torque-driven equations' Jacobian (central differences, at rest, untwisted, at 12 input
+    angles) stays below mode_rate, which is at most natural_rate; a bound that dropped the damping's branch or the
+    free input shaft's side of the torsional mode would fail one of these."""
+    np = pytest.importorskip("numpy")
+    p = _driveline(**changes)
+    u = dc.Torques(0.0, 0.0)
+    largest = 0.0
+    for phi1 in np.linspace(0.0, math.pi, 12, endpoint=False):
+        y0 = np.array(dc.TorqueDriven.initial_state(p, 0.0, u))
+        y0[0] = phi1
+        y0[2] = dc.rigid_output_angle(p, phi1)
+        steps = 1e-7 * np.maximum(1.0, np.abs(y0))
+        jacobian = np.column_stack([
+            (np.array(dc.TorqueDriven.derivatives(p, 0.0, tuple(y0 + e), u))
+             - np.array(dc.TorqueDriven.derivatives(p, 0.0, tuple(y0 - e), u))) / (2 * e[i])
+            for i, e in enumerate(np.diag(steps))])
+        largest = max(largest, np.max(np.abs(np.linalg.eigvals(jacobian))))
+    assert largest > 0.5 * p.mode_rate                  # a bound, not a loose one
+    assert largest <= p.mode_rate <= p.natural_rate
+
+
+def test_the_stiff_driveline_takes_one_fifth_order_step_where_the_sum_bound_asked_for_two():
+    """The stiff torque-driven scenario's driveline at 60 rad/s: the torsional mode's damping ratio is about 0.66,
+    natural_rate (frequency plus decay) 2.4x mode_rate; one fifth-order step per 1 ms instead of two."""
+    p = _driveline(beta1=0.349, beta2=0.349, yoke_phase=0.524, k_theta=2e4, J_load=0.5)
+    assert p.natural_rate > 2.3 * p.mode_rate
+    substeps = rk4.substeps(p.natural_rate + 4.0 * 60.0, 1e-3)
+    assert (substeps, dc.fifth_order_steps(p, 1e-3, 60.0, substeps)) == (4, 1)
+
+
+def test_the_committed_unrolled_integrators_are_what_the_generator_writes():
+    text = Path(dc.__file__).read_text()
+    assert text[text.index(dc._GENERATED):] == dc.unrolled_source()
+
+
+@pytest.mark.parametrize("steps", [1, 3])
+@pytest.mark.parametrize("inertias", [dict(I_cross_pin=1e-4, I_cross_normal=1e-4, I_intermediate=1e-3), {}])
+def test_the_unrolled_integrators_compute_the_readable_formula_s_numbers_bit_for_bit(steps, inertias):
+    """model._dp5_drive_4 and _dp5_held_6 (what the FMUs run) against dormand_prince with the protocol's rates,
+    with and without the crosses' and intermediate shaft's inertia."""
+    p = _driveline(beta1=0.3, beta2=-0.2, joint_plane_angle=0.4, **inertias)
+    phi0, w0, alpha, tau_load, t0 = 0.3, 70.0, 150.0, 4.0, 0.25
+    y4 = (0.21, 69.0, 1e-4, -2e-3)
+
+    def drive(s, y):
+        return dc._flexible_rates(p, phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, y, tau_load)[0]
+    assert dc._dp5_drive_4(dc._flexible_rates, p, y4, 2e-3, steps, phi0, w0, alpha, tau_load) == \
+        tuple(dc.dormand_prince(drive, y4, 2e-3, steps))
+    u, y6 = dc.Torques(30.0, tau_load), (phi0, w0) + y4
+    readable = dc.dormand_prince(lambda s, y: dc.TorqueDriven.derivatives(p, t0 + s, y, u), y6, 2e-3, steps)
+    held = (dc._driven_rates, p, p.J_drive, y6, 2e-3, steps, u.tau_in, u.tau_load)
+    assert dc._dp5_held_6(*held) == tuple(readable)
+    assert dc._dp5_held_6(*held, dc.TorqueDriven.derivatives(p, t0, y6, u)) == tuple(readable)
 
 
 def _amplification(z):

@@ -28,8 +28,10 @@ J_in, J_out: the inertias kinematically tied to phi1 / phi4, evaluated at the st
 """
 
 import math
+from math import atan2, cos, sin
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import NamedTuple
 
 from ...fmu import rk4
@@ -124,6 +126,7 @@ class Parameters:
     sc_beta1: tuple = field(init=False, repr=False)
     sc_beta2: tuple = field(init=False, repr=False)
     natural_rate: float = field(init=False, repr=False)
+    mode_rate: float = field(init=False, repr=False)
     constant_inertias: bool = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -136,8 +139,9 @@ class Parameters:
         self.sc_beta1 = (math.sin(self.beta1), math.cos(self.beta1))
         self.sc_beta2 = (math.sin(self.beta2), math.cos(self.beta2))
         self.constant_inertias = self.I_cross_pin == 0.0 and self.I_cross_normal == 0.0 and self.I_intermediate == 0.0
-        self.natural_rate = 0.0 if self.rigid_intermediate_shaft or not self.J_load > 0.0 else \
-            natural_rate_bound(self)
+        flexible = not self.rigid_intermediate_shaft and self.J_load > 0.0
+        self.natural_rate = natural_rate_bound(self) if flexible else 0.0
+        self.mode_rate = mode_rate_bound(self) if flexible else 0.0
 
 
 def input_inertia(p: Parameters, phi1: float) -> tuple:
@@ -235,15 +239,14 @@ def flexible_derivatives(p: Parameters, phi1: float, omega1: float, state: Seque
 
 
 def _flexible_rates(p, phi1, omega1, state, tau_load):
-    """(flexible_derivatives, r1, shaft torque k_theta twist + c_theta dtwist, twist, e1 = dphi2/db1),
-    straight-line: the integrator's inner loop and the outputs' kinematics. The same equations as
+    """(flexible_derivatives, r1, shaft torque k_theta twist + c_theta dtwist, twist, e1 = dphi2/db1, the output
+    shaft's torque before the load r2 S - J_out' w4^2 / 2, J_out), straight-line: the integrator's inner loop and the outputs' kinematics. The same equations as
     :func:`flexible_kinematics` and :func:`output_inertia` (tests compare them), each sine and cosine once, no
     calls: joint i at yoke angle x and angle b (sx, cx, sb, cb its sines and cosines) has d = 1 - sb^2 cx^2,
     dy/dx = cb / d, dy/db = sb sx cx / d and y - x = atan2((1 - cb) sin 2x, (1 + cb) - (1 - cb) cos 2x) (Omar
-    Eq. 4); J_out is :func:`cross_inertia` at the static beta2 plus half the intermediate shaft's inertia times
+    Eq. 4) = atan2(q sx cx, 1 - q cx^2), q = 1 - cb (both arguments halved, cos 2x = 2 cx^2 - 1); J_out is :func:`cross_inertia` at the static beta2 plus half the intermediate shaft's inertia times
     (dy/dx)^2, or J_load (dJ_out = 0) without crosses and intermediate-shaft inertia (``constant_inertias``: the
     terms it skips are all zero then)."""
-    sin, cos = math.sin, math.cos
     phi4, omega4, phi, dphi = state
     u4 = phi4 + p.delta
     s1, c1, s4, c4 = sin(phi1), cos(phi1), sin(u4), cos(u4)
@@ -257,12 +260,13 @@ def _flexible_rates(p, phi1, omega1, state, tau_load):
     r1, r2 = cb1 / d1, cb2 / d2
     e1 = sb1 * sc1 / d1
     g = e1 - p.cos_plane * sb2 * sc4 / d2
-    twist = (phi1 + math.atan2((1.0 - cb1) * 2.0 * sc1, (1.0 + cb1) - (1.0 - cb1) * (cc1 - s1 * s1))
-             - phi4 - math.atan2((1.0 - cb2) * 2.0 * sc4, (1.0 + cb2) - (1.0 - cb2) * (cc4 - s4 * s4)))
+    q1, q2 = 1.0 - cb1, 1.0 - cb2
+    twist = phi1 + atan2(q1 * sc1, 1.0 - q1 * cc1) - phi4 - atan2(q2 * sc4, 1.0 - q2 * cc4)
     shaft = p.k_theta * twist + p.c_theta * (r1 * omega1 - r2 * omega4 + g * dphi)
     lateral = -(p.c_phi * dphi + p.k_phi * phi) / p.m_s - g * shaft / p.m_lat
     if p.constant_inertias:
-        return (omega4, (r2 * shaft - tau_load) / p.J_load, dphi, lateral), r1, shaft, twist, e1
+        net = r2 * shaft
+        return (omega4, (net - tau_load) / p.J_load, dphi, lateral), r1, shaft, twist, e1, net, p.J_load
     # J_out and dJ_out/dphi4: joint 2 at its static angle beta2 (s, c)
     s, c = p.sc_beta2
     ss, s2x = s * s, 2.0 * sc4
@@ -274,8 +278,8 @@ def _flexible_rates(p, phi1, omega1, state, tau_load):
     j_out = p.J_load + p.I_cross_pin * ss * (r * r * cc4 + s4 * s4 / d) + p.I_cross_normal * c * c / d + half * r * r
     dj_out = (p.I_cross_pin * ss * (2.0 * r * dr * cc4 - r * r * s2x + s2x / d - s4 * s4 * dd / (d * d))
               - p.I_cross_normal * c * c * dd / (d * d) + 2.0 * half * r * dr)
-    return ((omega4, (r2 * shaft - 0.5 * dj_out * omega4 * omega4 - tau_load) / j_out, dphi, lateral), r1, shaft,
-            twist, e1)
+    net = r2 * shaft - 0.5 * dj_out * omega4 * omega4
+    return (omega4, (net - tau_load) / j_out, dphi, lateral), r1, shaft, twist, e1, net, j_out
 
 
 def flexible_outputs(p: Parameters, phi1: float, omega1: float, alpha1: float, state: Sequence[float]) -> dict:
@@ -299,19 +303,47 @@ def flexible_outputs(p: Parameters, phi1: float, omega1: float, alpha1: float, s
             "omega2": r1 * omega1 + e1 * dphi, "energy": energy}
 
 
+def _rate_terms(p: Parameters, input_inertia: float) -> tuple:
+    """(Lambda, D): upper bounds of the largest eigenvalue of M^-1 K and of M^-1 C, the stiffness and damping of the
+    flexible equations linearised in (phi1 if free, phi4, phi) over their mass matrix M: K = k_theta a a^T +
+    k_phi (L_c cos beta1)^2 e e^T, C = c_theta a a^T + c_phi (L_c cos beta1)^2 e e^T with a = d(twist)/dq =
+    (r1, -r2, g), e the lateral coordinate, both bounded by their traces, with r <= 1/cos b and |g| <= the sum of
+    |dy/db| <= tan b / (2 cos b) of both joints."""
+    r_max = 1.0 / min(math.cos(p.beta1), math.cos(p.beta2))  # dy/dx <= 1/cos b
+    g_max = 0.5 * (  # |dy/db| <= tan b / (2 cos b)
+                   abs(math.tan(p.beta1)) / math.cos(p.beta1) + abs(math.tan(p.beta2)) / math.cos(p.beta2))
+    mobility = r_max * r_max * (1.0 / p.J_load + 1.0 / input_inertia) + g_max ** 2 / p.m_lat   # a^T M^-1 a
+    return p.k_theta * mobility + p.k_phi / p.m_s, p.c_theta * mobility + p.c_phi / p.m_s
+
+
 def natural_rate_bound(p: Parameters, input_inertia: float = math.inf) -> float:
-    """An upper bound [1/s] of the fastest free motion of the flexible equations (oscillation + decay).
+    """An upper bound [1/s] of the fastest free motion of the flexible equations: sqrt(Lambda) + D of
+    :func:`_rate_terms` (the largest oscillation plus the largest decay rate; RK4's substep rule, :func:`rate_bound`).
 
     input_inertia: a lower bound of the inertia on the input shaft when that shaft is free (torque-driven), which
     adds its side of the torsional mode, k_theta r^2 (1/J_out + 1/J_in); inf for a prescribed input shaft.
     """
-    r_max = 1.0 / min(math.cos(p.beta1), math.cos(p.beta2))  # dy/dx <= 1/cos b
-    g_max = 0.5 * (  # |dy/db| <= tan b / (2 cos b)
-                   abs(math.tan(p.beta1)) / math.cos(p.beta1) + abs(math.tan(p.beta2)) / math.cos(p.beta2))
-    inv_j = 1.0 / p.J_load + 1.0 / input_inertia
-    oscillation = math.sqrt(p.k_theta * r_max * r_max * inv_j + p.k_phi / p.m_s + p.k_theta * g_max ** 2 / p.m_lat)
-    decay = p.c_theta * r_max * r_max * inv_j + p.c_phi / p.m_s + p.c_theta * g_max ** 2 / p.m_lat
-    return oscillation + decay
+    stiffness, damping = _rate_terms(p, input_inertia)
+    return math.sqrt(stiffness) + damping
+
+
+def mode_rate_bound(p: Parameters, input_inertia: float = math.inf) -> float:
+    """An upper bound [1/s] of |lambda| over the eigenvalues of the flexible equations' free motion (the fifth-order
+    steps' rule, :func:`fifth_order_steps`), tighter than :func:`natural_rate_bound`'s sum.
+
+    An eigenvalue s with mode v of M s^2 + C s + K (M, C, K symmetric, M > 0, C >= 0) solves m s^2 + c s + k = 0 with
+    m = v*Mv, c = v*Cv, k = v*Kv; k/m <= Lambda and, as C = xi_theta (k_theta a a^T) + xi_phi (k_phi ... e e^T)
+    <= xi K with xi = max(xi_theta, xi_phi), c <= xi k. Underdamped (c^2 < 4 m k): |s| = sqrt(k/m) <= sqrt(Lambda);
+    overdamped: |s| <= (c + sqrt(c^2 - 4 m k)) / 2m, which grows with k/m, so |s| <= (xi Lambda + sqrt(xi^2 Lambda^2
+    - 4 Lambda)) / 2, and <= c/m <= D. No mode can be overdamped while xi^2 Lambda <= 4; then |lambda| <=
+    sqrt(Lambda). (The sum sqrt(Lambda) + D of :func:`natural_rate_bound` adds the decay rate to the frequency
+    instead: 2.4x |lambda| on the stiff torque-driven driveline, whose torsional mode has damping ratio 0.66.)
+    """
+    stiffness, damping = _rate_terms(p, input_inertia)
+    xi = max(p.xi_theta, p.xi_phi)
+    if xi * xi * stiffness <= 4.0:
+        return math.sqrt(stiffness)
+    return min(damping, 0.5 * (xi * stiffness + math.sqrt(xi * xi * stiffness * stiffness - 4.0 * stiffness)))
 
 
 def flexible_substeps(natural_rate: float, h: float, omega1_max: float) -> int:
@@ -320,46 +352,51 @@ def flexible_substeps(natural_rate: float, h: float, omega1_max: float) -> int:
     return rk4.substeps(natural_rate + 4.0 * omega1_max, h)
 
 
-def flexible_step(p: Parameters, t_span: float, phi1: float, omega1: float,
-        alpha1: float, state: Sequence[float], tau_load: float, substeps: int) -> tuple:
-    """Advance the flexible states over t_span, phi1(t) = phi1 + w1 t + alpha1 t^2/2 and tau_load held, by
-    :func:`integrate_substeps` with ``substeps`` RK4 substeps' worth of accuracy. Returns the new state."""
-    def rates(t, y):
-        return _flexible_rates(p, phi1 + t * (omega1 + 0.5 * alpha1 * t), omega1 + alpha1 * t, y, tau_load)[0]
-    return tuple(integrate_substeps(rates, state, t_span, substeps))
+def flexible_step(p: Parameters, t_span: float, phi1: float, omega1: float, alpha1: float, state: Sequence[float],
+        tau_load: float, substeps: int, k1: Sequence[float] | None = None) -> tuple:
+    """Advance the flexible states over t_span, phi1(t) = phi1 + w1 t + alpha1 t^2/2 and tau_load held, where RK4's
+    rule asks for ``substeps`` substeps: :func:`fifth_order_steps` steps of :func:`dormand_prince` where it gives
+    any, else the RK4 substeps (``rk4.unrolled``); k1: the rates at the start, if the caller has them (not
+    evaluated again). Returns the new state."""
+    steps = fifth_order_steps(p, t_span, max(abs(omega1), abs(omega1 + alpha1 * t_span)), substeps)
+    if steps:
+        return _dp5_drive_4(_flexible_rates, p, state, t_span, steps, phi1, omega1, alpha1, tau_load, k1)
+    return rk4.unrolled("drive", 4)(drive_derivatives, p, 0.0, state, t_span, substeps, phi1, omega1, alpha1,
+                                    tau_load, k1)
+
+
+def torque_driven_step(p: "TorqueDrivenParameters", t: float, t_span: float, y: Sequence[float], u: Torques,
+        omega_max: float, substeps: int, k1: Sequence[float] | None = None) -> tuple:
+    """:func:`flexible_step` of the torque-driven driveline: y (:class:`TorqueDriven.State`) at t advanced over
+    t_span, the input shaft's speed within omega_max and the torques u held; k1: the rates at the start, if the
+    caller has them (not evaluated again)."""
+    steps = fifth_order_steps(p, t_span, omega_max, substeps)
+    if steps:
+        rates = _rigid_driven_rates if p.rigid_intermediate_shaft else _driven_rates
+        return _dp5_held_6(rates, p, p.J_drive, y, t_span, steps, u.tau_in, u.tau_load, k1)
+    return rk4.integrate_held(TorqueDriven.derivatives, p, t, u, y, t_span, substeps, k1)
 
 
 # --- the integrator: classical RK4, or Dormand-Prince's fifth-order formula where it is cheaper ----------------
 
-def fifth_order_steps(substeps: int) -> int:
-    """Dormand-Prince steps that replace ``substeps`` RK4 substeps: each as long as two of them, used where they take
-    fewer derivative evaluations (6 a step against RK4's 4: for 2 and from 4 substeps on), else 0.
+def fifth_order_steps(p: Parameters, h: float, omega_max: float, substeps: int) -> int:
+    """Dormand-Prince steps for a step h where RK4's rule (:func:`rate_bound`) asks for ``substeps`` substeps: none
+    (0: RK4) where it asks for one, else ceil(h (mode_rate + 4 |omega1|) / (2 RATE_STEP)), each step at most
+    2 RATE_STEP = 1 over the bound of every |lambda| (:func:`mode_rate_bound`) plus the kinematics' fastest
+    harmonic, where that takes fewer derivative evaluations than the RK4 substeps (6 a step against 4), else 0.
 
-    Accuracy. The RK4 rule (:func:`rate_bound`, ``rk4.RATE_STEP`` = 0.5) bounds w h <= 0.5 a substep for every
-    rate w of the model, so w h <= 1 a fifth-order step. One step multiplies a mode exp(z), z = h lambda, by
-    R(z) = 1 + z + ... + z^5 / 120 + z^6 / 600 (RK4: to z^4 / 24); for an undamped oscillation at the limits,
-    |exp(z) - R(z)| / |z| is 3.6e-4 at w h = 1 against RK4's 5.2e-4 at w h = 0.5: 0.69x the error per radian,
-    and 0.51x at w h = 0.8 against RK4 at 0.4 (fifth order against fourth). Stability: |R| <= 1 for
-    |z| <= 1 wherever the mode has any damping (Re z <= -0.001); an undamped mode exactly at the bound would grow
-    by at most 1.4e-6 a step (|R(i)|); decay is stable to h |lambda| = 3.3.
+    Accuracy. One step multiplies a mode exp(z), z = h lambda, by R(z) = 1 + z + ... + z^5 / 120 + z^6 / 600 (RK4:
+    to z^4 / 24); for an undamped oscillation at the limits, |exp(z) - R(z)| / |z| is 3.6e-4 at w h = 1 against
+    RK4's 5.2e-4 at w h = 0.5: 0.69x the error per radian, and 0.51x at w h = 0.8 against RK4 at 0.4 (fifth order
+    against fourth). Stability: |R| <= 1 for |z| <= 1 wherever the mode has any damping (Re z <= -0.001); an
+    undamped mode exactly at the bound would grow by at most 1.4e-6 a step (|R(i)|); decay is stable to
+    h |lambda| = 3.3. RK4's rule keeps natural_rate (frequency plus decay rate) as its substeps were set with it
+    (:func:`rate_bound`); a fifth-order step needs only |lambda| <= mode_rate, at most natural_rate.
     """
-    steps = (substeps + 1) // 2
+    if substeps < 2:
+        return 0
+    steps = max(1, math.ceil(h * (p.mode_rate + 4.0 * omega_max) / (2.0 * rk4.RATE_STEP)))
     return steps if 6 * steps < 4 * substeps else 0
-
-
-def own_substeps(substeps: int) -> bool:
-    """True where :func:`integrate_substeps` departs from classical RK4 (the model protocol's ``own_substeps``)."""
-    return fifth_order_steps(substeps) > 0
-
-
-def integrate_substeps(rates, y: Sequence[float], t_span: float, substeps: int) -> list:
-    """y advanced over t_span under y' = rates(t, y) (t from the step's start): ``rk4.integrate_time`` with
-    ``substeps`` substeps, or :func:`dormand_prince` with :func:`fifth_order_steps` steps where that is cheaper.
-    The model protocol's ``integrate_substeps``: the FMU base steps with it."""
-    steps = fifth_order_steps(substeps)
-    if steps:
-        return dormand_prince(rates, y, t_span, steps)
-    return rk4.integrate_time(rates, y, t_span, substeps)
 
 
 def dormand_prince(rates, y: Sequence[float], t_span: float, n: int) -> list:
@@ -385,6 +422,53 @@ def dormand_prince(rates, y: Sequence[float], t_span: float, n: int) -> list:
     return y
 
 
+#: :func:`dormand_prince`'s stages after the first: the stage's time from the step's start t and its state's increment
+#: over h from the earlier stages' rates b, c, d, e, f (k1 ... k5); then the fifth-order solution's (k1, k3 ... k6)
+_DP5_STAGES = (("t + h / 5", "{b} / 5"),
+               ("t + 0.3 * h", "3 / 40 * {b} + 9 / 40 * {c}"),
+               ("t + 0.8 * h", "44 / 45 * {b} - 56 / 15 * {c} + 32 / 9 * {d}"),
+               ("t + 8 / 9 * h", "19372 / 6561 * {b} - 25360 / 2187 * {c} + 64448 / 6561 * {d} - 212 / 729 * {e}"),
+               ("t + h", "9017 / 3168 * {b} - 355 / 33 * {c} + 46732 / 5247 * {d} + 49 / 176 * {e} - 5103 / 18656 * {f}"))
+_DP5_SOLUTION = "35 / 384 * {b} + 500 / 1113 * {d} + 125 / 192 * {e} - 2187 / 6784 * {f} + 11 / 84 * {g}"
+#: the unrolled integrators (name, parameters, state size, the rates at stage time s and state {y}): the speed-driven
+#: driveline's straight-line ``_flexible_rates`` under the extrapolated input motion, and the torque-driven one's
+#: :func:`torque_driven_rates` (or ``_driven_rates``) with the torques held
+_DP5_KINDS = (("_dp5_drive_4", "rates, p, y, t_span, n, phi0, w0, alpha, tau_load, k1=None", 4,
+               "rates(p, phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, {y}, tau_load)[0]"),
+              ("_dp5_held_6", "rates, p, j_drive, y, t_span, n, tau_drive, tau_load, k1=None", 6,
+               "rates(p, j_drive, {y}, tau_drive, tau_load)"))
+_GENERATED = "# --- generated by unrolled_source() (python -m ujfmu.models.double_cardan_driveline.model): do not edit ---\n"
+
+
+def unrolled_source() -> str:
+    """The text of this module's generated part: :func:`dormand_prince` with its stage arithmetic written out per
+    state component for each of _DP5_KINDS (no per-component loop, list or zip; the same operations in the same
+    order, so the same numbers bit for bit: tests), rates called at stage time s as the kind says."""
+    text = [_GENERATED]
+    for name, params, size, call in _DP5_KINDS:
+        def names(letter):
+            return ", ".join(f"{letter}{i}" for i in range(size)) + ","
+
+        def vector(combination, letters, indent):
+            return "(\n" + "".join(f"{indent}    y{i} + h * ({combination.format(**{k: k + str(i) for k in letters})}),\n"
+                                   for i in range(size)) + f"{indent})"
+        lines = [f"\n\ndef {name}({params}):", "    h = t_span / n", "    t = 0.0", "    for _ in range(n):",
+                 f"        {names('y')} = y", "        if k1 is None:", "            s = t",
+                 f"            k1 = {call.format(y='y')}", f"        {names('b')} = k1", "        k1 = None"]
+        for (time, increment), letter in zip(_DP5_STAGES, "cdefg"):
+            lines += [f"        s = {time}", f"        {names(letter)} = {call.format(y=vector(increment, 'bcdef', ' ' * 8))}"]
+        lines += [f"        y = {vector(_DP5_SOLUTION, 'bdefg', ' ' * 8)}", "        t += h", "    return y"]
+        text.append("\n".join(lines) + "\n")
+    return "".join(text)
+
+
+def _write_unrolled():
+    """Replace this module's generated part with :func:`unrolled_source`."""
+    path = Path(__file__)
+    text = path.read_text()
+    path.write_text(text[:text.index(_GENERATED)] + unrolled_source())
+
+
 # --- torque-driven input shaft: phi1 is a state, the driver's rotor inertia J_d lumped on it -------------------
 
 def torque_driven_rates(p: Parameters, j_drive: float, state, tau_drive: float, tau_load: float) -> tuple:
@@ -400,9 +484,23 @@ def torque_driven_rates(p: Parameters, j_drive: float, state, tau_drive: float, 
     if len(state) == 2:
         rest = rigid_state(p, phi1, omega1, 0.0, tau_load)
         return omega1, (tau_drive - rest["tau_in"]) / (j_drive + rest["inertia"])
-    rates, r1, shaft = _flexible_rates(p, phi1, omega1, state[2:], tau_load)[:3]
-    j_in, dj_in = input_inertia(p, phi1)
+    return _driven_rates(p, j_drive, state, tau_drive, tau_load)
+
+
+def _driven_rates(p, j_drive, state, tau_drive, tau_load):
+    """:func:`torque_driven_rates` of a flexible shaft (the integrator's inner loop; without crosses and
+    intermediate-shaft inertia J_in' = 0 and the term is skipped: the same numbers)."""
+    omega1 = state[1]
+    rates, r1, shaft = _flexible_rates(p, state[0], omega1, state[2:], tau_load)[:3]
+    if p.constant_inertias:
+        return (omega1, (tau_drive - r1 * shaft) / (j_drive + p.I_input)) + rates
+    j_in, dj_in = input_inertia(p, state[0])
     return (omega1, (tau_drive - 0.5 * dj_in * omega1 * omega1 - r1 * shaft) / (j_drive + j_in)) + rates
+
+
+def _rigid_driven_rates(p, j_drive, state, tau_drive, tau_load):
+    """:func:`torque_driven_rates` of a rigid shaft on the torque-driven state, the flexible entries at rest."""
+    return torque_driven_rates(p, j_drive, state[:2], tau_drive, tau_load) + _AT_REST
 
 
 # --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
@@ -465,28 +563,42 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
         return {"phi_out": out["phi4"], "omega_out": out["omega4"], "twist": 0.0, "dynamic_misalignment": 0.0,
                 "tau_in": out["tau_in"], "shaft_torque": out["shaft_torque"], "omega_intermediate": out["omega2"],
                 "stored_energy": out["energy"]}
-    return _flexible_output_values(p, u.phi, u.omega, u.alpha, y)
+    return flexible_output_values(p, u.phi, u.omega, u.alpha, y)[0]
 
 
-def _flexible_output_values(p, phi1, omega1, alpha1, y, tau_drive=0.0, j_drive=None):
-    """The FMU's outputs: :func:`flexible_outputs` with its kinematics from :func:`_flexible_rates` (tau_load
-    0: the rates are not used), one call instead of eight (tests compare them). With j_drive (the torque-driven
-    driveline), alpha1 is the input shaft's acceleration under tau_drive (:func:`torque_driven_rates`), returned as
-    alpha_in."""
+def flexible_output_values(p: Parameters, phi1: float, omega1: float, alpha1: float | None, y: Sequence[float],
+        tau_drive: float = 0.0, j_drive: float | None = None) -> tuple:
+    """(the FMU's outputs, start): :func:`flexible_outputs` with its kinematics from :func:`_flexible_rates`
+    (tau_load 0), one call instead of eight (tests compare them); start: what :func:`start_rates` needs for the
+    rates at this state and input motion under any torques (the integrator's first stage, which the step after
+    this output evaluation takes from it). With j_drive (the torque-driven driveline), alpha1 is the input shaft's
+    acceleration under tau_drive (:func:`torque_driven_rates`), returned as alpha_in."""
     phi4, omega4, phi, dphi = y
-    r1, shaft, twist, e1 = _flexible_rates(p, phi1, omega1, y, 0.0)[1:]
+    rates, r1, shaft, twist, e1, net, j_out = _flexible_rates(p, phi1, omega1, y, 0.0)
     j_in, dj_in = input_inertia(p, phi1)
-    j_out = output_inertia(p, phi4)[0]
+    spin, driven = 0.5 * dj_in * omega1 * omega1, r1 * shaft
     if j_drive is not None:
-        alpha1 = (tau_drive - 0.5 * dj_in * omega1 * omega1 - r1 * shaft) / (j_drive + j_in)
+        j_drive += j_in
+        alpha1 = (tau_drive - spin - driven) / j_drive
     values = {"phi_out": phi4, "omega_out": omega4, "dynamic_misalignment": phi, "twist": twist,
-              "tau_in": j_in * alpha1 + 0.5 * dj_in * omega1 * omega1 + r1 * shaft, "shaft_torque": shaft,
+              "tau_in": j_in * alpha1 + spin + driven, "shaft_torque": shaft,
               "omega_intermediate": r1 * omega1 + e1 * dphi,
               "stored_energy": 0.5 * (j_in * omega1 * omega1 + j_out * omega4 * omega4 + p.m_lat * dphi * dphi
                                       + p.k_theta * twist * twist + p.k_phi * p.lever2 * phi * phi)}
     if j_drive is not None:
         values["alpha_in"] = alpha1
-    return values
+    return values, (omega1, omega4, dphi, rates[3], net, j_out, spin, driven, j_drive)
+
+
+def start_rates(start: tuple, tau_drive: float, tau_load: float) -> tuple:
+    """The rates at the state and input motion of the output evaluation that gave ``start``
+    (:func:`flexible_output_values`) under tau_load, and tau_drive where the input shaft is free: bit for bit
+    :func:`flexible_derivatives`, or :func:`torque_driven_rates` (the same operations on the same numbers)."""
+    omega1, omega4, dphi, lateral, net, j_out, spin, driven, j_free = start
+    rates = (omega4, (net - tau_load) / j_out, dphi, lateral)
+    if j_free is None:
+        return rates
+    return (omega1, (tau_drive - spin - driven) / j_free) + rates
 
 
 def check(p: Parameters) -> list:
@@ -517,8 +629,9 @@ def check_state(p: Parameters, y: State) -> list:
 @dataclass(slots=True, kw_only=True)
 class TorqueDrivenParameters(Parameters):
     """DoubleCardanDrivelineTorqueDriven's parameters: DoubleCardanDriveline's, the driver's rotor inertia J_drive
-    lumped on the input shaft [kg.m2] and the input shaft's speed at the start time [rad/s]; natural_rate is the
-    bound with the input shaft free, :func:`natural_rate_bound` (p, J_drive + I_input) (0 for a rigid shaft or
+    lumped on the input shaft [kg.m2] and the input shaft's speed at the start time [rad/s]; natural_rate and
+    mode_rate are the bounds with the input shaft free, :func:`natural_rate_bound` and :func:`mode_rate_bound`
+    (p, J_drive + I_input) (0 for a rigid shaft or
     where :meth:`TorqueDriven.check` refuses the parameters)."""
 
     J_drive: float
@@ -527,8 +640,9 @@ class TorqueDrivenParameters(Parameters):
     def __post_init__(self):
         Parameters.__post_init__(self)
         j_in = self.J_drive + self.I_input
-        self.natural_rate = 0.0 if self.rigid_intermediate_shaft or not (self.J_load > 0.0 and j_in > 0.0) else \
-            natural_rate_bound(self, j_in)
+        flexible = not self.rigid_intermediate_shaft and self.J_load > 0.0 and j_in > 0.0
+        self.natural_rate = natural_rate_bound(self, j_in) if flexible else 0.0
+        self.mode_rate = mode_rate_bound(self, j_in) if flexible else 0.0
 
 
 #: rates of the flexible entries of the torque-driven state, which a rigid shaft does not use
@@ -542,8 +656,6 @@ class TorqueDriven:
 
     Parameters = TorqueDrivenParameters
     Inputs = Torques
-    integrate_substeps = staticmethod(integrate_substeps)
-    own_substeps = staticmethod(own_substeps)
 
     class State(NamedTuple):
         """Input shaft angle and speed, then the speed-driven driveline's :class:`State`."""
@@ -589,10 +701,16 @@ class TorqueDriven:
         """The input shaft's motion from the state and :func:`torque_driven_rates`, the rest from :func:`outputs`
         at that motion (flexible: both from one evaluation of the kinematics)."""
         if not p.rigid_intermediate_shaft:
-            values = _flexible_output_values(p, y[0], y[1], None, y[2:], u.tau_in, p.J_drive)
-            return torque_driven_outputs(values, y, values.pop("alpha_in"))
+            return TorqueDriven.flexible_outputs(p, y, u)[0]
         alpha = TorqueDriven.derivatives(p, t, y, u)[1]
         return torque_driven_outputs(outputs(p, t, State(*y[2:]), Drive(y[0], y[1], alpha, u.tau_load)), y, alpha)
+
+    @staticmethod
+    def flexible_outputs(p: TorqueDrivenParameters, y: tuple, u: Torques) -> tuple:
+        """(:meth:`outputs`, start) of a flexible shaft: :func:`flexible_output_values` at the state's input
+        motion under u.tau_in."""
+        values, start = flexible_output_values(p, y[0], y[1], None, y[2:], u.tau_in, p.J_drive)
+        return torque_driven_outputs(values, y, values.pop("alpha_in")), start
 
     @staticmethod
     def check(p: TorqueDrivenParameters) -> list:
@@ -603,3 +721,132 @@ class TorqueDriven:
     def check_state(p: TorqueDrivenParameters, y: tuple) -> list:
         """:func:`check_state` of the speed-driven driveline's part of the state."""
         return check_state(p, y[2:])
+
+
+if __name__ == "__main__":
+    _write_unrolled()
+
+
+# --- generated by unrolled_source() (python -m ujfmu.models.double_cardan_driveline.model): do not edit ---
+
+
+def _dp5_drive_4(rates, p, y, t_span, n, phi0, w0, alpha, tau_load, k1=None):
+    h = t_span / n
+    t = 0.0
+    for _ in range(n):
+        y0, y1, y2, y3, = y
+        if k1 is None:
+            s = t
+            k1 = rates(p, phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, y, tau_load)[0]
+        b0, b1, b2, b3, = k1
+        k1 = None
+        s = t + h / 5
+        c0, c1, c2, c3, = rates(p, phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, (
+            y0 + h * (b0 / 5),
+            y1 + h * (b1 / 5),
+            y2 + h * (b2 / 5),
+            y3 + h * (b3 / 5),
+        ), tau_load)[0]
+        s = t + 0.3 * h
+        d0, d1, d2, d3, = rates(p, phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, (
+            y0 + h * (3 / 40 * b0 + 9 / 40 * c0),
+            y1 + h * (3 / 40 * b1 + 9 / 40 * c1),
+            y2 + h * (3 / 40 * b2 + 9 / 40 * c2),
+            y3 + h * (3 / 40 * b3 + 9 / 40 * c3),
+        ), tau_load)[0]
+        s = t + 0.8 * h
+        e0, e1, e2, e3, = rates(p, phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, (
+            y0 + h * (44 / 45 * b0 - 56 / 15 * c0 + 32 / 9 * d0),
+            y1 + h * (44 / 45 * b1 - 56 / 15 * c1 + 32 / 9 * d1),
+            y2 + h * (44 / 45 * b2 - 56 / 15 * c2 + 32 / 9 * d2),
+            y3 + h * (44 / 45 * b3 - 56 / 15 * c3 + 32 / 9 * d3),
+        ), tau_load)[0]
+        s = t + 8 / 9 * h
+        f0, f1, f2, f3, = rates(p, phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, (
+            y0 + h * (19372 / 6561 * b0 - 25360 / 2187 * c0 + 64448 / 6561 * d0 - 212 / 729 * e0),
+            y1 + h * (19372 / 6561 * b1 - 25360 / 2187 * c1 + 64448 / 6561 * d1 - 212 / 729 * e1),
+            y2 + h * (19372 / 6561 * b2 - 25360 / 2187 * c2 + 64448 / 6561 * d2 - 212 / 729 * e2),
+            y3 + h * (19372 / 6561 * b3 - 25360 / 2187 * c3 + 64448 / 6561 * d3 - 212 / 729 * e3),
+        ), tau_load)[0]
+        s = t + h
+        g0, g1, g2, g3, = rates(p, phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, (
+            y0 + h * (9017 / 3168 * b0 - 355 / 33 * c0 + 46732 / 5247 * d0 + 49 / 176 * e0 - 5103 / 18656 * f0),
+            y1 + h * (9017 / 3168 * b1 - 355 / 33 * c1 + 46732 / 5247 * d1 + 49 / 176 * e1 - 5103 / 18656 * f1),
+            y2 + h * (9017 / 3168 * b2 - 355 / 33 * c2 + 46732 / 5247 * d2 + 49 / 176 * e2 - 5103 / 18656 * f2),
+            y3 + h * (9017 / 3168 * b3 - 355 / 33 * c3 + 46732 / 5247 * d3 + 49 / 176 * e3 - 5103 / 18656 * f3),
+        ), tau_load)[0]
+        y = (
+            y0 + h * (35 / 384 * b0 + 500 / 1113 * d0 + 125 / 192 * e0 - 2187 / 6784 * f0 + 11 / 84 * g0),
+            y1 + h * (35 / 384 * b1 + 500 / 1113 * d1 + 125 / 192 * e1 - 2187 / 6784 * f1 + 11 / 84 * g1),
+            y2 + h * (35 / 384 * b2 + 500 / 1113 * d2 + 125 / 192 * e2 - 2187 / 6784 * f2 + 11 / 84 * g2),
+            y3 + h * (35 / 384 * b3 + 500 / 1113 * d3 + 125 / 192 * e3 - 2187 / 6784 * f3 + 11 / 84 * g3),
+        )
+        t += h
+    return y
+
+
+def _dp5_held_6(rates, p, j_drive, y, t_span, n, tau_drive, tau_load, k1=None):
+    h = t_span / n
+    t = 0.0
+    for _ in range(n):
+        y0, y1, y2, y3, y4, y5, = y
+        if k1 is None:
+            s = t
+            k1 = rates(p, j_drive, y, tau_drive, tau_load)
+        b0, b1, b2, b3, b4, b5, = k1
+        k1 = None
+        s = t + h / 5
+        c0, c1, c2, c3, c4, c5, = rates(p, j_drive, (
+            y0 + h * (b0 / 5),
+            y1 + h * (b1 / 5),
+            y2 + h * (b2 / 5),
+            y3 + h * (b3 / 5),
+            y4 + h * (b4 / 5),
+            y5 + h * (b5 / 5),
+        ), tau_drive, tau_load)
+        s = t + 0.3 * h
+        d0, d1, d2, d3, d4, d5, = rates(p, j_drive, (
+            y0 + h * (3 / 40 * b0 + 9 / 40 * c0),
+            y1 + h * (3 / 40 * b1 + 9 / 40 * c1),
+            y2 + h * (3 / 40 * b2 + 9 / 40 * c2),
+            y3 + h * (3 / 40 * b3 + 9 / 40 * c3),
+            y4 + h * (3 / 40 * b4 + 9 / 40 * c4),
+            y5 + h * (3 / 40 * b5 + 9 / 40 * c5),
+        ), tau_drive, tau_load)
+        s = t + 0.8 * h
+        e0, e1, e2, e3, e4, e5, = rates(p, j_drive, (
+            y0 + h * (44 / 45 * b0 - 56 / 15 * c0 + 32 / 9 * d0),
+            y1 + h * (44 / 45 * b1 - 56 / 15 * c1 + 32 / 9 * d1),
+            y2 + h * (44 / 45 * b2 - 56 / 15 * c2 + 32 / 9 * d2),
+            y3 + h * (44 / 45 * b3 - 56 / 15 * c3 + 32 / 9 * d3),
+            y4 + h * (44 / 45 * b4 - 56 / 15 * c4 + 32 / 9 * d4),
+            y5 + h * (44 / 45 * b5 - 56 / 15 * c5 + 32 / 9 * d5),
+        ), tau_drive, tau_load)
+        s = t + 8 / 9 * h
+        f0, f1, f2, f3, f4, f5, = rates(p, j_drive, (
+            y0 + h * (19372 / 6561 * b0 - 25360 / 2187 * c0 + 64448 / 6561 * d0 - 212 / 729 * e0),
+            y1 + h * (19372 / 6561 * b1 - 25360 / 2187 * c1 + 64448 / 6561 * d1 - 212 / 729 * e1),
+            y2 + h * (19372 / 6561 * b2 - 25360 / 2187 * c2 + 64448 / 6561 * d2 - 212 / 729 * e2),
+            y3 + h * (19372 / 6561 * b3 - 25360 / 2187 * c3 + 64448 / 6561 * d3 - 212 / 729 * e3),
+            y4 + h * (19372 / 6561 * b4 - 25360 / 2187 * c4 + 64448 / 6561 * d4 - 212 / 729 * e4),
+            y5 + h * (19372 / 6561 * b5 - 25360 / 2187 * c5 + 64448 / 6561 * d5 - 212 / 729 * e5),
+        ), tau_drive, tau_load)
+        s = t + h
+        g0, g1, g2, g3, g4, g5, = rates(p, j_drive, (
+            y0 + h * (9017 / 3168 * b0 - 355 / 33 * c0 + 46732 / 5247 * d0 + 49 / 176 * e0 - 5103 / 18656 * f0),
+            y1 + h * (9017 / 3168 * b1 - 355 / 33 * c1 + 46732 / 5247 * d1 + 49 / 176 * e1 - 5103 / 18656 * f1),
+            y2 + h * (9017 / 3168 * b2 - 355 / 33 * c2 + 46732 / 5247 * d2 + 49 / 176 * e2 - 5103 / 18656 * f2),
+            y3 + h * (9017 / 3168 * b3 - 355 / 33 * c3 + 46732 / 5247 * d3 + 49 / 176 * e3 - 5103 / 18656 * f3),
+            y4 + h * (9017 / 3168 * b4 - 355 / 33 * c4 + 46732 / 5247 * d4 + 49 / 176 * e4 - 5103 / 18656 * f4),
+            y5 + h * (9017 / 3168 * b5 - 355 / 33 * c5 + 46732 / 5247 * d5 + 49 / 176 * e5 - 5103 / 18656 * f5),
+        ), tau_drive, tau_load)
+        y = (
+            y0 + h * (35 / 384 * b0 + 500 / 1113 * d0 + 125 / 192 * e0 - 2187 / 6784 * f0 + 11 / 84 * g0),
+            y1 + h * (35 / 384 * b1 + 500 / 1113 * d1 + 125 / 192 * e1 - 2187 / 6784 * f1 + 11 / 84 * g1),
+            y2 + h * (35 / 384 * b2 + 500 / 1113 * d2 + 125 / 192 * e2 - 2187 / 6784 * f2 + 11 / 84 * g2),
+            y3 + h * (35 / 384 * b3 + 500 / 1113 * d3 + 125 / 192 * e3 - 2187 / 6784 * f3 + 11 / 84 * g3),
+            y4 + h * (35 / 384 * b4 + 500 / 1113 * d4 + 125 / 192 * e4 - 2187 / 6784 * f4 + 11 / 84 * g4),
+            y5 + h * (35 / 384 * b5 + 500 / 1113 * d5 + 125 / 192 * e5 - 2187 / 6784 * f5 + 11 / 84 * g5),
+        )
+        t += h
+    return y
