@@ -208,9 +208,9 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
 
 
 def load_outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
-    """The outputs of :func:`outputs` that depend on tau_load: tau_in and the moment (joint_torques); the driven
-    shaft's motion does not."""
-    tau_in, m_x, m_y, m_z, _, _ = joint_torques(p.frame, u.phi, u.omega, u.alpha, u.tau_load, p.J1, p.J2)
+    """The outputs of :func:`outputs` that depend on tau_load: tau_in and the moment (:func:`joint_motion`, the same
+    numbers as :func:`outputs`); the driven shaft's motion does not."""
+    _, tau_in, m_x, m_y, m_z, _, _ = joint_motion(p, u.phi, u.omega, u.alpha, u.tau_load)
     return {"tau_in": tau_in, "M_x": m_x, "M_y": m_y, "M_z": m_z}
 
 

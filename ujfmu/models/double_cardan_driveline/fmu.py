@@ -86,33 +86,6 @@ class DoubleCardanDriveline(PrescribedInputSlave):
     )
     DEFAULT_EXPERIMENT = (0.0, 3.0, 1.0e-3)
 
-    #: (parameters, state, input angle and speed, start) of the last output evaluation of a flexible shaft:
-    #: model.start_rates gives the next step's first stage from it while the state and input motion are the same
-    #: (a cache keyed by everything it depends on, plumbing set before the base's __init__: not part of the FMU
-    #: state, whose restore gives a state object it does not match unless the values are the same)
-    _first_stage = None
-
-    def __init__(self, **kwargs):
-        self._first_stage = None
-        super().__init__(**kwargs)
-
-    def set_outputs(self, u):
-        if self._kinematic:
-            return super().set_outputs(u)
-        y = self.current_state(u)
-        values, start = dc.flexible_output_values(self._p, u.phi, u.omega, u.alpha, y)
-        vars(self).update(values)
-        self._first_stage = (self._p, y, u.phi, u.omega, start)
-
-    def integrate(self, t, h, y, u):
-        """The step from y at t under the extrapolated input motion u: RK4's substeps (``substeps``), or the
-        fifth-order steps where they are fewer evaluations (model.flexible_step, model.fifth_order_steps); the
-        first stage from the output evaluation at the same state and input motion, if there was one."""
-        start = self._first_stage
-        k1 = (dc.start_rates(start[4], 0.0, u.tau_load) if start is not None and start[1] is y and
-              start[0] is self._p and start[2] == u.phi and start[3] == u.omega else None)
-        return dc.flexible_step(self._p, h, u.phi, u.omega, u.alpha, y, u.tau_load, self.substeps(h, y, u), k1)
-
 
 class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
     """Torque-driven DoubleCardanDriveline: driving torque tau_in in, input shaft speed omega_in out (stable in
@@ -134,29 +107,3 @@ class DoubleCardanDrivelineTorqueDriven(TorqueDrivenSlave):
     MODEL = dc.TorqueDriven
     VARIABLES = driven_ports(DoubleCardanDriveline)
     DEFAULT_EXPERIMENT = DoubleCardanDriveline.DEFAULT_EXPERIMENT
-
-    _first_stage = None   # (parameters, state, start) of the last output evaluation of a flexible shaft (as above)
-
-    def __init__(self, **kwargs):
-        self._first_stage = None
-        super().__init__(**kwargs)
-
-    def set_outputs(self, u):
-        p = self._p
-        if p.rigid_intermediate_shaft:
-            return super().set_outputs(u)
-        y = self.current_state(u)
-        values, start = self.MODEL.flexible_outputs(p, y, u)
-        vars(self).update(values)
-        self._first_stage = (p, y, start)
-
-    def integrate(self, t, h, y, u):
-        """As DoubleCardanDriveline's, the input speed over the step bounded from the rates at its start
-        (``speed_reach``), which are the first stage's (model.torque_driven_step), taken from the output evaluation
-        at the same state if there was one."""
-        p = self._p
-        start = self._first_stage
-        k1 = (dc.start_rates(start[2], u.tau_in, u.tau_load) if start is not None and start[1] is y and start[0] is p
-              else self.MODEL.derivatives(p, t, y, u))
-        omega_max = self.speed_reach(h, k1[0], k1[1])
-        return dc.torque_driven_step(p, t, h, y, u, omega_max, self.substeps(h, y, u, omega_max), k1)

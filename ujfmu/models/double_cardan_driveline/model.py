@@ -556,6 +556,14 @@ def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
     return p.natural_rate + 4.0 * omega_max
 
 
+def integrate(p: Parameters, t: float, h: float, y: State, u: Drive) -> tuple:
+    """The FMU's step of a flexible shaft (a rigid one has nothing to integrate): :func:`flexible_step` from the input
+    motion u at the step's start (angle quadratic, speed linear in time, tau_load held), RK4's substep count from
+    :func:`rate_bound` at the input speed's bound over the step."""
+    omega_max = max(abs(u.omega), abs(u.omega + u.alpha * h))
+    return flexible_step(p, h, u.phi, u.omega, u.alpha, y, u.tau_load, rk4.substeps(rate_bound(p, y, omega_max), h))
+
+
 def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
     """Rigid: :func:`rigid_state`; flexible: :func:`flexible_outputs` at state y (computed straight-line)."""
     if p.rigid_intermediate_shaft:
@@ -683,6 +691,20 @@ class TorqueDriven:
         if p.rigid_intermediate_shaft:
             return torque_driven_rates(p, p.J_drive, y[:2], u.tau_in, u.tau_load) + _AT_REST
         return torque_driven_rates(p, p.J_drive, y, u.tau_in, u.tau_load)
+
+    @staticmethod
+    def input_acceleration(p: TorqueDrivenParameters, y: tuple, u: Torques) -> float:
+        """alpha_in, the input shaft's acceleration at state y under the torques u (:meth:`derivatives`)."""
+        return TorqueDriven.derivatives(p, 0.0, y, u)[1]
+
+    @staticmethod
+    def integrate(p: TorqueDrivenParameters, t: float, h: float, y: tuple, u: Torques) -> tuple:
+        """The FMU's step: :func:`torque_driven_step` with the input speed over the step bounded from the rates at
+        its start, |omega1| + |alpha1| h (the first stage's), and RK4's substep count from :meth:`rate_bound` there."""
+        k1 = TorqueDriven.derivatives(p, t, y, u)
+        omega_max = abs(k1[0]) + abs(k1[1]) * h
+        return torque_driven_step(p, t, h, y, u, omega_max, rk4.substeps(TorqueDriven.rate_bound(p, y, omega_max), h),
+                                  k1)
 
     @staticmethod
     def output_free_inputs(p: TorqueDrivenParameters) -> tuple:
