@@ -571,15 +571,13 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
         return {"phi_out": out["phi4"], "omega_out": out["omega4"], "twist": 0.0, "dynamic_misalignment": 0.0,
                 "tau_in": out["tau_in"], "shaft_torque": out["shaft_torque"], "omega_intermediate": out["omega2"],
                 "stored_energy": out["energy"]}
-    return flexible_output_values(p, u.phi, u.omega, u.alpha, y)[0]
+    return flexible_output_values(p, u.phi, u.omega, u.alpha, y)
 
 
 def flexible_output_values(p: Parameters, phi1: float, omega1: float, alpha1: float | None, y: Sequence[float],
         tau_drive: float = 0.0, j_drive: float | None = None) -> tuple:
-    """(the FMU's outputs, start): :func:`flexible_outputs` with its kinematics from :func:`_flexible_rates`
-    (tau_load 0), one call instead of eight (tests compare them); start: what :func:`start_rates` needs for the
-    rates at this state and input motion under any torques (the integrator's first stage, which the step after
-    this output evaluation takes from it). With j_drive (the torque-driven driveline), alpha1 is the input shaft's
+    """The FMU's outputs: :func:`flexible_outputs` with its kinematics from :func:`_flexible_rates` (tau_load 0),
+    one call instead of eight (tests compare them). With j_drive (the torque-driven driveline), alpha1 is the input shaft's
     acceleration under tau_drive (:func:`torque_driven_rates`), returned as alpha_in."""
     phi4, omega4, phi, dphi = y
     rates, r1, shaft, twist, e1, net, j_out = _flexible_rates(p, phi1, omega1, y, 0.0)
@@ -595,18 +593,7 @@ def flexible_output_values(p: Parameters, phi1: float, omega1: float, alpha1: fl
                                       + p.k_theta * twist * twist + p.k_phi * p.lever2 * phi * phi)}
     if j_drive is not None:
         values["alpha_in"] = alpha1
-    return values, (omega1, omega4, dphi, rates[3], net, j_out, spin, driven, j_drive)
-
-
-def start_rates(start: tuple, tau_drive: float, tau_load: float) -> tuple:
-    """The rates at the state and input motion of the output evaluation that gave ``start``
-    (:func:`flexible_output_values`) under tau_load, and tau_drive where the input shaft is free: bit for bit
-    :func:`flexible_derivatives`, or :func:`torque_driven_rates` (the same operations on the same numbers)."""
-    omega1, omega4, dphi, lateral, net, j_out, spin, driven, j_free = start
-    rates = (omega4, (net - tau_load) / j_out, dphi, lateral)
-    if j_free is None:
-        return rates
-    return (omega1, (tau_drive - spin - driven) / j_free) + rates
+    return values
 
 
 def check(p: Parameters) -> list:
@@ -723,16 +710,16 @@ class TorqueDriven:
         """The input shaft's motion from the state and :func:`torque_driven_rates`, the rest from :func:`outputs`
         at that motion (flexible: both from one evaluation of the kinematics)."""
         if not p.rigid_intermediate_shaft:
-            return TorqueDriven.flexible_outputs(p, y, u)[0]
+            return TorqueDriven.flexible_outputs(p, y, u)
         alpha = TorqueDriven.derivatives(p, t, y, u)[1]
         return torque_driven_outputs(outputs(p, t, State(*y[2:]), Drive(y[0], y[1], alpha, u.tau_load)), y, alpha)
 
     @staticmethod
-    def flexible_outputs(p: TorqueDrivenParameters, y: tuple, u: Torques) -> tuple:
-        """(:meth:`outputs`, start) of a flexible shaft: :func:`flexible_output_values` at the state's input
-        motion under u.tau_in."""
-        values, start = flexible_output_values(p, y[0], y[1], None, y[2:], u.tau_in, p.J_drive)
-        return torque_driven_outputs(values, y, values.pop("alpha_in")), start
+    def flexible_outputs(p: TorqueDrivenParameters, y: tuple, u: Torques) -> dict:
+        """:meth:`outputs` of a flexible shaft: :func:`flexible_output_values` at the state's input motion under
+        u.tau_in."""
+        values = flexible_output_values(p, y[0], y[1], None, y[2:], u.tau_in, p.J_drive)
+        return torque_driven_outputs(values, y, values.pop("alpha_in"))
 
     @staticmethod
     def check(p: TorqueDrivenParameters) -> list:
