@@ -447,8 +447,7 @@ class ModelSlave(UjfmuSlave):
     - the parameters object ``MODEL.Parameters`` from the FMU's parameters (by name), and ``MODEL.check`` on it;
     - the state: ``MODEL.initial_state`` at the current inputs until the first step (the warm start: a host may
       set the inputs after initialization), then integrated, or held while ``MODEL.kinematic(p)``;
-    - a step: classical RK4 (``rk4.unrolled``; where the model has ``integrate_substeps``, its own formula for
-      the substep counts its ``own_substeps`` claims) with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs
+    - a step: classical RK4 (``rk4.unrolled``) with ``rk4.substeps`` from ``MODEL.rate_bound``, the inputs
       held (a prescribed input shaft extrapolated, see PrescribedInputSlave), or the model's own ``integrate``
       where it has one; then the finite check and
       ``MODEL.check_state`` of the new state;
@@ -478,9 +477,6 @@ class ModelSlave(UjfmuSlave):
             cls.PHYSICS = sys.modules[model.__module__] if isinstance(model, type) else model
             cls.STATE = {**cls.STATE, "_y": f"float[{len(model.State._fields)}]"}
             cls._rk4 = staticmethod(rk4.unrolled(cls.RK4_KIND, len(model.State._fields)))
-            if hasattr(model, "integrate_substeps"):   # the model's own formula for some substep counts
-                cls._rk4 = staticmethod(rk4.with_own_substeps(cls._rk4, cls.RK4_KIND, model.integrate_substeps,
-                                                              model.own_substeps))
             if hasattr(model, "integrate"):   # the model integrates its own steps
                 cls._own_step = staticmethod(model.integrate)
             if hasattr(model, "integrate_with_history"):   # a multistep integrator: its history is FMU state

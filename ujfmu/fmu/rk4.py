@@ -171,27 +171,6 @@ def _drive_looped(derivatives, p, t0, y, t_span, n, phi0, w0, alpha, tau_load, k
 _LOOPED = {"held": _held_looped, "drive": _drive_looped}
 
 
-def with_own_substeps(fast: Callable, kind: str, formula: Callable, own: Callable[[int], bool]) -> Callable:
-    """An integrator of :func:`unrolled`'s call for ``kind`` that takes n substeps with a model's own
-    ``formula(rates, y, t_span, n)`` where ``own(n)`` is true (the model protocol's optional
-    ``integrate_substeps`` and ``own_substeps``), else with ``fast``."""
-    if kind == "held":
-        def integrate(derivatives, p, t0, u, y, t_span, n, k1=None):
-            if not own(n):
-                return fast(derivatives, p, t0, u, y, t_span, n, k1)
-            return tuple(formula(lambda s, y: derivatives(p, t0 + s, y, u), y, t_span, n))
-        return integrate
-
-    def integrate(derivatives, p, t0, y, t_span, n, phi0, w0, alpha, tau_load, k1=None):
-        if not own(n):
-            return fast(derivatives, p, t0, y, t_span, n, phi0, w0, alpha, tau_load, k1)
-
-        def rates(s, y):
-            return derivatives(p, t0 + s, y, phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s, alpha, tau_load)
-        return tuple(formula(rates, y, t_span, n))
-    return integrate
-
-
 def unrolled_source(sizes: Sequence[int] = SIZES) -> str:
     """The text of ``rk4_unrolled.py``: one integrator per kind of ``_KINDS`` and size in sizes."""
     header = ('"""Classical RK4 with the stage arithmetic written out per state component, one function per kind '

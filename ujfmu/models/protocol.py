@@ -34,9 +34,7 @@ so the FMU does not recompute them when a host sets them after reading the outpu
 whose inputs are a :class:`Drive`, ``drive_derivatives(p, t, y, phi, omega, alpha, tau_load) -> tuple`` (the same
 numbers as ``derivatives(p, t, y, Drive(phi, omega, alpha, tau_load))`` from plain floats: the FMU calls it at
 every RK4 stage, where building a Drive costs as much as a small model's equations; default built from
-``derivatives``), ``integrate_substeps(rates, y, t_span, substeps) -> list`` with ``own_substeps(substeps) -> bool``
-(the model's own formula for the RK4 substeps its ``rate_bound`` asks for, used where ``own_substeps`` is true;
-default ``ujfmu.fmu.rk4``'s classical RK4) and ``integrate(p, t, h, y, u) -> tuple`` (the state y at time t
+``derivatives``) and ``integrate(p, t, h, y, u) -> tuple`` (the state y at time t
 advanced over a step of h from the inputs u at its start, a Drive extrapolated as the FMU does, by the model's own
 integrator, substep rule included; default the FMU's RK4 substeps from ``rate_bound``), or
 ``integrate_with_history(p, t, h, y, u, history) -> (state, history)`` with ``NO_HISTORY`` (a multistep
