@@ -21,16 +21,32 @@ def readme_python_blocks():
 CLOSED_CONNECTION = ("CommClosedError", "StreamClosedError")
 
 
+#: how Python joins the tracebacks of one chain of exceptions
+CHAINED = ("During handling of the above exception, another exception occurred:",
+           "The above exception was the direct cause of the following exception:")
+
+
 def unexpected_tracebacks(stderr: str) -> list:
-    """The tracebacks in stderr but those of a closed dask connection."""
-    blocks = stderr.split("Traceback (most recent call last):")[1:]
-    return [b for b in blocks if not any(name in b for name in CLOSED_CONNECTION)]
+    """The tracebacks in stderr but those of a closed dask connection (a chain of exceptions is one traceback: a
+    timeout while connecting that ends in a closed connection is that)."""
+    chains, chain = [], ""
+    for block in stderr.split("Traceback (most recent call last):")[1:]:
+        chain += block
+        if not any(marker in block for marker in CHAINED):
+            chains.append(chain)
+            chain = ""
+    if chain:
+        chains.append(chain)
+    return [c for c in chains if not any(name in c for name in CLOSED_CONNECTION)]
 
 
 def test_unexpected_tracebacks_keep_all_but_closed_connections():
     closed = "Traceback (most recent call last):\n  File x\ndistributed.comm.core.CommClosedError: in <TCP>\n"
     spawn = "Traceback (most recent call last):\n  File y\nRuntimeError: An attempt has been made to start\n"
     assert unexpected_tracebacks(closed + closed) == [] and len(unexpected_tracebacks(closed + spawn)) == 1
+    timeout = ("Traceback (most recent call last):\n  File z\nTimeoutError\n\n"
+               "During handling of the above exception, another exception occurred:\n\n")
+    assert unexpected_tracebacks(timeout + closed) == [] and len(unexpected_tracebacks(timeout + spawn)) == 1
 
 
 def test_the_sweep_recipe_runs_as_written_in_an_unguarded_script(fmu_dir, tmp_path):
