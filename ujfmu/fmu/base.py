@@ -535,13 +535,12 @@ class ModelSlave(UjfmuSlave):
                 self._y, self._started = self.current_state(u), True
         else:
             model, p = self.MODEL, self._p
-            own = self._own_step
             y = self.current_state(u)
             if self._history_step is not None:
                 y, self._history = self._history_step(p, t, h, y, u, self._history)
                 y = tuple(y)
             else:
-                y = tuple(own(p, t, h, y, u)) if own is not None else self.integrate(t, h, y, u)
+                y = self.integrate(t, h, y, u)
             if not all(map(math.isfinite, y)):
                 raise ValueError(f"the state became non-finite over the step ({y!r})")
             problems = getattr(model, "check_state", _none)(p, y)
@@ -552,8 +551,10 @@ class ModelSlave(UjfmuSlave):
         return u
 
     def integrate(self, t, h, y, u):
-        """The state y at t advanced to t + h by RK4 substeps (``substeps``), the inputs u (``model_inputs()``)
-        held."""
+        """The state y at t advanced to t + h by the model's own ``integrate``, else RK4 substeps (``substeps``),
+        the inputs u (``model_inputs()``) held."""
+        if self._own_step is not None:
+            return tuple(self._own_step(self._p, t, h, y, u))
         return self._rk4(self.MODEL.derivatives, self._p, t, u, y, h, self.substeps(h, y, u))
 
     def substeps(self, h, y, u, omega_max=None):
@@ -651,7 +652,10 @@ class PrescribedInputSlave(ModelSlave):
 
     def integrate(self, t, h, y, u):
         """The RK4 substeps with the input shaft extrapolated from u over the step (angle quadratic, speed linear
-        in time: Eq. above) and tau_load held, through the model's ``drive_derivatives``."""
+        in time: Eq. above) and tau_load held, through the model's ``drive_derivatives``; or the model's own
+        ``integrate`` from u (ModelSlave's)."""
+        if self._own_step is not None:
+            return super().integrate(t, h, y, u)
         return self._rk4(self._drive_derivatives, self._p, t, y, h, self.substeps(h, y, u), u.phi, u.omega, u.alpha,
                          u.tau_load)
 

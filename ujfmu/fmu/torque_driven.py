@@ -54,24 +54,16 @@ class TorqueDrivenSlave(ModelSlave):
     model module), whose inputs are ``Torques(tau_in, tau_load)`` held over a step and whose state starts with the
     input shaft's angle and speed. A step whose input shaft would leave the speed range is refused."""
 
-    #: the model's own ``integrate(p, t, h, y, u)`` (with ``input_acceleration(p, y, u)``) where it has one, called
-    #: by :meth:`integrate` after the speed check (instead of ModelSlave's ``_own_step``, which skips it)
-    _whole_step = None
-
-    def __init_subclass__(cls, **kwargs):
-        super().__init_subclass__(**kwargs)
-        if cls._own_step is not None:
-            cls._whole_step, cls._own_step = staticmethod(cls._own_step), None
-
     def model_inputs(self):
         return Torques(self.tau_in, self.tau_load)
 
     def integrate(self, t, h, y, u):
         """The RK4 substeps, the input speed over the step bounded from the rates at its start (:meth:`speed_reach`),
-        which are the first stage's; or the model's own integrator after the same bound."""
-        if self._whole_step is not None:
+        which are the first stage's; or the model's own ``integrate`` (with ``input_acceleration(p, y, u)``) after
+        the same bound."""
+        if self._own_step is not None:
             self.speed_reach(h, y[1], self.MODEL.input_acceleration(self._p, y, u))
-            return tuple(self._whole_step(self._p, t, h, y, u))
+            return tuple(self._own_step(self._p, t, h, y, u))
         k1 = self.MODEL.derivatives(self._p, t, y, u)
         return self._rk4(self.MODEL.derivatives, self._p, t, u, y, h,
                          self.substeps(h, y, u, self.speed_reach(h, k1[0], k1[1])), k1)
