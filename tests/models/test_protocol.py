@@ -78,26 +78,34 @@ def test_check_messages_name_the_parameters():
     assert "e = 0.2 m" in message and "R = 0.1 m" in message
 
 
+def model_at_a_state(name: str, switch: str, on: bool) -> tuple:
+    """(model, p, u, y) of FMU name at its start values, with parameter ``switch`` set to ``on`` (pytest skips the
+    second value of a model without it), inputs u and a state y near the initial one."""
+    cls = fmu_class(name)
+    model = cls.MODEL
+    values = {v.name: v.start for v in cls.VARIABLES}
+    if switch in values:
+        values[switch] = on
+    elif on:
+        pytest.skip("one parameter set")
+    p = model_parameters(model, type("Values", (), values)())
+    prescribed = issubclass(cls, PrescribedInputSlave)
+    u = Drive(0.3, 20.0, 5.0, 1.5) if prescribed else model.Inputs(*(1.5 for _ in model.Inputs._fields))
+    y = tuple(x + 0.01 * (i + 1) for i, x in enumerate(model.initial_state(p, 0.0, u)))
+    return model, p, u, y
+
+
 @pytest.mark.parametrize("name", MODEL_FMUS)
 @pytest.mark.parametrize("rigid", [False, True])
 def test_output_free_inputs_change_neither_outputs_nor_start(name, rigid):
     """An input a model declares output-free (the FMU keeps its outputs when the host sets it) changes neither the
     outputs at any state nor the initial state; one that does change them is not declared (a rigid double
     Cardan shaft's tau_in carries rho tau_load)."""
-    cls = fmu_class(name)
-    model = cls.MODEL
-    values = {v.name: v.start for v in cls.VARIABLES}
-    if "rigid_intermediate_shaft" in values:
-        values["rigid_intermediate_shaft"] = rigid
-    elif rigid:
-        pytest.skip("one parameter set")
-    p = model_parameters(model, type("Values", (), values)())
+    model, p, u, y = model_at_a_state(name, "rigid_intermediate_shaft", rigid)
     free = tuple(getattr(model, "output_free_inputs", lambda p: ())(p))
-    prescribed = issubclass(cls, PrescribedInputSlave)
-    u = Drive(0.3, 20.0, 5.0, 1.5) if prescribed else model.Inputs(*(1.5 for _ in model.Inputs._fields))
-    y = tuple(x + 0.01 * (i + 1) for i, x in enumerate(model.initial_state(p, 0.0, u)))
     for field in free:
-        assert field in model.Inputs._fields and field in {v.name for v in cls.VARIABLES if v.causality == "input"}
+        assert field in model.Inputs._fields and field in {v.name for v in fmu_class(name).VARIABLES
+                                                           if v.causality == "input"}
         changed = u._replace(**{field: getattr(u, field) + 7.0})
         assert model.outputs(p, 0.0, y, changed) == model.outputs(p, 0.0, y, u)
         assert model.initial_state(p, 0.0, changed) == model.initial_state(p, 0.0, u)
@@ -113,17 +121,7 @@ def test_output_free_inputs_change_neither_outputs_nor_start(name, rigid):
 def test_load_outputs_are_every_output_that_moves_with_tau_load(name, ideal):
     """load_outputs gives exactly the outputs' values for its names, and every output it leaves out is the same at
     another tau_load (the FMU keeps those when only tau_load changed); the Motor's ideal source's tau_motor moves."""
-    cls = fmu_class(name)
-    model = cls.MODEL
-    values = {v.name: v.start for v in cls.VARIABLES}
-    if "ideal_speed_source" in values:
-        values["ideal_speed_source"] = ideal
-    elif ideal:
-        pytest.skip("one parameter set")
-    p = model_parameters(model, type("Values", (), values)())
-    u = Drive(0.3, 20.0, 5.0, 1.5) if issubclass(cls, PrescribedInputSlave) else model.Inputs(
-        *(1.5 for _ in model.Inputs._fields))
-    y = tuple(x + 0.01 * (i + 1) for i, x in enumerate(model.initial_state(p, 0.0, u)))
+    model, p, u, y = model_at_a_state(name, "ideal_speed_source", ideal)
     changed = u._replace(tau_load=u.tau_load + 7.0)
     for inputs in (u, changed):
         load = model.load_outputs(p, 0.4, y, inputs)
