@@ -468,6 +468,8 @@ class ModelSlave(UjfmuSlave):
     _own_step = None
     #: the model's own ``integrate_with_history(p, t, h, y, u, history)`` where it has one (the protocol's option)
     _history_step = None
+    #: the model's ``check_state(p, y)`` where it has one (the protocol's option)
+    _check_state = None
     DERIVED = ("_p", "_output_free", "_kinematic", "_load_inputs")
 
     def __init_subclass__(cls, **kwargs):
@@ -479,6 +481,8 @@ class ModelSlave(UjfmuSlave):
             cls._rk4 = staticmethod(rk4.unrolled(cls.RK4_KIND, len(model.State._fields)))
             if hasattr(model, "integrate"):   # the model integrates its own steps
                 cls._own_step = staticmethod(model.integrate)
+            if hasattr(model, "check_state"):
+                cls._check_state = staticmethod(model.check_state)
             if hasattr(model, "integrate_with_history"):   # a multistep integrator: its history is FMU state
                 cls._history_step = staticmethod(model.integrate_with_history)
                 cls.STATE = {**cls.STATE, "_history": f"float[{len(model.NO_HISTORY)}]"}
@@ -534,18 +538,18 @@ class ModelSlave(UjfmuSlave):
             if not self._started:
                 self._y, self._started = self.current_state(u), True
         else:
-            model, p = self.MODEL, self._p
             y = self.current_state(u)
             if self._history_step is not None:
-                y, self._history = self._history_step(p, t, h, y, u, self._history)
+                y, self._history = self._history_step(self._p, t, h, y, u, self._history)
                 y = tuple(y)
             else:
                 y = self.integrate(t, h, y, u)
-            if not all(map(math.isfinite, y)):
+            if not math.isfinite(sum(y)) and not all(map(math.isfinite, y)):   # a sum is finite unless one is not
                 raise ValueError(f"the state became non-finite over the step ({y!r})")
-            problems = getattr(model, "check_state", _none)(p, y)
-            if problems:
-                raise ValueError("; ".join(problems))
+            if self._check_state is not None:
+                problems = self._check_state(self._p, y)
+                if problems:
+                    raise ValueError("; ".join(problems))
             self._y, self._started = y, True
         self._time = t + h
         return u
@@ -596,10 +600,6 @@ def drive_derivatives(model) -> Callable:
 
 def _no_inputs(p):
     return ()
-
-
-def _none(p, y):
-    return []
 
 
 class PrescribedInputSlave(ModelSlave):
@@ -655,7 +655,7 @@ class PrescribedInputSlave(ModelSlave):
         in time: Eq. above) and tau_load held, through the model's ``drive_derivatives``; or the model's own
         ``integrate`` from u (ModelSlave's)."""
         if self._own_step is not None:
-            return super().integrate(t, h, y, u)
+            return tuple(self._own_step(self._p, t, h, y, u))
         return self._rk4(self._drive_derivatives, self._p, t, y, h, self.substeps(h, y, u), u.phi, u.omega, u.alpha,
                          u.tau_load)
 

@@ -154,3 +154,48 @@ def test_step_across_a_profile_corner_falls_back_to_rk4():
     assert motor.integrate(p, 0.1, 1e-3, y, motor.Inputs(0.1)) == rk4_step(p, 0.1, 1e-3, y, 0.1)
     assert motor.integrate(p, 0.0995, 1e-3, y, motor.Inputs(0.1)) != rk4_step(p, 0.0995, 1e-3, y, 0.1)
     assert motor.integrate(p, 0.1005, 1e-3, y, motor.Inputs(0.1)) != rk4_step(p, 0.1005, 1e-3, y, 0.1)
+
+
+def controller_rk4_step(p, t, h, y, omega):
+    """One RK4 step of the controller's integral, omega held (the FMU's default for a rate bound of 0)."""
+    u = motor.Controller.Inputs(omega)
+    return tuple(rk4.integrate_time(lambda s, y: motor.Controller.derivatives(p, t + s, y, u), y, h, 1))
+
+
+def test_controller_step_is_the_integral_of_the_speed_error():
+    """Unsaturated, omega held: I(t + h) = I + integral of e = omega_ref - omega over the step, in closed form on a
+    ramp (e linear in t), and RK4 gives the same number to round-off (it integrates a linear e exactly)."""
+    p = motor.ControllerParameters(0.2, 10.0, 5.0, motor.RAMP, 150.0, 30.0, 0.0, 0.0)
+    t, h, y, omega = 0.4, 1e-3, (0.01,), 11.5
+    expected = 0.01 + ((30.0 * t - omega) + (30.0 * (t + h) - omega)) / 2.0 * h
+    y1 = motor.Controller.integrate(p, t, h, y, motor.Controller.Inputs(omega))
+    assert y1[0] == pytest.approx(expected, rel=1e-15, abs=1e-18)
+    assert y1[0] == pytest.approx(controller_rk4_step(p, t, h, y, omega)[0], rel=1e-14)
+
+
+def test_controller_step_with_the_torque_peak_inside_falls_back_to_rk4():
+    """A long step on a ramp where Kp e + Ki I is -0.3 N.m at both ends but -0.675 N.m at mid-step, beyond
+    tau_max = 0.5 N.m: the clamp and the anti-windup act inside the step, so the step is the RK4 one (bit for bit),
+    not the closed form of the linear law (which an end-point check alone would take)."""
+    kp, ki, a, h = 0.2, 10.0, 30.0, 0.1
+    e0 = -(kp * a + ki * a * h / 2.0) / ki            # the vertex of the torque at mid-step
+    integral = (-0.3 - kp * e0) / ki                  # -0.3 N.m at the start (and, by symmetry, at the end)
+    p = motor.ControllerParameters(kp, ki, 0.5, motor.RAMP, 1e4, a, 0.0, 0.0)
+    t = 1.0
+    omega = a * t - e0
+    assert motor.controller_torque_peak(p, h, e0, a, integral) == pytest.approx(0.675)
+    y1 = motor.Controller.integrate(p, t, h, (integral,), motor.Controller.Inputs(omega))
+    assert y1 == controller_rk4_step(p, t, h, (integral,), omega)
+    assert y1[0] != pytest.approx(integral + h * (e0 + 0.5 * a * h), rel=1e-6)
+
+
+def test_controller_step_across_a_profile_corner_falls_back_to_rk4():
+    """The ramp's end (0.1005 s) inside the step: one RK4 step (the reference's kink), not the closed form of the
+    ramp's slope carried past the corner (1.5e-5 rad); the step that starts at the corner is the closed form of the
+    constant error."""
+    p = motor.ControllerParameters(0.2, 10.0, 5.0, motor.RAMP, 3.015, 30.0, 0.0, 0.0)
+    y, u = (0.0,), motor.Controller.Inputs(3.0)
+    across = motor.Controller.integrate(p, 0.1, 1e-3, y, u)
+    assert across == controller_rk4_step(p, 0.1, 1e-3, y, 3.0)
+    assert across[0] != pytest.approx(1.5e-5, rel=1e-3)
+    assert motor.Controller.integrate(p, 0.1005, 1e-3, y, u)[0] == pytest.approx(0.015 * 1e-3, rel=1e-12)

@@ -626,10 +626,11 @@ def _krogstad_substep(p: Parameters, ops: tuple, h: float, t0: float, phi_in: fl
 
 #: the points of N the method keeps: N at t, t - h, ..., t - 5h
 HISTORY_POINTS = 6
-#: per history point: N's 8 rows, G's lateral rows (X2', Y2'), the input speed (B's input-work row / J_gb)
+#: per history point: N_0's 8 rows (N without the held inputs' part, :func:`_input_free`), G's lateral rows (X2', Y2'),
+#: the input speed (B's input-work row / J_gb)
 _POINT = 11
 #: the history (FMU state): substep h, the time the next step starts at, points held, the tau_load and alpha_in
-#: its points are evaluated at, then the points (newest first)
+#: of the step that ended there, then the points (newest first)
 HISTORY_SIZE = 5 + HISTORY_POINTS * _POINT
 #: no history: the next step starts with :func:`exponential_step`'s substeps
 NO_HISTORY = (0.0,) * HISTORY_SIZE
@@ -652,23 +653,21 @@ def _input_columns(p: Parameters, theta2: float) -> tuple:
 
 
 def _history_point(p: Parameters, phi: float, w: float, alpha_in: float, z: Sequence[float], tau_load: float
-                   ) -> list:
-    """N (:func:`_remainder`) at the input motion (phi, w, alpha_in), twist z and tau_load, with G's lateral rows
-    and w (the layout of ``_POINT``)."""
-    return [*_remainder(p, phi, w, alpha_in, z, tau_load), *_input_columns(p, phi + z[6]), w]
+                   ) -> tuple:
+    """(N, point): N (:func:`_remainder`) at the input motion (phi, w, alpha_in), twist z and tau_load, and its
+    history point (:func:`_input_free`)."""
+    n = _remainder(p, phi, w, alpha_in, z, tau_load)
+    return n, _input_free(p, n, _input_columns(p, phi + z[6]), w, tau_load, alpha_in)
 
 
-def _rebase(p: Parameters, points: list, count: int, d_tau: float, d_alpha: float) -> list:
-    """The history points at inputs changed by d_tau, d_alpha: N + d_tau G + d_alpha B, G = (0, 0, 0, -1 / J_eff2,
-    G_X2, G_Y2, 0, 0), B = (-1, 0, 0, -1, 0, 0, 0, J_gb omega_in) (:func:`rates`: tau_load and alpha_in enter
-    linearly)."""
-    g2, jb = -d_tau / p.j_eff2, d_alpha * p.J_gb
-    out = []
-    for i in range(0, _POINT * count, _POINT):
-        a, dx1, dy1, b, dx2, dy2, dis, work, gx, gy, w = points[i:i + _POINT]
-        out += (a - d_alpha, dx1, dy1, b + g2 - d_alpha, dx2 + d_tau * gx, dy2 + d_tau * gy, dis, work + jb * w,
-                gx, gy, w)
-    return out
+def _input_free(p: Parameters, n: Sequence[float], g: Sequence[float], w: float, tau_load: float, alpha_in: float
+                ) -> tuple:
+    """The history point of N evaluated at tau_load and alpha_in (the layout of ``_POINT``): N_0 = N - tau_load G -
+    alpha_in B with G = (0, 0, 0, -1 / J_eff2, G_X2, G_Y2, 0, 0) (g = (G_X2, G_Y2), :func:`_input_columns`) and
+    B = (-1, 0, 0, -1, 0, 0, 0, J_gb w) (:func:`rates`: tau_load and alpha_in enter linearly), then g and w."""
+    gx, gy = g
+    return (n[0] + alpha_in, n[1], n[2], n[3] + tau_load / p.j_eff2 + alpha_in, n[4] - tau_load * gx,
+            n[5] - tau_load * gy, n[6], n[7] - alpha_in * p.J_gb * w, gx, gy, w)
 
 
 def multistep_step(p: Parameters, t: float, t_span: float, phi_in: float, w_in: float, alpha_in: float,
@@ -689,7 +688,8 @@ def multistep_step(p: Parameters, t: float, t_span: float, phi_in: float, w_in: 
     predictor alone is of order 6). tau_load and alpha_in enter N linearly (:func:`_rebase`), so the history is
     recombined with each step's held inputs; a history of another substep length, not ending at t, or across a
     jump of the inputs (``INPUT_JUMP``) is discarded and rebuilt by :func:`exponential_step`'s substeps, each
-    adding its N_u."""
+    adding its N_u. The points are kept without the held inputs' part (:func:`_input_free`), so no stored point
+    changes when the inputs do."""
     n = exponential_substeps(p, t_span, w_in, alpha_in)
     h = t_span / n
     w_next = history[15] + (history[4] * h if history[2] < HISTORY_POINTS else 0.0)   # the newest point's speed
@@ -697,22 +697,20 @@ def multistep_step(p: Parameters, t: float, t_span: float, phi_in: float, w_in: 
             + abs(alpha_in - history[4]) + abs(w_in - w_next) / h > INPUT_JUMP):
         history = NO_HISTORY
     count = int(history[2])
-    points = list(history[5:5 + _POINT * count])
-    if count and (history[3] != tau_load or history[4] != alpha_in):
-        points = _rebase(p, points, count, tau_load - history[3], alpha_in - history[4])
+    points = history[5:5 + _POINT * count]
     z = _twist(y, phi_in, w_in)
     q = [y[12], y[13]]
     ops = None
     for k in range(n):
         t0 = k * h
         if count < HISTORY_POINTS:
-            point = _history_point(p, phi_in + t0 * (w_in + 0.5 * alpha_in * t0), w_in + alpha_in * t0, alpha_in, z,
-                                   tau_load)
+            nu, point = _history_point(p, phi_in + t0 * (w_in + 0.5 * alpha_in * t0), w_in + alpha_in * t0, alpha_in,
+                                       z, tau_load)
             points, count = point + points, count + 1
             if count < HISTORY_POINTS:
                 if ops is None:
                     ops = _propagators(p, h)
-                z = _krogstad_substep(p, ops, h, t0, phi_in, w_in, alpha_in, z, tau_load, point, q)
+                z = _krogstad_substep(p, ops, h, t0, phi_in, w_in, alpha_in, z, tau_load, nu, q)
                 continue
         te = t0 + h
         z, point = _adams_substep(p, h, z, q, points, phi_in + te * (w_in + 0.5 * alpha_in * te),
@@ -726,9 +724,11 @@ def multistep_step(p: Parameters, t: float, t_span: float, phi_in: float, w_in: 
 def _adams_substep(p: Parameters, h: float, z: Sequence[float], q: list, points: list, phi_e: float, w_e: float,
                    alpha_in: float, tau_load: float) -> tuple:
     """One PEC substep of :func:`multistep_step` from z with the history points (newest, at z, first), the input
-    motion (phi_e, w_e) at its end: (z+, the new history point); the energy rows q advanced in place."""
+    motion (phi_e, w_e) at its end: (z+, the new history point); the energy rows q advanced in place. Each point's N
+    is its N_0 plus this step's held inputs' part (:func:`_input_free`)."""
     e, psi, *weights = _adams_operators(p.linear, h)
     extrapolation, quadrature, gamma = _ADAMS_SCALARS
+    tau_b, work_b = tau_load / p.j_eff2 + alpha_in, alpha_in * p.J_gb   # G, B terms of the rows omega2, input work
     z0, z1, z2, z3, z4, z5, z6, z7, z8, z9, z10, z11 = z
     # predictor: E z + sum_j W_j N_j (layouts: _state_op), N extrapolated to the end and the energy rows' quadrature
     r0, r1 = e[0] * z0 + e[1] * z1 + e[2] * z6 + e[3] * z7, e[4] * z0 + e[5] * z1 + e[6] * z6 + e[7] * z7
@@ -738,7 +738,8 @@ def _adams_substep(p: Parameters, h: float, z: Sequence[float], q: list, points:
     r10, r11 = e[28] * z10 + e[29] * z11, e[30] * z10 + e[31] * z11
     n0 = n1 = n2 = n3 = n4 = n5 = n6 = n7 = q6 = q7 = 0.0
     for i, (g, c, w) in enumerate(zip(weights, extrapolation, quadrature)):
-        a, x1, y1, b, x2, y2, dis, work = points[_POINT * i:_POINT * i + 8]
+        a, x1, y1, b, x2, y2, dis, work, gx, gy, w_i = points[_POINT * i:_POINT * i + _POINT]
+        a, b, x2, y2, work = a - alpha_in, b - tau_b, x2 + tau_load * gx, y2 + tau_load * gy, work + work_b * w_i
         t0, t1, t2, t3, t4, t5, t6, t7, g8, g9, g10, g11, g12, g13, g14, g15 = g
         r0 += t0 * a + t4 * b
         r1 += t1 * a + t5 * b
@@ -762,11 +763,12 @@ def _adams_substep(p: Parameters, h: float, z: Sequence[float], q: list, points:
         n7 += c * work
         q6 += w * dis
         q7 += w * work
-    point = _history_point(p, phi_e, w_e, alpha_in, (r0, r1, r2, r3, r4, r5, r6, r7, r8, r9, r10, r11), tau_load)
+    n_1, point = _history_point(p, phi_e, w_e, alpha_in, (r0, r1, r2, r3, r4, r5, r6, r7, r8, r9, r10, r11),
+                                tau_load)
     # corrector: + Psi (N_1 - N extrapolated)
-    d = (point[0] - n0, point[1] - n1, point[2] - n2, point[3] - n3, point[4] - n4, point[5] - n5)
-    q[0] += h * (q6 + gamma * (point[6] - n6))
-    q[1] += h * (q7 + gamma * (point[7] - n7))
+    d = (n_1[0] - n0, n_1[1] - n1, n_1[2] - n2, n_1[3] - n3, n_1[4] - n4, n_1[5] - n5)
+    q[0] += h * (q6 + gamma * (n_1[6] - n6))
+    q[1] += h * (q7 + gamma * (n_1[7] - n7))
     return _shift((r0, r1, r2, r3, r4, r5, r6, r7, r8, r9, r10, r11), psi, d), point
 
 
@@ -891,12 +893,12 @@ def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
 
 
 def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
-    """The discs' motion from the state, the torques and energy from :func:`torque_outputs`."""
-    out = torque_outputs(p, u.phi, u.omega, u.alpha, y)
+    """The discs' motion from the state, the torques and energy as :func:`torque_outputs` gives them."""
+    t1, t2, g, _ = shaft_torques(p, u.phi, u.omega, y)
     return {"phi_disc1": y[0], "omega_disc1": y[1], "X1": y[2], "Y1": y[4], "phi_out": y[6], "omega_out": y[7],
-            "X2": y[8], "Y2": y[10], "dissipated_energy": y[12], "input_work": y[13], "tau_in": out["tau_in"],
-            "stored_energy": out["stored_energy"], "primary_shaft_torque": out["primary_shaft_torque"],
-            "secondary_shaft_torque": out["secondary_shaft_torque"]}
+            "X2": y[8], "Y2": y[10], "dissipated_energy": y[12], "input_work": y[13], "tau_in": p.J_gb * u.alpha + t1,
+            "stored_energy": _stored_energy(p, u.omega, u.phi - y[0], g[0] - y[6], y), "primary_shaft_torque": t1,
+            "secondary_shaft_torque": t2}
 
 
 def output_free_inputs(p: Parameters) -> tuple:
