@@ -1,6 +1,7 @@
 """Torque-driven FMUs (CardanJointTorqueDriven, DoubleCardanDrivelineTorqueDriven) and MotorController through
 fmpy: closed forms of the straight and constant-velocity layouts, the ports an explicit host needs."""
 
+import dataclasses
 
 import pytest
 from fmpy.fmi1 import FMICallException
@@ -105,6 +106,29 @@ def test_a_torque_that_would_overspeed_the_input_shaft_within_the_step_is_refuse
     inst.set(tau_in=1.0)    # usable again with a sane torque
     inst.slave.doStep(0.0, H)
     assert inst.get("omega_in")[0] == pytest.approx(1.0 / (1e-3 + 2e-7) * H, rel=1e-12)
+
+
+def test_the_flexible_double_cardan_checks_the_speed_reach_from_its_first_stage(open_fmu):
+    """The flexible double Cardan steps from the rates its FMU evaluates for the speed check (``integrate_from``):
+    an overspeeding torque is refused with the cause named, and a sane one then steps as the model's own
+    ``integrate`` does, bit for bit."""
+    from ujfmu.models.double_cardan_driveline import model as dc
+    from ujfmu.models.protocol import Torques
+    inst = open_fmu("DoubleCardanDrivelineTorqueDriven")
+    inst.initialize(dict(J_drive=1e-3, omega_in_start=10.0))
+    inst.set(tau_in=1e6)
+    assert inst.raw("fmi2DoStep")(inst.slave.component, 0.0, H, 1) == 2
+    assert "tau_in = 1000000.0 N.m" in inst._log[-1] and "would reach" in inst._log[-1], inst._log[-1]
+    inst.set(tau_in=5.0, tau_load=1.0)
+    from ujfmu.models.double_cardan_driveline.fmu import DoubleCardanDrivelineTorqueDriven as declared
+    values = {v.name: v.start for v in declared.VARIABLES if v.causality == "parameter"}
+    values.update(J_drive=1e-3, omega_in_start=10.0)
+    p = dc.TorqueDrivenParameters(**{f.name: values[f.name] for f in dataclasses.fields(dc.TorqueDrivenParameters)
+                                     if f.init})
+    y0 = dc.TorqueDriven.initial_state(p, 0.0, Torques(5.0, 1.0))
+    inst.slave.doStep(0.0, H)
+    y1 = dc.TorqueDriven.integrate(p, 0.0, H, y0, Torques(5.0, 1.0))
+    assert tuple(inst.get("omega_in", "phi_in")) == (y1[1], y1[0])
 
 
 def test_aligned_twin_rotor_conserves_angular_momentum(open_fmu):

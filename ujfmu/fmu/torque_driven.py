@@ -54,13 +54,27 @@ class TorqueDrivenSlave(ModelSlave):
     model module), whose inputs are ``Torques(tau_in, tau_load)`` held over a step and whose state starts with the
     input shaft's angle and speed. A step whose input shaft would leave the speed range is refused."""
 
+    #: the model's ``integrate_from(p, t, h, y, u, k1)`` where it has one (the protocol's option for a step that
+    #: starts from the rates k1 at its start)
+    _step_from = None
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        model = cls.__dict__.get("MODEL")
+        if model is not None and hasattr(model, "integrate_from"):
+            cls._step_from = staticmethod(model.integrate_from)
+
     def model_inputs(self):
         return Torques(self.tau_in, self.tau_load)
 
     def integrate(self, t, h, y, u):
         """The RK4 substeps, the input speed over the step bounded from the rates at its start (:meth:`speed_reach`),
-        which are the first stage's; or the model's own ``integrate`` (with ``input_acceleration(p, y, u)``) after
-        the same bound."""
+        which are the first stage's; or the model's own ``integrate_from`` from those rates; or its own
+        ``integrate`` (with ``input_acceleration(p, y, u)``) after the same bound."""
+        if self._step_from is not None:
+            k1 = self.MODEL.derivatives(self._p, t, y, u)
+            self.speed_reach(h, k1[0], k1[1])
+            return tuple(self._step_from(self._p, t, h, y, u, k1))
         if self._own_step is not None:
             self.speed_reach(h, y[1], self.MODEL.input_acceleration(self._p, y, u))
             return tuple(self._own_step(self._p, t, h, y, u))

@@ -36,7 +36,9 @@ numbers as ``derivatives(p, t, y, Drive(phi, omega, alpha, tau_load))`` from pla
 every RK4 stage, where building a Drive costs as much as a small model's equations; default built from
 ``derivatives``) and ``integrate(p, t, h, y, u) -> tuple`` (the state y at time t
 advanced over a step of h from the inputs u at its start, a Drive extrapolated as the FMU does, by the model's own
-integrator, substep rule included; default the FMU's RK4 substeps from ``rate_bound``), or
+integrator, substep rule included; default the FMU's RK4 substeps from ``rate_bound``; a torque-driven variant whose
+input acceleration needs its full derivatives may add ``integrate_from(p, t, h, y, u, k1)``, the same step from the
+rates ``k1 = derivatives(p, t, y, u)`` at its start, which its FMU evaluates once for its speed check), or
 ``integrate_with_history(p, t, h, y, u, history) -> (state, history)`` with ``NO_HISTORY`` (a multistep
 integrator: its history, a tuple of floats of NO_HISTORY's length, is FMU state, NO_HISTORY after initialization),
 and ``load_outputs(p, t, y, u) -> dict`` (the outputs that depend on the input tau_load, the same numbers as

@@ -686,9 +686,14 @@ class TorqueDriven:
 
     @staticmethod
     def integrate(p: TorqueDrivenParameters, t: float, h: float, y: tuple, u: Torques) -> tuple:
-        """The FMU's step: :func:`torque_driven_step` with the input speed over the step bounded from the rates at
-        its start, |omega1| + |alpha1| h (the first stage's), and RK4's substep count from :meth:`rate_bound` there."""
-        k1 = TorqueDriven.derivatives(p, t, y, u)
+        """One step: :meth:`integrate_from` the rates at its start."""
+        return TorqueDriven.integrate_from(p, t, h, y, u, TorqueDriven.derivatives(p, t, y, u))
+
+    @staticmethod
+    def integrate_from(p: TorqueDrivenParameters, t: float, h: float, y: tuple, u: Torques, k1: tuple) -> tuple:
+        """The FMU's step from the rates k1 = :meth:`derivatives` at its start (which the FMU evaluates once for its
+        speed check): :func:`torque_driven_step` with the input speed over the step bounded by |omega1| + |alpha1| h
+        (k1's), and RK4's substep count from :meth:`rate_bound` there."""
         omega_max = abs(k1[0]) + abs(k1[1]) * h
         return torque_driven_step(p, t, h, y, u, omega_max, rk4.substeps(TorqueDriven.rate_bound(p, y, omega_max), h),
                                   k1)
