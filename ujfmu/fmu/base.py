@@ -452,8 +452,9 @@ class ModelSlave(UjfmuSlave):
       where it has one; then the finite check and
       ``MODEL.check_state`` of the new state;
     - the outputs: ``MODEL.outputs`` assigned by name, recomputed on the first read after a step or a change of an
-      input outside ``MODEL.output_free_inputs(p)``; where only tau_load changed since they were computed and the
-      model has ``load_outputs``, only those (the others do not depend on it).
+      input outside ``MODEL.output_free_inputs(p)``; where only the ``LOAD_INPUTS`` (tau_load; a torque-driven
+      FMU's torques) changed since they were computed and the model has ``load_outputs``, only those (the others
+      do not depend on them).
 
     Subclasses provide ``model_inputs()`` (the model's inputs now) and may replace ``integrate`` (the RK4 substeps
     of one step, inputs held) and extend ``initialize``/``advance`` for what their inputs need
@@ -471,6 +472,8 @@ class ModelSlave(UjfmuSlave):
     #: the model's ``check_state(p, y)`` where it has one (the protocol's option)
     _check_state = None
     DERIVED = ("_p", "_output_free", "_kinematic", "_load_inputs")
+    #: the inputs ``MODEL.load_outputs`` covers (the outputs that depend on them are all in it)
+    LOAD_INPUTS = ("tau_load",)
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -497,7 +500,7 @@ class ModelSlave(UjfmuSlave):
     def derive(self):
         self._p = self.parameters()
         self._output_free = frozenset(getattr(self.MODEL, "output_free_inputs", _no_inputs)(self._p))
-        loads = {"tau_load"} if hasattr(self.MODEL, "load_outputs") else set()
+        loads = set(self.LOAD_INPUTS) if hasattr(self.MODEL, "load_outputs") else set()
         self._load_inputs = frozenset(loads & {v.name for v in self.VARIABLES if v.causality == "input"}
                                       - self._output_free)
         self._kinematic = bool(getattr(self.MODEL, "kinematic", _never)(self._p))
@@ -523,7 +526,8 @@ class ModelSlave(UjfmuSlave):
         self.set_outputs(self.model_inputs())
 
     def compute_load_outputs(self):
-        """``MODEL.load_outputs``: the outputs that depend on tau_load, at the current time, state and inputs."""
+        """``MODEL.load_outputs``: the outputs that depend on the ``LOAD_INPUTS``, at the current time, state and
+        inputs."""
         u = self.model_inputs()
         vars(self).update(self.MODEL.load_outputs(self._p, self._time, self.current_state(u), u))
 

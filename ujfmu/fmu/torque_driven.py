@@ -54,6 +54,8 @@ class TorqueDrivenSlave(ModelSlave):
     model module), whose inputs are ``Torques(tau_in, tau_load)`` held over a step and whose state starts with the
     input shaft's angle and speed. A step whose input shaft would leave the speed range is refused."""
 
+    #: a torque-driven model's ``load_outputs`` covers both torques (its other outputs are functions of the state)
+    LOAD_INPUTS = ("tau_in", "tau_load")
     #: the model's ``integrate_from(p, t, h, y, u, k1)`` where it has one (the protocol's option for a step that
     #: starts from the rates k1 at its start)
     _step_from = None

@@ -41,9 +41,10 @@ input acceleration needs its full derivatives may add ``integrate_from(p, t, h, 
 rates ``k1 = derivatives(p, t, y, u)`` at its start, which its FMU evaluates once for its speed check), or
 ``integrate_with_history(p, t, h, y, u, history) -> (state, history)`` with ``NO_HISTORY`` (a multistep
 integrator: its history, a tuple of floats of NO_HISTORY's length, is FMU state, NO_HISTORY after initialization),
-and ``load_outputs(p, t, y, u) -> dict`` (the outputs that depend on the input tau_load, the same numbers as
-``outputs`` gives for them; every other output must not depend on it: when a host sets tau_load after reading the
-outputs, the FMU recomputes only these; default all of ``outputs``).
+and ``load_outputs(p, t, y, u) -> dict`` (the outputs that depend on the input tau_load, for a torque-driven variant
+on either of its inputs tau_in and tau_load, the same numbers as ``outputs`` gives for them; every other output must
+not depend on those inputs: when a host sets them after reading the outputs, the FMU recomputes only these; default
+all of ``outputs``).
 
 The inputs ``u`` are the model's own NamedTuple ``Inputs``; a model whose input shaft follows a prescribed speed
 (``omega_in``) uses :class:`Drive`, which the base extrapolates over a step (angle quadratic, speed linear in time:

@@ -281,6 +281,15 @@ class TorqueDriven:
                                      alpha)
 
     @staticmethod
+    def load_outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
+        """The outputs that move with the inputs (the FMU recomputes only these when only the torques changed since
+        the outputs were computed): shaft 1's acceleration and tau_input_shaft = I1 alpha_in - M_p + the elastic
+        torque, as :meth:`outputs` gives them (every other output is a function of the state)."""
+        alpha = input_acceleration(p, y, u.tau_in)
+        m_p, _, elastic = torques(p, y[0], y[1], y[2], y[3])
+        return {"alpha_in": alpha, "tau_input_shaft": p.I1 * alpha - m_p + elastic}
+
+    @staticmethod
     def check(p: TorqueDrivenParameters) -> list:
         """:func:`check`, and shaft 1 needs an inertia to integrate."""
         return check(p) + shaft_inertia_problems("J_drive + I1", p.J_drive + p.I1, "shaft 1")

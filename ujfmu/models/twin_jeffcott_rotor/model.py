@@ -1204,6 +1204,15 @@ class TorqueDriven:
         return torque_driven_outputs(outputs(p, t, State(*y[2:]), Drive(y[0], y[1], alpha, u.tau_load)), y, alpha)
 
     @staticmethod
+    def load_outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
+        """The outputs that move with the inputs (the FMU recomputes only these when only tau_in changed since the
+        outputs were computed): the flange's acceleration and tau_input_shaft = J_gb alpha_in + T1, as
+        :meth:`outputs` gives them (every other output is a function of the state)."""
+        alpha = input_acceleration(p, y, u.tau_in)
+        return {"alpha_in": alpha,
+                "tau_input_shaft": p.J_gb * alpha + (p.K1T * (y[0] - y[2]) + p.C1T * (y[1] - y[3]))}
+
+    @staticmethod
     def output_free_inputs(p: TorqueDrivenParameters) -> tuple:
         """:func:`output_free_inputs`: the flange's acceleration (an output) is driven by tau_in and the primary
         shaft torque, not by tau_load."""
