@@ -59,11 +59,11 @@ class TorqueDrivenSlave(ModelSlave):
 
     def integrate(self, t, h, y, u):
         """The RK4 substeps, the input speed over the step bounded from the rates at its start (:meth:`speed_reach`),
-        which are the first stage's; or the model's own ``integrate`` (with ``input_acceleration(p, y, u)``) after
-        the same bound."""
-        if self._own_step is not None:
+        which are the first stage's; or the model's own ``integrate_with_history`` or ``integrate`` (ModelSlave's)
+        after the same bound (with ``input_acceleration(p, y, u)``)."""
+        if self._own_step is not None or self._history_step is not None:
             self.speed_reach(h, y[1], self.MODEL.input_acceleration(self._p, y, u))
-            return tuple(self._own_step(self._p, t, h, y, u))
+            return super().integrate(t, h, y, u)
         k1 = self.MODEL.derivatives(self._p, t, y, u)
         return self._rk4(self.MODEL.derivatives, self._p, t, u, y, h,
                          self.substeps(h, y, u, self.speed_reach(h, k1[0], k1[1])), k1)
