@@ -1133,23 +1133,43 @@ def torque_exponential_step(p: TorqueDrivenParameters, t_span: float, y: Sequenc
     phi, w = y[0], y[1]
     n = torque_exponential_substeps(p, t_span, abs(w) + abs(input_acceleration(p, y, tau_in)) * t_span)
     h = t_span / n
-    e_half, q1, q2, e_full, r1, r2, s1, s2 = _torque_propagators(p, h)
-    z = [0.0, 0.0, y[2] - phi, y[3] - w, y[4], y[5], y[6], y[7], y[8] - phi, y[9] - w, y[10], y[11], y[12], y[13]]
-    dissipated, work = y[14], y[15]
+    ops = _torque_propagators(p, h)
+    z = _chain_twist(y)
+    q = [y[14], y[15]]
     for k in range(n):
-        start, middle = phi + k * h * w, phi + (k + 0.5) * h * w
-        nu = _flange_remainder(p, start, w, z, tau_in, tau_load)
-        a = _chain_state_op(e_half, z, q1, nu)
-        da = _flange_remainder(p, middle, w, a, tau_in, tau_load, nu)
-        db = _flange_remainder(p, middle, w, _chain_shift(a, q2, da), tau_in, tau_load, nu)
-        ec = _chain_state_op(e_full, z, r1, nu)
-        dc = _flange_remainder(p, phi + (k + 1) * h * w, w, _chain_shift(ec, r2, db), tau_in, tau_load, nu)
-        z = _chain_last_stage(ec, s1, da, db, s2, dc)
-        dissipated += h * (nu[7] + (da[7] + db[7]) / 3.0 + dc[7] / 6.0)
-        work += h * (nu[8] + (da[8] + db[8]) / 3.0 + dc[8] / 6.0)
-    end = phi + t_span * w
+        nu = _flange_remainder(p, phi + k * h * w, w, z, tau_in, tau_load)
+        z = _torque_krogstad_substep(p, ops, h, phi, w, k, z, tau_in, tau_load, nu, q)
+    return _chain_untwist(z, q, phi + t_span * w, w)
+
+
+def _chain_twist(y: Sequence[float]) -> list:
+    """The 14 twist coordinates of the torque-driven state y about the rigid rotation at its flange's angle and
+    speed (its first two are 0)."""
+    phi, w = y[0], y[1]
+    return [0.0, 0.0, y[2] - phi, y[3] - w, y[4], y[5], y[6], y[7], y[8] - phi, y[9] - w, y[10], y[11], y[12], y[13]]
+
+
+def _chain_untwist(z: Sequence[float], q: Sequence[float], end: float, w: float) -> list:
+    """The torque-driven state from twist coordinates z about the rigid rotation at angle ``end``, speed w, and the
+    energy rows q."""
     return [end + z[0], w + z[1], end + z[2], w + z[3], z[4], z[5], z[6], z[7], end + z[8], w + z[9], z[10], z[11],
-            z[12], z[13], dissipated, work]
+            z[12], z[13], q[0], q[1]]
+
+
+def _torque_krogstad_substep(p: TorqueDrivenParameters, ops: tuple, h: float, phi: float, w: float, k: int,
+                             z: Sequence[float], tau_in: float, tau_load: float, nu: Sequence[float], q: list) -> list:
+    """Substep k of :func:`torque_exponential_step` from z about the rigid rotation (phi + t w, w), N_u = nu given
+    (operators ``ops``: :func:`_torque_propagators`): z+, the energy rows q advanced in place (classical RK4)."""
+    e_half, q1, q2, e_full, r1, r2, s1, s2 = ops
+    middle = phi + (k + 0.5) * h * w
+    a = _chain_state_op(e_half, z, q1, nu)
+    da = _flange_remainder(p, middle, w, a, tau_in, tau_load, nu)
+    db = _flange_remainder(p, middle, w, _chain_shift(a, q2, da), tau_in, tau_load, nu)
+    ec = _chain_state_op(e_full, z, r1, nu)
+    dc = _flange_remainder(p, phi + (k + 1) * h * w, w, _chain_shift(ec, r2, db), tau_in, tau_load, nu)
+    q[0] += h * (nu[7] + (da[7] + db[7]) / 3.0 + dc[7] / 6.0)
+    q[1] += h * (nu[8] + (da[8] + db[8]) / 3.0 + dc[8] / 6.0)
+    return _chain_last_stage(ec, s1, da, db, s2, dc)
 
 
 class TorqueDriven:
