@@ -1172,6 +1172,176 @@ def _torque_krogstad_substep(p: TorqueDrivenParameters, ops: tuple, h: float, ph
     return _chain_last_stage(ec, s1, da, db, s2, dc)
 
 
+# --- the torque-driven rotor's exponential Adams method (the FMU's stepper once it has a history) -----------------
+#
+# The method of :func:`multistep_step` in the torque-driven twist coordinates. L r = r' for every rigid rotation r of
+# the whole rotor (every angle at phi_0 + omega_0 t, every speed at omega_0, discs centred): L's angle rows give the
+# speeds, and its speed rows vanish on equal angles and equal speeds. So N(t, z) = f(r + z) - r' - L z = f(y) - L y
+# depends on the state y = r + z alone, not on the rigid rotation the twist is taken about: a point of N keeps its
+# value when the next step takes its twist about another rotation. The inputs enter N linearly (:func:`rates`,
+# :func:`_input_columns`):
+#     N(y) = N_0(y) + tau_in (e_omega_in + e_work J_gb omega_in) / J_in + tau_load (-e_omega2 / J_eff2 + G_2(theta2))
+# (N_0 the remainder at tau_in = tau_load = 0, e_r the unit vector of row r, G_2 the lateral rows of disc 2), so the
+# history keeps N_0, G_2 and omega_in per point and each step adds its own held inputs: no point is ever rewritten.
+
+#: per history point: N_0's rows (omega1, X1', Y1', omega2, X2', Y2', dissipation, work), G_2's rows (X2'', Y2''),
+#: the flange's speed omega_in (the work row's tau_in column / (J_gb / J_in)); N_0's flange row is 0
+_TORQUE_POINT = 11
+#: the history (FMU state): substep h, the time the next step starts at, points held, the tau_in and tau_load of
+#: the step that left it, then the points (newest first)
+TORQUE_HISTORY_SIZE = 5 + HISTORY_POINTS * _TORQUE_POINT
+#: no history: the next step starts with :func:`torque_exponential_step`'s substeps
+TORQUE_NO_HISTORY = (0.0,) * TORQUE_HISTORY_SIZE
+#: a change of the held torques between steps [rad/s^2] (|d tau_in| / J_in + |d tau_load| / J_eff2: the steps of the
+#: flange's and disc 2's accelerations) above which the history is discarded: the motion's accelerations jump, so
+#: N's time derivative does, which no polynomial through the history follows (the bound of ``INPUT_JUMP``; a
+#: 3 -> 8 N.m step of tau_in, 240 rad/s^2, or a 2 -> 20 N.m load step, 1840 rad/s^2, extrapolated across leaves
+#: 3-4x and 60x ETDRK4-B's error; tests)
+TORQUE_INPUT_JUMP = INPUT_JUMP
+
+
+@functools.lru_cache(maxsize=16)
+def _torque_adams_operators(linear: tuple, h: float) -> tuple:
+    """(E(h), F, Psi, W_0, ..., W_-5) of :func:`torque_multistep_step` for the blocks of :func:`torque_linear_part`
+    and h, memoized: E(h) as 52 numbers (the full-state layout of :func:`_torque_propagators_of`); F = h phi_1(hL) on
+    the torsional columns omega_in and omega2 as 12 numbers (per torsional row those two columns), which carries the
+    constant rows tau_in / J_in and -tau_load / J_eff2 of N; Psi and W_j = h sum_m c_jm m! phi_(m+1)(hL) on N_0's
+    speed rows as 20 numbers (per torsional row its columns omega1 and omega2, then each lateral block's speed
+    column). phi_0..phi_7 of each block by their Taylor series (:func:`_phi_functions`): the substep rule keeps
+    h |lambda| <= 1 over L's eigenvalues (:func:`torque_exponential_substeps`), the rigid-body mode's 0 included."""
+    phis = [_phi_functions(block, h, HISTORY_POINTS + 2) for block in linear]
+
+    def weights(c):
+        t, *lateral = [[[h * sum(c[m] * math.factorial(m) * phi[m + 1][i][k] for m in range(len(c)))
+                         for k in range(len(phi[0]))] for i in range(len(phi[0]))] for phi in phis]
+        return tuple([t[r][k] for r in range(6) for k in (3, 5)] + [b[r][1] for b in lateral for r in range(2)])
+
+    e = tuple(v for phi in phis for row in phi[0] for v in row)
+    f = tuple(h * phis[0][1][r][k] for r in range(6) for k in (1, 5))
+    return (e, f, weights(_newton_coefficients(_NODES)), *(weights(c) for c in _lagrange_coefficients(_NODES)))
+
+
+def _torque_history_point(p: TorqueDrivenParameters, phi: float, w: float, z: Sequence[float], nu: Sequence[float],
+                          tau_in: float, tau_load: float) -> list:
+    """The history point (layout ``_TORQUE_POINT``) of N = nu (:func:`_flange_remainder` at tau_in, tau_load) at twist
+    z about the rigid rotation (phi, w): nu less the inputs' columns."""
+    gx, gy = _input_columns(p, phi + z[8])
+    w_in = w + z[1]
+    return [nu[1], nu[2], nu[3], nu[4] + tau_load / p.j_eff2, nu[5] - tau_load * gx, nu[6] - tau_load * gy, nu[7],
+            nu[8] - p.J_gb * p.inverse_j_in * tau_in * w_in, gx, gy, w_in]
+
+
+def torque_multistep_step(p: TorqueDrivenParameters, t: float, t_span: float, y: Sequence[float], tau_in: float,
+                          tau_load: float, history: Sequence[float]) -> tuple:
+    """(state, history) after t_span from t, tau_in and tau_load held, by the exponential Adams predictor-corrector of
+    :func:`multistep_step` (Hochbruck, Ostermann, BIT Numer. Math. 51, 2011; Cox, Matthews, J. Comput. Phys. 176,
+    2002) in the twist coordinates of :func:`torque_exponential_step`, PEC, per substep of h from z_n:
+        predict   z* = E(h) z_n + F (tau_in / J_in, -tau_load / J_eff2) + sum_j W_j N_j
+        evaluate  N_1 = N(t_n + h, z*)                 (ONE evaluation of :func:`rates` per substep)
+        correct   z_n+1 = z* + Psi (N_1 - p(1))
+    N_j the history's N_0 plus this step's inputs' columns (module comment above); the constant rows of N by
+    F = h phi_1(hL) = sum_j W_j (the Lagrange basis sums to 1): exact, their part of N_1 - p(1) is 0
+    (operators: :func:`_torque_adams_operators`). The energy rows (L = 0) by the same weights, scalar. Observed order
+    5 from a start (tests). Without a history, with one of another substep length, not ending at t, or across a
+    step of the torques (``TORQUE_INPUT_JUMP``), the substeps are :func:`torque_exponential_step`'s (bitwise), each
+    adding its N_u, until HISTORY_POINTS points are held. Substeps: :func:`torque_exponential_substeps`."""
+    phi, w = y[0], y[1]
+    n = torque_exponential_substeps(p, t_span, abs(w) + abs(input_acceleration(p, y, tau_in)) * t_span)
+    h = t_span / n
+    if (history[0] != h or abs(history[1] - t) > 1e-6 * h or abs(tau_in - history[3]) * p.inverse_j_in
+            + abs(tau_load - history[4]) / p.j_eff2 > TORQUE_INPUT_JUMP):
+        history = TORQUE_NO_HISTORY
+    count = int(history[2])
+    points = list(history[5:5 + _TORQUE_POINT * count])
+    z = _chain_twist(y)
+    q = [y[14], y[15]]
+    start_ops = adams_ops = None
+    for k in range(n):
+        if count < HISTORY_POINTS:
+            start = phi + k * h * w
+            nu = _flange_remainder(p, start, w, z, tau_in, tau_load)
+            points, count = _torque_history_point(p, start, w, z, nu, tau_in, tau_load) + points, count + 1
+            if count < HISTORY_POINTS:
+                if start_ops is None:
+                    start_ops = _torque_propagators(p, h)
+                z = _torque_krogstad_substep(p, start_ops, h, phi, w, k, z, tau_in, tau_load, nu, q)
+                continue
+        if adams_ops is None:
+            adams_ops = _torque_adams_operators(p.torque_linear, h)
+        z, point = _torque_adams_substep(p, adams_ops, h, z, q, points, phi + (k + 1) * h * w, w, tau_in, tau_load)
+        points = (point + points)[:_TORQUE_POINT * HISTORY_POINTS]
+    history = (h, t + t_span, float(count), tau_in, tau_load, *points,
+               *(0.0,) * (_TORQUE_POINT * (HISTORY_POINTS - count)))
+    return _chain_untwist(z, q, phi + t_span * w, w), history
+
+
+def _torque_adams_substep(p: TorqueDrivenParameters, ops: tuple, h: float, z: Sequence[float], q: list,
+                          points: list, end: float, w: float, tau_in: float, tau_load: float) -> tuple:
+    """One PEC substep of :func:`torque_multistep_step` from z, twist about the rigid rotation at speed w and, at the
+    substep's end, angle ``end``, with the history points (newest, at z, first): (z+, its point); the energy rows q
+    advanced in place."""
+    e, f, psi, *weights = ops
+    extrapolation, quadrature, gamma = _ADAMS_SCALARS
+    work_in = p.J_gb * p.inverse_j_in * tau_in   # the work row's tau_in column per unit flange speed
+    a, b = tau_in * p.inverse_j_in, -tau_load / p.j_eff2   # N's constant rows omega_in and omega2
+    z0, z1, z2, z3, z4, z5, z6, z7, z8, z9, z10, z11, z12, z13 = z
+    # predictor: E z + F (a, b) + sum_j W_j N_j (torsional rows in the order of z0, z1, z2, z3, z8, z9)
+    r0 = e[0] * z0 + e[1] * z1 + e[2] * z2 + e[3] * z3 + e[4] * z8 + e[5] * z9 + f[0] * a + f[1] * b
+    r1 = e[6] * z0 + e[7] * z1 + e[8] * z2 + e[9] * z3 + e[10] * z8 + e[11] * z9 + f[2] * a + f[3] * b
+    r2 = e[12] * z0 + e[13] * z1 + e[14] * z2 + e[15] * z3 + e[16] * z8 + e[17] * z9 + f[4] * a + f[5] * b
+    r3 = e[18] * z0 + e[19] * z1 + e[20] * z2 + e[21] * z3 + e[22] * z8 + e[23] * z9 + f[6] * a + f[7] * b
+    r8 = e[24] * z0 + e[25] * z1 + e[26] * z2 + e[27] * z3 + e[28] * z8 + e[29] * z9 + f[8] * a + f[9] * b
+    r9 = e[30] * z0 + e[31] * z1 + e[32] * z2 + e[33] * z3 + e[34] * z8 + e[35] * z9 + f[10] * a + f[11] * b
+    r4, r5 = e[36] * z4 + e[37] * z5, e[38] * z4 + e[39] * z5
+    r6, r7 = e[40] * z6 + e[41] * z7, e[42] * z6 + e[43] * z7
+    r10, r11 = e[44] * z10 + e[45] * z11, e[46] * z10 + e[47] * z11
+    r12, r13 = e[48] * z12 + e[49] * z13, e[50] * z12 + e[51] * z13
+    m1 = mx1 = my1 = m2 = mx2 = my2 = m_dis = m_work = s_dis = s_work = 0.0
+    for i, (g, c, quad) in enumerate(zip(weights, extrapolation, quadrature)):
+        n1, x1, y1, n2, x2, y2, dis, work, gx, gy, w_in = points[_TORQUE_POINT * i:_TORQUE_POINT * (i + 1)]
+        x2 += tau_load * gx
+        y2 += tau_load * gy
+        work += work_in * w_in
+        r0 += g[0] * n1 + g[1] * n2
+        r1 += g[2] * n1 + g[3] * n2
+        r2 += g[4] * n1 + g[5] * n2
+        r3 += g[6] * n1 + g[7] * n2
+        r8 += g[8] * n1 + g[9] * n2
+        r9 += g[10] * n1 + g[11] * n2
+        r4 += g[12] * x1
+        r5 += g[13] * x1
+        r6 += g[14] * y1
+        r7 += g[15] * y1
+        r10 += g[16] * x2
+        r11 += g[17] * x2
+        r12 += g[18] * y2
+        r13 += g[19] * y2
+        m1 += c * n1
+        mx1 += c * x1
+        my1 += c * y1
+        m2 += c * n2
+        mx2 += c * x2
+        my2 += c * y2
+        m_dis += c * dis
+        m_work += c * work
+        s_dis += quad * dis
+        s_work += quad * work
+    r = (r0, r1, r2, r3, r4, r5, r6, r7, r8, r9, r10, r11, r12, r13)
+    nu = _flange_remainder(p, end, w, r, 0.0, 0.0)
+    gx, gy = _input_columns(p, end + r8)
+    w_in = w + r1
+    point = [nu[1], nu[2], nu[3], nu[4], nu[5], nu[6], nu[7], nu[8], gx, gy, w_in]
+    # corrector: + Psi (N_1 - p(1)) on the rows that vary (the constant ones cancel)
+    d1, dx1, dy1, d2 = nu[1] - m1, nu[2] - mx1, nu[3] - my1, nu[4] - m2
+    dx2, dy2 = nu[5] + tau_load * gx - mx2, nu[6] + tau_load * gy - my2
+    q[0] += h * (s_dis + gamma * (nu[7] - m_dis))
+    q[1] += h * (s_work + gamma * (nu[8] + work_in * w_in - m_work))
+    return [r0 + psi[0] * d1 + psi[1] * d2, r1 + psi[2] * d1 + psi[3] * d2, r2 + psi[4] * d1 + psi[5] * d2,
+            r3 + psi[6] * d1 + psi[7] * d2, r4 + psi[12] * dx1, r5 + psi[13] * dx1, r6 + psi[14] * dy1,
+            r7 + psi[15] * dy1, r8 + psi[8] * d1 + psi[9] * d2, r9 + psi[10] * d1 + psi[11] * d2,
+            r10 + psi[16] * dx2, r11 + psi[17] * dx2, r12 + psi[18] * dy2, r13 + psi[19] * dy2], point
+
+
 class TorqueDriven:
     """The protocol of the torque-driven rotor: state (phi_in, omega_in) of the gearbox flange, driven by tau_in
     with the driver's rotor inertia J_drive lumped on it (:func:`input_acceleration`), then the speed-driven
@@ -1203,10 +1373,20 @@ class TorqueDriven:
         rule, not used by the FMU, which steps with :meth:`integrate`."""
         return p.natural_rate + 4.0 * omega_max
 
+    #: no history: the next step starts with :func:`torque_exponential_step`'s substeps
+    NO_HISTORY = TORQUE_NO_HISTORY
+
     @staticmethod
     def integrate(p: TorqueDrivenParameters, t: float, h: float, y: tuple, u: Torques) -> list:
-        """The FMU's step: :func:`torque_exponential_step`, tau_in and tau_load held."""
+        """One step without history: :func:`torque_exponential_step`, tau_in and tau_load held."""
         return torque_exponential_step(p, h, y, u.tau_in, u.tau_load)
+
+    @staticmethod
+    def integrate_with_history(p: TorqueDrivenParameters, t: float, h: float, y: tuple, u: Torques,
+                               history: tuple) -> tuple:
+        """The FMU's step: (state, history) of :func:`torque_multistep_step`, tau_in and tau_load held;
+        :meth:`integrate` without a history."""
+        return torque_multistep_step(p, t, h, y, u.tau_in, u.tau_load, history)
 
     @staticmethod
     def input_acceleration(p: TorqueDrivenParameters, y: tuple, u: Torques) -> float:
