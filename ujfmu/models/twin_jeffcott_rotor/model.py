@@ -1281,41 +1281,46 @@ def _torque_adams_substep(p: TorqueDrivenParameters, ops: tuple, h: float, z: Se
     substep's end, angle ``end``, with the history points (newest, at z, first): (z+, its point); the energy rows q
     advanced in place."""
     e, f, psi, *weights = ops
+    (e0, e1, e2, e3, e4, e5, e6, e7, e8, e9, e10, e11, e12, e13, e14, e15, e16, e17, e18, e19, e20, e21, e22, e23, e24,
+     e25, e26, e27, e28, e29, e30, e31, e32, e33, e34, e35, e36, e37, e38, e39, e40, e41, e42, e43, e44, e45, e46, e47,
+     e48, e49, e50, e51) = e
+    f0, f1, f2, f3, f4, f5, f6, f7, f8, f9, f10, f11 = f
     extrapolation, quadrature, gamma = _ADAMS_SCALARS
     work_in = p.J_gb * p.inverse_j_in * tau_in   # the work row's tau_in column per unit flange speed
     a, b = tau_in * p.inverse_j_in, -tau_load / p.j_eff2   # N's constant rows omega_in and omega2
     z0, z1, z2, z3, z4, z5, z6, z7, z8, z9, z10, z11, z12, z13 = z
     # predictor: E z + F (a, b) + sum_j W_j N_j (torsional rows in the order of z0, z1, z2, z3, z8, z9)
-    r0 = e[0] * z0 + e[1] * z1 + e[2] * z2 + e[3] * z3 + e[4] * z8 + e[5] * z9 + f[0] * a + f[1] * b
-    r1 = e[6] * z0 + e[7] * z1 + e[8] * z2 + e[9] * z3 + e[10] * z8 + e[11] * z9 + f[2] * a + f[3] * b
-    r2 = e[12] * z0 + e[13] * z1 + e[14] * z2 + e[15] * z3 + e[16] * z8 + e[17] * z9 + f[4] * a + f[5] * b
-    r3 = e[18] * z0 + e[19] * z1 + e[20] * z2 + e[21] * z3 + e[22] * z8 + e[23] * z9 + f[6] * a + f[7] * b
-    r8 = e[24] * z0 + e[25] * z1 + e[26] * z2 + e[27] * z3 + e[28] * z8 + e[29] * z9 + f[8] * a + f[9] * b
-    r9 = e[30] * z0 + e[31] * z1 + e[32] * z2 + e[33] * z3 + e[34] * z8 + e[35] * z9 + f[10] * a + f[11] * b
-    r4, r5 = e[36] * z4 + e[37] * z5, e[38] * z4 + e[39] * z5
-    r6, r7 = e[40] * z6 + e[41] * z7, e[42] * z6 + e[43] * z7
-    r10, r11 = e[44] * z10 + e[45] * z11, e[46] * z10 + e[47] * z11
-    r12, r13 = e[48] * z12 + e[49] * z13, e[50] * z12 + e[51] * z13
+    r0 = e0 * z0 + e1 * z1 + e2 * z2 + e3 * z3 + e4 * z8 + e5 * z9 + f0 * a + f1 * b
+    r1 = e6 * z0 + e7 * z1 + e8 * z2 + e9 * z3 + e10 * z8 + e11 * z9 + f2 * a + f3 * b
+    r2 = e12 * z0 + e13 * z1 + e14 * z2 + e15 * z3 + e16 * z8 + e17 * z9 + f4 * a + f5 * b
+    r3 = e18 * z0 + e19 * z1 + e20 * z2 + e21 * z3 + e22 * z8 + e23 * z9 + f6 * a + f7 * b
+    r8 = e24 * z0 + e25 * z1 + e26 * z2 + e27 * z3 + e28 * z8 + e29 * z9 + f8 * a + f9 * b
+    r9 = e30 * z0 + e31 * z1 + e32 * z2 + e33 * z3 + e34 * z8 + e35 * z9 + f10 * a + f11 * b
+    r4, r5 = e36 * z4 + e37 * z5, e38 * z4 + e39 * z5
+    r6, r7 = e40 * z6 + e41 * z7, e42 * z6 + e43 * z7
+    r10, r11 = e44 * z10 + e45 * z11, e46 * z10 + e47 * z11
+    r12, r13 = e48 * z12 + e49 * z13, e50 * z12 + e51 * z13
     m1 = mx1 = my1 = m2 = mx2 = my2 = m_dis = m_work = s_dis = s_work = 0.0
     for i, (g, c, quad) in enumerate(zip(weights, extrapolation, quadrature)):
         n1, x1, y1, n2, x2, y2, dis, work, gx, gy, w_in = points[_TORQUE_POINT * i:_TORQUE_POINT * (i + 1)]
         x2 += tau_load * gx
         y2 += tau_load * gy
         work += work_in * w_in
-        r0 += g[0] * n1 + g[1] * n2
-        r1 += g[2] * n1 + g[3] * n2
-        r2 += g[4] * n1 + g[5] * n2
-        r3 += g[6] * n1 + g[7] * n2
-        r8 += g[8] * n1 + g[9] * n2
-        r9 += g[10] * n1 + g[11] * n2
-        r4 += g[12] * x1
-        r5 += g[13] * x1
-        r6 += g[14] * y1
-        r7 += g[15] * y1
-        r10 += g[16] * x2
-        r11 += g[17] * x2
-        r12 += g[18] * y2
-        r13 += g[19] * y2
+        g0, g1, g2, g3, g4, g5, g6, g7, g8, g9, g10, g11, g12, g13, g14, g15, g16, g17, g18, g19 = g
+        r0 += g0 * n1 + g1 * n2
+        r1 += g2 * n1 + g3 * n2
+        r2 += g4 * n1 + g5 * n2
+        r3 += g6 * n1 + g7 * n2
+        r8 += g8 * n1 + g9 * n2
+        r9 += g10 * n1 + g11 * n2
+        r4 += g12 * x1
+        r5 += g13 * x1
+        r6 += g14 * y1
+        r7 += g15 * y1
+        r10 += g16 * x2
+        r11 += g17 * x2
+        r12 += g18 * y2
+        r13 += g19 * y2
         m1 += c * n1
         mx1 += c * x1
         my1 += c * y1
@@ -1336,10 +1341,12 @@ def _torque_adams_substep(p: TorqueDrivenParameters, ops: tuple, h: float, z: Se
     dx2, dy2 = nu[5] + tau_load * gx - mx2, nu[6] + tau_load * gy - my2
     q[0] += h * (s_dis + gamma * (nu[7] - m_dis))
     q[1] += h * (s_work + gamma * (nu[8] + work_in * w_in - m_work))
-    return [r0 + psi[0] * d1 + psi[1] * d2, r1 + psi[2] * d1 + psi[3] * d2, r2 + psi[4] * d1 + psi[5] * d2,
-            r3 + psi[6] * d1 + psi[7] * d2, r4 + psi[12] * dx1, r5 + psi[13] * dx1, r6 + psi[14] * dy1,
-            r7 + psi[15] * dy1, r8 + psi[8] * d1 + psi[9] * d2, r9 + psi[10] * d1 + psi[11] * d2,
-            r10 + psi[16] * dx2, r11 + psi[17] * dx2, r12 + psi[18] * dy2, r13 + psi[19] * dy2], point
+    (psi0, psi1, psi2, psi3, psi4, psi5, psi6, psi7, psi8, psi9, psi10, psi11, psi12, psi13, psi14, psi15, psi16,
+     psi17, psi18, psi19) = psi
+    return [r0 + psi0 * d1 + psi1 * d2, r1 + psi2 * d1 + psi3 * d2, r2 + psi4 * d1 + psi5 * d2,
+            r3 + psi6 * d1 + psi7 * d2, r4 + psi12 * dx1, r5 + psi13 * dx1, r6 + psi14 * dy1, r7 + psi15 * dy1,
+            r8 + psi8 * d1 + psi9 * d2, r9 + psi10 * d1 + psi11 * d2, r10 + psi16 * dx2, r11 + psi17 * dx2,
+            r12 + psi18 * dy2, r13 + psi19 * dy2], point
 
 
 class TorqueDriven:
