@@ -10,7 +10,8 @@ remains for the host's explicit loop is the driver's controller (torque from the
 
 The equations are the ``TorqueDriven`` protocol of the model module (derivatives of a state, its
 ``torque_driven_rates``), integrated over each step by the shared ModelSlave with classical RK4 (or the protocol's
-own ``integrate`` where it has one), so a Model Exchange export can hand them to the host's solver.
+own ``integrate`` or ``integrate_with_history`` where it has one), so a Model Exchange export can hand them to the
+host's solver.
 """
 
 from ..models.protocol import Torques

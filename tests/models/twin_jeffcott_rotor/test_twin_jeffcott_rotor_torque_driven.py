@@ -254,8 +254,8 @@ def test_torque_multistep_integrator_restarts_at_a_torque_step(jump):
     the load (2 -> 20 N.m: disc 2's by 18 N.m / J_eff2 = 1840 rad/s^2) at 30 ms, after a slow drift of both: the
     motion's accelerations jump, so N's time derivative does, which no polynomial through the history follows. The
     multistep method restarts there (``TORQUE_INPUT_JUMP``) and stays as accurate as ETDRK4-B, which starts afresh
-    every step (within 1.5x of its error against DOP853; measured 0.29x and 1.2x); extrapolating across the step
-    instead leaves 5.6x and 85x. The drift before it (0.01 N.m/s of each) is recombined with the held torques."""
+    every step (within 1.5x of its error against DOP853; measured 0.29x and 1.1x); extrapolating across the step
+    instead leaves 5.6x and 88x. The drift before it (0.01 N.m/s of each) is recombined with the held torques."""
     p = rotor(beta=10 * DEG, m_u1=0.01, m_u2=0.01, phase_u1=0.3, phase_u2=-0.8, omega_in_start=80.0)
     after = (8.0, 2.0) if jump == "drive" else (3.0, 20.0)
     inputs = lambda t: (3.0 + 0.01 * t, 2.0 + 0.01 * t) if t < 0.03 - 1e-9 else after   # noqa: E731
