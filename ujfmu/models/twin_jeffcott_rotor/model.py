@@ -1377,7 +1377,7 @@ class TorqueDriven:
     @staticmethod
     def rate_bound(p: TorqueDrivenParameters, y: tuple, omega_max: float) -> float:
         """The natural-rate bound with the flange free plus 4 |omega_in| (the 1x, 2x, 4x forcing): the protocol's RK4
-        rule, not used by the FMU, which steps with :meth:`integrate`."""
+        rule, not used by the FMU, which steps with :meth:`integrate_with_history`."""
         return p.natural_rate + 4.0 * omega_max
 
     #: no history: the next step starts with :func:`torque_exponential_step`'s substeps
@@ -1398,7 +1398,7 @@ class TorqueDriven:
     @staticmethod
     def input_acceleration(p: TorqueDrivenParameters, y: tuple, u: Torques) -> float:
         """alpha_in of :func:`input_acceleration` at the inputs u (the FMU bounds the flange's speed over a step by
-        it before :meth:`integrate`)."""
+        it before :meth:`integrate_with_history`)."""
         return input_acceleration(p, y, u.tau_in)
 
     @staticmethod
