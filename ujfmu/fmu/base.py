@@ -542,12 +542,7 @@ class ModelSlave(UjfmuSlave):
             if not self._started:
                 self._y, self._started = self.current_state(u), True
         else:
-            y = self.current_state(u)
-            if self._history_step is not None:
-                y, self._history = self._history_step(self._p, t, h, y, u, self._history)
-                y = tuple(y)
-            else:
-                y = self.integrate(t, h, y, u)
+            y = self.integrate(t, h, self.current_state(u), u)
             if not math.isfinite(sum(y)) and not all(map(math.isfinite, y)):   # a sum is finite unless one is not
                 raise ValueError(f"the state became non-finite over the step ({y!r})")
             if self._check_state is not None:
@@ -559,8 +554,11 @@ class ModelSlave(UjfmuSlave):
         return u
 
     def integrate(self, t, h, y, u):
-        """The state y at t advanced to t + h by the model's own ``integrate``, else RK4 substeps (``substeps``),
-        the inputs u (``model_inputs()``) held."""
+        """The state y at t advanced to t + h by the model's own ``integrate_with_history`` (its history advanced
+        with it) or ``integrate``, else RK4 substeps (``substeps``), the inputs u (``model_inputs()``) held."""
+        if self._history_step is not None:
+            y, self._history = self._history_step(self._p, t, h, y, u, self._history)
+            return tuple(y)
         if self._own_step is not None:
             return tuple(self._own_step(self._p, t, h, y, u))
         return self._rk4(self.MODEL.derivatives, self._p, t, u, y, h, self.substeps(h, y, u))
@@ -657,9 +655,9 @@ class PrescribedInputSlave(ModelSlave):
     def integrate(self, t, h, y, u):
         """The RK4 substeps with the input shaft extrapolated from u over the step (angle quadratic, speed linear
         in time: Eq. above) and tau_load held, through the model's ``drive_derivatives``; or the model's own
-        ``integrate`` from u (ModelSlave's)."""
-        if self._own_step is not None:
-            return tuple(self._own_step(self._p, t, h, y, u))
+        ``integrate_with_history`` or ``integrate`` from u (ModelSlave's)."""
+        if self._own_step is not None or self._history_step is not None:
+            return super().integrate(t, h, y, u)
         return self._rk4(self._drive_derivatives, self._p, t, y, h, self.substeps(h, y, u), u.phi, u.omega, u.alpha,
                          u.tau_load)
 

@@ -10,7 +10,8 @@ remains for the host's explicit loop is the driver's controller (torque from the
 
 The equations are the ``TorqueDriven`` protocol of the model module (derivatives of a state, its
 ``torque_driven_rates``), integrated over each step by the shared ModelSlave with classical RK4 (or the protocol's
-own ``integrate`` where it has one), so a Model Exchange export can hand them to the host's solver.
+own ``integrate`` or ``integrate_with_history`` where it has one), so a Model Exchange export can hand them to the
+host's solver.
 """
 
 from ..models.protocol import Torques
@@ -72,14 +73,15 @@ class TorqueDrivenSlave(ModelSlave):
     def integrate(self, t, h, y, u):
         """The RK4 substeps, the input speed over the step bounded from the rates at its start (:meth:`speed_reach`),
         which are the first stage's; or the model's own ``integrate_from`` from those rates; or its own
-        ``integrate`` (with ``input_acceleration(p, y, u)``) after the same bound."""
+        ``integrate_with_history`` or ``integrate`` (ModelSlave's) after the same bound (with
+        ``input_acceleration(p, y, u)``)."""
         if self._step_from is not None:
             k1 = self.MODEL.derivatives(self._p, t, y, u)
             self.speed_reach(h, k1[0], k1[1])
             return tuple(self._step_from(self._p, t, h, y, u, k1))
-        if self._own_step is not None:
+        if self._own_step is not None or self._history_step is not None:
             self.speed_reach(h, y[1], self.MODEL.input_acceleration(self._p, y, u))
-            return tuple(self._own_step(self._p, t, h, y, u))
+            return super().integrate(t, h, y, u)
         k1 = self.MODEL.derivatives(self._p, t, y, u)
         return self._rk4(self.MODEL.derivatives, self._p, t, u, y, h,
                          self.substeps(h, y, u, self.speed_reach(h, k1[0], k1[1])), k1)

@@ -99,8 +99,11 @@ class TwinJeffcottRotorTorqueDriven(TorqueDrivenSlave):
     The same rotor as TwinJeffcottRotor (Tchomeni, Alugongo, Masu Eqs. 1-11, re-derived), with the gearbox flange
     free: its angle and speed are a state integrated from (J_drive + J_gb) alpha_in = tau_in - T1, T1 the primary
     shaft torque, J_drive the driver's rotor inertia lumped on the flange (model.TorqueDriven); tau_in and tau_load
-    held over each step (classical RK4, substeps from the natural rates with the flange free and 4|omega_in|).
-    Outputs as TwinJeffcottRotor's; tau_input_shaft = tau_in - J_drive*alpha_in is what TwinJeffcottRotor calls
+    held over each step. Integrated as TwinJeffcottRotor is, in twist coordinates about the flange's rigid rotation
+    with the flange in the torsional chain: an exponential Adams predictor-corrector, one evaluation of the equations
+    per step (model.torque_multistep_step, its history of the equations' values part of the FMU state), started and
+    restarted (step length changed, torque steps) by ETDRK4-B (model.torque_exponential_step); one substep per 1 ms
+    step on the default rig up to about 240 rad/s. Outputs as TwinJeffcottRotor's; tau_input_shaft = tau_in - J_drive*alpha_in is what TwinJeffcottRotor calls
     tau_in, and input_work its integral times omega_in. Offers Model Exchange (FMI 3.0): no input derivative is
     needed. Wire it to MotorController (tau_motor -> tau_in, omega_in -> omega) and a Load (omega_out -> omega,
     tau -> tau_load). Signs as TwinJeffcottRotor's.
