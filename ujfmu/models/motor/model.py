@@ -10,7 +10,9 @@ Speed profiles omega_ref(t) (Feng et al. accelerate the driving shaft at alpha =
     RAMP:     omega_ref = min(accel * t, omega_set)  (from rest)
     STEP:     omega_ref = omega_initial before t_step, omega_set from t_step on
 Numerics (PI mode, :func:`integrate`): exact to round-off while the loop is linear over the step (the torque
-within its limit all along, :func:`pi_torque_bound`; no profile corner inside), else classical RK4 (order 4).
+within its limit all along, :func:`pi_torque_bound`; no profile corner inside), else classical RK4 (order 4). The
+MotorController (:meth:`Controller.integrate`, the measured speed held): its integral in closed form while the law
+is linear over the step (:func:`controller_torque_peak`), else one RK4 step.
 Source: none; a generic drive (PI speed control with conditional-integration anti-windup, the textbook law).
 Standard library only: runs inside the Motor and MotorController FMUs (``Controller``: the PI controller without
 its rotor, for the torque-driven joints).
