@@ -78,3 +78,26 @@ def test_ecos_runs_without_ecos_name_the_extra(monkeypatch, tmp_path):
     monkeypatch.setattr(engines.importlib.util, "find_spec", lambda name: None)
     with pytest.raises(MissingExtraError, match=r"pip install 'ujfmu\[bench\]'"):
         engines.cosimulate_ecos(tmp_path / "x.ssp", None, tmp_path)
+
+
+def test_side_by_side_turns_record_the_run_a_single_run_records(fmu_dir, tmp_path):
+    """The scenario run timed in turns with its pass-through twins records the same table, row for row, as one
+    uninterrupted run (the turns' joins neither repeat nor drop a point; the times agree to round-off, the values
+    bit for bit), so its tolerance check is the run's."""
+    from ujfmu.bench import _side_by_side
+    from ujfmu.master import Component, Cosimulation
+    from ujfmu.scenario import Scenario
+    scenario = Scenario(SCENARIOS / "cardan_constant_speed.toml")
+    for c in scenario.master_components(fmu_dir):
+        build_fmu(Path(c.fmu).stem, tmp_path, pass_through=True)
+    twins = [Component(c.name, tmp_path / f"{Path(c.fmu).stem}PassThrough.fmu", c.parameters)
+             for c in scenario.master_components(fmu_dir)]
+    _, wall, floor, ratios, table = _side_by_side(scenario.master_components(fmu_dir), twins, scenario, 500, chunk=120)
+    with Cosimulation(scenario.master_components(fmu_dir), scenario.connections, 1e-3, scenario.record,
+                      scenario.start_time, coupling="explicit") as cosim:
+        whole = cosim.run(500)
+    assert len(ratios) == 5 and wall > 0 and floor > 0
+    assert table.dtype.names == whole.dtype.names and len(table) == len(whole) == 501
+    assert table["time"] == pytest.approx(whole["time"], rel=1e-14, abs=1e-15)   # t0 + k h summed per turn
+    for name in whole.dtype.names[1:]:
+        assert (table[name] == whole[name]).all(), name
