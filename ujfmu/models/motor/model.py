@@ -324,7 +324,7 @@ class Controller:
             e0, integral = r0 - u[0], y[0]
             if controller_torque_peak(p, h, e0, a, integral) <= p.tau_max:
                 return (integral + h * (e0 + 0.5 * a * h),)
-        return _RK4_1(Controller.derivatives, p, t, u, y, h, 1)
+        return _RK4_1(Controller.derivatives, p, t, u, y, h, rk4.substeps(Controller.rate_bound(p, y, 0.0), h))
 
     @staticmethod
     def outputs(p: ControllerParameters, t: float, y: tuple, u: tuple) -> dict:
