@@ -133,3 +133,17 @@ def test_load_outputs_are_every_output_that_moves_with_the_load_inputs(name, ide
         moved |= {k for k, v in model.outputs(p, 0.4, y, changed).items() if v != model.outputs(p, 0.4, y, u)[k]}
     assert moved <= set(model.load_outputs(p, 0.4, y, u))   # an output may stand still at these parameters
     assert ("tau_motor" in moved) == ideal if name == "Motor" else moved
+
+
+@pytest.mark.parametrize("name", [n for n in MODEL_FMUS if hasattr(fmu_class(n).MODEL, "state_outputs")])
+def test_state_outputs_are_the_outputs_without_feedthrough_at_any_inputs(name):
+    """state_outputs gives exactly the outputs' values for its STATE_OUTPUTS (the FMU computes only these on a read
+    of only these), at two sets of inputs: none depends on an input, as the FMU declares them (no direct
+    feedthrough)."""
+    model, p, u, y = model_at_a_state(name, "", False)
+    names = model.STATE_OUTPUTS
+    declared = {v.name: v for v in fmu_class(name).VARIABLES if v.causality == "output"}
+    assert set(names) <= set(declared) and not any(declared[k].depends_on for k in names)
+    for inputs in (u, u._replace(**{field: getattr(u, field) + 7.0 for field in u._fields})):
+        full = model.outputs(p, 0.4, y, inputs)
+        assert model.state_outputs(p, 0.4, y) == {k: full[k] for k in names}

@@ -190,6 +190,10 @@ class UjfmuSlave(Fmi2Slave):
         self._real_setters = {vr: var.setter for vr, var in reals.items() if var.setter is not None}
         self._real_names = {vr: var.name for vr, var in reals.items()}
         self._real_outputs = frozenset(vr for vr, var in reals.items() if var.causality == Fmi2Causality.output)
+        # the outputs that are functions of the state alone (``_state_output_names``), and the state they were last
+        # computed at by ``read_state_outputs`` (None: not since the last restore)
+        self._state_vrs = frozenset(vr for vr, var in reals.items() if var.name in self._state_output_names)
+        self._state_outputs_of = None
         big = sys.float_info.max
         self._input_bounds = tuple((v.name, -big if v.min is None else v.min, big if v.max is None else v.max, v)
                                    for v in self._inputs)
@@ -224,11 +228,14 @@ class UjfmuSlave(Fmi2Slave):
         value is read from the instance's attributes."""
         try:
             if self._stale:
-                outputs = self._real_outputs
-                for vr in vrs:
-                    if vr in outputs:
-                        self._real_getters[vr]()
-                        break
+                if self._state_vrs and vrs and self._state_vrs.issuperset(vrs):
+                    self.read_state_outputs(vrs)
+                else:
+                    outputs = self._real_outputs
+                    for vr in vrs:
+                        if vr in outputs:
+                            self._real_getters[vr]()
+                            break
             names, values = self._real_names, self.__dict__
             return [values[names[vr]] for vr in vrs]
         except KeyError:
@@ -297,6 +304,7 @@ class UjfmuSlave(Fmi2Slave):
             for key, value in state.fields.items():
                 setattr(self, key, value)
         self._partial = False
+        self._state_outputs_of = None
         if not self._initialized:
             self._derivation = None
         elif state.derivation is None or state.derivation is not self._derivation:
@@ -362,6 +370,15 @@ class UjfmuSlave(Fmi2Slave):
         return set_
 
     # --- hooks for the models ---
+    #: names of outputs that are functions of the model state alone (no input): a read of only these while the
+    #: outputs are stale computes only them (``read_state_outputs``); a host reads them first in a step
+    _state_output_names = ()
+
+    def read_state_outputs(self, vrs):
+        """Make the outputs of vrs (all in ``_state_output_names``) valid (default: all outputs, as any read
+        does)."""
+        self._real_getters[vrs[0]]()
+
     #: model attributes that evolve and are saved with the FMU state: name -> kind ("float", "float|None", "int",
     #: "bool", "float[n]"); set by initialize(), changed by advance()
     STATE = {}
@@ -454,11 +471,12 @@ class ModelSlave(UjfmuSlave):
     - the outputs: ``MODEL.outputs`` assigned by name, recomputed on the first read after a step or a change of an
       input outside ``MODEL.output_free_inputs(p)``; where only the ``LOAD_INPUTS`` (tau_load; a torque-driven
       FMU's torques) changed since they were computed and the model has ``load_outputs``, only those (the others
-      do not depend on them).
+      do not depend on them); a read of only the model's ``STATE_OUTPUTS`` computes only those
+      (``MODEL.state_outputs``, once per state).
 
-    Subclasses provide ``model_inputs()`` (the model's inputs now) and may replace ``integrate`` (the RK4 substeps
-    of one step, inputs held) and extend ``initialize``/``advance`` for what their inputs need
-    (PrescribedInputSlave: the input shaft's angle, extrapolated over the step).
+    Subclasses provide ``model_inputs()`` (the model's inputs now) and may replace ``rk4_step`` (the RK4 substeps
+    of one step, inputs held) or ``integrate`` (the whole step) and extend ``initialize``/``advance`` for what their
+    inputs need (PrescribedInputSlave: the input shaft's angle, extrapolated over the step).
     """
 
     MODEL = None
@@ -471,6 +489,9 @@ class ModelSlave(UjfmuSlave):
     _history_step = None
     #: the model's ``check_state(p, y)`` where it has one (the protocol's option)
     _check_state = None
+    #: the model's ``outputs(p, t, y, u)``, and its ``state_outputs(p, t, y)`` where it has them (the protocol's
+    #: option: the outputs it names in ``STATE_OUTPUTS``)
+    _outputs = _state_outputs = None
     DERIVED = ("_p", "_output_free", "_kinematic", "_load_inputs")
     #: the inputs ``MODEL.load_outputs`` covers (the outputs that depend on them are all in it)
     LOAD_INPUTS = ("tau_load",)
@@ -486,6 +507,10 @@ class ModelSlave(UjfmuSlave):
                 cls._own_step = staticmethod(model.integrate)
             if hasattr(model, "check_state"):
                 cls._check_state = staticmethod(model.check_state)
+            cls._outputs = staticmethod(model.outputs)
+            if hasattr(model, "state_outputs"):
+                cls._state_outputs = staticmethod(model.state_outputs)
+                cls._state_output_names = tuple(model.STATE_OUTPUTS)
             if hasattr(model, "integrate_with_history"):   # a multistep integrator: its history is FMU state
                 cls._history_step = staticmethod(model.integrate_with_history)
                 cls.STATE = {**cls.STATE, "_history": f"float[{len(model.NO_HISTORY)}]"}
@@ -523,7 +548,24 @@ class ModelSlave(UjfmuSlave):
         return tuple(self.MODEL.initial_state(self._p, self._time, u))
 
     def compute_outputs(self):
-        self.set_outputs(self.model_inputs())
+        """The output variables from ``MODEL.outputs`` at the current time, state and inputs; returns the inputs."""
+        u = self.model_inputs()
+        vars(self).update(self._outputs(self._p, self._time, self._y if self._started else self.current_state(u), u))
+        return u
+
+    def read_state_outputs(self, vrs):
+        """``MODEL.state_outputs`` at the current state, once per state (the other outputs stay stale); before the
+        first step, every output (the state then follows the inputs: the warm start)."""
+        y = self._y if self._running and self._started else None
+        if y is None:
+            self._real_getters[vrs[0]]()
+        elif self._state_outputs_of is not y:
+            try:
+                vars(self).update(self._state_outputs(self._p, self._time, y))
+            except Exception as exc:
+                self._raise_to_host(f"{self.modelName} '{self.instance_name}': cannot compute "
+                                    f"{self._real_names[vrs[0]]}: {exc}")
+            self._state_outputs_of = y
 
     def compute_load_outputs(self):
         """``MODEL.load_outputs``: the outputs that depend on the ``LOAD_INPUTS``, at the current time, state and
@@ -531,18 +573,17 @@ class ModelSlave(UjfmuSlave):
         u = self.model_inputs()
         vars(self).update(self.MODEL.load_outputs(self._p, self._time, self.current_state(u), u))
 
-    def set_outputs(self, u):
-        """The output variables from ``MODEL.outputs`` at the current time and state and the inputs u."""
-        vars(self).update(self.MODEL.outputs(self._p, self._time, self.current_state(u), u))
-
     def advance(self, t, h):
-        """Step the state from t to t + h; returns the inputs (``model_inputs()``) held over the step."""
-        u = self.model_inputs()
+        """Step the state from t to t + h; returns the inputs (``model_inputs()``) held over the step (None for a
+        kinematic model after its first step: nothing used them)."""
         if self._kinematic:
+            u = None
             if not self._started:
+                u = self.model_inputs()
                 self._y, self._started = self.current_state(u), True
         else:
-            y = self.integrate(t, h, self.current_state(u), u)
+            u = self.model_inputs()
+            y = self.integrate(t, h, self._y if self._started else self.current_state(u), u)
             if not math.isfinite(sum(y)) and not all(map(math.isfinite, y)):   # a sum is finite unless one is not
                 raise ValueError(f"the state became non-finite over the step ({y!r})")
             if self._check_state is not None:
@@ -555,12 +596,16 @@ class ModelSlave(UjfmuSlave):
 
     def integrate(self, t, h, y, u):
         """The state y at t advanced to t + h by the model's own ``integrate_with_history`` (its history advanced
-        with it) or ``integrate``, else RK4 substeps (``substeps``), the inputs u (``model_inputs()``) held."""
+        with it) or ``integrate``, else ``rk4_step``."""
         if self._history_step is not None:
             y, self._history = self._history_step(self._p, t, h, y, u, self._history)
             return tuple(y)
         if self._own_step is not None:
             return tuple(self._own_step(self._p, t, h, y, u))
+        return self.rk4_step(t, h, y, u)
+
+    def rk4_step(self, t, h, y, u):
+        """RK4 substeps (``substeps``) of ``MODEL.derivatives``, the inputs u (``model_inputs()``) held."""
         return self._rk4(self.MODEL.derivatives, self._p, t, u, y, h, self.substeps(h, y, u))
 
     def substeps(self, h, y, u, omega_max=None):
@@ -652,12 +697,9 @@ class PrescribedInputSlave(ModelSlave):
     def model_inputs(self):
         return Drive(self._phi_in, self.omega_in, self.input_acceleration(), self.tau_load)
 
-    def integrate(self, t, h, y, u):
+    def rk4_step(self, t, h, y, u):
         """The RK4 substeps with the input shaft extrapolated from u over the step (angle quadratic, speed linear
-        in time: Eq. above) and tau_load held, through the model's ``drive_derivatives``; or the model's own
-        ``integrate_with_history`` or ``integrate`` from u (ModelSlave's)."""
-        if self._own_step is not None or self._history_step is not None:
-            return super().integrate(t, h, y, u)
+        in time: Eq. above) and tau_load held, through the model's ``drive_derivatives``."""
         return self._rk4(self._drive_derivatives, self._p, t, y, h, self.substeps(h, y, u), u.phi, u.omega, u.alpha,
                          u.tau_load)
 
@@ -665,22 +707,22 @@ class PrescribedInputSlave(ModelSlave):
         return max(abs(u.omega), abs(u.omega + u.alpha * h))
 
     def compute_outputs(self):
-        u = self.model_inputs()
-        self.set_outputs(u)
+        u = super().compute_outputs()
         self.phi_in, self.alpha_in = u.phi, u.alpha
-
-    def advance(self, t, h):
-        u = super().advance(t, h)
-        self.advance_input(h, u.alpha)
         return u
 
-    def advance_input(self, h, alpha):
-        increment = h * (self.omega_in + 0.5 * alpha * h) - self._phi_in_carry
+    def advance(self, t, h):
+        """ModelSlave's step, then the input angle over it (Kahan-summed) and the speed history."""
+        u = super().advance(t, h)
+        alpha = self.input_acceleration() if u is None else u.alpha
+        omega = self.omega_in
+        increment = h * (omega + 0.5 * alpha * h) - self._phi_in_carry
         total = self._phi_in + increment
         self._phi_in_carry = (total - self._phi_in) - increment
         self._phi_in = total
         self._omega_prev2, self._h_prev2 = self._omega_prev, self._h_prev
-        self._omega_prev, self._h_prev = self.omega_in, h
+        self._omega_prev, self._h_prev = omega, h
+        return u
 
 
 # --- FMU state: in memory and serialized ---------------------------------------------------------------------------

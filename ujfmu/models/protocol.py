@@ -44,7 +44,10 @@ integrator: its history, a tuple of floats of NO_HISTORY's length, is FMU state,
 and ``load_outputs(p, t, y, u) -> dict`` (the outputs that depend on the input tau_load, for a torque-driven variant
 on either of its inputs tau_in and tau_load, the same numbers as ``outputs`` gives for them; every other output must
 not depend on those inputs: when a host sets them after reading the outputs, the FMU recomputes only these; default
-all of ``outputs``).
+all of ``outputs``), and ``STATE_OUTPUTS`` with ``state_outputs(p, t, y) -> dict`` (names of outputs that depend on
+no input, e.g. a torque-driven variant's speeds, which its host reads before it sets the torques, and their values,
+the same numbers as ``outputs`` gives for them: a read of only these computes only them; default all of
+``outputs``).
 
 The inputs ``u`` are the model's own NamedTuple ``Inputs``; a model whose input shaft follows a prescribed speed
 (``omega_in``) uses :class:`Drive`, which the base extrapolates over a step (angle quadratic, speed linear in time:

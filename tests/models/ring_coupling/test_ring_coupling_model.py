@@ -127,3 +127,27 @@ def test_own_rk4_step_is_rk4_integrate_drive_bit_for_bit_and_fourth_order():
               for n in (16, 32, 64)]
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert np.all((orders > 3.7) & (orders < 4.3)), (errors, orders)
+
+
+def test_torque_driven_outputs_are_the_speed_driven_ones_at_the_computed_motion():
+    """The torque-driven coupling's outputs: shaft 1's motion from the state and its equation of motion, and the
+    speed-driven coupling's outputs at that motion (tau_in there is tau_input_shaft here), bit for bit; the
+    lumped rotor takes the rest of the driving torque, tau_in - tau_input_shaft = J_drive alpha_in."""
+    import random
+    from ujfmu.models.protocol import Drive, Torques
+    rng = random.Random(7)
+    for _ in range(100):
+        p = rc.TorqueDrivenParameters(R=rng.uniform(0.05, 0.3), d=D, E=E, e=rng.uniform(0.0, 0.01),
+                                      I1=rng.uniform(0.0, 0.1), I2=rng.uniform(0.01, 0.1), c_s=rng.uniform(0, 1e3),
+                                      c_d=rng.uniform(0.0, 2.0), phi_in_start=rng.uniform(-3, 3),
+                                      phi_out_start=rng.uniform(-3, 3), J_drive=rng.uniform(0.01, 0.1),
+                                      omega_in_start=0.0)
+        y = (rng.uniform(-50, 50), rng.uniform(-200, 200), rng.uniform(-50, 50), rng.uniform(-200, 200))
+        u = Torques(rng.uniform(-30, 30), rng.uniform(-30, 30))
+        alpha = rc.TorqueDriven.derivatives(p, 0.0, y, u)[1]
+        speed_driven = rc.outputs(p, 0.0, rc.State(y[2], y[3]), Drive(y[0], y[1], alpha, u.tau_load))
+        expected = {"phi_in": y[0], "omega_in": y[1], "alpha_in": alpha,
+                    "tau_input_shaft": speed_driven.pop("tau_in"), **speed_driven}
+        assert rc.TorqueDriven.outputs(p, 0.0, y, u) == expected
+        assert rc.TorqueDriven.load_outputs(p, 0.0, y, u) == {k: expected[k] for k in ("alpha_in", "tau_input_shaft")}
+        assert u.tau_in - expected["tau_input_shaft"] == pytest.approx(p.J_drive * alpha, rel=1e-9, abs=1e-9)

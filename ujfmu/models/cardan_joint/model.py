@@ -284,6 +284,20 @@ class TorqueDriven:
         return {"phi_in": theta1, "omega_in": omega1, "alpha_in": alpha, "tau_input_shaft": tau_shaft, "M_x": m_x,
                 "M_y": m_y, "M_z": m_z, "omega_out": omega_out, "phi_out": phi_out}
 
+    #: the outputs that follow from the state alone (:meth:`state_outputs`)
+    STATE_OUTPUTS = ("phi_in", "omega_in", "omega_out", "phi_out")
+
+    @staticmethod
+    def state_outputs(p: TorqueDrivenParameters, t: float, y: tuple) -> dict:
+        """The shafts' motion, the driven one's by the kinematics (omega2 = r omega1, :func:`driven_angle`):
+        :meth:`outputs`' values for these names, written as :func:`joint_motion` computes them (the same numbers)."""
+        theta1, omega1 = y
+        ax, ay, _, bx, by, _, kz = p.coefficients
+        s, c = math.sin(theta1), math.cos(theta1)
+        e1x, e1y = c * bx - s * ax, c * by - s * ay
+        return {"phi_in": theta1, "omega_in": omega1, "omega_out": kz / (e1x * e1x + e1y * e1y) * omega1,
+                "phi_out": theta1 + math.atan2(-e1x * c - e1y * s, e1y * c - e1x * s)}
+
     @staticmethod
     def check(p: TorqueDrivenParameters) -> list:
         """:func:`check`, and the driving shaft needs an inertia to integrate."""

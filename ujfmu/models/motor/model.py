@@ -19,7 +19,7 @@ its rotor, for the torque-driven joints).
 """
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from ...fmu import rk4
@@ -66,6 +66,11 @@ class ControllerParameters:
     accel: float
     t_step: float
     omega_initial: float
+    #: :func:`profile_corner`
+    corner: float | None = field(init=False, repr=False, default=None)
+
+    def __post_init__(self):
+        self.corner = profile_corner(self)
 
 
 @dataclass(slots=True, kw_only=True)
@@ -208,7 +213,7 @@ def integrate(p: Parameters, t: float, h: float, y: State, u: Inputs) -> tuple:
     i.e. no profile corner inside (t, t + h) and the torque within its limit all along (:func:`pi_torque_bound`
     <= tau_max): y(t + h) = P (y, c, d) of :func:`pi_propagator`; elsewhere (the limit reached or crossed, a
     corner inside the step) the classical RK4 substeps of :func:`rate_bound` (order 4), as the FMU's default."""
-    corner = profile_corner(p)
+    corner = p.corner
     if corner is None or not t < corner < t + h:
         r0, a, _ = reference(p, t)
         tau_load, kp, j = u[0], p.Kp, p.J_rotor
@@ -318,7 +323,7 @@ class Controller:
         |Kp e + Ki I| <= tau_max all along (:func:`controller_torque_peak`); elsewhere one classical RK4 step of
         :meth:`derivatives` (the clamp and the anti-windup), as the FMU's default. RK4 integrates the linear
         e(s) exactly too: the closed form is the same number to round-off, at a quarter of the cost."""
-        corner = profile_corner(p)
+        corner = p.corner
         if corner is None or not t < corner < t + h:
             r0, a, _ = reference(p, t)
             e0, integral = r0 - u[0], y[0]

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from ...fmu import rk4
-from ..protocol import Drive, Torques, shaft_inertia_problems, torque_driven_outputs
+from ..protocol import Drive, Torques, shaft_inertia_problems
 
 #: Eq. (5)/(7): M_p = MP_COEFFICIENT (EI/R^3) e^2 cos(phi1 + phi2)
 MP_COEFFICIENT = 157.0
@@ -96,12 +96,26 @@ def torques(p: Parameters, phi1: float, w1: float, phi2: float, w2: float) -> tu
     return p.mp_amplitude * math.cos(phi1 + phi2), x_e, -(p.c_s * x_e + p.c_d * (w2 - w1))
 
 
-def outputs_at(p: Parameters, phi1: float, w1: float, alpha1: float, y: Sequence[float]) -> dict:
-    """dict of the FMU's torque and energy outputs for a state y = (phi2, w2)."""
-    m_p, x_e, elastic = torques(p, phi1, w1, y[0], y[1])
-    potential = -p.mp_amplitude * math.sin(phi1 + y[0]) + 0.5 * p.c_s * x_e * x_e
-    return dict(M_p=m_p, x_e=x_e, transmitted_torque=m_p + elastic, tau_in=p.I1 * alpha1 - m_p + elastic,
-                stored_energy=0.5 * (p.I1 * w1 * w1 + p.I2 * y[1] * y[1]) + potential)
+def outputs_at(p: Parameters, phi1: float, w1: float, alpha1: float, y: Sequence[float],
+               tau_drive: float | None = None) -> dict:
+    """dict of the FMU's outputs at shaft 1's motion (phi1, w1, alpha1) and shaft 2's state y = (phi2, w2): shaft 2's
+    motion, M_p, x_e, the transmitted torque M_p - (c_s x_e + c_d x_e'), tau_in = I1 alpha1 - M_p + (the elastic
+    torque) and the stored energy (:func:`torques` written out: the same numbers). With tau_drive (the torque-driven
+    coupling), alpha1 is shaft 1's acceleration under it (:func:`input_acceleration`), returned as alpha_in, and
+    tau_in is named tau_input_shaft (``protocol.torque_driven_outputs``)."""
+    phi2, w2 = y
+    x_e = phi2 - phi1 - p.offset
+    m_p = p.mp_amplitude * math.cos(phi1 + phi2)
+    elastic = -(p.c_s * x_e + p.c_d * (w2 - w1))
+    values = {"phi_out": phi2, "omega_out": w2, "M_p": m_p, "x_e": x_e, "transmitted_torque": m_p + elastic,
+              "stored_energy": 0.5 * (p.I1 * w1 * w1 + p.I2 * w2 * w2)
+              + (-p.mp_amplitude * math.sin(phi1 + phi2) + 0.5 * p.c_s * x_e * x_e)}
+    if tau_drive is None:
+        values["tau_in"] = p.I1 * alpha1 - m_p + elastic
+    else:
+        alpha1 = (tau_drive + m_p - elastic) / (p.J_drive + p.I1)
+        values["alpha_in"], values["tau_input_shaft"] = alpha1, p.I1 * alpha1 - m_p + elastic
+    return values
 
 
 def natural_rate(p: "Parameters") -> float:
@@ -196,8 +210,8 @@ def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
 
 
 def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
-    """:func:`outputs_at` and shaft 2's motion."""
-    return {"phi_out": y[0], "omega_out": y[1], **outputs_at(p, u.phi, u.omega, u.alpha, y)}
+    """:func:`outputs_at` the input motion u."""
+    return outputs_at(p, u.phi, u.omega, u.alpha, y)
 
 
 def check(p: Parameters) -> list:
@@ -275,18 +289,18 @@ class TorqueDriven:
     @staticmethod
     def outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
         """Shaft 1's motion from the state and :func:`input_acceleration`, the rest from :func:`outputs` at that
-        motion."""
-        alpha = input_acceleration(p, y, u.tau_in)
-        return torque_driven_outputs(outputs(p, t, State(y[2], y[3]), Drive(y[0], y[1], alpha, u.tau_load)), y,
-                                     alpha)
+        motion (named as ``protocol.torque_driven_outputs`` names them): :func:`outputs_at` under tau_in."""
+        values = outputs_at(p, y[0], y[1], 0.0, y[2:], u.tau_in)
+        values["phi_in"], values["omega_in"] = y[0], y[1]
+        return values
 
     @staticmethod
     def load_outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
         """The outputs that move with the inputs (the FMU recomputes only these when only the torques changed since
         the outputs were computed): shaft 1's acceleration and tau_input_shaft = I1 alpha_in - M_p + the elastic
         torque, as :meth:`outputs` gives them (every other output is a function of the state)."""
-        alpha = input_acceleration(p, y, u.tau_in)
         m_p, _, elastic = torques(p, y[0], y[1], y[2], y[3])
+        alpha = (u.tau_in + m_p - elastic) / (p.J_drive + p.I1)   # input_acceleration
         return {"alpha_in": alpha, "tau_input_shaft": p.I1 * alpha - m_p + elastic}
 
     @staticmethod
