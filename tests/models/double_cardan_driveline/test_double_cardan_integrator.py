@@ -213,9 +213,9 @@ def test_a_step_after_the_outputs_starts_from_their_evaluation_bit_for_bit(monke
 
 
 def test_the_outputs_evaluation_serves_only_its_own_state_object_and_input_motion():
-    """A pure cache: another state (an equal copy too: a restored FMU state), input angle or speed, or a zero of the
-    other sign at the first stage evaluates again (None; the outputs too); a changed tau_load or alpha is served,
-    corrected."""
+    """A pure cache: another state (an equal copy too: a restored FMU state), input angle or speed, or a zero angle
+    or speed (-0.0 and 0.0 are equal, not the same bits) evaluates again (None; the outputs too); a changed tau_load
+    or alpha is served, corrected."""
     p = _driveline(**RIGS[1])
     y, u = dc.State(0.21, 69.0, 2e-4, -3e-3), dc.Drive(0.37, 70.0, 150.0, 2.0)
     dc.outputs(p, 0.0, y, u)
@@ -225,7 +225,7 @@ def test_the_outputs_evaluation_serves_only_its_own_state_object_and_input_motio
         assert dc._first_stage(p, other_y, other_u) is None
     for other_u in (u._replace(tau_load=-4.0), u._replace(alpha=-30.0)):
         assert dc._first_stage(p, y, other_u) == dc.flexible_derivatives(p, u.phi, u.omega, y, other_u.tau_load)
-    dc.outputs(p, 0.0, y, u._replace(phi=-0.0))    # the first stage is at -0.0 + 0.0 * omega = 0.0: not the same
+    dc.outputs(p, 0.0, y, u._replace(phi=-0.0))    # a zero: evaluated again, never served
     assert dc._first_stage(p, y, u._replace(phi=-0.0)) is None
     assert dc._first_stage(p, y, u._replace(phi=0.0)) is None
     fresh = _driveline(**RIGS[1])

@@ -28,7 +28,7 @@ J_in, J_out: the inertias kinematically tied to phi1 / phi4, evaluated at the st
 """
 
 import math
-from math import atan2, copysign, cos, sin
+from math import atan2, cos, sin
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -569,18 +569,14 @@ def integrate(p: Parameters, t: float, h: float, y: State, u: Drive) -> tuple:
                          _first_stage(p, y, u))
 
 
-def _same(a: float, b: float) -> bool:
-    """a and b are the same float bit for bit (0.0 and -0.0 differ, a NaN is never the same)."""
-    return a == b and (a != 0.0 or copysign(1.0, a) == copysign(1.0, b))
-
-
 def _output_rates(p: Parameters, phi1: float, omega1: float, y: Sequence[float], key: tuple) -> tuple:
     """(``_flexible_rates(p, phi1, omega1, y, 0.0)``, ``input_inertia(p, phi1)``): the outputs' evaluation, kept in
     p.outputs_memo = (key, phi1, omega1, both) and given from there while key, the state tuple they are at (y, or
-    the torque-driven state y is part of; immutable), is the same object and phi1, omega1 the same floats. A pure
-    cache: anything else (another state, a restored FMU state's copy, another input motion) evaluates again."""
+    the torque-driven state y is part of; immutable), is the same object and phi1, omega1 the same nonzero floats
+    (equal nonzero floats are the same bits; a zero, which may be -0.0, evaluates). A pure cache: anything else
+    (another state, a restored FMU state's copy, another input motion) evaluates again."""
     memo = p.outputs_memo
-    if memo is not None and memo[0] is key and _same(memo[1], phi1) and _same(memo[2], omega1):
+    if memo is not None and memo[0] is key and memo[1] == phi1 and memo[2] == omega1 and phi1 and omega1:
         return memo[3], memo[4]
     rates, inertia = _flexible_rates(p, phi1, omega1, y, 0.0), input_inertia(p, phi1)
     p.outputs_memo = key, phi1, omega1, rates, inertia
@@ -589,15 +585,18 @@ def _output_rates(p: Parameters, phi1: float, omega1: float, y: Sequence[float],
 
 def _first_stage(p: Parameters, y: State, u: Drive) -> tuple | None:
     """The step's first-stage rates, :func:`flexible_derivatives` at (u.phi, u.omega, y, u.tau_load), from the outputs'
-    evaluation (:func:`_output_rates`, tau_load 0) where it is at this state object and at the first stage's input
-    motion (the integrators' phi0 + s (w0 + alpha s / 2) and w0 + alpha s at s = 0.0: u.phi and u.omega but for a
-    -0.0), else None (evaluate). tau_load enters only dw4/dt = (net - tau_load) / J_out, computed here from
-    ``_flexible_rates``' net and J_out as it does: the same expression on the same floats, bit for bit."""
+    evaluation (:func:`_output_rates`, tau_load 0) where it is at this state object and at u.phi, u.omega, both
+    nonzero (the integrators' first stage is at phi0 + s (w0 + alpha s / 2) and w0 + alpha s with s = 0.0, which is
+    phi0 and w0 bit for bit unless one is a zero), else None (evaluate). tau_load enters only dw4/dt = (net -
+    tau_load) / J_out, computed here from ``_flexible_rates``' net and J_out as it does: the same expression on the
+    same floats, bit for bit."""
     memo = p.outputs_memo
-    if memo is None or memo[0] is not y or not (_same(memo[1], u.phi + 0.0 * (u.omega + 0.5 * u.alpha * 0.0))
-                                                and _same(memo[2], u.omega + u.alpha * 0.0)):
+    if memo is None or memo[0] is not y:
         return None
-    rates, _, _, _, _, net, j_out = memo[3]
+    _, phi1, omega1, flexible, _ = memo
+    if not (phi1 == u.phi and omega1 == u.omega and phi1 and omega1):
+        return None
+    rates, _, _, _, _, net, j_out = flexible
     return rates[0], (net - u.tau_load) / j_out, rates[2], rates[3]
 
 
