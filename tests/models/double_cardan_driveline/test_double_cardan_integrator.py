@@ -229,10 +229,14 @@ def test_the_outputs_evaluation_serves_only_its_own_state_object_and_input_motio
     assert dc._first_stage(p, y, u._replace(phi=-0.0)) is None
     assert dc._first_stage(p, y, u._replace(phi=0.0)) is None
     fresh = _driveline(**RIGS[1])
-    for other_u in (u._replace(phi=0.38), u._replace(omega=70.5), u._replace(omega=-0.0), u._replace(omega=0.0)):
+    for other_u in (u._replace(phi=0.38), u._replace(omega=70.5), u._replace(omega=-0.0)):
+        dc.outputs(p, 0.0, y, u)
         fresh.outputs_memo = None                      # the outputs at another input motion: evaluated again
         assert dc.outputs(p, 0.0, y, other_u) == dc.outputs(fresh, 0.0, y, other_u)
-    assert p.outputs_memo[2] is other_u.omega         # 0.0 after -0.0: evaluated again (equal, not the same)
+        assert p.outputs_memo[1:3] == (other_u.phi, other_u.omega)
+    zero = u._replace(omega=0.0)
+    dc.outputs(p, 0.0, y, zero)
+    assert p.outputs_memo[2] is zero.omega            # 0.0 after -0.0: evaluated again (equal, not the same)
     other = _driveline(**RIGS[1])                      # per parameters object (per FMU instance)
     assert other.outputs_memo is None and dc._first_stage(other, y, u) is None and other == p
 
