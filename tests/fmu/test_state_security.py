@@ -9,6 +9,7 @@ The models' STATE and DERIVED declarations cover every attribute they set (Pytho
 
 The number of hypothesis cases tried is counted and checked at the end (CASES)."""
 
+import dataclasses
 import math
 import pickle
 
@@ -312,7 +313,11 @@ def run_python(cls, n=30):
 
 
 def _plain(value):
-    """A derived value as plain data: its attributes (with __slots__ or __dict__), else itself."""
+    """A derived value as plain data: a dataclass's compared fields (a cache declared compare=False, such as the
+    double Cardan's ``outputs_memo``, fills as the FMU runs and is left out), else its attributes (with __slots__ or
+    __dict__), else itself."""
+    if dataclasses.is_dataclass(value):
+        return {f.name: getattr(value, f.name) for f in dataclasses.fields(value) if f.compare}
     slots = getattr(type(value), "__slots__", None)
     if slots is not None:
         return {k: getattr(value, k) for k in slots}

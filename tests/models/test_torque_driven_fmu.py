@@ -158,7 +158,8 @@ def test_aligned_ring_coupling_conserves_angular_momentum(open_fmu):
     assert out["x_e"] == pytest.approx(-(0.05 * 4.0 / 0.1 + 2.0) / c_s, rel=1e-3)
 
 
-@pytest.mark.parametrize("fmu", ["TwinJeffcottRotorTorqueDriven", "RingCouplingTorqueDriven"])
+@pytest.mark.parametrize("fmu", ["TwinJeffcottRotorTorqueDriven", "RingCouplingTorqueDriven",
+                                 "DoubleCardanDrivelineTorqueDriven"])
 def test_outputs_follow_the_torques_set_between_reads(open_fmu, fmu):
     """After a step the host reads the outputs, sets tau_in and tau_load (the FMU recomputes only the outputs that
     move with them, ``load_outputs``) and reads again: every output equals a second instance's that took the same

@@ -53,3 +53,69 @@ def test_fmu_estimates_the_input_acceleration_to_second_order(open_fmu, drive, r
               dict(rigid_intermediate_shaft=rigid))
     np.testing.assert_allclose(r.alpha_in[2:], a + 2.0 * b * r.time[2:], rtol=1e-9)
     np.testing.assert_allclose(r.alpha_in[1], a + b * h, rtol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["DoubleCardanDriveline", "DoubleCardanDrivelineTorqueDriven"])
+def test_steps_from_the_outputs_evaluation_are_the_steps_evaluated_afresh(monkeypatch, name):
+    """Python level, in the host's order (speed-driven: omega_in, read, tau_load, step; torque-driven: read
+    omega_in, tau_in, read alpha_in, tau_load, step): two instances stepped in turns, with different inputs, reuse
+    their outputs' evaluation from the second step on (the first stage, and the torque-driven second read: 6
+    evaluations of the equations a step where there were 7 and 8; 4 for 5 at one RK4 substep) and follow, bit for
+    bit, two instances that reuse nothing; a saved FMU state restored, in memory or through serialization into a
+    fresh instance, repeats the steps bit for bit."""
+    from ujfmu.build import fmu_class
+    from ujfmu.models.double_cardan_driveline import model as dc
+    cls = fmu_class(name)
+    torque_driven = name.endswith("TorqueDriven")
+    calls, rates = [0], dc._flexible_rates
+
+    def counting(*args):
+        calls[0] += 1
+        return rates(*args)
+    monkeypatch.setattr(dc, "_flexible_rates", counting)
+
+    def start(instance_name):
+        inst = cls(instance_name=instance_name)
+        inst.exit_initialization_mode()
+        return inst
+
+    def step(inst, k, scale, afresh=False):
+        """One communication step from point k: the host's calls, then doStep; the evaluations it took (afresh:
+        nothing reused, the memo emptied before each read and the step)."""
+        vr = {v.name: v.value_reference for v in inst.vars.values()}
+        t, calls[0] = k * 1e-3, 0
+
+        def read(*names):
+            if afresh:
+                inst._p.outputs_memo = None
+            inst.get_real([vr[name] for name in names])
+        if torque_driven:
+            read("omega_in")
+            inst.set_real([vr["tau_in"]], [scale * (3.0 + 40.0 * t)])
+            read("alpha_in", "shaft_torque")
+        else:
+            inst.set_real([vr["omega_in"]], [scale * (70.0 + 300.0 * t)])
+            read("tau_in", "shaft_torque")
+        inst.set_real([vr["tau_load"]], [scale * (1.0 + 20.0 * t)])
+        if afresh:
+            inst._p.outputs_memo = None
+        assert inst.do_step(t, 1e-3)
+        return calls[0]
+
+    served, afresh = [start("a"), start("b")], [start("c"), start("d")]
+    counts = []
+    for k in range(30):
+        for pair, scale in zip(zip(served, afresh), (1.0, 0.6)):   # 0.6: one RK4 substep (speed-driven)
+            counts.append((step(pair[0], k, scale), step(pair[1], k, scale, afresh=True)))
+            assert pair[0]._y == pair[1]._y
+    fewer = 2 if torque_driven else 1     # the first stage (and the torque-driven second read) not evaluated
+    assert all(n_served == n_afresh - fewer for n_served, n_afresh in counts[2:])   # from the second step on
+    assert {n for n, _ in counts[2::2]} == {6} and {n for n, _ in counts[3::2]} == ({6} if torque_driven else {4})
+    inst = served[0]
+    state = inst._get_fmu_state()
+    first = [(step(inst, k, 1.0), inst._y)[1] for k in range(30, 40)]
+    inst._set_fmu_state(state)
+    assert [(step(inst, k, 1.0), inst._y)[1] for k in range(30, 40)] == first
+    fresh = start("e")
+    fresh._set_fmu_state(cls._fmu_state_from_bytes(cls._fmu_state_to_bytes(state)))
+    assert [(step(fresh, k, 1.0), fresh._y)[1] for k in range(30, 40)] == first

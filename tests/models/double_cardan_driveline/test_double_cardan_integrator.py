@@ -163,3 +163,104 @@ def test_stability_covers_the_rule_s_steps():
             assert _amplification(z) <= 1.0
     assert _amplification(0.99j) < 1.0 < _amplification(1.0j) < 1.0 + 1.4e-6
     assert _amplification(-3.30 + 0j) < 1.0 < _amplification(-3.32 + 0j)
+
+
+# --- the step's first stage from the outputs' evaluation (model._output_rates, Parameters.outputs_memo) ---------
+
+def _counted(monkeypatch):
+    """Wrap model._flexible_rates (the integrators, rates and outputs call it through the module) to count its calls;
+    returns the list holding the count."""
+    calls, rates = [0], dc._flexible_rates
+
+    def counting(*args):
+        calls[0] += 1
+        return rates(*args)
+    monkeypatch.setattr(dc, "_flexible_rates", counting)
+    return calls
+
+
+def _evaluations(calls, f, *args):
+    """(f(*args), the _flexible_rates calls it made)."""
+    calls[0] = 0
+    result = f(*args)
+    return result, calls[0]
+
+
+RIGS = [dict(beta1=0.26, beta2=0.26),                                           # Omar's Z layout, no inertia
+        dict(beta1=0.3, beta2=-0.2, joint_plane_angle=0.4, yoke_phase=0.2,      # the inertia terms' branch
+             I_input=1e-3, I_cross_pin=1e-4, I_cross_normal=1e-4, I_intermediate=1e-3)]
+
+
+@pytest.mark.parametrize("changes", RIGS)
+@pytest.mark.parametrize("omega", [40.0, 71.6, -71.6])   # one RK4 substep; one fifth-order step
+def test_a_step_after_the_outputs_starts_from_their_evaluation_bit_for_bit(monkeypatch, changes, omega):
+    """The speed-driven FMU reads the outputs at (phi, omega, y), then steps from the same state object under a
+    tau_load set in between: the step takes its first stage from the outputs' evaluation (one evaluation fewer)
+    and is the step evaluated from scratch, bit for bit (tau_load, 0 in the outputs, corrected in dw4/dt)."""
+    calls = _counted(monkeypatch)
+    p, fresh = _driveline(**changes), _driveline(**changes)
+    for tau_load in (3.0, -1.5, 0.0):
+        y = dc.State(0.21, 0.98 * omega, 2e-4, -3e-3)   # a new state object each time: the outputs evaluate
+        u = dc.Drive(0.37, omega, 150.0, tau_load)
+        outputs, n_outputs = _evaluations(calls, dc.outputs, p, 0.0, y, u)
+        assert n_outputs == 1 and outputs == dc.outputs(fresh, 0.0, y, u)
+        served, n_served = _evaluations(calls, dc.integrate, p, 0.0, 1e-3, y, u)
+        fresh.outputs_memo = None
+        evaluated, n_evaluated = _evaluations(calls, dc.integrate, fresh, 0.0, 1e-3, y, u)
+        assert served == evaluated
+        assert n_served == n_evaluated - 1 and n_evaluated in (4, 6)
+        assert dc._first_stage(p, y, u) == dc.flexible_derivatives(p, u.phi, u.omega, y, tau_load)
+
+
+def test_the_outputs_evaluation_serves_only_its_own_state_object_and_input_motion():
+    """A pure cache: another state (an equal copy too: a restored FMU state), input angle or speed, or a zero angle
+    or speed (-0.0 and 0.0 are equal, not the same bits) evaluates again (None; the outputs too); a changed tau_load
+    or alpha is served, corrected."""
+    p = _driveline(**RIGS[1])
+    y, u = dc.State(0.21, 69.0, 2e-4, -3e-3), dc.Drive(0.37, 70.0, 150.0, 2.0)
+    dc.outputs(p, 0.0, y, u)
+    assert dc._first_stage(p, y, u) is not None
+    for other_y, other_u in ((dc.State(*y), u), (y, u._replace(phi=0.38)), (y, u._replace(omega=70.5))):
+        assert other_y == y and other_y is not y or other_u != u
+        assert dc._first_stage(p, other_y, other_u) is None
+    for other_u in (u._replace(tau_load=-4.0), u._replace(alpha=-30.0)):
+        assert dc._first_stage(p, y, other_u) == dc.flexible_derivatives(p, u.phi, u.omega, y, other_u.tau_load)
+    dc.outputs(p, 0.0, y, u._replace(phi=-0.0))    # a zero: evaluated again, never served
+    assert dc._first_stage(p, y, u._replace(phi=-0.0)) is None
+    assert dc._first_stage(p, y, u._replace(phi=0.0)) is None
+    fresh = _driveline(**RIGS[1])
+    for other_u in (u._replace(phi=0.38), u._replace(omega=70.5), u._replace(omega=-0.0)):
+        dc.outputs(p, 0.0, y, u)
+        fresh.outputs_memo = None                      # the outputs at another input motion: evaluated again
+        assert dc.outputs(p, 0.0, y, other_u) == dc.outputs(fresh, 0.0, y, other_u)
+        assert p.outputs_memo[1:3] == (other_u.phi, other_u.omega)
+    zero = u._replace(omega=0.0)
+    dc.outputs(p, 0.0, y, zero)
+    assert p.outputs_memo[2] is zero.omega            # 0.0 after -0.0: evaluated again (equal, not the same)
+    other = _driveline(**RIGS[1])                      # per parameters object (per FMU instance)
+    assert other.outputs_memo is None and dc._first_stage(other, y, u) is None and other == p
+
+
+@pytest.mark.parametrize("changes", RIGS)
+def test_the_torque_driven_reads_and_step_share_one_evaluation(monkeypatch, changes):
+    """The torque-driven FMU's host reads omega_in, sets tau_in, reads alpha_in, sets tau_load and steps, all at
+    one state object: the second read and the step's first stage (``derivatives``) come from the first read's
+    evaluation, bit for bit what they are evaluated from scratch (both torques enter linearly), 6 evaluations where
+    there were 8; another state object evaluates again."""
+    calls = _counted(monkeypatch)
+    p, fresh = _driveline(**changes), _driveline(**changes)
+    y = (0.37, 70.0, 0.21, 69.0, 2e-4, -3e-3)
+    _, n_first = _evaluations(calls, dc.TorqueDriven.outputs, p, 0.0, y, dc.Torques(1.0, 0.0))
+    u = dc.Torques(30.0, 4.0)
+    second, n_second = _evaluations(calls, dc.TorqueDriven.outputs, p, 0.0, y, u)
+    assert (n_first, n_second) == (1, 0)
+    assert second == dc.TorqueDriven.outputs(fresh, 0.0, y, u)
+    k1, n_k1 = _evaluations(calls, dc.TorqueDriven.derivatives, p, 0.0, y, u)
+    assert n_k1 == 0 and k1 == dc.torque_driven_rates(fresh, fresh.J_drive, y, u.tau_in, u.tau_load)
+    served, n_served = _evaluations(calls, dc.TorqueDriven.integrate, p, 0.0, 1e-3, y, u)
+    fresh.outputs_memo = None
+    evaluated, n_evaluated = _evaluations(calls, dc.TorqueDriven.integrate, fresh, 0.0, 1e-3, y, u)
+    assert served == evaluated and n_served == n_evaluated - 1 == 5
+    copy = tuple(list(y))
+    assert copy is not y
+    assert _evaluations(calls, dc.TorqueDriven.derivatives, p, 0.0, copy, u) == (k1, 1)

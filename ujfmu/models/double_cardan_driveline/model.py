@@ -98,7 +98,9 @@ class Parameters:
     lever2 = (L_c cos beta1)^2 and m_lat = m_s lever2 (Omar Eqs. 11, 14), sin and cos of the static joint angles
     (the inertias J_in, J_out are evaluated at them), whether the crosses and the intermediate shaft have no
     inertia (constant_inertias: J_in = I_input and J_out = J_load at every angle), and the natural-rate bound of
-    the flexible equations (0 for a rigid shaft, or where :func:`check` refuses the parameters)."""
+    the flexible equations (0 for a rigid shaft, or where :func:`check` refuses the parameters). outputs_memo: the
+    outputs' last evaluation of the equations, which the step after them and a second read reuse
+    (:func:`_output_rates`; per parameters object, so per FMU instance; neither a parameter nor compared)."""
 
     beta1: float
     beta2: float
@@ -128,6 +130,7 @@ class Parameters:
     natural_rate: float = field(init=False, repr=False)
     mode_rate: float = field(init=False, repr=False)
     constant_inertias: bool = field(init=False, repr=False)
+    outputs_memo: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
         self.delta = self.yoke_phase - self.joint_plane_angle
@@ -559,9 +562,42 @@ def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
 def integrate(p: Parameters, t: float, h: float, y: State, u: Drive) -> tuple:
     """The FMU's step of a flexible shaft (a rigid one has nothing to integrate): :func:`flexible_step` from the input
     motion u at the step's start (angle quadratic, speed linear in time, tau_load held), RK4's substep count from
-    :func:`rate_bound` at the input speed's bound over the step."""
+    :func:`rate_bound` at the input speed's bound over the step; its first stage from the outputs' evaluation at
+    the same state and input motion where that was the last (:func:`_first_stage`)."""
     omega_max = max(abs(u.omega), abs(u.omega + u.alpha * h))
-    return flexible_step(p, h, u.phi, u.omega, u.alpha, y, u.tau_load, rk4.substeps(rate_bound(p, y, omega_max), h))
+    return flexible_step(p, h, u.phi, u.omega, u.alpha, y, u.tau_load, rk4.substeps(rate_bound(p, y, omega_max), h),
+                         _first_stage(p, y, u))
+
+
+def _output_rates(p: Parameters, phi1: float, omega1: float, y: Sequence[float], key: tuple) -> tuple:
+    """(``_flexible_rates(p, phi1, omega1, y, 0.0)``, ``input_inertia(p, phi1)``): the outputs' evaluation, kept in
+    p.outputs_memo = (key, phi1, omega1, both) and given from there while key, the state tuple they are at (y, or
+    the torque-driven state y is part of; immutable), is the same object and phi1, omega1 the same nonzero floats
+    (equal nonzero floats are the same bits; a zero, which may be -0.0, evaluates). A pure cache: anything else
+    (another state, a restored FMU state's copy, another input motion) evaluates again."""
+    memo = p.outputs_memo
+    if memo is not None and memo[0] is key and memo[1] == phi1 and memo[2] == omega1 and phi1 and omega1:
+        return memo[3], memo[4]
+    rates, inertia = _flexible_rates(p, phi1, omega1, y, 0.0), input_inertia(p, phi1)
+    p.outputs_memo = key, phi1, omega1, rates, inertia
+    return rates, inertia
+
+
+def _first_stage(p: Parameters, y: State, u: Drive) -> tuple | None:
+    """The step's first-stage rates, :func:`flexible_derivatives` at (u.phi, u.omega, y, u.tau_load), from the outputs'
+    evaluation (:func:`_output_rates`, tau_load 0) where it is at this state object and at u.phi, u.omega, both
+    nonzero (the integrators' first stage is at phi0 + s (w0 + alpha s / 2) and w0 + alpha s with s = 0.0, which is
+    phi0 and w0 bit for bit unless one is a zero), else None (evaluate). tau_load enters only dw4/dt = (net -
+    tau_load) / J_out, computed here from ``_flexible_rates``' net and J_out as it does: the same expression on the
+    same floats, bit for bit."""
+    memo = p.outputs_memo
+    if memo is None or memo[0] is not y:
+        return None
+    _, phi1, omega1, flexible, _ = memo
+    if not (phi1 == u.phi and omega1 == u.omega and phi1 and omega1):
+        return None
+    rates, _, _, _, _, net, j_out = flexible
+    return rates[0], (net - u.tau_load) / j_out, rates[2], rates[3]
 
 
 def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
@@ -575,13 +611,14 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
 
 
 def flexible_output_values(p: Parameters, phi1: float, omega1: float, alpha1: float | None, y: Sequence[float],
-        tau_drive: float = 0.0, j_drive: float | None = None) -> tuple:
+        tau_drive: float = 0.0, j_drive: float | None = None, key: tuple | None = None) -> tuple:
     """The FMU's outputs: :func:`flexible_outputs` with its kinematics from :func:`_flexible_rates` (tau_load 0),
-    one call instead of eight (tests compare them). With j_drive (the torque-driven driveline), alpha1 is the input shaft's
-    acceleration under tau_drive (:func:`torque_driven_rates`), returned as alpha_in."""
+    one call instead of eight (tests compare them), kept for the step and a second read (:func:`_output_rates`; key:
+    the state object y is, or is part of, default y). With j_drive (the torque-driven driveline), alpha1 is the
+    input shaft's acceleration under tau_drive (:func:`torque_driven_rates`), returned as alpha_in."""
     phi4, omega4, phi, dphi = y
-    rates, r1, shaft, twist, e1, net, j_out = _flexible_rates(p, phi1, omega1, y, 0.0)
-    j_in, dj_in = input_inertia(p, phi1)
+    (rates, r1, shaft, twist, e1, net, j_out), (j_in, dj_in) = _output_rates(p, phi1, omega1, y,
+                                                                             y if key is None else key)
     spin, driven = 0.5 * dj_in * omega1 * omega1, r1 * shaft
     if j_drive is not None:
         j_drive += j_in
@@ -674,10 +711,28 @@ class TorqueDriven:
 
     @staticmethod
     def derivatives(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> tuple:
-        """:func:`torque_driven_rates` (rigid: of (phi1, omega1), the rest at rest)."""
+        """:func:`torque_driven_rates` (rigid: of (phi1, omega1), the rest at rest; flexible: from the outputs'
+        evaluation at this state object where that was the last, :meth:`first_stage`)."""
         if p.rigid_intermediate_shaft:
             return torque_driven_rates(p, p.J_drive, y[:2], u.tau_in, u.tau_load) + _AT_REST
+        memo = p.outputs_memo
+        if memo is not None and memo[0] is y:
+            return TorqueDriven.first_stage(p, y, u, memo[3], memo[4])
         return torque_driven_rates(p, p.J_drive, y, u.tau_in, u.tau_load)
+
+    @staticmethod
+    def first_stage(p: TorqueDrivenParameters, y: tuple, u: Torques, flexible: tuple, inertia: tuple) -> tuple:
+        """:func:`torque_driven_rates` of a flexible shaft at state y from ``_flexible_rates(p, y[0], y[1], y[2:],
+        0.0)`` (flexible) and ``input_inertia(p, y[0])`` (inertia), the outputs' evaluation: both torques enter
+        linearly, tau_in (J_d + J_in) alpha1 and tau_load dw4/dt = (net - tau_load) / J_out, each by the same
+        expression on the same floats as ``_driven_rates`` and ``_flexible_rates``, bit for bit."""
+        rates, r1, shaft, _, _, net, j_out = flexible
+        omega1 = y[1]
+        rest = (rates[0], (net - u.tau_load) / j_out, rates[2], rates[3])
+        if p.constant_inertias:
+            return (omega1, (u.tau_in - r1 * shaft) / (p.J_drive + p.I_input)) + rest
+        j_in, dj_in = inertia
+        return (omega1, (u.tau_in - 0.5 * dj_in * omega1 * omega1 - r1 * shaft) / (p.J_drive + j_in)) + rest
 
     @staticmethod
     def input_acceleration(p: TorqueDrivenParameters, y: tuple, u: Torques) -> float:
@@ -722,8 +777,9 @@ class TorqueDriven:
     @staticmethod
     def flexible_outputs(p: TorqueDrivenParameters, y: tuple, u: Torques) -> dict:
         """:meth:`outputs` of a flexible shaft: :func:`flexible_output_values` at the state's input motion under
-        u.tau_in."""
-        values = flexible_output_values(p, y[0], y[1], None, y[2:], u.tau_in, p.J_drive)
+        u.tau_in (its evaluation kept with the whole state y as key: a read after the torques change and the step's
+        :meth:`derivatives` reuse it)."""
+        values = flexible_output_values(p, y[0], y[1], None, y[2:], u.tau_in, p.J_drive, y)
         return torque_driven_outputs(values, y, values.pop("alpha_in"))
 
     @staticmethod
