@@ -648,6 +648,8 @@ def check(p: Parameters) -> list:
 
 def check_state(p: Parameters, y: State) -> list:
     """Both joint angles plus the dynamic misalignment phi must stay within [-MAX_ANGLE, MAX_ANGLE]."""
+    if abs(p.beta1 + y[2]) <= MAX_ANGLE and abs(p.beta2 + p.cos_plane * y[2]) <= MAX_ANGLE:
+        return []
     problems = []
     for name, angle in (("beta1", p.beta1 + y[2]), ("beta2", p.beta2 + p.cos_plane * y[2])):
         if abs(angle) > MAX_ANGLE:
