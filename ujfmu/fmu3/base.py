@@ -181,6 +181,7 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         core.log = self._log_from_core
         core._stale, core._initialized, core._running, core._start_time = True, False, False, 0.0
         core._partial = False
+        core._state_vrs, core._state_outputs_of = frozenset(), None   # UjfmuSlave.get_real's, which this FMU bypasses
         core._derivation = None
         core._inputs = tuple(v for v in model.VARIABLES if v.causality == "input")
         for var in model.VARIABLES:
