@@ -151,3 +151,16 @@ def test_torque_driven_outputs_are_the_speed_driven_ones_at_the_computed_motion(
         assert rc.TorqueDriven.outputs(p, 0.0, y, u) == expected
         assert rc.TorqueDriven.load_outputs(p, 0.0, y, u) == {k: expected[k] for k in ("alpha_in", "tau_input_shaft")}
         assert u.tau_in - expected["tau_input_shaft"] == pytest.approx(p.J_drive * alpha, rel=1e-9, abs=1e-9)
+
+
+def test_written_out_rate_bound_is_the_larger_of_the_natural_and_forcing_rates():
+    """rate_bound (what the FMU's step sizes its substeps by) is rk4.fastest_rate of the natural rate and
+    forcing_rate (2x the faster shaft), bit for bit, whichever shaft or term is the larger."""
+    import random
+    from ujfmu.fmu import rk4
+    rng = random.Random(5)
+    p = coupling()
+    for _ in range(300):
+        omega_max, w2 = rng.uniform(0.0, 400.0), rng.uniform(-400.0, 400.0)
+        assert rc.rate_bound(p, (0.0, w2), omega_max) == rk4.fastest_rate(p.natural_rate,
+                                                                          rc.forcing_rate(omega_max, w2))
