@@ -14,6 +14,15 @@ def coupling(**changes):
     return rc.Parameters(**values)
 
 
+def random_torque_driven(rng):
+    """A torque-driven coupling with every parameter drawn from rng over a wide range."""
+    return rc.TorqueDrivenParameters(R=rng.uniform(0.05, 0.3), d=D, E=E, e=rng.uniform(0.0, 0.01),
+                                     I1=rng.uniform(0.0, 0.1), I2=rng.uniform(0.01, 0.1), c_s=rng.uniform(0, 1e3),
+                                     c_d=rng.uniform(0.0, 2.0), phi_in_start=rng.uniform(-3, 3),
+                                     phi_out_start=rng.uniform(-3, 3), J_drive=rng.uniform(0.01, 0.1),
+                                     omega_in_start=0.0)
+
+
 def potential(p, phi1, phi2):
     return rc.outputs_at(p, phi1, 0.0, 0.0, (phi2, 0.0))["stored_energy"]
 
@@ -78,11 +87,7 @@ def test_written_out_derivatives_are_the_torques_of_eq9_on_both_shafts():
     from ujfmu.models.protocol import Torques
     rng = random.Random(16)
     for _ in range(300):
-        p = rc.TorqueDrivenParameters(R=rng.uniform(0.05, 0.3), d=D, E=E, e=rng.uniform(0.0, 0.01),
-                                      I1=rng.uniform(0.0, 0.1), I2=rng.uniform(0.01, 0.1), c_s=rng.uniform(0, 1e3),
-                                      c_d=rng.uniform(0.0, 2.0), phi_in_start=rng.uniform(-3, 3),
-                                      phi_out_start=rng.uniform(-3, 3), J_drive=rng.uniform(0.01, 0.1),
-                                      omega_in_start=0.0)
+        p = random_torque_driven(rng)
         y = [rng.uniform(-50, 50), rng.uniform(-200, 200), rng.uniform(-50, 50), rng.uniform(-200, 200)]
         tau_in, tau_load = rng.uniform(-30, 30), rng.uniform(-30, 30)
         m_p, _, elastic = rc.torques(p, *y)
@@ -137,11 +142,7 @@ def test_torque_driven_outputs_are_the_speed_driven_ones_at_the_computed_motion(
     from ujfmu.models.protocol import Drive, Torques
     rng = random.Random(7)
     for _ in range(100):
-        p = rc.TorqueDrivenParameters(R=rng.uniform(0.05, 0.3), d=D, E=E, e=rng.uniform(0.0, 0.01),
-                                      I1=rng.uniform(0.0, 0.1), I2=rng.uniform(0.01, 0.1), c_s=rng.uniform(0, 1e3),
-                                      c_d=rng.uniform(0.0, 2.0), phi_in_start=rng.uniform(-3, 3),
-                                      phi_out_start=rng.uniform(-3, 3), J_drive=rng.uniform(0.01, 0.1),
-                                      omega_in_start=0.0)
+        p = random_torque_driven(rng)
         y = (rng.uniform(-50, 50), rng.uniform(-200, 200), rng.uniform(-50, 50), rng.uniform(-200, 200))
         u = Torques(rng.uniform(-30, 30), rng.uniform(-30, 30))
         alpha = rc.TorqueDriven.derivatives(p, 0.0, y, u)[1]
