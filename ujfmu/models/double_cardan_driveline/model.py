@@ -748,8 +748,9 @@ class TorqueDriven:
 
     @staticmethod
     def integrate_from(p: TorqueDrivenParameters, t: float, h: float, y: tuple, u: Torques, k1: tuple) -> tuple:
-        """The FMU's step from the rates k1 = :meth:`derivatives` at its start (which the FMU evaluates once for its
-        speed check): :func:`torque_driven_step` with the input speed over the step bounded by |omega1| + |alpha1| h
+        """The FMU's step from the rates k1 = :meth:`derivatives` at its start (which the FMU asks for once, for its
+        speed check; served from the outputs' evaluation at the same state where that was the last):
+        :func:`torque_driven_step` with the input speed over the step bounded by |omega1| + |alpha1| h
         (k1's), and RK4's substep count from :meth:`rate_bound` there."""
         omega_max = abs(k1[0]) + abs(k1[1]) * h
         return torque_driven_step(p, t, h, y, u, omega_max, rk4.substeps(TorqueDriven.rate_bound(p, y, omega_max), h),
