@@ -113,7 +113,7 @@ def outputs_at(p: Parameters, phi1: float, w1: float, alpha1: float, y: Sequence
     if tau_drive is None:
         values["tau_in"] = p.I1 * alpha1 - m_p + elastic
     else:
-        alpha1 = (tau_drive + m_p - elastic) / (p.J_drive + p.I1)
+        alpha1 = input_acceleration(p, tau_drive, m_p, elastic)
         values["alpha_in"], values["tau_input_shaft"] = alpha1, p.I1 * alpha1 - m_p + elastic
     return values
 
@@ -241,11 +241,10 @@ class TorqueDrivenParameters(Parameters):
             self.natural_rate = math.sqrt((self.c_s + self.mp_amplitude) * mobility) + self.c_d * mobility
 
 
-def input_acceleration(p: TorqueDrivenParameters, y: Sequence[float], tau_in: float) -> float:
+def input_acceleration(p: TorqueDrivenParameters, tau_in: float, m_p: float, elastic: float) -> float:
     """alpha1 of the free shaft 1, (J_drive + I1) alpha1 = tau_in + M_p + c_s x_e + c_d x_e' (the ring's torque on
-    shaft 1: -dPi/dphi1 = M_p and the elastic torque's reaction, see the module docstring); y = (phi1, w1, phi2,
-    w2)."""
-    m_p, _, elastic = torques(p, y[0], y[1], y[2], y[3])
+    shaft 1: -dPi/dphi1 = M_p and the elastic torque's reaction, see the module docstring), from M_p and the
+    elastic torque on shaft 2 of :func:`torques` at the state."""
     return (tau_in + m_p - elastic) / (p.J_drive + p.I1)
 
 
@@ -300,7 +299,7 @@ class TorqueDriven:
         the outputs were computed): shaft 1's acceleration and tau_input_shaft = I1 alpha_in - M_p + the elastic
         torque, as :meth:`outputs` gives them (every other output is a function of the state)."""
         m_p, _, elastic = torques(p, y[0], y[1], y[2], y[3])
-        alpha = (u.tau_in + m_p - elastic) / (p.J_drive + p.I1)   # input_acceleration
+        alpha = input_acceleration(p, u.tau_in, m_p, elastic)
         return {"alpha_in": alpha, "tau_input_shaft": p.I1 * alpha - m_p + elastic}
 
     @staticmethod
