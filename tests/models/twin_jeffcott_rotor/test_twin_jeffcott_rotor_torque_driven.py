@@ -326,26 +326,52 @@ def _phi_reference(a, h, count):
         return [np.array(phi.tolist(), dtype=float) for phi in phis]
 
 
-def test_adams_operators_at_extreme_parameters():
-    """The Adams operators' phi-functions (Taylor series in double precision, :func:`tj._phi_functions`) of the 6x6
-    torsional block with its rigid-body mode, at the substep h the FMU takes for a 1 ms step, against the same
-    functions to 30 digits: the default rig and parameters at the ends of the FMU's ranges (a flange 1e6x lighter
-    than the discs, the stiffest shaft on a light flange, overdamped shafts, a disc 1e12x lighter than the other). The
-    substep rule keeps h |lambda| <= 1 (checked), where the series converges fast and cancels little: each row of each
-    phi_k agrees to 1e-14 of its size (measured 6e-16 at most; scipy's ``expm`` of the augmented matrix
-    [[hL, I, 0, ...], [0, 0, I, ...], ...] reaches only 2e-13..8e-13 there)."""
-    cases = [dict(), dict(J_drive=0.0, J_gb=1e-8), dict(K1T=1e9, J_drive=0.0, J_gb=1e-4, K2T=1e-6),
-             dict(C1T=1e3, C2T=1e3, J_drive=0.0, J_gb=1e-3), dict(J_M1=1e3, J_M2=1e-9, K2T=1e6, C2T=0.0)]
-    count = tj.HISTORY_POINTS + 2
-    for changes in cases:
+#: the default rig and parameters at the ends of the FMU's ranges: a flange 1e6x lighter than the discs, the stiffest
+#: shaft on a light flange, overdamped shafts, a disc 1e12x lighter than the other
+EXTREME_TORSION = [dict(), dict(J_drive=0.0, J_gb=1e-8), dict(K1T=1e9, J_drive=0.0, J_gb=1e-4, K2T=1e-6),
+                   dict(C1T=1e3, C2T=1e3, J_drive=0.0, J_gb=1e-3), dict(J_M1=1e3, J_M2=1e-9, K2T=1e6, C2T=0.0)]
+
+
+def _extreme_torsion():
+    """(changes, p, the substep h of a 1 ms step at 100 rad/s, the torsional block) of each EXTREME_TORSION case, the
+    substep rule's h |lambda| <= 1 checked."""
+    for changes in EXTREME_TORSION:
         p = rotor(**changes)
         h = 1e-3 / tj.torque_exponential_substeps(p, 1e-3, 100.0)
         torsion = p.torque_linear[0]
         assert np.max(np.abs(np.linalg.eigvals(h * np.array(torsion)))) <= 1.0, changes
+        yield changes, p, h, torsion
+
+
+def test_adams_operators_at_extreme_parameters():
+    """The Adams operators' phi-functions (Taylor series in double precision, :func:`tj._phi_functions`) of the 6x6
+    torsional block with its rigid-body mode, at the substep h the FMU takes for a 1 ms step, against the same
+    functions to 30 digits, at EXTREME_TORSION. The substep rule keeps h |lambda| <= 1 (checked), where the series
+    converges fast and cancels little: each row of each phi_k agrees to 1e-14 of its size (measured 6e-16 at most;
+    scipy's ``expm`` of the augmented matrix [[hL, I, 0, ...], [0, 0, I, ...], ...] reaches only 2e-13..8e-13
+    there)."""
+    count = tj.HISTORY_POINTS + 2
+    for changes, p, h, torsion in _extreme_torsion():
         ours = tj._phi_functions(torsion, h, count)
         for k, exact in enumerate(_phi_reference(torsion, h, count)):
             size = np.max(np.abs(exact), axis=1, keepdims=True)   # each row against its own size
             _assert_within(ours[k], exact, 1e-14 * size, (changes, k))
+
+
+def test_start_step_operators_at_extreme_parameters():
+    """ETDRK4-B's operators (:func:`tj._torque_propagators_of`, the start and restart steps) on the torsional block,
+    against its phi-functions to 30 digits at EXTREME_TORSION: E(h/2) and E(h) row by row, and R1 = h phi_1(hL) and
+    R2 = 2 h phi_2(hL) on the columns omega_in, omega1, omega2, each row to 1e-14 of its size (scaling and squaring
+    the augmented matrix in double precision instead misses by 1.5e-14 on the default rig, 1.4e-9 at K1T = 1e9)."""
+    for changes, p, h, torsion in _extreme_torsion():
+        ops = tj._torque_propagators_of(p.torque_linear, h)
+        half, full = _phi_reference(torsion, 0.5 * h, 1), _phi_reference(torsion, h, 3)
+        for name, ours, exact in (("E(h/2)", ops[0][:36], half[0]), ("E(h)", ops[3][:36], full[0]),
+                                  ("R1", ops[4][:18], h * full[1][:, (1, 3, 5)]),
+                                  ("R2", ops[5][:18], 2.0 * h * full[2][:, (1, 3, 5)])):
+            exact = np.asarray(exact).reshape(6, -1)
+            size = np.max(np.abs(exact), axis=1, keepdims=True)
+            _assert_within(np.reshape(ours, exact.shape), exact, 1e-14 * size, (changes, name))
 
 
 def test_fmu_steps_with_the_multistep_integrator(open_fmu):

@@ -777,6 +777,18 @@ class TorqueDriven:
         alpha = TorqueDriven.derivatives(p, t, y, u)[1]
         return torque_driven_outputs(outputs(p, t, State(*y[2:]), Drive(y[0], y[1], alpha, u.tau_load)), y, alpha)
 
+    #: the outputs that are functions of the state alone (the FMU computes only these on a read of only these)
+    STATE_OUTPUTS = ("phi_in", "omega_in", "omega_out", "phi_out")
+
+    @staticmethod
+    def state_outputs(p: TorqueDrivenParameters, t: float, y: tuple) -> dict:
+        """The shafts' motion: the input shaft's from the state, the output shaft's from the state (flexible) or the
+        rigid kinematics at the input shaft's motion (:func:`rigid_state`, as :meth:`outputs` computes them)."""
+        if p.rigid_intermediate_shaft:
+            rigid = rigid_state(p, y[0], y[1], 0.0, 0.0)
+            return {"phi_in": y[0], "omega_in": y[1], "omega_out": rigid["omega4"], "phi_out": rigid["phi4"]}
+        return {"phi_in": y[0], "omega_in": y[1], "omega_out": y[3], "phi_out": y[2]}
+
     @staticmethod
     def flexible_outputs(p: TorqueDrivenParameters, y: tuple, u: Torques) -> dict:
         """:meth:`outputs` of a flexible shaft: :func:`flexible_output_values` at the state's input motion under

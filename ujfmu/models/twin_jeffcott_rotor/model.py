@@ -126,6 +126,8 @@ class Parameters:
     linear_rows: tuple = field(init=False, repr=False)
     linear_rate: float = field(init=False, repr=False)
     remainder_rate: float = field(init=False, repr=False)
+    #: (h, :func:`_adams_operators` of linear and h): the last substep length's, a pure cache (:func:`adams_operators`)
+    adams_memo: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
         self.sin_beta, self.cos_beta = math.sin(self.beta), math.cos(self.beta)
@@ -725,7 +727,7 @@ def _adams_substep(p: Parameters, h: float, z: Sequence[float], q: list, points:
     """One PEC substep of :func:`multistep_step` from z with the history points (newest, at z, first), the input
     motion (phi_e, w_e) at its end: (z+, the new history point); the energy rows q advanced in place. Each point's N
     is its N_0 plus this step's held inputs' part (:func:`_input_free`)."""
-    e, psi, *weights = _adams_operators(p.linear, h)
+    e, psi, *weights = adams_operators(p, h)
     extrapolation, quadrature, gamma = _ADAMS_SCALARS
     tau_b, work_b = tau_load / p.j_eff2 + alpha_in, alpha_in * p.J_gb   # G, B terms of the rows omega2, input work
     z0, z1, z2, z3, z4, z5, z6, z7, z8, z9, z10, z11 = z
@@ -820,6 +822,15 @@ def _adams_operators(linear: tuple, h: float) -> tuple:
     e = tuple([v for row in t for v in row] + [v for b in lateral for row in b for v in row])
     return (e, _phi_operator(phis, h, _newton_coefficients(_NODES)),
             *(_phi_operator(phis, h, c) for c in _lagrange_coefficients(_NODES)))
+
+
+def adams_operators(p: Parameters, h: float) -> tuple:
+    """:func:`_adams_operators` (p.linear, h), kept on p for the last h: its memo hashes the 32 numbers of L every
+    call, this compares one float."""
+    memo = p.adams_memo
+    if memo is None or memo[0] != h:
+        memo = p.adams_memo = h, _adams_operators(p.linear, h)
+    return memo[1]
 
 
 def torque_outputs(p: Parameters, phi_in: float, w_in: float, alpha_in: float, y: Sequence[float]) -> dict:
@@ -926,6 +937,8 @@ class TorqueDrivenParameters(Parameters):
     torque_linear: tuple = field(init=False, repr=False)
     torque_linear_rows: tuple = field(init=False, repr=False)
     torque_linear_rate: float = field(init=False, repr=False)
+    #: (h, :func:`_torque_adams_operators` of torque_linear and h), as Parameters.adams_memo
+    torque_adams_memo: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
         Parameters.__post_init__(self)
@@ -981,41 +994,6 @@ def _rate_of_chain(blocks: tuple) -> float:
     return math.sqrt(stiffness) + decay
 
 
-def _matrix_product(a: list, b: list) -> list:
-    columns = list(zip(*b))
-    return [[sum(x * y for x, y in zip(row, column)) for column in columns] for row in a]
-
-
-def phi_functions(a: Sequence[Sequence[float]], h: float) -> list:
-    """[phi_0(h a), ..., phi_3(h a)] of a square matrix a (phi_0 = exp, phi_k(X) = sum_j X^j / (j + k)!), singular
-    or not (no inverse of a is formed), at any h: the top block row of the exponential of the augmented matrix
-    M = [[h a, I, 0, 0], [0, 0, I, 0], [0, 0, 0, I], [0, 0, 0, 0]], exp(M) = [[phi_0, phi_1, phi_2, phi_3], ...]
-    (Saad, "Analysis of some Krylov subspace approximations to the matrix exponential operator", SIAM J. Numer.
-    Anal. 29, 1992, Lemma 1 extended by Sidje, "Expokit", ACM TOMS 24, 1998, Theorem 1), by scaling and squaring:
-    exp(M) = exp(M / 2^s)^(2^s), 2^s the first power with ||M||_inf / 2^s <= 1/2, the Taylor series of the scaled
-    exponential to 20 terms (truncation below 1e-25 of the leading term)."""
-    n = len(a)
-    size = 4 * n
-    m = [[0.0] * size for _ in range(size)]
-    for i in range(n):
-        for j in range(n):
-            m[i][j] = h * a[i][j]
-        for k in range(1, 4):
-            m[(k - 1) * n + i][k * n + i] = 1.0
-    norm = max(sum(abs(v) for v in row) for row in m)
-    squarings = max(0, math.ceil(math.log2(2.0 * norm))) if norm > 0.0 else 0
-    scale = 0.5 ** squarings
-    x = [[scale * v for v in row] for row in m]
-    result = [[1.0 if i == j else 0.0 for j in range(size)] for i in range(size)]
-    term = [row[:] for row in result]
-    for j in range(1, 21):
-        term = [[v / j for v in row] for row in _matrix_product(term, x)]
-        result = [[r + t for r, t in zip(rrow, trow)] for rrow, trow in zip(result, term)]
-    for _ in range(squarings):
-        result = _matrix_product(result, result)
-    return [[row[k * n:(k + 1) * n] for row in result[:n]] for k in range(4)]
-
-
 def _torque_propagators(p: TorqueDrivenParameters, h: float) -> tuple:
     """:func:`_torque_propagators_of` p's :func:`torque_linear_part` and h (memoized there: the parameters are
     derived once and never change as the FMU steps)."""
@@ -1025,14 +1003,16 @@ def _torque_propagators(p: TorqueDrivenParameters, h: float) -> tuple:
 @functools.lru_cache(maxsize=64)
 def _torque_propagators_of(linear: tuple, h: float) -> tuple:
     """The operators of one Krogstad substep of length h (:func:`torque_exponential_step`; the weights of
-    :func:`_propagators_of`), memoized, from :func:`phi_functions` of the blocks of L at h/2 and h: full-state
+    :func:`_propagators_of`), memoized, from :func:`_phi_functions` of the blocks of L at h/2 and h (the substep rule
+    keeps h |lambda| <= 1 over L's eigenvalues, the rigid-body mode's 0 included, as for
+    :func:`_torque_adams_operators`): full-state
     ones (E(h/2), E(h)) as 52 numbers (the torsional 6x6 row by row in the order (phi_in, omega_in, theta1, omega1,
     theta2, omega2), then each lateral 2x2 in the order X1, Y1, X2, Y2), ones applied to N (its speed rows only)
     as 26 numbers (per torsional row its columns omega_in, omega1, omega2; then each lateral block's speed column):
     Q1 = (h/2) phi_1(h L/2), Q2 = h phi_2(h L/2), R1 = h phi_1(h L), R2 = 2 h phi_2(h L),
     S1 = h (2 phi_2 - 4 phi_3)(h L), S2 = h (4 phi_3 - phi_2)(h L)."""
-    half = [phi_functions(block, 0.5 * h) for block in linear]
-    full = [phi_functions(block, h) for block in linear]
+    half = [_phi_functions(block, 0.5 * h) for block in linear]
+    full = [_phi_functions(block, h) for block in linear]
 
     def speed_op(phis, weights, factor):
         t, *lateral = [[[factor * sum(w * phi[k][i][j] for k, w in weights) for j in range(len(phi[0]))]
@@ -1222,6 +1202,14 @@ def _torque_adams_operators(linear: tuple, h: float) -> tuple:
     return (e, f, weights(_newton_coefficients(_NODES)), *(weights(c) for c in _lagrange_coefficients(_NODES)))
 
 
+def torque_adams_operators(p: TorqueDrivenParameters, h: float) -> tuple:
+    """:func:`_torque_adams_operators` (p.torque_linear, h), kept on p for the last h (:func:`adams_operators`)."""
+    memo = p.torque_adams_memo
+    if memo is None or memo[0] != h:
+        memo = p.torque_adams_memo = h, _torque_adams_operators(p.torque_linear, h)
+    return memo[1]
+
+
 def _torque_history_point(p: TorqueDrivenParameters, phi: float, w: float, z: Sequence[float], nu: Sequence[float],
                           tau_in: float, tau_load: float) -> list:
     """The history point (layout ``_TORQUE_POINT``) of N = nu (:func:`_flange_remainder` at tau_in, tau_load) at twist
@@ -1268,7 +1256,7 @@ def torque_multistep_step(p: TorqueDrivenParameters, t: float, t_span: float, y:
                 z = _torque_krogstad_substep(p, start_ops, h, phi, w, k, z, tau_in, tau_load, nu, q)
                 continue
         if adams_ops is None:
-            adams_ops = _torque_adams_operators(p.torque_linear, h)
+            adams_ops = torque_adams_operators(p, h)
         z, point = _torque_adams_substep(p, adams_ops, h, z, q, points, phi + (k + 1) * h * w, w, tau_in, tau_load)
         points = (point + points)[:_TORQUE_POINT * HISTORY_POINTS]
     history = (h, t + t_span, float(count), tau_in, tau_load, *points,
