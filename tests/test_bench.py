@@ -3,6 +3,7 @@
 from pathlib import Path
 
 import importlib.util
+import math
 import warnings
 
 import pytest
@@ -59,9 +60,10 @@ def test_engines_run_the_same_ssp_side_by_side_and_a_missing_one_is_named(fmu_di
     monkeypatch.setattr(importlib.util, "find_spec",
                         lambda name, *a: None if name == "ecospy" else real_find_spec(name, *a))
     assert "pip install 'ujfmu[bench]'" in engines.missing("ecos") and engines.missing("libcosim") is None
-    figures = bench_engines([SCENARIOS / "cardan_constant_speed.toml"], fmu_dir, repeats=1)
+    figures = bench_engines([SCENARIOS / "cardan_constant_speed.toml"], fmu_dir, repeats=1, min_steps=0)
     (row,) = figures["rows"]
     assert row["errors"] == {} and row["steps"] == 500 and row["rows"] == {"ujfmu": 501, "libcosim": 500}
+    assert row["runs"] == 1
     assert row["ecos"] is None and row["ratio_ecos"] is None and list(figures["missing"]) == ["ecos"]
     assert row["ratio_libcosim"] == row["ujfmu"] / row["libcosim"] and len(figures["cpus"]) == 1
     assert row["cpu_ratio_libcosim"] == row["cpu_ujfmu"] / row["cpu_libcosim"]
@@ -101,3 +103,16 @@ def test_side_by_side_turns_record_the_run_a_single_run_records(fmu_dir, tmp_pat
     assert table["time"] == pytest.approx(whole["time"], rel=1e-14, abs=1e-15)   # t0 + k h summed per turn
     for name in whole.dtype.names[1:]:
         assert (table[name] == whole[name]).all(), name
+
+
+def test_a_short_scenario_gets_enough_engine_runs_for_the_minimum_steps():
+    """The engines run a scenario at least REPEATS times, and a short one as often as it takes to step
+    ENGINE_MIN_STEPS in all (cardan_constant_speed: 500 steps, double_cardan_brutti_rigid: 2000 of 0.1 ms)."""
+    from ujfmu.bench import ENGINE_MIN_STEPS, REPEATS, engine_runs_of
+    from ujfmu.scenario import Scenario
+    short, shorter, long = (Scenario(SCENARIOS / f"{name}.toml") for name in
+                            ("cardan_constant_speed", "double_cardan_brutti_rigid", "twin_jeffcott_steady"))
+    assert engine_runs_of(long) == REPEATS and engine_runs_of(long, repeats=1) == 1
+    assert engine_runs_of(short) == math.ceil(ENGINE_MIN_STEPS / 500) > REPEATS
+    assert engine_runs_of(shorter, repeats=1, min_steps=5000) == 3
+    assert engine_runs_of(short, repeats=1, min_steps=0) == 1
