@@ -15,7 +15,7 @@ host's solver.
 """
 
 from ..models.protocol import Torques
-from .base import SPEED_RANGE, TORQUE_RANGE, ModelSlave, input_, output, parameter
+from .base import SPEED_RANGE, TORQUE_RANGE, ModelSlave, _new_inputs, input_, output, parameter
 
 
 #: the input-shaft ports of the speed-driven originals, declared anew below with the other causality
@@ -68,7 +68,7 @@ class TorqueDrivenSlave(ModelSlave):
             cls._step_from = staticmethod(model.integrate_from)
 
     def model_inputs(self):
-        return Torques(self.tau_in, self.tau_load)
+        return _new_inputs(Torques, (self.tau_in, self.tau_load))
 
     def integrate(self, t, h, y, u):
         """The RK4 substeps, the input speed over the step bounded from the rates at its start (:meth:`speed_reach`),
