@@ -1005,10 +1005,9 @@ def _torque_propagators_of(linear: tuple, h: float) -> tuple:
     """The operators of one Krogstad substep of length h (:func:`torque_exponential_step`; the weights of
     :func:`_propagators_of`), memoized, from :func:`_phi_functions` of the blocks of L at h/2 and h (the substep rule
     keeps h |lambda| <= 1 over L's eigenvalues, the rigid-body mode's 0 included, as for
-    :func:`_torque_adams_operators`): full-state
-    ones (E(h/2), E(h)) as 52 numbers (the torsional 6x6 row by row in the order (phi_in, omega_in, theta1, omega1,
-    theta2, omega2), then each lateral 2x2 in the order X1, Y1, X2, Y2), ones applied to N (its speed rows only)
-    as 26 numbers (per torsional row its columns omega_in, omega1, omega2; then each lateral block's speed column):
+    :func:`_torque_adams_operators`): full-state ones (E(h/2), E(h)) as 52 numbers (the torsional 6x6 row by row in
+    the order (phi_in, omega_in, theta1, omega1, theta2, omega2), then each lateral 2x2 in the order X1, Y1, X2, Y2),
+    ones applied to N (its speed rows only) as 26 numbers (per torsional row its columns omega_in, omega1, omega2; then each lateral block's speed column):
     Q1 = (h/2) phi_1(h L/2), Q2 = h phi_2(h L/2), R1 = h phi_1(h L), R2 = 2 h phi_2(h L),
     S1 = h (2 phi_2 - 4 phi_3)(h L), S2 = h (4 phi_3 - phi_2)(h L)."""
     half = [_phi_functions(block, 0.5 * h) for block in linear]
