@@ -711,11 +711,8 @@ class PrescribedInputSlave(ModelSlave):
         return max(abs(u.omega), abs(u.omega + u.alpha * h))
 
     def compute_outputs(self):
-        """ModelSlave's, and the input shaft's angle and acceleration (written out: one call fewer a read)."""
-        u = self.model_inputs()
-        values = vars(self)
-        values.update(self._outputs(self._p, self._time, self._y if self._started else self.current_state(u), u))
-        values["phi_in"], values["alpha_in"] = u.phi, u.alpha
+        u = super().compute_outputs()
+        self.phi_in, self.alpha_in = u.phi, u.alpha
         return u
 
     def advance(self, t, h):
