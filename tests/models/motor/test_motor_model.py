@@ -107,6 +107,23 @@ def test_exact_step_follows_a_ramp_with_load_to_round_off():
     assert max(abs(a - b) for a, b in zip(z, ref)) > 1e3 * max(abs(a - b) for a, b in zip(y, ref))
 
 
+@pytest.mark.parametrize("j, kp, ki", [(1e-3, 0.2, 10.0), (1e-3, 0.02, 10.0), (0.05, 8.0, 160.0), (0.22, 8.8, 88.0)])
+def test_exact_step_propagator_at_any_step_length(j, kp, ki):
+    """pi_propagator's rows against scipy's expm of the augmented matrix M h (Van Loan) at the step lengths of a host
+    that varies its step (each h new; powers of 2 apart and within one), each row to 1e-13 of its size: the kept
+    powers, the balancing and the squarings reproduce exp(M h) at every h."""
+    np = pytest.importorskip("numpy")
+    expm = pytest.importorskip("scipy.linalg").expm
+    p = motor.Parameters(kp, ki, 1e9, motor.CONSTANT, 1.0, 1.0, 0.0, 0.0, J_rotor=j)
+    rng = np.random.default_rng(1)
+    for h in [*(1e-3 * (0.9 + 0.2 * rng.random(6))), 1e-3, 2.5e-4, 1e-5, 3.7e-2, 0.37]:
+        m = np.zeros((7, 7))
+        m[0, 1], m[1, 1], m[1, 2], m[1, 3], m[2, 1], m[2, 4], m[3, 5], m[4, 6] = 1, -kp / j, ki / j, 1, -1, 1, 1, 1
+        exact = expm(m * h)[:3]
+        size = np.max(np.abs(exact), axis=1, keepdims=True)
+        assert np.all(np.abs(np.array(motor.pi_propagator(p, float(h))) - exact) <= 1e-13 * size), h
+
+
 BOUND_CASES = [  # (Kp, Ki, J, profile, omega_set, accel, tau_load, state, h): |torque| peaks inside the step
     (0.02, 10.0, 1e-3, motor.CONSTANT, 100.0, 1.0, 0.0, (0.0, 99.0, 0.0), 0.03),     # zeta = 0.1, half a period
     (0.02, 10.0, 1e-3, motor.CONSTANT, 100.0, 1.0, 0.0, (0.0, 101.0, 0.0), 0.03),    # the same, downwards

@@ -344,7 +344,7 @@ def _extreme_torsion():
 
 
 def test_adams_operators_at_extreme_parameters():
-    """The Adams operators' phi-functions (Taylor series in double precision, :func:`tj._phi_functions`) of the 6x6
+    """The Adams operators' phi-functions (Taylor series in double precision, :func:`tj._phi_sum`) of the 6x6
     torsional block with its rigid-body mode, at the substep h the FMU takes for a 1 ms step, against the same
     functions to 30 digits, at EXTREME_TORSION. The substep rule keeps h |lambda| <= 1 (checked), where the series
     converges fast and cancels little: each row of each phi_k agrees to 1e-14 of its size (measured 6e-16 at most;
@@ -352,10 +352,10 @@ def test_adams_operators_at_extreme_parameters():
     there)."""
     count = tj.HISTORY_POINTS + 2
     for changes, p, h, torsion in _extreme_torsion():
-        ours = tj._phi_functions(torsion, h, count)
         for k, exact in enumerate(_phi_reference(torsion, h, count)):
+            ours = tj._phi_sum(torsion, h, (0.0,) * k + (1.0,))
             size = np.max(np.abs(exact), axis=1, keepdims=True)   # each row against its own size
-            _assert_within(ours[k], exact, 1e-14 * size, (changes, k))
+            _assert_within(ours, exact, 1e-14 * size, (changes, k))
 
 
 def test_start_step_operators_at_extreme_parameters():
@@ -372,6 +372,31 @@ def test_start_step_operators_at_extreme_parameters():
             exact = np.asarray(exact).reshape(6, -1)
             size = np.max(np.abs(exact), axis=1, keepdims=True)
             _assert_within(np.reshape(ours, exact.shape), exact, 1e-14 * size, (changes, name))
+
+
+def test_operators_at_the_step_lengths_of_a_host_that_varies_its_step():
+    """ETDRK4-B's operators of the torque-driven rotor (:func:`tj._torque_propagators_of`) and of the speed-driven
+    one (:func:`tj._propagators_of`) at steps a host that varies its step takes, each h new, within one power of 2
+    of the kept powers of the blocks (:func:`tj._phi_sum`) and across them: E(h) and the two-term
+    S2 = h (4 phi_3 - phi_2)(hL) of the torsional blocks against the phi-functions to 30 digits, E's rows each to
+    1e-14 of its size, S2's columns each to 1e-14 of theirs (its angle rows cancel to O(h^3), far below the speed
+    rows of the same column)."""
+    p = rotor()
+    rng = np.random.default_rng(2)
+    for step in [*(1e-3 * (0.9 + 0.2 * rng.random(3))), 0.6e-3, 0.7e-3, 1.45e-3]:
+        h = step / tj.torque_exponential_substeps(p, step, 100.0)
+        ops, (e, _, p2, p3) = tj._torque_propagators_of(p.torque_linear, h), _phi_reference(p.torque_linear[0], h, 4)
+        s2 = h * (4.0 * p3 - p2)[:, (1, 3, 5)]
+        for name, ours, exact in (("E(h)", ops[3][:36], e), ("S2", ops[7][:18], s2)):
+            exact = np.asarray(exact).reshape(6, -1)
+            size = np.max(np.abs(exact), axis=1 if name == "E(h)" else 0, keepdims=True)
+            _assert_within(np.reshape(ours, exact.shape), exact, 1e-14 * size, (step, name))
+        h = step / tj.exponential_substeps(p, step, 100.0, 0.0)
+        ops, (e, _, p2, p3) = tj._propagators_of(p.linear, h), _phi_reference(p.linear[0], h, 4)
+        s2 = h * (4.0 * p3 - p2)[:, (1, 3)].T   # the layout: the column omega1, then omega2 (here as rows)
+        for name, ours, exact in (("E(h)", ops[3][:16], np.asarray(e)), ("S2", ops[7][:8], s2)):
+            size = np.max(np.abs(exact), axis=1, keepdims=True)
+            _assert_within(np.reshape(ours, exact.shape), exact, 1e-14 * size, (step, name, "speed-driven"))
 
 
 def test_fmu_steps_with_the_multistep_integrator(open_fmu):

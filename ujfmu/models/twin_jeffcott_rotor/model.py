@@ -27,7 +27,9 @@ components into the lateral response when beta != 0.
 """
 
 import functools
+import itertools
 import math
+import operator
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -442,28 +444,65 @@ def remainder_rate_bound(p: Parameters) -> float:
     return math.sqrt(max(0.0, stiffness - aligned_stiffness)) + max(0.0, decay - aligned_decay)
 
 
-def _phi_functions(a, h: float, count: int = 4) -> list:
-    """[phi_0(h a), ..., phi_(count-1)(h a)] of a small square matrix a, phi_k(X) = sum_j X^j / (j + k)!
-    (phi_0 = exp), by the Taylor series to 30 terms: the substep rule keeps h |lambda| <= 1 for L's eigenvalues,
-    where the truncation is below 1e-30."""
+#: terms of the phi-functions' Taylor series (:func:`_phi_sum`)
+TAYLOR_TERMS = 34
+#: 1 / j! for j < TAYLOR_TERMS + HISTORY_POINTS + 2 (the Adams operators take phi-functions up to phi_7)
+_INVERSE_FACTORIALS = tuple(1.0 / math.factorial(j) for j in range(TAYLOR_TERMS + 8))
+
+
+def _phi_sum(a: tuple, h: float, coefficients: tuple, columns: Sequence[int] | None = None) -> list:
+    """sum_k coefficients[k] phi_k(h a) of a small square matrix a, row by row (only the given columns, default
+    all), phi_k(X) = sum_j X^j / (j + k)! (phi_0 = exp), by the Taylor series to TAYLOR_TERMS terms: the substep
+    rule keeps h |lambda| <= 1 for L's eigenvalues, where the truncation is below 1e-30. X^j = r^j (s a)^j with s
+    the power of 2 nearest h and r = h / s; the powers of s a are kept per (a, s) (:func:`_scaled_powers`), so a
+    new h (a host that varies its step) costs one weighted sum per entry, not 33 matrix products."""
+    scale = 2.0 ** round(math.log2(h))
+    weights = _series_weights(h / scale, coefficients)
+    powers = _scaled_powers(a, scale)
+    if columns is None:
+        return [[sum(map(operator.mul, weights, entry)) for entry in row] for row in powers]
+    return [[sum(map(operator.mul, weights, row[c])) for c in columns] for row in powers]
+
+
+@functools.lru_cache(maxsize=64)
+def _series_weights(r: float, coefficients: tuple) -> tuple:
+    """The weights of (s a)^j in :func:`_phi_sum`: r^j sum_k coefficients[k] / (j + k)!, j < TAYLOR_TERMS."""
+    sums = (0.0,) * TAYLOR_TERMS
+    for k, c in enumerate(coefficients):
+        if c:
+            sums = map(operator.add, sums, map(operator.mul, itertools.repeat(c), _INVERSE_FACTORIALS[k:]))
+    return tuple(map(operator.mul, sums, itertools.accumulate(itertools.repeat(r, TAYLOR_TERMS - 1), operator.mul,
+                                                              initial=1.0)))
+
+
+@functools.lru_cache(maxsize=64)
+def _scaled_powers(a: tuple, scale: float) -> tuple:
+    """Per entry (i, c) of the square matrix a, the tuple of the entries (i, c) of (scale a)^j, j < TAYLOR_TERMS."""
     n = len(a)
-    x = [[h * v for v in row] for row in a]
+    x = [[scale * v for v in row] for row in a]
     power = [[1.0 if i == j else 0.0 for j in range(n)] for i in range(n)]
-    phis = [[[0.0] * n for _ in range(n)] for _ in range(count)]
-    factorial = 1.0
-    for j in range(34):
-        if j:
-            factorial *= j
-            power = [[sum(power[i][m] * x[m][k] for m in range(n)) for k in range(n)] for i in range(n)]
-        f = factorial
-        for k in range(count):   # X^j / (j + k)!
-            if j + k >= 1 and k:
-                f *= j + k
-            for i in range(n):
-                row, prow = phis[k][i], power[i]
-                for c in range(n):
-                    row[c] += prow[c] / f
-    return phis
+    matrices = [power]
+    columns = list(zip(*x))
+    for _ in range(TAYLOR_TERMS - 1):
+        power = [[sum(map(operator.mul, row, column)) for column in columns] for row in power]
+        matrices.append(power)
+    return tuple(tuple(tuple(m[i][c] for m in matrices) for c in range(n)) for i in range(n))
+
+
+def _state_operator(linear: tuple, h: float) -> tuple:
+    """exp(h L) of the blocks of L (:func:`linear_part`, :func:`torque_linear_part`) as one tuple: each block row by
+    row, the torsional block first."""
+    return tuple(v for block in linear for row in _phi_sum(block, h, (1.0,)) for v in row)
+
+
+def _speed_operator(linear: tuple, h: float, coefficients: tuple) -> tuple:
+    """sum_k coefficients[k] phi_k(h L) on N's speed columns of the speed-driven rotor's L (:func:`linear_part`) as
+    16 numbers: the torsional block's column omega1 (4 rows), then its column omega2, then each lateral block's
+    speed column (2 rows)."""
+    torsion, *lateral = linear
+    t = _phi_sum(torsion, h, coefficients, (1, 3))
+    return tuple([row[0] for row in t] + [row[1] for row in t]
+                 + [row[0] for block in lateral for row in _phi_sum(block, h, coefficients, (1,))])
 
 
 def _propagators(p: Parameters, h: float) -> tuple:
@@ -480,24 +519,12 @@ def _propagators_of(linear: tuple, h: float) -> tuple:
     omega1 and omega2, then each lateral block's speed column) as 16 numbers:
     Q1 = (h/2) phi_1(h L/2), Q2 = h phi_2(h L/2), R1 = h phi_1(h L), R2 = 2 h phi_2(h L),
     S1 = h (2 phi_2 - 4 phi_3)(h L), S2 = h (4 phi_3 - phi_2)(h L)."""
-    half = [_phi_functions(block, 0.5 * h) for block in linear]
-    full = [_phi_functions(block, h) for block in linear]
-
-    def speed_op(phis, weights, factor):
-        blocks = [[[factor * sum(w * phi[k][i][j] for k, w in weights) for j in range(len(phi[0]))]
-                   for i in range(len(phi[0]))] for phi in phis]
-        t, lateral = blocks[0], blocks[1:]
-        return tuple([t[r][1] for r in range(4)] + [t[r][3] for r in range(4)]
-                     + [b[r][1] for b in lateral for r in range(2)])
-
-    def state_op(phis):
-        t, lateral = phis[0][0], [phi[0] for phi in phis[1:]]
-        return tuple([v for row in t for v in row] + [v for b in lateral for row in b for v in row])
-
-    ops = (state_op(half), speed_op(half, ((1, 1.0),), 0.5 * h), speed_op(half, ((2, 1.0),), h),
-           state_op(full), speed_op(full, ((1, 1.0),), h), speed_op(full, ((2, 1.0),), 2.0 * h),
-           speed_op(full, ((2, 2.0), (3, -4.0)), h), speed_op(full, ((3, 4.0), (2, -1.0)), h))
-    return ops
+    half = 0.5 * h
+    return (_state_operator(linear, half), _speed_operator(linear, half, (0.0, half)),
+            _speed_operator(linear, half, (0.0, 0.0, h)), _state_operator(linear, h),
+            _speed_operator(linear, h, (0.0, h)), _speed_operator(linear, h, (0.0, 0.0, 2.0 * h)),
+            _speed_operator(linear, h, (0.0, 0.0, 2.0 * h, -4.0 * h)),
+            _speed_operator(linear, h, (0.0, 0.0, -h, 4.0 * h)))
 
 
 def _state_op(f: tuple, z: Sequence[float], g: tuple, d: Sequence[float]) -> list:
@@ -804,24 +831,19 @@ _ADAMS_SCALARS = (tuple(sum(c) for c in _lagrange_coefficients(_NODES)),
                   sum(c / (m + 1) for m, c in enumerate(_newton_coefficients(_NODES))))
 
 
-def _phi_operator(phis: list, h: float, c: Sequence[float]) -> tuple:
-    """h sum_m c_m m! phi_(m+1)(h L) on N's speed columns (16 numbers, :func:`_propagators`' layout): the
-    variation-of-constants integral h int_0^1 exp((1 - theta) h L) sum_m c_m theta^m d theta."""
-    blocks = [[[h * sum(c[m] * math.factorial(m) * phi[m + 1][i][k] for m in range(len(c)))
-                for k in range(len(phi[0]))] for i in range(len(phi[0]))] for phi in phis]
-    t, lateral = blocks[0], blocks[1:]
-    return tuple([t[r][1] for r in range(4)] + [t[r][3] for r in range(4)]
-                 + [b[r][1] for b in lateral for r in range(2)])
+def _integral_coefficients(h: float, c: Sequence[float]) -> tuple:
+    """The coefficients of phi_k (:func:`_phi_sum`) in h sum_m c_m m! phi_(m+1)(h L), the variation-of-constants
+    integral h int_0^1 exp((1 - theta) h L) sum_m c_m theta^m d theta."""
+    return (0.0, *(h * cm * math.factorial(m) for m, cm in enumerate(c)))
 
 
 @functools.lru_cache(maxsize=16)
 def _adams_operators(linear: tuple, h: float) -> tuple:
-    """(E(h), Psi, W_0, ..., W_-3) of :func:`multistep_step` for L's blocks and h, memoized."""
-    phis = [_phi_functions(block, h, HISTORY_POINTS + 2) for block in linear]
-    t, lateral = phis[0][0], [phi[0] for phi in phis[1:]]
-    e = tuple([v for row in t for v in row] + [v for b in lateral for row in b for v in row])
-    return (e, _phi_operator(phis, h, _newton_coefficients(_NODES)),
-            *(_phi_operator(phis, h, c) for c in _lagrange_coefficients(_NODES)))
+    """(E(h), Psi, W_0, ..., W_-5) of :func:`multistep_step` for L's blocks and h, memoized: E as
+    :func:`_state_operator`, the others on N's speed columns (:func:`_speed_operator`)."""
+    psi = _speed_operator(linear, h, _integral_coefficients(h, _newton_coefficients(_NODES)))
+    return (_state_operator(linear, h), psi,
+            *(_speed_operator(linear, h, _integral_coefficients(h, c)) for c in _lagrange_coefficients(_NODES)))
 
 
 def adams_operators(p: Parameters, h: float) -> tuple:
@@ -1003,27 +1025,29 @@ def _torque_propagators(p: TorqueDrivenParameters, h: float) -> tuple:
 @functools.lru_cache(maxsize=64)
 def _torque_propagators_of(linear: tuple, h: float) -> tuple:
     """The operators of one Krogstad substep of length h (:func:`torque_exponential_step`; the weights of
-    :func:`_propagators_of`), memoized, from :func:`_phi_functions` of the blocks of L at h/2 and h (the substep rule
-    keeps h |lambda| <= 1 over L's eigenvalues, the rigid-body mode's 0 included, as for
+    :func:`_propagators_of`), memoized, from the phi-functions (:func:`_phi_sum`) of the blocks of L at h/2 and h
+    (the substep rule keeps h |lambda| <= 1 over L's eigenvalues, the rigid-body mode's 0 included, as for
     :func:`_torque_adams_operators`): full-state ones (E(h/2), E(h)) as 52 numbers (the torsional 6x6 row by row in
     the order (phi_in, omega_in, theta1, omega1, theta2, omega2), then each lateral 2x2 in the order X1, Y1, X2, Y2),
-    ones applied to N (its speed rows only) as 26 numbers (per torsional row its columns omega_in, omega1, omega2; then each lateral block's speed column):
-    Q1 = (h/2) phi_1(h L/2), Q2 = h phi_2(h L/2), R1 = h phi_1(h L), R2 = 2 h phi_2(h L),
-    S1 = h (2 phi_2 - 4 phi_3)(h L), S2 = h (4 phi_3 - phi_2)(h L)."""
-    half = [_phi_functions(block, 0.5 * h) for block in linear]
-    full = [_phi_functions(block, h) for block in linear]
+    ones applied to N (its speed rows only) as 26 numbers (per torsional row its columns omega_in, omega1, omega2;
+    then each lateral block's speed column): Q1 = (h/2) phi_1(h L/2), Q2 = h phi_2(h L/2), R1 = h phi_1(h L),
+    R2 = 2 h phi_2(h L), S1 = h (2 phi_2 - 4 phi_3)(h L), S2 = h (4 phi_3 - phi_2)(h L)."""
+    half = 0.5 * h
+    return (_state_operator(linear, half), _chain_speed_operator(linear, half, (0.0, half), (1, 3, 5)),
+            _chain_speed_operator(linear, half, (0.0, 0.0, h), (1, 3, 5)), _state_operator(linear, h),
+            _chain_speed_operator(linear, h, (0.0, h), (1, 3, 5)),
+            _chain_speed_operator(linear, h, (0.0, 0.0, 2.0 * h), (1, 3, 5)),
+            _chain_speed_operator(linear, h, (0.0, 0.0, 2.0 * h, -4.0 * h), (1, 3, 5)),
+            _chain_speed_operator(linear, h, (0.0, 0.0, -h, 4.0 * h), (1, 3, 5)))
 
-    def speed_op(phis, weights, factor):
-        t, *lateral = [[[factor * sum(w * phi[k][i][j] for k, w in weights) for j in range(len(phi[0]))]
-                        for i in range(len(phi[0]))] for phi in phis]
-        return tuple([t[r][c] for r in range(6) for c in (1, 3, 5)] + [b[r][1] for b in lateral for r in range(2)])
 
-    def state_op(phis):
-        return tuple(v for phi in phis for row in phi[0] for v in row)
-
-    return (state_op(half), speed_op(half, ((1, 1.0),), 0.5 * h), speed_op(half, ((2, 1.0),), h),
-            state_op(full), speed_op(full, ((1, 1.0),), h), speed_op(full, ((2, 1.0),), 2.0 * h),
-            speed_op(full, ((3, -4.0), (2, 2.0)), h), speed_op(full, ((2, -1.0), (3, 4.0)), h))
+def _chain_speed_operator(linear: tuple, h: float, coefficients: tuple, columns: tuple) -> tuple:
+    """sum_k coefficients[k] phi_k(h L) of the torque-driven rotor's L (:func:`torque_linear_part`) on the
+    torsional block's columns given (per row those columns, row by row), then each lateral block's speed column
+    (2 rows)."""
+    torsion, *lateral = linear
+    return tuple([v for row in _phi_sum(torsion, h, coefficients, columns) for v in row]
+                 + [row[0] for block in lateral for row in _phi_sum(block, h, coefficients, (1,))])
 
 
 def _chain_state_op(f: tuple, z: Sequence[float], g: tuple, d: Sequence[float]) -> list:
@@ -1187,18 +1211,13 @@ def _torque_adams_operators(linear: tuple, h: float) -> tuple:
     the torsional columns omega_in and omega2 as 12 numbers (per torsional row those two columns), which carries the
     constant rows tau_in / J_in and -tau_load / J_eff2 of N; Psi and W_j = h sum_m c_jm m! phi_(m+1)(hL) on N_0's
     speed rows as 20 numbers (per torsional row its columns omega1 and omega2, then each lateral block's speed
-    column). phi_0..phi_7 of each block by their Taylor series (:func:`_phi_functions`): the substep rule keeps
+    column). phi_0..phi_7 of each block by their Taylor series (:func:`_phi_sum`): the substep rule keeps
     h |lambda| <= 1 over L's eigenvalues (:func:`torque_exponential_substeps`), the rigid-body mode's 0 included."""
-    phis = [_phi_functions(block, h, HISTORY_POINTS + 2) for block in linear]
-
-    def weights(c):
-        t, *lateral = [[[h * sum(c[m] * math.factorial(m) * phi[m + 1][i][k] for m in range(len(c)))
-                         for k in range(len(phi[0]))] for i in range(len(phi[0]))] for phi in phis]
-        return tuple([t[r][k] for r in range(6) for k in (3, 5)] + [b[r][1] for b in lateral for r in range(2)])
-
-    e = tuple(v for phi in phis for row in phi[0] for v in row)
-    f = tuple(h * phis[0][1][r][k] for r in range(6) for k in (1, 5))
-    return (e, f, weights(_newton_coefficients(_NODES)), *(weights(c) for c in _lagrange_coefficients(_NODES)))
+    f = tuple(v for row in _phi_sum(linear[0], h, (0.0, h), (1, 5)) for v in row)
+    psi = _chain_speed_operator(linear, h, _integral_coefficients(h, _newton_coefficients(_NODES)), (3, 5))
+    return (_state_operator(linear, h), f, psi,
+            *(_chain_speed_operator(linear, h, _integral_coefficients(h, c), (3, 5))
+              for c in _lagrange_coefficients(_NODES)))
 
 
 def torque_adams_operators(p: TorqueDrivenParameters, h: float) -> tuple:
