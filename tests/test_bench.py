@@ -25,6 +25,13 @@ def test_bench_measures_floor_and_monolithic_ratios(fmu_dir):
     assert constant["monolithic_s"] is None and "closed form" in constant["note"]
     table = render(result)
     assert "cardan_startup" in table and "x floor" in table
+    # each FMU of the scenarios costed at a fixed and at a varying step, in the same run
+    varying = {r["fmu"]: r for r in result["varying_steps"]}
+    assert set(varying) == {"Motor", "CardanJoint", "Load"}
+    for r in varying.values():
+        assert r["fixed_us_per_step"] > 0 and r["varying_ratio"] == pytest.approx(r["varying_us_per_step"]
+                                                                                / r["fixed_us_per_step"])
+    assert "| Motor |" in table and "varying / fixed" in table
 
 
 def test_floor_run_holds_the_inputs_the_scenario_holds_without_a_warning(fmu_dir, tmp_path):

@@ -185,6 +185,22 @@ def test_references_says_when_a_scenario_has_nothing_to_regenerate(tmp_path, cap
     assert "unchecked.toml: skipped: no [reference]" in captured.err and "no reference was regenerated" in captured.err
 
 
+def test_references_refuses_to_overwrite_another_scenarios_reference(tmp_path, capsys):
+    """A copy of a scenario that still names its original's reference file: `ujfmu references` on the copy refuses
+    before any work, names the owner (from the file's provenance line) and the fix, and leaves the file as it
+    was; the original itself still regenerates there (its own file)."""
+    (tmp_path / "references").mkdir()
+    target = tmp_path / "references" / "cardan_startup.csv"
+    target.write_text((SCENARIOS / "references" / "cardan_startup.csv").read_text())
+    copy = tmp_path / "my_cardan45.toml"
+    copy.write_text((SCENARIOS / "cardan_startup.toml").read_text())
+    before = target.stat().st_mtime_ns, target.read_text()
+    assert main(["references", str(copy)]) == 2
+    err = capsys.readouterr().err
+    assert "is the reference of scenarios/cardan_startup.toml" in err and 'file = "references/my_cardan45.csv"' in err
+    assert (target.stat().st_mtime_ns, target.read_text()) == before
+
+
 def test_output_interval_thins_the_written_rows_and_keeps_the_verdict(fmu_dir, tmp_path, capsys):
     """--output-interval 50 on a 500-step run: rows at 0, 50, ..., 500 s/1000 in the CSV, still compared (PASS);
     a value below 1 is refused by the argument parser."""

@@ -135,7 +135,8 @@ def test_libcosim_runs_the_same_fmus_and_agrees(results, fmu_dir, path):
 
 
 def test_libcosim_difference_shrinks_with_step_size(fmu_dir):
-    """The fmpy/libcosim difference in the coupled start-up is a first-order coupling error: halving h halves it."""
+    """The fmpy/libcosim difference in the coupled start-up is a coupling error of first order: halving h at least
+    halves it (2.2-2.7x measured per halving from 4 to 0.5 ms, a second-order part on top)."""
     diffs = []
     for h in (2e-3, 1e-3):
         scenario = Scenario(SCENARIOS[0].parent / "cardan_startup.toml")
@@ -144,7 +145,7 @@ def test_libcosim_difference_shrinks_with_step_size(fmu_dir):
         theirs = cosimulate_libcosim(scenario, fmu_dir)
         y = np.interp(theirs["time"], ours["time"], ours["joint.tau_in"])
         diffs.append(np.max(np.abs(theirs["joint.tau_in"] - y)))
-    assert 1.6 < diffs[0] / diffs[1] < 2.6, diffs
+    assert 1.8 < diffs[0] / diffs[1] < 3.2, diffs
 
 
 def test_cosimulation_error_converges_at_second_order(fmu_dir):

@@ -49,7 +49,9 @@ def test_axis_ranges_are_inclusive_and_units_convert_to_si(brutti):
     ("motor.speed=1:2:1", "Motor has no parameter 'speed'"),
     ("motor.omega_set=1:x:1", "bad values"),
     ("motor.omega_set=10:1:1", "STOP >= START"),
-    ("driveline.beta1=0,95deg", "driveline.beta1 = 1.658"),   # beyond its allowed range, named with the range
+    # beyond its allowed range, named in the unit it was given in (no "deg = rad?" slip hint: it was given in deg)
+    ("driveline.beta1=0,95deg", "driveline.beta1 = 95 deg (1.65806 rad) is outside its allowed range [-89, 89] deg"),
+    ("driveline.beta1=0,1.7", "driveline.beta1 = 1.7 is outside its allowed range"),
     ("motor.omega_set", "expected component.parameter"),
 ])
 def test_bad_axes_are_rejected_before_anything_runs(brutti, spec, words):
@@ -84,7 +86,7 @@ def test_every_problem_of_a_sweeps_settings_is_reported_at_once(brutti, fmu_dir,
     assert main(args) == 2
     err = capsys.readouterr().err
     assert "6 problems with the sweep's axes and settings:" in err
-    for words in ("no component 'nope'", "driveline.beta1 = 1.658", "(and 1 more of its 3 values)",
+    for words in ("no component 'nope'", "driveline.beta1 = 95 deg", "(and 1 more of its 3 values)",
                   "'driveline.tau'", "settle_time (--settle) = -1 must be >= 0", "revolutions (--revolutions) = 0 must be > 0",
                   "steady_tol (--steady-tol) = -1 must be >= 0"):
         assert words in err, words

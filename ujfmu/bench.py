@@ -20,6 +20,7 @@ table adds the implicit scheme's cost on the same scenarios.
 import json
 import math
 import os
+import random
 import tempfile
 import time
 from pathlib import Path
@@ -28,7 +29,7 @@ import numpy as np
 
 from . import engines as engine_runs
 from .build import DEFAULT_FMU_DIR, REPO_DIR, build_fmu
-from .master import COUPLINGS, Component, Cosimulation, CosimulationError
+from .master import COUPLINGS, Component, Cosimulation, CosimulationError, extracted
 from .references import common, generate
 from .scenario import Scenario
 from .scenario_run import compare
@@ -275,6 +276,52 @@ def bench_sweep(fmu_dir, workers):
     return seconds, len(sweep.points)
 
 
+#: a varying host's steps (bench_varying_steps): each length drawn anew, uniform in this range times STEP
+VARYING_STEPS = (0.9, 1.1)
+
+
+def _step_cost(fmu_path: Path, name: str, lengths: list) -> float:
+    """Seconds per fmi2DoStep of one fresh instance of the FMU (parameters and inputs at their start values) stepping
+    through the given step lengths."""
+    from fmpy.fmi2 import FMU2Slave
+
+    unzip_dir, description = extracted(fmu_path)
+    fmu = FMU2Slave(guid=description.guid, unzipDirectory=unzip_dir,
+                    modelIdentifier=description.coSimulation.modelIdentifier, instanceName=name)
+    fmu.instantiate()
+    try:
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        t, started = 0.0, time.perf_counter()
+        for h in lengths:
+            fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+            t += h
+        return (time.perf_counter() - started) / len(lengths)
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
+
+
+def bench_varying_steps(names, fmu_dir=DEFAULT_FMU_DIR, steps: int = 300, repeats: int = REPEATS) -> list:
+    """Per FMU: its cost per fmi2DoStep at a fixed STEP and with every step's length drawn anew from
+    VARYING_STEPS (a host that varies its step), each the fastest of ``repeats`` alternated runs of ``steps`` steps
+    of a fresh instance (parameters and inputs at their start values), and their ratio: the price of a new step
+    length (an FMU that builds operators per length pays it at every step)."""
+    rng = random.Random(0)
+    lengths = [STEP * rng.uniform(*VARYING_STEPS) for _ in range(steps)]
+    rows = []
+    for name in names:
+        path = Path(fmu_dir) / f"{name}.fmu"
+        fixed = varying = math.inf
+        for _ in range(repeats):
+            fixed = min(fixed, _step_cost(path, name, [STEP] * steps))
+            varying = min(varying, _step_cost(path, name, lengths))
+        rows.append(dict(fmu=name, fixed_us_per_step=1e6 * fixed, varying_us_per_step=1e6 * varying,
+                         varying_ratio=varying / fixed))
+    return rows
+
+
 def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, battery=(), schemes=True,
               engines=ENGINES, cpus=None, fmu3_dir=None):
     """All figures of one run: {'scenarios': [rows], 'engines': {...}, 'schemes': {...}, 'battery': {...},
@@ -291,6 +338,8 @@ def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, ba
             progress(f"bench {Path(path).stem}")
             rows.append(bench_scenario(path, fmu_dir, floor_dir))
     result = {"step_size": STEP, "scenarios": rows, "targets": TARGETS}
+    progress("bench varying steps")
+    result["varying_steps"] = bench_varying_steps(names, fmu_dir)
     if engines:
         result["engines"] = bench_engines(scenarios, fmu_dir, REPEATS, cpus, engines, progress)
     if schemes:
@@ -344,6 +393,14 @@ def render(result):
                   "| scenario | FMI 2.0 us / step | FMI 3.0 us / step | FMI 3.0 / FMI 2.0 |", "| --- | --- | --- | --- |"]
         lines += [f"| {r['scenario']} | {r['fmi2_us_per_step']:.1f} | {r['fmi3_us_per_step']:.1f} | "
                   f"{r['fmi3_ratio']:.2f} |" for r in result["fmi3"]]
+    if "varying_steps" in result:
+        lo, hi = VARYING_STEPS
+        lines += ["", f"A host that varies its step: each FMU alone (fmi2DoStep of a fresh instance, parameters and "
+                  f"inputs at their start values), every step's length drawn anew from {lo * STEP * 1e3:g}-"
+                  f"{hi * STEP * 1e3:g} ms, against {STEP * 1e3:g} ms at every step:", "",
+                  "| FMU | us / step, fixed | us / step, varying | varying / fixed |", "| --- | --- | --- | --- |"]
+        lines += [f"| {r['fmu']} | {r['fixed_us_per_step']:.1f} | {r['varying_us_per_step']:.1f} | "
+                  f"{r['varying_ratio']:.2f} |" for r in result["varying_steps"]]
     if "battery" in result:
         lines += ["", "Coupling battery (ujfmu.battery), 1 ms:", "", render_schemes("set-up", result["battery"])]
     if "sweep" in result:

@@ -29,6 +29,7 @@
     whose provenance names another setup (``Scenario.setup_digest``) than the scenario's is refused.
 """
 
+import dataclasses
 import difflib
 import hashlib
 import json
@@ -153,10 +154,15 @@ class Scenario:
                                     f"{sorted(comp) if isinstance(comp, dict) else comp!r}")
             fmu = comp.get("fmu")
             if fmu not in FMUS:
-                raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r} is not one of {list(FMUS)}")
+                close = difflib.get_close_matches(str(fmu), FMUS, n=1)
+                raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r} is not one of {list(FMUS)}"
+                                    + (f" (did you mean {close[0]!r}?)" if close else ""))
             params = self._values(cname, fmu, comp, "parameters")
             self.inputs[cname] = self._values(cname, fmu, comp, "inputs")
             self.components[cname] = (fmu, params)
+            problems = self.model_problems(cname)
+            if problems:
+                raise ScenarioError(f"{self.path}: components.{cname}.parameters: {'; '.join(problems)}")
 
         self.connections = []
         fed = {}
@@ -398,6 +404,17 @@ class Scenario:
             if not path.is_file():
                 raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path.absolute()} not found "
                                     f"({build_hint(fmu_dir)})")
+
+    def model_problems(self, component) -> list:
+        """What the component's model refuses in its parameters as a whole (``MODEL.check``, which the FMU runs at
+        initialization: e.g. a ramp to a negative speed), with the FMU's defaults for those not set; [] for an FMU
+        without a model."""
+        model = getattr(fmu_class(self.components[component][0]), "MODEL", None)
+        if model is None:
+            return []
+        values = self.parameters_with_defaults(component)
+        names = [f.name for f in dataclasses.fields(model.Parameters) if f.init]
+        return model.check(model.Parameters(**{name: values[name] for name in names}))
 
     def parameters_with_defaults(self, component):
         """All parameter values of a component: the FMU's declared defaults updated by the scenario."""

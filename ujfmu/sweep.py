@@ -150,10 +150,17 @@ class Axis:
             if problem:
                 found.append(f"{what}: {comp}.{par}: {problem}")
                 continue
-            bad = [p for p in (declared[par].check(declared[par].type(v)) for v in self.values) if p]
+            var = declared[par]
+            bad = [(v, p) for v, p in ((v, var.check(var.type(v))) for v in self.values) if p]
             if bad:
                 more = f" (and {len(bad) - 1} more of its {len(self.values)} values)" if len(bad) > 1 else ""
-                found.append(f"{what}: {comp}.{bad[0]}{more}")
+                value, problem = bad[0]
+                if self.unit and math.isfinite(value):   # in the unit the values were given in, not a slip's hint
+                    lo, hi = (sign + "inf" if x is None else f"{self.display(x):.6g}"
+                              for sign, x in (("-", var.min), ("+", var.max)))
+                    problem = (f"{par} = {self.display(value):.6g} {self.unit} ({value:.6g} {var.unit}) is outside "
+                               f"its allowed range [{lo}, {hi}] {self.unit} ({var.range_text()})")
+                found.append(f"{what}: {comp}.{problem}{more}")
         return found
 
     def check(self, scenario, what: str = "") -> None:

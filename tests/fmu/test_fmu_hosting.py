@@ -87,3 +87,53 @@ def test_randomly_varying_steps_converge_to_the_fixed_step_result(fmu_dir, name)
         errors.append(max(abs(a - b) / s for a, b, s in zip(result, fine, scale)))
     assert all(math.isfinite(e) for e in errors)
     assert errors[1] < errors[0] / 3, errors
+
+
+@pytest.mark.parametrize("name", ["CardanJoint", "DoubleCardanDriveline", "TwinJeffcottRotor", "RingCoupling"])
+def test_outputs_read_before_the_next_input_are_at_the_motion_the_step_ended_with(fmu_dir, name):
+    """A host that reads the outputs after a step and only then sets the next input (fmpy's simulate_fmu,
+    libcosim) under a ramp omega_in = 40 + 30 t: the outputs are those at the input motion the step ended with,
+    alpha_in = 30 and omega = omega_in + 30 h, which is what a host that sets omega_in first reads (the same
+    motion): equal to round-off, step after step; not the held speed at alpha 0, which drops J alpha from
+    tau_in."""
+    log, h = [], 1e-3
+    ramp = lambda t: 40.0 + 30.0 * t   # noqa: E731
+    first, ordered = open_instance(fmu_dir, name, log, "reads_first"), open_instance(fmu_dir, name, log, "sets_first")
+    try:
+        names = outputs_of(first)
+        for inst in (first, ordered):
+            inst.initialize({})
+            inst.set(omega_in=ramp(0.0), tau_load=0.2)
+        for k in range(20):
+            t0, t1 = k * h, (k + 1) * h
+            for inst in (first, ordered):
+                inst.set(omega_in=ramp(t0))
+                inst.slave.doStep(t0, h)
+            ordered.set(omega_in=ramp(t1))
+            read_first, set_first = first.get(*names), ordered.get(*names)
+            if k >= 2:   # the acceleration estimate has its history
+                assert read_first[names.index("alpha_in")] == pytest.approx(30.0, rel=1e-9)
+                for n, a, b in zip(names, read_first, set_first):
+                    assert a == pytest.approx(b, rel=1e-9, abs=1e-12), (k, n)
+    finally:
+        first.free()
+        ordered.free()
+    assert not [m for m in log if "[error]" in m or "[fatal]" in m]
+
+
+def test_a_straight_joint_read_first_gives_the_inertia_torque(fmu_dir):
+    """The closed form through plain fmpy (``simulate_fmu`` reads the outputs before it sets the next input): a
+    straight CardanJoint with J2 = 0.01 kg.m^2 under omega_in ramping at 30 rad/s^2 needs tau_in = (J1 + J2) 30
+    and turns omega_out = omega_in."""
+    import numpy as np
+    from fmpy import read_model_description, simulate_fmu
+    path = fmu_dir / "CardanJoint.fmu"
+    j1 = next(float(v.start) for v in read_model_description(path).modelVariables if v.name == "J1")
+    inputs = np.array([(0.0, 0.0, 0.0), (1.0, 30.0, 0.0)],
+                      dtype=[("time", float), ("omega_in", float), ("tau_load", float)])
+    result = simulate_fmu(path, stop_time=1.0, output_interval=1e-3, input=inputs, output=["tau_in", "alpha_in"],
+                          start_values={"bend_angle": 0.0, "error_angle_beta": 0.0, "error_angle_gamma": 0.0,
+                                        "J2": 0.01})
+    assert result["time"][-1] == 1.0
+    assert np.allclose(result["alpha_in"][3:], 30.0, rtol=1e-9)
+    assert np.allclose(result["tau_in"][3:], (j1 + 0.01) * 30.0, rtol=1e-9)

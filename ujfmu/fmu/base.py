@@ -547,9 +547,14 @@ class ModelSlave(UjfmuSlave):
             return self._y
         return tuple(self.MODEL.initial_state(self._p, self._time, u))
 
+    def output_inputs(self):
+        """The model's inputs the outputs are computed at (default: ``model_inputs()``)."""
+        return self.model_inputs()
+
     def compute_outputs(self):
-        """The output variables from ``MODEL.outputs`` at the current time, state and inputs; returns the inputs."""
-        u = self.model_inputs()
+        """The output variables from ``MODEL.outputs`` at the current time, state and inputs (``output_inputs``);
+        returns the inputs."""
+        u = self.output_inputs()
         vars(self).update(self._outputs(self._p, self._time, self._y if self._started else self.current_state(u), u))
         return u
 
@@ -569,8 +574,8 @@ class ModelSlave(UjfmuSlave):
 
     def compute_load_outputs(self):
         """``MODEL.load_outputs``: the outputs that depend on the ``LOAD_INPUTS``, at the current time, state and
-        inputs."""
-        u = self.model_inputs()
+        inputs (``output_inputs``)."""
+        u = self.output_inputs()
         vars(self).update(self.MODEL.load_outputs(self._p, self._time, self.current_state(u), u))
 
     def advance(self, t, h):
@@ -661,11 +666,16 @@ class PrescribedInputSlave(ModelSlave):
     difference of omega_in over the previous step (0 before the first), or its second-order estimate where the FMU
     declares ACCELERATION_ORDER = 2 (``input_acceleration``): exact for constant speed and constant
     acceleration. The angle is summed with Kahan's compensation, so after 10^6 steps its round-off is a few ulps
-    of the angle, not 10^6 of them. The outputs phi_in and alpha_in are the shaft's angle and acceleration.
+    of the angle, not 10^6 of them. The outputs phi_in and alpha_in are the shaft's angle and acceleration. Outputs
+    read after a step before omega_in is set again are at the input motion the step ended with
+    (``output_inputs``).
     """
 
+    #: before the first step: the outputs at model_inputs() (``output_inputs``)
+    _input_set, _alpha_step = True, 0.0
     STATE = {**ModelSlave.STATE, "_phi_in": "float", "_phi_in_carry": "float", "_omega_prev": "float|None",
-             "_h_prev": "float", "_omega_prev2": "float|None", "_h_prev2": "float"}
+             "_h_prev": "float", "_omega_prev2": "float|None", "_h_prev2": "float", "_alpha_step": "float",
+             "_input_set": "bool"}
     RK4_KIND = "drive"
     #: 1: alpha the backward difference of omega_in over the last step; 2: the second-order (BDF2) slope at t_k
     ACCELERATION_ORDER = 1
@@ -678,12 +688,14 @@ class PrescribedInputSlave(ModelSlave):
         self._phi_in, self._phi_in_carry = phi_start, 0.0
         self._omega_prev, self._h_prev = None, 0.0     # omega_in at the previous communication point
         self._omega_prev2, self._h_prev2 = None, 0.0   # and at the one before
+        self._alpha_step, self._input_set = 0.0, True   # the last step's alpha; omega_in set since that step
 
     def input_acceleration(self):
         """alpha at t_k: the backward difference (w_k - w_k-1)/h (0 before the first step); with
         ACCELERATION_ORDER 2, from the third point on, the slope at t_k of the parabola through w_k, w_k-1, w_k-2
-        (BDF2, (3 w_k - 4 w_k-1 + w_k-2) / 2h for equal steps). An input unchanged since the last point (a host
-        reading outputs after a step before setting new inputs, or a constant speed) gives 0 either way."""
+        (BDF2, (3 w_k - 4 w_k-1 + w_k-2) / 2h for equal steps). An input unchanged since the last point (a constant
+        speed, a host that holds it) gives 0 either way; outputs read before the host sets it after a step are at
+        the step's own alpha (``output_inputs``)."""
         if self._omega_prev is None:
             return 0.0
         slope = (self.omega_in - self._omega_prev) / self._h_prev
@@ -700,6 +712,29 @@ class PrescribedInputSlave(ModelSlave):
 
     def model_inputs(self):
         return _new_inputs(Drive, (self._phi_in, self.omega_in, self.input_acceleration(), self.tau_load))
+
+    def output_inputs(self):
+        """``model_inputs()``, but between a step and the host's next setting of omega_in (a host that reads its
+        outputs first: fmpy's ``simulate_fmu``, libcosim) the input motion at the step's end as the step
+        extrapolated it: speed omega_in + alpha h at the step's alpha, not the held speed with alpha 0 (which
+        would drop the inertia torque J alpha from tau_in)."""
+        if self._input_set:
+            return self.model_inputs()
+        alpha = self._alpha_step
+        return _new_inputs(Drive, (self._phi_in, self.omega_in + alpha * self._h_prev, alpha, self.tau_load))
+
+    def _input_setter(self, name, cast):
+        """omega_in's setter also ends the outputs' reading at the last step's end motion (``output_inputs``): the
+        outputs become stale, even if the value is unchanged."""
+        set_value = super()._input_setter(name, cast)
+        if name != "omega_in":
+            return set_value
+
+        def set_(value):
+            if not self._input_set:
+                self._input_set, self._stale, self._partial = True, True, False
+            set_value(value)
+        return set_
 
     def rk4_step(self, t, h, y, u):
         """The RK4 substeps with the input shaft extrapolated from u over the step (angle quadratic, speed linear
@@ -726,6 +761,7 @@ class PrescribedInputSlave(ModelSlave):
         self._phi_in = total
         self._omega_prev2, self._h_prev2 = self._omega_prev, self._h_prev
         self._omega_prev, self._h_prev = omega, h
+        self._alpha_step, self._input_set = alpha, False
         return u
 
 

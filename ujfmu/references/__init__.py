@@ -94,6 +94,18 @@ def regenerate_text(scenario) -> str:
     return f"Regenerate: ujfmu references {path.as_posix()}"
 
 
+def regenerating_scenario(path) -> str | None:
+    """The scenario file the provenance line of the reference at path names in its regenerate command
+    (:func:`regenerate_text`), None where there is no such file or line."""
+    try:
+        with _open(Path(path), "r") as f:
+            first = f.readline()
+    except (OSError, UnicodeDecodeError, EOFError):
+        return None
+    match = re.search(r"Regenerate: ujfmu references (\S+)", first) if first.startswith("#") else None
+    return match.group(1) if match else None
+
+
 #: how a provenance line names the scenario setup it was made for (``Scenario.setup_digest``)
 SETUP_TAG = "[scenario setup "
 
