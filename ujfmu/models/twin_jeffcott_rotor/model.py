@@ -477,16 +477,21 @@ def _series_weights(r: float, coefficients: tuple) -> tuple:
 
 @functools.lru_cache(maxsize=64)
 def _scaled_powers(a: tuple, scale: float) -> tuple:
-    """Per entry (i, c) of the square matrix a, the tuple of the entries (i, c) of (scale a)^j, j < TAYLOR_TERMS."""
+    """Per entry (i, c) of the square matrix a, the tuple of the entries (i, c) of (scale a)^j for the terms that
+    count: j < TAYLOR_TERMS, up to the last whose largest entry times 1.5^j / j! (r <= 1.5 in :func:`_phi_sum`)
+    exceeds 1e-22 (phi_k's entries are O(1 / k!); a short step keeps fewer terms)."""
     n = len(a)
     x = [[scale * v for v in row] for row in a]
     power = [[1.0 if i == j else 0.0 for j in range(n)] for i in range(n)]
-    matrices = [power]
+    matrices, terms, bound = [power], 1, 1.0
     columns = list(zip(*x))
-    for _ in range(TAYLOR_TERMS - 1):
+    for j in range(1, TAYLOR_TERMS):
         power = [[sum(map(operator.mul, row, column)) for column in columns] for row in power]
         matrices.append(power)
-    return tuple(tuple(tuple(m[i][c] for m in matrices) for c in range(n)) for i in range(n))
+        bound *= 1.5 / j
+        if max(abs(v) for row in power for v in row) * bound > 1e-22:
+            terms = j + 1
+    return tuple(tuple(tuple(m[i][c] for m in matrices[:terms]) for c in range(n)) for i in range(n))
 
 
 def _state_operator(linear: tuple, h: float) -> tuple:
