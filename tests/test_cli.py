@@ -277,3 +277,19 @@ def test_a_large_error_on_a_varying_signal_keeps_its_share_of_the_range():
     from ujfmu.scenario_run import SignalCheck
     text = str(SignalCheck("motor.tau_motor", 0.061, 7.6e-4, 0.38))
     assert text.startswith("FAIL") and "16.1% of the reference's range" in text
+
+
+def test_the_command_runs_exit_handlers_flushes_and_keeps_the_exit_status(tmp_path):
+    """``ujfmu`` (``cli.entry``) ends the process without the shared libraries' destructors (pythonfmu's aborts
+    at exit), but only after Python's exit handlers have run and its output is flushed, with main()'s status: 0
+    for --help, 2 for a scenario file that is not there."""
+    import subprocess
+    import sys
+    script = ("import atexit, sys\nfrom ujfmu.cli import entry\natexit.register(lambda: print('exit handler ran'))\n"
+              "sys.argv = ['ujfmu'] + sys.argv[1:]\nprint('before', end='')\nentry()\nprint('never')\n")
+    for args, status, words in ((["--help"], 0, "usage: ujfmu"), (["references", str(tmp_path / "no.toml")], 2,
+                                                                  "scenario file not found")):
+        done = subprocess.run([sys.executable, "-c", script, *args], capture_output=True, text=True, timeout=120)
+        assert done.returncode == status, done.stderr
+        assert done.stdout.startswith("before") and "exit handler ran" in done.stdout and "never" not in done.stdout
+        assert words in done.stdout + done.stderr

@@ -178,4 +178,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from .cli import run_and_exit
+    run_and_exit(main)
