@@ -408,13 +408,16 @@ class Scenario:
     def model_problems(self, component) -> list:
         """What the component's model refuses in its parameters as a whole (``MODEL.check``, which the FMU runs at
         initialization: e.g. a ramp to a negative speed), with the FMU's defaults for those not set; [] for an FMU
-        without a model."""
+        without a model, or parameters its derived quantities fail on (its initialization reports those)."""
         model = getattr(fmu_class(self.components[component][0]), "MODEL", None)
         if model is None:
             return []
         values = self.parameters_with_defaults(component)
         names = [f.name for f in dataclasses.fields(model.Parameters) if f.init]
-        return model.check(model.Parameters(**{name: values[name] for name in names}))
+        try:
+            return model.check(model.Parameters(**{name: values[name] for name in names}))
+        except (ArithmeticError, ValueError):   # parameters the model cannot even derive from: the FMU names them
+            return []
 
     def parameters_with_defaults(self, component):
         """All parameter values of a component: the FMU's declared defaults updated by the scenario."""
