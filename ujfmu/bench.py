@@ -29,7 +29,7 @@ import numpy as np
 
 from . import engines as engine_runs
 from .build import DEFAULT_FMU_DIR, REPO_DIR, build_fmu
-from .master import COUPLINGS, Component, Cosimulation, CosimulationError, extracted
+from .master import COUPLINGS, Component, Cosimulation, CosimulationError, FmuInstance, extracted
 from .references import common, generate
 from .scenario import Scenario
 from .scenario_run import compare
@@ -283,24 +283,17 @@ VARYING_STEPS = (0.9, 1.1)
 def _step_cost(fmu_path: Path, name: str, lengths: list) -> float:
     """Seconds per fmi2DoStep of one fresh instance of the FMU (parameters and inputs at their start values) stepping
     through the given step lengths."""
-    from fmpy.fmi2 import FMU2Slave
-
     unzip_dir, description = extracted(fmu_path)
-    fmu = FMU2Slave(guid=description.guid, unzipDirectory=unzip_dir,
-                    modelIdentifier=description.coSimulation.modelIdentifier, instanceName=name)
-    fmu.instantiate()
+    fmu = FmuInstance(Component(name, fmu_path), unzip_dir, description, [])
     try:
-        fmu.setupExperiment(startTime=0.0)
-        fmu.enterInitializationMode()
-        fmu.exitInitializationMode()
+        fmu.initialize()
         t, started = 0.0, time.perf_counter()
         for h in lengths:
-            fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+            fmu.slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
             t += h
         return (time.perf_counter() - started) / len(lengths)
     finally:
-        fmu.terminate()
-        fmu.freeInstance()
+        fmu.free()
 
 
 def bench_varying_steps(names, fmu_dir=DEFAULT_FMU_DIR, steps: int = 300, repeats: int = REPEATS) -> list:

@@ -24,7 +24,7 @@ import operator
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
-from ...fmu import rk4
+from ...fmu import rk4, series
 
 CONSTANT, RAMP, STEP = 0, 1, 2
 
@@ -143,27 +143,16 @@ def profile_corner(p: ControllerParameters) -> float | None:
     return None
 
 
-#: terms of the Taylor series of exp(X) for ||X||_1 <= 1/2 (:func:`_expm`): the first left out, 0.5^20 / 20!, is
-#: below 1e-24
-_EXP_TERMS = 20
-
-
 def _expm(generator: tuple, h: float) -> list:
     """exp(h G) of a small square matrix G (rows) = D exp(h B) D^-1, B = D^-1 G D balanced (:func:`_balanced`):
-    the Taylor series of X = h B / 2^q, ||X||_1 <= 1/2 (truncated below 1e-24 of 1), squared q times.
-    X = r (s B), s the power of 2 at or below h / 2^q: the powers of s B are kept per (B, s) (:func:`_powers`), so a
-    new h (a host that varies its step) costs one weighted sum per entry and the squarings, not a series of matrix
-    products."""
+    the Taylor series (``series``) of X = h B / 2^q, ||X||_1 <= 1/2, squared q times. X = r (s B) with s the power
+    of 2 at or below h / 2^q, so r < 2."""
     balanced, d = _balanced(generator)
     norm = max(map(sum, zip(*([abs(v) for v in row] for row in balanced))))
     q = math.ceil(math.log2(2.0 * h * norm)) if h * norm > 0.5 else 0
     hq = h / 2.0 ** q
     scale = 2.0 ** math.floor(math.log2(hq))
-    r, weight, weights = hq / scale, 1.0, []
-    for j in range(_EXP_TERMS):   # r^j / j!
-        weights.append(weight)
-        weight *= r / (j + 1)
-    total = [[sum(map(operator.mul, weights, entry)) for entry in row] for row in _powers(balanced, scale)]
+    total = series.weighted(series.scaled_powers(balanced, scale, 2.0), series.series_weights(hq / scale, (1.0,)))
     for _ in range(q):
         columns = list(zip(*total))
         total = [[sum(map(operator.mul, row, column)) for column in columns] for row in total]
@@ -199,20 +188,6 @@ def _balanced(generator: tuple) -> tuple:
         if done:
             break
     return tuple(map(tuple, b)), tuple(d)
-
-
-@functools.lru_cache(maxsize=32)
-def _powers(generator: tuple, scale: float) -> tuple:
-    """Per entry (i, c) of the square matrix G, the tuple of the entries (i, c) of (scale G)^j, j < _EXP_TERMS."""
-    n = len(generator)
-    x = [[scale * v for v in row] for row in generator]
-    power = [[float(i == j) for j in range(n)] for i in range(n)]
-    matrices = [power]
-    columns = list(zip(*x))
-    for _ in range(_EXP_TERMS - 1):
-        power = [[sum(map(operator.mul, row, column)) for column in columns] for row in power]
-        matrices.append(power)
-    return tuple(tuple(tuple(m[i][c] for m in matrices) for c in range(n)) for i in range(n))
 
 
 #: (J_rotor, Kp, Ki, h) -> the propagator rows of :func:`pi_propagator`; bounded (a sweep may visit many)

@@ -27,14 +27,12 @@ components into the lateral response when beta != 0.
 """
 
 import functools
-import itertools
 import math
-import operator
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
-from ...fmu import rk4
+from ...fmu import rk4, series
 from ..protocol import Drive, Torques, shaft_inertia_problems, torque_driven_outputs
 
 #: Largest admissible joint angle magnitude [rad].
@@ -444,54 +442,14 @@ def remainder_rate_bound(p: Parameters) -> float:
     return math.sqrt(max(0.0, stiffness - aligned_stiffness)) + max(0.0, decay - aligned_decay)
 
 
-#: terms of the phi-functions' Taylor series (:func:`_phi_sum`)
-TAYLOR_TERMS = 34
-#: 1 / j! for j < TAYLOR_TERMS + HISTORY_POINTS + 2 (the Adams operators take phi-functions up to phi_7)
-_INVERSE_FACTORIALS = tuple(1.0 / math.factorial(j) for j in range(TAYLOR_TERMS + 8))
-
-
 def _phi_sum(a: tuple, h: float, coefficients: tuple, columns: Sequence[int] | None = None) -> list:
     """sum_k coefficients[k] phi_k(h a) of a small square matrix a, row by row (only the given columns, default
-    all), phi_k(X) = sum_j X^j / (j + k)! (phi_0 = exp), by the Taylor series to TAYLOR_TERMS terms: the substep
-    rule keeps h |lambda| <= 1 for L's eigenvalues, where the truncation is below 1e-30. X^j = r^j (s a)^j with s
-    the power of 2 nearest h and r = h / s; the powers of s a are kept per (a, s) (:func:`_scaled_powers`), so a
-    new h (a host that varies its step) costs one weighted sum per entry, not 33 matrix products."""
+    all), phi_k(X) = sum_j X^j / (j + k)! (phi_0 = exp), by the Taylor series (``series``): the substep rule keeps
+    h |lambda| <= 1 for L's eigenvalues, where its truncation is below 1e-22. X^j = r^j (s a)^j with s the power of
+    2 nearest h, so r = h / s <= 1.5 (the powers of s a kept per (a, s))."""
     scale = 2.0 ** round(math.log2(h))
-    weights = _series_weights(h / scale, coefficients)
-    powers = _scaled_powers(a, scale)
-    if columns is None:
-        return [[sum(map(operator.mul, weights, entry)) for entry in row] for row in powers]
-    return [[sum(map(operator.mul, weights, row[c])) for c in columns] for row in powers]
-
-
-@functools.lru_cache(maxsize=64)
-def _series_weights(r: float, coefficients: tuple) -> tuple:
-    """The weights of (s a)^j in :func:`_phi_sum`: r^j sum_k coefficients[k] / (j + k)!, j < TAYLOR_TERMS."""
-    sums = (0.0,) * TAYLOR_TERMS
-    for k, c in enumerate(coefficients):
-        if c:
-            sums = map(operator.add, sums, map(operator.mul, itertools.repeat(c), _INVERSE_FACTORIALS[k:]))
-    return tuple(map(operator.mul, sums, itertools.accumulate(itertools.repeat(r, TAYLOR_TERMS - 1), operator.mul,
-                                                              initial=1.0)))
-
-
-@functools.lru_cache(maxsize=64)
-def _scaled_powers(a: tuple, scale: float) -> tuple:
-    """Per entry (i, c) of the square matrix a, the tuple of the entries (i, c) of (scale a)^j for the terms that
-    count: j < TAYLOR_TERMS, up to the last whose largest entry times 1.5^j / j! (r <= 1.5 in :func:`_phi_sum`)
-    exceeds 1e-22 (phi_k's entries are O(1 / k!); a short step keeps fewer terms)."""
-    n = len(a)
-    x = [[scale * v for v in row] for row in a]
-    power = [[1.0 if i == j else 0.0 for j in range(n)] for i in range(n)]
-    matrices, terms, bound = [power], 1, 1.0
-    columns = list(zip(*x))
-    for j in range(1, TAYLOR_TERMS):
-        power = [[sum(map(operator.mul, row, column)) for column in columns] for row in power]
-        matrices.append(power)
-        bound *= 1.5 / j
-        if max(abs(v) for row in power for v in row) * bound > 1e-22:
-            terms = j + 1
-    return tuple(tuple(tuple(m[i][c] for m in matrices[:terms]) for c in range(n)) for i in range(n))
+    return series.weighted(series.scaled_powers(a, scale, 1.5), series.series_weights(h / scale, coefficients),
+                           columns)
 
 
 def _state_operator(linear: tuple, h: float) -> tuple:
