@@ -169,6 +169,25 @@ def test_progress_is_a_callback_and_the_cli_draws_no_bar_off_a_terminal(fmu_dir,
     assert "results:" not in capsys.readouterr().out   # --quiet: the verdict only
 
 
+def test_a_long_run_says_its_pace_and_what_sets_it_once_unless_quiet(fmu_dir, tmp_path, capsys, monkeypatch):
+    """With the thresholds at zero every run counts as long: one note (not one per report) on stderr, in seconds
+    per simulated second and minutes to go, naming what sets the substeps and where the rule is; --quiet: none."""
+    from ujfmu import cli
+    monkeypatch.setattr(cli, "PACE_AFTER", 0.0)
+    monkeypatch.setattr(cli, "PACE_LONG", 0.0)
+    args = ["run", str(SCENARIOS / "cardan_constant_speed.toml"), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path),
+            "--no-plot"]
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    assert err.count("note: this run steps at") == 1 and "s per simulated second (0.001 s steps)" in err
+    assert "min to go" in err and "k_theta" in err and "What a communication step costs" in err
+    assert main(["-q"] + args) == 0
+    assert "note:" not in capsys.readouterr().err
+    monkeypatch.setattr(cli, "PACE_LONG", 1e9)   # a run that ends well within it: no note
+    assert main(args) == 0
+    assert "note:" not in capsys.readouterr().err
+
+
 def test_missing_reference_file_names_the_scenario_and_field(fmu_dir, tmp_path, capsys):
     text = (SCENARIOS / "cardan_constant_speed.toml").read_text()
     path = tmp_path / "lost_reference.toml"
@@ -223,6 +242,7 @@ def test_a_failed_signal_names_the_step_check_as_a_remedy():
     failing = ScenarioResult(scenario, None, checks=[SignalCheck("joint.tau_in", 0.05, 1e-3, 0.1)]).summary()
     assert failing.startswith("FAIL") and f"ujfmu run {scenario.path} --check-step" in failing
     assert "--step auto" in failing and "validate_result" not in failing
+    assert "[reference.tolerance] holds figures chosen for the scenario's own parameters" in failing   # a copy's
     passing = ScenarioResult(scenario, None, checks=[SignalCheck("joint.tau_in", 1e-5, 1e-3, 0.1)]).summary()
     assert passing.startswith("PASS") and "--check-step" not in passing
 

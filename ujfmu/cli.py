@@ -10,6 +10,7 @@ import contextlib
 import math
 import os
 import sys
+import time
 from pathlib import Path
 
 from .build import DEFAULT_FMU_DIR, FMUS, REPO_DIR
@@ -51,6 +52,46 @@ def _progress(args, desc, unit):
         yield update
     finally:
         bar.close()
+
+
+#: after PACE_AFTER s of a run's stepping, a run projected to take more than PACE_LONG s in all gets one note
+PACE_AFTER, PACE_LONG = 10.0, 60.0
+
+
+def _paced(args, step_size, progress):
+    """progress(done, total) (None: no bar), plus, unless --quiet, one note on stderr when after PACE_AFTER s the
+    run's pace projects more than PACE_LONG s in all: the pace, the time to go and what sets it."""
+    if args.quiet:
+        return progress
+    first = []   # (time, steps done) at the first report: the FMUs are loaded and stepping by then
+    said = False
+
+    def update(done, total):
+        nonlocal said
+        if progress is not None:
+            progress(done, total)
+        now = time.monotonic()
+        if not first:
+            first.append((now, done))
+            return
+        (t0, k0), steps = first[0], done - first[0][1]
+        if said or steps <= 0 or now - t0 < PACE_AFTER:
+            return
+        said = True
+        per_step = (now - t0) / steps
+        if per_step * total <= PACE_LONG:
+            return
+        note = (f"  note: this run steps at {per_step / step_size:.3g} s per simulated second ({step_size:g} s "
+                f"steps), about {per_step * (total - done) / 60.0:.1f} min to go. The FMUs' substeps per step grow "
+                f"with their fastest rate: a stiff or strongly damped shaft (k_theta, c_theta, xi_theta), a light "
+                f"inertia against a stiff element. docs/cosimulation.md, 'What a communication step costs', gives "
+                f"each model's rule; `ujfmu bench` compares a scenario with the cost of the FMI calls alone.")
+        if progress is not None:
+            from tqdm import tqdm
+            tqdm.write(note, file=sys.stderr)
+        else:
+            print(note, file=sys.stderr, flush=True)
+    return update
 
 
 def _say(args, text):
@@ -99,9 +140,11 @@ def _run_one(args, path, scenario=None):
     if args.output_interval is not None:
         scenario = scenario if scenario is not None else Scenario(path)
         scenario.output_interval = args.output_interval
+    scenario = scenario if scenario is not None else Scenario(path)
     with _progress(args, Path(path).stem, "step") as progress:
-        result = run_scenario(scenario if scenario is not None else path, fmu_dir=args.fmu_dir, out_dir=args.out,
-                              plot=plot, progress=progress, model_exchange=args.model_exchange)
+        result = run_scenario(scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=plot,
+                              progress=_paced(args, scenario.step_size, progress),
+                              model_exchange=args.model_exchange)
     print(result.summary())
     return result
 

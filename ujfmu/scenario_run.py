@@ -211,7 +211,10 @@ class ScenarioResult:
         if any(not c.passed for c in self.checks + self.extrapolated_checks):
             lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the coupling's "
                          f"(ujfmu run {self.scenario.path} --check-step estimates it per signal, --step auto picks "
-                         f"a step); if it does not, the model or its parameters differ from what the reference solves")
+                         f"a step); if it does not, the model or its parameters differ from what the reference solves, "
+                         f"or the tolerance is tighter than this setup allows: [reference.tolerance] holds figures "
+                         f"chosen for the scenario's own parameters, and a copy with other ones needs its own (from "
+                         f"--check-step's estimate at the step it runs at)")
         if not self.checked:
             lines.append(f"  {self.not_checked_reason()}")
         elif math.isnan(self.fmpy_outlier_fraction):

@@ -200,3 +200,21 @@ def test_non_finite_values_are_refused_even_without_a_declared_range():
         for value in (math.nan, math.inf, -math.inf):
             assert f"{var.name} = {value!r} is not a finite number" in var.check(value)
         assert var.check(1e300) is None and var.check(-1e-300) is None
+
+
+def test_a_stiffness_beyond_any_step_is_refused_naming_its_rate_and_the_parameters(fmu_dir):
+    """k_theta = 1e9 N.m/rad is inside the declared range, but with xi_theta = 0.002 s its decay rate is about
+    4.8e8 1/s: a 1 ms step would take about 1e6 substeps. The step is refused with the rate, the count and the
+    parameters to check; a smaller step is said not to help in all."""
+    log = []
+    inst = open_instance(fmu_dir, "DoubleCardanDriveline", log)
+    try:
+        inst.initialize({"k_theta": 1e9})
+        inst.set(**{name: INPUTS[name](0.0) for name in inputs_of(inst)})
+        assert inst.raw("fmi2DoStep")(inst.slave.component, 0.0, 1e-3, 1) != 0
+    finally:
+        inst.free()
+    message = log[-1]
+    assert "refused" in message and "fastest rate 4.7" in message and "e+05 substeps" in message, message
+    assert "stiffness, damping and inertia" in message and "not fewer in all" in message
+    assert "RK4" not in message   # the double Cardan steps with Dormand-Prince: the count is the rule's

@@ -54,9 +54,10 @@ def substeps(rate: float, h: float, max_substeps: int = MAX_SUBSTEPS) -> int:
     max_substeps (or for a non-finite rate)."""
     n = h * rate / RATE_STEP
     if not n <= max_substeps:
-        raise ValueError(f"a step of {h!r} s needs {n:.3g} RK4 substeps for the model's fastest rate {rate:.6g} 1/s "
-                         f"(allowed at most {max_substeps}): reduce the communication step, or check the "
-                         "stiffness, damping and inertia parameters")
+        raise ValueError(f"a step of {h!r} s needs {n:.3g} substeps (each at most {RATE_STEP} / rate long) for the "
+                         f"model's fastest rate {rate:.6g} 1/s, more than the {max_substeps} allowed: check the "
+                         "stiffness, damping and inertia parameters (a mode this fast is far beyond what the step "
+                         "resolves; a smaller communication step takes fewer substeps each, not fewer in all)")
     return max(1, math.ceil(n))
 
 
