@@ -313,3 +313,15 @@ def test_the_command_runs_exit_handlers_flushes_and_keeps_the_exit_status(tmp_pa
         assert done.returncode == status, done.stderr
         assert done.stdout.startswith("before") and "exit handler ran" in done.stdout and "never" not in done.stdout
         assert words in done.stdout + done.stderr
+
+
+def test_a_negative_step_is_refused_by_its_own_check_not_argparse(tmp_path, capsys):
+    """`--step -1e-3` reads as an option to argparse ("expected one argument"); the value reaches the step check,
+    which says what a step must be. An option after --step stays an option."""
+    scenario = str(SCENARIOS / "cardan_constant_speed.toml")
+    for value in ("-1e-3", "-0.001", "-inf"):
+        assert main(["run", scenario, "--step", value, "--out", str(tmp_path), "--no-plot"]) == 2
+        assert f"--step {value}: the communication step must be a number of seconds > 0" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["run", scenario, "--step", "--no-plot"])
+    assert "expected one argument" in capsys.readouterr().err

@@ -68,8 +68,10 @@ def test_the_sweep_recipe_runs_as_written_in_an_unguarded_script(fmu_dir, tmp_pa
     assert [round(float(r[0]) * 30 / 3.141592653589793) for r in rows] == [600, 650, 700]
     assert all(r[1] == "ok" and float(r[2]) > 0 for r in rows)
     results = tmp_path / "results"
-    for name in ("_sweep.csv", "_sweep.png", "_sweep_orders.png", "_sweep.jsonl"):
-        assert (results / f"double_cardan_omar_torsional{name}").is_file()
+    # its own name: the command-line recipe's default grid keeps double_cardan_omar_torsional_sweep.*
+    for name in (".csv", ".png", "_orders.png", ".jsonl"):
+        assert (results / f"omar_600_700rpm{name}").is_file()
+    assert not list(results.glob("double_cardan_omar_torsional_sweep*"))
 
 
 def run_fmpy_recipe(tmp_path, fmu_dir, recipe):

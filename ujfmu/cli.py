@@ -563,7 +563,7 @@ def main(argv=None):
     p.add_argument("--timeout", type=float, default=900.0, help="seconds per mutant (default: 900)")
     p.add_argument("--nice", type=int, default=19, help="CPU niceness of the test runs (default: 19)")
     _out(p, "results/", "writes mutate.jsonl here")
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_joined_values(sys.argv[1:] if argv is None else argv, ("--step",)))
     if args.command == "battery" and not args.coupling:
         args.coupling = ["explicit", "implicit"]
     if getattr(args, "no_progress", False):
@@ -591,6 +591,26 @@ def main(argv=None):
             print(f"ujfmu: error: {exc}", file=sys.stderr)
             return 2
         raise
+
+
+def _joined_values(argv, options):
+    """argv with `OPTION VALUE` written `OPTION=VALUE` where VALUE starts with '-' and reads as a number:
+    argparse takes `--step -1e-3` for two options ("expected one argument"); joined, the value reaches the
+    option's own check, which names what is wrong with it."""
+    argv, out, i = list(argv), [], 0
+    while i < len(argv):
+        if argv[i] in options and i + 1 < len(argv) and argv[i + 1].startswith("-"):
+            try:
+                float(argv[i + 1])
+            except ValueError:
+                pass
+            else:
+                out.append(f"{argv[i]}={argv[i + 1]}")
+                i += 2
+                continue
+        out.append(argv[i])
+        i += 1
+    return out
 
 
 def entry() -> None:
