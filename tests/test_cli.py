@@ -79,6 +79,7 @@ def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_p
     assert main(["run", str(unchecked)] + common) == 0
     out = capsys.readouterr().out
     assert out.startswith("NOT CHECKED unchecked") and "PASS" not in out and "no [reference]" in out
+    assert f"ujfmu run {unchecked} --check-step estimates the coupling error" in out   # how to learn more
     # check of nothing but unchecked scenarios: exit 1, saying nothing was checked
     junit = tmp_path / "only.xml"
     assert main(["check", str(unchecked), "--junit", str(junit)] + common) == 1

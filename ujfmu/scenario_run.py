@@ -192,7 +192,8 @@ class ScenarioResult:
 
     def not_checked_reason(self) -> str:
         if self.scenario.reference_file is None:
-            return "the scenario has no [reference]: nothing was compared"
+            return (f"the scenario has no [reference]: nothing was compared, and the result's accuracy is unknown "
+                    f"(ujfmu run {self.scenario.path} --check-step estimates the coupling error at this step)")
         return "the scenario's [reference.tolerance] names no signal: nothing was compared"
 
     def summary(self):
