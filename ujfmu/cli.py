@@ -74,7 +74,8 @@ def _paced(args, step_size, progress):
         if not first:
             first.append((now, done))
             return
-        (t0, k0), steps = first[0], done - first[0][1]
+        t0, k0 = first[0]
+        steps = done - k0
         if said or steps <= 0 or now - t0 < PACE_AFTER:
             return
         said = True
@@ -134,13 +135,11 @@ def _run_one(args, path, scenario=None):
     from .scenario import Scenario
     from .scenario_run import run_scenario
     plot = not args.no_plot and available("matplotlib")
+    scenario = scenario if scenario is not None else Scenario(path)
     if args.fmi == 3:
-        scenario = scenario if scenario is not None else Scenario(path)
         _check_fmi3(scenario, args.fmu_dir)
     if args.output_interval is not None:
-        scenario = scenario if scenario is not None else Scenario(path)
         scenario.output_interval = args.output_interval
-    scenario = scenario if scenario is not None else Scenario(path)
     with _progress(args, Path(path).stem, "step") as progress:
         result = run_scenario(scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=plot,
                               progress=_paced(args, scenario.step_size, progress),
