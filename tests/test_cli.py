@@ -219,6 +219,13 @@ def test_references_refuses_to_overwrite_another_scenarios_reference(tmp_path, c
     err = capsys.readouterr().err
     assert "is the reference of scenarios/cardan_startup.toml" in err and 'file = "references/my_cardan45.csv"' in err
     assert (target.stat().st_mtime_ns, target.read_text()) == before
+    # run first, with a parameter edited: the same advice (not "regenerate it", which the command above refuses)
+    copy.write_text(copy.read_text().replace("parameters = { J2 = 1e-5 }", "parameters = { J2 = 2e-5 }"))
+    assert copy.read_text() != (SCENARIOS / "cardan_startup.toml").read_text()
+    assert main(["run", str(copy), "--no-plot", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "is the reference of scenarios/cardan_startup.toml" in err and 'file = "references/my_cardan45.csv"' in err
+    assert f"ujfmu references {copy}" in err and "regenerate it" not in err
 
 
 def test_output_interval_thins_the_written_rows_and_keeps_the_verdict(fmu_dir, tmp_path, capsys):

@@ -171,14 +171,17 @@ def _plots_missing(args):
               file=sys.stderr)
 
 
-def _step_size(text: str) -> float:
-    """--step SECONDS as a float, or UsageError unless it is a finite number > 0."""
+def _step_size(text: str, auto: bool = False) -> float:
+    """--step SECONDS as a float, or UsageError unless it is a finite number > 0 (auto: the option also takes
+    `auto`, and the message says so)."""
     try:
         step = float(text)
     except ValueError:
         step = math.nan
     if not (math.isfinite(step) and step > 0):
-        raise UsageError(f"--step {text}: the communication step must be a number of seconds > 0")
+        raise UsageError(f"--step {text}: the communication step must be a number of seconds > 0"
+                         + (", or auto (the step halved until the estimated coupling error is within the "
+                            "tolerances)" if auto else ""))
     return step
 
 
@@ -195,7 +198,7 @@ def cmd_run(args):
                                                 progress=(lambda *a: None) if args.quiet else print)
         print(f"--step auto: step_size = {scenario.step_size:g} s")
     elif args.step is not None:
-        scenario.step_size = _step_size(args.step)
+        scenario.step_size = _step_size(args.step, auto=True)
     result = _run_one(args, args.scenario, scenario)
     _say(args, f"  results: {result.csv}" + (f"\n  plot:    {result.plot}" if result.plot else ""))
     for extra in result.extra_plots:

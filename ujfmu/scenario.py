@@ -319,7 +319,7 @@ class Scenario:
         """The [reference] file as a structured array; ScenarioError naming the scenario and the field when it
         cannot be read, or when its provenance line names another setup (setup_digest) than the scenario's: a
         reference left over from other parameters or wiring would compare against another system."""
-        from .references import read_reference, setup_of
+        from .references import read_reference, regenerating_scenario, setup_of
         field = f"{self.path}: [reference] file = {self.reference_file_text!r}"
         if not self.reference_file.is_file():
             raise ScenarioError(f"{field}: {self.reference_file} not found (the path is relative to the scenario "
@@ -330,6 +330,12 @@ class Scenario:
         except (ValueError, IndexError, OSError) as exc:
             raise ScenarioError(f"{field}: cannot read {self.reference_file}: {exc}") from None
         made_for = setup_of(provenance)
+        owner = regenerating_scenario(self.reference_file)
+        if made_for is not None and made_for != self.setup_digest() and owner is not None \
+                and Path(owner).stem != self.path.stem:
+            raise ScenarioError(f"{field}: {self.reference_file} is the reference of {owner} (its provenance line "
+                                f"says so), made for that scenario's setup: give this scenario its own file, e.g. "
+                                f'file = "references/{self.name}.csv", and make it with `ujfmu references {self.path}`')
         if made_for is not None and made_for != self.setup_digest():
             raise ScenarioError(f"{field}: {self.reference_file} was made for another setup of this scenario "
                                 f"(setup {made_for}, the scenario's is now {self.setup_digest()}: a component, "

@@ -197,7 +197,7 @@ class ScenarioResult:
         return "the scenario's [reference.tolerance] names no signal: nothing was compared"
 
     def summary(self):
-        head = f"{self.verdict} {self.scenario.name}: {self.scenario.title} ({self.wall_time:.1f} s wall)"
+        head = f"{self.verdict} {self.scenario.name}: {self.scenario.title} ({self.wall_time:.1f} s simulating)"
         lines = [head] + [f"  {c}" for c in self.checks]
         if self.extrapolated_checks and self.model_exchange:
             lines.append("  Model Exchange run (no communication step) against the [reference.extrapolated] bands:")
@@ -212,10 +212,10 @@ class ScenarioResult:
         if any(not c.passed for c in self.checks + self.extrapolated_checks):
             lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the coupling's "
                          f"(ujfmu run {self.scenario.path} --check-step estimates it per signal, --step auto picks "
-                         f"a step); if it does not, the model or its parameters differ from what the reference solves, "
-                         f"or the tolerance is tighter than this setup allows: [reference.tolerance] holds figures "
-                         f"chosen for the scenario's own parameters, and a copy with other ones needs its own (from "
-                         f"--check-step's estimate at the step it runs at)")
+                         f"a step); if it does not, it is the FMUs' own integration, or the model or its parameters "
+                         f"differ from what the reference solves. [reference.tolerance] holds figures chosen for the "
+                         f"scenario's own parameters (a few times the error its run reaches there): a copy with other "
+                         f"parameters needs figures of its own, the accuracy its study needs")
         if not self.checked:
             lines.append(f"  {self.not_checked_reason()}")
         elif math.isnan(self.fmpy_outlier_fraction):
