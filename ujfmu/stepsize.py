@@ -37,7 +37,7 @@ class StepEstimate:
         if self.failure:
             return [f"step {self.step:g} s: {self.failure}"]
         return [f"step {self.step:g} s, estimated coupling error (2 x |y(h) - y(h/2)|) per signal:"] + [
-            f"  {'ok  ' if self.errors[n] <= self.allowed[n] else 'HIGH'} {n:28s} {100 * self.errors[n]:8.3f}% "
+            f"  {'ok  ' if self.errors[n] <= self.allowed[n] else 'HIGH'} {n:28s} {100 * self.errors[n]:9.3g}% "
             f"of range (allowed {100 * self.allowed[n]:.3g}%)" for n in self.errors]
 
 
