@@ -205,7 +205,7 @@ def test_references_says_when_a_scenario_has_nothing_to_regenerate(tmp_path, cap
     assert "unchecked.toml: skipped: no [reference]" in captured.err and "no reference was regenerated" in captured.err
 
 
-def test_references_refuses_to_overwrite_another_scenarios_reference(tmp_path, capsys):
+def test_references_refuses_to_overwrite_another_scenarios_reference(fmu_dir, tmp_path, capsys):
     """A copy of a scenario that still names its original's reference file: `ujfmu references` on the copy refuses
     before any work, names the owner (from the file's provenance line) and the fix, and leaves the file as it
     was; the original itself still regenerates there (its own file)."""
@@ -222,7 +222,7 @@ def test_references_refuses_to_overwrite_another_scenarios_reference(tmp_path, c
     # run first, with a parameter edited: the same advice (not "regenerate it", which the command above refuses)
     copy.write_text(copy.read_text().replace("parameters = { J2 = 1e-5 }", "parameters = { J2 = 2e-5 }"))
     assert copy.read_text() != (SCENARIOS / "cardan_startup.toml").read_text()
-    assert main(["run", str(copy), "--no-plot", "--out", str(tmp_path)]) == 2
+    assert main(["run", str(copy), "--fmu-dir", str(fmu_dir), "--no-plot", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "is the reference of scenarios/cardan_startup.toml" in err and 'file = "references/my_cardan45.csv"' in err
     assert f"ujfmu references {copy}" in err and "regenerate it" not in err
