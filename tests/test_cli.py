@@ -165,6 +165,8 @@ def test_progress_is_a_callback_and_the_cli_draws_no_bar_off_a_terminal(fmu_dir,
                  str(tmp_path), "--no-plot"]) == 0
     captured = capsys.readouterr()
     assert "\r" not in captured.err + captured.out and "PASS cardan_constant_speed" in captured.out
+    # the verdict says what it compared against: the file and how it was made (its provenance line)
+    assert "  against references/cardan_constant_speed.csv: closed form (ideal speed source)" in captured.out
     assert main(["-q", "run", str(SCENARIOS / "cardan_constant_speed.toml"), "--fmu-dir", str(fmu_dir), "--out",
                  str(tmp_path), "--no-plot"]) == 0
     assert "results:" not in capsys.readouterr().out   # --quiet: the verdict only
@@ -253,6 +255,22 @@ def test_a_failed_signal_names_the_step_check_as_a_remedy():
     assert "[reference.tolerance] holds figures chosen for the scenario's own parameters" in failing   # a copy's
     passing = ScenarioResult(scenario, None, checks=[SignalCheck("joint.tau_in", 1e-5, 1e-3, 0.1)]).summary()
     assert passing.startswith("PASS") and "--check-step" not in passing
+
+
+def test_the_reference_method_is_read_from_the_provenance_line(tmp_path):
+    """The method between the generator's name and 'Regenerate:' (or the setup tag, or the line's end); None for a
+    file without a provenance line."""
+    from ujfmu.references import reference_method
+    cases = {"# ujfmu.models.x.reference: closed form: a pendulum. Regenerate: ujfmu references s.toml [scenario "
+             "setup 0123]\n": "closed form: a pendulum",
+             "# mine.gen: monolithic ODE, rtol=1e-10 [scenario setup 0123]\n": "monolithic ODE, rtol=1e-10",
+             "# by hand: measured on the rig\n": "by hand: measured on the rig",
+             '"time","x"\n': None}
+    for k, (line, method) in enumerate(cases.items()):
+        path = tmp_path / f"r{k}.csv"
+        path.write_text(line + "0,1\n")
+        assert reference_method(path) == method, line
+    assert reference_method(tmp_path / "missing.csv") is None
 
 
 def test_runs_of_different_fmu_kinds_write_to_different_folders(monkeypatch, tmp_path):

@@ -160,6 +160,7 @@ class ScenarioResult:
     bonds: list = field(default_factory=list)   # ujfmu.master.BondEnergy per power bond (co-simulation only)
     model_exchange: bool = False   # run under CVode (ujfmu.model_exchange) instead of co-simulated
     skipped_bands: str = ""   # why the [reference.extrapolated] bands were not checked, if they were not
+    reference_method: str | None = None   # how the reference compared against was made (its provenance line)
 
     @property
     def checked(self) -> bool:
@@ -198,7 +199,11 @@ class ScenarioResult:
 
     def summary(self):
         head = f"{self.verdict} {self.scenario.name}: {self.scenario.title} ({self.wall_time:.1f} s simulating)"
-        lines = [head] + [f"  {c}" for c in self.checks]
+        lines = [head]
+        if self.checks:
+            lines.append(f"  against {self.scenario.reference_file_text}"
+                         + (f": {self.reference_method}" if self.reference_method else ""))
+        lines += [f"  {c}" for c in self.checks]
         if self.extrapolated_checks and self.model_exchange:
             lines.append("  Model Exchange run (no communication step) against the [reference.extrapolated] bands:")
         elif self.extrapolated_checks:
@@ -342,6 +347,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                             bonds=diagnostics.get("bonds", []), model_exchange=model_exchange)
     if reference is not None and scenario.tolerances:
         result.checks = compare(table, reference, scenario.tolerances)
+        from .references import reference_method
+        result.reference_method = reference_method(scenario.reference_file)
         # fmpy's band scales with each signal's range: a signal constant to within its absolute tolerance (say the
         # output speed of a constant-velocity layout) is checked by compare() alone
         compared = ["time"] + [c.name for c in result.checks if c.reference_range > scenario.tolerances[c.name].abs]

@@ -94,16 +94,30 @@ def regenerate_text(scenario) -> str:
     return f"Regenerate: ujfmu references {path.as_posix()}"
 
 
-def regenerating_scenario(path) -> str | None:
-    """The scenario file the provenance line of the reference at path names in its regenerate command
-    (:func:`regenerate_text`), None where there is no such file or line."""
+def _provenance_line(path) -> str:
+    """The '#' line a reference file starts with ('' where there is no such file or line)."""
     try:
         with _open(Path(path), "r") as f:
             first = f.readline()
     except (OSError, UnicodeDecodeError, EOFError):
-        return None
-    match = re.search(r"Regenerate: ujfmu references (\S+)", first) if first.startswith("#") else None
+        return ""
+    return first if first.startswith("#") else ""
+
+
+def regenerating_scenario(path) -> str | None:
+    """The scenario file the provenance line of the reference at path names in its regenerate command
+    (:func:`regenerate_text`), None where there is no such file or line."""
+    match = re.search(r"Regenerate: ujfmu references (\S+)", _provenance_line(path))
     return match.group(1) if match else None
+
+
+def reference_method(path) -> str | None:
+    """How the reference at path was made, as its provenance line says after the generator's module name
+    ('monolithic ODE of ..., scipy DOP853 rtol=...', 'closed form: ...'; a line without one whole), None where
+    there is no such line."""
+    line = _provenance_line(path).strip()
+    match = re.match(r"#\s*(?:[\w.]+:\s*)?(.*?)\.?\s*(?:Regenerate:|\[scenario setup|$)", line)
+    return match.group(1) if match and match.group(1) else None
 
 
 #: how a provenance line names the scenario setup it was made for (``Scenario.setup_digest``)
