@@ -259,8 +259,11 @@ def test_a_failed_signal_names_the_step_check_as_a_remedy():
 
 def test_the_reference_method_is_read_from_the_provenance_line(tmp_path):
     """The method between the generator's name and 'Regenerate:' (or the setup tag, or the line's end); None for a
-    file without a provenance line."""
-    from ujfmu.references import reference_method
+    file without a provenance line, or none at all."""
+    from ujfmu.references import method_of, provenance_of
+
+    def reference_method(path):
+        return method_of(provenance_of(path))
     cases = {"# ujfmu.models.x.reference: closed form: a pendulum. Regenerate: ujfmu references s.toml [scenario "
              "setup 0123]\n": "closed form: a pendulum",
              "# mine.gen: monolithic ODE, rtol=1e-10 [scenario setup 0123]\n": "monolithic ODE, rtol=1e-10",

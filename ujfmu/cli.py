@@ -252,7 +252,7 @@ def cmd_check(args):
 def cmd_references(args):
     for module in ("scipy", "sympy"):
         require(module, "references", "ujfmu references")
-    from .references import generate, regenerating_scenario, write_reference
+    from .references import generate, provenance_of, scenario_of, write_reference
     from .references.common import WiringError
     from .scenario import Scenario, ScenarioError
     wrote = 0
@@ -263,12 +263,10 @@ def cmd_references(args):
             print(f"{scenario.path}: skipped: {why}, so there is nothing to regenerate", file=sys.stderr)
             continue
         target = scenario.reference_output()   # inside the scenario's folder, checked before any work
-        owner = regenerating_scenario(target)
-        if owner is not None and Path(owner).stem != scenario.path.stem:
-            raise ScenarioError(f"{scenario.path}: [reference] file = {scenario.reference_file_text!r} is the "
-                                f"reference of {owner} (its provenance line says so); writing this scenario's "
-                                "there would replace that one's: give this scenario its own file, e.g. file = "
-                                f'"references/{scenario.name}.csv", or delete {target} if {owner} is gone')
+        owner = scenario_of(provenance_of(target))
+        foreign = scenario.foreign_reference(owner)
+        if foreign:   # writing this scenario's reference there would replace that one's
+            raise ScenarioError(f"{foreign}; or delete {target} if {owner} is gone")
         try:
             table, provenance = generate(scenario)
         except WiringError as exc:

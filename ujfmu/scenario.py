@@ -316,10 +316,14 @@ class Scenario:
         return hashlib.sha256(json.dumps(setup, sort_keys=True).encode()).hexdigest()[:12]
 
     def read_reference(self):
-        """The [reference] file as a structured array; ScenarioError naming the scenario and the field when it
+        """The [reference] file as a structured array (:meth:`reference`)."""
+        return self.reference()[0]
+
+    def reference(self) -> tuple:
+        """(table, provenance) of the [reference] file; ScenarioError naming the scenario and the field when it
         cannot be read, or when its provenance line names another setup (setup_digest) than the scenario's: a
         reference left over from other parameters or wiring would compare against another system."""
-        from .references import read_reference, regenerating_scenario, setup_of
+        from .references import read_reference, scenario_of, setup_of
         field = f"{self.path}: [reference] file = {self.reference_file_text!r}"
         if not self.reference_file.is_file():
             raise ScenarioError(f"{field}: {self.reference_file} not found (the path is relative to the scenario "
@@ -330,13 +334,10 @@ class Scenario:
         except (ValueError, IndexError, OSError) as exc:
             raise ScenarioError(f"{field}: cannot read {self.reference_file}: {exc}") from None
         made_for = setup_of(provenance)
-        owner = regenerating_scenario(self.reference_file)
-        if made_for is not None and made_for != self.setup_digest() and owner is not None \
-                and Path(owner).stem != self.path.stem:
-            raise ScenarioError(f"{field}: {self.reference_file} is the reference of {owner} (its provenance line "
-                                f"says so), made for that scenario's setup: give this scenario its own file, e.g. "
-                                f'file = "references/{self.name}.csv", and make it with `ujfmu references {self.path}`')
         if made_for is not None and made_for != self.setup_digest():
+            foreign = self.foreign_reference(scenario_of(provenance))
+            if foreign:
+                raise ScenarioError(foreign)
             raise ScenarioError(f"{field}: {self.reference_file} was made for another setup of this scenario "
                                 f"(setup {made_for}, the scenario's is now {self.setup_digest()}: a component, "
                                 "parameter, set input, connection or the start time changed since); regenerate it: "
@@ -344,7 +345,16 @@ class Scenario:
         missing = [n for n in ["time", *self.tolerances, *self.extrapolated_tolerances] if n not in table.dtype.names]
         if missing:
             raise ScenarioError(f"{field}: no column {', '.join(missing)} in {self.reference_file}")
-        return table
+        return table, provenance
+
+    def foreign_reference(self, owner: str | None) -> str:
+        """'' unless owner (the scenario a reference file's provenance line names) is another scenario than this
+        one: then what to do, since the file is that one's (a copied scenario still naming its original's)."""
+        if owner is None or Path(owner).stem == self.path.stem:
+            return ""
+        return (f"{self.path}: [reference] file = {self.reference_file_text!r} is the reference of {owner} (its "
+                f"provenance line says so): give this scenario its own file, e.g. file = "
+                f'"references/{self.name}.csv", and make it with `ujfmu references {self.path}`')
 
     def reference_output(self):
         """Where `ujfmu references` writes the reference: the reference file if it resolves (symlinks followed)

@@ -317,9 +317,9 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     """
     scenario = path if isinstance(path, Scenario) else Scenario(path)
     scenario.check_fmus(fmu_dir)
-    reference = None
+    reference, provenance = None, ""
     if scenario.reference_file is not None:   # a missing reference file is an error before anything runs
-        reference = scenario.read_reference()
+        reference, provenance = scenario.reference()
         check_reference_span(scenario, reference)
     start = time.perf_counter()
     diagnostics = {}
@@ -347,8 +347,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                             bonds=diagnostics.get("bonds", []), model_exchange=model_exchange)
     if reference is not None and scenario.tolerances:
         result.checks = compare(table, reference, scenario.tolerances)
-        from .references import reference_method
-        result.reference_method = reference_method(scenario.reference_file)
+        from .references import method_of
+        result.reference_method = method_of(provenance)
         # fmpy's band scales with each signal's range: a signal constant to within its absolute tolerance (say the
         # output speed of a constant-velocity layout) is checked by compare() alone
         compared = ["time"] + [c.name for c in result.checks if c.reference_range > scenario.tolerances[c.name].abs]

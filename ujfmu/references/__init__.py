@@ -94,29 +94,26 @@ def regenerate_text(scenario) -> str:
     return f"Regenerate: ujfmu references {path.as_posix()}"
 
 
-def _provenance_line(path) -> str:
-    """The '#' line a reference file starts with ('' where there is no such file or line)."""
+def provenance_of(path) -> str:
+    """The provenance line a reference file starts with, without its '#' ('' where there is no such file or line)."""
     try:
         with _open(Path(path), "r") as f:
             first = f.readline()
     except (OSError, UnicodeDecodeError, EOFError):
         return ""
-    return first if first.startswith("#") else ""
+    return first[1:].strip() if first.startswith("#") else ""
 
 
-def regenerating_scenario(path) -> str | None:
-    """The scenario file the provenance line of the reference at path names in its regenerate command
-    (:func:`regenerate_text`), None where there is no such file or line."""
-    match = re.search(r"Regenerate: ujfmu references (\S+)", _provenance_line(path))
+def scenario_of(provenance: str) -> str | None:
+    """The scenario file a provenance line names in its regenerate command (:func:`regenerate_text`), else None."""
+    match = re.search(r"Regenerate: ujfmu references (\S+)", provenance)
     return match.group(1) if match else None
 
 
-def reference_method(path) -> str | None:
-    """How the reference at path was made, as its provenance line says after the generator's module name
-    ('monolithic ODE of ..., scipy DOP853 rtol=...', 'closed form: ...'; a line without one whole), None where
-    there is no such line."""
-    line = _provenance_line(path).strip()
-    match = re.match(r"#\s*(?:[\w.]+:\s*)?(.*?)\.?\s*(?:Regenerate:|\[scenario setup|$)", line)
+def method_of(provenance: str) -> str | None:
+    """How a reference was made, as its provenance line says after the generator's module name ('monolithic ODE
+    of ..., scipy DOP853 rtol=...', 'closed form: ...'; a line without one whole), else None."""
+    match = re.match(r"(?:[\w.]+:\s*)?(.*?)\.?\s*(?:Regenerate:|\[scenario setup|$)", provenance.strip())
     return match.group(1) if match and match.group(1) else None
 
 
