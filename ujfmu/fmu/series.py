@@ -1,12 +1,14 @@
 """Taylor series of functions of small matrices (the exponential and the phi-functions) for steps of any length: the
 powers of the matrix are kept per power of 2 of the step, h^j a^j = r^j (s a)^j with r = h / s, so a new step length
 (a host that varies its step) costs one weighted sum per entry instead of a series of matrix products. Standard
-library only: runs inside the FMUs (the Motor's exact PI step, the twin rotors' exponential integrators)."""
+library only: runs inside the FMUs (the Motor's exact PI step, the exponential integrators of the twin rotors and
+the double Cardan driveline), with the polynomial coefficients of their exponential Adams methods."""
 
 import functools
 import itertools
 import math
 import operator
+from collections.abc import Sequence
 
 #: terms of the series at most
 TERMS = 34
@@ -50,3 +52,41 @@ def weighted(powers: tuple, weights: tuple, columns=None) -> list:
     if columns is None:
         return [[sum(map(operator.mul, weights, entry)) for entry in row] for row in powers]
     return [[sum(map(operator.mul, weights, row[c])) for c in columns] for row in powers]
+
+
+def phi_sum(a: tuple, h: float, coefficients: tuple, columns: Sequence[int] | None = None) -> list:
+    """sum_k coefficients[k] phi_k(h a) of a small square matrix a, row by row (only the given columns, default
+    all), phi_k(X) = sum_j X^j / (j + k)! (phi_0 = exp), by the Taylor series (above): the substep rule keeps
+    h |lambda| <= 1 for L's eigenvalues, where its truncation is below 1e-22. X^j = r^j (s a)^j with s the power of
+    2 nearest h, so r = h / s <= 1.5 (the powers of s a kept per (a, s))."""
+    scale = 2.0 ** round(math.log2(h))
+    return weighted(scaled_powers(a, scale, 1.5), series_weights(h / scale, coefficients), columns)
+
+
+def lagrange_coefficients(nodes: Sequence[float]) -> list:
+    """c[j][m]: the coefficient of theta^m of the Lagrange basis polynomial of nodes[j] (1 there, 0 at the others)."""
+    rows = []
+    for j, node in enumerate(nodes):
+        poly, scale = [1.0], 1.0
+        for i, other in enumerate(nodes):
+            if i != j:   # poly *= (theta - other)
+                poly = [(poly[m - 1] if m else 0.0) - other * (poly[m] if m < len(poly) else 0.0)
+                        for m in range(len(poly) + 1)]
+                scale *= node - other
+        rows.append([c / scale for c in poly])
+    return rows
+
+
+def newton_coefficients(nodes: Sequence[float]) -> list:
+    """Coefficients of theta^m of prod_j (theta - node_j) / prod_j (1 - node_j): 0 at the nodes, 1 at theta = 1."""
+    poly, scale = [1.0], 1.0
+    for other in nodes:
+        poly = [(poly[m - 1] if m else 0.0) - other * (poly[m] if m < len(poly) else 0.0) for m in range(len(poly) + 1)]
+        scale *= 1.0 - other
+    return [c / scale for c in poly]
+
+
+def integral_coefficients(h: float, c: Sequence[float]) -> tuple:
+    """The coefficients of phi_k (:func:`phi_sum`) in h sum_m c_m m! phi_(m+1)(h L), the variation-of-constants
+    integral h int_0^1 exp((1 - theta) h L) sum_m c_m theta^m d theta."""
+    return (0.0, *(h * cm * math.factorial(m) for m, cm in enumerate(c)))

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from ujfmu.fmu import series
 from ujfmu.models.protocol import Torques
 from ujfmu.models.twin_jeffcott_rotor import model as tj
 
@@ -344,7 +345,7 @@ def _extreme_torsion():
 
 
 def test_adams_operators_at_extreme_parameters():
-    """The Adams operators' phi-functions (Taylor series in double precision, :func:`tj._phi_sum`) of the 6x6
+    """The Adams operators' phi-functions (Taylor series in double precision, :func:`series.phi_sum`) of the 6x6
     torsional block with its rigid-body mode, at the substep h the FMU takes for a 1 ms step, against the same
     functions to 30 digits, at EXTREME_TORSION. The substep rule keeps h |lambda| <= 1 (checked), where the series
     converges fast and cancels little: each row of each phi_k agrees to 1e-14 of its size (measured 6e-16 at most;
@@ -353,7 +354,7 @@ def test_adams_operators_at_extreme_parameters():
     count = tj.HISTORY_POINTS + 2
     for changes, p, h, torsion in _extreme_torsion():
         for k, exact in enumerate(_phi_reference(torsion, h, count)):
-            ours = tj._phi_sum(torsion, h, (0.0,) * k + (1.0,))
+            ours = series.phi_sum(torsion, h, (0.0,) * k + (1.0,))
             size = np.max(np.abs(exact), axis=1, keepdims=True)   # each row against its own size
             _assert_within(ours, exact, 1e-14 * size, (changes, k))
 
@@ -377,7 +378,7 @@ def test_start_step_operators_at_extreme_parameters():
 def test_operators_at_the_step_lengths_of_a_host_that_varies_its_step():
     """ETDRK4-B's operators of the torque-driven rotor (:func:`tj._torque_propagators_of`) and of the speed-driven
     one (:func:`tj._propagators_of`) at steps a host that varies its step takes, each h new, within one power of 2
-    of the kept powers of the blocks (:func:`tj._phi_sum`) and across them: E(h) and the two-term
+    of the kept powers of the blocks (:func:`series.phi_sum`) and across them: E(h) and the two-term
     S2 = h (4 phi_3 - phi_2)(hL) of the torsional blocks against the phi-functions to 30 digits, E's rows each to
     1e-14 of its size, S2's columns each to 1e-14 of theirs (its angle rows cancel to O(h^3), far below the speed
     rows of the same column)."""

@@ -27,6 +27,7 @@ Lagrangian (Omar Eqs. 9-15 generalised; twist = phi2 - phi3 = -theta_s of Omar E
 J_in, J_out: the inertias kinematically tied to phi1 / phi4, evaluated at the static joint angles.
 """
 
+import functools
 import math
 from math import atan2, cos, sin
 from collections.abc import Sequence
@@ -34,7 +35,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
 
-from ...fmu import rk4
+from ...fmu import rk4, series
 from ..protocol import Drive, Torques, shaft_inertia_problems, torque_driven_outputs
 
 #: Largest admissible magnitude of a joint angle (static plus dynamic) [rad].
@@ -98,9 +99,12 @@ class Parameters:
     lever2 = (L_c cos beta1)^2 and m_lat = m_s lever2 (Omar Eqs. 11, 14), sin and cos of the static joint angles
     (the inertias J_in, J_out are evaluated at them), whether the crosses and the intermediate shaft have no
     inertia (constant_inertias: J_in = I_input and J_out = J_load at every angle), and the natural-rate bound of
-    the flexible equations (0 for a rigid shaft, or where :func:`check` refuses the parameters). outputs_memo: the
-    outputs' last evaluation of the equations, which the step after them and a second read reuse
-    (:func:`_output_rates`; per parameters object, so per FMU instance; neither a parameter nor compared)."""
+    the flexible equations (0 for a rigid shaft, or where :func:`check` refuses the parameters), and the exponential
+    Adams method's linear part and rates (:func:`linear_part`: J_mean, linear, its speed rows linear_rows,
+    linear_rate, remainder_rate).
+    outputs_memo: the outputs' last evaluation of the equations, which the step after them and a second read reuse
+    (:func:`_output_rates`); adams_memo: the method's operators for the last substep length
+    (:func:`adams_operators`); per parameters object, so per FMU instance; neither a parameter nor compared."""
 
     beta1: float
     beta2: float
@@ -130,7 +134,13 @@ class Parameters:
     natural_rate: float = field(init=False, repr=False)
     mode_rate: float = field(init=False, repr=False)
     constant_inertias: bool = field(init=False, repr=False)
+    J_mean: float = field(init=False, repr=False)
+    linear: tuple = field(init=False, repr=False)
+    linear_rows: tuple = field(init=False, repr=False)
+    linear_rate: float = field(init=False, repr=False)
+    remainder_rate: float = field(init=False, repr=False)
     outputs_memo: tuple | None = field(default=None, init=False, repr=False, compare=False)
+    adams_memo: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
         self.delta = self.yoke_phase - self.joint_plane_angle
@@ -145,6 +155,11 @@ class Parameters:
         flexible = not self.rigid_intermediate_shaft and self.J_load > 0.0
         self.natural_rate = natural_rate_bound(self) if flexible else 0.0
         self.mode_rate = mode_rate_bound(self) if flexible else 0.0
+        self.J_mean = mean_output_inertia(self) if flexible else 0.0
+        self.linear = linear_part(self) if flexible else ()
+        self.linear_rows = (*self.linear[0][1], *self.linear[1][1]) if flexible else ()
+        self.linear_rate = linear_rate(self) if flexible else 0.0
+        self.remainder_rate = remainder_rate_bound(self) if flexible else 0.0
 
 
 def input_inertia(p: Parameters, phi1: float) -> tuple:
@@ -506,6 +521,161 @@ def _rigid_driven_rates(p, j_drive, state, tau_drive, tau_load):
     return torque_driven_rates(p, j_drive, state[:2], tau_drive, tau_load) + _AT_REST
 
 
+# --- the exponential Adams method (the FMU's stepper of a flexible shaft under a prescribed input) --------------
+#
+# Twist coordinates z = y - r(t), r(t) = (phi1(t), omega1(t), 0, 0) the rigid rotation with the input at the double
+# joint's mean speed ratio 1: z' = L z + N(t, z), L the constant-coefficient part (:func:`linear_part`) and
+# N(t, z) = f(t, r + z) - r'(t) - L z the rest (the joints' kinematic modulation and excitation, the inertias'
+# variation, the load, the input's acceleration). The angle rows of f are the speeds, which r' and L z reproduce:
+# only N's rows w4 and dphi are non-zero. tau_load and alpha1, held over a step, enter N linearly:
+# N_w4 = N0_w4 - tau_load / J_out(phi4) - alpha1.
+
+#: the points of N the method keeps: N at t, t - h, ..., t - 5h
+HISTORY_POINTS = 6
+#: the history (FMU state): substep h, the time the next step starts at, points held, the tau_load, alpha1 and the
+#: input speed at the end of the step that ended there, then per point (newest first) N0's row w4 (without tau_load
+#: and alpha1), then per point N's row dphi, then per point 1 / J_out there
+HISTORY_SIZE = 6 + 3 * HISTORY_POINTS
+#: no history: the next steps start the method with :func:`dormand_prince` steps
+NO_HISTORY = (0.0,) * HISTORY_SIZE
+#: a change of the held inputs between steps [rad/s^2] (tau_load / J_out, alpha1, omega1's jump from the speed the
+#: last step extrapolated to / h) above which the history is discarded: the driven side's acceleration then jumps,
+#: which no polynomial through the history follows (the twin rotor's measured threshold, TwinJeffcottRotor)
+INPUT_JUMP = 20.0
+_NODES = tuple(-float(j) for j in range(HISTORY_POINTS))
+#: N's predictor extrapolation to the end of a substep: the Lagrange basis through the nodes at theta = 1
+_EXTRAPOLATION = tuple(sum(c) for c in series.lagrange_coefficients(_NODES))
+
+
+def mean_output_inertia(p: Parameters) -> float:
+    """J_out averaged over 16 output angles in a half turn (J_out has period pi): the inertia L holds."""
+    if p.constant_inertias:
+        return p.J_load
+    return sum(output_inertia(p, math.pi * k / 16.0)[0] for k in range(16)) / 16.0
+
+
+def linear_part(p: Parameters) -> tuple:
+    """L in twist coordinates (z_phi4, z_w4, phi, dphi), block-diagonal: the torsional oscillator of the aligned
+    joints [[0, 1], [-k_theta / J, -c_theta / J]], J the mean output inertia (:func:`mean_output_inertia`), and the
+    lateral one [[0, 1], [-k_phi / m_s, -c_phi / m_s]] (M_lat dphi'' = -(L_c cos beta1)^2 (k_phi phi + c_phi dphi))."""
+    j = p.J_mean
+    return (((0.0, 1.0), (-p.k_theta / j, -p.c_theta / j)), ((0.0, 1.0), (-p.k_phi / p.m_s, -p.c_phi / p.m_s)))
+
+
+def linear_rate(p: Parameters) -> float:
+    """An upper bound of the spectral radius of L: sqrt of the sum of its stiffness terms plus that of its damping
+    terms."""
+    torsion, lateral = p.linear
+    return math.sqrt(-torsion[1][0] - lateral[1][0]) - torsion[1][1] - lateral[1][1]
+
+
+def remainder_rate_bound(p: Parameters) -> float:
+    """Bound [1/s] of the fastest rate of N's own stiffness and damping: what the bounds of
+    :func:`natural_rate_bound` (Lambda, D of :func:`_rate_terms`) exceed L's stiffness and damping traces by (the
+    joints' modulation of the torsional stiffness, their lateral coupling, J_out's variation)."""
+    stiffness, damping = _rate_terms(p, math.inf)
+    torsion, lateral = p.linear
+    return (math.sqrt(max(0.0, stiffness + torsion[1][0] + lateral[1][0]))
+            + max(0.0, damping + torsion[1][1] + lateral[1][1]))
+
+
+def adams_substeps(p: Parameters, t_span: float, w_max: float) -> int:
+    """Substeps of :func:`multistep_step`: each resolves N's own rates (:func:`remainder_rate_bound`) and the 2x and
+    4x excitation of the joints' kinematics, 4 |omega1| (``rk4.substeps``: h rate <= RATE_STEP = 0.5), and keeps
+    h |lambda| <= 1 over L's eigenvalues, so the phi-functions' series converge fast."""
+    rate = max(p.remainder_rate + 4.0 * w_max, 0.5 * p.linear_rate)
+    return 1 if rate * t_span <= rk4.RATE_STEP else rk4.substeps(rate, t_span)
+
+
+@functools.lru_cache(maxsize=16)
+def _adams_operators(linear: tuple, h: float) -> tuple:
+    """E(h), Psi and W of :func:`multistep_step` for L's blocks and h as one tuple, memoized: E's blocks row by row
+    (8 numbers); Psi on N's speed columns, the torsional block's column w4 (2 rows) then the lateral block's column
+    dphi (2 rows); then W on the same four rows, each row over the points j = 0, -1, ..., -5 (24 numbers).
+    W_j = h sum_m c_jm m! phi_(m+1)(h L), c_jm the coefficients of theta^m of the Lagrange basis polynomial of node
+    j; Psi the same of the corrector's Newton polynomial (``series.integral_coefficients``)."""
+    def speed_column(coefficients):
+        return tuple(row[0] for block in linear for row in series.phi_sum(block, h, coefficients, (1,)))
+    state = tuple(v for block in linear for row in series.phi_sum(block, h, (1.0,)) for v in row)
+    weights = zip(*(speed_column(series.integral_coefficients(h, c)) for c in series.lagrange_coefficients(_NODES)))
+    return (*state, *speed_column(series.integral_coefficients(h, series.newton_coefficients(_NODES))),
+            *(v for row in weights for v in row))
+
+
+def adams_operators(p: Parameters, h: float) -> tuple:
+    """:func:`_adams_operators` (p.linear, h), kept on p for the last h (one float compared per call)."""
+    memo = p.adams_memo
+    if memo is None or memo[0] != h:
+        memo = p.adams_memo = h, _adams_operators(p.linear, h)
+    return memo[1]
+
+
+def multistep_step(p: Parameters, t: float, t_span: float, phi1: float, w1: float, alpha1: float,
+                   y: Sequence[float], tau_load: float, history: Sequence[float]) -> tuple:
+    """(state, history) after t_span from t, phi1(t) quadratic and tau_load held, by an exponential Adams method in
+    twist coordinates in PECE mode (Hochbruck, Ostermann, "Exponential multistep methods of Adams-type", BIT Numer.
+    Math. 51, 2011): per substep of h from z_n, with N_n = N(t_n, z_n) (the outputs' evaluation where they were
+    read) and the history N_j (j = 0, -1, ..., -5), p the quintic through them,
+        predict   z* = E(h) z_n + sum_j W_j N_j
+        evaluate  N* = N(t_n + h, z*)
+        correct   z_n+1 = z* + Psi (N* - p(1))
+    the variation-of-constants integral of the interpolated N taken exactly (:func:`_adams_operators`); L's part
+    exact. Two evaluations of the equations per substep, the first shared with the outputs: one per step where one
+    substep suffices (:func:`adams_substeps`). Order 7 (tests): the corrector is the Adams-Moulton one through N* and
+    the six points, its predictor of order 6. The points are kept without tau_load and alpha1
+    and recombined with each step's held inputs. Without a history (the first steps, a new substep length, a jump of
+    time or of the inputs: ``INPUT_JUMP``) a substep is one :func:`dormand_prince` step (fifth order), its N_n
+    added to the history until it holds six points."""
+    w_max = max(abs(w1), abs(w1 + alpha1 * t_span))
+    rate = max(p.remainder_rate + 4.0 * w_max, 0.5 * p.linear_rate)
+    n = 1 if rate * t_span <= rk4.RATE_STEP else adams_substeps(p, t_span, w_max)
+    h = t_span / n
+    count = history[2]
+    if count and (history[0] != h or abs(history[1] - t) > 1e-6 * h
+                  or abs(tau_load - history[3]) * history[18] + abs(alpha1 - history[4])
+                  + abs(w1 - history[5]) / h > INPUT_JUMP):
+        count = 0.0
+    xs, ds, invs = history[6:12], history[12:18], history[18:24]
+    a0, a1, b0, b1 = p.linear_rows
+    state, phi, w = y, phi1, w1
+    for k in range(1, n + 1):
+        z0, z1, z2, z3 = state[0] - phi, state[1] - w, state[2], state[3]
+        rates, _, _, _, _, net, j_out = (k == 1 and _served_rates(p, phi, w, y)) or _flexible_rates(p, phi, w, state,
+                                                                                                    0.0)
+        inverse = 1.0 / j_out
+        xs, ds, invs = ((net * inverse - a0 * z0 - a1 * z1,) + xs[:5], (rates[3] - b0 * z2 - b1 * z3,) + ds[:5],
+                        (inverse,) + invs[:5])
+        te = k * h
+        phi_e, w_e = phi1 + te * (w1 + 0.5 * alpha1 * te), w1 + alpha1 * te
+        if count < 5.0:
+            count += 1.0
+            state = _dp5_drive_4(_flexible_rates, p, state, h, 1, phi, w, alpha1, tau_load,
+                                 (rates[0], (net - tau_load) * inverse, rates[2], rates[3]))
+            phi, w = phi_e, w_e
+            continue
+        count = 6.0
+        (e0, e1, e2, e3, l0, l1, l2, l3, s0, s1, s2, s3, t0, t1, t2, t3, t4, t5, u0, u1, u2, u3, u4, u5,
+         q0, q1, q2, q3, q4, q5, c0, c1, c2, c3, c4, c5) = adams_operators(p, h)
+        # each point's N_w4 with this step's inputs, N0_w4 - tau_load / J_out - alpha1
+        x0, x1, x2, x3, x4, x5 = xs
+        i0, i1, i2, i3, i4, i5 = invs
+        x0, x1, x2 = x0 - tau_load * i0 - alpha1, x1 - tau_load * i1 - alpha1, x2 - tau_load * i2 - alpha1
+        x3, x4, x5 = x3 - tau_load * i3 - alpha1, x4 - tau_load * i4 - alpha1, x5 - tau_load * i5 - alpha1
+        v0, v1, v2, v3, v4, v5 = ds
+        # predictor E z + sum_j W_j N_j
+        r0 = e0 * z0 + e1 * z1 + t0 * x0 + t1 * x1 + t2 * x2 + t3 * x3 + t4 * x4 + t5 * x5
+        r1 = e2 * z0 + e3 * z1 + u0 * x0 + u1 * x1 + u2 * x2 + u3 * x3 + u4 * x4 + u5 * x5
+        r2 = l0 * z2 + l1 * z3 + q0 * v0 + q1 * v1 + q2 * v2 + q3 * v3 + q4 * v4 + q5 * v5
+        r3 = l2 * z2 + l3 * z3 + c0 * v0 + c1 * v1 + c2 * v2 + c3 * v3 + c4 * v4 + c5 * v5
+        f = _flexible_rates(p, phi_e, w_e, (phi_e + r0, w_e + r1, r2, r3), tau_load)[0]
+        # corrector + Psi (N* - p(1)), p(1) = 6 N_0 - 15 N_-1 + 20 N_-2 - 15 N_-3 + 6 N_-4 - N_-5 (``_EXTRAPOLATION``)
+        d0 = f[1] - alpha1 - a0 * r0 - a1 * r1 - (6.0 * (x0 + x4) - 15.0 * (x1 + x3) + 20.0 * x2 - x5)
+        d1 = f[3] - b0 * r2 - b1 * r3 - (6.0 * (v0 + v4) - 15.0 * (v1 + v3) + 20.0 * v2 - v5)
+        state = (phi_e + r0 + s0 * d0, w_e + r1 + s1 * d0, r2 + s2 * d1, r3 + s3 * d1)
+        phi, w = phi_e, w_e
+    return state, (h, t + t_span, count, tau_load, alpha1, w, *xs, *ds, *invs)
+
+
 # --- the model protocol (ujfmu.models.protocol) -----------------------------------------------------------------
 
 class State(NamedTuple):
@@ -569,6 +739,12 @@ def integrate(p: Parameters, t: float, h: float, y: State, u: Drive) -> tuple:
                          _first_stage(p, y, u))
 
 
+def integrate_with_history(p: Parameters, t: float, h: float, y: State, u: Drive, history: tuple) -> tuple:
+    """The FMU's step of a flexible shaft: (state, history) of :func:`multistep_step` from the input motion u at the
+    step's start (angle quadratic, speed linear in time, tau_load held); :func:`integrate` without a history."""
+    return multistep_step(p, t, h, u.phi, u.omega, u.alpha, y, u.tau_load, history)
+
+
 def _output_rates(p: Parameters, phi1: float, omega1: float, y: Sequence[float], key: tuple) -> tuple:
     """(``_flexible_rates(p, phi1, omega1, y, 0.0)``, ``input_inertia(p, phi1)``): the outputs' evaluation, kept in
     p.outputs_memo = (key, phi1, omega1, both) and given from there while key, the state tuple they are at (y, or
@@ -583,18 +759,23 @@ def _output_rates(p: Parameters, phi1: float, omega1: float, y: Sequence[float],
     return rates, inertia
 
 
+def _served_rates(p: Parameters, phi1: float, omega1: float, y: State) -> tuple | None:
+    """``_flexible_rates(p, phi1, omega1, y, 0.0)`` from the outputs' evaluation (:func:`_output_rates`) where it is
+    at this state object and at phi1, omega1, both nonzero (a step's first stage is at phi0 + s (w0 + alpha s / 2)
+    and w0 + alpha s with s = 0.0, which is phi0 and w0 bit for bit unless one is a zero), else None (evaluate)."""
+    memo = p.outputs_memo
+    if memo is None or memo[0] is not y or not (memo[1] == phi1 and memo[2] == omega1 and phi1 and omega1):
+        return None
+    return memo[3]
+
+
 def _first_stage(p: Parameters, y: State, u: Drive) -> tuple | None:
     """The step's first-stage rates, :func:`flexible_derivatives` at (u.phi, u.omega, y, u.tau_load), from the outputs'
-    evaluation (:func:`_output_rates`, tau_load 0) where it is at this state object and at u.phi, u.omega, both
-    nonzero (the integrators' first stage is at phi0 + s (w0 + alpha s / 2) and w0 + alpha s with s = 0.0, which is
-    phi0 and w0 bit for bit unless one is a zero), else None (evaluate). tau_load enters only dw4/dt = (net -
-    tau_load) / J_out, computed here from ``_flexible_rates``' net and J_out as it does: the same expression on the
-    same floats, bit for bit."""
-    memo = p.outputs_memo
-    if memo is None or memo[0] is not y:
-        return None
-    _, phi1, omega1, flexible, _ = memo
-    if not (phi1 == u.phi and omega1 == u.omega and phi1 and omega1):
+    evaluation where it serves (:func:`_served_rates`), else None. tau_load enters only dw4/dt = (net - tau_load) /
+    J_out, computed here from ``_flexible_rates``' net and J_out as it does: the same expression on the same floats,
+    bit for bit."""
+    flexible = _served_rates(p, u.phi, u.omega, y)
+    if flexible is None:
         return None
     rates, _, _, _, _, net, j_out = flexible
     return rates[0], (net - u.tau_load) / j_out, rates[2], rates[3]

@@ -442,20 +442,10 @@ def remainder_rate_bound(p: Parameters) -> float:
     return math.sqrt(max(0.0, stiffness - aligned_stiffness)) + max(0.0, decay - aligned_decay)
 
 
-def _phi_sum(a: tuple, h: float, coefficients: tuple, columns: Sequence[int] | None = None) -> list:
-    """sum_k coefficients[k] phi_k(h a) of a small square matrix a, row by row (only the given columns, default
-    all), phi_k(X) = sum_j X^j / (j + k)! (phi_0 = exp), by the Taylor series (``series``): the substep rule keeps
-    h |lambda| <= 1 for L's eigenvalues, where its truncation is below 1e-22. X^j = r^j (s a)^j with s the power of
-    2 nearest h, so r = h / s <= 1.5 (the powers of s a kept per (a, s))."""
-    scale = 2.0 ** round(math.log2(h))
-    return series.weighted(series.scaled_powers(a, scale, 1.5), series.series_weights(h / scale, coefficients),
-                           columns)
-
-
 def _state_operator(linear: tuple, h: float) -> tuple:
     """exp(h L) of the blocks of L (:func:`linear_part`, :func:`torque_linear_part`) as one tuple: each block row by
     row, the torsional block first."""
-    return tuple(v for block in linear for row in _phi_sum(block, h, (1.0,)) for v in row)
+    return tuple(v for block in linear for row in series.phi_sum(block, h, (1.0,)) for v in row)
 
 
 def _speed_operator(linear: tuple, h: float, coefficients: tuple) -> tuple:
@@ -463,9 +453,9 @@ def _speed_operator(linear: tuple, h: float, coefficients: tuple) -> tuple:
     16 numbers: the torsional block's column omega1 (4 rows), then its column omega2, then each lateral block's
     speed column (2 rows)."""
     torsion, *lateral = linear
-    t = _phi_sum(torsion, h, coefficients, (1, 3))
+    t = series.phi_sum(torsion, h, coefficients, (1, 3))
     return tuple([row[0] for row in t] + [row[1] for row in t]
-                 + [row[0] for block in lateral for row in _phi_sum(block, h, coefficients, (1,))])
+                 + [row[0] for block in lateral for row in series.phi_sum(block, h, coefficients, (1,))])
 
 
 def _propagators(p: Parameters, h: float) -> tuple:
@@ -763,50 +753,22 @@ def _adams_substep(p: Parameters, h: float, z: Sequence[float], q: list, points:
     return _shift((r0, r1, r2, r3, r4, r5, r6, r7, r8, r9, r10, r11), psi, d), point
 
 
-def _lagrange_coefficients(nodes: Sequence[float]) -> list:
-    """c[j][m]: the coefficient of theta^m of the Lagrange basis polynomial of nodes[j] (1 there, 0 at the others)."""
-    rows = []
-    for j, node in enumerate(nodes):
-        poly, scale = [1.0], 1.0
-        for i, other in enumerate(nodes):
-            if i != j:   # poly *= (theta - other)
-                poly = [(poly[m - 1] if m else 0.0) - other * (poly[m] if m < len(poly) else 0.0)
-                        for m in range(len(poly) + 1)]
-                scale *= node - other
-        rows.append([c / scale for c in poly])
-    return rows
-
-
-def _newton_coefficients(nodes: Sequence[float]) -> list:
-    """Coefficients of theta^m of prod_j (theta - node_j) / prod_j (1 - node_j): 0 at the nodes, 1 at theta = 1."""
-    poly, scale = [1.0], 1.0
-    for other in nodes:
-        poly = [(poly[m - 1] if m else 0.0) - other * (poly[m] if m < len(poly) else 0.0) for m in range(len(poly) + 1)]
-        scale *= 1.0 - other
-    return [c / scale for c in poly]
-
-
 _NODES = tuple(-float(j) for j in range(HISTORY_POINTS))
 #: (values at theta = 1 of the predictor's Lagrange basis, their integrals over [0, 1], the integral of the
 #: corrector's Newton polynomial): the scalar weights at L = 0
-_ADAMS_SCALARS = (tuple(sum(c) for c in _lagrange_coefficients(_NODES)),
-                  tuple(sum(c[m] / (m + 1) for m in range(len(c))) for c in _lagrange_coefficients(_NODES)),
-                  sum(c / (m + 1) for m, c in enumerate(_newton_coefficients(_NODES))))
-
-
-def _integral_coefficients(h: float, c: Sequence[float]) -> tuple:
-    """The coefficients of phi_k (:func:`_phi_sum`) in h sum_m c_m m! phi_(m+1)(h L), the variation-of-constants
-    integral h int_0^1 exp((1 - theta) h L) sum_m c_m theta^m d theta."""
-    return (0.0, *(h * cm * math.factorial(m) for m, cm in enumerate(c)))
+_ADAMS_SCALARS = (tuple(sum(c) for c in series.lagrange_coefficients(_NODES)),
+                  tuple(sum(c[m] / (m + 1) for m in range(len(c))) for c in series.lagrange_coefficients(_NODES)),
+                  sum(c / (m + 1) for m, c in enumerate(series.newton_coefficients(_NODES))))
 
 
 @functools.lru_cache(maxsize=16)
 def _adams_operators(linear: tuple, h: float) -> tuple:
     """(E(h), Psi, W_0, ..., W_-5) of :func:`multistep_step` for L's blocks and h, memoized: E as
     :func:`_state_operator`, the others on N's speed columns (:func:`_speed_operator`)."""
-    psi = _speed_operator(linear, h, _integral_coefficients(h, _newton_coefficients(_NODES)))
+    psi = _speed_operator(linear, h, series.integral_coefficients(h, series.newton_coefficients(_NODES)))
     return (_state_operator(linear, h), psi,
-            *(_speed_operator(linear, h, _integral_coefficients(h, c)) for c in _lagrange_coefficients(_NODES)))
+            *(_speed_operator(linear, h, series.integral_coefficients(h, c))
+              for c in series.lagrange_coefficients(_NODES)))
 
 
 def adams_operators(p: Parameters, h: float) -> tuple:
@@ -988,7 +950,7 @@ def _torque_propagators(p: TorqueDrivenParameters, h: float) -> tuple:
 @functools.lru_cache(maxsize=64)
 def _torque_propagators_of(linear: tuple, h: float) -> tuple:
     """The operators of one Krogstad substep of length h (:func:`torque_exponential_step`; the weights of
-    :func:`_propagators_of`), memoized, from the phi-functions (:func:`_phi_sum`) of the blocks of L at h/2 and h
+    :func:`_propagators_of`), memoized, from the phi-functions (``series.phi_sum``) of the blocks of L at h/2 and h
     (the substep rule keeps h |lambda| <= 1 over L's eigenvalues, the rigid-body mode's 0 included, as for
     :func:`_torque_adams_operators`): full-state ones (E(h/2), E(h)) as 52 numbers (the torsional 6x6 row by row in
     the order (phi_in, omega_in, theta1, omega1, theta2, omega2), then each lateral 2x2 in the order X1, Y1, X2, Y2),
@@ -1009,8 +971,8 @@ def _chain_speed_operator(linear: tuple, h: float, coefficients: tuple, columns:
     torsional block's columns given (per row those columns, row by row), then each lateral block's speed column
     (2 rows)."""
     torsion, *lateral = linear
-    return tuple([v for row in _phi_sum(torsion, h, coefficients, columns) for v in row]
-                 + [row[0] for block in lateral for row in _phi_sum(block, h, coefficients, (1,))])
+    return tuple([v for row in series.phi_sum(torsion, h, coefficients, columns) for v in row]
+                 + [row[0] for block in lateral for row in series.phi_sum(block, h, coefficients, (1,))])
 
 
 def _chain_state_op(f: tuple, z: Sequence[float], g: tuple, d: Sequence[float]) -> list:
@@ -1174,13 +1136,14 @@ def _torque_adams_operators(linear: tuple, h: float) -> tuple:
     the torsional columns omega_in and omega2 as 12 numbers (per torsional row those two columns), which carries the
     constant rows tau_in / J_in and -tau_load / J_eff2 of N; Psi and W_j = h sum_m c_jm m! phi_(m+1)(hL) on N_0's
     speed rows as 20 numbers (per torsional row its columns omega1 and omega2, then each lateral block's speed
-    column). phi_0..phi_7 of each block by their Taylor series (:func:`_phi_sum`): the substep rule keeps
+    column). phi_0..phi_7 of each block by their Taylor series (``series.phi_sum``): the substep rule keeps
     h |lambda| <= 1 over L's eigenvalues (:func:`torque_exponential_substeps`), the rigid-body mode's 0 included."""
-    f = tuple(v for row in _phi_sum(linear[0], h, (0.0, h), (1, 5)) for v in row)
-    psi = _chain_speed_operator(linear, h, _integral_coefficients(h, _newton_coefficients(_NODES)), (3, 5))
+    f = tuple(v for row in series.phi_sum(linear[0], h, (0.0, h), (1, 5)) for v in row)
+    psi = _chain_speed_operator(linear, h, series.integral_coefficients(h, series.newton_coefficients(_NODES)),
+                                (3, 5))
     return (_state_operator(linear, h), f, psi,
-            *(_chain_speed_operator(linear, h, _integral_coefficients(h, c), (3, 5))
-              for c in _lagrange_coefficients(_NODES)))
+            *(_chain_speed_operator(linear, h, series.integral_coefficients(h, c), (3, 5))
+              for c in series.lagrange_coefficients(_NODES)))
 
 
 def torque_adams_operators(p: TorqueDrivenParameters, h: float) -> tuple:
