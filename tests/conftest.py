@@ -76,6 +76,27 @@ def _drive(inst, omega, tau_load, h, n, outputs, params=None):
     return np.rec.fromarrays(np.array(rows).T, names=("time", "omega_in") + tuple(outputs))
 
 
+@pytest.fixture
+def against_fine():
+    """against_fine(stepper, fine, p, y0, phi, w, h, duration, inputs, scale) -> largest scaled error, see
+    _against_fine."""
+    return _against_fine
+
+
+def _against_fine(stepper, fine, p, y0, phi, w, h, duration, inputs, scale):
+    """A prescribed-input stepper against an oracle: the largest error, each state's over its scale, after duration
+    of steps of h by stepper(p, h, phi, w, alpha, y, tau) and by fine (the same signature), both from y0 with the
+    input shaft at angle phi and speed w, under inputs(t) = (alpha, tau) held over the step from t (the input's angle
+    and speed follow alpha exactly)."""
+    y = ref = y0
+    for k in range(int(round(duration / h))):
+        alpha, tau = inputs(k * h)
+        y = stepper(p, h, phi, w, alpha, y, tau)
+        ref = fine(p, h, phi, w, alpha, ref, tau)
+        phi, w = phi + h * (w + 0.5 * alpha * h), w + alpha * h
+    return np.max(np.abs(np.array(y) - np.array(ref)) / np.asarray(scale))
+
+
 @pytest.fixture(scope="session")
 def libpython():
     """The shared libpython a C host preloads to run the FMUs (Linux)."""

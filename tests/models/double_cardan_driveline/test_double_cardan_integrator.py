@@ -307,7 +307,7 @@ W_LAYOUT = dict(beta1=math.radians(15.0), beta2=math.radians(-20.0), yoke_phase=
 def _speed_driven(**changes):
     return dc.Parameters(**{**STRAIGHT, **changes})
 #: scale of each state's error: phi4 [rad], omega4 [rad/s], phi [rad], dphi [rad/s]
-SCALE = np.array([1e-3, 1.0, 1e-4, 1e-2])
+SCALE = (1e-3, 1.0, 1e-4, 1e-2)
 
 
 def _fine(p, h, phi, w, alpha, y, tau):
@@ -332,21 +332,15 @@ class Multistep:
         return y
 
 
-def _run_against_fine(p, h, duration, inputs, stepper):
-    """Max scaled error after duration of ``stepper`` against the fine oracle, from the same start (untwisted at
-    60 rad/s) under inputs(t) = (alpha, tau_load) held over each step (the input follows alpha exactly)."""
-    y = ref = (dc.rigid_output_angle(p, 0.1), 60.0, 0.0, 0.0)
-    phi, w = 0.1, 60.0
-    for k in range(int(round(duration / h))):
-        alpha, tau = inputs(k * h)
-        y = stepper(p, h, phi, w, alpha, y, tau)
-        ref = _fine(p, h, phi, w, alpha, ref, tau)
-        phi, w = phi + h * (w + 0.5 * alpha * h), w + alpha * h
-    return np.max(np.abs(np.array(y) - np.array(ref)) / SCALE)
+def _run_against_fine(against_fine, p, h, duration, inputs, stepper):
+    """Max scaled error after duration of ``stepper`` against the fine oracle, both untwisted at 60 rad/s, under
+    inputs(t) = (alpha, tau_load) held over each step (the ``against_fine`` fixture)."""
+    y0 = (dc.rigid_output_angle(p, 0.1), 60.0, 0.0, 0.0)
+    return against_fine(stepper, _fine, p, y0, 0.1, 60.0, h, duration, inputs, SCALE)
 
 
 @pytest.mark.parametrize("inertias", [{}, INERTIAS], ids=["omar", "inertias"])
-def test_multistep_integrator_order_and_accuracy(inertias):
+def test_multistep_integrator_order_and_accuracy(inertias, against_fine):
     """Observed order of ``multistep_step`` (exponential Adams PECE, six points of N, in twist coordinates) on a
     misaligned W-layout driveline (yokes 0.4 rad apart, planes 0.2 rad) speeding up at 300 rad/s^2 under 5 N.m, from
     its start (five Dormand-Prince steps, then the Adams method): the error falls 2^7 per halving of the step
@@ -357,14 +351,14 @@ def test_multistep_integrator_order_and_accuracy(inertias):
     p = _speed_driven(**W_LAYOUT, **inertias)
     assert all(dc.adams_substeps(p, h, 90.0) == 1 for h in (1e-3, 5e-4, 2.5e-4))
     inputs = lambda t: (300.0, 5.0)   # noqa: E731
-    errors = [_run_against_fine(p, h, 0.1, inputs, Multistep()) for h in (1e-3, 5e-4, 2.5e-4)]
+    errors = [_run_against_fine(against_fine, p, h, 0.1, inputs, Multistep()) for h in (1e-3, 5e-4, 2.5e-4)]
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert np.all((orders > 6.4) & (orders < 7.6)), (errors, orders)
-    assert errors[0] < 4.0 * _run_against_fine(p, 1e-3, 0.1, inputs, _one_dormand_prince_step)
+    assert errors[0] < 4.0 * _run_against_fine(against_fine, p, 1e-3, 0.1, inputs, _one_dormand_prince_step)
 
 
 @pytest.mark.parametrize("jump", ["load", "acceleration"])
-def test_multistep_integrator_restarts_at_an_input_step(jump, monkeypatch):
+def test_multistep_integrator_restarts_at_an_input_step(jump, monkeypatch, against_fine):
     """A load step (5 -> 15 N.m, 2200 rad/s^2 on Omar's driven inertia) or a jump of the input acceleration
     (300 -> -300 rad/s^2) at 30 ms: the driven side's acceleration jumps, which no polynomial through the history
     follows, so the method restarts there (``INPUT_JUMP``) and stays as accurate as one Dormand-Prince step a step
@@ -373,10 +367,10 @@ def test_multistep_integrator_restarts_at_an_input_step(jump, monkeypatch):
     p = _speed_driven(**W_LAYOUT)
     after = (300.0, 15.0) if jump == "load" else (-300.0, 5.0)
     inputs = lambda t: (300.0, 5.0 + 0.01 * t) if t < 0.03 - 1e-9 else after   # noqa: E731
-    restarted = _run_against_fine(p, 1e-3, 0.06, inputs, Multistep())
-    assert restarted < 1.5 * _run_against_fine(p, 1e-3, 0.06, inputs, _one_dormand_prince_step)
+    restarted = _run_against_fine(against_fine, p, 1e-3, 0.06, inputs, Multistep())
+    assert restarted < 1.5 * _run_against_fine(against_fine, p, 1e-3, 0.06, inputs, _one_dormand_prince_step)
     monkeypatch.setattr(dc, "INPUT_JUMP", math.inf)
-    assert _run_against_fine(p, 1e-3, 0.06, inputs, Multistep()) > 10.0 * restarted
+    assert _run_against_fine(against_fine, p, 1e-3, 0.06, inputs, Multistep()) > 10.0 * restarted
 
 
 def test_multistep_restarts_without_a_usable_history():

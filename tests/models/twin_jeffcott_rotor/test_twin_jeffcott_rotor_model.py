@@ -272,21 +272,14 @@ def test_exponential_integrator_is_fourth_order():
     assert np.all((orders > 3.6) & (orders < 4.4)), (errors, orders)
 
 
-def _run_against_fine(p, h, duration, inputs, stepper):
-    """Max scaled error after duration of ``stepper`` against the fine RK4 oracle, both from the same start under
-    inputs(k) = (alpha, tau) held over step k (the input speed and angle follow alpha exactly)."""
-    y = ref = tj.rest_state(p, 0.0, 80.0)
-    phi, w = 0.0, 80.0
-    for k in range(int(round(duration / h))):
-        alpha, tau = inputs(k * h)
-        y = stepper(p, h, phi, w, alpha, y, tau)
-        ref = _fine(p, h, phi, w, alpha, ref, tau)
-        phi, w = phi + h * (w + 0.5 * alpha * h), w + alpha * h
-    scale = np.array([1.0, 100.0, 1e-5, 1e-3, 1e-5, 1e-3, 1.0, 100.0, 1e-5, 1e-3, 1e-5, 1e-3, 1.0, 1.0])
-    return np.max(np.abs(np.array(y) - np.array(ref)) / scale)
+def _run_against_fine(against_fine, p, h, duration, inputs, stepper):
+    """Max scaled error after duration of ``stepper`` against the fine RK4 oracle, both from rest at 80 rad/s under
+    inputs(t) = (alpha, tau) held over each step (the ``against_fine`` fixture)."""
+    scale = (1.0, 100.0, 1e-5, 1e-3, 1e-5, 1e-3, 1.0, 100.0, 1e-5, 1e-3, 1e-5, 1e-3, 1.0, 1.0)
+    return against_fine(stepper, _fine, p, tj.rest_state(p, 0.0, 80.0), 0.0, 80.0, h, duration, inputs, scale)
 
 
-def test_multistep_integrator_order_and_accuracy():
+def test_multistep_integrator_order_and_accuracy(against_fine):
     """Observed order of ``multistep_step`` (exponential Adams PEC, six points of N, in twist coordinates) on the
     run of :func:`test_exponential_integrator_is_fourth_order`, from its start (five ETDRK4-B steps, then the
     multistep method): the error falls 2^5 per halving of the step (observed 5.1-5.2 between 1 ms and 0.25 ms: the
@@ -295,14 +288,14 @@ def test_multistep_integrator_order_and_accuracy():
     left out) leaves order 4 or less or a larger error at 1 ms."""
     p = rotor(beta=10 * DEG, m_u1=0.01, m_u2=0.01, phase_u1=0.3, phase_u2=-0.8)
     inputs = lambda t: (200.0, 2.0)   # noqa: E731
-    errors = [_run_against_fine(p, h, 0.1, inputs, Multistep()) for h in (1e-3, 5e-4, 2.5e-4)]
+    errors = [_run_against_fine(against_fine, p, h, 0.1, inputs, Multistep()) for h in (1e-3, 5e-4, 2.5e-4)]
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert np.all((orders > 4.6) & (orders < 6.0)), (errors, orders)
-    assert errors[0] < _run_against_fine(p, 1e-3, 0.1, inputs, tj.exponential_step)
+    assert errors[0] < _run_against_fine(against_fine, p, 1e-3, 0.1, inputs, tj.exponential_step)
 
 
 @pytest.mark.parametrize("jump", ["load", "acceleration"])
-def test_multistep_integrator_restarts_at_an_input_step(jump):
+def test_multistep_integrator_restarts_at_an_input_step(jump, against_fine):
     """A load step (2 -> 20 N.m) or a jump of the input acceleration (200 -> -300 rad/s^2) at 30 ms: N's time
     derivative jumps with the discs' accelerations, which no polynomial through the history follows, so the
     multistep method restarts there (``INPUT_JUMP``) and stays as accurate as ETDRK4-B, which starts afresh every
@@ -311,8 +304,8 @@ def test_multistep_integrator_restarts_at_an_input_step(jump):
     p = rotor(beta=10 * DEG, m_u1=0.01, m_u2=0.01, phase_u1=0.3, phase_u2=-0.8)
     after = (200.0, 20.0) if jump == "load" else (-300.0, 2.0)
     inputs = lambda t: (200.0, 2.0 + 0.01 * t) if t < 0.03 - 1e-9 else after   # noqa: E731
-    one_step = _run_against_fine(p, 1e-3, 0.06, inputs, tj.exponential_step)
-    assert _run_against_fine(p, 1e-3, 0.06, inputs, Multistep()) < 1.5 * one_step
+    one_step = _run_against_fine(against_fine, p, 1e-3, 0.06, inputs, tj.exponential_step)
+    assert _run_against_fine(against_fine, p, 1e-3, 0.06, inputs, Multistep()) < 1.5 * one_step
 
 
 def test_multistep_restarts_without_a_usable_history():
