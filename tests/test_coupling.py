@@ -16,6 +16,7 @@ from ujfmu.scenario_run import compare
 
 HEAVY = battery.BATTERY_DIR / "battery_04.toml"   # CardanJoint, J2 = 0.28 kg.m^2 against a 0.038 kg.m^2 motor
 LIGHT = battery.BATTERY_DIR / "battery_02.toml"
+CONSTANT_SPEED = battery.BATTERY_DIR.parent / "cardan_constant_speed.toml"
 
 
 def _run(path, fmu_dir, step, coupling, stop=None):
@@ -87,6 +88,37 @@ def test_check_step_reports_every_signal(fmu_dir, tmp_path, capsys):
     assert code == 0
     for name in Scenario(LIGHT).tolerances:
         assert f"ok   {name}" in out
+
+
+def test_check_step_shows_a_constant_signal_in_absolute_terms(fmu_dir, tmp_path, capsys):
+    """An ideal speed source's constant speed and a constant load have no range to take a percentage of: their
+    estimate and allowance are printed in absolute terms (they read "allowed inf%" and "allowed 4.61e+03%")."""
+    code = main(["--fmu-dir", str(fmu_dir), "run", str(CONSTANT_SPEED), "--check-step", "--no-plot",
+                 "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    estimates = out.split("estimated coupling error")[1]
+    assert code == 0 and "inf%" not in estimates and "e+03%" not in estimates
+    for name in ("motor.omega", "load.tau"):
+        line = next(line for line in estimates.splitlines() if f" {name} " in line)
+        assert line.split()[0] == "ok" and "(allowed 1e-09; absolute: the signal hardly varies)" in line, line
+
+
+def test_check_step_judges_an_untoleranced_constant_signal_by_its_magnitude(monkeypatch):
+    """Without a tolerance a signal is allowed 2% of its range; a constant one (range 0, which allowed nothing but
+    an exact 0 before) 2% of its magnitude, shown in absolute terms; a varying one stays in % of its range."""
+    from ujfmu import scenario_run
+    s = Scenario(LIGHT)
+    s.tolerances, s.record = {}, ["a.x", "a.y"]
+    coarse = {"a.x": np.array([5.0, 5.0 + 1e-9, 5.0]), "a.y": np.array([0.0, 1.0, 2.0])}
+    extrapolated = {"a.x": np.full(3, 5.0), "a.y": np.array([0.0, 1.01, 2.0])}
+    monkeypatch.setattr(scenario_run, "extrapolate_step", lambda run, fmu_dir, table: extrapolated)
+    est = stepsize.estimate(s, coarse=coarse)
+    assert est.absolute["a.x"] == (pytest.approx(1e-9), pytest.approx(0.1)) and est.within("a.x") and est.passed
+    assert "a.y" not in est.absolute and est.errors["a.y"] == pytest.approx(0.005)
+    line = next(line for line in est.lines() if "a.x" in line)
+    assert "%" not in line and "(allowed 0.1; absolute" in line
+    extrapolated["a.x"] = np.full(3, 5.2)                # 0.2 off: over 2% of 5.2
+    assert not stepsize.estimate(s, coarse=coarse).passed
 
 
 @pytest.mark.parametrize("scenario", ["battery/battery_04", "cardan_constant_speed"])

@@ -10,12 +10,13 @@ within its allowance. Both only rerun the scenario: no reference is needed.
 
 import copy
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .build import DEFAULT_FMU_DIR
 from .master import CosimulationError, cosimulate
+from .scenario_run import RANGE_FLOOR
 
 #: allowance per signal when the scenario gives no tolerance: a fraction of the signal's range
 DEFAULT_REL_RANGE = 0.02
@@ -25,20 +26,30 @@ MAX_HALVINGS = 5
 @dataclass
 class StepEstimate:
     step: float
-    errors: dict        # signal -> estimated max |error| at this step / range of the signal
+    errors: dict        # signal -> estimated max |error| at this step / range of the signal (inf: a constant one)
     allowed: dict       # signal -> allowance as a fraction of the range
     failure: str = ""   # the co-simulation at this step (or its half) stopped: why
+    absolute: dict = field(default_factory=dict)   # signal -> (max |error|, allowance) for the signals shown so
 
     @property
     def passed(self) -> bool:
-        return not self.failure and all(self.errors[n] <= self.allowed[n] for n in self.errors)
+        return not self.failure and all(self.within(n) for n in self.errors)
+
+    def within(self, name: str) -> bool:
+        if name in self.absolute:
+            error, allowance = self.absolute[name]
+            return error <= allowance
+        return self.errors[name] <= self.allowed[name]
 
     def lines(self) -> list[str]:
         if self.failure:
             return [f"step {self.step:g} s: {self.failure}"]
         return [f"step {self.step:g} s, estimated coupling error (2 x |y(h) - y(h/2)|) per signal:"] + [
-            f"  {'ok  ' if self.errors[n] <= self.allowed[n] else 'HIGH'} {n:28s} {100 * self.errors[n]:9.3g}% "
-            f"of range (allowed {100 * self.allowed[n]:.3g}%)" for n in self.errors]
+            f"  {'ok  ' if self.within(n) else 'HIGH'} {n:28s} " + (
+                f"{self.absolute[n][0]:9.3g} (allowed {self.absolute[n][1]:.3g}; absolute: the signal hardly varies)"
+                if n in self.absolute else
+                f"{100 * self.errors[n]:9.3g}% of range (allowed {100 * self.allowed[n]:.3g}%)")
+            for n in self.errors]
 
 
 def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coarse=None) -> StepEstimate:
@@ -58,14 +69,20 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
         extrapolated = extrapolate_step(run, fmu_dir, coarse)
     except CosimulationError as exc:
         return StepEstimate(run.step_size, {}, {}, str(exc).splitlines()[0])
-    errors, allowed = {}, {}
+    errors, allowed, absolute = {}, {}, {}
     for name in names:
         span = float(np.ptp(extrapolated[name]))
         diff = float(np.max(np.abs(extrapolated[name] - coarse[name])))
         tol = scenario.tolerances.get(name)
         errors[name] = diff / span if span > 0.0 else (0.0 if diff == 0.0 else math.inf)
         allowed[name] = (tol.rel_range + (tol.abs / span if span > 0.0 else math.inf)) if tol else DEFAULT_REL_RANGE
-    return StepEstimate(run.step_size, errors, allowed)
+        allowance = tol.rel_range * span + tol.abs if tol else DEFAULT_REL_RANGE * span
+        if span <= RANGE_FLOOR * allowance or span == 0.0:
+            # a (nearly) constant signal: its range says nothing; without a tolerance, 2% of its magnitude
+            if not tol:
+                allowance = DEFAULT_REL_RANGE * float(np.max(np.abs(extrapolated[name])))
+            absolute[name] = (diff, allowance)
+    return StepEstimate(run.step_size, errors, allowed, absolute=absolute)
 
 
 def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, list[StepEstimate]]:
