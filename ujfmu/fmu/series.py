@@ -90,3 +90,45 @@ def integral_coefficients(h: float, c: Sequence[float]) -> tuple:
     """The coefficients of phi_k (:func:`phi_sum`) in h sum_m c_m m! phi_(m+1)(h L), the variation-of-constants
     integral h int_0^1 exp((1 - theta) h L) sum_m c_m theta^m d theta."""
     return (0.0, *(h * cm * math.factorial(m) for m, cm in enumerate(c)))
+
+
+@functools.lru_cache(maxsize=32)
+def phi_functions(a: tuple, h: float, order: int) -> tuple:
+    """(phi_0(h a), ..., phi_order(h a)) of a small square matrix a, each a tuple of rows, at any h |a|: the first
+    block row of exp(W), W = [[h a, I, 0, ..., 0], [0, 0, I, ..., 0], ..., [0, ..., 0]] of order + 1 blocks
+    (Sidje, "Expokit: a software package for computing matrix exponentials", ACM Trans. Math. Softw. 24, 1998,
+    Theorem 1), by scaling and squaring: exp(W) = exp(W / 2^s)^(2^s), 2^s the power of 2 that brings W's largest
+    row sum to 1/2 at most, exp(W / 2^s) by 18 terms of its Taylor series (the truncation below 1e-20). For steps
+    beyond :func:`phi_sum`'s series (a stiff block: h |lambda| >> 1)."""
+    n = len(a)
+    m = n * (order + 1)
+    w = [[0.0] * m for _ in range(m)]
+    for i in range(n):
+        for j in range(n):
+            w[i][j] = h * a[i][j]
+    for k in range(order):
+        for i in range(n):
+            w[k * n + i][(k + 1) * n + i] = 1.0
+    norm = max(sum(map(abs, row)) for row in w)
+    s = max(0, math.ceil(math.log2(norm / 0.5))) if norm > 0.5 else 0
+    w = [[v / 2.0 ** s for v in row] for row in w]
+
+    def product(x, y):
+        columns = list(zip(*y))
+        return [[sum(map(operator.mul, row, column)) for column in columns] for row in x]
+    term = [[1.0 if i == j else 0.0 for j in range(m)] for i in range(m)]
+    total = [row[:] for row in term]
+    for j in range(1, 19):
+        term = [[v / j for v in row] for row in product(term, w)]
+        total = [list(map(operator.add, r, t)) for r, t in zip(total, term)]
+    for _ in range(s):
+        total = product(total, total)
+    return tuple(tuple(tuple(total[i][k * n:(k + 1) * n]) for i in range(n)) for k in range(order + 1))
+
+
+def phi_sum_stiff(a: tuple, h: float, coefficients: tuple, columns: Sequence[int] | None = None) -> list:
+    """:func:`phi_sum` from :func:`phi_functions`: for any h |a|, at the cost of one exponential of a matrix n
+    (len(coefficients)) square, kept per (a, h, order)."""
+    phis = phi_functions(a, h, len(coefficients) - 1)
+    picked = range(len(a)) if columns is None else columns
+    return [[sum(c * phi[i][col] for c, phi in zip(coefficients, phis) if c) for col in picked] for i in range(len(a))]

@@ -100,8 +100,8 @@ class Parameters:
     (the inertias J_in, J_out are evaluated at them), whether the crosses and the intermediate shaft have no
     inertia (constant_inertias: J_in = I_input and J_out = J_load at every angle), and the natural-rate bound of
     the flexible equations (0 for a rigid shaft, or where :func:`check` refuses the parameters), and the exponential
-    Adams method's linear part and rates (:func:`linear_part`: J_mean, linear, its speed rows linear_rows,
-    linear_rate, remainder_rate).
+    Adams method's linear part and rate (:func:`linear_part`: J_mean, linear, its speed rows linear_rows,
+    remainder_rate).
     outputs_memo: the outputs' last evaluation of the equations, which the step after them and a second read reuse
     (:func:`_output_rates`); adams_memo: the method's operators for the last substep length
     (:func:`adams_operators`); per parameters object, so per FMU instance; neither a parameter nor compared."""
@@ -137,7 +137,6 @@ class Parameters:
     J_mean: float = field(init=False, repr=False)
     linear: tuple = field(init=False, repr=False)
     linear_rows: tuple = field(init=False, repr=False)
-    linear_rate: float = field(init=False, repr=False)
     remainder_rate: float = field(init=False, repr=False)
     outputs_memo: tuple | None = field(default=None, init=False, repr=False, compare=False)
     adams_memo: tuple | None = field(default=None, init=False, repr=False, compare=False)
@@ -158,7 +157,6 @@ class Parameters:
         self.J_mean = mean_output_inertia(self) if flexible else 0.0
         self.linear = linear_part(self) if flexible else ()
         self.linear_rows = (*self.linear[0][1], *self.linear[1][1]) if flexible else ()
-        self.linear_rate = linear_rate(self) if flexible else 0.0
         self.remainder_rate = remainder_rate_bound(self) if flexible else 0.0
 
 
@@ -562,13 +560,6 @@ def linear_part(p: Parameters) -> tuple:
     return (((0.0, 1.0), (-p.k_theta / j, -p.c_theta / j)), ((0.0, 1.0), (-p.k_phi / p.m_s, -p.c_phi / p.m_s)))
 
 
-def linear_rate(p: Parameters) -> float:
-    """An upper bound of the spectral radius of L: sqrt of the sum of its stiffness terms plus that of its damping
-    terms."""
-    torsion, lateral = p.linear
-    return math.sqrt(-torsion[1][0] - lateral[1][0]) - torsion[1][1] - lateral[1][1]
-
-
 def remainder_rate_bound(p: Parameters) -> float:
     """Bound [1/s] of the fastest rate of N's own stiffness and damping: what the bounds of
     :func:`natural_rate_bound` (Lambda, D of :func:`_rate_terms`) exceed L's stiffness and damping traces by (the
@@ -581,10 +572,16 @@ def remainder_rate_bound(p: Parameters) -> float:
 
 def adams_substeps(p: Parameters, t_span: float, w_max: float) -> int:
     """Substeps of :func:`multistep_step`: each resolves N's own rates (:func:`remainder_rate_bound`) and the 2x and
-    4x excitation of the joints' kinematics, 4 |omega1| (``rk4.substeps``: h rate <= RATE_STEP = 0.5), and keeps
-    h |lambda| <= 1 over L's eigenvalues, so the phi-functions' series converge fast."""
-    rate = max(p.remainder_rate + 4.0 * w_max, 0.5 * p.linear_rate)
-    return 1 if rate * t_span <= rk4.RATE_STEP else rk4.substeps(rate, t_span)
+    4x excitation of the joints' kinematics, 4 |omega1| (``rk4.substeps``: h rate <= RATE_STEP = 0.5). L's part is
+    exact at any h (:func:`_phi_block`): a stiff shaft's own modes set no substep."""
+    return rk4.substeps(p.remainder_rate + 4.0 * w_max, t_span)
+
+
+def start_steps(p: Parameters, h: float, w_max: float) -> int:
+    """Dormand-Prince steps of a substep of h that starts or restarts :func:`multistep_step`: its own rule
+    (:func:`fifth_order_steps`: h (mode_rate + 4 |omega1|) <= 2 RATE_STEP a step), one step on Omar's driveline, more
+    on a stiff shaft (``rk4.substeps``' cap refuses a step past what any substeps resolve)."""
+    return rk4.substeps(0.5 * (p.mode_rate + 4.0 * w_max), h)
 
 
 @functools.lru_cache(maxsize=16)
@@ -595,11 +592,21 @@ def _adams_operators(linear: tuple, h: float) -> tuple:
     W_j = h sum_m c_jm m! phi_(m+1)(h L), c_jm the coefficients of theta^m of the Lagrange basis polynomial of node
     j; Psi the same of the corrector's Newton polynomial (``series.integral_coefficients``)."""
     def speed_column(coefficients):
-        return tuple(row[0] for block in linear for row in series.phi_sum(block, h, coefficients, (1,)))
-    state = tuple(v for block in linear for row in series.phi_sum(block, h, (1.0,)) for v in row)
+        return tuple(row[0] for block in linear for row in _phi_block(block, h, coefficients, (1,)))
+    state = tuple(v for block in linear for row in _phi_block(block, h, (1.0,)) for v in row)
     weights = zip(*(speed_column(series.integral_coefficients(h, c)) for c in series.lagrange_coefficients(_NODES)))
     return (*state, *speed_column(series.integral_coefficients(h, series.newton_coefficients(_NODES))),
             *(v for row in weights for v in row))
+
+
+def _phi_block(block: tuple, h: float, coefficients: tuple, columns: tuple | None = None) -> list:
+    """sum_k coefficients[k] phi_k(h block) of one oscillator block [[0, 1], [-k, -c]]: its Taylor series
+    (``series.phi_sum``) where h (sqrt(k) + c) <= 1 bounds h |lambda| (every bundled scenario), else scaling and
+    squaring (``series.phi_sum_stiff``: a stiff shaft)."""
+    (_, _), (k, c) = block
+    if h * (math.sqrt(-k) - c) <= 1.0:
+        return series.phi_sum(block, h, coefficients, columns)
+    return series.phi_sum_stiff(block, h, coefficients, columns)
 
 
 def adams_operators(p: Parameters, h: float) -> tuple:
@@ -627,8 +634,7 @@ def multistep_step(p: Parameters, t: float, t_span: float, phi1: float, w1: floa
     time or of the inputs: ``INPUT_JUMP``) a substep is one :func:`dormand_prince` step (fifth order), its N_n
     added to the history until it holds six points."""
     w_max = max(abs(w1), abs(w1 + alpha1 * t_span))
-    rate = max(p.remainder_rate + 4.0 * w_max, 0.5 * p.linear_rate)
-    n = 1 if rate * t_span <= rk4.RATE_STEP else adams_substeps(p, t_span, w_max)
+    n = 1 if (p.remainder_rate + 4.0 * w_max) * t_span <= rk4.RATE_STEP else adams_substeps(p, t_span, w_max)
     h = t_span / n
     count = history[2]
     if count and (history[0] != h or abs(history[1] - t) > 1e-6 * h
@@ -649,7 +655,7 @@ def multistep_step(p: Parameters, t: float, t_span: float, phi1: float, w1: floa
         phi_e, w_e = phi1 + te * (w1 + 0.5 * alpha1 * te), w1 + alpha1 * te
         if count < 5.0:
             count += 1.0
-            state = _dp5_drive_4(_flexible_rates, p, state, h, 1, phi, w, alpha1, tau_load,
+            state = _dp5_drive_4(_flexible_rates, p, state, h, start_steps(p, h, w_max), phi, w, alpha1, tau_load,
                                  (rates[0], (net - tau_load) * inverse, rates[2], rates[3]))
             phi, w = phi_e, w_e
             continue
