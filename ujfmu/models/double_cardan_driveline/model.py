@@ -603,8 +603,8 @@ def _phi_block(block: tuple, h: float, coefficients: tuple, columns: tuple | Non
     """sum_k coefficients[k] phi_k(h block) of one oscillator block [[0, 1], [-k, -c]]: its Taylor series
     (``series.phi_sum``) where h (sqrt(k) + c) <= 1 bounds h |lambda| (every bundled scenario), else scaling and
     squaring (``series.phi_sum_stiff``: a stiff shaft)."""
-    (_, _), (k, c) = block
-    if h * (math.sqrt(-k) - c) <= 1.0:
+    (_, _), (minus_k, minus_c) = block
+    if h * (math.sqrt(-minus_k) - minus_c) <= 1.0:
         return series.phi_sum(block, h, coefficients, columns)
     return series.phi_sum_stiff(block, h, coefficients, columns)
 
@@ -627,12 +627,12 @@ def multistep_step(p: Parameters, t: float, t_span: float, phi1: float, w1: floa
         evaluate  N* = N(t_n + h, z*)
         correct   z_n+1 = z* + Psi (N* - p(1))
     the variation-of-constants integral of the interpolated N taken exactly (:func:`_adams_operators`); L's part
-    exact. Two evaluations of the equations per substep, the first shared with the outputs: one per step where one
+    exact at any h. Two evaluations of the equations per substep, the first shared with the outputs: one per step where one
     substep suffices (:func:`adams_substeps`). Order 7 (tests): the corrector is the Adams-Moulton one through N* and
     the six points, its predictor of order 6. The points are kept without tau_load and alpha1
     and recombined with each step's held inputs. Without a history (the first steps, a new substep length, a jump of
-    time or of the inputs: ``INPUT_JUMP``) a substep is one :func:`dormand_prince` step (fifth order), its N_n
-    added to the history until it holds six points."""
+    time or of the inputs: ``INPUT_JUMP``) a substep is taken by :func:`dormand_prince` steps (fifth order,
+    :func:`start_steps`: one on Omar's driveline), its N_n added to the history until it holds six points."""
     w_max = max(abs(w1), abs(w1 + alpha1 * t_span))
     n = 1 if (p.remainder_rate + 4.0 * w_max) * t_span <= rk4.RATE_STEP else adams_substeps(p, t_span, w_max)
     h = t_span / n
