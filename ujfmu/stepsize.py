@@ -36,6 +36,7 @@ class StepEstimate:
         return not self.failure and all(self.within(n) for n in self.errors)
 
     def within(self, name: str) -> bool:
+        """The signal's estimate within its allowance (in absolute terms for a signal in ``absolute``)."""
         if name in self.absolute:
             error, allowance = self.absolute[name]
             return error <= allowance

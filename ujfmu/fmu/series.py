@@ -56,9 +56,10 @@ def weighted(powers: tuple, weights: tuple, columns=None) -> list:
 
 def phi_sum(a: tuple, h: float, coefficients: tuple, columns: Sequence[int] | None = None) -> list:
     """sum_k coefficients[k] phi_k(h a) of a small square matrix a, row by row (only the given columns, default
-    all), phi_k(X) = sum_j X^j / (j + k)! (phi_0 = exp), by the Taylor series (above): the substep rule keeps
-    h |lambda| <= 1 for L's eigenvalues, where its truncation is below 1e-22. X^j = r^j (s a)^j with s the power of
-    2 nearest h, so r = h / s <= 1.5 (the powers of s a kept per (a, s))."""
+    all), phi_k(X) = sum_j X^j / (j + k)! (phi_0 = exp), by the Taylor series (above), for h |lambda| <= 1 over
+    a's eigenvalues (the twin rotors' substep rule; the double Cardan chooses between this and
+    :func:`phi_sum_stiff`), where its truncation is below 1e-22. X^j = r^j (s a)^j with s the power of 2 nearest
+    h, so r = h / s <= 1.5 (the powers of s a kept per (a, s))."""
     scale = 2.0 ** round(math.log2(h))
     return weighted(scaled_powers(a, scale, 1.5), series_weights(h / scale, coefficients), columns)
 
@@ -127,8 +128,8 @@ def phi_functions(a: tuple, h: float, order: int) -> tuple:
 
 
 def phi_sum_stiff(a: tuple, h: float, coefficients: tuple, columns: Sequence[int] | None = None) -> list:
-    """:func:`phi_sum` from :func:`phi_functions`: for any h |a|, at the cost of one exponential of a matrix n
-    (len(coefficients)) square, kept per (a, h, order)."""
+    """:func:`phi_sum` from :func:`phi_functions`: for any h |a|, at the cost of the exponential of one square
+    matrix of n len(coefficients) rows (n = len(a)), kept per (a, h, order)."""
     phis = phi_functions(a, h, len(coefficients) - 1)
     picked = range(len(a)) if columns is None else columns
     return [[sum(c * phi[i][col] for c, phi in zip(coefficients, phis) if c) for col in picked] for i in range(len(a))]
