@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ujfmu.fmu import rk4
+from ujfmu.fmu import rk4, series
 from ujfmu.models.double_cardan_driveline import model as dc
 
 #: Omar's driveline (Table 1) with both joints straight: r = 1, dy/db = 0, J_out = J_load, and the lateral mode left
@@ -442,7 +442,6 @@ def test_the_phi_functions_by_scaling_and_squaring_are_expm_s():
     (``series.phi_sum``) where that converges (within 1e-14); the model's operators (``_phi_block``, which takes
     one or the other) within 1e-9 too."""
     from scipy.linalg import expm
-    from ujfmu.fmu import series
     for k, c, h in ((20489.0, 41.0, 1e-3), (2.2e7, 4.4e4, 1e-3), (2.2e9, 4.4e6, 1e-4), (2.2e9, 4.4e6, 1.5e-6)):
         a = ((0.0, 1.0), (-k, -c))
         w = np.zeros((16, 16))
@@ -461,6 +460,9 @@ def test_the_phi_functions_by_scaling_and_squaring_are_expm_s():
 
 
 def test_extrapolation_weights_are_the_lagrange_ones():
-    """The corrector's extrapolation p(1) = 6 N_0 - 15 N_-1 + 20 N_-2 - 15 N_-3 + 6 N_-4 - N_-5, written out in
-    multistep_step, is the quintic through the six points (their sixth difference vanishes: the binomial weights)."""
-    assert dc._EXTRAPOLATION == pytest.approx((6.0, -15.0, 20.0, -15.0, 6.0, -1.0), rel=1e-12)
+    """The corrector's extrapolation written out in multistep_step, p(1) = 6 N_0 - 15 N_-1 + 20 N_-2 - 15 N_-3 +
+    6 N_-4 - N_-5, is the quintic through the six points at theta = 1 (``series.lagrange_coefficients``, the twin
+    rotor's weights: the sixth difference vanishing); a wrong weight in the code itself turns the order test red."""
+    nodes = [-float(j) for j in range(dc.HISTORY_POINTS)]
+    weights = [sum(c) for c in series.lagrange_coefficients(nodes)]
+    assert weights == pytest.approx((6.0, -15.0, 20.0, -15.0, 6.0, -1.0), rel=1e-12)

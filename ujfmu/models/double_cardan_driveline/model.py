@@ -411,7 +411,7 @@ def fifth_order_steps(p: Parameters, h: float, omega_max: float, substeps: int) 
     """
     if substeps < 2:
         return 0
-    steps = max(1, math.ceil(h * (p.mode_rate + 4.0 * omega_max) / (2.0 * rk4.RATE_STEP)))
+    steps = start_steps(p, h, omega_max)
     return steps if 6 * steps < 4 * substeps else 0
 
 
@@ -541,8 +541,6 @@ NO_HISTORY = (0.0,) * HISTORY_SIZE
 #: which no polynomial through the history follows (the twin rotor's measured threshold, TwinJeffcottRotor)
 INPUT_JUMP = 20.0
 _NODES = tuple(-float(j) for j in range(HISTORY_POINTS))
-#: N's predictor extrapolation to the end of a substep: the Lagrange basis through the nodes at theta = 1
-_EXTRAPOLATION = tuple(sum(c) for c in series.lagrange_coefficients(_NODES))
 
 
 def mean_output_inertia(p: Parameters) -> float:
@@ -578,9 +576,9 @@ def adams_substeps(p: Parameters, t_span: float, w_max: float) -> int:
 
 
 def start_steps(p: Parameters, h: float, w_max: float) -> int:
-    """Dormand-Prince steps of a substep of h that starts or restarts :func:`multistep_step`: its own rule
-    (:func:`fifth_order_steps`: h (mode_rate + 4 |omega1|) <= 2 RATE_STEP a step), one step on Omar's driveline, more
-    on a stiff shaft (``rk4.substeps``' cap refuses a step past what any substeps resolve)."""
+    """Dormand-Prince steps over h, each with h (mode_rate + 4 |omega1|) <= 2 RATE_STEP (:func:`fifth_order_steps`'
+    rule), as a substep that starts or restarts :func:`multistep_step` takes them: one on Omar's driveline, more on
+    a stiff shaft (``rk4.substeps``' cap refuses a step past what any substeps resolve)."""
     return rk4.substeps(0.5 * (p.mode_rate + 4.0 * w_max), h)
 
 
@@ -674,7 +672,7 @@ def multistep_step(p: Parameters, t: float, t_span: float, phi1: float, w1: floa
         r2 = l0 * z2 + l1 * z3 + q0 * v0 + q1 * v1 + q2 * v2 + q3 * v3 + q4 * v4 + q5 * v5
         r3 = l2 * z2 + l3 * z3 + c0 * v0 + c1 * v1 + c2 * v2 + c3 * v3 + c4 * v4 + c5 * v5
         f = _flexible_rates(p, phi_e, w_e, (phi_e + r0, w_e + r1, r2, r3), tau_load)[0]
-        # corrector + Psi (N* - p(1)), p(1) = 6 N_0 - 15 N_-1 + 20 N_-2 - 15 N_-3 + 6 N_-4 - N_-5 (``_EXTRAPOLATION``)
+        # corrector + Psi (N* - p(1)), p(1) = 6 N_0 - 15 N_-1 + 20 N_-2 - 15 N_-3 + 6 N_-4 - N_-5 (the quintic)
         d0 = f[1] - alpha1 - a0 * r0 - a1 * r1 - (6.0 * (x0 + x4) - 15.0 * (x1 + x3) + 20.0 * x2 - x5)
         d1 = f[3] - b0 * r2 - b1 * r3 - (6.0 * (v0 + v4) - 15.0 * (v1 + v3) + 20.0 * v2 - v5)
         state = (phi_e + r0 + s0 * d0, w_e + r1 + s1 * d0, r2 + s2 * d1, r3 + s3 * d1)
@@ -757,18 +755,18 @@ def _output_rates(p: Parameters, phi1: float, omega1: float, y: Sequence[float],
     the torque-driven state y is part of; immutable), is the same object and phi1, omega1 the same nonzero floats
     (equal nonzero floats are the same bits; a zero, which may be -0.0, evaluates). A pure cache: anything else
     (another state, a restored FMU state's copy, another input motion) evaluates again."""
-    memo = p.outputs_memo
-    if memo is not None and memo[0] is key and memo[1] == phi1 and memo[2] == omega1 and phi1 and omega1:
-        return memo[3], memo[4]
+    if _served_rates(p, phi1, omega1, key) is not None:
+        return p.outputs_memo[3:]
     rates, inertia = _flexible_rates(p, phi1, omega1, y, 0.0), input_inertia(p, phi1)
     p.outputs_memo = key, phi1, omega1, rates, inertia
     return rates, inertia
 
 
-def _served_rates(p: Parameters, phi1: float, omega1: float, y: State) -> tuple | None:
+def _served_rates(p: Parameters, phi1: float, omega1: float, y: tuple) -> tuple | None:
     """``_flexible_rates(p, phi1, omega1, y, 0.0)`` from the outputs' evaluation (:func:`_output_rates`) where it is
-    at this state object and at phi1, omega1, both nonzero (a step's first stage is at phi0 + s (w0 + alpha s / 2)
-    and w0 + alpha s with s = 0.0, which is phi0 and w0 bit for bit unless one is a zero), else None (evaluate)."""
+    at this state object (or the torque-driven state it is part of: the memo's key) and at phi1, omega1, both
+    nonzero (a step's first stage is at phi0 + s (w0 + alpha s / 2) and w0 + alpha s with s = 0.0, which is phi0
+    and w0 bit for bit unless one is a zero), else None (evaluate)."""
     memo = p.outputs_memo
     if memo is None or memo[0] is not y or not (memo[1] == phi1 and memo[2] == omega1 and phi1 and omega1):
         return None
