@@ -579,25 +579,31 @@ class ModelSlave(UjfmuSlave):
         vars(self).update(self.MODEL.load_outputs(self._p, self._time, self.current_state(u), u))
 
     def advance(self, t, h):
-        """Step the state from t to t + h; returns the inputs (``model_inputs()``) held over the step (None for a
-        kinematic model after its first step: nothing used them)."""
+        """Step the state from t to t + h (:meth:`step_state`, or held while kinematic); returns the inputs
+        (``model_inputs()``) held over the step (None for a kinematic model after its first step: nothing used
+        them)."""
         if self._kinematic:
             u = None
             if not self._started:
                 u = self.model_inputs()
                 self._y, self._started = self.current_state(u), True
-        else:
-            u = self.model_inputs()
-            y = self.integrate(t, h, self._y if self._started else self.current_state(u), u)
-            if not math.isfinite(sum(y)) and not all(map(math.isfinite, y)):   # a sum is finite unless one is not
-                raise ValueError(f"the state became non-finite over the step ({y!r})")
-            if self._check_state is not None:
-                problems = self._check_state(self._p, y)
-                if problems:
-                    raise ValueError("; ".join(problems))
-            self._y, self._started = y, True
-        self._time = t + h
+            self._time = t + h
+            return u
+        u = self.model_inputs()
+        self.step_state(t, h, u)
         return u
+
+    def step_state(self, t, h, u):
+        """The state from t to t + h under the inputs u (:meth:`integrate`), checked finite and by the model's
+        ``check_state``, and the time."""
+        y = self.integrate(t, h, self._y if self._started else self.current_state(u), u)
+        if not math.isfinite(sum(y)) and not all(map(math.isfinite, y)):   # a sum is finite unless one is not
+            raise ValueError(f"the state became non-finite over the step ({y!r})")
+        if self._check_state is not None:
+            problems = self._check_state(self._p, y)
+            if problems:
+                raise ValueError("; ".join(problems))
+        self._y, self._started, self._time = y, True, t + h
 
     def integrate(self, t, h, y, u):
         """The state y at t advanced to t + h by the model's own ``integrate_with_history`` (its history advanced
@@ -719,7 +725,7 @@ class PrescribedInputSlave(ModelSlave):
         extrapolated it: speed omega_in + alpha h at the step's alpha, not the held speed with alpha 0 (which
         would drop the inertia torque J alpha from tau_in)."""
         if self._input_set:
-            return self.model_inputs()
+            return _new_inputs(Drive, (self._phi_in, self.omega_in, self.input_acceleration(), self.tau_load))
         alpha = self._alpha_step
         return _new_inputs(Drive, (self._phi_in, self.omega_in + alpha * self._h_prev, alpha, self.tau_load))
 
@@ -746,15 +752,21 @@ class PrescribedInputSlave(ModelSlave):
         return max(abs(u.omega), abs(u.omega + u.alpha * h))
 
     def compute_outputs(self):
-        u = super().compute_outputs()
-        self.phi_in, self.alpha_in = u.phi, u.alpha
+        """ModelSlave's (at ``output_inputs``), and the input shaft's phi_in and alpha_in."""
+        u = self.output_inputs()
+        vars(self).update(self._outputs(self._p, self._time, self._y if self._started else self.current_state(u), u))
+        self.phi_in, self.alpha_in = u[0], u[2]
         return u
 
     def advance(self, t, h):
-        """ModelSlave's step, then the input angle over it (Kahan-summed) and the speed history."""
-        u = super().advance(t, h)
-        alpha = self.input_acceleration() if u is None else u.alpha
-        omega = self.omega_in
+        """ModelSlave's step (:meth:`step_state` at ``model_inputs()``, or held while kinematic), then the input
+        angle over it (Kahan-summed) and the speed history."""
+        omega, alpha = self.omega_in, self.input_acceleration()
+        if self._kinematic:
+            u = ModelSlave.advance(self, t, h)
+        else:
+            u = _new_inputs(Drive, (self._phi_in, omega, alpha, self.tau_load))
+            self.step_state(t, h, u)
         increment = h * (omega + 0.5 * alpha * h) - self._phi_in_carry
         total = self._phi_in + increment
         self._phi_in_carry = (total - self._phi_in) - increment

@@ -53,12 +53,14 @@ def substeps(rate: float, h: float, max_substeps: int = MAX_SUBSTEPS) -> int:
     """Number of RK4 substeps for a step h so that each is at most RATE_STEP / rate long; ValueError above
     max_substeps (or for a non-finite rate)."""
     n = h * rate / RATE_STEP
+    if n <= 1.0:
+        return 1
     if not n <= max_substeps:
         raise ValueError(f"a step of {h!r} s needs {n:.3g} substeps (each at most {RATE_STEP} / rate long) for the "
                          f"model's fastest rate {rate:.6g} 1/s, more than the {max_substeps} allowed: check the "
                          "stiffness, damping and inertia parameters (a mode this fast is far beyond what the step "
                          "resolves; a smaller communication step takes fewer substeps each, not fewer in all)")
-    return max(1, math.ceil(n))
+    return math.ceil(n)
 
 
 def integrate(derivatives: Callable, y: Sequence[float], t_span: float,

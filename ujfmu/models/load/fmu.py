@@ -1,7 +1,7 @@
 """Load FMU: speed-dependent resisting torque."""
 
 from . import model as load
-from ...fmu.base import SPEED_RANGE, ModelSlave, input_, output, parameter
+from ...fmu.base import SPEED_RANGE, ModelSlave, _new_inputs, input_, output, parameter
 
 
 class Load(ModelSlave):
@@ -27,4 +27,4 @@ class Load(ModelSlave):
     DEFAULT_EXPERIMENT = (0.0, 1.0, 1.0e-3)
 
     def model_inputs(self):
-        return load.Inputs(self.omega)
+        return _new_inputs(load.Inputs, (self.omega,))

@@ -1,7 +1,7 @@
 """Motor FMU: rotor inertia with a PI speed controller and torque limit, or an ideal speed source."""
 
 from . import model as motor
-from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, ModelSlave, input_, output, parameter
+from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, ModelSlave, _new_inputs, input_, output, parameter
 
 _SPEED = SPEED_RANGE
 
@@ -45,7 +45,7 @@ class Motor(ModelSlave):
     DEFAULT_EXPERIMENT = (0.0, 6.0, 1.0e-3)
 
     def model_inputs(self):
-        return motor.Inputs(self.tau_load)
+        return _new_inputs(motor.Inputs, (self.tau_load,))
 
 
 class MotorController(ModelSlave):
@@ -69,4 +69,4 @@ class MotorController(ModelSlave):
     DEFAULT_EXPERIMENT = Motor.DEFAULT_EXPERIMENT
 
     def model_inputs(self):
-        return motor.Controller.Inputs(self.omega)
+        return _new_inputs(motor.Controller.Inputs, (self.omega,))
