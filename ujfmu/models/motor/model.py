@@ -82,6 +82,8 @@ class Parameters(ControllerParameters):
 
     J_rotor: float
     ideal_speed_source: bool = False
+    #: (h, :func:`pi_propagator`'s rows) of the last step length, a pure cache (one float compared per step)
+    propagator_memo: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
 
 class State(NamedTuple):
@@ -202,7 +204,10 @@ def pi_propagator(p: Parameters, h: float) -> tuple:
         x(h) = P (x(0), c, d),  P = the first three rows of exp(M h),  M = [[A, F, 0], [0, 0, 1], [0, 0, 0]]
 
     (M augments x with c + d s and d, whose derivatives are d and 0: Van Loan's block exponential). Computed in
-    plain Python (:func:`_expm`) once per (J_rotor, Kp, Ki, h)."""
+    plain Python (:func:`_expm`) once per (J_rotor, Kp, Ki, h), kept on p for the last h."""
+    memo = p.propagator_memo
+    if memo is not None and memo[0] == h:
+        return memo[1]
     key = (p.J_rotor, p.Kp, p.Ki, h)
     rows = _PROPAGATORS.get(key)
     if rows is None:
@@ -215,6 +220,7 @@ def pi_propagator(p: Parameters, h: float) -> tuple:
         if len(_PROPAGATORS) >= 64:
             _PROPAGATORS.clear()
         _PROPAGATORS[key] = rows
+    p.propagator_memo = h, rows
     return rows
 
 
