@@ -54,3 +54,15 @@ def test_natural_frequencies_of_a_damped_oscillator_and_a_rigid_body():
         return [v, -2 * zeta * w * v - w * w * x, omega, 0.0]
 
     assert natural_frequencies(rhs, [0.0, 0.0, 0.0, 0.0]) == pytest.approx([w], rel=1e-6)
+
+
+def test_order_fit_refuses_samples_at_too_few_angles():
+    """Four samples a revolution, the step a whole quarter turn: cos(2 angle) and the mean take the same values
+    at every sample, so orders 1-4 cannot be told apart: refused, not one of many solutions. The same record at
+    a step that is no whole fraction of a revolution fits them."""
+    angle = 0.5 * math.pi * np.arange(400)
+    with pytest.raises(ValueError, match="too few distinct shaft angles"):
+        order_fit(angle, np.cos(2 * angle), range(1, 5))
+    angle = 0.37 * np.arange(400)
+    _, amplitudes, _ = order_fit(angle, np.cos(2 * angle), range(1, 5))
+    assert amplitudes == pytest.approx([0.0, 1.0, 0.0, 0.0], abs=1e-9)

@@ -231,14 +231,21 @@ def test_references_refuses_to_overwrite_another_scenarios_reference(fmu_dir, tm
 
 
 def test_output_interval_thins_the_written_rows_and_keeps_the_verdict(fmu_dir, tmp_path, capsys):
-    """--output-interval 50 on a 500-step run: rows at 0, 50, ..., 500 s/1000 in the CSV, still compared (PASS);
-    a value below 1 is refused by the argument parser."""
+    """--output-interval 10 on a 500-step run: rows at 0, 10, ..., 500 s/1000 in the CSV, still compared (PASS).
+    --output-interval 50 records every 0.05 s, one period of the joint's 2x order at 600 rpm: every row at one joint
+    angle, which the reference at the same instants matches, so the sampling check fails it. A value below 1 is
+    refused by the argument parser."""
     path = SCENARIOS / "cardan_constant_speed.toml"
     assert main(["run", str(path), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path), "--no-plot",
-                 "--output-interval", "50"]) == 0
+                 "--output-interval", "10"]) == 0
     assert "PASS cardan_constant_speed" in capsys.readouterr().out
     rows = (tmp_path / "cardan_constant_speed.csv").read_text().splitlines()[1:]
-    assert [float(r.split(",")[0]) for r in rows] == pytest.approx([0.05 * k for k in range(11)], abs=1e-12)
+    assert [float(r.split(",")[0]) for r in rows] == pytest.approx([0.01 * k for k in range(51)], abs=1e-12)
+    assert main(["run", str(path), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path), "--no-plot",
+                 "--output-interval", "50"]) == 1
+    out = capsys.readouterr().out
+    assert out.startswith("FAIL cardan_constant_speed") and "FAIL sampling joint" in out
+    assert all(line.startswith("  ok") for line in out.splitlines() if "max|err|" in line)
     with pytest.raises(SystemExit):
         main(["run", str(path), "--output-interval", "0"])
 

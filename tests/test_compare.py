@@ -71,3 +71,17 @@ def test_fmpy_band_on_the_references_own_samples():
     assert fmpy_outlier_fraction(reference, reference) == 0.0
     shifted = table(t, a__y=reference["a.y"] + 0.6 * ((t > 8.0) & (t < 9.7)))   # range about 1.9
     assert fmpy_outlier_fraction(shifted, reference) == pytest.approx(0.1, abs=0.01)
+
+
+def test_a_constant_reference_with_rel_range_alone_is_flagged():
+    """A constant 20 N.m reference (its range 1e-10 from round-off) under rel_range = 1e-3 allows 1e-13: the line
+    says why and what to give instead; with an abs tolerance, or a varying reference, there is no such note."""
+    reference = table([0.0, 1.0, 2.0], a__y=[20.0, 20.0 + 1e-10, 20.0])
+    result = table([0.0, 1.0, 2.0], a__y=[20.0, 20.0, 20.0])
+    (check,) = compare(result, reference, {"a.y": Tolerance(rel_range=1e-3)})
+    assert check.allowed == pytest.approx(1e-13) and "the reference is constant (20" in str(check)
+    assert "give this signal an abs tolerance" in str(check)
+    (check,) = compare(result, reference, {"a.y": Tolerance(rel_range=1e-3, abs=1e-6)})
+    assert check.note == ""
+    (check,) = compare(table([0.0, 1.0, 2.0], a__y=[0.0, 4.0, 0.0]), REFERENCE, {"a.y": Tolerance(rel_range=1e-3)})
+    assert check.note == ""

@@ -1,6 +1,7 @@
 """Detection and reporting: a divergence too fast for the alternation count is still blamed on the coupling, a
 refusal with no coupling evidence stays a range error, the energy residual of the power bonds, inputs held
-unconnected, and a drive that does not reach its set point in a run without a reference."""
+unconnected, a drive that does not reach its set point in a run without a reference, a record that aliases a joint's
+2x order, and the energy figure of a bond from an ideal speed source."""
 
 import math
 import warnings
@@ -156,3 +157,93 @@ def test_run_without_reference_checks_the_set_point(fmu_dir, tmp_path, capsys, t
     else:
         assert line.strip().startswith("ok") and math.isclose(reached, 50.0, rel_tol=0.01)
         assert out.startswith("NOT CHECKED")
+
+
+JOINT_AT_1500_RPM = """title = "Cardan joint at 20 deg behind an ideal speed source at 1500 rpm, no reference"
+[experiment]
+stop_time = 0.2
+step_size = {step}
+[components.motor]
+fmu = "Motor"
+parameters = {{ ideal_speed_source = true, profile = 0, omega_set = 157.07963267948966 }}
+[components.joint]
+fmu = "CardanJoint"
+parameters = {{ bend_angle = 0.3490658503988659, J2 = 0.01 }}
+[components.load]
+fmu = "Load"
+parameters = {{ T0 = 20.0, c1 = 0.0, c2 = 0.0, omega_smooth = 1e-3 }}
+[[connections]]
+from = "motor.omega"
+to = "joint.omega_in"
+[[connections]]
+from = "joint.tau_in"
+to = "motor.tau_load"
+[[connections]]
+from = "joint.omega_out"
+to = "load.omega"
+[[connections]]
+from = "load.tau"
+to = "joint.tau_load"
+[output]
+record = ["joint.omega_out", "joint.tau_in"]
+"""
+
+
+@pytest.mark.parametrize("step, samples", [(0.02, 1), (0.01, 2), (0.005, 4), (0.001, 20)])
+def test_a_record_that_aliases_the_joints_2x_order_fails(fmu_dir, tmp_path, capsys, step, samples):
+    """1500 rpm = 50 pi rad/s turns the joint's speed ratio at 2x, 50 Hz, a period of 0.02 s: a step of 0.02 s
+    samples one joint angle (omega_out constant, though it swings between cos 20 deg and 1 / cos 20 deg of the
+    input), 0.01 s two of them (Nyquist): both FAIL with the remedy (a record step of at most 0.002 s, 10 samples a
+    period), though no reference or step halving could tell; 4 and 20 samples a period pass (NOT CHECKED: no
+    reference). The input speed rides along without entering the CSV; JUnit names the reason."""
+    path = tmp_path / "joint.toml"
+    path.write_text(JOINT_AT_1500_RPM.format(step=step))
+    code = main(["--fmu-dir", str(fmu_dir), "run", str(path), "--no-plot", "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    line = next(x for x in out.splitlines() if "sampling joint" in x)
+    assert "its 2x order (up to 50 Hz at omega_in = 157.08 rad/s (1500 rpm))" in line
+    assert f", {samples} samples a period" in line
+    table = np.genfromtxt(tmp_path / "joint.csv", delimiter=",", names=True)
+    assert "jointomega_in" not in table.dtype.names   # genfromtxt's name of joint.omega_in
+    if samples <= 2:
+        assert code == 1 and out.startswith("FAIL") and line.strip().startswith("FAIL")
+        assert f"record step of {step:g} s" in line and "record at most every 0.002 s" in line
+        if samples == 1:   # the aliased record: one joint angle, a constant output speed
+            assert np.ptp(table["jointomega_out"]) < 1e-9 * 157.08
+        junit = tmp_path / "report.xml"
+        main(["--fmu-dir", str(fmu_dir), "check", str(path), "--no-plot", "--out", str(tmp_path), "--junit",
+              str(junit)])
+        text = junit.read_text()
+        assert 'failures="1"' in text and 'skipped="0"' in text and "record aliases" in text
+    else:
+        assert code == 0 and out.startswith("NOT CHECKED") and line.strip().startswith("ok")
+        assert np.ptp(table["jointomega_out"]) > 0.1 * 157.08 * (1 / math.cos(0.349) - math.cos(0.349))
+
+
+def test_step_auto_passes_over_the_steps_whose_record_aliases(fmu_dir, tmp_path, capsys):
+    """--step auto from 0.02 s: step halving alone passes 0.02 s (the record agrees with itself at the coarse
+    instants); the sampling check refuses 0.02 and 0.01 s, so the step chosen samples the 2x order more than twice
+    a period."""
+    path = tmp_path / "joint.toml"
+    path.write_text(JOINT_AT_1500_RPM.format(step=0.02))
+    main(["--fmu-dir", str(fmu_dir), "run", str(path), "--no-plot", "--out", str(tmp_path), "--step", "auto"])
+    out = capsys.readouterr().out
+    chosen = float(out.split("--step auto: step_size = ")[1].split()[0])
+    assert chosen <= 0.005 and out.count("FAIL sampling joint") == 2
+
+
+def test_a_bond_from_an_ideal_speed_source_is_marked_no_coupling_error(fmu_dir, tmp_path, capsys):
+    """The ideal source's speed ignores the torque: its bond's residual (12.9% of the transmitted energy here, the
+    joint's torque swinging at 2x within the steps) is marked as no coupling error; the joint-load bond, whose load
+    acts on the joint, and a PI motor's bond (SCENARIO) are not marked."""
+    path = tmp_path / "joint.toml"
+    path.write_text(JOINT_AT_1500_RPM.format(step=0.001))
+    main(["--fmu-dir", str(fmu_dir), "run", str(path), "--no-plot", "--out", str(tmp_path)])
+    lines = [x for x in capsys.readouterr().out.splitlines() if "coupling energy" in x]
+    assert len(lines) == 2
+    assert "motor <-> joint" in lines[0] and "(no coupling error: motor is an ideal speed source" in lines[0]
+    assert "joint <-> load" in lines[1] and "no coupling error" not in lines[1]
+    path.write_text(SCENARIO.format(tau_max=5.0))
+    main(["--fmu-dir", str(fmu_dir), "run", str(path), "--no-plot", "--out", str(tmp_path)])
+    lines = [x for x in capsys.readouterr().out.splitlines() if "coupling energy" in x]
+    assert len(lines) == 1 and "no coupling error" not in lines[0]

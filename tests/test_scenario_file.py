@@ -92,6 +92,7 @@ def test_good_file_loads(tmp_path):
     ('step_size = 1e-3', 'step_size = 1e-3\noutput_interval = 0', "experiment.output_interval"),
     ('step_size = 1e-3', 'step_size = 1e-3\noutput_interval = 2.5', "experiment.output_interval"),
     ('step_size = 1e-3', 'step_size = 1e-3\ncoupler = "explicit"', "unknown field(s) coupler"),
+    ('stop_time = 1.0', 'stoptime = 1.0', "[experiment]: unknown field(s) stoptime"),   # not "stop_time = None"
     # [reference]: every recorded signal compared or not_compared with a reason; tolerances well-formed
     ('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x"]' + REF, "output.record: j.M_x neither compared"),
     ('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x"]' + REF + '\n[reference.not_compared]\n"j.M_x" = " "',

@@ -16,12 +16,19 @@ def order_amplitudes(angle, signal, orders):
 
 
 def order_fit(angle, signal, orders):
-    """(c0, amplitudes, phases) of the least-squares fit signal = c0 + sum_k amplitude_k cos(k angle - phase_k)."""
+    """(c0, amplitudes, phases) of the least-squares fit signal = c0 + sum_k amplitude_k cos(k angle - phase_k).
+    ValueError where the samples fall at too few distinct angles to tell the orders apart (a step that is a whole
+    fraction of a revolution: the fit would return one of many solutions)."""
     angle, signal = np.asarray(angle, float), np.asarray(signal, float)
     columns = [np.ones_like(angle)]
     for k in orders:
         columns += [np.cos(k * angle), np.sin(k * angle)]
-    coef = np.linalg.lstsq(np.column_stack(columns), signal, rcond=None)[0]
+    matrix = np.column_stack(columns)
+    coef, _, rank, _ = np.linalg.lstsq(matrix, signal, rcond=None)
+    if rank < matrix.shape[1]:
+        raise ValueError(f"the {len(angle)} samples fall at too few distinct shaft angles to separate the mean and "
+                         f"orders {', '.join(map(str, orders))} (rank {rank} of {matrix.shape[1]}): the step is a whole "
+                         f"fraction of a revolution; take a step that is not, or more samples per revolution")
     a, b = coef[1::2], coef[2::2]
     return coef[0], np.hypot(a, b), np.arctan2(b, a)
 

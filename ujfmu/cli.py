@@ -1,4 +1,4 @@
-"""Command line: ujfmu build | run | check | references | sweep | report | bench | export-ssp.
+"""Command line: ujfmu build | run | check | references | sweep | export-ssp | bench | battery | report | mutate.
 
 The folders fmus/, scenarios/ and results/ are those of the current directory. The common options (--fmu-dir,
 --out, --quiet) go before or after the command. The library reports progress through callbacks; this module

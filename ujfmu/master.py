@@ -116,6 +116,7 @@ class BondEnergy:
     residual: float = 0.0
     residual_abs: float = 0.0
     transmitted: float = 0.0
+    note: str = ""   # what the figure means for this bond, where not a coupling error (set by the caller)
 
     @property
     def components(self) -> tuple:
@@ -132,7 +133,7 @@ class BondEnergy:
                 f"{self.residual:+.4g} J, sum |per step| {self.residual_abs:.4g} J")
         if self.transmitted > 0.0:
             text += f" = {100.0 * self.relative:.3g}% of the {self.transmitted:.4g} J transmitted"
-        return text
+        return text + (f" ({self.note})" if self.note else "")
 
 
 @dataclass

@@ -121,16 +121,16 @@ class Scenario:
             if not isinstance(value, str):
                 raise ScenarioError(f"{self.path}: {field} = {value!r} must be a string")
         exp = self._table(data, "experiment")
+        unknown = set(exp) - EXPERIMENT_KEYS
+        if unknown:   # before the required ones: a misspelt stop_time is named as such, not as a missing value
+            raise ScenarioError(f"{self.path}: [experiment]: unknown field(s) {', '.join(sorted(unknown))}; "
+                                f"known: {', '.join(sorted(EXPERIMENT_KEYS))}")
         self.start_time = self._number(exp, "experiment.start_time", 0.0)
         self.stop_time = self._number(exp, "experiment.stop_time")
         self.step_size = self._number(exp, "experiment.step_size")
         self.declared_step = self.step_size   # the file's step, which [reference.extrapolated] bands are made for
         if not self.step_size > 0 or not self.stop_time > self.start_time:
             raise ScenarioError(f"{self.path}: [experiment] needs step_size > 0 and stop_time > start_time")
-        unknown = set(exp) - EXPERIMENT_KEYS
-        if unknown:
-            raise ScenarioError(f"{self.path}: [experiment]: unknown field(s) {', '.join(sorted(unknown))}; "
-                                f"known: {', '.join(sorted(EXPERIMENT_KEYS))}")
         self.coupling = exp.get("coupling", DEFAULT_COUPLING)
         if self.coupling not in COUPLINGS:
             raise ScenarioError(f"{self.path}: experiment.coupling = {self.coupling!r} must be one of "

@@ -1,8 +1,9 @@
 """Run scenarios, compare them with their references, write results, plots and JUnit reports.
 
 A scenario's verdict is one of three: ``PASS`` (every toleranced signal within its tolerance), ``FAIL`` (at least
-one outside), ``NOT CHECKED`` (nothing compared: no ``[reference]``, or no ``[reference.tolerance]`` entry). A
-scenario that was not checked never counts as passed: the JUnit report marks it skipped.
+one outside, a drive short of its set point, or a record that aliases a model's excitation order), ``NOT CHECKED``
+(nothing compared: no ``[reference]``, or no ``[reference.tolerance]`` entry, and nothing failed). A scenario that
+was not checked never counts as passed: the JUnit report marks it skipped.
 """
 
 import math
@@ -32,6 +33,7 @@ class SignalCheck:
     max_error: float
     allowed: float
     reference_range: float
+    note: str = ""   # what the figures mean, where the tolerance's form does not suit the reference
 
     @property
     def passed(self):
@@ -49,7 +51,11 @@ class SignalCheck:
         # the error relative to the reference's range means something only when the reference varies
         if self.reference_range > RANGE_FLOOR * self.allowed:
             text += f", {100 * self.max_error / self.reference_range:.3g}% of the reference's range"
-        return text + ")"
+        return text + ")" + (f": {self.note}" if self.note else "")
+
+
+#: a reference whose range is at most this fraction of its magnitude is constant: rel_range gives it no allowance
+CONSTANT_REFERENCE = 1e-9
 
 
 #: a reference range below this multiple of the allowed error counts as constant (no "% of range" figure)
@@ -94,12 +100,95 @@ class OperatingPointCheck:
         return text
 
 
+#: a record that samples a model's excitation order (its ``EXCITATION_ORDER``) this many times a period or fewer
+#: aliases it (Nyquist)
+MIN_SAMPLES_PER_PERIOD = 2.0
+#: samples a period the remedy of an aliased record asks for
+RESOLVING_SAMPLES_PER_PERIOD = 10.0
+
+
+@dataclass
+class SamplingCheck:
+    """A drivetrain component's record against the highest order of the input speed its outputs carry at full size
+    (its model's ``EXCITATION_ORDER``: a joint's 2x): samples per period of that order at the run's largest
+    |omega_in|, the record taken every ``interval`` s. At MIN_SAMPLES_PER_PERIOD or fewer the record aliases it: a
+    record step of a whole number of its periods samples one joint angle and shows a constant, and a reference
+    sampled at the same instants agrees with it."""
+    component: str
+    order: int
+    omega: float   # the largest |omega_in| recorded [rad/s]
+    interval: float   # the record's step [s]
+
+    @property
+    def samples(self) -> float:
+        """Samples per period of the order at omega: 2 pi / (order omega interval)."""
+        rate = self.order * self.omega * self.interval
+        return 2.0 * math.pi / rate if rate > 0.0 else math.inf
+
+    @property
+    def passed(self) -> bool:
+        return self.samples > MIN_SAMPLES_PER_PERIOD
+
+    def __str__(self):
+        hertz = self.order * self.omega / (2.0 * math.pi)
+        what = (f"sampling {self.component}: its {self.order}x order (up to {hertz:.4g} Hz at omega_in = "
+                f"{speed_text(self.omega)})")
+        if self.passed:
+            return f"ok   {what}, {self.samples:.3g} samples a period (more than {MIN_SAMPLES_PER_PERIOD:g})"
+        resolving = 2.0 * math.pi / (RESOLVING_SAMPLES_PER_PERIOD * self.order * self.omega)
+        return (f"FAIL {what}, {self.samples:.3g} samples a period at a record step of {self.interval:g} s, at most "
+                f"{MIN_SAMPLES_PER_PERIOD:g} (Nyquist): the record aliases the order (a step of a whole number of its "
+                f"periods samples one joint angle and shows a constant; the reference, sampled at the same instants, "
+                f"agrees); record at most every {resolving:.3g} s to sample it {RESOLVING_SAMPLES_PER_PERIOD:g} "
+                f"times a period (step_size, and output_interval)")
+
+
+def sampled_components(scenario: Scenario) -> list:
+    """(component, order) of the scenario's components whose model declares an ``EXCITATION_ORDER``."""
+    from .build import fmu_class
+    pairs = []
+    for name, (fmu, _) in scenario.components.items():
+        order = getattr(fmu_class(fmu).PHYSICS, "EXCITATION_ORDER", None)
+        if order:
+            pairs.append((name, order))
+    return pairs
+
+
+def check_sampling(scenario: Scenario, table: np.ndarray) -> list:
+    """A SamplingCheck per component of :func:`sampled_components` whose omega_in is in table (two rows or more)."""
+    t = table["time"]
+    if len(t) < 2:
+        return []
+    interval = float(np.max(np.diff(t)))
+    return [SamplingCheck(name, order, float(np.max(np.abs(table[f"{name}.omega_in"]))), interval)
+            for name, order in sampled_components(scenario) if f"{name}.omega_in" in table.dtype.names]
+
+
+def ideal_speed_source(scenario: Scenario, name: str) -> bool:
+    """The component is a Motor that is an ideal speed source (its speed follows its profile, whatever torque acts
+    on it)."""
+    return scenario.components[name][0] == "Motor" and bool(
+        scenario.parameters_with_defaults(name).get("ideal_speed_source"))
+
+
+def annotate_bonds(scenario: Scenario, bonds: list) -> list:
+    """The bonds (``ujfmu.master.BondEnergy``), each whose speed comes from an ideal speed source noted: its speed
+    ignores the torque, so the held torque moves no energy in any model, and the residual sums only how much the
+    torque changes within the steps (its size says nothing about the coupling's accuracy)."""
+    for bond in bonds:
+        source = bond.components[0]
+        if ideal_speed_source(scenario, source):
+            bond.note = (f"no coupling error: {source} is an ideal speed source, whose speed ignores the torque; the "
+                         f"figure sums the torque's change within the steps")
+    return bonds
+
+
 def operating_pairs(scenario: Scenario) -> list:
     """(speed, set point) signal pairs of the scenario's drives: every Motor that is not an ideal speed source
     (omega, omega_ref) and every MotorController (its measured speed input omega, omega_ref)."""
     pairs = []
     for name, (fmu, _) in scenario.components.items():
-        if fmu == "Motor" and not scenario.parameters_with_defaults(name).get("ideal_speed_source"):
+        if fmu == "Motor" and not ideal_speed_source(scenario, name):
             pairs.append((f"{name}.omega", f"{name}.omega_ref"))
         elif fmu == "MotorController":
             pairs.append((f"{name}.omega", f"{name}.omega_ref"))
@@ -157,6 +246,7 @@ class ScenarioResult:
     plot: Path = None
     extra_plots: list = field(default_factory=list)   # orbits and spectra, when the scenario asks for them
     operating_checks: list = field(default_factory=list)   # OperatingPointCheck per drive
+    sampling_checks: list = field(default_factory=list)   # SamplingCheck per drivetrain component
     bonds: list = field(default_factory=list)   # ujfmu.master.BondEnergy per power bond (co-simulation only)
     model_exchange: bool = False   # run under CVode (ujfmu.model_exchange) instead of co-simulated
     skipped_bands: str = ""   # why the [reference.extrapolated] bands were not checked, if they were not
@@ -185,7 +275,8 @@ class ScenarioResult:
 
     @property
     def failed(self) -> bool:
-        return any(not c.passed for c in self.checks + self.extrapolated_checks + self.operating_checks)
+        return any(not c.passed for c in self.checks + self.extrapolated_checks + self.operating_checks
+                   + self.sampling_checks)
 
     @property
     def verdict(self) -> str:
@@ -213,6 +304,7 @@ class ScenarioResult:
             lines.append(f"  {self.skipped_bands}")
         lines += [f"  not compared: {name}: {why}" for name, why in self.scenario.not_compared.items()]
         lines += [f"  {c}" for c in self.operating_checks]
+        lines += [f"  {c}" for c in self.sampling_checks]
         lines += [f"  {b}" for b in self.bonds]
         if any(not c.passed for c in self.checks + self.extrapolated_checks):
             lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the coupling's "
@@ -269,7 +361,12 @@ def compare(table, reference, tolerances):
         else:
             err = float(np.max(np.abs(table[name] - np.interp(t, reference["time"], reference[name]))))
         span = float(np.ptp(reference[name][window])) if window.any() else 0.0
-        checks.append(SignalCheck(name, err, tol.rel_range * span + tol.abs, span))
+        check = SignalCheck(name, err, tol.rel_range * span + tol.abs, span)
+        magnitude = float(np.max(np.abs(reference[name][window]))) if window.any() else 0.0
+        if tol.abs == 0.0 and 0.0 < magnitude and span <= CONSTANT_REFERENCE * magnitude:
+            check.note = (f"the reference is constant ({magnitude:.6g}, range {span:.3g}), so rel_range allows next to "
+                          f"nothing; give this signal an abs tolerance")
+        checks.append(check)
     return checks
 
 
@@ -323,8 +420,11 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         check_reference_span(scenario, reference)
     start = time.perf_counter()
     diagnostics = {}
-    # the drives' speeds and set points ride along for the operating-point check, then leave the table
+    # the drives' speeds and set points ride along for the operating-point check, the drivetrain components' input
+    # speeds for the sampling check, then leave the table
     extra = [x for pair in operating_pairs(scenario) for x in pair if x not in scenario.record]
+    extra += [f"{name}.omega_in" for name, _ in sampled_components(scenario)
+              if f"{name}.omega_in" not in scenario.record + extra]
     try:
         if model_exchange:
             from .model_exchange import simulate_scenario_me
@@ -340,11 +440,13 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         if exc.partial is not None and out_dir is not None:
             _write_partial(scenario, exc, Path(out_dir), plot)
         raise
-    operating = check_operating_points(scenario, table)
+    operating, sampling = check_operating_points(scenario, table), check_sampling(scenario, table)
     if extra:
         table = _without(table, extra)
     result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start, operating_checks=operating,
-                            bonds=diagnostics.get("bonds", []), model_exchange=model_exchange)
+                            sampling_checks=sampling,
+                            bonds=annotate_bonds(scenario, diagnostics.get("bonds", [])),
+                            model_exchange=model_exchange)
     if reference is not None and scenario.tolerances:
         result.checks = compare(table, reference, scenario.tolerances)
         from .references import method_of
@@ -400,7 +502,7 @@ def write_junit(results, path):
     compared nothing is a skipped test case."""
     suite = ET.Element("testsuite", name="ujfmu scenarios", tests=str(len(results)),
                        failures=str(sum(r.failed for r in results)), errors="0",
-                       skipped=str(sum(not r.checked for r in results)),
+                       skipped=str(sum(not r.checked and not r.failed for r in results)),
                        time=f"{sum(r.wall_time for r in results):.3f}")
     for r in results:
         case = ET.SubElement(suite, "testcase", classname="ujfmu.scenarios", name=r.scenario.name,
@@ -408,7 +510,9 @@ def write_junit(results, path):
         if r.failed:
             why = [w for w, bad in (("signal outside tolerance of the reference",
                                      any(not c.passed for c in r.checks + r.extrapolated_checks)),
-                                    ("operating point not reached", any(not c.passed for c in r.operating_checks)))
+                                    ("operating point not reached", any(not c.passed for c in r.operating_checks)),
+                                    ("record aliases a model's excitation order",
+                                     any(not c.passed for c in r.sampling_checks)))
                    if bad]
             failure = ET.SubElement(case, "failure", message="; ".join(why))
             failure.text = r.summary()

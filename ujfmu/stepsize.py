@@ -30,10 +30,14 @@ class StepEstimate:
     allowed: dict       # signal -> allowance as a fraction of the range
     failure: str = ""   # the co-simulation at this step (or its half) stopped: why
     absolute: dict = field(default_factory=dict)   # signal -> (max |error|, allowance) for the signals shown so
+    sampling: list = field(default_factory=list)   # scenario_run.SamplingCheck per drivetrain component
 
     @property
     def passed(self) -> bool:
-        return not self.failure and all(self.within(n) for n in self.errors)
+        """No failure, every signal's estimate within its allowance, and no record aliasing a model's order (step
+        halving compares at the coarse instants, where an aliased record agrees with itself)."""
+        return (not self.failure and all(self.within(n) for n in self.errors)
+                and all(c.passed for c in self.sampling))
 
     def within(self, name: str) -> bool:
         """The signal's estimate within its allowance (in absolute terms for a signal in ``absolute``)."""
@@ -50,7 +54,7 @@ class StepEstimate:
                 f"{self.absolute[n][0]:9.3g} (allowed {self.absolute[n][1]:.3g}; absolute: the signal hardly varies)"
                 if n in self.absolute else
                 f"{100 * self.errors[n]:9.3g}% of range (allowed {100 * self.allowed[n]:.3g}%)")
-            for n in self.errors]
+            for n in self.errors] + [f"  {c}" for c in self.sampling if not c.passed]
 
 
 def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coarse=None) -> StepEstimate:
@@ -58,15 +62,22 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     distance of y(h) from the step-halving extrapolation 2 y(h/2) - y(h) (scenario_run.extrapolate_step).
 
     Signals: the toleranced ones with their allowance rel_range (+ abs as a fraction of the range), else every
-    recorded signal with DEFAULT_REL_RANGE. coarse: the result at ``step`` if already computed."""
-    from .scenario_run import extrapolate_step
+    recorded signal with DEFAULT_REL_RANGE. coarse: the result at ``step`` if already computed (its sampling is
+    the run's own check); else the run records the drivetrain components' input speeds too, for
+    ``scenario_run.check_sampling``."""
+    from .scenario_run import check_sampling, extrapolate_step, sampled_components
     run = copy.copy(scenario)
     run.step_size = scenario.step_size if step is None else step
     names = list(scenario.tolerances) or list(scenario.record)
+    sampling = []
     try:
         if coarse is None:
+            speeds = [f"{name}.omega_in" for name, _ in sampled_components(run)
+                      if f"{name}.omega_in" not in run.record]
             coarse = cosimulate(run.master_components(fmu_dir), run.connections, run.stop_time, run.step_size,
-                                run.record, run.start_time, coupling=run.coupling, output_interval=run.output_interval)
+                                run.record + speeds, run.start_time, coupling=run.coupling,
+                                output_interval=run.output_interval)
+            sampling = check_sampling(run, coarse)
         extrapolated = extrapolate_step(run, fmu_dir, coarse)
     except CosimulationError as exc:
         return StepEstimate(run.step_size, {}, {}, str(exc).splitlines()[0])
@@ -83,7 +94,7 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
             if not tol:
                 allowance = DEFAULT_REL_RANGE * float(np.max(np.abs(extrapolated[name])))
             absolute[name] = (diff, allowance)
-    return StepEstimate(run.step_size, errors, allowed, absolute=absolute)
+    return StepEstimate(run.step_size, errors, allowed, absolute=absolute, sampling=sampling)
 
 
 def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, list[StepEstimate]]:

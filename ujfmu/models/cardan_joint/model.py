@@ -31,6 +31,9 @@ from ..protocol import (Drive, NoState, Torques, kinematic_always, no_derivative
 
 #: Largest admissible magnitude of each misalignment angle and of the total shaft angle acos(K_z) [rad].
 MAX_ANGLE = math.radians(89.0)
+#: the order of the input speed the outputs carry at full size: the joint's speed ratio turns twice a revolution (its
+#: 4x, 6x, ... are smaller by q, q^2, ..., q = tan^2(beta/2)); a record must sample it (``ujfmu.scenario_run``)
+EXCITATION_ORDER = 2
 
 
 def joint_frame(bend_angle: float, bend_plane_angle: float, error_angle_beta: float, error_angle_gamma: float) -> tuple:

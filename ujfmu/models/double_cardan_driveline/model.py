@@ -41,6 +41,9 @@ from ..protocol import Drive, Torques, shaft_inertia_problems, torque_driven_out
 #: Largest admissible magnitude of a joint angle (static plus dynamic) [rad].
 MAX_ANGLE = math.radians(89.0)
 HALF_PI = 0.5 * math.pi
+#: the order of the input speed the outputs carry at full size: each joint's 2x (their 4x, ... are smaller by q, ...,
+#: q = tan^2(beta/2)); a record must sample it (``ujfmu.scenario_run``)
+EXCITATION_ORDER = 2
 
 
 def joint_error(x: float, b: float) -> float:

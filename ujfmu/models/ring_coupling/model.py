@@ -34,6 +34,9 @@ MP_COEFFICIENT = 157.0
 CS_COEFFICIENT = 87.0
 #: Eq. (20): amplitude of the 2x part of x_e = SMALL_PARAMETER_COEFFICIENT e^2 EI / (omega^2 I2 R^3) = A_e/(4 w^2)
 SMALL_PARAMETER_COEFFICIENT = MP_COEFFICIENT / 4.0   # 39.25
+#: the order of the input speed the outputs carry at full size: M_p = 157 (EI/R^3) e^2 cos(phi1 + phi2) turns at
+#: twice the running speed (Eq. 7, 20); a record must sample it (``ujfmu.scenario_run``)
+EXCITATION_ORDER = 2
 
 
 def bending_stiffness(E: float, d: float) -> float:

@@ -37,6 +37,9 @@ from ..protocol import Drive, Torques, shaft_inertia_problems, torque_driven_out
 
 #: Largest admissible joint angle magnitude [rad].
 MAX_ANGLE = math.radians(89.0)
+#: the highest order of the input speed the outputs carry at full size: the unbalance's 1x and the joint's 2x; a
+#: record must sample it (``ujfmu.scenario_run``)
+EXCITATION_ORDER = 2
 
 #: The default rig (one place for every default; README.md). Steel: E, G = E / (2 (1 + 0.3)), density.
 RIG = dict(
