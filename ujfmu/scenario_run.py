@@ -19,6 +19,7 @@ from fmpy.util import write_csv
 
 from .build import DEFAULT_FMU_DIR
 from .extras import available, preload
+from .fmu.base import MIN_SAMPLES_PER_PERIOD, samples_per_period
 from .master import CosimulationError, cosimulate
 from .scenario import Scenario, ScenarioError
 from .steady import speed_text
@@ -100,10 +101,8 @@ class OperatingPointCheck:
         return text
 
 
-#: a record that samples a model's excitation order (its ``EXCITATION_ORDER``) this many times a period or fewer
-#: aliases it (Nyquist)
-MIN_SAMPLES_PER_PERIOD = 2.0
-#: samples a period the remedy of an aliased record asks for
+#: samples a period the remedy of an aliased record asks for (one that samples a model's ``EXCITATION_ORDER``
+#: MIN_SAMPLES_PER_PERIOD times a period or fewer aliases it: ``ujfmu.fmu.base``, whose FMUs say so to any host)
 RESOLVING_SAMPLES_PER_PERIOD = 10.0
 
 
@@ -121,9 +120,8 @@ class SamplingCheck:
 
     @property
     def samples(self) -> float:
-        """Samples per period of the order at omega: 2 pi / (order omega interval)."""
-        rate = self.order * self.omega * self.interval
-        return 2.0 * math.pi / rate if rate > 0.0 else math.inf
+        """Samples per period of the order at omega (``ujfmu.fmu.base.samples_per_period``)."""
+        return samples_per_period(self.order, self.omega, self.interval)
 
     @property
     def passed(self) -> bool:

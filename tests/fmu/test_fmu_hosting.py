@@ -137,3 +137,31 @@ def test_a_straight_joint_read_first_gives_the_inertia_torque(fmu_dir):
     assert result["time"][-1] == 1.0
     assert np.allclose(result["alpha_in"][3:], 30.0, rtol=1e-9)
     assert np.allclose(result["tau_in"][3:], (j1 + 0.01) * 30.0, rtol=1e-9)
+
+
+@pytest.mark.parametrize("name, start", [("CardanJoint", {}), ("DoubleCardanDriveline", {}),
+                                         ("RingCoupling", {}), ("TwinJeffcottRotor", {}),
+                                         ("CardanJointTorqueDriven", {"omega_in_start": 50 * math.pi})])
+def test_a_step_that_aliases_the_2x_order_is_said_once_to_the_host(fmu_dir, name, start):
+    """At 1500 rpm = 50 pi rad/s the 2x order has a period of 0.02 s: a host stepping 0.01 s reads the outputs twice
+    a period (Nyquist), one stepping 0.02 s once (one joint angle each time). The FMU says so once, as a warning
+    naming the order, its frequency and a step that reads it 10 times a period, and keeps stepping; at 4 reads a
+    period (0.005 s) and at 1 ms nothing is said. A torque-driven FMU checks its own input speed."""
+    for h, said in ((0.001, False), (0.005, False), (0.01, True), (0.02, True)):
+        log = []
+        inst = open_instance(fmu_dir, name, log, f"alias{int(h * 1e3)}")
+        try:
+            inst.initialize(start)
+            inputs = inputs_of(inst)
+            for k in range(5):
+                inst.set(**({"omega_in": 50 * math.pi} if "omega_in" in inputs else {}), tau_load=0.0)
+                inst.slave.doStep(k * h, h)
+            warnings = [m for m in log if m.startswith("[warning]") and "2x order" in m]
+            assert len(warnings) == (1 if said else 0), (h, log)
+            if said:
+                text = warnings[0]
+                assert "(50 Hz at 157.08 rad/s)" in text and "a step of at most 0.002 s reads it 10 times" in text
+                assert f"reads the outputs {2 if h == 0.01 else 1} times a period" in text
+            assert not [m for m in log if "[error]" in m or "[fatal]" in m], log
+        finally:
+            inst.free()

@@ -275,3 +275,18 @@ def test_event_indicators_are_declared_and_read(fmu3_dir, opened):
     inst.slave.setContinuousStates(inst.buffer, 1)
     inst.slave.getEventIndicators(inst.z_buffer, 3)
     assert list(inst.z_buffer) == pytest.approx([2.0 - 1.0 - 5.0, 2.0 - 1.0 + 5.0, 1.0], rel=1e-12)
+
+
+def test_a_step_that_aliases_the_2x_order_is_said_once_in_fmi3(fmu3_dir, opened):
+    """As the FMI 2.0 FMU (tests/fmu/test_fmu_hosting.py): at 1500 rpm a 0.02 s step reads the outputs once a
+    period of the joint's 2x order; the FMI 3.0 FMU passes the warning to the host, once, and keeps stepping."""
+    log = []
+    inst = _open(FmuInstance3, fmu3_dir, "CardanJoint", log)
+    opened.append(inst)
+    inst.initialize()
+    step = inst.raw("fmi2DoStep")
+    for k in range(3):
+        inst.set(omega_in=50 * math.pi, tau_load=0.0)
+        assert step(inst.slave.component, k * 0.02, 0.02, 1) == 0
+    warnings = [m for m in log if "2x order" in m]
+    assert len(warnings) == 1 and "reads the outputs 1 times a period" in warnings[0], log

@@ -115,6 +115,17 @@ def parameter(name, start, unit, description, min=None, max=None, type=float, va
 #: ranges of the drivetrain ports: +-1e4 rad/s (95,000 rpm) and +-1e7 N.m cover any real driveline and keep
 #: every model's arithmetic finite
 SPEED_RANGE = dict(min=-1.0e4, max=1.0e4)
+
+#: outputs read this many times a period of an order of the input speed, or fewer, alias it (Nyquist)
+MIN_SAMPLES_PER_PERIOD = 2.0
+
+
+def samples_per_period(order: int, omega: float, interval: float) -> float:
+    """Samples per period of the order-th multiple of the speed omega [rad/s] read every interval [s]:
+    2 pi / (order |omega| interval); inf at rest."""
+    rate = order * abs(omega) * interval
+    return 2.0 * math.pi / rate if rate > 0.0 else math.inf
+
 TORQUE_RANGE = dict(min=-1.0e7, max=1.0e7)
 
 
@@ -480,7 +491,10 @@ class ModelSlave(UjfmuSlave):
     """
 
     MODEL = None
-    STATE = {"_time": "float", "_started": "bool"}   # plus "_y": the model state, set in __init_subclass__
+    STATE = {"_time": "float", "_started": "bool", "_aliasing_said": "bool"}   # plus "_y", the model state
+    #: h |omega_in| at and above which a host that reads the outputs every step h aliases the model's
+    #: ``EXCITATION_ORDER`` (at most MIN_SAMPLES_PER_PERIOD reads a period); inf: the model declares none
+    _aliasing_reach = math.inf
     #: how the RK4 stages call the model (``rk4._KINDS``); ``_rk4``, set in __init_subclass__, integrates a step
     RK4_KIND = "held"
     #: the model's own ``integrate(p, t, h, y, u)`` where it has one (the protocol's optional whole-step integrator)
@@ -508,6 +522,9 @@ class ModelSlave(UjfmuSlave):
             if hasattr(model, "check_state"):
                 cls._check_state = staticmethod(model.check_state)
             cls._outputs = staticmethod(model.outputs)
+            order = getattr(cls.PHYSICS, "EXCITATION_ORDER", None)
+            if order:
+                cls._aliasing_reach = 2.0 * math.pi / (MIN_SAMPLES_PER_PERIOD * order)
             if hasattr(model, "state_outputs"):
                 cls._state_outputs = staticmethod(model.state_outputs)
                 cls._state_output_names = tuple(model.STATE_OUTPUTS)
@@ -531,7 +548,7 @@ class ModelSlave(UjfmuSlave):
         self._kinematic = bool(getattr(self.MODEL, "kinematic", _never)(self._p))
 
     def initialize(self, start_time):
-        self._time, self._started = start_time, False
+        self._time, self._started, self._aliasing_said = start_time, False, False
         self._y = tuple(self.MODEL.initial_state(self._p, start_time, self.model_inputs()))
         if self._history_step is not None:
             self._history = self.MODEL.NO_HISTORY
@@ -604,6 +621,21 @@ class ModelSlave(UjfmuSlave):
             if problems:
                 raise ValueError("; ".join(problems))
         self._y, self._started, self._time = y, True, t + h
+
+    def say_aliasing(self, h, omega):
+        """Log once, as a warning, that outputs read every step of h alias the model's ``EXCITATION_ORDER`` at the
+        input speed omega [rad/s] (the caller checks h |omega| >= ``_aliasing_reach``): a host plotting or storing
+        them at its communication points sees a false waveform (at a step of a whole number of the order's periods,
+        one joint angle: a constant), though the state is integrated as accurately as at any step."""
+        self._aliasing_said = True
+        order, omega = self.PHYSICS.EXCITATION_ORDER, abs(omega)
+        self.log(f"{self.modelName} '{self.instance_name}': at t = {self._time:g} s a communication step of {h:g} s "
+                 f"reads the outputs {samples_per_period(order, omega, h):.3g} times a period of the input speed's "
+                 f"{order}x order ({order * omega / (2.0 * math.pi):.4g} Hz at {omega:.6g} rad/s), at most "
+                 f"{MIN_SAMPLES_PER_PERIOD:g}: read at the communication points they alias it (a step of a whole "
+                 f"number of its periods shows one joint angle, a constant); a step of at most "
+                 f"{2.0 * math.pi / (10.0 * order * omega):.3g} s reads it 10 times a period. The integration within "
+                 f"a step is unaffected. (Said once per instance.)", Fmi2Status.warning)
 
     def integrate(self, t, h, y, u):
         """The state y at t advanced to t + h by the model's own ``integrate_with_history`` (its history advanced
@@ -767,6 +799,8 @@ class PrescribedInputSlave(ModelSlave):
         else:
             u = _new_inputs(Drive, (self._phi_in, omega, alpha, self.tau_load))
             self.step_state(t, h, u)
+        if h * abs(omega) >= self._aliasing_reach and not self._aliasing_said:
+            self.say_aliasing(h, omega)
         increment = h * (omega + 0.5 * alpha * h) - self._phi_in_carry
         total = self._phi_in + increment
         self._phi_in_carry = (total - self._phi_in) - increment

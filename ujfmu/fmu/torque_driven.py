@@ -88,8 +88,11 @@ class TorqueDrivenSlave(ModelSlave):
 
     def speed_reach(self, h, omega, alpha):
         """|omega_in| + |alpha_in| h from the input shaft's speed omega and acceleration alpha (ValueError if it
-        exceeds the speed range)."""
+        exceeds the speed range); a step of h that aliases the model's order at omega is said once
+        (``say_aliasing``)."""
         reach = abs(omega) + abs(alpha) * h
+        if h * abs(omega) >= self._aliasing_reach and not self._aliasing_said:
+            self.say_aliasing(h, omega)
         if not reach <= SPEED_RANGE["max"]:
             raise ValueError(f"tau_in = {self.tau_in!r} N.m and tau_load = {self.tau_load!r} N.m: the input shaft "
                              f"would reach {reach:.6g} rad/s within the step (omega_in = {omega!r} rad/s, alpha_in = "
