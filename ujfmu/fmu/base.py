@@ -115,6 +115,7 @@ def parameter(name, start, unit, description, min=None, max=None, type=float, va
 #: ranges of the drivetrain ports: +-1e4 rad/s (95,000 rpm) and +-1e7 N.m cover any real driveline and keep
 #: every model's arithmetic finite
 SPEED_RANGE = dict(min=-1.0e4, max=1.0e4)
+TORQUE_RANGE = dict(min=-1.0e7, max=1.0e7)
 
 #: outputs read this many times a period of an order of the input speed, or fewer, alias it (Nyquist)
 MIN_SAMPLES_PER_PERIOD = 2.0
@@ -125,8 +126,6 @@ def samples_per_period(order: int, omega: float, interval: float) -> float:
     2 pi / (order |omega| interval); inf at rest."""
     rate = order * abs(omega) * interval
     return 2.0 * math.pi / rate if rate > 0.0 else math.inf
-
-TORQUE_RANGE = dict(min=-1.0e7, max=1.0e7)
 
 
 def input_(name, start, unit, description, min=None, max=None):
