@@ -233,7 +233,7 @@ def test_step_auto_passes_over_the_steps_whose_record_aliases(fmu_dir, tmp_path,
 
 
 def test_a_bond_from_an_ideal_speed_source_is_marked_no_coupling_error(fmu_dir, tmp_path, capsys):
-    """The ideal source's speed ignores the torque: its bond's residual (12.9% of the transmitted energy here, the
+    """The ideal source's speed ignores the torque: its bond's residual (12.6% of the transmitted energy here, the
     joint's torque swinging at 2x within the steps) is marked as no coupling error; the joint-load bond, whose load
     acts on the joint, and a PI motor's bond (SCENARIO) are not marked."""
     path = tmp_path / "joint.toml"
