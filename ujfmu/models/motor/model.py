@@ -18,9 +18,7 @@ Standard library only: runs inside the Motor and MotorController FMUs (``Control
 its rotor, for the torque-driven joints).
 """
 
-import functools
 import math
-import operator
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -145,53 +143,6 @@ def profile_corner(p: ControllerParameters) -> float | None:
     return None
 
 
-def _expm(generator: tuple, h: float) -> list:
-    """exp(h G) of a small square matrix G (rows) = D exp(h B) D^-1, B = D^-1 G D balanced (:func:`_balanced`):
-    the Taylor series (``series``) of X = h B / 2^q, ||X||_1 <= 1/2, squared q times. X = r (s B) with s the power
-    of 2 at or below h / 2^q, so r < 2."""
-    balanced, d = _balanced(generator)
-    norm = max(map(sum, zip(*([abs(v) for v in row] for row in balanced))))
-    q = math.ceil(math.log2(2.0 * h * norm)) if h * norm > 0.5 else 0
-    hq = h / 2.0 ** q
-    scale = 2.0 ** math.floor(math.log2(hq))
-    total = series.weighted(series.scaled_powers(balanced, scale, 2.0), series.series_weights(hq / scale, (1.0,)))
-    for _ in range(q):
-        columns = list(zip(*total))
-        total = [[sum(map(operator.mul, row, column)) for column in columns] for row in total]
-    return [[d[i] * v / d[c] for c, v in enumerate(row)] for i, row in enumerate(total)]
-
-
-@functools.lru_cache(maxsize=32)
-def _balanced(generator: tuple) -> tuple:
-    """(B, d): B = D^-1 G D with D = diag(d), d powers of 2 (exact), each row's and column's off-diagonal sums within
-    a factor 2 of each other where that lowers their sum by 5% (Parlett, Reinsch, "Balancing a matrix for calculation
-    of eigenvalues and eigenvectors", Numer. Math. 13, 1969): ||B||_1 is what sets the squarings of :func:`_expm`,
-    and the PI loop's Ki/J entry makes ||G||_1 far larger than its rates."""
-    n = len(generator)
-    b, d = [list(row) for row in generator], [1.0] * n
-    for _ in range(100):
-        done = True
-        for i in range(n):
-            c = sum(abs(b[j][i]) for j in range(n) if j != i)
-            r = sum(abs(b[i][j]) for j in range(n) if j != i)
-            if c == 0.0 or r == 0.0:
-                continue
-            total, f = c + r, 1.0
-            while c < 0.5 * r:
-                c, r, f = 2.0 * c, 0.5 * r, 2.0 * f
-            while c >= 2.0 * r:
-                c, r, f = 0.5 * c, 2.0 * r, 0.5 * f
-            if c + r < 0.95 * total:
-                done = False
-                d[i] *= f
-                for j in range(n):
-                    b[i][j] /= f
-                    b[j][i] *= f
-        if done:
-            break
-    return tuple(map(tuple, b)), tuple(d)
-
-
 #: (J_rotor, Kp, Ki, h) -> the propagator rows of :func:`pi_propagator`; bounded (a sweep may visit many)
 _PROPAGATORS = {}
 
@@ -204,7 +155,7 @@ def pi_propagator(p: Parameters, h: float) -> tuple:
         x(h) = P (x(0), c, d),  P = the first three rows of exp(M h),  M = [[A, F, 0], [0, 0, 1], [0, 0, 0]]
 
     (M augments x with c + d s and d, whose derivatives are d and 0: Van Loan's block exponential). Computed in
-    plain Python (:func:`_expm`) once per (J_rotor, Kp, Ki, h), kept on p for the last h."""
+    plain Python (``series.expm``) once per (J_rotor, Kp, Ki, h), kept on p for the last h."""
     memo = p.propagator_memo
     if memo is not None and memo[0] == h:
         return memo[1]
@@ -216,7 +167,7 @@ def pi_propagator(p: Parameters, h: float) -> tuple:
         m[1][1], m[1][2], m[1][3] = -p.Kp / p.J_rotor, p.Ki / p.J_rotor, 1.0
         m[2][1], m[2][4] = -1.0, 1.0
         m[3][5], m[4][6] = 1.0, 1.0
-        rows = tuple(tuple(row) for row in _expm(tuple(map(tuple, m)), h)[:3])
+        rows = tuple(tuple(row) for row in series.expm(tuple(map(tuple, m)), h)[:3])
         if len(_PROPAGATORS) >= 64:
             _PROPAGATORS.clear()
         _PROPAGATORS[key] = rows
