@@ -48,7 +48,8 @@ all of ``outputs``), and ``STATE_OUTPUTS`` with ``state_outputs(p, t, y) -> dict
 no input, e.g. a torque-driven variant's speeds, which its host reads before it sets the torques, and their values,
 the same numbers as ``outputs`` gives for them: a read of only these computes only them; default all of
 ``outputs``), and ``EXCITATION_ORDER`` (a module constant: the highest order of the input speed the outputs carry at
-full size, e.g. a joint's 2x; a run whose record samples it at most twice a period fails, ``ujfmu.scenario_run``).
+full size, e.g. a joint's 2x; a run whose record samples it at most twice a period fails, ``ujfmu.scenario_run``,
+and the FMU warns a host whose step does so, ``ujfmu.fmu.base``).
 
 The inputs ``u`` are the model's own NamedTuple ``Inputs``; a model whose input shaft follows a prescribed speed
 (``omega_in``) uses :class:`Drive`, which the base extrapolates over a step (angle quadratic, speed linear in time:
