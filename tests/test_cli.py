@@ -80,6 +80,12 @@ def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_p
     out = capsys.readouterr().out
     assert out.startswith("NOT CHECKED unchecked") and "PASS" not in out and "no [reference]" in out
     assert f"ujfmu run {unchecked} --check-step estimates the coupling error" in out   # how to learn more
+    # run --check-step: the estimate follows the summary, which names it instead of suggesting the option again
+    assert main(["run", str(unchecked), "--check-step"] + common) == 0
+    out = capsys.readouterr().out
+    summary, estimate = out.split("estimated coupling error", 1)
+    assert "--check-step" not in summary and "the step-halving estimate of the coupling error at this step follows" \
+        in summary and "joint.tau_in" in estimate
     # check of nothing but unchecked scenarios: exit 1, saying nothing was checked
     junit = tmp_path / "only.xml"
     assert main(["check", str(unchecked), "--junit", str(junit)] + common) == 1
@@ -260,6 +266,10 @@ def test_a_failed_signal_names_the_step_check_as_a_remedy():
     assert failing.startswith("FAIL") and f"ujfmu run {scenario.path} --check-step" in failing
     assert "--step auto" in failing and "validate_result" not in failing
     assert "[reference.tolerance] holds figures chosen for the scenario's own parameters" in failing   # a copy's
+    after_estimate = ScenarioResult(scenario, None, checks=[SignalCheck("joint.tau_in", 0.05, 1e-3, 0.1)]).summary(
+        step_check_follows=True)   # ujfmu run --check-step prints the estimate next
+    assert "--check-step" not in after_estimate and "the step-halving estimate below gives it per signal" \
+        in after_estimate
     passing = ScenarioResult(scenario, None, checks=[SignalCheck("joint.tau_in", 1e-5, 1e-3, 0.1)]).summary()
     assert passing.startswith("PASS") and "--check-step" not in passing
 

@@ -144,7 +144,7 @@ def _run_one(args, path, scenario=None):
         result = run_scenario(scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=plot,
                               progress=_paced(args, scenario.step_size, progress),
                               model_exchange=args.model_exchange)
-    print(result.summary())
+    print(result.summary(step_check_follows=getattr(args, "check_step", False)))
     return result
 
 

@@ -280,13 +280,18 @@ class ScenarioResult:
     def verdict(self) -> str:
         return "FAIL" if self.failed else "PASS" if self.passed else "NOT CHECKED"
 
-    def not_checked_reason(self) -> str:
+    def not_checked_reason(self, step_check_follows: bool = False) -> str:
+        """Why nothing was compared; step_check_follows: the step-halving estimate is printed after the summary
+        (``ujfmu run --check-step``), so it is named instead of suggested."""
         if self.scenario.reference_file is None:
+            estimate = ("the step-halving estimate of the coupling error at this step follows" if step_check_follows
+                        else f"ujfmu run {self.scenario.path} --check-step estimates the coupling error at this step")
             return (f"the scenario has no [reference]: nothing was compared, and the result's accuracy is unknown "
-                    f"(ujfmu run {self.scenario.path} --check-step estimates the coupling error at this step)")
+                    f"({estimate})")
         return "the scenario's [reference.tolerance] names no signal: nothing was compared"
 
-    def summary(self):
+    def summary(self, step_check_follows: bool = False) -> str:
+        """The verdict and every check, one per line; step_check_follows as in :meth:`not_checked_reason`."""
         head = f"{self.verdict} {self.scenario.name}: {self.scenario.title} ({self.wall_time:.1f} s simulating)"
         lines = [head]
         if self.checks:
@@ -305,14 +310,15 @@ class ScenarioResult:
         lines += [f"  {c}" for c in self.sampling_checks]
         lines += [f"  {b}" for b in self.bonds]
         if any(not c.passed for c in self.checks + self.extrapolated_checks):
+            estimate = ("the step-halving estimate below gives it per signal" if step_check_follows else
+                        f"ujfmu run {self.scenario.path} --check-step estimates it per signal")
             lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the coupling's "
-                         f"(ujfmu run {self.scenario.path} --check-step estimates it per signal, --step auto picks "
-                         f"a step); if it does not, it is the FMUs' own integration, or the model or its parameters "
+                         f"({estimate}, --step auto picks a step); if it does not, it is the FMUs' own integration, or the model or its parameters "
                          f"differ from what the reference solves. [reference.tolerance] holds figures chosen for the "
                          f"scenario's own parameters (a few times the error its run reaches there): a copy with other "
                          f"parameters needs figures of its own, the accuracy its study needs")
         if not self.checked:
-            lines.append(f"  {self.not_checked_reason()}")
+            lines.append(f"  {self.not_checked_reason(step_check_follows)}")
         elif math.isnan(self.fmpy_outlier_fraction):
             pass   # fmpy's band needs scipy; the command line says so once per run (SCIPY_NOTE)
         else:
