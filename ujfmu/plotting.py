@@ -194,12 +194,19 @@ def natural_frequency_lines(scenario, point: dict) -> list:
     return lines
 
 
+#: the order tracks' log axis reaches down to this fraction of the output's largest order amplitude or |value|:
+#: an order that vanishes by symmetry (1e-13 of the others, round-off) sits on this floor instead of stretching
+#: the axis over a dozen decades
+ORDER_TRACK_FLOOR = 1e-6
+
+
 def plot_sweep(sweep, out_dir):
     """Sweep figures against the first axis (in the unit it was given in): results/<name>.png with max and min of
-    every output, one curve per combination of the other axes; results/<name>_orders.png with the order
-    amplitudes of the first output (order tracks, log scale) and, when the first axis is a speed, a Campbell
-    diagram (frequency of each order against the swept speed, marker area by amplitude, with the machines' natural
-    frequencies as labelled lines: a critical speed is where an order crosses one). Returns the paths."""
+    every output, one curve per combination of the other axes; results/<name>_orders.png with, per output, its
+    order amplitudes (order tracks, log scale down to ``ORDER_TRACK_FLOOR`` of the largest) and, when the first
+    axis is a speed, a Campbell diagram (frequency of each order against the swept speed, marker area by
+    amplitude, with the machines' natural frequencies as labelled lines: a critical speed is where an order
+    crosses one), both for the first combination of the other axes. Returns the paths."""
     scenario = sweep.scenario
     first, others = sweep.axes[0], sweep.axes[1:]
     records = [r for r in sweep.records() if r["status"] == "ok"]
@@ -249,42 +256,52 @@ def plot_sweep(sweep, out_dir):
     plt.close(fig)
 
     campbell = first_si == "rad/s"   # a frequency axis only makes sense against a speed
-    fig, panels = plt.subplots(1, 2 if campbell else 1, figsize=(12 if campbell else 8, 4.4), squeeze=False,
-                               layout="constrained")
-    ax1 = panels[0, 0]
-    out = outputs[0]
-    unit, k = display(scenario.unit(out))
+    fig, panels = plt.subplots(len(outputs), 2 if campbell else 1, figsize=(12 if campbell else 8,
+                               3.6 * len(outputs) + 0.8), squeeze=False, layout="constrained")
     key0, rows = sorted(groups.items())[0] if groups else ((), [])
     rows = sorted(rows, key=lambda r: r["point"][first.names[0]])
     x = xs(rows)
-    for order in orders:
-        amp = k * np.array([r[f"{out}.h{order}"] for r in rows])
-        ax1.semilogy(x, np.maximum(amp, 1e-300), ".-", ms=3, label=f"{order}x")
-    ax1.set_xlabel(xlabel)
-    ax1.set_ylabel(f"{out} order amplitude [{unit}]")
-    ax1.legend(fontsize=8)
-    ax1.grid(alpha=0.3, which="both")
-    ax1.set_title("order tracks" + (f" ({label(key0)})" if label(key0) else ""), fontsize=9, loc="left")
-    if campbell:
-        ax2 = panels[0, 1]
-        speed_hz = np.array([abs(r["speed_mean"]) / (2 * np.pi) for r in rows])
-        top = max((r[f"{out}.h{order}"] for r in rows for order in orders), default=1.0) or 1.0
-        for order in orders:
-            amp = np.array([r[f"{out}.h{order}"] for r in rows])
-            ax2.scatter(x, order * speed_hz, s=2 + 200 * amp / top, alpha=0.6, label=f"{order}x")
-        modes = natural_frequency_lines(scenario, rows[0]["point"] if rows else {})
-        for i, (component, omega_n, count) in enumerate(modes):
-            f_n = omega_n / (2 * np.pi)
-            ax2.axhline(f_n, color="0.35", ls=":", lw=0.9, label="natural frequencies (at rest)" if i == 0 else None)
-            ax2.annotate(f"{component}: {f_n:.4g} Hz ({omega_n:.4g} rad/s){f' x{count}' if count > 1 else ''}",
-                         xy=(0.99, f_n), xycoords=("axes fraction", "data"), ha="right", va="bottom", fontsize=6,
-                         color="0.25")
-        ax2.set_xlabel(xlabel)
-        ax2.set_ylabel("frequency [Hz]")
-        ax2.set_title(f"Campbell diagram of {out} (marker area ~ amplitude)", fontsize=9, loc="left")
-        ax2.grid(alpha=0.3)
-        ax2.legend(fontsize=8)
-    _title(fig, f"{scenario.title}: running-speed orders of {out}", 12 if campbell else 8)
+    speed_hz = np.array([abs(r["speed_mean"]) / (2 * np.pi) for r in rows])
+    modes = natural_frequency_lines(scenario, rows[0]["point"] if rows else {}) if campbell else []
+    for (ax1, *ax2), out in zip(panels, outputs):
+        unit, k = display(scenario.unit(out))
+        amplitudes = {order: np.array([r[f"{out}.h{order}"] for r in rows], dtype=float) for order in orders}
+        # the axis floor from the largest order or |value| (an order of round-off on a constant is not a track)
+        top = max((float(np.max(a)) for a in amplitudes.values() if a.size), default=0.0)
+        scale = max([top] + [max(abs(r[f"{out}.max"]), abs(r[f"{out}.min"])) for r in rows])
+        floor = k * scale * ORDER_TRACK_FLOOR if scale > 0.0 else 1e-300
+        clipped = False
+        for order, amp in amplitudes.items():
+            clipped |= bool(np.any(k * amp < floor))
+            ax1.semilogy(x, np.maximum(k * amp, floor), ".-", ms=3, label=f"{order}x")
+        if scale > 0.0:
+            ax1.set_ylim(bottom=0.5 * floor)
+        ax1.set_xlabel(xlabel)
+        ax1.set_ylabel(f"order amplitude [{unit}]")
+        ax1.legend(fontsize=8)
+        ax1.grid(alpha=0.3, which="both")
+        ax1.set_title(f"{out}: order tracks" + (f" ({label(key0)})" if label(key0) else "")
+                      + (f"\norders below {ORDER_TRACK_FLOOR:g} of its largest order or |value| drawn on the floor"
+                         if clipped else ""), fontsize=9, loc="left")
+        if campbell:
+            ax2 = ax2[0]
+            for order, amp in amplitudes.items():
+                seen = np.where(k * amp >= floor, amp, 0.0)   # those on the tracks' floor: the smallest marker
+                ax2.scatter(x, order * speed_hz, s=2 + 200 * seen / (top or 1.0), alpha=0.6, label=f"{order}x")
+            for i, (component, omega_n, count) in enumerate(modes):
+                f_n = omega_n / (2 * np.pi)
+                ax2.axhline(f_n, color="0.35", ls=":", lw=0.9,
+                            label="natural frequencies (at rest)" if i == 0 else None)
+                ax2.annotate(f"{component}: {f_n:.4g} Hz ({omega_n:.4g} rad/s){f' x{count}' if count > 1 else ''}",
+                             xy=(0.99, f_n), xycoords=("axes fraction", "data"), ha="right", va="bottom",
+                             fontsize=6, color="0.25")
+            ax2.set_xlabel(xlabel)
+            ax2.set_ylabel("frequency [Hz]")
+            ax2.set_title(f"Campbell diagram of {out} (marker area ~ amplitude)", fontsize=9, loc="left")
+            ax2.grid(alpha=0.3)
+            ax2.legend(fontsize=8)
+    names = ", ".join(outputs)
+    _title(fig, f"{scenario.title}: running-speed orders of {names}", 12 if campbell else 8)
     orders_path = out_dir / f"{sweep.name}_orders.png"
     fig.savefig(orders_path, dpi=110)
     plt.close(fig)
