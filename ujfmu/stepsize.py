@@ -5,7 +5,9 @@ y_h the result at step h and y_h/2 at half of it, y_h - y_exact = 2 (y_h - y_h/2
 second-order error (the implicit scheme's where its blend is 1/2) is 4/3 (y_h - y_h/2), so the first-order estimate
 errs on the safe side by 1.5x there. ``estimate`` reports the first-order estimate per
 recorded signal as a fraction of the signal's range; ``choose`` halves the step until every signal's estimate is
-within its allowance. Both only rerun the scenario: no reference is needed.
+within its allowance. Both only rerun the scenario: no reference is needed. Where the scenario has one with
+[reference.extrapolated] bands (on the O(h^2) remainder that the step-halving extrapolation leaves), the
+extrapolation is also compared within them, as ``ujfmu run`` does: a step that passes here passes those checks.
 """
 
 import copy
@@ -31,13 +33,15 @@ class StepEstimate:
     failure: str = ""   # the co-simulation at this step (or its half) stopped: why
     absolute: dict = field(default_factory=dict)   # signal -> (max |error|, allowance) for the signals shown so
     sampling: list = field(default_factory=list)   # scenario_run.SamplingCheck per drivetrain component
+    extrapolated: list = field(default_factory=list)   # scenario_run.SignalCheck per [reference.extrapolated] band
 
     @property
     def passed(self) -> bool:
-        """No failure, every signal's estimate within its allowance, and no record aliasing a model's order (step
-        halving compares at the coarse instants, where an aliased record agrees with itself)."""
+        """No failure, every signal's estimate within its allowance, no record aliasing a model's order (step
+        halving compares at the coarse instants, where an aliased record agrees with itself), and the
+        extrapolation within the scenario's [reference.extrapolated] bands where it has them."""
         return (not self.failure and all(self.within(n) for n in self.errors)
-                and all(c.passed for c in self.sampling))
+                and all(c.passed for c in self.sampling + self.extrapolated))
 
     def within(self, name: str) -> bool:
         """The signal's estimate within its allowance (in absolute terms for a signal in ``absolute``)."""
@@ -54,7 +58,10 @@ class StepEstimate:
                 f"{self.absolute[n][0]:9.3g} (allowed {self.absolute[n][1]:.3g}; absolute: the signal hardly varies)"
                 if n in self.absolute else
                 f"{100 * self.errors[n]:9.3g}% of range (allowed {100 * self.allowed[n]:.3g}%)")
-            for n in self.errors] + [f"  {c}" for c in self.sampling if not c.passed]
+            for n in self.errors] + [f"  {c}" for c in self.sampling if not c.passed] + (
+            [f"  step-halving extrapolation 2 y(h/2) - y(h) against the reference, outside its "
+             f"[reference.extrapolated] band:"] + [f"    {c}" for c in self.extrapolated if not c.passed]
+            if not all(c.passed for c in self.extrapolated) else [])
 
 
 def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coarse=None) -> StepEstimate:
@@ -64,8 +71,10 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     Signals: the toleranced ones with their allowance rel_range (+ abs as a fraction of the range), else every
     recorded signal with DEFAULT_REL_RANGE. coarse: the result at ``step`` if already computed (its sampling is
     the run's own check); else the run records the drivetrain components' input speeds too, for
-    ``scenario_run.check_sampling``."""
-    from .scenario_run import check_sampling, extrapolate_step, sampled_components
+    ``scenario_run.check_sampling``. With a reference file and [reference.extrapolated] bands, at most the
+    scenario's declared step (the bands hold the remainder there), the extrapolation compared within them."""
+    from .references import read_reference
+    from .scenario_run import check_sampling, compare, extrapolate_step, sampled_components
     run = copy.copy(scenario)
     run.step_size = scenario.step_size if step is None else step
     names = list(scenario.tolerances) or list(scenario.record)
@@ -94,7 +103,11 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
             if not tol:
                 allowance = DEFAULT_REL_RANGE * float(np.max(np.abs(extrapolated[name])))
             absolute[name] = (diff, allowance)
-    return StepEstimate(run.step_size, errors, allowed, absolute=absolute, sampling=sampling)
+    banded = []
+    if (scenario.extrapolated_tolerances and scenario.reference_file is not None and scenario.reference_file.is_file()
+            and run.step_size <= scenario.declared_step * (1 + 1e-9)):
+        banded = compare(extrapolated, read_reference(scenario.reference_file)[0], scenario.extrapolated_tolerances)
+    return StepEstimate(run.step_size, errors, allowed, absolute=absolute, sampling=sampling, extrapolated=banded)
 
 
 def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, list[StepEstimate]]:
