@@ -172,11 +172,11 @@ DRIVES_AND_LOADS = ("Motor", "MotorController", "Load")
 
 
 def natural_frequency_lines(scenario, point: dict) -> list:
-    """[(component, natural frequency [rad/s], multiplicity)] of every machine component of scenario at its
-    parameters with point's ({comp.par: value}) applied: ``analysis.model_natural_frequencies`` (the model's own
-    linearisation at rest), frequencies within 0.5% of each other merged (e.g. the X and Y modes of a round
-    shaft)."""
-    from .analysis import model_natural_frequencies
+    """[(component, natural frequency [rad/s], multiplicity, lowest, highest)] of every machine component of
+    scenario at its parameters with point's ({comp.par: value}) applied: ``analysis.model_natural_frequency_range``
+    (the model's own linearisation at rest, its mean over the input angle and the range it spans), frequencies
+    within 0.5% of each other merged (e.g. the X and Y modes of a round shaft)."""
+    from .analysis import model_natural_frequency_range
     from .build import fmu_class
     lines = []
     for name, (fmu, _) in scenario.components.items():
@@ -185,12 +185,13 @@ def natural_frequency_lines(scenario, point: dict) -> list:
         parameters = scenario.parameters_with_defaults(name)
         parameters.update({k.partition(".")[2]: v for k, v in point.items() if k.partition(".")[0] == name})
         merged = []
-        for omega in model_natural_frequencies(fmu_class(fmu).MODEL, parameters):
+        for omega, low, high in zip(*model_natural_frequency_range(fmu_class(fmu).MODEL, parameters)):
             if merged and omega <= merged[-1][0] * 1.005:
                 merged[-1][1] += 1
+                merged[-1][2], merged[-1][3] = min(merged[-1][2], low), max(merged[-1][3], high)
             else:
-                merged.append([float(omega), 1])
-        lines += [(name, omega, count) for omega, count in merged]
+                merged.append([float(omega), 1, float(low), float(high)])
+        lines += [(name, omega, count, low, high) for omega, count, low, high in merged]
     return lines
 
 
@@ -288,10 +289,15 @@ def plot_sweep(sweep, out_dir):
             for order, amp in amplitudes.items():
                 seen = np.where(k * amp >= floor, amp, 0.0)   # those on the tracks' floor: the smallest marker
                 ax2.scatter(x, order * speed_hz, s=2 + 200 * seen / (top or 1.0), alpha=0.6, label=f"{order}x")
-            for i, (component, omega_n, count) in enumerate(modes):
+            banded = False
+            for i, (component, omega_n, count, low, high) in enumerate(modes):
                 f_n = omega_n / (2 * np.pi)
                 ax2.axhline(f_n, color="0.35", ls=":", lw=0.9,
-                            label="natural frequencies (at rest)" if i == 0 else None)
+                            label="natural frequencies (at rest, mean over the input angle)" if i == 0 else None)
+                if high > 1.005 * low:   # the range the linearisation spans over the input angle
+                    ax2.axhspan(low / (2 * np.pi), high / (2 * np.pi), color="0.5", alpha=0.15, lw=0,
+                                label=None if banded else "their range over the input angle")
+                    banded = True
                 ax2.annotate(f"{component}: {f_n:.4g} Hz ({omega_n:.4g} rad/s){f' x{count}' if count > 1 else ''}",
                              xy=(0.99, f_n), xycoords=("axes fraction", "data"), ha="right", va="bottom",
                              fontsize=6, color="0.25")
