@@ -130,6 +130,7 @@ def test_unit_hints_only_where_the_converted_value_fits():
     angle = parameter("beta1", 0.1, "rad", "an angle", min=-1.5, max=1.5)
     assert angle.check(12.0).endswith("(12 deg = 0.2094 rad?)")
     assert "deg" not in angle.check(120.0) and "rpm" not in angle.check(120.0)   # 2.09 rad: out of range too
+    assert angle.check(math.pi / 2).endswith("rad")   # just past the bound: a value in rad, not a slip
     speed = input_("omega_in", 0.0, "rad/s", "a speed", min=-1e4, max=1e4)
     assert speed.check(-20000.0).endswith("(-20000 rpm = -2094 rad/s?)")
     torque = input_("tau_load", 0.0, "N.m", "a torque", min=-1e7, max=1e7)

@@ -59,6 +59,8 @@ _LIVE = weakref.WeakSet()
 
 #: SI unit -> (the human unit a value in it is often given in by mistake, factor to SI)
 HUMAN_UNITS = {"rad": ("deg", math.pi / 180.0), "rad/s": ("rpm", math.pi / 30.0)}
+#: a value at most this factor past its range's bound is a value in the SI unit just out of range, not a unit slip
+NEAR_MISS = 1.1
 
 
 class Var:
@@ -101,9 +103,14 @@ class Var:
 
     def unit_hint(self, value):
         """' (12 deg = 0.209 rad?)' for a rad variable, ' (1000 rpm = 104.7 rad/s?)' for a rad/s one, when value
-        read as degrees or rpm (x pi/180, x pi/30) would be within range: the likely slip; else ''."""
+        read as degrees or rpm (x pi/180, x pi/30) would be within range and value is more than ``NEAR_MISS`` past
+        the bound it passes (a slip multiplies by 57.3 or 9.55; pi/2 rad against an 89 deg limit is not one): the
+        likely slip; else ''."""
         human = HUMAN_UNITS.get(self.unit)
         if human is None or not self.within(value * human[1]):
+            return ""
+        bound = self.max if self.max is not None and value > self.max else self.min
+        if bound is not None and abs(value) <= NEAR_MISS * abs(bound):
             return ""
         return f" ({value:.6g} {human[0]} = {value * human[1]:.4g} {self.unit}?)"
 
