@@ -205,6 +205,8 @@ def test_missing_reference_file_names_the_scenario_and_field(fmu_dir, tmp_path, 
     err = capsys.readouterr().err
     assert (f"{path}: [reference] file = 'references/cardan_constant_speed.csv'" in err and "not found" in err
             and "Errno" not in err)
+    # the two ways on: regenerate it (with the extra that can), or run the copy unchecked
+    assert f"ujfmu references {path}" in err and "ujfmu[references]" in err and "remove the [reference]" in err
 
 
 def test_references_says_when_a_scenario_has_nothing_to_regenerate(tmp_path, capsys):

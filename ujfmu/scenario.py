@@ -328,7 +328,8 @@ class Scenario:
         if not self.reference_file.is_file():
             raise ScenarioError(f"{field}: {self.reference_file} not found (the path is relative to the scenario "
                                 f"file; `ujfmu references {self.path}` regenerates it when the scenario names a "
-                                "generator)")
+                                "generator, with the references extra: pip install 'ujfmu[references]'; or remove "
+                                "the [reference] tables to run it unchecked)")
         try:
             table, provenance = read_reference(self.reference_file)
         except (ValueError, IndexError, OSError) as exc:
