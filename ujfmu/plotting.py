@@ -5,6 +5,7 @@ Units: every axis carries one. A quantity has one display unit in every figure: 
 an offset (``1e-12+2.999999999e-2``): a signal constant to within round-off gets a readable band around its value.
 """
 
+import math
 import textwrap
 
 from .extras import require
@@ -82,6 +83,11 @@ def plot_scenario(result, reference, path):
             if check:
                 for sign in (1, -1):
                     err_ax.axhline(sign * k * check.allowed, color="0.4", lw=0.8, ls=":")
+                # symmetric about zero, the allowance always in view (an error of exactly 0 left matplotlib's
+                # default +-0.05 around it, the 1e-9 allowance lines on the zero line)
+                reach = max(1.25 * check.allowed, 1.05 * float(np.nanmax(np.abs(err), initial=0.0)))
+                if reach > 0.0 and math.isfinite(reach):
+                    err_ax.set_ylim(-k * reach, k * reach)
             err_ax.set_ylabel(f"error [{label}]", fontsize=8, color="tab:red")
             err_ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4), useOffset=False)
             err_ax.grid(alpha=0.3)
