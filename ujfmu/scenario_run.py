@@ -313,10 +313,11 @@ class ScenarioResult:
             estimate = ("the step-halving estimate below gives it per signal" if step_check_follows else
                         f"ujfmu run {self.scenario.path} --check-step estimates it per signal")
             lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the coupling's "
-                         f"({estimate}, --step auto picks a step); if it does not, it is the FMUs' own integration, or the model or its parameters "
-                         f"differ from what the reference solves. [reference.tolerance] holds figures chosen for the "
-                         f"scenario's own parameters (a few times the error its run reaches there): a copy with other "
-                         f"parameters needs figures of its own, the accuracy its study needs")
+                         f"({estimate}, --step auto picks a step); if it does not, it is the FMUs' own integration, "
+                         f"or the model or its parameters differ from what the reference solves. "
+                         f"[reference.tolerance] holds figures chosen for the scenario's own parameters (a few times "
+                         f"the error its run reaches there): a copy with other parameters needs figures of its own, "
+                         f"the accuracy its study needs")
         if not self.checked:
             lines.append(f"  {self.not_checked_reason(step_check_follows)}")
         elif math.isnan(self.fmpy_outlier_fraction):
