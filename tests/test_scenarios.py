@@ -65,8 +65,6 @@ def _regeneration_allowance(scenario, name, fresh):
 
 #: steady_from windows must repeat to the sweeps' default steady-state tolerance (SweepSettings.steady_tol)
 STEADY_TOL = 1e-3
-#: recorded signals that grow in any steady state (energy integrals) besides the running angles
-GROWING = ("input_work", "dissipated_energy")
 STEADY_FROM = [p for p in SCENARIOS if "steady_from" in p.read_text()]
 
 
@@ -82,14 +80,14 @@ def test_a_steady_from_window_is_steady(path):
     reference (the co-simulation agrees with it within the scenario's tolerances). A window opened while the
     twin rotor's first torsional mode still rings (it decays as exp(-0.69 t); steady_from = 3 s left 230% in
     the order amplitudes of tau_in) fails."""
-    from ujfmu.steady import halves_change, is_running_angle
+    from ujfmu.steady import grows, halves_change
     scenario = Scenario(path)
     reference, _ = read_reference(scenario.reference_file)
     window = reference[reference["time"] >= scenario.steady_from - 1e-9]
     assert window["time"][-1] - window["time"][0] >= 0.5, "a window too short to judge"
     speed = window[scenario.running_speed]
     angle = np.concatenate(([0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(window["time"]))))
-    signals = [n for n in scenario.record if not is_running_angle(n) and not n.endswith(GROWING)]
+    signals = [n for n in scenario.record if not grows(n)]
     changes = {name: halves_change(angle, window, [name])[0] for name in signals}
     assert max(changes.values()) <= STEADY_TOL, {n: f"{c:.2g}" for n, c in changes.items() if c > STEADY_TOL}
 

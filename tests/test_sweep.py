@@ -107,6 +107,22 @@ def test_sweep_settings_from_python_list_every_problem(brutti):
     assert len(err.value.problems) == 2 and "did you mean motor.omega_set?" in str(err.value)
 
 
+def test_default_outputs_leave_out_the_signals_that_grow_in_any_steady_state():
+    """A sweep of twin_jeffcott_steady without outputs reduces its compared signals but for the running angles
+    and the energy integrals: input_work grows by the load's power (2 N.m x 100 rad/s), so with it no point could
+    ever be steady (every point 'not_steady', the input_work mean changing by 26% between windows). Named, they
+    are reduced; the steady-state check leaves them out either way."""
+    from ujfmu.steady import grows
+    path = SCENARIOS / "twin_jeffcott_steady.toml"
+    default = SweepSettings.from_scenario(path, settle_time=1.0).outputs
+    growing = {"rotor.input_work", "rotor.dissipated_energy", "rotor.phi_out", "rotor.phi_in"}
+    assert growing <= set(Scenario(path).tolerances) and not growing & set(default)
+    assert {"rotor.X1", "rotor.Y2", "rotor.tau_in", "rotor.stored_energy", "motor.omega"} <= set(default)
+    assert SweepSettings.from_scenario(path, settle_time=1.0, outputs=["rotor.input_work"]).outputs == [
+        "rotor.input_work"]
+    assert all(grows(n) for n in growing) and not any(grows(n) for n in default)
+
+
 def test_unit_suffixes_are_case_insensitive(brutti):
     assert parse_axis("motor.omega_set=1000:2000:500RPM", brutti) == parse_axis("motor.omega_set=1000:2000:500rpm",
                                                                                   brutti)

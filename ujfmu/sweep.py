@@ -47,7 +47,7 @@ from pathlib import Path
 from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
 from .master import Component, Connection, Cosimulation
 from .scenario import Scenario, ScenarioError
-from .steady import ERROR, FIGURES, FINAL, OK, STATUSES, settle_and_measure
+from .steady import ERROR, FIGURES, FINAL, OK, STATUSES, grows, settle_and_measure
 
 #: human units accepted after a --param range, and their factor to SI
 UNITS = {"rpm": math.pi / 30.0, "deg": math.pi / 180.0, "": 1.0}
@@ -258,7 +258,8 @@ class SweepSettings:
     @classmethod
     def from_scenario(cls, scenario, **overrides) -> "SweepSettings":
         """Settings from the scenario's [sweep] table (optional), overridden by keyword arguments of the same
-        names: outputs (default: the compared, else the recorded signals), running_speed (default: [output]
+        names: outputs (default: the compared, else the recorded signals, but for those that grow in any steady
+        state, ``steady.grows``: running angles, energy integrals), running_speed (default: [output]
         running_speed), settle_time [s] (needed), revolutions (default 4), orders (default (1, 2, 4)).
         scenario: a Scenario or the path of a scenario file."""
         scenario = scenario if isinstance(scenario, Scenario) else Scenario(scenario)
@@ -280,7 +281,8 @@ class SweepSettings:
                 return None
             return value
 
-        outputs = list(table.get("outputs") or scenario.tolerances or scenario.record)
+        outputs = list(table.get("outputs") or [name for name in scenario.tolerances or scenario.record
+                                                 if not grows(name)])
         running_speed = table.get("running_speed") or scenario.running_speed
         if not running_speed:
             problems.append(f"{where} running_speed (or output.running_speed; --running-speed on the command "
