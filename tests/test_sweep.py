@@ -230,7 +230,7 @@ def test_cli_sweep_writes_table_and_plots_and_reports_bad_parameters(fmu_dir, tm
 
 def test_cli_sweep_quiet_lists_no_files_and_step_sets_the_communication_step(fmu_dir, tmp_path, capsys):
     """-q prints the verdict, not the files (as run -q); --step reaches every point: points of the journal at
-    another step are computed again, not reused, and the step must be positive."""
+    another step are computed again, not reused, and the run says so; the step must be positive."""
     args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_brutti_rigid.toml"),
             "--param", "motor.omega_set=1000rpm", "--output", "driveline.tau_in", "--running-speed", "motor.omega",
             "--settle", "0.01", "--revolutions", "1", "--steady-tol", "0", "--workers", "0", "--out", str(tmp_path)]
@@ -241,9 +241,11 @@ def test_cli_sweep_quiet_lists_no_files_and_step_sets_the_communication_step(fmu
     assert main(["-q"] + args) == 0
     assert "reused 1 of 1 points" in capsys.readouterr().out
     assert main(["-q"] + args + ["--step", "5e-4"]) == 0
-    assert "reused" not in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "reused" not in out and "recomputed 1 points that" in out and "from other settings" in out
     assert main(["-q"] + args + ["--step", "5e-4"]) == 0
-    assert "reused 1 of 1 points" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "reused 1 of 1 points" in out and "recomputed" not in out
     assert main(["-q"] + args + ["--step", "0"]) == 2
     assert "--step 0: the communication step must be a number of seconds > 0" in capsys.readouterr().err
 

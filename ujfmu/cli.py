@@ -300,6 +300,9 @@ def cmd_sweep(args):
         sweep.run(workers=args.workers, scheduler=args.scheduler, progress=progress)
     if sweep.reused:
         print(f"  reused {sweep.reused} of {len(sweep.points)} points from {sweep.journal}")
+    if sweep.superseded:
+        print(f"  recomputed {sweep.superseded} points that {sweep.journal} holds from other settings, FMU builds "
+              "or code (a journal's points serve only a rerun with the same)")
     _say(args, f"  table: {sweep.csv}\n  journal: {sweep.journal}")
     if not args.no_plot and available("matplotlib"):
         for path in sweep.plot():

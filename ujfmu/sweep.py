@@ -459,8 +459,10 @@ class Sweep:
     def key(point):
         return json.dumps({k: float(v) for k, v in sorted(point.items())})
 
-    def done(self):
-        """{point key: record} of the finished points in the journal made with the same configuration."""
+    def done(self, others: set | None = None):
+        """{point key: record} of the finished points in the journal made with the same configuration; others:
+        a set that receives the keys of points the journal holds from another configuration (settings, FMU
+        builds, code or scenario setup)."""
         records = {}
         if self.journal.is_file():
             for line in self.journal.read_text(errors="replace").splitlines():
@@ -469,6 +471,8 @@ class Sweep:
                     if (record.get("config") == self.config and record["status"] in STATUSES
                             and isinstance(record["error"], str) and isinstance(record.get("wall_s", 0.0), float)):
                         records[self.key(record["point"])] = record
+                    elif others is not None and isinstance(record.get("point"), dict):
+                        others.add(self.key(record["point"]))
                 except (ValueError, TypeError, KeyError, AttributeError):   # a line cut by an interruption
                     continue                                                # or not a point record: skipped
         return records
@@ -482,9 +486,12 @@ class Sweep:
         points_total), called as points finish (points reused from the journal count as done)."""
         self.out_dir.mkdir(parents=True, exist_ok=True)
         self._check_grid()
-        finished = {k for k, r in self.done().items() if r["status"] in FINAL}
+        others = set()
+        finished = {k for k, r in self.done(others).items() if r["status"] in FINAL}
         todo = [p for p in self.points if self.key(p) not in finished]
         self.reused = len(self.points) - len(todo)
+        #: points to run that the journal holds from another configuration only (recomputed, not reused)
+        self.superseded = sum(self.key(p) in others for p in todo)
         count = [self.reused]
         if progress:
             progress(count[0], len(self.points))
