@@ -151,3 +151,24 @@ def test_campbell_diagram_shows_the_natural_frequencies(fmu_dir, tmp_path, figur
     labels = [t.get_text() for t in campbell.texts]
     assert len(labels) == 2 and all(" Hz (" in t and t.endswith(" rad/s)") for t in labels), labels
     check_readable(figures[f"{sweep.name}_orders.png"])
+
+
+def test_spectra_of_one_output_of_several_components_share_their_scale(tmp_path, figures):
+    """The aligned and the misaligned rotor's X2 on one amplitude scale (the misaligned one's 2x stands 10x above
+    the aligned one's 1x), their Y2 on another; each panel reaches 6 decades below its group's largest peak."""
+    import numpy as np
+
+    from ujfmu.plotting import plot_spectra
+    from ujfmu.scenario_run import ScenarioResult
+    scenario = Scenario(SCENARIOS / "twin_jeffcott_aligned_vs_misaligned.toml")
+    t = np.arange(0.0, 20.0, 1e-3)
+    turn = 70.0 * t
+    signals = {"aligned.X2": 1e-5 * np.sin(turn), "misaligned.X2": 1e-4 * np.sin(2.0 * turn),
+               "aligned.Y2": 2e-6 * np.cos(turn), "misaligned.Y2": 1e-6 * np.cos(turn), "motor.omega": 70.0 + 0 * t}
+    table = np.rec.fromarrays([t] + list(signals.values()), names=["time"] + list(signals))
+    plot_spectra(ScenarioResult(scenario, table), tmp_path / "spectra.png")
+    axes = {ax.get_title(loc="left"): ax for ax in figures["spectra.png"].axes}
+    assert axes["aligned.X2"].get_ylim() == axes["misaligned.X2"].get_ylim()
+    assert axes["aligned.Y2"].get_ylim() == axes["misaligned.Y2"].get_ylim() != axes["aligned.X2"].get_ylim()
+    low, high = axes["aligned.X2"].get_ylim()
+    assert high == pytest.approx(3.0 * 1e3 * 1e-4, rel=0.05) and high / low == pytest.approx(3e6)   # mm

@@ -124,7 +124,8 @@ def plot_orbits(result, path):
 
 def plot_spectra(result, path):
     """Amplitude spectrum of each of the scenario's output.spectra (from steady_from on), frequency in orders of
-    the running speed when output.running_speed is given. Returns path."""
+    the running speed when output.running_speed is given; the panels of one output of several components (the
+    aligned and the misaligned rotor's X2) on one scale. Returns path."""
     from .analysis import amplitude_spectrum
 
     scenario, table = result.scenario, _steady(result)
@@ -135,12 +136,17 @@ def plot_spectra(result, path):
     if scenario.running_speed:
         scale = 2.0 * np.pi / float(np.mean(table[scenario.running_speed]))
         unit = f"orders of the running speed, 1 = {1.0 / scale:.2f} Hz"
+    spectra = {name: amplitude_spectrum(table["time"], table[name]) for name in names}
+    tops = {}
+    for name, (_, amp) in spectra.items():   # the largest amplitude of each output over the components
+        key = name.partition(".")[2]
+        tops[key] = max(tops.get(key, 0.0), display(scenario.unit(name))[1] * float(amp.max()))
     for ax, name in zip(axes[:, 0], names):
         label, k = display(scenario.unit(name))
-        freq, amp = amplitude_spectrum(table["time"], table[name])
+        freq, amp = spectra[name]
         amp = k * amp
         ax.semilogy(freq * scale, np.maximum(amp, 1e-30), lw=0.9)
-        top = amp.max() if amp.max() > 0 else 1.0
+        top = tops[name.partition(".")[2]] or 1.0
         ax.set_ylim(top * 1e-6, top * 3.0)
         ax.set_ylabel(f"amplitude [{label}]", fontsize=8)
         ax.set_title(name, fontsize=9, loc="left")
