@@ -172,3 +172,23 @@ def test_spectra_of_one_output_of_several_components_share_their_scale(tmp_path,
     assert axes["aligned.Y2"].get_ylim() == axes["misaligned.Y2"].get_ylim() != axes["aligned.X2"].get_ylim()
     low, high = axes["aligned.X2"].get_ylim()
     assert high == pytest.approx(3.0 * 1e3 * 1e-4, rel=0.05) and high / low == pytest.approx(3e6)   # mm
+
+
+def test_the_order_figure_shows_the_first_outputs_and_says_so(fmu_dir, tmp_path, figures):
+    """Seven outputs: the order figure has rows for the first ORDER_FIGURE_OUTPUTS (a figure a row an output
+    would grow without bound) and its title says which it left out and how to choose."""
+    from ujfmu.plotting import ORDER_FIGURE_OUTPUTS
+    scenario = Scenario(SCENARIOS / "double_cardan_brutti_rigid.toml")
+    outputs = [n for n in scenario.record if n != "driveline.phi_out"]
+    assert len(outputs) == 7 > ORDER_FIGURE_OUTPUTS == 6
+    settings = SweepSettings.from_scenario(scenario, outputs=outputs, running_speed="motor.omega",
+                                           settle_time=0.01, revolutions=1)
+    sweep = Sweep(scenario, [parse_axis("motor.omega_set=2000rpm", scenario)], settings, out_dir=tmp_path,
+                  fmu_dir=fmu_dir)
+    sweep.run(workers=0)
+    sweep.plot()
+    orders = figures[f"{sweep.name}_orders.png"]
+    titles = [ax.get_title(loc="left") for ax in orders.axes[::2]]
+    assert [t.split(":")[0] for t in titles] == outputs[:6]
+    assert "(the first 6 of 7 outputs; --output chooses)" in orders._suptitle.get_text().replace("\n", " ")
+    assert len(figures[f"{sweep.name}.png"].axes) == 7   # max and min: every output

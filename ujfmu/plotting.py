@@ -211,6 +211,8 @@ def natural_frequency_lines(scenario, point: dict) -> list:
 #: an order that vanishes by symmetry (1e-13 of the others, round-off) sits on this floor instead of stretching
 #: the axis over a dozen decades
 ORDER_TRACK_FLOOR = 1e-6
+#: outputs the order figure shows at most (a row each), the first of the sweep's
+ORDER_FIGURE_OUTPUTS = 6
 
 
 def plot_sweep(sweep, out_dir):
@@ -219,7 +221,8 @@ def plot_sweep(sweep, out_dir):
     order amplitudes (order tracks, log scale down to ``ORDER_TRACK_FLOOR`` of the largest) and, when the first
     axis is a speed, a Campbell diagram (frequency of each order against the swept speed, marker area by
     amplitude, with the machines' natural frequencies as labelled lines: a critical speed is where an order
-    crosses one), both for the first combination of the other axes. Returns the paths."""
+    crosses one), both for the first combination of the other axes and the first ``ORDER_FIGURE_OUTPUTS`` outputs.
+    Returns the paths."""
     scenario = sweep.scenario
     first, others = sweep.axes[0], sweep.axes[1:]
     records = [r for r in sweep.records() if r["status"] == "ok"]
@@ -269,14 +272,15 @@ def plot_sweep(sweep, out_dir):
     plt.close(fig)
 
     campbell = first_si == "rad/s"   # a frequency axis only makes sense against a speed
-    fig, panels = plt.subplots(len(outputs), 2 if campbell else 1, figsize=(12 if campbell else 8,
-                               3.6 * len(outputs) + 0.8), squeeze=False, layout="constrained")
+    shown = outputs[:ORDER_FIGURE_OUTPUTS]
+    fig, panels = plt.subplots(len(shown), 2 if campbell else 1, figsize=(12 if campbell else 8,
+                               3.6 * len(shown) + 0.8), squeeze=False, layout="constrained")
     key0, rows = sorted(groups.items())[0] if groups else ((), [])
     rows = sorted(rows, key=lambda r: r["point"][first.names[0]])
     x = xs(rows)
     speed_hz = np.array([abs(r["speed_mean"]) / (2 * np.pi) for r in rows])
     modes = natural_frequency_lines(scenario, rows[0]["point"] if rows else {}) if campbell else []
-    for (ax1, *ax2), out in zip(panels, outputs):
+    for (ax1, *ax2), out in zip(panels, shown):
         unit, k = display(scenario.unit(out))
         amplitudes = {order: np.array([r[f"{out}.h{order}"] for r in rows], dtype=float) for order in orders}
         # the axis floor from the largest order or |value| (an order of round-off on a constant is not a track)
@@ -318,7 +322,8 @@ def plot_sweep(sweep, out_dir):
             ax2.set_title(f"Campbell diagram of {out} (marker area ~ amplitude)", fontsize=9, loc="left")
             ax2.grid(alpha=0.3)
             ax2.legend(fontsize=8)
-    names = ", ".join(outputs)
+    names = ", ".join(shown) + (f" (the first {len(shown)} of {len(outputs)} outputs; --output chooses)"
+                                if len(shown) < len(outputs) else "")
     _title(fig, f"{scenario.title}: running-speed orders of {names}", 12 if campbell else 8)
     orders_path = out_dir / f"{sweep.name}_orders.png"
     fig.savefig(orders_path, dpi=110)
