@@ -471,7 +471,8 @@ class Sweep:
                     if (record.get("config") == self.config and record["status"] in STATUSES
                             and isinstance(record["error"], str) and isinstance(record.get("wall_s", 0.0), float)):
                         records[self.key(record["point"])] = record
-                    elif others is not None and isinstance(record.get("point"), dict):
+                    elif (others is not None and record.get("config") != self.config
+                          and isinstance(record.get("point"), dict)):
                         others.add(self.key(record["point"]))
                 except (ValueError, TypeError, KeyError, AttributeError):   # a line cut by an interruption
                     continue                                                # or not a point record: skipped
