@@ -72,26 +72,20 @@ def natural_frequencies(rhs, y0, step=1e-7) -> np.ndarray:
     return np.sort(np.abs(lam[lam.imag > 1e-9 * np.maximum(1.0, np.abs(lam))]))
 
 
-#: input angles per period of a model's excitation order at which ``model_natural_frequencies`` linearises
+#: input angles per period of a model's excitation order at which ``model_natural_frequency_range`` linearises
 ANGLE_SAMPLES = 8
 
 
-def model_natural_frequencies(model, parameters: dict) -> np.ndarray:
-    """Natural frequencies [rad/s] of a model (a module or class of the ``ujfmu.models.protocol``) at parameters
-    (by name; the FMU's declared defaults for those missing are the caller's), linearised about its initial state
-    at rest with its inputs zero (input shaft held, no load): ``natural_frequencies`` of ``derivatives``; for a
-    speed-driven model (an input angle phi), the mean over the input angles of :func:`model_natural_frequency_range`.
-    Empty for a model without a state of its own or held kinematically."""
-    return model_natural_frequency_range(model, parameters)[0]
-
-
 def model_natural_frequency_range(model, parameters: dict) -> tuple:
-    """(mean, lowest, highest) natural frequencies [rad/s] of :func:`model_natural_frequencies`' linearisation over
-    the input angle: a joint's speed ratio and its derivative vary with the angle (a double Cardan's intermediate
-    shaft is stiffer or lighter as seen from the input at 0 than at 90 deg: Omar's torsional mode 138-148 rad/s at
-    beta0 = 15 deg, mean 143.1 = sqrt(k/J) of the paper's 684 rpm critical speed, where the linearisation at 0 deg
-    alone is 3.5% high). Sampled at ``ANGLE_SAMPLES`` angles over one period of the model's ``EXCITATION_ORDER``,
-    the modes paired by rank. A torque-driven model, its input angle a state, is linearised at rest at 0 only."""
+    """(mean, lowest, highest) natural frequencies [rad/s] of a model (a module or class of the
+    ``ujfmu.models.protocol``) at parameters (by name; the FMU's declared defaults for those missing are the
+    caller's), linearised about its initial state at rest with its inputs zero (input shaft held, no load):
+    ``natural_frequencies`` of ``derivatives``. A speed-driven model (an input angle phi) is linearised at
+    ``ANGLE_SAMPLES`` input angles over one period of its ``EXCITATION_ORDER``, the modes paired by rank: a joint's
+    speed ratio and its derivative vary with the angle (Omar's torsional mode spans 138-148 rad/s at beta0 = 15 deg,
+    mean 143.1 = sqrt(k/J) of the paper's 684 rpm critical speed; the linearisation at 0 deg alone is 3.5% high).
+    A torque-driven model, its input angle a state, is linearised at 0 only. Empty arrays for a model without a
+    state of its own or held kinematically."""
     import dataclasses
     p = model.Parameters(**{f.name: parameters[f.name] for f in dataclasses.fields(model.Parameters) if f.init})
     if not model.State._fields or (hasattr(model, "kinematic") and model.kinematic(p)):
@@ -104,7 +98,7 @@ def model_natural_frequency_range(model, parameters: dict) -> tuple:
         u = model.Inputs(*[angle if name == "phi" else 0.0 for name in fields])
         y0 = np.asarray(model.initial_state(p, 0.0, u), float)
         samples.append(natural_frequencies(lambda y, u=u: model.derivatives(p, 0.0, model.State(*y), u), y0))
-    if len({len(w) for w in samples}) != 1:   # a mode over-damped at some angles: the angle of the others
+    if len({len(w) for w in samples}) != 1:   # a mode over-damped at some angles only: no pairing, keep 0 deg
         samples = [samples[0]]
     frequencies = np.array(samples)
     return frequencies.mean(axis=0), frequencies.min(axis=0), frequencies.max(axis=0)

@@ -319,6 +319,11 @@ class Scenario:
         """The [reference] file as a structured array (:meth:`reference`)."""
         return self.reference()[0]
 
+    def bands_hold_at(self, step: float) -> bool:
+        """The [reference.extrapolated] bands apply to a run at step: they hold the O(h^2) remainder of the step-halving
+        extrapolation at the scenario's declared step, so at that step or a finer one."""
+        return step <= self.declared_step * (1 + 1e-9)
+
     def reference(self) -> tuple:
         """(table, provenance) of the [reference] file; ScenarioError naming the scenario and the field when it
         cannot be read, or when its provenance line names another setup (setup_digest) than the scenario's: a

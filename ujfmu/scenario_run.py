@@ -19,7 +19,7 @@ from fmpy.util import write_csv
 
 from .build import DEFAULT_FMU_DIR
 from .extras import available, preload
-from .fmu.base import MIN_SAMPLES_PER_PERIOD, samples_per_period
+from .fmu.base import MIN_SAMPLES_PER_PERIOD, RESOLVING_SAMPLES_PER_PERIOD, samples_per_period, sampling_interval
 from .master import CosimulationError, cosimulate
 from .scenario import Scenario, ScenarioError
 from .steady import speed_text
@@ -101,11 +101,6 @@ class OperatingPointCheck:
         return text
 
 
-#: samples a period the remedy of an aliased record asks for (one that samples a model's ``EXCITATION_ORDER``
-#: MIN_SAMPLES_PER_PERIOD times a period or fewer aliases it: ``ujfmu.fmu.base``, whose FMUs say so to any host)
-RESOLVING_SAMPLES_PER_PERIOD = 10.0
-
-
 @dataclass
 class SamplingCheck:
     """A drivetrain component's record against the highest order of the input speed its outputs carry at full size
@@ -133,7 +128,7 @@ class SamplingCheck:
                 f"{speed_text(self.omega)})")
         if self.passed:
             return f"ok   {what}, {self.samples:.3g} samples a period (more than {MIN_SAMPLES_PER_PERIOD:g})"
-        resolving = 2.0 * math.pi / (RESOLVING_SAMPLES_PER_PERIOD * self.order * self.omega)
+        resolving = sampling_interval(RESOLVING_SAMPLES_PER_PERIOD, self.order, self.omega)
         return (f"FAIL {what}, {self.samples:.3g} samples a period at a record step of {self.interval:g} s, at most "
                 f"{MIN_SAMPLES_PER_PERIOD:g} (Nyquist): the record aliases the order (a step of a whole number of its "
                 f"periods samples one joint angle and shows a constant; the reference, sampled at the same instants, "
@@ -461,7 +456,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         compared = ["time"] + [c.name for c in result.checks if c.reference_range > scenario.tolerances[c.name].abs]
         if available("scipy"):   # fmpy's band filter needs scipy (an extra); the verdict comes from compare()
             result.fmpy_outlier_fraction = fmpy_outlier_fraction(table[compared], reference[compared])
-        coarser = not model_exchange and scenario.step_size > scenario.declared_step * (1 + 1e-9)
+        coarser = not model_exchange and not scenario.bands_hold_at(scenario.step_size)
         if scenario.extrapolated_tolerances and coarser:
             result.skipped_bands = (f"[reference.extrapolated] bands not checked: they hold the O(h^2) remainder "
                                     f"at the scenario's step {scenario.declared_step:g} s, and this run's "

@@ -73,7 +73,6 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     the run's own check); else the run records the drivetrain components' input speeds too, for
     ``scenario_run.check_sampling``. With a reference file and [reference.extrapolated] bands, at most the
     scenario's declared step (the bands hold the remainder there), the extrapolation compared within them."""
-    from .references import read_reference
     from .scenario_run import check_sampling, compare, extrapolate_step, sampled_components
     run = copy.copy(scenario)
     run.step_size = scenario.step_size if step is None else step
@@ -105,8 +104,8 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
             absolute[name] = (diff, allowance)
     banded = []
     if (scenario.extrapolated_tolerances and scenario.reference_file is not None and scenario.reference_file.is_file()
-            and run.step_size <= scenario.declared_step * (1 + 1e-9)):
-        banded = compare(extrapolated, read_reference(scenario.reference_file)[0], scenario.extrapolated_tolerances)
+            and scenario.bands_hold_at(run.step_size)):
+        banded = compare(extrapolated, scenario.reference()[0], scenario.extrapolated_tolerances)
     return StepEstimate(run.step_size, errors, allowed, absolute=absolute, sampling=sampling, extrapolated=banded)
 
 

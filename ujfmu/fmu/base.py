@@ -126,12 +126,21 @@ TORQUE_RANGE = dict(min=-1.0e7, max=1.0e7)
 
 #: outputs read this many times a period of an order of the input speed, or fewer, alias it (Nyquist)
 MIN_SAMPLES_PER_PERIOD = 2.0
+#: samples a period the remedy for an aliasing step asks for
+RESOLVING_SAMPLES_PER_PERIOD = 10.0
 
 
 def samples_per_period(order: int, omega: float, interval: float) -> float:
     """Samples per period of the order-th multiple of the speed omega [rad/s] read every interval [s]:
     2 pi / (order |omega| interval); inf at rest."""
     rate = order * abs(omega) * interval
+    return 2.0 * math.pi / rate if rate > 0.0 else math.inf
+
+
+def sampling_interval(samples: float, order: int, omega: float) -> float:
+    """The interval [s] that reads the order-th multiple of the speed omega [rad/s] ``samples`` times a period (the
+    inverse of :func:`samples_per_period`); inf at rest."""
+    rate = samples * order * abs(omega)
     return 2.0 * math.pi / rate if rate > 0.0 else math.inf
 
 
@@ -530,7 +539,7 @@ class ModelSlave(UjfmuSlave):
             cls._outputs = staticmethod(model.outputs)
             order = getattr(cls.PHYSICS, "EXCITATION_ORDER", None)
             if order:
-                cls._aliasing_reach = 2.0 * math.pi / (MIN_SAMPLES_PER_PERIOD * order)
+                cls._aliasing_reach = sampling_interval(MIN_SAMPLES_PER_PERIOD, order, 1.0)
             if hasattr(model, "state_outputs"):
                 cls._state_outputs = staticmethod(model.state_outputs)
                 cls._state_output_names = tuple(model.STATE_OUTPUTS)
@@ -640,8 +649,9 @@ class ModelSlave(UjfmuSlave):
                  f"{order}x order ({order * omega / (2.0 * math.pi):.4g} Hz at {omega:.6g} rad/s), at most "
                  f"{MIN_SAMPLES_PER_PERIOD:g}: read at the communication points they alias it (a step of a whole "
                  f"number of its periods shows one joint angle, a constant); a step of at most "
-                 f"{2.0 * math.pi / (10.0 * order * omega):.3g} s reads it 10 times a period. The integration within "
-                 f"a step is unaffected. (Said once per instance.)", Fmi2Status.warning)
+                 f"{sampling_interval(RESOLVING_SAMPLES_PER_PERIOD, order, omega):.3g} s reads it "
+                 f"{RESOLVING_SAMPLES_PER_PERIOD:g} times a period. The integration within a step is unaffected. "
+                 f"(Said once per instance.)", Fmi2Status.warning)
 
     def integrate(self, t, h, y, u):
         """The state y at t advanced to t + h by the model's own ``integrate_with_history`` (its history advanced
