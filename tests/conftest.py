@@ -1,6 +1,7 @@
 """Shared fixtures: FMUs built once per test session from the working tree, into a temporary folder; an opened FMU
 instance and a driver for the FMU-level tests (tests/fmu, tests/models)."""
 
+import atexit
 import os
 import shutil
 import subprocess
@@ -169,8 +170,10 @@ def pytest_unconfigure(config):
 
     pythonfmu 0.7.0 binaries stay loaded (they cannot be unloaded safely, docs/cosimulation.md), and tearing the
     interpreter down under them has now and then aborted the process after the last test ("corrupted
-    double-linked list", SIGSEGV): a result already reported must not turn into a failing exit status."""
+    double-linked list", SIGSEGV): a result already reported must not turn into a failing exit status. Python's
+    exit handlers still run (they remove the extracted FMUs' folders), as in ``ujfmu.cli.run_and_exit``."""
     if _EXIT and not hasattr(config, "workerinput"):   # the main pytest process, not a pytest-xdist worker
+        atexit._run_exitfuncs()
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(_EXIT[-1])

@@ -197,10 +197,15 @@ def test_a_failing_point_is_recorded_and_the_sweep_goes_on(tmp_path, fmu_dir):
     assert sweep.failed() == [bad]
 
 
-def test_dask_local_cluster_and_scheduler_address_give_the_in_process_results(brutti, tmp_path, fmu_dir):
+def test_dask_local_cluster_and_scheduler_address_give_the_in_process_results(brutti, tmp_path, fmu_dir,
+                                                                             monkeypatch):
     """The distributed path on a real LocalCluster with two worker processes, reached by its address as
-    `--scheduler` does; each worker receives the FMUs (no shared folder needed) and runs points independently."""
+    `--scheduler` does; each worker receives the FMUs (no shared folder needed) and runs points independently, and
+    leaves no folder behind in its temporary directory when it exits."""
     from distributed import Client, LocalCluster
+    workers_tmp = tmp_path / "workers_tmp"
+    workers_tmp.mkdir()
+    monkeypatch.setenv("TMPDIR", str(workers_tmp))   # read by each worker process as it starts
     serial = brutti_sweep(brutti, tmp_path / "serial", fmu_dir)
     serial.run(workers=0, progress=False)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
@@ -210,6 +215,7 @@ def test_dask_local_cluster_and_scheduler_address_give_the_in_process_results(br
             ran_on = {w["id"] for w in client.scheduler_info()["workers"].values()}
     assert len(ran_on) == 2
     assert [without_timing(r) for r in distributed.table()] == [without_timing(r) for r in serial.table()]
+    assert sorted(p.name for p in workers_tmp.iterdir()) == []
 
 
 def test_cli_sweep_writes_table_and_plots_and_reports_bad_parameters(fmu_dir, tmp_path, capsys):

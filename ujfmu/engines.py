@@ -12,11 +12,13 @@ loads FMI 2.0 only).
 """
 
 import argparse
+import contextlib
 import ctypes
 import importlib.metadata
 import importlib.util
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -83,17 +85,43 @@ def _step_ujfmu(ssp, scenario, n_steps, work):
         return ready, _clocks(), len(table)
 
 
-def _ecos_simulation(ssp, scenario, csv, log_level="warn"):
+@contextlib.contextmanager
+def _ecos_session(ssp, scenario, csv, work, log_level="warn"):
     """An initialized Ecos simulation of the SSP package (its 'scenario' parameter set) writing every recorded
-    signal to csv at every step."""
+    signal to csv at every step; freed on leaving.
+
+    Ecos unpacks the package and its FMUs into folders under TMPDIR and leaves the package's folder behind even
+    after ``free`` and a normal exit (ecospy 0.7.2): here TMPDIR points into work while Ecos loads, and that folder
+    is removed once the simulation is freed."""
     ctypes.CDLL(_tbb_library(), mode=ctypes.RTLD_GLOBAL)   # before ecospy loads libecosc
     from ecospy import EcosLib, EcosSimulation
     EcosLib.set_log_level(log_level)
-    sim = EcosSimulation(ssp_path=str(Path(ssp).resolve()), step_size=scenario.step_size)
-    sim.add_csv_writer(str(csv), identifiers=[name.replace(".", "::", 1) for name in scenario.record])
-    if not sim.init(start_time=scenario.start_time, parameter_set="scenario"):
-        raise RuntimeError("Ecos could not initialize the system: " + EcosLib.get_last_error())
-    return sim
+    unpacked = Path(tempfile.mkdtemp(prefix="ecos_", dir=work))
+    saved = os.environ.get("TMPDIR")
+    os.environ["TMPDIR"] = str(unpacked)
+    try:
+        sim = EcosSimulation(ssp_path=str(Path(ssp).resolve()), step_size=scenario.step_size)
+        try:
+            sim.add_csv_writer(str(csv), identifiers=[name.replace(".", "::", 1) for name in scenario.record])
+            if not sim.init(start_time=scenario.start_time, parameter_set="scenario"):
+                raise RuntimeError("Ecos could not initialize the system: " + EcosLib.get_last_error())
+        finally:
+            _restore_environ("TMPDIR", saved)
+        try:
+            yield sim
+        finally:
+            sim.terminate()
+            sim.free()
+    finally:
+        _restore_environ("TMPDIR", saved)
+        shutil.rmtree(unpacked, ignore_errors=True)
+
+
+def _restore_environ(name, value):
+    if value is None:
+        os.environ.pop(name, None)
+    else:
+        os.environ[name] = value
 
 
 def cosimulate_ecos(ssp: Path, scenario, work: Path) -> np.ndarray:
@@ -105,10 +133,8 @@ def cosimulate_ecos(ssp: Path, scenario, work: Path) -> np.ndarray:
         from .extras import MissingExtraError
         raise MissingExtraError(f"ujfmu.engines.cosimulate_ecos: {reason}")
     csv = Path(work) / "ecos.csv"
-    sim = _ecos_simulation(ssp, scenario, csv, "err")
-    sim.step(int(round((scenario.stop_time - scenario.start_time) / scenario.step_size)))
-    sim.terminate()
-    sim.free()
+    with _ecos_session(ssp, scenario, csv, work, "err") as sim:
+        sim.step(int(round((scenario.stop_time - scenario.start_time) / scenario.step_size)))
     with open(csv) as f:
         header = [h.strip().split("[")[0].replace("::", ".", 1) for h in f.readline().split(",")]
         data = np.loadtxt(f, delimiter=",", ndmin=2)
@@ -118,13 +144,11 @@ def cosimulate_ecos(ssp: Path, scenario, work: Path) -> np.ndarray:
 
 
 def _step_ecos(ssp, scenario, n_steps, work):
-    sim = _ecos_simulation(ssp, scenario, Path(work) / "ecos.csv")
     csv = Path(work) / "ecos.csv"
-    ready = _clocks()
-    sim.step(n_steps)
-    stopped = _clocks()
-    sim.terminate()
-    sim.free()
+    with _ecos_session(ssp, scenario, csv, work) as sim:
+        ready = _clocks()
+        sim.step(n_steps)
+        stopped = _clocks()
     with open(csv) as f:
         rows = sum(1 for _ in f) - 1
     return ready, stopped, rows

@@ -98,9 +98,11 @@ def scratch_copy(dest: Path, repository: Path = REPOSITORY) -> Path:
 
 
 def _run(args, src, timeout, niceness):
-    env = dict(os.environ, PYTHONPATH=str(src), PYTHONDONTWRITEBYTECODE="1")
-    return subprocess.run(args, cwd=src, env=env, capture_output=True, text=True, timeout=timeout,
-                          preexec_fn=(lambda: os.nice(niceness)) if niceness else None)
+    """args run in src with its own temporary directory, removed afterwards even if a timeout killed the run."""
+    with tempfile.TemporaryDirectory(prefix="ujfmu_mutant_", ignore_cleanup_errors=True) as tmp:
+        env = dict(os.environ, PYTHONPATH=str(src), PYTHONDONTWRITEBYTECODE="1", TMPDIR=tmp)
+        return subprocess.run(args, cwd=src, env=env, capture_output=True, text=True, timeout=timeout,
+                              preexec_fn=(lambda: os.nice(niceness)) if niceness else None)
 
 
 def run_mutant(mutant: Mutant, src: Path, timeout: float = 900.0, niceness: int = 19) -> Outcome:

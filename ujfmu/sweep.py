@@ -26,6 +26,7 @@ From Python (keyword arguments of ``SweepSettings.from_scenario`` override the s
     rows = sweep.table()   # flat dicts, as the CSV
 """
 
+import atexit
 import contextlib
 import csv
 import difflib
@@ -36,6 +37,7 @@ import json
 import math
 import os
 import re
+import shutil
 import sys
 import tempfile
 import time
@@ -363,11 +365,14 @@ _WORKER_DIRS = {}
 
 
 def _worker_fmu_dir(hashes, fmu_blobs=None):
-    """The FMUs in this process: written once per content hash into a temporary folder, reused across points."""
+    """The FMUs in this process: written once per content hash into a temporary folder, reused across points and
+    removed when the process exits."""
     key = json.dumps(hashes, sort_keys=True)
     if key not in _WORKER_DIRS:
         if fmu_blobs is None:
             raise RuntimeError("this worker has not received the sweep's FMUs (FmuInstaller plugin missing)")
+        if not _WORKER_DIRS:
+            atexit.register(lambda: [shutil.rmtree(d, ignore_errors=True) for d in _WORKER_DIRS.values()])
         folder = Path(tempfile.mkdtemp(prefix="ujfmu_worker_fmus_"))
         for name, blob in fmu_blobs.items():
             (folder / f"{name}.fmu").write_bytes(blob)

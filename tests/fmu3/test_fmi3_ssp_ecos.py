@@ -21,14 +21,19 @@ JACOBI_GAP = {"cardan_heavy_torque_driven": 0.07, "ring_coupling_torque_driven":
 
 
 @pytest.mark.parametrize("name", list(JACOBI_GAP))
-def test_fmi3_ssp_runs_in_ecos_and_agrees_with_our_master(fmu3_dir, tmp_path, name):
+def test_fmi3_ssp_runs_in_ecos_and_agrees_with_our_master(fmu3_dir, tmp_path, name, monkeypatch):
     """The first half second of the scenario (the torque-driven heavy Cardan and ring coupling cases) packaged with
     the FMI 3.0 FMUs: Ecos initializes it from the package's parameter set and steps it to the end, every recorded
-    signal within the coupling gap of our master's run."""
+    signal within the coupling gap of our master's run. The folders Ecos unpacks into are gone afterwards."""
     scenario = copy.copy(Scenario(SCENARIOS / f"{name}.toml"))
     scenario.stop_time = scenario.start_time + 0.5
     ssp = export_ssp(scenario, tmp_path, fmu3_dir)
+    host_tmp = tmp_path / "host_tmp"
+    host_tmp.mkdir()
+    monkeypatch.setenv("TMPDIR", str(host_tmp))
     theirs = cosimulate_ecos(ssp, scenario, tmp_path)
+    assert [p.name for p in host_tmp.iterdir()] == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["ecos.csv", "host_tmp", ssp.name])
     ours = run_scenario(scenario, fmu_dir=fmu3_dir, out_dir=None, plot=False, progress=False).table
     assert len(theirs) == len(ours) == 501
     assert np.allclose(theirs["time"], ours["time"], rtol=0.0, atol=1e-12)
