@@ -122,6 +122,27 @@ def test_campbell_diagram_only_against_a_speed(fmu_dir, tmp_path, figures, spec,
     rows = sweep.table()
     assert max(r["driveline.tau_in.h1"] for r in rows) < 1e-6 * max(r["driveline.tau_in.h2"] for r in rows)
     assert figures[f"{sweep.name}.png"].axes[0].get_ylabel() == "[N.m]"
+    swept = "motor.omega_set 1000..2000 rpm" if campbell else "driveline.beta1,driveline.beta2 5..10 deg"
+    for name in (f"{sweep.name}.png", f"{sweep.name}_orders.png"):   # not the title's "2000 rpm input"
+        title = figures[name]._suptitle.get_text().replace("\n", " ")
+        assert swept in title and scenario.title not in title, title
+
+
+def test_a_title_wraps_between_settings_not_inside_one():
+    """'beta = 5 deg' and '684 rpm' stay on one line of a wrapped figure title."""
+    from ujfmu.plotting import _title
+
+    class Figure:
+        def suptitle(self, text, fontsize):
+            self.text = text
+
+    text = "Twin Jeffcott rotor running below its first critical speed (684 rpm), beta = 5 deg, unbalanced discs"
+    for width in range(20, len(text)):
+        fig = Figure()
+        _title(fig, text, width / 11.5)
+        lines = fig.text.split("\n")
+        assert any("beta = 5 deg" in line for line in lines) and any("684 rpm" in line for line in lines), lines
+        assert fig.text.replace("\n", " ") == text
 
 
 def test_campbell_diagram_shows_the_natural_frequencies(fmu_dir, tmp_path, figures):

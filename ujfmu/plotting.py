@@ -6,6 +6,7 @@ an offset (``1e-12+2.999999999e-2``): a signal constant to within round-off gets
 """
 
 import math
+import re
 import textwrap
 
 from .extras import require
@@ -31,8 +32,14 @@ def display(unit):
     return shown or "1", factor
 
 
+#: 'name = value unit' and 'value unit' in a title, kept on one line when it wraps
+_UNBROKEN = re.compile(r"\S+ = [-+.\w]+(?: (?:deg|rpm|rad/s|rad|N\.m|Hz|kg|mm|m|s)\b)?|\d[\d.]* (?:deg|rpm|rad/s|N\.m|Hz)\b")
+
+
 def _title(fig, text, width_in):
-    fig.suptitle(textwrap.fill(text, TITLE_WIDTH.get(width_in, int(11.5 * width_in))), fontsize=9)
+    glued = _UNBROKEN.sub(lambda m: m.group(0).replace(" ", "\0"), text)
+    wrapped = textwrap.fill(glued, TITLE_WIDTH.get(width_in, int(11.5 * width_in)), break_on_hyphens=False)
+    fig.suptitle(wrapped.replace("\0", " "), fontsize=9)
 
 
 def _readable_limits(ax, *series):
@@ -242,6 +249,10 @@ def plot_sweep(sweep, out_dir):
         return ", ".join(f"{ax.label} = {axis_value(ax, v):.4g} {axis_unit(ax)}" for ax, v in zip(others, key)) or None
 
     xlabel = f"{first.label} [{axis_unit(first)}]"
+    # the scenario's title may name the value swept here ("30 deg joint"): the figures name the sweep instead
+    swept = "; ".join(f"{ax.label} {axis_value(ax, min(ax.values)):.4g}..{axis_value(ax, max(ax.values)):.4g} "
+                      f"{axis_unit(ax)}" for ax in sweep.axes)
+    heading = f"{sweep.name}: {swept}, the rest as in scenario {scenario.name}"
 
     def xs(rows):
         return np.array([axis_value(first, r["point"][first.names[0]]) for r in rows])
@@ -266,7 +277,7 @@ def plot_sweep(sweep, out_dir):
     if others:
         axes[0, 0].legend(fontsize=7)
     axes[-1, 0].set_xlabel(xlabel)
-    _title(fig, f"{scenario.title}: sweep of {first.label}", 9)
+    _title(fig, heading, 9)
     main = out_dir / f"{sweep.name}.png"
     fig.savefig(main, dpi=110)
     plt.close(fig)
@@ -324,7 +335,7 @@ def plot_sweep(sweep, out_dir):
             ax2.legend(fontsize=8)
     names = ", ".join(shown) + (f" (the first {len(shown)} of {len(outputs)} outputs; --output chooses)"
                                 if len(shown) < len(outputs) else "")
-    _title(fig, f"{scenario.title}: running-speed orders of {names}", 12 if campbell else 8)
+    _title(fig, f"{heading}: running-speed orders of {names}", 12 if campbell else 8)
     orders_path = out_dir / f"{sweep.name}_orders.png"
     fig.savefig(orders_path, dpi=110)
     plt.close(fig)
