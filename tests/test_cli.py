@@ -156,7 +156,7 @@ def test_default_folders_are_the_current_directorys(tmp_path, monkeypatch, capsy
     (tmp_path / "scenarios").mkdir()
     _unchecked(tmp_path / "scenarios", "mine")
     assert main(["check"]) == 2   # finds ./scenarios/mine.toml, looks for ./fmus
-    err = capsys.readouterr().err
+    err = "".join(capsys.readouterr())
     assert "mine.toml" in err and str(tmp_path / "fmus" / "Motor.fmu") in err and "run `ujfmu build` first" in err
     assert "or give --fmu-dir DIR where they were built" in err
 
@@ -236,6 +236,38 @@ def test_references_refuses_to_overwrite_another_scenarios_reference(fmu_dir, tm
     err = capsys.readouterr().err
     assert "is the reference of scenarios/cardan_startup.toml" in err and 'file = "references/my_cardan45.csv"' in err
     assert f"ujfmu references {copy}" in err and "regenerate it" not in err
+
+
+def test_check_runs_every_scenario_and_reports_one_that_cannot_run(fmu_dir, tmp_path, capsys):
+    """A copy of a scenario with its original's reference copied under the copy's own name, then a parameter
+    edited: `check` of the copy and a good scenario runs both, reports the copy as an ERROR with the fix (make its
+    own reference; the file is already named after it), writes the JUnit report with the passing case and an error
+    case, and exits 2. `ujfmu references` then replaces the copied file (it is the copy's own), and the copy
+    passes."""
+    (tmp_path / "references").mkdir()
+    copied = tmp_path / "references" / "my_copy.csv"
+    copied.write_text((SCENARIOS / "references" / "cardan_constant_speed.csv").read_text())
+    copy = tmp_path / "my_copy.toml"
+    copy.write_text((SCENARIOS / "cardan_constant_speed.toml").read_text().replace(
+        "references/cardan_constant_speed.csv", "references/my_copy.csv").replace("T0 = 0.3,", "T0 = 0.31,"))
+    junit = tmp_path / "report.xml"
+    common = ["--out", str(tmp_path / "out"), "--no-plot", "-q"]
+    code = main(["--fmu-dir", str(fmu_dir), "check", str(copy), str(SCENARIOS / "cardan_constant_speed.toml"),
+                 "--junit", str(junit)] + common)
+    out, err = capsys.readouterr()
+    assert code == 2
+    assert "ERROR my_copy" in out and "holds the reference of scenarios/cardan_constant_speed.toml" in out
+    assert f"`ujfmu references {copy}`" in out and "give this scenario its own file" not in out
+    assert "PASS cardan_constant_speed" in out and "1 passed, 0 failed, 0 not checked, 1 could not run" in out
+    assert "could not run (my_copy)" in err
+    suite = ET.parse(junit).getroot()
+    assert (suite.get("tests"), suite.get("failures"), suite.get("errors")) == ("2", "0", "1")
+    cases = {c.get("name"): c for c in suite.iter("testcase")}
+    assert cases["my_copy"].find("error") is not None
+    assert cases["cardan_constant_speed"].find("error") is None and cases["cardan_constant_speed"].find("failure") is None
+    assert main(["references", str(copy), "-q"]) == 0
+    assert "my_copy.toml" in copied.read_text().splitlines()[0]
+    assert main(["--fmu-dir", str(fmu_dir), "check", str(copy)] + common) == 0
 
 
 def test_output_interval_thins_the_written_rows_and_keeps_the_verdict(fmu_dir, tmp_path, capsys):

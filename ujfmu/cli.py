@@ -214,30 +214,40 @@ def cmd_run(args):
 
 
 def cmd_check(args):
+    from .master import CosimulationError
+    from .scenario import ScenarioError
     from .scenario_run import write_junit
-    results, skipped = [], []
+    results, skipped, errors = [], [], {}
     for path in _scenarios(args.scenarios):
-        if args.model_exchange:
-            from .model_exchange import ModelExchangeError
-            try:
+        try:
+            if args.model_exchange:
+                from .model_exchange import ModelExchangeError
+                try:
+                    results.append(_run_one(args, path))
+                except ModelExchangeError as exc:   # a speed-driven scenario: nothing to integrate in ME
+                    skipped.append(Path(path).stem)
+                    print(f"SKIPPED {Path(path).stem}: {exc}")
+            else:
                 results.append(_run_one(args, path))
-            except ModelExchangeError as exc:   # a speed-driven scenario: nothing to integrate in ME
-                skipped.append(Path(path).stem)
-                print(f"SKIPPED {Path(path).stem}: {exc}")
-        else:
-            results.append(_run_one(args, path))
+        except (ScenarioError, CosimulationError, FileNotFoundError) as exc:   # the next scenario still runs
+            errors[Path(path).stem] = str(exc)
+            print(f"ERROR {Path(path).stem}: {exc}")
     _plots_missing(args)
     _band_missing(results)
     if args.junit:
-        print(f"JUnit report: {write_junit(results, args.junit)}")
+        print(f"JUnit report: {write_junit(results, args.junit, errors)}")
     failed = [r for r in results if r.failed]
-    unchecked = [r for r in results if not r.checked]
+    unchecked = [r for r in results if not r.checked and not r.failed]
     print(f"{len(results) - len(failed) - len(unchecked)} passed, {len(failed)} failed, "
-          f"{len(unchecked)} not checked" + (f", {len(skipped)} skipped (no Model Exchange wiring: "
-                                              f"{', '.join(skipped)})" if skipped else ""))
+          f"{len(unchecked)} not checked" + (f", {len(errors)} could not run" if errors else "")
+          + (f", {len(skipped)} skipped (no Model Exchange wiring: {', '.join(skipped)})" if skipped else ""))
     if unchecked:
         print(f"not checked (no [reference] with tolerances): {', '.join(r.scenario.name for r in unchecked)}",
               file=sys.stderr)
+    if errors:
+        print(f"ujfmu: error: {len(errors)} scenario(s) could not run ({', '.join(errors)}): each ERROR line above "
+              "says why", file=sys.stderr)
+        return 2
     if not results:
         print("ujfmu: error: no scenario could run in Model Exchange (only torque-driven wirings can)",
               file=sys.stderr)

@@ -341,9 +341,14 @@ class Scenario:
             raise ScenarioError(f"{field}: cannot read {self.reference_file}: {exc}") from None
         made_for = setup_of(provenance)
         if made_for is not None and made_for != self.setup_digest():
-            foreign = self.foreign_reference(scenario_of(provenance))
+            owner = scenario_of(provenance)
+            foreign = self.foreign_reference(owner)
             if foreign:
                 raise ScenarioError(foreign)
+            if owner is not None and Path(owner).stem != self.path.stem:
+                raise ScenarioError(f"{field}: {self.reference_file} holds the reference of {owner} (its provenance "
+                                    "line says so), copied here; make this scenario's own: "
+                                    f"`ujfmu references {self.path}`")
             raise ScenarioError(f"{field}: {self.reference_file} was made for another setup of this scenario "
                                 f"(setup {made_for}, the scenario's is now {self.setup_digest()}: a component, "
                                 "parameter, set input, connection or the start time changed since); regenerate it: "
@@ -355,8 +360,10 @@ class Scenario:
 
     def foreign_reference(self, owner: str | None) -> str:
         """'' unless owner (the scenario a reference file's provenance line names) is another scenario than this
-        one: then what to do, since the file is that one's (a copied scenario still naming its original's)."""
-        if owner is None or Path(owner).stem == self.path.stem:
+        one and the file is not named after this one: then what to do, since the file is that one's (a copied
+        scenario still naming its original's). A file named after this scenario is its own, whatever it holds
+        (a copy of another's reference), and ``ujfmu references`` may replace it."""
+        if owner is None or Path(owner).stem == self.path.stem or self.reference_file.stem == self.name:
             return ""
         return (f"{self.path}: [reference] file = {self.reference_file_text!r} is the reference of {owner} (its "
                 f"provenance line says so): give this scenario its own file, e.g. file = "

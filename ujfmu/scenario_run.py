@@ -500,11 +500,13 @@ def _write_partial(scenario, exc, out_dir, plot):
     exc.args = (f"{exc.args[0] if exc.args else exc}\n" + "\n".join(written),)
 
 
-def write_junit(results, path):
+def write_junit(results: list, path: str | os.PathLike, errors: dict | None = None) -> Path:
     """JUnit XML: one test case per scenario, a failure element carrying the error figures; a scenario that
-    compared nothing is a skipped test case. A case's time is its whole run (ScenarioResult.total_time)."""
-    suite = ET.Element("testsuite", name="ujfmu scenarios", tests=str(len(results)),
-                       failures=str(sum(r.failed for r in results)), errors="0",
+    compared nothing is a skipped test case, and one that could not run (errors: its name -> the message) an
+    error case. A case's time is its whole run (ScenarioResult.total_time)."""
+    errors = errors or {}
+    suite = ET.Element("testsuite", name="ujfmu scenarios", tests=str(len(results) + len(errors)),
+                       failures=str(sum(r.failed for r in results)), errors=str(len(errors)),
                        skipped=str(sum(not r.checked and not r.failed for r in results)),
                        time=f"{sum(r.total_time for r in results):.3f}")
     for r in results:
@@ -522,6 +524,9 @@ def write_junit(results, path):
         elif not r.checked:
             ET.SubElement(case, "skipped", message=f"not checked: {r.not_checked_reason()}")
         ET.SubElement(case, "system-out").text = r.summary()
+    for name, message in errors.items():
+        case = ET.SubElement(suite, "testcase", classname="ujfmu.scenarios", name=name, time="0")
+        ET.SubElement(case, "error", message=message.splitlines()[0] if message else "error").text = message
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)
