@@ -46,6 +46,10 @@ def check_readable(fig):
     title = fig._suptitle.get_window_extent(renderer)
     box = fig.bbox
     assert box.x0 <= title.x0 and title.x1 <= box.x1 and title.y1 <= box.y1, (title, box)
+    for ax in fig.axes:   # the panels' own titles too
+        panel = ax.title if ax.get_title() else ax._left_title
+        extent = panel.get_window_extent(renderer)
+        assert box.x0 <= extent.x0 and extent.x1 <= box.x1, (panel.get_text(), extent, box)
 
 
 def test_scenario_figures_have_units_an_error_panel_and_mm_for_lengths(fmu_dir, tmp_path, figures):
@@ -215,3 +219,21 @@ def test_the_order_figure_shows_the_first_outputs_and_says_so(fmu_dir, tmp_path,
     assert [t.split(":")[0] for t in titles] == outputs[:6]
     assert "(the first 6 of 7 outputs; --output chooses)" in orders._suptitle.get_text().replace("\n", " ")
     assert len(figures[f"{sweep.name}.png"].axes) == 7   # max and min: every output
+
+
+def test_sweep_figures_say_what_they_leave_out_and_keep_every_title_inside(fmu_dir, tmp_path, figures):
+    """A point that fails (RingCoupling needs e < R: e = R = 0.1 m) is marked in the max/min figure, whose panel
+    titles stay inside the figure; the order figure, which draws the ok points only, says it left one out."""
+    scenario = Scenario(SCENARIOS / "ring_coupling_fig3.toml")
+    settings = SweepSettings.from_scenario(scenario, outputs=["coupling.x_e", "coupling.tau_in"],
+                                           running_speed="motor.omega", settle_time=0.0, revolutions=1,
+                                           steady_tol=0.0)
+    sweep = Sweep(scenario, [parse_axis("coupling.e=0.001,0.05,0.1", scenario)], settings, out_dir=tmp_path,
+                  fmu_dir=fmu_dir)
+    sweep.run(workers=0, progress=False)
+    assert [r["status"] for r in sweep.table()] == ["ok", "ok", "error"]
+    sweep.plot()
+    check_readable(figures[f"{sweep.name}.png"])
+    assert all("points not ok marked" in ax.get_title(loc="left") for ax in figures[f"{sweep.name}.png"].axes)
+    orders = figures[f"{sweep.name}_orders.png"]._suptitle.get_text().replace("\n", " ")
+    assert f"not drawn: 1 point(s) not ok (marked in {sweep.name}.png)" in orders, orders

@@ -38,3 +38,22 @@ def test_stiff_double_cardan_speed_driven_diverges_in_libcosim(fmu_dir):
     Jacobi coupling within 0.2 s; torque-driven it is the bundled scenario."""
     twin = speed_driven_twin(Scenario(SCENARIOS / "double_cardan_stiff_torque_driven.toml"))
     assert not runs_stably(with_changes(twin, {}, stop_time=0.3), "libcosim", fmu_dir)
+
+
+def test_a_diverging_speed_driven_run_names_the_torque_driven_wiring(fmu_dir, tmp_path):
+    """The speed-driven twin of the heavy Cardan case run as a scenario (explicit, as written): its coupling error
+    names the joint's tau_in connection, and the message goes on to the remedy beside a smaller step, the
+    joint's torque-driven variant and the bundled scenario that wires it; a failure elsewhere gets no such hint."""
+    import pytest
+
+    from ujfmu.master import CosimulationError
+    from ujfmu.scenario_run import run_scenario, torque_driven_hint
+    twin = with_changes(speed_driven_twin(Scenario(SCENARIOS / "cardan_heavy_torque_driven.toml")), {},
+                        stop_time=0.5)
+    with pytest.raises(CosimulationError) as err:
+        run_scenario(twin, fmu_dir=fmu_dir, out_dir=tmp_path, plot=False)
+    message = str(err.value)
+    assert "joint.tau_in -> motor.tau_load" in message.splitlines()[0]
+    assert ("wire it torque-driven instead: CardanJointTorqueDriven driven by a MotorController" in message
+            and "J_rotor = 0.01 kg.m2" in message and "scenarios/cardan_heavy_torque_driven.toml" in message)
+    assert torque_driven_hint(twin, "component 'load' refused the step at t = 0.1") == ""

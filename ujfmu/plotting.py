@@ -173,8 +173,8 @@ STATUS_MARKERS = {"not_steady": ("x", "tab:red", "not steady"), "off_target": ("
 
 def _plot_points_not_ok(ax, sweep, xs, out, k):
     """Mark the max and min of the points whose status is not_steady or off_target (their figures are kept but are
-    not steady-state results); xs maps records to the first axis' values, k scales to the display unit. Returns
-    whether any were drawn."""
+    not steady-state results), and with a vertical line the points with no figures (an error, not yet computed);
+    xs maps records to the first axis' values, k scales to the display unit. Returns whether any were drawn."""
     drawn = False
     for status, (marker, color, text) in STATUS_MARKERS.items():
         rows = [r for r in sweep.records() if r["status"] == status and f"{out}.max" in r]
@@ -183,6 +183,11 @@ def _plot_points_not_ok(ax, sweep, xs, out, k):
             ax.plot(x + x, [k * r[f"{out}.max"] for r in rows] + [k * r[f"{out}.min"] for r in rows], marker, color=color,
                     ms=5, ls="none", label=f"{text} ({len(rows)})")
             drawn = True
+    empty = [r for r in sweep.records() if r["status"] != "ok" and f"{out}.max" not in r]
+    for i, x in enumerate(xs(empty)):
+        ax.axvline(x, color="tab:gray", ls=":", lw=1.2,
+                   label=None if i else f"no result: error or missing ({len(empty)}, see the CSV)")
+        drawn = True
     return drawn
 
 
@@ -270,7 +275,7 @@ def plot_sweep(sweep, out_dir):
         flagged = _plot_points_not_ok(ax, sweep, xs, out, k)
         ax.set_ylabel(f"[{unit}]", fontsize=8)
         ax.set_title(f"{out}: max (solid), min (dashed) in steady state over the measured revolutions" + (
-            "; points not ok marked by status (max and min)" if flagged else ""), fontsize=9, loc="left")
+            "\npoints not ok marked (legend)" if flagged else ""), fontsize=9, loc="left")
         ax.grid(alpha=0.3)
         if flagged and not others:
             ax.legend(fontsize=7)
@@ -335,7 +340,13 @@ def plot_sweep(sweep, out_dir):
             ax2.legend(fontsize=8)
     names = ", ".join(shown) + (f" (the first {len(shown)} of {len(outputs)} outputs; --output chooses)"
                                 if len(shown) < len(outputs) else "")
-    _title(fig, f"{heading}: running-speed orders of {names}", 12 if campbell else 8)
+    left_out = [f"{len(groups) - 1} other value(s) of {', '.join(ax.label for ax in others)}"] if len(groups) > 1 \
+        else []
+    not_ok = [r for r in sweep.records() if r["status"] != "ok"]
+    left_out += [f"{len(not_ok)} point(s) not ok (marked in {sweep.name}.png)"] if not_ok else []
+    _title(fig, f"{heading}: running-speed orders of {names}"
+           + (f"; not drawn: {', '.join(left_out)} (all in {sweep.name}.csv)" if left_out else ""),
+           12 if campbell else 8)
     orders_path = out_dir / f"{sweep.name}_orders.png"
     fig.savefig(orders_path, dpi=110)
     plt.close(fig)

@@ -437,6 +437,9 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                                progress=progress or None, coupling=scenario.coupling,
                                output_interval=scenario.output_interval, diagnostics=diagnostics)
     except CosimulationError as exc:
+        hint = torque_driven_hint(scenario, str(exc.args[0]) if exc.args else "")
+        if hint:
+            exc.args = (f"{exc.args[0]}\n{hint}",) + exc.args[1:]
         if exc.partial is not None and extra:
             exc.partial = _without(exc.partial, extra)
         if exc.partial is not None and out_dir is not None:
@@ -486,6 +489,33 @@ def _without(table: np.ndarray, names: list) -> np.ndarray:
     """A copy of a structured table without the named columns."""
     keep = [n for n in table.dtype.names if n not in names]
     return np.rec.fromarrays([table[n] for n in keep], names=keep)
+
+
+#: speed-driven FMU -> the bundled scenario that wires its torque-driven variant
+TORQUE_DRIVEN_EXAMPLES = {"CardanJoint": "cardan_heavy_torque_driven",
+                          "DoubleCardanDriveline": "double_cardan_stiff_torque_driven",
+                          "TwinJeffcottRotor": "twin_jeffcott_torque_driven",
+                          "RingCoupling": "ring_coupling_torque_driven"}
+
+
+def torque_driven_hint(scenario: Scenario, message: str) -> str:
+    """'' unless message (a coupling failure) names a speed-driven component's tau_in connection to its driver:
+    then the remedy beside a smaller step, the torque-driven wiring, which does not return the driven side's
+    inertia torque to the driver (README, "Choose the wiring for the host")."""
+    for conn in scenario.connections:
+        comp, _, port = conn.source.partition(".")
+        driver, _, target = conn.target.partition(".")
+        fmu = scenario.components.get(comp, ("", {}))[0]
+        if port == "tau_in" and target == "tau_load" and fmu in TORQUE_DRIVEN_EXAMPLES and conn.source in message:
+            rotor = scenario.parameters_with_defaults(driver).get("J_rotor")
+            return (f"hint: {comp} ({fmu}) follows the speed {driver} sets and returns, through {conn.source} -> "
+                    f"{conn.target}, the torque its driven side's inertia needs; with a driven side heavier than "
+                    f"{driver}'s rotor" + (f" (J_rotor = {rotor:g} kg.m2)" if rotor is not None else "")
+                    + f" or a stiff shaft, wire it torque-driven instead: {fmu}TorqueDriven driven by a "
+                    f"MotorController ({driver}.tau_motor -> {comp}.tau_in, {comp}.omega_in -> {driver}.omega, "
+                    f"the rotor inertia as {comp}'s J_drive), as scenarios/{TORQUE_DRIVEN_EXAMPLES[fmu]}.toml does "
+                    "(README, \"Choose the wiring for the host\")")
+    return ""
 
 
 def _write_partial(scenario, exc, out_dir, plot):
