@@ -356,6 +356,18 @@ def test_a_not_steady_message_states_the_settle_time_used_and_why_it_passed_max_
                "measurement windows" in r["error"] and cap == 0.26
 
 
+def test_the_steady_state_change_names_the_order_and_what_it_is_relative_to():
+    """Window figures [mean, 1x, 2x]: a 1x amplitude below 1% of the signal's largest figure is judged against that
+    1% (FLOOR), and the verdict says so, with the order; a large figure is judged against itself."""
+    from ujfmu.steady import FLOOR, steady_change
+    old = {"x": [2.0, 1e-8, 0.5]}
+    change, name, against = steady_change({"x": [2.0, 3e-8, 0.5]}, old, (1, 2))
+    assert change == pytest.approx(2e-8 / (FLOOR * 2.0)) and name == "x 1x order amplitude"
+    assert against == f"its allowance, {FLOOR:g} of the signal's largest figure 2 (it is 3e-08 itself)"
+    change, name, against = steady_change({"x": [2.0, 1e-8, 0.6]}, old, (1, 2))
+    assert change == pytest.approx(0.1 / 0.6) and (name, against) == ("x 2x order amplitude", "itself")
+
+
 def test_a_drive_that_misses_its_set_speed_is_off_target(fmu_dir, tmp_path, capsys):
     """cardan_startup at a constant 150 rad/s set point: with its 5 N.m torque limit the PI motor holds it; limited
     to 0.25 N.m against the load 0.2 + 4e-6 w^2 N.m it settles where they balance, w = sqrt(0.05 / 4e-6) = 112 rad/s,

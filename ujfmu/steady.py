@@ -100,10 +100,10 @@ def periodic_figures(window: Window, signals, orders) -> dict:
     return result
 
 
-def steady_change(new: dict, old: dict) -> tuple:
-    """(largest change relative to its allowance, 'signal figure') between two windows' ``periodic_figures``;
-    <= steady_tol means steady (module docstring)."""
-    worst, name = 0.0, ""
+def steady_change(new: dict, old: dict, orders=None) -> tuple:
+    """(largest change relative to its allowance, 'signal figure', what the change is relative to) between two
+    windows' ``periodic_figures`` of these orders; <= steady_tol means steady (module docstring)."""
+    worst, name, against = 0.0, "", "itself"
     for signal, figures_new in new.items():
         scale = max(abs(f) for f in figures_new)
         for i, (f_new, f_old) in enumerate(zip(figures_new, old[signal])):
@@ -111,8 +111,12 @@ def steady_change(new: dict, old: dict) -> tuple:
             change = abs(f_new - f_old)
             relative = change / allowance if allowance > 0 else (0.0 if change == 0 else math.inf)
             if not relative <= worst:
-                worst, name = relative, f"{signal} {'mean' if i == 0 else 'order amplitude'}"
-    return worst, name
+                figure = "mean" if i == 0 else f"{orders[i - 1]}x order amplitude" if orders else "order amplitude"
+                against = ("itself" if abs(f_new) >= FLOOR * scale else
+                           f"its allowance, {FLOOR:g} of the signal's largest figure {scale:.3g} (it is "
+                           f"{f_new:.3g} itself)")
+                worst, name = relative, f"{signal} {figure}"
+    return worst, name, against
 
 
 def halves_change(angle, table, signals, orders=(1, 2, 4)) -> tuple:
@@ -121,7 +125,7 @@ def halves_change(angle, table, signals, orders=(1, 2, 4)) -> tuple:
     record repeats."""
     half = len(angle) // 2
     first, second = (Window(0.0, np.asarray(angle[part]), table[part]) for part in (slice(0, half), slice(half, None)))
-    return steady_change(periodic_figures(second, signals, orders), periodic_figures(first, signals, orders))
+    return steady_change(periodic_figures(second, signals, orders), periodic_figures(first, signals, orders), orders)
 
 
 def is_running_angle(signal: str) -> bool:
@@ -170,7 +174,7 @@ def settle_and_measure(cosim, settings) -> dict:
             earlier.append(periodic_figures(window, signals, s.orders))
             if window.start >= start + settle - 0.5 * h:
                 break
-        change, worst = max(steady_change(earlier[-1], old) for old in earlier[:-1])
+        change, worst, against = max(steady_change(earlier[-1], old, s.orders) for old in earlier[:-1])
         if change <= s.steady_tol or GROWTH * settle > cap * (1.0 + 1e-9):
             break
         settle *= GROWTH
@@ -179,16 +183,16 @@ def settle_and_measure(cosim, settings) -> dict:
         record.update(status=OK, error="")
     else:
         record.update(status=NOT_STEADY, error=not_steady_message(
-            window.start - start, first, cap, length, s, worst, change))
+            window.start - start, first, cap, length, s, worst, change, against))
     return _check_operating_point(window, s, record)
 
 
 def not_steady_message(settled: float, earlier_start: float, cap: float, length: float, s, worst: str,
-                       change: float) -> str:
+                       change: float, against: str = "itself") -> str:
     """Why a point is not steady, with the settle time actually used (the start of the measured window) and, when
     that is past ``max_settle_time`` (cap), why: the criterion needs T >= 4 windows (module docstring), and
     windows are whole revolutions laid back to back from 3T/4, so the last starts up to one window after T."""
-    text = (f"not steady after {settled:.4g} s of settling: the {worst} changed by {change:.3g} of itself since "
+    text = (f"not steady after {settled:.4g} s of settling: the {worst} changed by {change:.3g} of {against} since "
             f"{earlier_start:.4g} s (allowed {s.steady_tol:g})")
     if settled > cap * (1.0 + 1e-9):
         windows = (f"measurement windows of {s.revolutions:g} revolution{'' if s.revolutions == 1 else 's'} of "
