@@ -250,3 +250,18 @@ def test_a_scenario_path_without_toml_names_the_file_that_exists(tmp_path, capsy
     with pytest.raises(ScenarioError) as err:
         Scenario("scenarios/zzzz")
     assert str(err.value) == "scenarios/zzzz: scenario file not found"
+
+
+@pytest.mark.parametrize("old, new, says", [
+    ('fmu = "Load"', 'fmu = "Load"\nparameters = { T_0 = 1.0 }', "has no parameter 'T_0' (did you mean T0?)"),
+    ('fmu = "Load"', 'fmu = "Load"\nparameters = { tau = 1.0 }', "(it is an output, which the FMU computes)"),
+    ("inputs = { omega_in = 10.0, tau_load = 0.1 }", "inputs = { omega_in = 10.0, tau_load = 0.1, J2 = 1e-5 }",
+     "has no input 'J2' (it is a parameter: set it under parameters)"),
+    ('fmu = "Load"', 'fmu = "Load"\nparameters = { omega = 1.0 }', "(it is an input: connect it, or set it under inputs)"),
+])
+def test_a_name_in_the_wrong_table_or_misspelt_says_where_it_goes(tmp_path, old, new, says):
+    text = GOOD.replace(old, new)
+    assert text != GOOD
+    with pytest.raises(ScenarioError) as err:
+        Scenario(write(tmp_path, text))
+    assert says in str(err.value)

@@ -42,6 +42,15 @@ def test_axis_ranges_are_inclusive_and_units_convert_to_si(brutti):
     linked = parse_axis("driveline.beta1,driveline.beta2=5,10deg", brutti)
     assert linked.names == ("driveline.beta1", "driveline.beta2")
     assert linked.values == pytest.approx([math.radians(5), math.radians(10)])
+    # in Python, one string joined by commas as on the command line, or a sequence
+    from ujfmu.sweep import Axis
+    assert Axis.of("driveline.beta1, driveline.beta2", [5], "deg").names == linked.names
+    assert Axis.span(linked.names, 5, 10, 5, "deg").values == pytest.approx(linked.values)
+    # a STOP the steps do not reach is said, not dropped in silence; a reached one is not mentioned
+    short = parse_axis("driveline.beta1,driveline.beta2=0:10:3deg", brutti)
+    assert short.display(short.values[-1]) == pytest.approx(9.0)
+    assert "(ends at 9 deg: STOP 10 deg is not START plus a whole number of STEPs" in short.describe(brutti)
+    assert "ends at" not in parse_axis("driveline.beta1=0:9:3deg", brutti).describe(brutti)
 
 
 @pytest.mark.parametrize("spec, words", [

@@ -55,6 +55,12 @@ REFERENCE_KEYS = {"file", "generator", "tolerance", "extrapolated", "not_compare
 TOLERANCE_KEYS = {"rel_range", "abs"}
 
 
+#: what a name set under the wrong table is, and where it goes
+_OTHER_CAUSALITY = {"input": "an input: connect it, or set it under inputs",
+                    "parameter": "a parameter: set it under parameters",
+                    "output": "an output, which the FMU computes"}
+
+
 def _expected(var):
     """What a TOML value of var must be, in words (scenario values are SI: no unit strings)."""
     if var.type is bool:
@@ -268,8 +274,12 @@ class Scenario:
         for pname, value in values.items():
             field = f"components.{cname}.{key}.{pname}"
             if pname not in declared:
-                raise ScenarioError(f"{self.path}: {field}: {fmu} has no {causality} '{pname}' "
-                                    f"(it has {', '.join(declared) or 'none'})")
+                other = next((v.causality for v in fmu_class(fmu).VARIABLES if v.name == pname), None)
+                close = [] if other else difflib.get_close_matches(pname, declared, n=2, cutoff=0.6)
+                raise ScenarioError(f"{self.path}: {field}: {fmu} has no {causality} '{pname}'"
+                                    + (f" (it is {_OTHER_CAUSALITY.get(other, 'an ' + str(other))})" if other else "")
+                                    + (f" (did you mean {' or '.join(close)}?)" if close else "")
+                                    + f" (it has {', '.join(declared) or 'none'})")
             var = declared[pname]
             kinds = (bool,) if var.type is bool else (int,) if var.type is int else (int, float)
             if not isinstance(value, kinds) or (var.type is not bool and isinstance(value, bool)):

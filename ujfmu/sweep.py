@@ -81,12 +81,13 @@ class Axis:
     names: tuple
     values: list
     unit: str = ""      # the human unit the values were given in ("rpm", "deg" or "")
+    short_of: float = math.nan   # a span's STOP (in unit) when its steps end before it
 
     @classmethod
     def of(cls, names, values, unit: str = "") -> "Axis":
         """An axis over the given values in unit ("rpm", "deg" or "" for SI); names: one ``component.parameter``
-        or several set together."""
-        names = (names,) if isinstance(names, str) else tuple(names)
+        or several set together (a sequence, or one string joined by commas as on the command line)."""
+        names = tuple(n.strip() for n in names.split(",")) if isinstance(names, str) else tuple(names)
         unit = unit.lower()
         if unit not in UNITS:
             raise ValueError(f"unknown unit {unit!r}: use 'rpm' (rad/s parameters), 'deg' (rad parameters) or '' (SI)")
@@ -98,7 +99,10 @@ class Axis:
         if not step > 0 or stop < start:
             raise ValueError("need STEP > 0 and STOP >= START")
         count = int(math.floor((stop - start) / step + 1e-9)) + 1
-        return cls.of(names, [start + k * step for k in range(count)], unit)
+        axis = cls.of(names, [start + k * step for k in range(count)], unit)
+        if stop - (start + (count - 1) * step) > 1e-9 * step:
+            axis.short_of = stop
+        return axis
 
     @property
     def label(self):
@@ -119,6 +123,10 @@ class Axis:
             text += f" (given as {self.display(min(self.values)):g}..{self.display(max(self.values)):g} {self.unit})"
         elif si in HUMAN_UNIT:
             text += f" (no unit after the values: taken as {si}; write e.g. ...{HUMAN_UNIT[si]} for {HUMAN_UNIT[si]})"
+        if not math.isnan(self.short_of):
+            last, unit = (self.display(max(self.values)), self.unit) if self.unit else (max(self.values), si)
+            text += (f" (ends at {last:g} {unit}: STOP {self.short_of:g} {unit} is not START plus a whole number "
+                     "of STEPs, and a range includes STOP only then)").replace("  ", " ").replace(" :", ":")
         return text
 
     def value_text(self, scenario, value: float) -> str:

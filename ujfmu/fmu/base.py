@@ -644,8 +644,10 @@ class ModelSlave(UjfmuSlave):
         one joint angle: a constant), though the state is integrated as accurately as at any step."""
         self._aliasing_said = True
         order, omega = self.PHYSICS.EXCITATION_ORDER, abs(omega)
+        reads = f"{samples_per_period(order, omega, h):.3g}"
+        reads = "once" if reads == "1" else "twice" if reads == "2" else f"{reads} times"
         self.log(f"{self.modelName} '{self.instance_name}': at t = {self._time:g} s a communication step of {h:g} s "
-                 f"reads the outputs {samples_per_period(order, omega, h):.3g} times a period of the input speed's "
+                 f"reads the outputs {reads} a period of the input speed's "
                  f"{order}x order ({order * omega / (2.0 * math.pi):.4g} Hz at {omega:.6g} rad/s), at most "
                  f"{MIN_SAMPLES_PER_PERIOD:g}: read at the communication points they alias it (a step of a whole "
                  f"number of its periods shows one joint angle, a constant); a step of at most "
