@@ -141,6 +141,7 @@ def test_fmu_archive_entries_cannot_escape_the_extraction_folder(tmp_path):
         extracted(evil)
     assert not (Path(tempfile.gettempdir()) / marker).exists() and not (Path("/tmp") / marker).exists()
     assert not (tmp_path.parent / marker).exists()
+    assert not list(Path(tempfile.gettempdir()).glob(f"ujfmu_fmu_*/**/{marker}"))   # the refused folder is removed
 
 
 def test_ssp_packages_hold_only_the_ssd_and_known_fmus(fmu_dir, tmp_path):

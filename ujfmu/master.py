@@ -267,8 +267,12 @@ def extracted(fmu):
     if key not in _EXTRACTED:
         if not _EXTRACTED:
             atexit.register(lambda: [shutil.rmtree(d, ignore_errors=True) for d, _ in _EXTRACTED.values()])
-        _EXTRACTED[key] = (extract(str(path), unzipdir=tempfile.mkdtemp(prefix="ujfmu_fmu_")),
-                           read_model_description(str(path)))
+        folder = tempfile.mkdtemp(prefix="ujfmu_fmu_")
+        try:
+            _EXTRACTED[key] = (extract(str(path), unzipdir=folder), read_model_description(str(path)))
+        except BaseException:   # not an FMU (or not one we read): nothing of it is kept
+            shutil.rmtree(folder, ignore_errors=True)
+            raise
     return _EXTRACTED[key]
 
 
