@@ -165,3 +165,31 @@ def test_a_step_that_aliases_the_2x_order_is_said_once_to_the_host(fmu_dir, name
             assert not [m for m in log if "[error]" in m or "[fatal]" in m], log
         finally:
             inst.free()
+
+
+@pytest.mark.parametrize("name", ["CardanJoint", "DoubleCardanDriveline", "Motor"])
+def test_a_fixed_parameter_or_an_output_set_while_stepping_is_refused(fmu_dir, name):
+    """FMI 2.0 lets a host set a fixed parameter only before fmi2ExitInitializationMode, and an output never: such a
+    call while stepping fails with the reason in the log, the parameter keeps the value the model runs with (it
+    would otherwise read back as set while the model ignored it), and setting a parameter to its current value
+    stays harmless (hosts that re-send every start value)."""
+    par, value = VARIED[name]
+    log = []
+    inst = open_instance(fmu_dir, name, log, "fixed")
+    try:
+        inst.initialize({par: value(1)})
+        inputs = inputs_of(inst)
+        for k in range(3):
+            inst.set(**{n: INPUTS[n](k * 1e-3) for n in inputs})
+            inst.slave.doStep(k * 1e-3, 1e-3)
+        inst.set(**{par: value(1)})
+        with pytest.raises(Exception):
+            inst.set(**{par: value(2)})
+        assert inst.get(par) == [value(1)]
+        assert any(f"parameter {par} is fixed" in m for m in log), log
+        output = outputs_of(inst)[0]
+        with pytest.raises(Exception):
+            inst.set(**{output: 1.0})
+        assert any(f"{output} is an output" in m for m in log), log
+    finally:
+        inst.free()

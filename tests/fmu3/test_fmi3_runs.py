@@ -137,6 +137,23 @@ def test_bad_input_refuses_the_step_and_the_instance_stays_usable(fmu3_dir, open
     assert inst.get("omega_in")[0] > 0.0
 
 
+def test_a_fixed_parameter_or_an_output_set_while_stepping_is_refused_in_fmi3(fmu3_dir, opened):
+    """As in FMI 2.0: while stepping, a fixed parameter keeps the value the model runs with and an output cannot be
+    set; each call fails with the reason in the log; the parameter's current value may be sent again."""
+    log = []
+    inst = _open(FmuInstance3, fmu3_dir, "CardanJoint", log)
+    opened.append(inst)
+    inst.initialize({"bend_angle": 0.5})
+    _record(inst, 3)
+    inst.set(bend_angle=0.5)
+    with pytest.raises(FMICallException):
+        inst.set(bend_angle=0.0)
+    assert inst.get("bend_angle") == [0.5] and any("parameter bend_angle is fixed" in m for m in log), log
+    with pytest.raises(FMICallException):
+        inst.set(omega_out=1.0)
+    assert any("omega_out is an output" in m for m in log), log
+
+
 def test_model_exchange_bad_input_gives_nan_derivatives_with_a_message(fmu3_dir, opened):
     """(pythonfmu3 crashes the host on an exception in fmi3GetContinuousStateDerivatives: NaN and a logged error
     instead, on which a solver stops.)"""

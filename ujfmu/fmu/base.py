@@ -213,7 +213,8 @@ class UjfmuSlave(Fmi2Slave):
         # fails too)
         reals = {vr: var for vr, var in self.vars.items() if isinstance(var, Real)}
         self._real_getters = {vr: var.getter for vr, var in reals.items()}
-        self._real_setters = {vr: var.setter for vr, var in reals.items() if var.setter is not None}
+        self._real_setters = {vr: var.setter for vr, var in reals.items()   # pythonfmu gives outputs a setter too
+                              if var.setter is not None and var.causality != Fmi2Causality.output}
         self._real_names = {vr: var.name for vr, var in reals.items()}
         self._real_outputs = frozenset(vr for vr, var in reals.items() if var.causality == Fmi2Causality.output)
         # the outputs that are functions of the state alone (``_state_output_names``), and the state they were last
@@ -273,6 +274,10 @@ class UjfmuSlave(Fmi2Slave):
             for vr, value in zip(vrs, values):
                 setters[vr](value)
         except KeyError:
+            for vr in vrs:
+                if vr in self._real_outputs:
+                    self._raise_to_host(f"{self.modelName} '{self.instance_name}': {self._real_names[vr]} is an "
+                                        "output: the FMU computes it, a host reads it (fmi2GetReal)")
             super().set_real(vrs, values)
 
     # --- FMU state (fmi2GetFMUstate / SetFMUstate / Serialize; canGetAndSetFMUstate in the modelDescription) ---
@@ -391,6 +396,10 @@ class UjfmuSlave(Fmi2Slave):
         set_value = self._input_setter(name, cast)
 
         def set_(value):
+            if self._running and cast(value) != getattr(self, name):   # a fixed parameter (FMI 2.0, 2.2.7)
+                self._raise_to_host(f"{self.modelName} '{self.instance_name}': parameter {name} is fixed: it is set "
+                                    "before fmi2ExitInitializationMode (or after fmi2Reset), not while stepping; "
+                                    f"it stays {getattr(self, name)!r}")
             set_value(value)
             self._derivation = None
         return set_

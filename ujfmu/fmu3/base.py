@@ -211,8 +211,11 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         elif var.causality == "local":
             getter = self._state_getter(var.name)
         else:
-            setter = core._parameter_setter if var.causality == "parameter" else core._input_setter
-            getter, setter = (lambda name=var.name: getattr(core, name)), setter(var.name, var.type)
+            if var.causality == "parameter":   # refuses a change while stepping (the core logged why)
+                setter = self._guarded(core._parameter_setter(var.name, var.type))
+            else:
+                setter = core._input_setter(var.name, var.type)
+            getter = lambda name=var.name: getattr(core, name)   # noqa: E731
         kwargs = dict(causality=Fmi3Causality[var.causality], variability=Fmi3Variability[var.variability],
                       description=var.description, getter=getter, setter=setter)
         if var.type is float:
@@ -273,6 +276,11 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
             for vr, value in zip(vrs, values):
                 setters[vr](value)
         except KeyError:
+            for vr in vrs:
+                variable = self.vars.get(vr)
+                if variable is not None and variable.causality == Fmi3Causality.output:
+                    self._raise_to_host(f"{self._core.modelName} '{self._core.instance_name}': {variable.name} is "
+                                        "an output: the FMU computes it, a host reads it (fmi3GetFloat64)")
             super().set_float64(vrs, values)
 
     # --- life cycle ---
