@@ -137,6 +137,26 @@ def test_unit_hints_only_where_the_converted_value_fits():
     assert torque.check(2e7).endswith("N.m")
 
 
+def test_an_input_out_of_range_while_stepping_names_an_unstable_coupling_first(fmu_dir):
+    """A speed of -36086 rad/s arriving at a step (a host's explicit coupling diverging, as libcosim's did): the
+    refusal names that cause and its remedies before the unit slip it might also be; a NaN is only not finite."""
+    log = []
+    inst = open_instance(fmu_dir, "DoubleCardanDriveline", log)
+    try:
+        inst.initialize()
+        inst.set(omega_in=10.0, tau_load=0.0)
+        assert inst.raw("fmi2DoStep")(inst.slave.component, 0.0, 1e-3, 1) == 0
+        inst.set(omega_in=-36085.6)
+        assert inst.raw("fmi2DoStep")(inst.slave.component, 1e-3, 1e-3, 1) == 2
+        assert "omega_in = -36085.6 is outside its allowed range [-10000, 10000] rad/s" in log[-1], log
+        assert "coupling going unstable" in log[-1] and "torque-driven wiring" in log[-1], log
+        inst.set(omega_in=math.nan)
+        assert inst.raw("fmi2DoStep")(inst.slave.component, 1e-3, 1e-3, 1) == 2
+        assert "not a finite number" in log[-1] and "coupling" not in log[-1], log
+    finally:
+        inst.free()
+
+
 @pytest.mark.parametrize("name", list(FMUS))
 def test_bad_inputs(fmu_dir, name):
     @SETTINGS

@@ -115,6 +115,12 @@ class Var:
         return f" ({value:.6g} {human[0]} = {value * human[1]:.4g} {self.unit}?)"
 
 
+#: said with an input out of its range at a step: the likelier cause than a unit slip once the run is under way
+UNSTABLE_INPUT = ("; an input this far out usually comes from the host's coupling going unstable (values growing "
+                  "step by step): take a smaller communication step or, for a driven side heavier than its driver, "
+                  "the torque-driven wiring (ujfmu README, \"Choose the wiring for the host\")")
+
+
 def parameter(name, start, unit, description, min=None, max=None, type=float, variability="fixed"):
     return Var(name, "parameter", unit, description, start, min, max, variability, type=type)
 
@@ -482,7 +488,7 @@ class UjfmuSlave(Fmi2Slave):
             values = self.__dict__
             for name, lo, hi, var in self._input_bounds:
                 if not lo <= values[name] <= hi:   # NaN and inf fail too
-                    raise ValueError(var.check(values[name]))
+                    raise ValueError(var.check(values[name]) + (UNSTABLE_INPUT if math.isfinite(values[name]) else ""))
             self.advance(current_time, step_size)
             self._stale, self._partial = True, False
             return True
