@@ -59,6 +59,13 @@ def test_ssd_lists_components_connectors_parameters_and_experiment(fmu_dir, tmp_
     assert params["rigid_intermediate_shaft"] == "true"
     units = {c.get("name"): c[0].get("unit") for c in comps["driveline"].iter(f"{{{NS['ssd']}}}Connector")}
     assert units["omega_in"] == "rad/s" and units["tau_in"] == "N.m"
+    # SSP 1.0: a connector's unit names a unit of the ssd:Units element, defined in SI base units
+    defined = {u.get("name"): dict(u[0].attrib) for u in root.iter(f"{{{NS['ssc']}}}Unit")}
+    named = {c[0].get("unit") for c in root.iter(f"{{{NS['ssd']}}}Connector") if c[0].get("unit")}
+    assert named and named <= set(defined), named - set(defined)
+    assert defined["N.m"] == {"kg": "1", "m": "2", "s": "-2"} and defined["rad/s"] == {"s": "-1", "rad": "1"}
+    children = [child.tag.split("}")[1] for child in root]
+    assert children.index("Units") == children.index("System") + 1 and children[-1] == "DefaultExperiment"
     assert len(list(root.iter(f"{{{NS['ssd']}}}Connection"))) == len(scenario.connections)
     step = next(root.iter(f"{{{NS['osp']}}}FixedStepAlgorithm")).get("baseStepSize")
     assert float(step) == scenario.step_size

@@ -1,7 +1,7 @@
 """SSP export: a scenario as a System Structure Package (SSP 1.0) that other tools import.
 
 ``export_ssp`` writes ``<scenario>.ssp``, a zip with SystemStructure.ssd (components with their connectors,
-units and the scenario's parameters as inline parameter sets, the connections, and the default experiment with
+units and the scenario's parameters as inline parameter sets, the connections, the units' definitions, and the default experiment with
 the communication step as an OSP fixed-step annotation) and the FMUs under resources/. ``cosimulate_ssp`` runs
 it with libcosim (``CosimExecution.from_ssp_file``), which the test suite compares with our fmpy master.
 """
@@ -10,7 +10,7 @@ import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from .build import DEFAULT_FMU_DIR, fmu_class
+from .build import DEFAULT_FMU_DIR, UNITS, fmu_class
 
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
@@ -56,6 +56,15 @@ def system_structure(scenario):
     for conn in scenario.connections:
         (sc, sv), (dc, dv) = conn.source.split(".", 1), conn.target.split(".", 1)
         _el(connections, "ssd:Connection", startElement=sc, startConnector=sv, endElement=dc, endConnector=dv)
+    # every unit a connector names, defined as the FMUs' modelDescriptions define it (SSP 1.0: ssd:Units)
+    used = sorted({v.unit for fmu, _ in scenario.components.values() for v in fmu_class(fmu).VARIABLES
+                   if v.causality in ("input", "output") and v.type is float and v.unit})
+    if used:
+        units = _el(root, "ssd:Units")
+        for unit in used:
+            exponents, _ = UNITS[unit]
+            _el(_el(units, "ssc:Unit", name=unit), "ssc:BaseUnit",
+                **{k: e for k, e in zip(("kg", "m", "s", "rad"), exponents) if e})
     experiment = _el(root, "ssd:DefaultExperiment", startTime=repr(scenario.start_time),
                      stopTime=repr(scenario.stop_time))
     annotation = _el(_el(experiment, "ssd:Annotations"), "ssc:Annotation", type="com.opensimulationplatform")
