@@ -11,6 +11,7 @@ not provide). The FMUs' event indicators are the solver's root functions (``simu
 """
 
 import math
+import re
 from ctypes import c_double
 
 import numpy as np
@@ -197,9 +198,9 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
                     state_event, roots, t_reached = solver.step(t, t_next)
                 except RuntimeError as exc:
                     raise ModelExchangeError(f"CVode failed between t = {t!r} and {t_next!r}: "
-                                             + "; ".join(failure or [str(exc)])) from None
+                                             + _failures(failure or [str(exc)])) from None
                 if failure:
-                    raise ModelExchangeError(f"between t = {t!r} and {t_next!r}: " + "; ".join(failure))
+                    raise ModelExchangeError(f"between t = {t!r} and {t_next!r}: " + _failures(failure))
                 if not state_event or t_reached >= t_next:
                     break
                 event(t_reached, roots)
@@ -224,7 +225,21 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
 
 
 def _log_text(log):
-    return ("\nFMU log:\n  " + "\n  ".join(log[-20:])) if log else ""
+    """The FMU log's distinct messages (the same words with other numbers once), the last 20 of them."""
+    seen, kept = set(), []
+    for line in log:
+        key = re.sub(r"\d[\d.e+-]*", "#", line)
+        if key not in seen:
+            seen.add(key)
+            kept.append(line)
+    left_out = len(log) - len(kept[-20:])
+    return ("\nFMU log:\n  " + "\n  ".join(kept[-20:])
+            + (f"\n  ({left_out} more lines: the same with other numbers, or earlier)" if left_out else "")) if log else ""
+
+
+def _failures(failure):
+    """The first failed call and how many followed (a solver retries a failing evaluation many times)."""
+    return failure[0] + (f" (then {len(failure) - 1} more failed calls)" if len(failure) > 1 else "")
 
 
 def simulate_scenario_me(scenario, fmu_dir, relative_tolerance: float = 1e-8, extra: list = ()) -> np.ndarray:

@@ -177,6 +177,18 @@ def test_model_exchange_run_stops_with_the_fmu_message(fmu3_dir):
                     [], 0.01, 1e-3, ["joint.omega_in"])
 
 
+def test_model_exchange_run_stops_where_the_speed_leaves_its_range(fmu3_dir):
+    """A driving torque within its range that runs the input shaft past the +-1e4 rad/s a Co-Simulation step keeps
+    to (which refuses such a step): under CVode the derivatives there are refused with the reason, and the run
+    stops with it instead of integrating on to 1e9 rad/s."""
+    with pytest.raises(ModelExchangeError, match=r"(?s)the state omega1 = .* rad/s is outside the speed range") as err:
+        simulate_me([Component("joint", fmu3_dir / "CardanJointTorqueDriven.fmu", {"tau_in": 1e6})],
+                    [], 0.05, 1e-3, ["joint.omega_in"])
+    message = str(err.value)   # the solver's retries are counted, each distinct FMU message said once
+    assert message.count("gave non-finite derivatives") == 1 and "more failed calls" in message
+    assert message.count("is outside the speed range") == 1, message
+
+
 def test_model_exchange_derivatives_are_the_equations_of_motion(fmu3_dir, opened):
     """A straight joint (no bend, no error angles) is a rigid shaft: der(phi1) = omega1, der(omega1) =
     (tau_in - tau_load) / (J_drive + J1 + J2), whatever the state."""

@@ -362,6 +362,12 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
             rates = [float(x) for x in self._continuous(self._states.derivatives)]
             if not all(math.isfinite(x) for x in rates):
                 raise ValueError(f"they are not finite ({rates!r}): check the inputs and parameters")
+            top = fmu_base.SPEED_RANGE["max"]
+            for (name, unit, _), x in zip(self._states.names, self._continuous(self._states.get)):
+                if unit == "rad/s" and not abs(x) <= top:   # the speed range a Co-Simulation step keeps to
+                    raise ValueError(f"the state {name} = {x!r} rad/s is outside the speed range [-{top:g}, {top:g}] "
+                                     "rad/s the FMU is made for: the torques outrun the inertias (check tau_in, "
+                                     "tau_load and J_drive)")
             return rates
         except Exception as exc:
             self.log(f"{core.modelName} '{self.instance_name}': derivatives at t = {self.time!r} refused: {exc}",
