@@ -17,7 +17,7 @@ class Motor(ModelSlave):
     Ideal mode (ideal_speed_source = true): omega = omega_ref(t), phi = its integral, and
     tau_motor = J_rotor*alpha_ref + tau_load is the torque a perfect drive would deliver (a step has no impulse).
 
-    Profiles: 0 constant omega_set; 1 ramp from rest at accel up to omega_set (Feng's start-up: 30 rad/s^2);
+    Profiles: 0 constant omega_set; 1 ramp from rest at t = 0 s at accel up to omega_set (Feng's start-up: 30 rad/s^2);
     2 step from omega_initial to omega_set at t_step.
     Signs: omega, phi, tau_motor > 0 in the direction of rotation; tau_load > 0 opposes the rotation.
     """
@@ -28,7 +28,8 @@ class Motor(ModelSlave):
         parameter("Kp", 0.2, "N.m.s/rad", "PI speed controller proportional gain", min=0.0, max=1.0e6),
         parameter("Ki", 10.0, "N.m/rad", "PI speed controller integral gain", min=0.0, max=1.0e8),
         parameter("tau_max", 5.0, "N.m", "Torque limit of the drive (symmetric)", min=0.0, max=1.0e6),
-        parameter("profile", 1, "1", "Speed profile: 0 constant, 1 ramp from rest, 2 step", min=0, max=2, type=int),
+        parameter("profile", 1, "1", "Speed profile: 0 constant, 1 ramp from rest at t = 0 s (the time axis, not "
+                  "the start time), 2 step at t_step", min=0, max=2, type=int),
         parameter("omega_set", 150.0, "rad/s", "Final (constant, ramp end, step target) speed", **_SPEED),
         parameter("accel", 30.0, "rad/s2", "Ramp acceleration (Feng et al.: 30 rad/s^2)", min=1.0e-6, max=1.0e7),
         parameter("t_step", 0.0, "s", "Time of the speed step", min=-1.0e9, max=1.0e9),
