@@ -230,8 +230,9 @@ def cmd_check(args):
             else:
                 results.append(_run_one(args, path))
         except (ScenarioError, CosimulationError, FileNotFoundError) as exc:   # the next scenario still runs
-            errors[Path(path).stem] = str(exc)
-            print(f"ERROR {Path(path).stem}: {exc}")
+            name = Path(path).stem if Path(path).stem not in errors else str(path)
+            errors[name] = str(exc)
+            print(f"ERROR {name}: {exc}")
     _plots_missing(args)
     _band_missing(results)
     if args.junit:
