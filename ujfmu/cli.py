@@ -140,6 +140,8 @@ def _run_one(args, path, scenario=None):
         _check_fmi3(scenario, args.fmu_dir)
     if args.output_interval is not None:
         scenario.output_interval = args.output_interval
+    for message in scenario.model_advice():
+        print(f"  warning {message}", file=sys.stderr)
     with _progress(args, Path(path).stem, "step") as progress:
         result = run_scenario(scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=plot,
                               progress=_paced(args, scenario.step_size, progress),

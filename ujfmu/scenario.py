@@ -448,13 +448,21 @@ class Scenario:
         """What the component's model refuses in its parameters as a whole (``MODEL.check``, which the FMU runs at
         initialization: e.g. a ramp to a negative speed), with the FMU's defaults for those not set; [] for an FMU
         without a model, or parameters its derived quantities fail on (its initialization reports those)."""
+        return self._ask_model(component, "check")
+
+    def model_advice(self) -> list:
+        """'component: warning' for valid parameters that are likely not what was meant (``MODEL.advice``, which
+        the FMU logs at initialization: e.g. a ring coupling's c_s left at the default ring's)."""
+        return [f"{name}: {message}" for name in self.components for message in self._ask_model(name, "advice")]
+
+    def _ask_model(self, component, what) -> list:
         model = getattr(fmu_class(self.components[component][0]), "MODEL", None)
-        if model is None:
+        if model is None or not hasattr(model, what):
             return []
         values = self.parameters_with_defaults(component)
         names = [f.name for f in dataclasses.fields(model.Parameters) if f.init]
         try:
-            return model.check(model.Parameters(**{name: values[name] for name in names}))
+            return getattr(model, what)(model.Parameters(**{name: values[name] for name in names}))
         except (ArithmeticError, ValueError):   # parameters the model cannot even derive from: the FMU names them
             return []
 

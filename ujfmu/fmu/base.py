@@ -480,6 +480,12 @@ class UjfmuSlave(Fmi2Slave):
         self._start()
         self._initialized = self._running = self._stale = True
         self._partial = False
+        for message in self.parameter_advice():
+            self.log(f"{self.modelName} '{self.instance_name}': {message}", Fmi2Status.warning)
+
+    def parameter_advice(self):
+        """Warnings on valid parameters that are likely not what was meant (the model's ``advice``)."""
+        return []
 
     def do_step(self, current_time, step_size):
         try:
@@ -568,6 +574,9 @@ class ModelSlave(UjfmuSlave):
 
     def check_parameters(self):
         return self.MODEL.check(self.parameters())
+
+    def parameter_advice(self):
+        return getattr(self.MODEL, "advice", _no_advice)(self._p)
 
     def derive(self):
         self._p = self.parameters()
@@ -727,6 +736,10 @@ def drive_derivatives(model) -> Callable:
 
 def _no_inputs(p):
     return ()
+
+
+def _no_advice(p):
+    return []
 
 
 class PrescribedInputSlave(ModelSlave):

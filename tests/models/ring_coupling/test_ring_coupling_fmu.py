@@ -1,6 +1,7 @@
 """RingCoupling.fmu through fmpy against Turla and Iljin's closed forms: pendulum, Eq. (20), validity limit."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,6 +11,8 @@ from scipy.special import ellipk
 from ujfmu.analysis import order_amplitudes
 from ujfmu.models.ring_coupling import model as rc
 from ujfmu.steady import halves_change
+
+SCENARIOS = Path(__file__).parents[3] / "scenarios"
 
 OUT = ("omega_out", "phi_out", "phi_in", "tau_in", "x_e", "M_p", "transmitted_torque", "stored_energy")
 E, D, R, ECC, I2 = 2.1e11, 0.003, 0.1, 0.003, 0.05          # the Fig. 3 set
@@ -144,3 +147,28 @@ def test_eccentricity_at_or_beyond_the_ring_radius_is_an_error(open_fmu, params,
     with pytest.raises(FMICallException, match="fmi2ExitInitializationMode"):
         inst.initialize(params)
     assert any(needle in m and "allowed range" in m for m in inst._log), inst._log
+
+
+@pytest.mark.parametrize("name", ["RingCoupling", "RingCouplingTorqueDriven"])
+def test_another_ring_with_the_default_rings_stiffness_is_warned_about(open_fmu, name, tmp_path):
+    """c_s is a parameter of its own: a ring of R = 0.05 m, d = 4 mm left at the default ring's c_s (87 EI/R of
+    R = 0.1 m, d = 3 mm) runs, with a warning giving its own 87 EI/R (closed form: E pi d^4 / 64 times 87 / R);
+    none when c_s is set, or for the default ring. The scenario layer says the same before a run."""
+    own = 87.0 * 2.1e11 * math.pi * 0.004 ** 4 / 64.0 / 0.05
+    for params, warned in (({"R": 0.05, "d": 0.004, "e": 0.001}, True),
+                           ({"R": 0.05, "d": 0.004, "e": 0.001, "c_s": own}, False), ({}, False)):
+        inst = open_fmu(name, f"ring{len(params)}")
+        inst.initialize(params)
+        warnings = [m for m in inst._log if "[warning]" in m and "c_s" in m]
+        assert len(warnings) == warned, (params, inst._log)
+        if warned:
+            assert f"this ring's 87 EI/R is {own:.6g} N.m/rad" in warnings[0]
+    from ujfmu.scenario import Scenario
+    text = (SCENARIOS / "ring_coupling_startup.toml").read_text()
+    assert Scenario(SCENARIOS / "ring_coupling_startup.toml").model_advice() == []
+    changed = tmp_path / "other_ring.toml"
+    changed.write_text(text.replace('fmu = "RingCoupling"\nparameters = {',
+                                    'fmu = "RingCoupling"\nparameters = { R = 0.05, d = 0.004,'))
+    assert changed.read_text() != text
+    (advice,) = Scenario(changed).model_advice()
+    assert advice.startswith("coupling: c_s = ") and f"{own:.6g} N.m/rad" in advice

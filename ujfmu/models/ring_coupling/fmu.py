@@ -5,7 +5,7 @@ from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_,
 from ...fmu.torque_driven import TorqueDrivenSlave, driven_ports
 
 #: the paper's Fig. 3 set: steel wire d = 3 mm, R = 0.1 m, e = 3 mm, I2 = 0.05 kg.m^2
-_E, _D, _R = 2.1e11, 0.003, 0.1
+_E, _D, _R = rc.DEFAULT_RING
 
 
 class RingCoupling(PrescribedInputSlave):

@@ -217,6 +217,22 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
     return outputs_at(p, u.phi, u.omega, u.alpha, y)
 
 
+#: the default ring (Turla and Iljin's Fig. 3): Young's modulus [Pa], wire diameter [m], ring radius [m]
+DEFAULT_RING = (2.1e11, 0.003, 0.1)
+
+
+def advice(p: Parameters) -> list:
+    """Warnings on valid parameters that are likely not what was meant: c_s left at the default ring's 87 EI/R
+    while R, d or E describe another ring (c_s is a parameter of its own, not derived from them)."""
+    default = rotational_stiffness(*DEFAULT_RING)
+    own = rotational_stiffness(p.E, p.d, p.R)
+    if p.c_s == default and abs(own - default) > 1e-3 * default:
+        return [f"c_s = {p.c_s:.6g} N.m/rad is the default ring's stiffness (87 EI/R for R = {DEFAULT_RING[2]:g} m, "
+                f"d = {DEFAULT_RING[1]:g} m, E = {DEFAULT_RING[0]:g} Pa), but this ring's 87 EI/R is {own:.6g} N.m/rad: "
+                f"set c_s = {own:.6g} for it (or 0 for the paper's pendulum case, Eq. 9)"]
+    return []
+
+
 def check(p: Parameters) -> list:
     """The misalignment e must be smaller than the ring radius R."""
     if not p.e < p.R:
@@ -304,6 +320,8 @@ class TorqueDriven:
         m_p, _, elastic = torques(p, y[0], y[1], y[2], y[3])
         alpha = input_acceleration(p, u.tau_in, m_p, elastic)
         return {"alpha_in": alpha, "tau_input_shaft": p.I1 * alpha - m_p + elastic}
+
+    advice = staticmethod(advice)
 
     @staticmethod
     def check(p: TorqueDrivenParameters) -> list:
