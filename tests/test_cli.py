@@ -79,7 +79,8 @@ def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_p
     assert main(["run", str(unchecked)] + common) == 0
     out = capsys.readouterr().out
     assert out.startswith("NOT CHECKED unchecked") and "PASS" not in out and "no [reference]" in out
-    assert f"ujfmu run {unchecked} --check-step estimates the coupling error" in out   # how to learn more
+    # how to learn more, with the FMU folder this run used (not fmus/ here): the command runs as printed
+    assert f"ujfmu run {unchecked} --check-step --fmu-dir {fmu_dir} estimates the coupling error" in out
     # run --check-step: the estimate follows the summary, which names it instead of suggesting the option again
     assert main(["run", str(unchecked), "--check-step"] + common) == 0
     out = capsys.readouterr().out

@@ -132,7 +132,8 @@ class BondEnergy:
         text = (f"coupling energy {a} <-> {b} ({self.speed.source} x {self.torque.source}): net "
                 f"{self.residual:+.4g} J, sum |per step| {self.residual_abs:.4g} J")
         if self.transmitted > 0.0:
-            text += f" = {100.0 * self.relative:.3g}% of the {self.transmitted:.4g} J transmitted"
+            text += (f" = {100.0 * self.relative:.3g}% of the {self.transmitted:.4g} J transmitted (sum |power| dt, "
+                     "both ways)")
         return text + (f" ({self.note})" if self.note else "")
 
 

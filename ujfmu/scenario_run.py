@@ -244,6 +244,7 @@ class ScenarioResult:
     bonds: list = field(default_factory=list)   # ujfmu.master.BondEnergy per power bond (co-simulation only)
     model_exchange: bool = False   # run under CVode (ujfmu.model_exchange) instead of co-simulated
     skipped_bands: str = ""   # why the [reference.extrapolated] bands were not checked, if they were not
+    fmu_dir: Path = None   # where the run's FMUs came from (named in a suggested command when not the default)
     reference_method: str | None = None   # how the reference compared against was made (its provenance line)
 
     @property
@@ -280,8 +281,12 @@ class ScenarioResult:
         """Why nothing was compared; step_check_follows: the step-halving estimate is printed after the summary
         (``ujfmu run --check-step``), so it is named instead of suggested."""
         if self.scenario.reference_file is None:
+            elsewhere = (self.fmu_dir is not None
+                         and Path(self.fmu_dir).resolve() != Path(DEFAULT_FMU_DIR).resolve())
             estimate = ("the step-halving estimate of the coupling error at this step follows" if step_check_follows
-                        else f"ujfmu run {self.scenario.path} --check-step estimates the coupling error at this step")
+                        else f"ujfmu run {self.scenario.path} --check-step"
+                        + (f" --fmu-dir {self.fmu_dir}" if elsewhere else "")
+                        + " estimates the coupling error at this step")
             return (f"the scenario has no [reference]: nothing was compared, and the result's accuracy is unknown "
                     f"({estimate})")
         return "the scenario's [reference.tolerance] names no signal: nothing was compared"
@@ -448,7 +453,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     operating, sampling = check_operating_points(scenario, table), check_sampling(scenario, table)
     if extra:
         table = _without(table, extra)
-    result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start, operating_checks=operating,
+    result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start, fmu_dir=Path(fmu_dir),
+                            operating_checks=operating,
                             sampling_checks=sampling,
                             bonds=annotate_bonds(scenario, diagnostics.get("bonds", [])),
                             model_exchange=model_exchange)
