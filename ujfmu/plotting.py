@@ -321,7 +321,10 @@ def plot_sweep(sweep, out_dir):
             for order, amp in amplitudes.items():
                 seen = np.where(k * amp >= floor, amp, 0.0)   # those on the tracks' floor: the smallest marker
                 ax2.scatter(x, order * speed_hz, s=2 + 200 * seen / (top or 1.0), alpha=0.6, label=f"{order}x")
-            banded = False
+            banded, modes = False, sorted(modes, key=lambda m: m[1])
+            span = max(np.ptp(ax2.get_ylim()), 1e-12)
+            # a label goes below its line where the next mode's line is close above (its label goes above)
+            below = [b[1] - a[1] < 0.04 * span * 2 * np.pi for a, b in zip(modes, modes[1:])] + [False]
             for i, (component, omega_n, count, low, high) in enumerate(modes):
                 f_n = omega_n / (2 * np.pi)
                 ax2.axhline(f_n, color="0.35", ls=":", lw=0.9,
@@ -330,9 +333,10 @@ def plot_sweep(sweep, out_dir):
                     ax2.axhspan(low / (2 * np.pi), high / (2 * np.pi), color="0.5", alpha=0.15, lw=0,
                                 label=None if banded else "their range over the input angle")
                     banded = True
-                ax2.annotate(f"{component}: {f_n:.4g} Hz ({omega_n:.4g} rad/s){f' x{count}' if count > 1 else ''}",
-                             xy=(0.99, f_n), xycoords=("axes fraction", "data"), ha="right", va="bottom",
-                             fontsize=6, color="0.25")
+                ax2.annotate(f"{component}: {f_n:.4g} Hz ({omega_n:.4g} rad/s)"
+                             + (f", {count} modes" if count > 1 else ""),
+                             xy=(0.99, f_n), xycoords=("axes fraction", "data"), ha="right",
+                             va="top" if below[i] else "bottom", fontsize=6, color="0.25")
             ax2.set_xlabel(xlabel)
             ax2.set_ylabel("frequency [Hz]")
             ax2.set_title(f"Campbell diagram of {out} (marker area ~ amplitude)", fontsize=9, loc="left")
