@@ -237,3 +237,27 @@ def test_sweep_figures_say_what_they_leave_out_and_keep_every_title_inside(fmu_d
     assert all("points not ok marked" in ax.get_title(loc="left") for ax in figures[f"{sweep.name}.png"].axes)
     orders = figures[f"{sweep.name}_orders.png"]._suptitle.get_text().replace("\n", " ")
     assert f"not drawn: 1 point(s) not ok (marked in {sweep.name}.png)" in orders, orders
+
+
+def test_the_order_tracks_show_each_value_of_the_other_axes(fmu_dir, tmp_path, figures):
+    """A speed x joint-angle grid: the tracks of every angle (a line style each, orders by colour, two legends),
+    the Campbell diagram of the first angle, which its title names; nothing said to be left out."""
+    scenario = Scenario(SCENARIOS / "double_cardan_brutti_rigid.toml")
+    settings = SweepSettings.from_scenario(scenario, outputs=["driveline.tau_in"], running_speed="motor.omega",
+                                           settle_time=0.01, revolutions=1)
+    axes = [parse_axis("motor.omega_set=1000,2000rpm", scenario),
+            parse_axis("driveline.beta1,driveline.beta2=5,10deg", scenario)]
+    sweep = Sweep(scenario, axes, settings, out_dir=tmp_path, fmu_dir=fmu_dir)
+    sweep.run(workers=0)
+    sweep.plot()
+    fig = figures[f"{sweep.name}_orders.png"]
+    check_readable(fig)
+    tracks, campbell = fig.axes
+    orders = len(settings.orders)
+    assert len(tracks.get_lines()) == 2 * orders
+    assert {line.get_linestyle() for line in tracks.get_lines()} == {"-", "--"}
+    styles = tracks.get_legend()
+    assert [t.get_text() for t in styles.get_texts()] == ["driveline.beta1,driveline.beta2 = 5 deg",
+                                                         "driveline.beta1,driveline.beta2 = 10 deg"]
+    assert campbell.get_title(loc="left").endswith("driveline.beta1,driveline.beta2 = 5 deg")
+    assert "not drawn" not in fig._suptitle.get_text()

@@ -16,6 +16,7 @@ import matplotlib  # noqa: E402
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
 import numpy as np  # noqa: E402
 
 #: SI unit -> (unit shown in plots, factor from SI); units not listed are shown as they are
@@ -225,6 +226,9 @@ def natural_frequency_lines(scenario, point: dict) -> list:
 ORDER_TRACK_FLOOR = 1e-6
 #: outputs the order figure shows at most (a row each), the first of the sweep's
 ORDER_FIGURE_OUTPUTS = 6
+#: the sweep's order tracks draw up to this many values of the other axes, one line style each
+GROUP_STYLES = ("-", "--", ":", "-.")
+ORDER_FIGURE_GROUPS = len(GROUP_STYLES)
 
 
 def plot_sweep(sweep, out_dir):
@@ -233,8 +237,8 @@ def plot_sweep(sweep, out_dir):
     order amplitudes (order tracks, log scale down to ``ORDER_TRACK_FLOOR`` of the largest) and, when the first
     axis is a speed, a Campbell diagram (frequency of each order against the swept speed, marker area by
     amplitude, with the machines' natural frequencies as labelled lines: a critical speed is where an order
-    crosses one), both for the first combination of the other axes and the first ``ORDER_FIGURE_OUTPUTS`` outputs.
-    Returns the paths."""
+    crosses one) for the first ``ORDER_FIGURE_OUTPUTS`` outputs: the tracks of the first ``ORDER_FIGURE_GROUPS``
+    combinations of the other axes (a line style each), the Campbell diagram of the first. Returns the paths."""
     scenario = sweep.scenario
     first, others = sweep.axes[0], sweep.axes[1:]
     records = [r for r in sweep.records() if r["status"] == "ok"]
@@ -291,8 +295,11 @@ def plot_sweep(sweep, out_dir):
     shown = outputs[:ORDER_FIGURE_OUTPUTS]
     fig, panels = plt.subplots(len(shown), 2 if campbell else 1, figsize=(12 if campbell else 8,
                                3.6 * len(shown) + 0.8), squeeze=False, layout="constrained")
-    key0, rows = sorted(groups.items())[0] if groups else ((), [])
-    rows = sorted(rows, key=lambda r: r["point"][first.names[0]])
+    # the tracks of up to ORDER_FIGURE_GROUPS values of the other axes (a line style each), the Campbell diagram of
+    # the first
+    tracked = [(key, sorted(rows, key=lambda r: r["point"][first.names[0]]))
+               for key, rows in sorted(groups.items())[:ORDER_FIGURE_GROUPS]] or [((), [])]
+    key0, rows = tracked[0]
     x = xs(rows)
     speed_hz = np.array([abs(r["speed_mean"]) / (2 * np.pi) for r in rows])
     modes = natural_frequency_lines(scenario, rows[0]["point"] if rows else {}) if campbell else []
@@ -300,20 +307,29 @@ def plot_sweep(sweep, out_dir):
         unit, k = display(scenario.unit(out))
         amplitudes = {order: np.array([r[f"{out}.h{order}"] for r in rows], dtype=float) for order in orders}
         # the axis floor from the largest order or |value| (an order of round-off on a constant is not a track)
-        top = max((float(np.max(a)) for a in amplitudes.values() if a.size), default=0.0)
-        scale = max([top] + [max(abs(r[f"{out}.max"]), abs(r[f"{out}.min"])) for r in rows])
+        every = [r for _, group in tracked for r in group]
+        top = max((float(r[f"{out}.h{order}"]) for r in every for order in orders), default=0.0)
+        scale = max([top] + [max(abs(r[f"{out}.max"]), abs(r[f"{out}.min"])) for r in every])
         floor = k * scale * ORDER_TRACK_FLOOR if scale > 0.0 else 1e-300
         clipped = False
-        for order, amp in amplitudes.items():
-            clipped |= bool(np.any(k * amp < floor))
-            ax1.semilogy(x, np.maximum(k * amp, floor), ".-", ms=3, label=f"{order}x")
+        for g, (key, group) in enumerate(tracked):
+            for i, order in enumerate(orders):
+                amp = np.array([r[f"{out}.h{order}"] for r in group], dtype=float)
+                clipped |= bool(np.any(k * amp < floor))
+                ax1.semilogy(xs(group), np.maximum(k * amp, floor), marker="." if len(group) <= 40 else None,
+                             ls=GROUP_STYLES[g], ms=3, color=f"C{i % 10}")
         if scale > 0.0:
             ax1.set_ylim(bottom=0.5 * floor)
         ax1.set_xlabel(xlabel)
         ax1.set_ylabel(f"order amplitude [{unit}]")
-        ax1.legend(fontsize=8)
+        # orders by colour; with several values of the other axes, those by line style in a second legend
+        ax1.add_artist(ax1.legend([Line2D([], [], color=f"C{i % 10}") for i in range(len(orders))],
+                                  [f"{order}x" for order in orders], fontsize=8, loc="upper right"))
+        if len(tracked) > 1:
+            ax1.legend([Line2D([], [], color="0.3", ls=GROUP_STYLES[g]) for g in range(len(tracked))],
+                       [label(key) for key, _ in tracked], fontsize=7, loc="lower right")
         ax1.grid(alpha=0.3, which="both")
-        ax1.set_title(f"{out}: order tracks" + (f" ({label(key0)})" if label(key0) else "")
+        ax1.set_title(f"{out}: order tracks" + (f" ({label(key0)})" if label(key0) and len(tracked) == 1 else "")
                       + (f"\norders below {ORDER_TRACK_FLOOR:g} of its largest order or |value| drawn on the floor"
                          if clipped else ""), fontsize=9, loc="left")
         if campbell:
@@ -339,13 +355,14 @@ def plot_sweep(sweep, out_dir):
                              va="top" if below[i] else "bottom", fontsize=6, color="0.25")
             ax2.set_xlabel(xlabel)
             ax2.set_ylabel("frequency [Hz]")
-            ax2.set_title(f"Campbell diagram of {out} (marker area ~ amplitude)", fontsize=9, loc="left")
+            ax2.set_title(f"Campbell diagram of {out} (marker area ~ amplitude)"
+                          + (f"\n{label(key0)}" if len(tracked) > 1 else ""), fontsize=9, loc="left")
             ax2.grid(alpha=0.3)
             ax2.legend(fontsize=8)
     names = ", ".join(shown) + (f" (the first {len(shown)} of {len(outputs)} outputs; --output chooses)"
                                 if len(shown) < len(outputs) else "")
-    left_out = [f"{len(groups) - 1} other value(s) of {', '.join(ax.label for ax in others)}"] if len(groups) > 1 \
-        else []
+    left_out = [f"{len(groups) - len(tracked)} other value(s) of {', '.join(ax.label for ax in others)}"] \
+        if len(groups) > len(tracked) else []
     not_ok = [r for r in sweep.records() if r["status"] != "ok"]
     left_out += [f"{len(not_ok)} point(s) not ok (marked in {sweep.name}.png)"] if not_ok else []
     _title(fig, f"{heading}: running-speed orders of {names}"

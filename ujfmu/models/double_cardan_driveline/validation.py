@@ -82,8 +82,9 @@ def omar(rep: Report) -> Section:
                       + " deg" if rising else None))
     s.figures.append(("omar_figs4_8.png", "Figs. 4-8: max and min of twist and dynamic misalignment against "
                       "input speed, beta0 = 15-30 deg"))
-    s.figures.append(("omar_figs4_8_orders.png", "Order tracks and Campbell diagrams of the twist and the dynamic "
-                                                 "misalignment (beta0 = 15 deg)"))
+    s.figures.append(("omar_figs4_8_orders.png", "Order tracks of the twist and the dynamic misalignment "
+                                                 "(beta0 = 15-30 deg, a line style each) and their Campbell "
+                                                 "diagrams (beta0 = 15 deg)"))
     sw.plot(rep.figure_dir)
 
     twists = sorted((v for v in pub.values() if v.id.startswith("table2_twist_")),
