@@ -233,7 +233,8 @@ def test_cli_sweep_writes_table_and_plots_and_reports_bad_parameters(fmu_dir, tm
             "--output", "driveline.tau_in", "--running-speed", "motor.omega", "--settle", "0.01", "--revolutions", "1",
             "--steady-tol", "0", "--workers", "0", "--out", str(tmp_path), "--no-progress"]
     assert main(args) == 0
-    out = capsys.readouterr().out
+    out, err = capsys.readouterr()
+    assert "points done" not in err   # --no-progress: none
     assert "4 points (2 motor.omega_set 104.7..209.4 rad/s (given as 1000..2000 rpm) x " \
            "2 driveline.beta1,driveline.beta2 0.08727..0.1745 rad (given as 5..10 deg))" in out
     for name in ("double_cardan_brutti_rigid_sweep.csv", "double_cardan_brutti_rigid_sweep.png",
@@ -241,6 +242,10 @@ def test_cli_sweep_writes_table_and_plots_and_reports_bad_parameters(fmu_dir, tm
         assert (tmp_path / name).is_file()
     assert main(args[:4] + ["--param", "motor.nope=1:2:1"]) == 2
     assert "Motor has no parameter 'nope'" in capsys.readouterr().err
+    # off a terminal (pytest's captured stderr, a CI log), progress comes as plain lines, the last at the end
+    assert main([a for a in args if a != "--no-progress"] + ["--name", "again"]) == 0
+    lines = [line for line in capsys.readouterr().err.splitlines() if "points done" in line]
+    assert lines and lines[-1].startswith("  again: 4 of 4 points done") and "\r" not in "".join(lines)
 
 
 def test_cli_sweep_quiet_lists_no_files_and_step_sets_the_communication_step(fmu_dir, tmp_path, capsys):

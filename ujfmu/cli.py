@@ -2,7 +2,7 @@
 
 The folders fmus/, scenarios/ and results/ are those of the current directory. The common options (--fmu-dir,
 --out, --quiet) go before or after the command. The library reports progress through callbacks; this module
-alone draws progress bars (tqdm, on a terminal only)."""
+alone draws progress bars (tqdm, on a terminal; sweeps off a terminal print plain progress lines)."""
 
 import argparse
 import atexit
@@ -34,12 +34,28 @@ def _scenarios(paths):
     return found
 
 
+#: off a terminal (a CI log), sweeps say their progress in a line at each tenth of their points and at least every
+#: PLAIN_PROGRESS_EVERY s
+PLAIN_PROGRESS_EVERY = 60.0
+
+
 @contextlib.contextmanager
 def _progress(args, desc, unit):
-    """A progress callback(done, total) drawing a tqdm bar on stderr; None with --quiet or when stderr is not a
-    terminal (CI logs)."""
-    if args.quiet or not sys.stderr.isatty():
+    """A progress callback(done, total) drawing a tqdm bar on stderr; off a terminal (CI logs), for sweep points, a
+    plain line now and then instead (``PLAIN_PROGRESS_EVERY``), for anything else nothing; None with --quiet."""
+    if args.quiet or (not sys.stderr.isatty() and unit != "point"):
         yield None
+        return
+    if not sys.stderr.isatty():
+        started, said = time.perf_counter(), {"tenth": 0, "at": time.perf_counter()}
+
+        def say(done, total):
+            now, tenth = time.perf_counter(), (10 * done) // max(total, 1)
+            if done and (tenth > said["tenth"] or now - said["at"] >= PLAIN_PROGRESS_EVERY):
+                said.update(tenth=tenth, at=now)
+                print(f"  {desc}: {done} of {total} {unit}s done ({now - started:.0f} s)", file=sys.stderr,
+                      flush=True)
+        yield say
         return
     from tqdm import tqdm
     bar = tqdm(desc=desc, unit=unit, leave=False, file=sys.stderr)
@@ -452,8 +468,8 @@ def _common(parser, suppress):
     parser.add_argument("--fmu-dir", type=Path, default=default(DEFAULT_FMU_DIR),
                         help="where the FMUs are, or are built (default: fmus/ of the current directory)")
     parser.add_argument("--quiet", "-q", action="store_true", default=default(False),
-                        help="no progress bars and no file listings (progress bars are off anyway when the "
-                             "output is not a terminal)")
+                        help="no progress bars and no file listings (off a terminal there are no bars anyway; "
+                             "sweeps then print a progress line at each tenth of their points)")
 
 
 def _fmi(parser, helptext):
