@@ -25,6 +25,7 @@ import tempfile
 import time
 import zipfile
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 
@@ -97,31 +98,20 @@ def _ecos_session(ssp, scenario, csv, work, log_level="warn"):
     from ecospy import EcosLib, EcosSimulation
     EcosLib.set_log_level(log_level)
     unpacked = Path(tempfile.mkdtemp(prefix="ecos_", dir=work))
-    saved = os.environ.get("TMPDIR")
-    os.environ["TMPDIR"] = str(unpacked)
     try:
-        sim = EcosSimulation(ssp_path=str(Path(ssp).resolve()), step_size=scenario.step_size)
-        try:
+        with mock.patch.dict(os.environ, TMPDIR=str(unpacked)):   # Ecos unpacks while it loads and initializes
+            sim = EcosSimulation(ssp_path=str(Path(ssp).resolve()), step_size=scenario.step_size)
             sim.add_csv_writer(str(csv), identifiers=[name.replace(".", "::", 1) for name in scenario.record])
-            if not sim.init(start_time=scenario.start_time, parameter_set="scenario"):
-                raise RuntimeError("Ecos could not initialize the system: " + EcosLib.get_last_error())
-        finally:
-            _restore_environ("TMPDIR", saved)
+            initialized = sim.init(start_time=scenario.start_time, parameter_set="scenario")
+        if not initialized:
+            raise RuntimeError("Ecos could not initialize the system: " + EcosLib.get_last_error())
         try:
             yield sim
         finally:
             sim.terminate()
             sim.free()
     finally:
-        _restore_environ("TMPDIR", saved)
         shutil.rmtree(unpacked, ignore_errors=True)
-
-
-def _restore_environ(name, value):
-    if value is None:
-        os.environ.pop(name, None)
-    else:
-        os.environ[name] = value
 
 
 def cosimulate_ecos(ssp: Path, scenario, work: Path) -> np.ndarray:
