@@ -63,6 +63,19 @@ AMPLIFICATION_BOUND = (1.0 - THETA) / THETA
 #: GROWTH_STEPS steps while growing GROWTH_FACTOR-fold, to at least GROWTH_FLOOR of its largest |value|; a step
 #: refused after 2 or more alternations growing 1.5-fold each is blamed on the coupling too
 GROWTH_STEPS, GROWTH_FACTOR, GROWTH_FLOOR = 3, 8.0, 1e-3
+#: a change smaller than this, in the connection's SI unit (N.m, rad/s, rad, N, m), is round-off, never the start
+#: of a divergence: an unloaded constant-velocity driveline's tau_in is 1e-15 N.m of alternating noise about 0, and a
+#: real divergence passes this within a few steps
+NOISE_FLOOR = 1e-9
+#: chatter: a connection on a loop whose change keeps reversing its sign, each reversal by at least CHATTER_SHARE of
+#: its largest |value|: an oscillation at the step rate that does not die out (a switching component faster than
+#: the step, e.g. a Load's friction torque smoothed over a band of speed that one step jumps across), which no
+#: model's own dynamics can show at that step. A score counts +1 per such reversal (against the last change that
+#: large), -CHATTER_BREAK per large change in the same direction and -CHATTER_FADE per smaller change (floored at
+#: 0); chatter once it reaches CHATTER_STEPS. The loop's slower motion breaks the alternation every few steps (a
+#: Load's chatter reverses at 9 steps in 10, or holds its saturated torque every third step: +1.5 in 3 steps);
+#: a sampled oscillation of 4 or more samples a period loses at least 1 a period
+CHATTER_STEPS, CHATTER_SHARE, CHATTER_BREAK, CHATTER_FADE = 20, 0.1, 3, 0.5
 #: implicit coupling: the iterated torn values carry step-to-step noise of a few coupling tolerances; growth of an
 #: alternating change is measured from at least this many tolerances (not from a change that happens to be ~0
 #: where a torque ripple turns)
@@ -457,9 +470,10 @@ class Cosimulation:
         self._plan_tearing(views)
         self._communicate()
         self._fresh = True
-        # per torn connection: [last value, last change, alternations, |change| when they began, max |value|,
-        # the change before the last]
-        self._growth = [[v[0], 0.0, 0, 0.0, abs(v[0]), 0.0] for v in self._tear_views]
+        # per watched connection (torn first): [last value, last change, alternations, |change| when they began,
+        # max |value|, the change before the last, chatter score, steps and reversals since the score left 0,
+        # the last change above NOISE_FLOOR]
+        self._growth = [[v[0], 0.0, 0, 0.0, abs(v[0]), 0.0, 0, 0, 0, 0.0] for v in self._watch_views]
         self._plan_bonds(views)
         self.held_inputs = held_inputs(self.instances, connections, {c.name: c.parameters for c in components})
         given = {(c.name, name) for c in components for name in c.parameters}
@@ -504,6 +518,12 @@ class Cosimulation:
             if inp not in fed_through[comp] and reaches(comp, transfer[-1].source.split(".", 1)[0]):
                 self._tears.append(i)
         self._tear_views = [views[i][:1] for i in self._tears]
+        # watched for divergence and chatter (``_watch_growth``): the torn connections, then the others on a loop
+        # of connections (a value held over the step that comes back through the loop), for chatter only
+        self._watched = self._tears + [i for i, transfer in enumerate(self._transfers) if i not in self._tears
+                                       and reaches(transfer[-1].target.split(".", 1)[0],
+                                                   transfer[-1].source.split(".", 1)[0])]
+        self._watch_views = [views[i][:1] for i in self._watched]
         rolled = dict.fromkeys(self._transfers[i][-1].target.split(".", 1)[0] for i in self._tears)
         self._rolled = [(self.instances[name], name) for name in rolled]
         # per rolled-back component: (fmi2GetFMUstate, fmi2SetFMUstate, fmi2FreeFMUstate, component, name), the
@@ -581,7 +601,7 @@ class Cosimulation:
     def _watch(self):
         if self._bonds:
             self._account_energy()
-        if self._tears:
+        if self._watched:
             self._watch_growth()
 
     def _log_text(self):
@@ -615,7 +635,7 @@ class Cosimulation:
         _check_interval(output_interval)
         h, start = self.step_size, self.start_time
         implicit = self.coupling == "implicit" and bool(self._tears) and not self.open_loop
-        monitor = bool(self._tears or self._bonds)
+        monitor = bool(self._watched or self._bonds)
         every = max(1, n_steps // 200)
         self.rows_done, k = 0, 0
         while k < n_steps:
@@ -647,7 +667,7 @@ class Cosimulation:
         copies of the scratch row, gathered into rows' columns in blocks."""
         h, start, steps = self.step_size, self.start_time, self.steps_done
         steppers, ops, lean, readers = self._bare_steppers, self._ops, self._lean_ops, self._readers
-        watch = self._watch if self._tears or self._bonds else None
+        watch = self._watch if self._watched or self._bonds else None
         step_c, t_c = c_double(h), c_double()
         block, filled, first_row = None, 0, self.rows_done
         if rows is not None:
@@ -728,7 +748,7 @@ class Cosimulation:
         alternation count of ``_growth_report``."""
         worst = self._worst_tear(lambda state: abs(state[1] / state[5]) if (
             state[1] * state[5] < 0.0 and abs(state[1]) > GROWTH_FACTOR * abs(state[5])
-            and abs(state[1]) > GROWTH_FLOOR * state[4]) else None)
+            and abs(state[1]) > max(GROWTH_FLOOR * state[4], NOISE_FLOOR)) else None)
         if worst is None:
             return ""
         i, ratio, state = worst
@@ -761,21 +781,53 @@ class Cosimulation:
         carries alternating in sign at every step while |d| grows (the explicit inertia coupling's mode
         d_k = -(J_driven / J_driver) d_k-1, docs/cosimulation.md). Raises CouplingInstabilityError."""
         noise = IMPLICIT_NOISE_TOLERANCES * COUPLING_RTOL if self.coupling == "implicit" else 0.0
-        for state, view in zip(self._growth, self._tear_views):
+        torn = len(self._tears)
+        for k, (state, view) in enumerate(zip(self._growth, self._watch_views)):
             g = view[0]
             d = g - state[0]
             state[0], state[5] = g, state[1]
             state[4] = max(state[4], abs(g))
-            if d * state[1] < 0.0 and abs(d) > 0.0:
+            if d * state[1] < 0.0 and abs(d) > NOISE_FLOOR:
                 state[2] += 1
                 if state[2] == 1:
                     state[3] = max(abs(d), noise * state[4])
             else:
                 state[2], state[3] = 0, abs(d)
             state[1] = d
-            if (state[2] >= GROWTH_STEPS and abs(d) > GROWTH_FACTOR * state[3]
+            if abs(d) >= CHATTER_SHARE * state[4] and abs(d) > NOISE_FLOOR:
+                if d * state[9] < 0.0:
+                    state[6] += 1
+                    state[8] += 1
+                else:
+                    state[6] = max(0, state[6] - CHATTER_BREAK)
+                state[9] = d
+            elif state[6]:   # a small change (a saturated value held): the score fades
+                state[6] = max(0, state[6] - CHATTER_FADE)
+            if state[6]:
+                state[7] += 1
+                if state[6] >= CHATTER_STEPS:
+                    raise CouplingInstabilityError(self._chatter_report(k, state) + self._log_text())
+            else:
+                state[7] = state[8] = 0
+            if (k < torn and state[2] >= GROWTH_STEPS and abs(d) > GROWTH_FACTOR * state[3]
                     and abs(d) > GROWTH_FLOOR * state[4]):
                 raise CouplingInstabilityError(self._growth_report(force=True) + self._log_text())
+
+    def _chatter_report(self, k, state):
+        """Words on the k-th torn connection chattering: alternating at every step without decaying
+        (``CHATTER_STEPS``)."""
+        conn = self._transfers[self._watched[k]][-1]
+        src, dst = self._where(conn)
+        return (f"coupling chatter between '{src}' and '{dst}': the change of {conn.source} -> {conn.target} "
+                f"reversed its sign at {state[8]} of the last {state[7]} steps without dying out (by "
+                f"{abs(state[1]):.4g} in the last step, its largest value {state[4]:.4g}; t = {self.time!r}, "
+                f"{self.coupling} coupling, h = {self.step_size!r}): an "
+                "oscillation at the step rate, which the models cannot have at this step, so the results are the "
+                "coupling's, not the system's. A component switches faster than one step resolves (e.g. a Load's "
+                "torque reversing within omega_smooth of zero speed while one step moves the speed further), or "
+                "the coupled loop is at its stability limit. Remedy: reduce step_size until it is gone (check with "
+                "`ujfmu run --check-step`), or make the switching smoother (a Load's omega_smooth). Results up to "
+                "here are kept")
 
     def _growth_report(self, force=False):
         """Words on the fastest-growing alternating torn connection ('' if none is growing)."""
