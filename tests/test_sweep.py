@@ -4,6 +4,7 @@ and scheduler address), and the command line."""
 import csv
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -458,3 +459,30 @@ def test_a_motor_controller_is_checked_at_its_operating_point_by_default():
     settings = SweepSettings.from_scenario(scenario, outputs=["joint.tau_input_shaft"],
                                            running_speed="joint.omega_in", settle_time=1.0)
     assert settings.operating_point == (("motor.omega", "motor.omega_ref"),)
+
+
+def test_ctrl_c_stops_an_in_process_sweep_with_its_points_kept(fmu_dir, tmp_path):
+    """Ctrl-C during `ujfmu sweep --workers 0`: the interrupt had been raised inside the FMU's Python code, which
+    reported it as its fatal error, so the point was journalled as failed and the sweep went on to its end. Now it
+    stops at the next communication step with one line naming the journal, exit status 130, and the journal holds
+    only finished points (none failed)."""
+    import signal
+    import subprocess
+    import time
+    out = tmp_path / "out"
+    journal = out / "interrupted.jsonl"
+    process = subprocess.Popen([sys.executable, "-m", "ujfmu", "--fmu-dir", str(fmu_dir), "sweep",
+                                str(SCENARIOS / "double_cardan_omar_torsional.toml"), "--param",
+                                "motor.omega_set=600:1200:10rpm", "--workers", "0", "--out", str(out),
+                                "--name", "interrupted", "--no-plot", "--quiet"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not (journal.is_file() and journal.read_text().count("\n") >= 2) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=120)
+    assert process.returncode == 130, (stdout, stderr)
+    records = [json.loads(line) for line in journal.read_text().splitlines()]
+    assert 2 <= len(records) < 61 and all(r["status"] == "ok" for r in records), records
+    assert f"interrupted; {len(records)} of 61 points are in {journal}" in stderr
+    assert "Traceback" not in stderr

@@ -9,6 +9,7 @@ import atexit
 import contextlib
 import math
 import os
+import signal
 import sys
 import time
 from pathlib import Path
@@ -313,6 +314,7 @@ def cmd_sweep(args):
     if args.workers != 0 or args.scheduler:
         require("distributed", "sweep", "ujfmu sweep (--workers 0 runs in this process without it)")
     from .scenario import Scenario
+    from .steady import grows
     from .sweep import Sweep, sweep_setup
     scenario = Scenario(args.scenario)
     if args.step is not None:
@@ -325,8 +327,18 @@ def cmd_sweep(args):
     grid = " x ".join(a.describe(scenario) for a in axes)
     print(f"{sweep.name}: {len(sweep.points)} points ({grid}), "
           f"settle {settings.settle_time:g} s, {settings.revolutions:g} revolutions measured")
-    with _progress(args, sweep.name, "point") as progress:
-        sweep.run(workers=args.workers, scheduler=args.scheduler, progress=progress)
+    for name in filter(grows, settings.outputs):
+        print(f"  note: {name} grows with time in any steady state (a running angle or an energy integral): its "
+              "max, min, mean and order amplitudes over a window describe its ramp, not a vibration (the "
+              "steady-state check leaves it out)")
+    try:
+        with _progress(args, sweep.name, "point") as progress:
+            sweep.run(workers=args.workers, scheduler=args.scheduler, progress=progress)
+    except KeyboardInterrupt:
+        kept = sum(r["status"] != "missing" for r in sweep.records())
+        print(f"\n{sweep.name}: interrupted; {kept} of {len(sweep.points)} points are in {sweep.journal}: run the "
+              "same command again to compute only the others", file=sys.stderr)
+        return 130
     if sweep.reused:
         print(f"  reused {sweep.reused} of {len(sweep.points)} points from {sweep.journal}")
     if sweep.superseded:
@@ -616,6 +628,9 @@ def main(argv=None):
         args.fmu_dir = DEFAULT_FMU3_DIR
     try:
         return args.func(args)
+    except KeyboardInterrupt:
+        print(f"\nujfmu {args.command}: interrupted", file=sys.stderr)
+        return 130
     except Exception as exc:  # a clear message, not a traceback, for user errors
         from .master import CosimulationError
         from .scenario import ScenarioError
@@ -646,8 +661,21 @@ def _joined_values(argv, options):
 
 
 def entry() -> None:
-    """The ``ujfmu`` command: :func:`main` through :func:`run_and_exit`."""
+    """The ``ujfmu`` command: :func:`main` through :func:`run_and_exit`, Ctrl-C handled by :func:`_interrupt`."""
+    signal.signal(signal.SIGINT, _interrupt)
     run_and_exit(main)
+
+
+def _interrupt(signum, frame) -> None:
+    """Ctrl-C: while a co-simulation steps, ask it to stop at its next communication step (``master.STOP``: an
+    interrupt raised inside an FMU's code would be caught there as the FMU's fatal error); else, and at a second
+    Ctrl-C, KeyboardInterrupt at once. The commands report an interruption in a line (``main``)."""
+    from . import master
+    if master.STEPPING[0] and not master.STOP[0]:
+        master.STOP[0] = True
+        print("\ninterrupting at the next communication step (Ctrl-C again to stop at once)", file=sys.stderr)
+        return
+    raise KeyboardInterrupt
 
 
 def run_and_exit(function) -> None:

@@ -88,6 +88,13 @@ ENERGY_RATIO = 1.0
 SPEED_UNIT, TORQUE_UNIT = "rad/s", "N.m"
 
 
+#: the ``ujfmu`` command's Ctrl-C while a co-simulation steps: STOP[0] asks every stepping loop to raise
+#: KeyboardInterrupt at its next communication step, between FMU calls (an interrupt raised inside an FMU's own
+#: Python code is caught there and reported as the FMU's fatal error, so a sweep took it for a failed point and went
+#: on); STEPPING[0] counts the loops stepping now (``ujfmu.cli``'s handler stops at once when none is)
+STOP, STEPPING = [False], [0]
+
+
 class CosimulationError(RuntimeError):
     """A co-simulation could not be set up, an FMU refused a call, or the coupling went unstable; carries the
     FMUs' log messages, and ``partial`` (the recorded results up to the failure, a structured array) once
@@ -633,11 +640,19 @@ class Cosimulation:
         step and after the last (rows: ceil(n_steps / output_interval) x len(columns)). progress: optional
         callable(steps_done, n_steps) called now and then. ``rows_done``: the rows written so far."""
         _check_interval(output_interval)
-        h, start = self.step_size, self.start_time
         implicit = self.coupling == "implicit" and bool(self._tears) and not self.open_loop
         monitor = bool(self._watched or self._bonds)
         every = max(1, n_steps // 200)
         self.rows_done, k = 0, 0
+        STEPPING[0] += 1
+        try:
+            self._advance(k, n_steps, implicit, monitor, every, rows, progress, output_interval)
+        finally:
+            STEPPING[0] -= 1
+
+    def _advance(self, k, n_steps, implicit, monitor, every, rows, progress, output_interval):
+        """:meth:`advance`'s loop from step k."""
+        h, start = self.step_size, self.start_time
         while k < n_steps:
             if not implicit:   # explicit steps up to the next progress report, in one tight loop
                 count = min(n_steps - k, every - k % every) if progress is not None else n_steps - k
@@ -658,6 +673,8 @@ class Cosimulation:
                     self.rows_done += 1
                 if monitor:
                     self._watch()
+                if STOP[0]:
+                    raise KeyboardInterrupt
             if progress is not None and k % every == 0:
                 progress(k, n_steps)
 
@@ -668,6 +685,7 @@ class Cosimulation:
         h, start, steps = self.step_size, self.start_time, self.steps_done
         steppers, ops, lean, readers = self._bare_steppers, self._ops, self._lean_ops, self._readers
         watch = self._watch if self._watched or self._bonds else None
+        stop = STOP
         step_c, t_c = c_double(h), c_double()
         block, filled, first_row = None, 0, self.rows_done
         if rows is not None:
@@ -705,6 +723,8 @@ class Cosimulation:
                         flush()
                 if watch is not None:
                     watch()
+                if stop[0]:
+                    raise KeyboardInterrupt
         finally:
             self._fresh = record   # whether the recorded signals riding on the transfers are those of now
             if filled:

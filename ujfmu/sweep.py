@@ -38,8 +38,10 @@ import math
 import os
 import re
 import shutil
+import signal
 import sys
 import tempfile
+import threading
 import time
 import zipfile
 from collections.abc import Callable
@@ -623,10 +625,25 @@ def dask_client(workers=None, scheduler=None):
             raise ScenarioError(f"--scheduler {scheduler!r}: the dask config requires encryption "
                                 "(distributed.comm.require-encryption); give a tls:// address")
         return Client(scheduler, security=security)
-    with _main_script_hidden():
+    with _main_script_hidden(), _interrupt_ignored():
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=40, security=security)
     return Client(cluster)
+
+
+@contextlib.contextmanager
+def _interrupt_ignored():
+    """Start worker processes with Ctrl-C (SIGINT) ignored, a disposition they inherit and keep (Python installs
+    its KeyboardInterrupt handler only where SIGINT is at its default): a terminal's Ctrl-C reaches the whole
+    process group, and the workers had each printed their own traceback while the sweep's process closes them."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, before)
 
 
 @contextlib.contextmanager

@@ -58,8 +58,10 @@ def substeps(rate: float, h: float, max_substeps: int = MAX_SUBSTEPS) -> int:
     if not n <= max_substeps:
         raise ValueError(f"a step of {h!r} s needs {n:.3g} substeps (each at most {RATE_STEP} / rate long) for the "
                          f"model's fastest rate {rate:.6g} 1/s, more than the {max_substeps} allowed: check the "
-                         "stiffness, damping and inertia parameters (a mode this fast is far beyond what the step "
-                         "resolves; a smaller communication step takes fewer substeps each, not fewer in all)")
+                         "stiffness, damping and inertia parameters, and joint angles near 90 deg (a joint's speed "
+                         "ratio, up to 1/cos(angle), scales the stiffness its shafts feel) (a mode this fast is far "
+                         "beyond what the step resolves; a smaller communication step takes fewer substeps each, "
+                         "not fewer in all)")
     return math.ceil(n)
 
 

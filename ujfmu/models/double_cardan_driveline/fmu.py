@@ -77,7 +77,8 @@ class DoubleCardanDriveline(PrescribedInputSlave):
         output("phi_out", "rad", "Output shaft angle phi4, continuous over revolutions"),
         output("tau_in", "N.m", "Torque demanded from the driver at the input shaft", ("omega_in", "tau_load")),
         output("twist", "rad", "Angle of twist of the intermediate shaft phi2 - phi3 (Omar Eq. 1, sign reversed)"),
-        output("dynamic_misalignment", "rad", "Dynamic angular misalignment phi added to both joint angles (Omar Eq. 3)"),
+        output("dynamic_misalignment", "rad", "Dynamic angular misalignment phi: joint angles beta1 + phi and "
+               "beta2 + phi cos(joint_plane_angle) (Omar Eq. 3)"),
         output("omega_intermediate", "rad/s", "Intermediate shaft angular speed at its joint-1 end, dphi2/dt",
                ("omega_in",)),
         output("shaft_torque", "N.m", "Torque carried by the intermediate shaft, k_theta*twist + c_theta*dtwist/dt",
