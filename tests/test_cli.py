@@ -19,6 +19,31 @@ def test_run_scenario_from_python_returns_the_table(fmu_dir, tmp_path):
     assert (tmp_path / "cardan_constant_speed.csv").is_file() and (tmp_path / "cardan_constant_speed.png").is_file()
 
 
+def test_a_scenario_with_changed_parameters_runs_unchecked_under_its_own_name(fmu_dir, tmp_path):
+    """Scenario.with_parameters: the rigid double Cardan with its yokes 90 deg apart runs under its own name (the
+    bundled run's files untouched), its title says what changed, nothing is compared against the reference made for
+    the file's in-phase yokes, and the physics is the new one: the output speed's swing is twice a single joint's,
+    2 (1/cos b - cos b) of the input speed (in phase: 0). An object changed by hand names the problem and the way."""
+    import math
+
+    from ujfmu.scenario import Scenario, ScenarioError
+    scenario = Scenario(SCENARIOS / "double_cardan_brutti_rigid.toml")
+    beta = scenario.parameters_with_defaults("driveline")["beta1"]
+    phased = scenario.with_parameters({"driveline.yoke_phase": math.pi / 2})
+    result = ujfmu.run_scenario(phased, fmu_dir=fmu_dir, out_dir=tmp_path, plot=False)
+    assert result.csv == tmp_path / "double_cardan_brutti_rigid_changed.csv" and result.verdict == "NOT CHECKED"
+    assert "(changed: driveline.yoke_phase = 1.5708)" in phased.title and scenario.reference_file is not None
+    omega_in, omega_out = result.table["motor.omega"], result.table["driveline.omega_out"]
+    late = result.table["time"] > 0.5 * result.table["time"][-1]
+    swing = np.ptp(omega_out[late] / omega_in[late])
+    assert swing == pytest.approx(2.0 * (1.0 / math.cos(beta) - math.cos(beta)), rel=1e-3)
+    with pytest.raises(ScenarioError, match="did you mean 'driveline'"):
+        scenario.with_parameters({"drivline.yoke_phase": 1.0})
+    scenario.components["driveline"][1]["yoke_phase"] = math.pi / 2
+    with pytest.raises(ScenarioError, match=r"changed after it was read .*with_parameters"):
+        ujfmu.run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None)
+
+
 def test_run_scenario_types_and_documents_its_folders(fmu_dir, tmp_path, monkeypatch):
     """README gives run_scenario's signature with the fmu_dir and out_dir keywords, as the code declares them, and
     the defaults are those of the command line; str paths work and out_dir=None writes nothing."""

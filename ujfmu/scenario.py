@@ -29,6 +29,7 @@
     whose provenance names another setup (``Scenario.setup_digest``) than the scenario's is refused.
 """
 
+import copy
 import dataclasses
 import difflib
 import hashlib
@@ -289,6 +290,35 @@ class Scenario:
                 raise ScenarioError(f"{self.path}: {field}: {problem}")
         return dict(values)
 
+    def with_parameters(self, changes: dict, name: str | None = None) -> "Scenario":
+        """A copy with parameters changed, {"component.parameter": value} (SI units), each checked as the file's
+        are; named ``name`` (default ``<name>_changed``: its CSV and figures do not overwrite this scenario's), its
+        title saying what changed, and without the reference: a reference is made for the file's setup, so the copy
+        runs unchecked (give it a scenario file and `ujfmu references` to check it)."""
+        out = copy.copy(self)
+        out.components = {n: (fmu, dict(values)) for n, (fmu, values) in self.components.items()}
+        for key, value in changes.items():
+            comp, _, par = key.partition(".")
+            if comp not in out.components:
+                close = difflib.get_close_matches(comp, out.components, n=1)
+                raise ScenarioError(f"{self.path}: with_parameters: no component '{comp}' in {key!r}"
+                                    + (f" (did you mean {close[0]!r}?)" if close else "")
+                                    + f" (it has {', '.join(out.components)})")
+            fmu, values = out.components[comp]
+            out._values(comp, fmu, {"parameters": {par: value}}, "parameters")
+            values[par] = value
+        for comp in {key.partition(".")[0] for key in changes}:
+            problems = out.model_problems(comp)
+            if problems:
+                raise ScenarioError(f"{self.path}: with_parameters: components.{comp}.parameters: "
+                                    f"{'; '.join(problems)}")
+        out.name = name or f"{self.name}_changed"
+        out.title = (f"{self.title} (changed: "
+                     + ", ".join(f"{key} = {value:g}" if isinstance(value, float) else f"{key} = {value}"
+                                 for key, value in changes.items()) + ")")
+        out.reference_file, out.tolerances, out.extrapolated_tolerances = None, {}, {}
+        return out
+
     def unit(self, name: str) -> str:
         """The declared unit of a "component.variable" ("" when it has none)."""
         comp, _, var = name.partition(".")
@@ -359,6 +389,11 @@ class Scenario:
                 raise ScenarioError(f"{field}: {self.reference_file} holds the reference of {owner} (its provenance "
                                     "line says so), copied here; make this scenario's own: "
                                     f"`ujfmu references {self.path}`")
+            if self.path.is_file() and Scenario(self.path).setup_digest() == made_for:
+                raise ScenarioError(f"{field}: this Scenario object was changed after it was read from {self.path}, "
+                                    f"whose setup its reference {self.reference_file} was made for, so the reference "
+                                    "cannot check it: make the copy with scenario.with_parameters({...}), which runs "
+                                    "it unchecked under its own name, or set reference_file = None")
             raise ScenarioError(f"{field}: {self.reference_file} was made for another setup of this scenario "
                                 f"(setup {made_for}, the scenario's is now {self.setup_digest()}: a component, "
                                 "parameter, set input, connection or the start time changed since); regenerate it: "

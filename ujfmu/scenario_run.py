@@ -284,6 +284,8 @@ class ScenarioResult:
             elsewhere = (self.fmu_dir is not None
                          and Path(self.fmu_dir).resolve() != Path(DEFAULT_FMU_DIR).resolve())
             estimate = ("the step-halving estimate of the coupling error at this step follows" if step_check_follows
+                        else "ujfmu.stepsize.estimate(scenario, fmu_dir=...).lines() estimates the coupling error "
+                        "at this step" if self.scenario.name != self.scenario.path.stem
                         else f"ujfmu run {self.scenario.path} --check-step"
                         + (f" --fmu-dir {self.fmu_dir}" if elsewhere else "")
                         + " estimates the coupling error at this step")
