@@ -79,7 +79,18 @@ def test_check_writes_junit_and_fails_on_a_failing_scenario(fmu_dir, tmp_path, c
     cases = {c.get("name"): c for c in suite.iter("testcase")}
     assert set(cases) == {"cardan_constant_speed", "too_strict"}
     assert cases["too_strict"].find("failure") is not None and cases["cardan_constant_speed"].find("failure") is None
-    assert "1 passed, 1 failed" in capsys.readouterr().out
+    # the failure names what is outside its band (the load torque, 0.31 against the reference's 0.3 N.m)
+    assert "signal outside tolerance of the reference: " in cases["too_strict"].find("failure").get("message")
+    assert "load.tau" in cases["too_strict"].find("failure").get("message").split(": ", 1)[1]
+    out = capsys.readouterr().out
+    assert "1 passed, 1 failed" in out
+    assert f"ujfmu run {strict} --check-step --fmu-dir {fmu_dir} estimates it" in out   # runs as printed
+    # a folder stands for its scenario files; `run` of a folder says what to name
+    assert main(["--fmu-dir", str(fmu_dir), "check", str(tmp_path), "--junit", str(junit), "--out",
+                 str(tmp_path / "out"), "--no-plot", "-q"]) == 1
+    assert {c.get("name") for c in ET.parse(junit).getroot().iter("testcase")} == {"too_strict"}
+    assert main(["run", str(tmp_path)]) == 2
+    assert "is a folder: name one scenario file" in capsys.readouterr().err
 
 
 def test_run_reports_a_bad_scenario_without_traceback(tmp_path, capsys):

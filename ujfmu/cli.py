@@ -26,8 +26,18 @@ class UsageError(Exception):
 
 
 def _scenarios(paths):
+    """The scenario files named, a folder standing for its *.toml files; default: scenarios/*.toml."""
     if paths:
-        return [Path(p) for p in paths]
+        found = []
+        for path in map(Path, paths):
+            if path.is_dir():
+                inside = sorted(path.glob("*.toml"))
+                if not inside:
+                    raise UsageError(f"{path} is a folder without scenario files (*.toml)")
+                found += inside
+            else:
+                found.append(path)
+        return found
     found = sorted(DEFAULT_SCENARIO_DIR.glob("*.toml"))
     if not found:
         raise UsageError(f"no scenario files (*.toml) in {DEFAULT_SCENARIO_DIR.absolute()}: name scenario files, "
@@ -144,8 +154,11 @@ def _check_fmi3(scenario, fmu_dir) -> None:
             raise UsageError(f"{path} not found: build the FMI 3.0 FMUs with `ujfmu build --fmi 3 --fmu-dir "
                              f"{fmu_dir}`")
         if not read_model_description(str(path)).fmiVersion.startswith("3"):
-            raise UsageError(f"{path} is an FMI 2.0 FMU; --fmi 3 and --model-exchange run FMI 3.0 FMUs: build them "
-                             f"with `ujfmu build --fmi 3 --fmu-dir {fmu_dir}` or leave --fmu-dir out (fmus/fmi3/)")
+            own = Path(fmu_dir) / "fmi3"
+            raise UsageError(f"{path} is an FMI 2.0 FMU; --fmi 3 and --model-exchange run FMI 3.0 FMUs, which "
+                             f"`ujfmu build --fmi 3` puts in a folder of their own: give --fmu-dir {own} (build "
+                             f"them there with `ujfmu build --fmi 3 --fmu-dir {own}`), or leave --fmu-dir out "
+                             "(fmus/fmi3/); building them into this folder would replace its FMI 2.0 FMUs")
 
 
 def _run_one(args, path, scenario=None):
@@ -236,7 +249,7 @@ def cmd_check(args):
     from .master import CosimulationError
     from .scenario import ScenarioError
     from .scenario_run import write_junit
-    results, skipped, errors = [], [], {}
+    results, skipped, errors = [], {}, {}
     for path in _scenarios(args.scenarios):
         try:
             if args.model_exchange:
@@ -244,7 +257,7 @@ def cmd_check(args):
                 try:
                     results.append(_run_one(args, path))
                 except ModelExchangeError as exc:   # a speed-driven scenario: nothing to integrate in ME
-                    skipped.append(Path(path).stem)
+                    skipped[Path(path).stem] = str(exc)
                     print(f"SKIPPED {Path(path).stem}: {exc}")
             else:
                 results.append(_run_one(args, path))
@@ -255,7 +268,8 @@ def cmd_check(args):
     _plots_missing(args)
     _band_missing(results)
     if args.junit:
-        print(f"JUnit report: {write_junit(results, args.junit, errors)}")
+        kind = "model_exchange" if args.model_exchange else "fmi3" if getattr(args, "fmi", 2) == 3 else ""
+        print(f"JUnit report: {write_junit(results, args.junit, errors, skipped, kind)}")
     failed = [r for r in results if r.failed]
     unchecked = [r for r in results if not r.checked and not r.failed]
     print(f"{len(results) - len(failed) - len(unchecked)} passed, {len(failed)} failed, "

@@ -115,6 +115,9 @@ class Scenario:
             data = tomllib.loads(self.path.read_text())
         except FileNotFoundError:
             raise ScenarioError(f"{self.path}: scenario file not found{not_found_hint(self.path)}") from None
+        except IsADirectoryError:
+            raise ScenarioError(f"{self.path} is a folder: name one scenario file in it (`ujfmu check {self.path}` "
+                                "checks every *.toml there)") from None
         except tomllib.TOMLDecodeError as exc:
             raise ScenarioError(f"{self.path}: {exc}") from None
         self.name = self.path.stem

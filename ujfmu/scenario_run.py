@@ -277,18 +277,20 @@ class ScenarioResult:
     def verdict(self) -> str:
         return "FAIL" if self.failed else "PASS" if self.passed else "NOT CHECKED"
 
+    def _fmu_dir_option(self) -> str:
+        """' --fmu-dir DIR' where the run used FMUs from another folder than the default, else ''."""
+        elsewhere = self.fmu_dir is not None and Path(self.fmu_dir).resolve() != Path(DEFAULT_FMU_DIR).resolve()
+        return f" --fmu-dir {self.fmu_dir}" if elsewhere else ""
+
     def not_checked_reason(self, step_check_follows: bool = False) -> str:
         """Why nothing was compared; step_check_follows: the step-halving estimate is printed after the summary
         (``ujfmu run --check-step``), so it is named instead of suggested."""
         if self.scenario.reference_file is None:
-            elsewhere = (self.fmu_dir is not None
-                         and Path(self.fmu_dir).resolve() != Path(DEFAULT_FMU_DIR).resolve())
             estimate = ("the step-halving estimate of the coupling error at this step follows" if step_check_follows
                         else "ujfmu.stepsize.estimate(scenario, fmu_dir=...).lines() estimates the coupling error "
                         "at this step" if self.scenario.name != self.scenario.path.stem
-                        else f"ujfmu run {self.scenario.path} --check-step"
-                        + (f" --fmu-dir {self.fmu_dir}" if elsewhere else "")
-                        + " estimates the coupling error at this step")
+                        else f"ujfmu run {self.scenario.path} --check-step{self._fmu_dir_option()} estimates the "
+                        "coupling error at this step")
             return (f"the scenario has no [reference]: nothing was compared, and the result's accuracy is unknown "
                     f"({estimate})")
         return "the scenario's [reference.tolerance] names no signal: nothing was compared"
@@ -301,10 +303,10 @@ class ScenarioResult:
             lines.append(f"  against {self.scenario.reference_file_text}"
                          + (f": {self.reference_method}" if self.reference_method else ""))
         lines += [f"  {c}" for c in self.checks]
-        if self.extrapolated_checks and self.model_exchange:
-            lines.append("  Model Exchange run (no communication step) against the [reference.extrapolated] bands:")
-        elif self.extrapolated_checks:
-            lines.append(f"  step-halving extrapolation 2 y(h/2) - y(h), h = {self.scenario.step_size:g} s:")
+        if self.extrapolated_checks:
+            lines.append("  Model Exchange run (no communication step) against the [reference.extrapolated] bands:"
+                         if self.model_exchange else
+                         f"  step-halving extrapolation 2 y(h/2) - y(h), h = {self.scenario.step_size:g} s:")
             lines += [f"  {c}" for c in self.extrapolated_checks]
         if self.skipped_bands:
             lines.append(f"  {self.skipped_bands}")
@@ -312,15 +314,21 @@ class ScenarioResult:
         lines += [f"  {c}" for c in self.operating_checks]
         lines += [f"  {c}" for c in self.sampling_checks]
         lines += [f"  {b}" for b in self.bonds]
-        if any(not c.passed for c in self.checks + self.extrapolated_checks):
+        figures = ("[reference.tolerance] holds figures chosen for the scenario's own parameters (a few times the "
+                   "error its run reaches there): a copy with other parameters needs figures of its own, the accuracy "
+                   "its study needs")
+        if any(not c.passed for c in self.checks + self.extrapolated_checks) and self.model_exchange:
+            lines.append("  a signal outside its tolerance: a Model Exchange run has no communication step and no "
+                         "coupling error (the host's solver integrates the equations to its own tolerance), so the "
+                         "model or its parameters differ from what the reference solves, or the solver's tolerance "
+                         f"is too loose for the band. {figures}")
+        elif any(not c.passed for c in self.checks + self.extrapolated_checks):
             estimate = ("the step-halving estimate below gives it per signal" if step_check_follows else
-                        f"ujfmu run {self.scenario.path} --check-step estimates it per signal")
+                        f"ujfmu run {self.scenario.path} --check-step{self._fmu_dir_option()} estimates it per "
+                        "signal")
             lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the coupling's "
                          f"({estimate}, --step auto picks a step); if it does not, it is the FMUs' own integration, "
-                         f"or the model or its parameters differ from what the reference solves. "
-                         f"[reference.tolerance] holds figures chosen for the scenario's own parameters (a few times "
-                         f"the error its run reaches there): a copy with other parameters needs figures of its own, "
-                         f"the accuracy its study needs")
+                         f"or the model or its parameters differ from what the reference solves. {figures}")
         if not self.checked:
             lines.append(f"  {self.not_checked_reason(step_check_follows)}")
         elif math.isnan(self.fmpy_outlier_fraction):
@@ -538,21 +546,27 @@ def _write_partial(scenario, exc, out_dir, plot):
     exc.args = (f"{exc.args[0] if exc.args else exc}\n" + "\n".join(written),)
 
 
-def write_junit(results: list, path: str | os.PathLike, errors: dict | None = None) -> Path:
-    """JUnit XML: one test case per scenario, a failure element carrying the error figures; a scenario that
-    compared nothing is a skipped test case, and one that could not run (errors: its name -> the message) an
-    error case. A case's time is its whole run (ScenarioResult.total_time)."""
-    errors = errors or {}
-    suite = ET.Element("testsuite", name="ujfmu scenarios", tests=str(len(results) + len(errors)),
+def write_junit(results: list, path: str | os.PathLike, errors: dict | None = None, skipped: dict | None = None,
+                kind: str = "") -> Path:
+    """JUnit XML: one test case per scenario, a failure element carrying the error figures and naming the
+    signals outside their bands; a scenario that compared nothing, or that was skipped (skipped: its name -> why),
+    is a skipped test case, and one that could not run (errors: its name -> the message) an error case. A case's
+    time is its whole run (ScenarioResult.total_time). kind (e.g. "fmi3", "model_exchange") goes into the suite's
+    and the cases' class names, so that reports of several runs merged in CI stay apart."""
+    errors, skipped = errors or {}, skipped or {}
+    classname = "ujfmu.scenarios" + (f".{kind}" if kind else "")
+    suite = ET.Element("testsuite", name="ujfmu scenarios" + (f" ({kind})" if kind else ""),
+                       tests=str(len(results) + len(errors) + len(skipped)),
                        failures=str(sum(r.failed for r in results)), errors=str(len(errors)),
-                       skipped=str(sum(not r.checked and not r.failed for r in results)),
+                       skipped=str(sum(not r.checked and not r.failed for r in results) + len(skipped)),
                        time=f"{sum(r.total_time for r in results):.3f}")
     for r in results:
-        case = ET.SubElement(suite, "testcase", classname="ujfmu.scenarios", name=r.scenario.name,
+        case = ET.SubElement(suite, "testcase", classname=classname, name=r.scenario.name,
                              time=f"{r.total_time:.3f}")
         if r.failed:
-            why = [w for w, bad in (("signal outside tolerance of the reference",
-                                     any(not c.passed for c in r.checks + r.extrapolated_checks)),
+            outside = [c.name for c in r.checks + r.extrapolated_checks if not c.passed]
+            why = [w for w, bad in (("signal outside tolerance of the reference: " + ", ".join(dict.fromkeys(outside)),
+                                     bool(outside)),
                                     ("operating point not reached", any(not c.passed for c in r.operating_checks)),
                                     ("record aliases a model's excitation order",
                                      any(not c.passed for c in r.sampling_checks)))
@@ -562,8 +576,11 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
         elif not r.checked:
             ET.SubElement(case, "skipped", message=f"not checked: {r.not_checked_reason()}")
         ET.SubElement(case, "system-out").text = r.summary()
+    for name, reason in skipped.items():
+        case = ET.SubElement(suite, "testcase", classname=classname, name=name, time="0")
+        ET.SubElement(case, "skipped", message=f"skipped: {reason.splitlines()[0] if reason else ''}")
     for name, message in errors.items():
-        case = ET.SubElement(suite, "testcase", classname="ujfmu.scenarios", name=name, time="0")
+        case = ET.SubElement(suite, "testcase", classname=classname, name=name, time="0")
         ET.SubElement(case, "error", message=message.splitlines()[0] if message else "error").text = message
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

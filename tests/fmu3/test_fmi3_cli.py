@@ -51,6 +51,11 @@ def test_run_model_exchange_checks_the_scenario_against_its_reference(fmu3_dir, 
     out = capsys.readouterr().out
     assert out.startswith("PASS cardan_heavy_torque_driven") and "step-halving" not in out   # no step to halve
     assert "Model Exchange run (no communication step) against the [reference.extrapolated] bands" in out
+    # each band's line under that header (a failing one had been counted in the verdict but never shown)
+    banded = out.split("[reference.extrapolated] bands:\n", 1)[1].splitlines()
+    bands = Scenario(SCENARIOS / "cardan_heavy_torque_driven.toml").extrapolated_tolerances
+    assert len(bands) >= 3 and [line.split()[1] for line in banded[:len(bands)]] == list(bands)
+    assert all(line.split()[0] == "ok" for line in banded[:len(bands)])
     assert (tmp_path / "cardan_heavy_torque_driven.csv").is_file()
 
 
@@ -84,10 +89,19 @@ def test_fmi3_runs_refuse_fmi2_fmus_and_check_skips_speed_driven_scenarios(fmu_d
     for flag in ("--fmi=3", "--model-exchange"):
         assert main(["run", flag, "--fmu-dir", str(fmu_dir), scenario, "--out", str(tmp_path), "--no-plot"]) == 2
         err = capsys.readouterr().err
-        assert "is an FMI 2.0 FMU" in err and f"ujfmu build --fmi 3 --fmu-dir {fmu_dir}" in err
+        # the FMI 3.0 FMUs' own folder, never this one, whose FMI 2.0 FMUs a build there would replace
+        assert "is an FMI 2.0 FMU" in err and f"ujfmu build --fmi 3 --fmu-dir {fmu_dir / 'fmi3'}`" in err
+        assert f"--fmu-dir {fmu_dir}`" not in err
     assert main(["run", "--fmi=3", "--fmu-dir", str(tmp_path), scenario, "--no-plot"]) == 2
     assert f"ujfmu build --fmi 3 --fmu-dir {tmp_path}" in capsys.readouterr().err
+    junit = tmp_path / "me.xml"
     assert main(["check", "--model-exchange", "--fmu-dir", str(fmu3_dir), str(SCENARIOS / "cardan_startup.toml"),
-                 scenario, "--out", str(tmp_path), "--no-plot", "-q"]) == 0
+                 scenario, "--out", str(tmp_path), "--no-plot", "-q", "--junit", str(junit)]) == 0
     out = capsys.readouterr().out
     assert "SKIPPED cardan_startup" in out and "1 passed, 0 failed, 0 not checked, 1 skipped" in out
+    import xml.etree.ElementTree as ET
+    suite = ET.parse(junit).getroot()   # the skipped one counted, the run's kind in the names
+    assert (suite.get("tests"), suite.get("skipped"), suite.get("name")) == ("2", "1", "ujfmu scenarios (model_exchange)")
+    cases = {c.get("name"): c for c in suite.iter("testcase")}
+    assert cases["cardan_startup"].find("skipped") is not None
+    assert {c.get("classname") for c in cases.values()} == {"ujfmu.scenarios.model_exchange"}
