@@ -297,7 +297,7 @@ def cmd_references(args):
     for module in ("scipy", "sympy"):
         require(module, "references", "ujfmu references")
     from .references import generate, provenance_of, scenario_of, write_reference
-    from .references.common import WiringError
+    from .references.common import ReferenceStallError, WiringError
     from .scenario import Scenario, ScenarioError
     wrote = 0
     for path in _scenarios(args.scenarios):
@@ -311,10 +311,11 @@ def cmd_references(args):
         foreign = scenario.foreign_reference(owner)
         if foreign:   # writing this scenario's reference there would replace that one's
             raise ScenarioError(f"{foreign}; or delete {target} if {owner} is gone")
+        _say(args, f"{scenario.path}: solving the reference ({scenario.stop_time - scenario.start_time:g} s)")
         try:
             table, provenance = generate(scenario)
-        except WiringError as exc:
-            raise ScenarioError(str(exc)) from None
+        except (WiringError, ReferenceStallError) as exc:
+            raise ScenarioError(f"{scenario.path}: {exc}") from None
         write_reference(target, table, provenance)
         _say(args, f"wrote {scenario.reference_file}")
         wrote += 1

@@ -95,8 +95,43 @@ def solver_override(rtol, atol):
         SolverOverride.rtol = SolverOverride.atol = None
 
 
+class ReferenceStallError(RuntimeError):
+    """The adaptive solve stopped advancing (``STALL_EVALUATIONS``): the message says where and why."""
+
+
+#: a solve whose time advances by less than STALL_SHARE of its span over STALL_EVALUATIONS evaluations of the
+#: right-hand side (steps of 1e-9 s on a 1 s run; a healthy solve's smallest are 1e-6 s) has stalled
+STALL_EVALUATIONS, STALL_SHARE = 20_000, 1e-5
+
+
+def _watched(rhs, lo, hi, motor_params):
+    """rhs, raising ReferenceStallError when the solve stalls."""
+    seen = {"count": 0, "at": lo}
+
+    def f(time_, y):
+        seen["count"] += 1
+        if seen["count"] % STALL_EVALUATIONS == 0:
+            if time_ - seen["at"] < STALL_SHARE * (hi - lo):
+                pi = "Kp" in motor_params and not motor_params.get("ideal_speed_source", False)
+                raise ReferenceStallError(
+                    f"the reference solve (scipy DOP853) has stalled at t = {time_:.9g} s: {STALL_EVALUATIONS} "
+                    f"evaluations since t = {seen['at']:.9g} s, steps of about "
+                    f"{(time_ - seen['at']) * 12 / STALL_EVALUATIONS:.2g} s. Its equations switch there faster "
+                    "than any step: a discontinuous right-hand side"
+                    + (", e.g. the PI motor's torque held at tau_max with its integrator switched on and off at "
+                       "every step (conditional integration sliding along the limit; the co-simulation's sampled "
+                       "controller steps across it)" if pi else "")
+                    + ". This set-up has no monolithic reference: raise the motor's tau_max so that the drive "
+                    "stays within it, or shorten the run to end before t, or check the scenario without a "
+                    "reference (ujfmu run --check-step estimates its coupling error)")
+            seen["at"] = time_
+        return rhs(time_, y)
+    return f
+
+
 def solve_piecewise(rhs, y0, t, motor_params, rtol, atol):
-    """One DOP853 solve of rhs on the grid t, restarted at the speed profile's corners; returns y on t."""
+    """One DOP853 solve of rhs on the grid t, restarted at the speed profile's corners; returns y on t.
+    ReferenceStallError where it stops advancing (``_watched``)."""
     if SolverOverride.rtol is not None:
         rtol, atol = SolverOverride.rtol, SolverOverride.atol
     started = time.perf_counter()
@@ -104,7 +139,8 @@ def solve_piecewise(rhs, y0, t, motor_params, rtol, atol):
     cuts = corners(motor_params, t[0], t[-1])
     for lo, hi in zip(cuts[:-1], cuts[1:]):
         sel = (t >= lo) & (t <= hi) if hi == cuts[-1] else (t >= lo) & (t < hi)
-        sol = solve_ivp(rhs, (lo, hi), y, method="DOP853", rtol=rtol, atol=atol, t_eval=t[sel], dense_output=True)
+        sol = solve_ivp(_watched(rhs, lo, hi, motor_params), (lo, hi), y, method="DOP853", rtol=rtol, atol=atol,
+                        t_eval=t[sel], dense_output=True)
         if not sol.success:
             raise RuntimeError(f"reference solve failed: {sol.message}")
         pieces.append(sol.y)
