@@ -442,3 +442,39 @@ def test_a_negative_step_is_refused_by_its_own_check_not_argparse(tmp_path, caps
     with pytest.raises(SystemExit):
         main(["run", scenario, "--step", "--no-plot"])
     assert "expected one argument" in capsys.readouterr().err
+
+
+def test_an_fmu_file_holding_another_model_is_named_before_anything_runs(fmu_dir, tmp_path, capsys):
+    """DoubleCardanDrivelineTorqueDriven.fmu copied over DoubleCardanDriveline.fmu: the run had failed on a missing
+    output with a hint to rewire the (ideal) motor torque-driven; the file's own modelDescription says which model
+    it holds."""
+    import shutil
+    fmus = tmp_path / "fmus"
+    shutil.copytree(fmu_dir, fmus)
+    shutil.copy(fmus / "DoubleCardanDrivelineTorqueDriven.fmu", fmus / "DoubleCardanDriveline.fmu")
+    assert main(["--fmu-dir", str(fmus), "check", str(SCENARIOS / "double_cardan_omar_torsional.toml"),
+                 "--out", str(tmp_path / "out"), "--no-plot", "-q"]) == 2
+    out = capsys.readouterr().out
+    assert "holds the model 'DoubleCardanDrivelineTorqueDriven'" in out and "rebuild it" in out
+    assert "torque-driven instead" not in out
+
+
+def test_an_unreadable_reference_says_what_the_file_is(fmu_dir, tmp_path, capsys):
+    """A reference checked out as a Git LFS pointer, or cut short, is named as such with the remedy, not only by
+    numpy's parse error."""
+    import shutil
+    for name, text, words in (("lfs", "version https://git-lfs.github.com/spec/v1\noid sha256:abc\nsize 12\n",
+                               "Git LFS pointer"),
+                              ("cut", None, "truncated or hand-edited")):
+        scenario = tmp_path / f"{name}.toml"
+        scenario.write_text((SCENARIOS / "cardan_constant_speed.toml").read_text().replace(
+            "references/cardan_constant_speed.csv", f"{name}.csv"))
+        reference = tmp_path / f"{name}.csv"
+        if text is None:
+            shutil.copy(SCENARIOS / "references" / "cardan_constant_speed.csv", reference)
+            lines = reference.read_text().splitlines()
+            reference.write_text("\n".join(lines[:60] + [lines[60][:15]] + lines[61:]) + "\n")
+        else:
+            reference.write_text(text)
+        assert main(["--fmu-dir", str(fmu_dir), "run", str(scenario), "--no-plot", "--out", str(tmp_path)]) == 2
+        assert words in capsys.readouterr().err

@@ -85,3 +85,13 @@ def test_a_constant_reference_with_rel_range_alone_is_flagged():
     assert check.note == ""
     (check,) = compare(table([0.0, 1.0, 2.0], a__y=[0.0, 4.0, 0.0]), REFERENCE, {"a.y": Tolerance(rel_range=1e-3)})
     assert check.note == ""
+
+
+def test_an_operating_point_missed_from_above_is_called_an_overshoot_not_unreached():
+    """A drive 2.2% above its set point at the end is not short of it: the message says which side it missed."""
+    from ujfmu.scenario_run import OperatingPointCheck
+    above = OperatingPointCheck("motor.omega", "motor.omega_ref", 61.33, 60.0, 0.72)
+    below = OperatingPointCheck("motor.omega", "motor.omega_ref", 58.0, 60.0, 0.72)
+    assert not above.passed and not below.passed
+    assert "above its set point" in str(above) and "not reached" not in str(above)
+    assert "not reached" in str(below) and "above" not in str(below)

@@ -35,7 +35,9 @@ import difflib
 import hashlib
 import json
 import math
+import re
 import tomllib
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -106,6 +108,17 @@ class ScenarioError(ValueError):
 class Tolerance:
     rel_range: float = 0.0
     abs: float = 0.0
+
+
+def _model_name(path: Path) -> str | None:
+    """The modelName of an FMU file's modelDescription.xml (None where it cannot be read: the run reports that)."""
+    try:
+        with zipfile.ZipFile(path) as fmu:
+            head = fmu.read("modelDescription.xml")[:4096].decode("utf-8", "replace")
+    except (OSError, KeyError, zipfile.BadZipFile):
+        return None
+    found = re.search(r'<fmiModelDescription\b[^>]*\smodelName="([^"]*)"', head)
+    return found.group(1) if found else None
 
 
 class Scenario:
@@ -381,7 +394,11 @@ class Scenario:
         try:
             table, provenance = read_reference(self.reference_file)
         except (ValueError, IndexError, OSError) as exc:
-            raise ScenarioError(f"{field}: cannot read {self.reference_file}: {exc}") from None
+            head = self.reference_file.read_bytes()[:200] if self.reference_file.is_file() else b""
+            why = (" (it is a Git LFS pointer, not the data: fetch the file, e.g. `git lfs pull`, or regenerate it)"
+                   if head.startswith(b"version https://git-lfs") else
+                   f" (a truncated or hand-edited file? `ujfmu references {self.path}` regenerates it)")
+            raise ScenarioError(f"{field}: cannot read {self.reference_file}: {exc}{why}") from None
         made_for = setup_of(provenance)
         if made_for is not None and made_for != self.setup_digest():
             owner = scenario_of(provenance)
@@ -475,12 +492,18 @@ class Scenario:
         return variables[var]
 
     def check_fmus(self, fmu_dir=DEFAULT_FMU_DIR):
-        """ScenarioError naming the component if an FMU file is missing (before anything runs)."""
+        """ScenarioError naming the component if an FMU file is missing, or holds another model than its name says
+        (its modelDescription's modelName: a file copied over another), before anything runs."""
         for cname, (fmu, _) in self.components.items():
             path = Path(fmu_dir) / f"{fmu}.fmu"
             if not path.is_file():
                 raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path.absolute()} not found "
                                     f"({build_hint(fmu_dir)})")
+            model = _model_name(path)
+            if model is not None and model != fmu:
+                raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path.absolute()} holds the "
+                                    f"model {model!r} (its modelDescription.xml says so), not {fmu!r}: a file copied "
+                                    f"or renamed over it; rebuild it ({build_hint(fmu_dir)})")
 
     def model_problems(self, component) -> list:
         """What the component's model refuses in its parameters as a whole (``MODEL.check``, which the FMU runs at

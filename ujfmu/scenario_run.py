@@ -95,7 +95,11 @@ class OperatingPointCheck:
                 f"against its set point {self.set_point} = {speed_text(self.target)} "
                 f"({100.0 * (self.value - self.target) / abs(self.target):+.3g}%, allowed "
                 f"{100.0 * OPERATING_TOL:g}%)")
-        if not self.passed:
+        if not self.passed and abs(self.value) > abs(self.target):
+            text += (": the drive runs above its set point at the end (an overshoot still settling, or a loop "
+                     "oscillating about it); lengthen stop_time, or check the controller's gains against the "
+                     "inertia it drives")
+        elif not self.passed:
             text += (": the set point is not reached by the end; lengthen stop_time, or give the drive more torque "
                      "(tau_max) or gain, or lower the load")
         return text
@@ -297,7 +301,9 @@ class ScenarioResult:
 
     def summary(self, step_check_follows: bool = False) -> str:
         """The verdict and every check, one per line; step_check_follows as in :meth:`not_checked_reason`."""
-        head = f"{self.verdict} {self.scenario.name}: {self.scenario.title} ({self.wall_time:.1f} s simulating)"
+        span = self.scenario.stop_time - self.scenario.start_time
+        head = (f"{self.verdict} {self.scenario.name}: {self.scenario.title} ({self.wall_time:.1f} s wall time for "
+                f"{span:g} s simulated)")
         lines = [head]
         if self.checks:
             lines.append(f"  against {self.scenario.reference_file_text}"
