@@ -364,6 +364,22 @@ def test_the_reference_method_is_read_from_the_provenance_line(tmp_path):
     assert reference_method(tmp_path / "missing.csv") is None
 
 
+def test_the_regenerate_command_runs_from_where_the_reference_was_made(monkeypatch, tmp_path):
+    """A project folder inside the clone: the provenance line's command is relative to the current directory (it
+    had been relative to the clone, "myproject/scenarios/...", a path that does not exist from the project); the
+    bundled scenarios keep scenarios/<name>.toml from anywhere in the clone."""
+    import ujfmu.references as references
+    from types import SimpleNamespace
+    monkeypatch.setattr(references, "_REPO_DIR", tmp_path)
+    project = tmp_path / "myproject"
+    (project / "scenarios").mkdir(parents=True)
+    monkeypatch.chdir(project)
+    mine = SimpleNamespace(path=Path("scenarios") / "mine.toml")
+    assert references.regenerate_text(mine) == "Regenerate: ujfmu references scenarios/mine.toml"
+    bundled = SimpleNamespace(path=tmp_path / "scenarios" / "cardan_startup.toml")
+    assert references.regenerate_text(bundled) == "Regenerate: ujfmu references scenarios/cardan_startup.toml"
+
+
 def test_runs_of_different_fmu_kinds_write_to_different_folders(monkeypatch, tmp_path):
     """FMI 2.0, FMI 3.0 and Model Exchange runs of one scenario do not overwrite each other's results by default;
     an explicit --out is taken as given."""

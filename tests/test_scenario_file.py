@@ -251,6 +251,9 @@ def test_a_scenario_path_without_toml_names_the_file_that_exists(tmp_path, capsy
     with pytest.raises(ScenarioError) as err:
         Scenario("scenarios/zzzz")
     assert str(err.value) == "scenarios/zzzz: scenario file not found"
+    # a bare name, as typed in a project of one's own: its scenarios/ folder is looked in too
+    with pytest.raises(ScenarioError, match=r"did you mean scenarios/my_rig.toml\?"):
+        Scenario("my_rig")
 
 
 @pytest.mark.parametrize("old, new, says", [

@@ -84,12 +84,14 @@ BUNDLED_SCENARIOS = REPO_DIR / "scenarios"
 
 def not_found_hint(path: Path) -> str:
     """'; did you mean ...?' for a scenario path that does not exist: the same path with .toml when that file
-    exists, else the closest names (difflib) among the .toml files of its folder and the bundled scenarios."""
+    exists, else the closest names (difflib) among the .toml files of its folder, of the current directory's
+    scenarios/ (a project's own) and of the bundled scenarios."""
     path = Path(path)
     if path.suffix != ".toml" and path.with_name(path.name + ".toml").is_file():
         return f"; did you mean {path.with_name(path.name + '.toml')}? (scenario files end in .toml)"
     candidates = {}
-    for folder, shown in ((path.parent, path.parent), (BUNDLED_SCENARIOS, BUNDLED_SCENARIOS)):
+    for folder, shown in ((path.parent, path.parent), (Path("scenarios"), Path("scenarios")),
+                          (BUNDLED_SCENARIOS, BUNDLED_SCENARIOS)):
         if folder.is_dir():
             for file in sorted(folder.glob("*.toml")):
                 candidates.setdefault(file.stem, shown / file.name)

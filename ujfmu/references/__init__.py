@@ -85,12 +85,13 @@ _REPO_DIR = Path(__file__).resolve().parents[2]
 
 def regenerate_text(scenario) -> str:
     """'Regenerate: ujfmu references <scenario file>': the exact command, with the scenario's path relative to the
-    clone (committed scenarios: ``scenarios/<name>.toml``), else to the current directory, else absolute."""
+    clone for the bundled scenarios (``scenarios/<name>.toml``), else to the current directory (a project of one's
+    own, even one inside the clone), else absolute."""
     path = Path(scenario.path).resolve()
-    for base in (_REPO_DIR, Path.cwd().resolve()):
-        if path.is_relative_to(base):
-            path = path.relative_to(base)
-            break
+    if path.is_relative_to(_REPO_DIR / "scenarios"):
+        path = path.relative_to(_REPO_DIR)
+    elif path.is_relative_to(Path.cwd().resolve()):
+        path = path.relative_to(Path.cwd().resolve())
     return f"Regenerate: ujfmu references {path.as_posix()}"
 
 
