@@ -525,11 +525,17 @@ class Cosimulation:
             if inp not in fed_through[comp] and reaches(comp, transfer[-1].source.split(".", 1)[0]):
                 self._tears.append(i)
         self._tear_views = [views[i][:1] for i in self._tears]
-        # watched for divergence and chatter (``_watch_growth``): the torn connections, then the others on a loop
-        # of connections (a value held over the step that comes back through the loop), for chatter only
-        self._watched = self._tears + [i for i, transfer in enumerate(self._transfers) if i not in self._tears
-                                       and reaches(transfer[-1].target.split(".", 1)[0],
-                                                   transfer[-1].source.split(".", 1)[0])]
+        # watched for divergence and chatter (``_watch_growth``): the torn connections, then, for chatter only, one
+        # connection on a loop for each pair of components that no watched connection joins yet (a chatter runs
+        # through every connection of its loop), the last in transfer order: the one that closes the loop, its
+        # value held over the next step
+        pairs = {frozenset(self._where(self._transfers[i][-1])) for i in self._tears}
+        self._watched = list(self._tears)
+        for i in reversed(range(len(self._transfers))):
+            pair = frozenset(self._where(self._transfers[i][-1]))
+            if pair not in pairs and reaches(*self._where(self._transfers[i][-1])[::-1]):
+                pairs.add(pair)
+                self._watched.append(i)
         self._watch_views = [views[i][:1] for i in self._watched]
         rolled = dict.fromkeys(self._transfers[i][-1].target.split(".", 1)[0] for i in self._tears)
         self._rolled = [(self.instances[name], name) for name in rolled]
