@@ -52,15 +52,30 @@ def _versine(x, a):
     return 2 * np.sin(a / 2) ** 2 / x
 
 
-#: sin(a)/a, (1 - cos a)/a^2 and their derivatives with respect to x = a^2
-_sinc_sq = _analytic_in_square(lambda x: 1 - x / 6 + x ** 2 / 120 - x ** 3 / 5040 + x ** 4 / 362880, _sinc)
-_versine_sq = _analytic_in_square(lambda x: 1 / 2 - x / 24 + x ** 2 / 720 - x ** 3 / 40320 + x ** 4 / 3628800,
-                                  _versine)
-_sinc_sq_dx = _analytic_in_square(lambda x: -1 / 6 + x / 60 - x ** 2 / 1680 + x ** 3 / 90720 - x ** 4 / 7983360,
-                                  lambda x, a: (np.cos(a) - _sinc(x, a)) / (2 * x))
-_versine_sq_dx = _analytic_in_square(
-    lambda x: -1 / 24 + x / 360 - x ** 2 / 13440 + x ** 3 / 907200 - x ** 4 / 95800320,
-    lambda x, a: (_sinc(x, a) - 2 * _versine(x, a)) / (2 * x))
+#: Taylor series in x = a^2 of sin(a)/a, (1 - cos a)/a^2 and their derivatives with respect to x
+_SERIES = {"SincSq": lambda x: 1 - x / 6 + x ** 2 / 120 - x ** 3 / 5040 + x ** 4 / 362880,
+           "VersineSq": lambda x: 1 / 2 - x / 24 + x ** 2 / 720 - x ** 3 / 40320 + x ** 4 / 3628800,
+           "SincSqDx": lambda x: -1 / 6 + x / 60 - x ** 2 / 1680 + x ** 3 / 90720 - x ** 4 / 7983360,
+           "VersineSqDx": lambda x: -1 / 24 + x / 360 - x ** 2 / 13440 + x ** 3 / 907200 - x ** 4 / 95800320}
+#: the same functions' closed forms in a = sqrt(x), for numpy arrays
+_sinc_sq = _analytic_in_square(_SERIES["SincSq"], _sinc)
+_versine_sq = _analytic_in_square(_SERIES["VersineSq"], _versine)
+_sinc_sq_dx = _analytic_in_square(_SERIES["SincSqDx"], lambda x, a: (np.cos(a) - _sinc(x, a)) / (2 * x))
+_versine_sq_dx = _analytic_in_square(_SERIES["VersineSqDx"], lambda x, a: (_sinc(x, a) - 2 * _versine(x, a)) / (2 * x))
+
+
+def _scalar_in_square(name, closed):
+    """The function of x = a^2 named in _SERIES for one float, in plain floats (the ODE's right-hand side)."""
+    series = _SERIES[name]
+    return lambda x: series(x) if x < 1e-3 else closed(x, math.sqrt(x))
+
+
+#: the four functions for one float: math's sin and cos, no numpy scalars
+_SCALAR = {"SincSq": _scalar_in_square("SincSq", lambda x, a: math.sin(a) / a),
+           "VersineSq": _scalar_in_square("VersineSq", lambda x, a: 2 * math.sin(a / 2) ** 2 / x),
+           "SincSqDx": _scalar_in_square("SincSqDx", lambda x, a: (math.cos(a) - math.sin(a) / a) / (2 * x)),
+           "VersineSqDx": _scalar_in_square(
+               "VersineSqDx", lambda x, a: (math.sin(a) / a - 4 * math.sin(a / 2) ** 2 / x) / (2 * x))}
 
 
 class SincSq(sp.Function):
@@ -97,7 +112,7 @@ def _tilt(a, b):
 
 @functools.lru_cache(maxsize=None)
 def _equations():
-    """Lambdified (M, f) of Lagrange's equations and the output expressions."""
+    """Lambdified output expressions (numpy, for the recorded table) and the right-hand side's terms (floats)."""
     q = th1, x1, y1, th2, x2, y2 = sp.symbols("theta1 X1 Y1 theta2 X2 Y2", real=True)
     qd = sp.symbols("w1 vx1 vy1 w2 vx2 vy2", real=True)
     phi_in, w_in, tau_load = sp.symbols("phi_in w_in tau_load", real=True)
@@ -141,7 +156,10 @@ def _equations():
     args = (q, qd, phi_in, w_in, tau_load, params)
     outputs = [shaft1, shaft2, kinetic + potential, 2 * rayleigh]
     modules = [_NUMERIC, "numpy"]
-    return (sp.lambdify(args, [mass, force], modules, cse=True), sp.lambdify(args, outputs, modules, cse=True))
+    # the right-hand side's terms for one state: M row by row, f, the primary shaft torque and the dissipated
+    # power, as one flat list of plain floats (math, common subexpressions shared: 7x numpy on scalars)
+    terms = [*mass, *force, shaft1, 2 * rayleigh]
+    return sp.lambdify(args, outputs, modules, cse=True), sp.lambdify(args, terms, [_SCALAR, "math"], cse=True)
 
 
 class RotorReference:
@@ -150,23 +168,24 @@ class RotorReference:
     def __init__(self, pr):
         self.pr = pr
         self.params = tuple(float(pr[n]) for n in _PARAMS)
-        self._mass_force, self._outputs = _equations()
+        self._outputs, self._terms = _equations()
 
-    def accelerations(self, q, qd, phi_in, w_in, tau_load):
-        m, f = self._mass_force(q, qd, phi_in, w_in, tau_load, self.params)
-        return np.linalg.solve(np.array(m, dtype=float), np.array(f, dtype=float).ravel())
+    def rates(self, y, phi_in, w_in, tau_load):
+        """(q'', primary shaft torque, dissipated power) at the state y = (q, q') (one float evaluation of M, f and
+        the two outputs)."""
+        values = self._terms(y[:6], y[6:12], phi_in, w_in, tau_load, self.params)
+        acc = np.linalg.solve(np.array(values[:36]).reshape(6, 6), np.array(values[36:42]))
+        return acc, values[42], values[43]
 
     def outputs(self, q, qd, phi_in, w_in):
         """(primary shaft torque, secondary shaft torque, energy without the gearbox flange, dissipated power)."""
         return self._outputs(q, qd, phi_in, w_in, 0.0, self.params)
 
 
-def _rotor_rhs(ref, y, phi_in, w_in, alpha_in, tau_load):
-    """d/dt of (q, q', input work, dissipated energy) for the rotor."""
-    q, qd = y[:6], y[6:12]
-    acc = ref.accelerations(q, qd, phi_in, w_in, tau_load)
-    shaft1, _, _, dissipation = ref.outputs(q, qd, phi_in, w_in)
-    return np.concatenate([qd, acc, [(ref.pr["J_gb"] * alpha_in + shaft1) * w_in, dissipation]])
+def _rotor_rhs(ref, y, phi_in, w_in, alpha_in, tau_load, rates=None):
+    """d/dt of (q, q', input work, dissipated energy) for the rotor; rates: ``ref.rates`` at y if known."""
+    acc, shaft1, dissipation = rates or ref.rates(y[:12].tolist(), phi_in, w_in, tau_load)
+    return np.concatenate([y[6:12], acc, [(ref.pr["J_gb"] * alpha_in + shaft1) * w_in, dissipation]])
 
 
 def _initial(ref, phi_in, w_in):
@@ -201,16 +220,17 @@ def generate(scenario):
         if ideal:
             def rhs(time, y, ref=ref, pl=pl, phi0=phi0):
                 w, a, angle = profile(pm, time)
-                return _rotor_rhs(ref, y, phi0 + float(angle) - ang0, float(w), float(a), load_torque(pl, y[9]))
+                return _rotor_rhs(ref, y, phi0 + float(angle) - ang0, float(w), float(a),
+                                  float(load_torque(pl, y[9])))
             ys = solve_piecewise(rhs, y0, t, pm, RTOL, ATOL)
             phi_m, w_in, a_in = ang - ang0, w_m, a_m
         else:
             def rhs(time, y, ref=ref, pl=pl, phi0=phi0):
-                phi_m, w, integral = y[14:]
+                phi_m, w, integral = y[14:].tolist()
                 tau_m, di = pi_law(pm, time, w, integral)
-                shaft1 = ref.outputs(y[:6], y[6:12], phi0 + phi_m, w)[0]
-                a = (float(tau_m) - shaft1) / (j_motor + ref.pr["J_gb"])
-                rot = _rotor_rhs(ref, y[:14], phi0 + phi_m, w, a, load_torque(pl, y[9]))
+                rates = ref.rates(y[:12].tolist(), phi0 + phi_m, w, float(load_torque(pl, y[9])))
+                a = (float(tau_m) - rates[1]) / (j_motor + ref.pr["J_gb"])
+                rot = _rotor_rhs(ref, y[:14], phi0 + phi_m, w, a, None, rates)
                 return np.concatenate([rot, [w, a, float(di)]])
             ys = solve_piecewise(rhs, np.concatenate([y0, [0.0, w_start, 0.0]]), t, pm, RTOL, ATOL)
             phi_m, w_in, integral = ys[14:]
