@@ -42,7 +42,8 @@ def _joint(x, b):
 
 @functools.lru_cache(maxsize=None)
 def _equations():
-    """Lambdified M(q, p), h(q, qd, p) of Lagrange's equations, and the output expressions."""
+    """Lambdified M(q, p) and h(q, qd, p) of Lagrange's equations (floats), the output expressions and the rigid
+    shaft's kinematics (numpy)."""
     p1, p4, f, w1, w4, v = sp.symbols("phi1 phi4 phi w1 w4 v", real=True)
     (b1, b2, yoke, plane, i_in, i_pin, i_n, i_int, j_load, k_t, xi_t, m_s, k_f, xi_f, l_c) = params = \
         sp.symbols(" ".join(_PARAMS), real=True)
@@ -80,7 +81,9 @@ def _equations():
     j_eq = j_in + j_out * rho ** 2
     rigid = [phi2_static, phi3_static, sp.diff(phi3_static, p4), rho, j_eq,
              sp.diff(j_eq, p1) + sp.diff(j_eq, p4) * rho, j_in, sp.diff(j_in, p1), sp.diff(phi2_static, p1)]
-    return (sp.lambdify(args, mass, "numpy", cse=True), sp.lambdify(args, h, "numpy", cse=True),
+    # M row by row and h as one flat list of plain floats for one state (math, shared subexpressions: the solve's
+    # inner loop, several times numpy on scalars)
+    return (sp.lambdify(args, [*mass, *h], "math", cse=True),
             sp.lambdify(args, [twist, dtwist, omega2, energy], "numpy", cse=True),
             sp.lambdify(((p1, p4), params), rigid, "numpy", cse=True))
 
@@ -91,13 +94,13 @@ class DrivelineReference:
     def __init__(self, pd):
         self.pd = pd
         self.params = tuple(float(pd[n]) for n in _PARAMS)
-        self._mass, self._h, self._outputs, self._rigid = _equations()
+        self._terms, self._outputs, self._rigid = _equations()
 
     def accelerations(self, q, qd, known_alpha1=None, tau_drive=0.0, extra_inertia=0.0, tau_load=0.0):
         """Solve Lagrange's equations. With known_alpha1 the input is prescribed and the input-row generalised
         force (tau_in) is returned; else tau_drive acts on phi1 carrying extra_inertia (the motor)."""
-        m = np.array(self._mass(q, qd, self.params), dtype=float)
-        h = np.array(self._h(q, qd, self.params), dtype=float).ravel()
+        values = self._terms([float(v) for v in q], [float(v) for v in qd], self.params)
+        m, h = np.array(values[:9]).reshape(3, 3), np.array(values[9:])
         rhs = -h + np.array([0.0, -tau_load, 0.0])
         if known_alpha1 is not None:
             acc = np.linalg.solve(m[1:, 1:], rhs[1:] - m[1:, 0] * known_alpha1)
