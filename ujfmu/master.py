@@ -805,7 +805,8 @@ class Cosimulation:
     def _watch_growth(self):
         """Detect a diverging coupling: per torn connection, the change d_k = g_k - g_k-1 of the value it
         carries alternating in sign at every step while |d| grows (the explicit inertia coupling's mode
-        d_k = -(J_driven / J_driver) d_k-1, docs/cosimulation.md). Raises CouplingInstabilityError."""
+        d_k = -(J_driven / J_driver) d_k-1, docs/cosimulation.md); per watched connection, chatter (``CHATTER_STEPS``).
+        Raises CouplingInstabilityError."""
         noise = IMPLICIT_NOISE_TOLERANCES * COUPLING_RTOL if self.coupling == "implicit" else 0.0
         torn = len(self._tears)
         for k, (state, view) in enumerate(zip(self._growth, self._watch_views)):
@@ -840,7 +841,7 @@ class Cosimulation:
                 raise CouplingInstabilityError(self._growth_report(force=True) + self._log_text())
 
     def _chatter_report(self, k, state):
-        """Words on the k-th torn connection chattering: alternating at every step without decaying
+        """Words on the k-th watched connection chattering: reversing at nearly every step without dying out
         (``CHATTER_STEPS``)."""
         conn = self._transfers[self._watched[k]][-1]
         src, dst = self._where(conn)

@@ -121,9 +121,10 @@ def _watched(rhs, lo, hi, motor_params):
                     + (", e.g. the PI motor's torque held at tau_max with its integrator switched on and off at "
                        "every step (conditional integration sliding along the limit; the co-simulation's sampled "
                        "controller steps across it)" if pi else "")
-                    + ". This set-up has no monolithic reference: raise the motor's tau_max so that the drive "
-                    "stays within it, or shorten the run to end before t, or check the scenario without a "
-                    "reference (ujfmu run --check-step estimates its coupling error)")
+                    + ". This set-up has no monolithic reference: "
+                    + ("raise the motor's tau_max so that the drive stays within it, or " if pi else "")
+                    + "shorten the run to end before t, or check the scenario without a reference (ujfmu run "
+                    "--check-step estimates its coupling error)")
             seen["at"] = time_
         return rhs(time_, y)
     return f
