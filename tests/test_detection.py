@@ -28,20 +28,26 @@ def _run(scenario, fmu_dir, coupling, step=None, stop=None, diagnostics=None):
                       step or scenario.step_size, scenario.record, coupling=coupling, diagnostics=diagnostics)
 
 
+def _stopped(scenario, fmu_dir, coupling, stop, *words):
+    """The CouplingInstabilityError the run stops with, its message holding each of words."""
+    with pytest.raises(CouplingInstabilityError) as info:
+        _run(scenario, fmu_dir, coupling, stop=stop)
+    for text in words:
+        assert text in str(info.value), (text, str(info.value))
+    return info.value
+
+
 def test_a_divergence_faster_than_two_alternations_is_blamed_on_the_coupling(fmu_dir):
     """J2 100x battery_00's (3000x the rotor): the explicit torque reverses and grows x2700 in one step, and the
     motor refuses the next step for its tau_load range. The error names the coupling, the connection, the step,
     the growth and the remedy, keeps the motor's own message after it and the results so far."""
     s = Scenario(HEAVY)
     heavy = with_changes(s, {"joint.J2": 100 * s.components["joint"][1]["J2"]})
-    with pytest.raises(CouplingInstabilityError) as info:
-        _run(heavy, fmu_dir, "explicit", stop=0.05)
-    message = str(info.value)
-    for words in ("refused the step at t = 0.002", "between 'joint' and 'motor'", "joint.tau_in -> motor.tau_load",
-                  "grew x", "h = 0.001", 'coupling = "implicit"'):
-        assert words in message, (words, message)
+    error = _stopped(heavy, fmu_dir, "explicit", 0.05, "refused the step at t = 0.002", "between 'joint' and 'motor'",
+                     "joint.tau_in -> motor.tau_load", "grew x", "h = 0.001", 'coupling = "implicit"')
+    message = str(error)
     assert message.index("Remedy") < message.index("tau_load = ") and "outside its allowed range" in message
-    partial = info.value.partial
+    partial = error.partial
     assert len(partial) == 3 and partial["time"][-1] == pytest.approx(0.002)
     # the torque's last change reversed the one before and grew far beyond anything the model itself does
     d = np.diff(partial["joint.tau_in"])
@@ -261,13 +267,8 @@ def test_a_friction_load_chattering_at_the_step_rate_is_an_error_and_a_smooth_on
     state tau_in, the load's torque and its law T0 w / sqrt(w^2 + w_s^2) at the input speed agree (power balance
     at equal mean speeds)."""
     chattering = with_changes(OMAR, {"motor.omega_set": 0.5})
-    with pytest.raises(CouplingInstabilityError) as info:
-        _run(chattering, fmu_dir, "implicit", stop=1.0)
-    message = str(info.value)
-    for words in ("coupling chatter between", "load.tau -> driveline.tau_load", "reversed its sign at",
-                  "Remedy: reduce step_size", "omega_smooth", "h = 0.001"):
-        assert words in message, (words, message)
-    partial = info.value.partial
+    partial = _stopped(chattering, fmu_dir, "implicit", 1.0, "coupling chatter between", "load.tau -> driveline.tau_load",
+                       "reversed its sign at", "Remedy: reduce step_size", "omega_smooth", "h = 0.001").partial
     assert 0 < len(partial) < 100
     assert np.count_nonzero(np.diff(np.sign(partial["load.tau"][-11:]))) >= 8   # the step-rate reversals it names
     smooth = with_changes(OMAR, {"motor.omega_set": 0.5, "load.omega_smooth": 1.0})
