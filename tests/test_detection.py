@@ -267,8 +267,9 @@ def test_a_friction_load_chattering_at_the_step_rate_is_an_error_and_a_smooth_on
     state tau_in, the load's torque and its law T0 w / sqrt(w^2 + w_s^2) at the input speed agree (power balance
     at equal mean speeds)."""
     chattering = with_changes(OMAR, {"motor.omega_set": 0.5})
-    partial = _stopped(chattering, fmu_dir, "implicit", 1.0, "coupling chatter between", "load.tau -> driveline.tau_load",
-                       "reversed its sign at", "Remedy: reduce step_size", "omega_smooth", "h = 0.001").partial
+    partial = _stopped(chattering, fmu_dir, "implicit", 1.0, "coupling chatter between",
+                       "load.tau -> driveline.tau_load", "reversed its sign at", "Remedy: reduce step_size",
+                       "omega_smooth", "h = 0.001").partial
     assert 0 < len(partial) < 100
     assert np.count_nonzero(np.diff(np.sign(partial["load.tau"][-11:]))) >= 8   # the step-rate reversals it names
     smooth = with_changes(OMAR, {"motor.omega_set": 0.5, "load.omega_smooth": 1.0})
