@@ -67,11 +67,14 @@ def plot_scenario(result, reference, path):
                              gridspec_kw={"height_ratios": ratios}, layout="constrained")
     axes = list(axes[:, 0])
     checks = {c.name: c for c in result.checks}
+    # a Model Exchange run's tight bands (no step to halve there) are its own: a failing one marks the panel
+    banded = {c.name: c for c in result.extrapolated_checks} if result.model_exchange else {}
     t = table["time"]
     for name, ref in zip(names, has_ref):
         label, k = display(scenario.unit(name))
         ax = axes.pop(0)
-        ax.plot(t, k * table[name], lw=1.2, label="co-simulation (fmpy)")
+        ax.plot(t, k * table[name], lw=1.2,
+                label="Model Exchange (CVode)" if result.model_exchange else "co-simulation (fmpy)")
         series = [k * table[name]]
         if ref:
             ax.plot(reference["time"], k * reference[name], "--", lw=1.0, label="reference")
@@ -81,6 +84,8 @@ def plot_scenario(result, reference, path):
         check = checks.get(name)
         verdict = (f"  ({'ok' if check.passed else 'FAIL'}: max |error| {k * check.max_error:.3g} {label}, allowed "
                    f"{k * check.allowed:.3g} {label})" if check else "  (not compared)" if ref else "")
+        if name in banded and not banded[name].passed:
+            verdict += f"  (FAIL: its tight band {k * banded[name].allowed:.3g} {label})"
         ax.set_title(f"{name}{verdict}", fontsize=9, loc="left")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="best")
