@@ -808,20 +808,29 @@ class Cosimulation:
         d_k = -(J_driven / J_driver) d_k-1, docs/cosimulation.md); per watched connection, chatter (``CHATTER_STEPS``).
         Raises CouplingInstabilityError."""
         noise = IMPLICIT_NOISE_TOLERANCES * COUPLING_RTOL if self.coupling == "implicit" else 0.0
-        torn = len(self._tears)
+        torn, floor, share = len(self._tears), NOISE_FLOOR, CHATTER_SHARE
         for k, (state, view) in enumerate(zip(self._growth, self._watch_views)):
             g = view[0]
             d = g - state[0]
-            state[0], state[5] = g, state[1]
-            state[4] = max(state[4], abs(g))
-            if d * state[1] < 0.0 and abs(d) > NOISE_FLOOR:
-                state[2] += 1
-                if state[2] == 1:
-                    state[3] = max(abs(d), noise * state[4])
-            else:
-                state[2], state[3] = 0, abs(d)
-            state[1] = d
-            if abs(d) >= CHATTER_SHARE * state[4] and abs(d) > NOISE_FLOOR:
+            size = d if d >= 0.0 else -d
+            top = g if g >= 0.0 else -g
+            if top > state[4]:
+                state[4] = top
+            top = state[4]
+            last = state[1]
+            state[0], state[1] = g, d
+            if k < torn:   # growth: the alternations of a torn connection's change
+                state[5] = last
+                if d * last < 0.0 and size > floor:
+                    state[2] += 1
+                    if state[2] == 1:
+                        state[3] = max(size, noise * top)
+                else:
+                    state[2], state[3] = 0, size
+                if (state[2] >= GROWTH_STEPS and size > GROWTH_FACTOR * state[3]
+                        and size > GROWTH_FLOOR * top):
+                    raise CouplingInstabilityError(self._growth_report(force=True) + self._log_text())
+            if size >= share * top and size > floor:   # chatter: the score of large reversals
                 if d * state[9] < 0.0:
                     state[6] += 1
                     state[8] += 1
@@ -834,11 +843,8 @@ class Cosimulation:
                 state[7] += 1
                 if state[6] >= CHATTER_STEPS:
                     raise CouplingInstabilityError(self._chatter_report(k, state) + self._log_text())
-            else:
+            elif state[7]:
                 state[7] = state[8] = 0
-            if (k < torn and state[2] >= GROWTH_STEPS and abs(d) > GROWTH_FACTOR * state[3]
-                    and abs(d) > GROWTH_FLOOR * state[4]):
-                raise CouplingInstabilityError(self._growth_report(force=True) + self._log_text())
 
     def _chatter_report(self, k, state):
         """Words on the k-th watched connection chattering: reversing at nearly every step without dying out
