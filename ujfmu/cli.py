@@ -682,11 +682,11 @@ def entry() -> None:
 
 
 def _interrupt(signum, frame) -> None:
-    """Ctrl-C: while a co-simulation steps, ask it to stop at its next communication step (``master.STOP``: an
+    """Ctrl-C: while a co-simulation is open, ask it to stop at its next communication step (``master.STOP``: an
     interrupt raised inside an FMU's code would be caught there as the FMU's fatal error); else, and at a second
     Ctrl-C, KeyboardInterrupt at once. The commands report an interruption in a line (``main``)."""
     from . import master
-    if master.STEPPING[0] and not master.STOP[0]:
+    if master.OPEN[0] and not master.STOP[0]:
         master.STOP[0] = True
         print("\ninterrupting at the next communication step (Ctrl-C again to stop at once)", file=sys.stderr)
         return

@@ -88,11 +88,12 @@ ENERGY_RATIO = 1.0
 SPEED_UNIT, TORQUE_UNIT = "rad/s", "N.m"
 
 
-#: the ``ujfmu`` command's Ctrl-C while a co-simulation steps: STOP[0] asks every stepping loop to raise
+#: the ``ujfmu`` command's Ctrl-C while a co-simulation is open: STOP[0] asks every stepping loop to raise
 #: KeyboardInterrupt at its next communication step, between FMU calls (an interrupt raised inside an FMU's own
-#: Python code is caught there and reported as the FMU's fatal error, so a sweep took it for a failed point and went
-#: on); STEPPING[0] counts the loops stepping now (``ujfmu.cli``'s handler stops at once when none is)
-STOP, STEPPING = [False], [0]
+#: Python code, which runs from instantiation to freeing, is caught there and reported as the FMU's fatal error, so a
+#: sweep took it for a failed point and went on); OPEN[0] counts the co-simulations open now (``ujfmu.cli``'s handler
+#: stops at once when none is)
+STOP, OPEN = [False], [0]
 
 
 class CosimulationError(RuntimeError):
@@ -355,6 +356,8 @@ class Cosimulation:
         self.start_time = start_time
         self.log = []
         self.instances = {}
+        OPEN[0] += 1
+        self._open = True
         try:
             self._setup(components, connections, record)
         except CosimulationError:
@@ -650,15 +653,9 @@ class Cosimulation:
         monitor = bool(self._watched or self._bonds)
         every = max(1, n_steps // 200)
         self.rows_done, k = 0, 0
-        STEPPING[0] += 1
-        try:
-            self._advance(k, n_steps, implicit, monitor, every, rows, progress, output_interval)
-        finally:
-            STEPPING[0] -= 1
-
-    def _advance(self, k, n_steps, implicit, monitor, every, rows, progress, output_interval):
-        """:meth:`advance`'s loop from step k."""
         h, start = self.step_size, self.start_time
+        if STOP[0]:   # asked while the FMUs were being set up
+            raise KeyboardInterrupt
         while k < n_steps:
             if not implicit:   # explicit steps up to the next progress report, in one tight loop
                 count = min(n_steps - k, every - k % every) if progress is not None else n_steps - k
@@ -1025,6 +1022,9 @@ class Cosimulation:
         for inst in self.instances.values():
             inst.free()
         self.instances = {}
+        if getattr(self, "_open", False):
+            self._open = False
+            OPEN[0] -= 1
 
     def __enter__(self):
         return self
