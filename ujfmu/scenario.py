@@ -308,23 +308,29 @@ class Scenario:
                 raise ScenarioError(f"{self.path}: {field}: {problem}")
         return dict(values)
 
+    def with_values(self, changes: dict) -> "Scenario":
+        """A copy with parameters {"component.parameter": value} set as given, unchecked, the rest shared."""
+        out = copy.copy(self)
+        out.components = {n: (fmu, dict(values)) for n, (fmu, values) in self.components.items()}
+        for key, value in changes.items():
+            comp, _, par = key.partition(".")
+            out.components[comp][1][par] = value
+        return out
+
     def with_parameters(self, changes: dict, name: str | None = None) -> "Scenario":
         """A copy with parameters changed, {"component.parameter": value} (SI units), each checked as the file's
         are; named ``name`` (default ``<name>_changed``: its CSV and figures do not overwrite this scenario's), its
         title saying what changed, and without the reference: a reference is made for the file's setup, so the copy
         runs unchecked (give it a scenario file and `ujfmu references` to check it)."""
-        out = copy.copy(self)
-        out.components = {n: (fmu, dict(values)) for n, (fmu, values) in self.components.items()}
         for key, value in changes.items():
             comp, _, par = key.partition(".")
-            if comp not in out.components:
-                close = difflib.get_close_matches(comp, out.components, n=1)
+            if comp not in self.components:
+                close = difflib.get_close_matches(comp, self.components, n=1)
                 raise ScenarioError(f"{self.path}: with_parameters: no component '{comp}' in {key!r}"
                                     + (f" (did you mean {close[0]!r}?)" if close else "")
-                                    + f" (it has {', '.join(out.components)})")
-            fmu, values = out.components[comp]
-            out._values(comp, fmu, {"parameters": {par: value}}, "parameters")
-            values[par] = value
+                                    + f" (it has {', '.join(self.components)})")
+            self._values(comp, self.components[comp][0], {"parameters": {par: value}}, "parameters")
+        out = self.with_values(changes)
         for comp in {key.partition(".")[0] for key in changes}:
             problems = out.model_problems(comp)
             if problems:

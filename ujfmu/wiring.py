@@ -51,11 +51,7 @@ def speed_driven_twin(scenario: Scenario) -> Scenario:
 
 def with_changes(scenario: Scenario, changes: dict, step_size: float = None, stop_time: float = None) -> Scenario:
     """A copy of scenario with parameters {"comp.par": value} changed (and the step or stop time)."""
-    out = copy.copy(scenario)
-    out.components = {n: (fmu, dict(p)) for n, (fmu, p) in scenario.components.items()}
-    for name, value in changes.items():
-        comp, par = name.split(".", 1)
-        out.components[comp][1][par] = value
+    out = scenario.with_values(changes)
     out.step_size = step_size or scenario.step_size
     out.stop_time = stop_time or scenario.stop_time
     return out
