@@ -108,6 +108,20 @@ def _unchecked(tmp_path, name="unchecked"):
     return path
 
 
+def test_the_step_check_suggested_after_an_fmi3_run_runs_the_fmi3_fmus(fmu3_dir, tmp_path, capsys, monkeypatch):
+    """After `run --fmi 3` the suggested step check carries --fmi 3 (so its results go to results/fmi3/, not over
+    the FMI 2.0 ones), and --fmu-dir only for FMI 3.0 FMUs outside fmus/fmi3/."""
+    unchecked = _unchecked(tmp_path)
+    import shutil
+    shutil.copytree(fmu3_dir, tmp_path / "fmus" / "fmi3")
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", str(unchecked), "--fmi", "3", "--no-plot"]) == 0
+    assert f"ujfmu run {unchecked} --check-step --fmi 3 estimates the coupling error" in capsys.readouterr().out
+    assert main(["run", str(unchecked), "--fmi", "3", "--fmu-dir", str(fmu3_dir), "--no-plot"]) == 0
+    assert (f"ujfmu run {unchecked} --check-step --fmi 3 --fmu-dir {fmu3_dir} estimates the coupling error"
+            in capsys.readouterr().out)
+
+
 def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_path, capsys):
     unchecked = _unchecked(tmp_path)
     common = ["--fmu-dir", str(fmu_dir), "--out", str(tmp_path / "out"), "--no-plot"]
@@ -446,6 +460,22 @@ def test_the_command_runs_exit_handlers_flushes_and_keeps_the_exit_status(tmp_pa
         assert done.returncode == status, done.stderr
         assert done.stdout.startswith("before") and "exit handler ran" in done.stdout and "never" not in done.stdout
         assert words in done.stdout + done.stderr
+
+
+def test_a_reader_that_stops_reading_does_not_stop_the_build(tmp_path):
+    """``ujfmu build | head -1``: the reader closes the pipe after the first line; the build goes on to build every
+    FMU asked for and exits 0, where the next line's BrokenPipeError had stopped it after the second FMU."""
+    import subprocess
+    import sys
+    names = ["Motor", "Load", "CardanJoint"]
+    script = "import sys\nfrom ujfmu.cli import entry\nsys.argv = ['ujfmu'] + sys.argv[1:]\nentry()\n"
+    with subprocess.Popen([sys.executable, "-c", script, "build", "--fmu-dir", str(tmp_path), *names],
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as process:
+        assert process.stdout.readline().startswith("built ")
+        process.stdout.close()
+        assert process.wait(timeout=120) == 0, process.stderr.read()
+        assert "Traceback" not in process.stderr.read()
+    assert sorted(p.name for p in tmp_path.glob("*.fmu")) == sorted(f"{n}.fmu" for n in names)
 
 
 def test_a_negative_step_is_refused_by_its_own_check_not_argparse(tmp_path, capsys):

@@ -292,3 +292,37 @@ def test_an_unloaded_constant_velocity_driveline_runs_with_its_round_off_torque(
                         ["driveline.tau_in", "driveline.omega_out", "motor.omega"])
     assert np.max(np.abs(result["driveline.tau_in"])) < 1e-9
     assert np.max(np.abs(result["driveline.omega_out"] - result["motor.omega"])) < 1e-9 * 20.0 * math.pi
+
+
+def test_a_torque_read_near_twice_a_period_into_an_ideal_source_is_no_chatter(fmu_dir):
+    """A rigid propshaft, joints at 6 and 3 deg (Z), 0.05 kg.m2 at the output against 300 N.m, turned at 3000 rpm by
+    an ideal speed source and stepped at 4.5 ms: its 2x input torque (100 Hz, about 20 N.m) is read 2.2 times a
+    period, so its change reverses at nearly every step. Held into the ideal source's tau_load it moves nothing (the
+    source's speed ignores it): it is no chatter, and at every communication point tau_in is the closed form's
+    (``references``: along the prescribed input)."""
+    from ujfmu.references import generate
+    brutti = Scenario(Path(__file__).parent.parent / "scenarios" / "double_cardan_brutti_rigid.toml")
+    propshaft = with_changes(brutti, {"motor.omega_set": 100.0 * math.pi, "driveline.beta1": math.radians(6.0),
+                                      "driveline.beta2": math.radians(3.0), "driveline.J_load": 0.05,
+                                      "load.T0": 300.0, "load.c2": 0.0}, step_size=4.5e-3, stop_time=0.45)
+    result = cosimulate(propshaft.master_components(fmu_dir), propshaft.connections, 0.45, 4.5e-3,
+                        ["driveline.tau_in"])
+    reference, _ = generate(propshaft)
+    tau = np.interp(result["time"], reference["time"], reference["driveline.tau_in"])
+    assert len(result) == 101 and np.ptp(tau[50:]) > 30.0   # the whole run, with its 2x swing
+    assert np.max(np.abs(result["driveline.tau_in"] - tau)) < 1e-6 * np.ptp(tau)
+
+
+def test_a_failure_after_the_drive_stalled_names_the_stall(fmu_dir):
+    """Feng's start-up with the PI motor limited to 0.5 N.m against a 5 N.m load: the drive cannot turn the load,
+    the speed stays near zero where the load's torque reverses, and the coupling fails. The error says the drive had
+    nearly stopped short of its set point and names its torque limit, the cause to fix (the coupling's own remedy,
+    a smaller step, would not help)."""
+    from ujfmu.scenario_run import run_scenario
+    stalled = Scenario(Path(__file__).parent.parent / "scenarios" / "cardan_startup.toml").with_parameters(
+        {"motor.tau_max": 0.5, "motor.profile": 0, "load.T0": 5.0, "load.omega_smooth": 1e-3})
+    with pytest.raises(CosimulationError) as info:
+        run_scenario(stalled, fmu_dir=fmu_dir, out_dir=None)
+    assert "hint: when it failed, motor.omega = " in str(info.value)
+    assert "against its set point motor.omega_ref = 150 rad/s" in str(info.value) and "tau_max = 0.5 N.m" in \
+        str(info.value)

@@ -41,6 +41,8 @@ def test_missing_fmu_and_bad_step_are_clear_errors(fmu_dir, tmp_path):
         cosimulate([Component("m", tmp_path / "Nope.fmu", {})], [], 0.01, 1e-3, [])
     with pytest.raises(CosimulationError, match="whole number"):
         cosimulate(chain(fmu_dir), CONNECTIONS, 0.0105, 1e-3, [])
+    with pytest.raises(CosimulationError, match=r"no variable 'omega_ot' \(did you mean 'joint.omega_out'\?\)"):
+        cosimulate(chain(fmu_dir), CONNECTIONS, 0.01, 1e-3, ["joint.omega_ot"])   # a record set from Python
 
 
 def test_invalid_parameter_surfaces_with_fmu_log(fmu_dir):

@@ -1,6 +1,7 @@
 """SSP export: every scenario as a .ssp that libcosim's CosimExecution.from_ssp_file runs, carrying exactly the
 scenario (bitwise the same as libcosim run by hand), and agreeing with our fmpy master."""
 
+import io
 import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
@@ -74,3 +75,23 @@ def test_ssd_lists_components_connectors_parameters_and_experiment(fmu_dir, tmp_
 def test_cli_export_ssp(fmu_dir, tmp_path, capsys):
     assert main(["--fmu-dir", str(fmu_dir), "export-ssp", str(SCENARIOS[0]), "--out", str(tmp_path)]) == 0
     assert (tmp_path / f"{SCENARIOS[0].stem}.ssp").is_file() and "wrote" in capsys.readouterr().out
+
+
+def test_an_fmi3_package_goes_beside_the_fmi2_one_not_over_it(fmu_dir, fmu3_dir, tmp_path, capsys, monkeypatch):
+    """By default the FMI 2.0 package goes to results/ and the FMI 3.0 one to results/fmi3/ (as run's results do),
+    each holding the FMUs of its version and saying which it holds."""
+    monkeypatch.chdir(tmp_path)
+    name = SCENARIOS[0].stem
+    assert main(["--fmu-dir", str(fmu_dir), "export-ssp", str(SCENARIOS[0])]) == 0
+    assert "(FMI 2.0 Co-Simulation FMUs)" in capsys.readouterr().out
+    assert main(["--fmu-dir", str(fmu3_dir), "export-ssp", str(SCENARIOS[0]), "--fmi", "3"]) == 0
+    assert f"results/fmi3/{name}.ssp (FMI 3.0 Co-Simulation FMUs)" in capsys.readouterr().out
+    for path, version in ((tmp_path / "results" / f"{name}.ssp", "2.0"),
+                          (tmp_path / "results" / "fmi3" / f"{name}.ssp", "3.0")):
+        with zipfile.ZipFile(path) as package:
+            fmus = [n for n in package.namelist() if n.endswith(".fmu")]
+            assert fmus
+            for fmu in fmus:
+                with zipfile.ZipFile(io.BytesIO(package.read(fmu))) as inner:
+                    root = ET.fromstring(inner.read("modelDescription.xml"))
+                    assert root.get("fmiVersion") == version, (path, fmu)

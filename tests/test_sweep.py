@@ -167,6 +167,30 @@ def test_points_reproduce_the_fan_load_and_the_inertia_torque_scaling(brutti, tm
     assert float(table[2]["driveline.tau_in.mean"]) == rows[2]["driveline.tau_in.mean"]
 
 
+def test_an_order_the_step_cannot_resolve_is_nan_with_the_step_that_would(brutti, tmp_path, fmu_dir, capsys):
+    """At 5000 rpm a 1 ms step samples a revolution 12.5 times: the fit reaches order 5 only, so the 4x amplitude
+    would take the 6x-8x orders' aliases. It is NaN, the point says why and which step resolves it, and the
+    resolved 2x equals the 0.1 ms run's; that run's 4x grows as w^2 from 2000 rpm (the crosses' inertia torque)."""
+    rows = {}
+    for h in (1e-3, 1e-4):
+        brutti.step_size = h
+        sweep = brutti_sweep(brutti, tmp_path, fmu_dir, "motor.omega_set=2000,5000rpm", name=f"step{h:g}")
+        sweep.run(workers=0, progress=False)
+        rows[h] = sweep.table()
+    slow, fast = rows[1e-3]
+    assert slow["status"] == fast["status"] == "ok" and slow["note"] == ""
+    assert math.isnan(fast["driveline.tau_in.h4"]) and not math.isnan(slow["driveline.tau_in.h4"])
+    assert fast["driveline.tau_in.h2"] == pytest.approx(rows[1e-4][1]["driveline.tau_in.h2"], rel=1e-6)
+    assert ("order 4x not resolved" in fast["note"] and "12.5 samples a revolution" in fast["note"]
+            and "at most 0.000667 s" in fast["note"])   # 2 pi / (523.6 rad/s * 18)
+    assert rows[1e-4][1]["driveline.tau_in.h4"] == pytest.approx(6.25 * rows[1e-4][0]["driveline.tau_in.h4"],
+                                                                  rel=1e-3)
+    assert all(r["note"] == "" for r in rows[1e-4])
+    with open(tmp_path / "step0.001.csv") as f:
+        table = list(csv.DictReader(f))
+    assert table[1]["driveline.tau_in.h4"] == "nan" and table[1]["note"] == fast["note"]
+
+
 def test_an_interrupted_sweep_resumes_without_recomputing(brutti, tmp_path, fmu_dir):
     sweep = brutti_sweep(brutti, tmp_path, fmu_dir)
     sweep.run(workers=0, progress=False)

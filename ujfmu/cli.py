@@ -369,6 +369,11 @@ def cmd_sweep(args):
         where = ", ".join(f"{name} = {axis.value_text(scenario, value)}" for name, value in record["point"].items()
                           for axis in axes if name in axis.names)
         print(f"  point {where}: {record['status']}: {record['error']}", file=sys.stderr)
+    unresolved = sweep.unresolved()
+    if unresolved:
+        print(f"  {len(unresolved)} point{'s have' if len(unresolved) > 1 else ' has'} order amplitudes that the "
+              f"step does not resolve, NaN in the table; at the fastest: "
+              f"{max(unresolved, key=lambda r: abs(r.get('speed_mean', 0.0)))['note']}")
     print(_status_summary(sweep.status_counts(), len(sweep.points)), file=sys.stderr if failed else sys.stdout)
     return 1 if failed else 0
 
@@ -390,7 +395,8 @@ def cmd_export_ssp(args):
     from .scenario import Scenario
     from .ssp import export_ssp
     for path in _scenarios(args.scenarios):
-        print(f"wrote {export_ssp(Scenario(path), args.out, args.fmu_dir)}")
+        print(f"wrote {export_ssp(Scenario(path), args.out, args.fmu_dir)} (FMI {'3.0' if args.fmi == 3 else '2.0'} "
+              "Co-Simulation FMUs)")
     return 0
 
 
@@ -582,7 +588,7 @@ def main(argv=None):
     p.add_argument("--no-progress", action="store_true", help="same as --quiet for the progress bar")
     p = command("export-ssp", cmd_export_ssp, "write scenarios as SSP packages (SystemStructure.ssd + FMUs)")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
-    _out(p, "results/", "writes <scenario>.ssp here")
+    _out(p, "results/", "writes <scenario>.ssp here (results/fmi3/ with --fmi 3)")
     _fmi(p, "package the FMI 3.0 FMUs")
     p = command("bench", cmd_bench, "speed figures as ratios in one run: FMI floor, monolithic solve, engines, "
                                     "sweeps")
@@ -634,7 +640,7 @@ def main(argv=None):
         args.out = args.out_default
         if args.command in ("run", "check") and args.model_exchange:
             args.out = args.out / "model_exchange"
-        elif args.command in ("run", "check") and args.fmi == 3:
+        elif args.command in ("run", "check", "export-ssp") and args.fmi == 3:
             args.out = args.out / "fmi3"
     if getattr(args, "model_exchange", False):
         args.fmi = 3
@@ -676,9 +682,40 @@ def _joined_values(argv, options):
 
 
 def entry() -> None:
-    """The ``ujfmu`` command: :func:`main` through :func:`run_and_exit`, Ctrl-C handled by :func:`_interrupt`."""
+    """The ``ujfmu`` command: :func:`main` through :func:`run_and_exit`, Ctrl-C handled by :func:`_interrupt`, the
+    output to a reader that may stop reading (:class:`_ClosedPipeTolerant`)."""
     signal.signal(signal.SIGINT, _interrupt)
+    sys.stdout = _ClosedPipeTolerant(sys.stdout)
     run_and_exit(main)
+
+
+class _ClosedPipeTolerant:
+    """sys.stdout that goes on when its reader has gone (``ujfmu build | head -1``): the command's work is done
+    and its exit status kept, its further output discarded (a BrokenPipeError would stop a build part-way)."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def _discard(self) -> None:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, self._stream.fileno())
+        os.close(devnull)
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            self._discard()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._discard()
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
 
 
 def _interrupt(signum, frame) -> None:

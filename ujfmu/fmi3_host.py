@@ -22,6 +22,7 @@ class FmuInstance3(FmuInstance):
 
     def __init__(self, component, unzip_dir, model_description, log):
         self.name = component.name
+        self.parameters = component.parameters
         self.md = model_description
         self.variables = {v.name: v for v in model_description.modelVariables}
         self._log = log

@@ -25,6 +25,7 @@ residual of every power bond (``Cosimulation.bond_energies``) and keep the recor
 """
 
 import atexit
+import difflib
 import math
 import shutil
 import tempfile
@@ -181,6 +182,7 @@ class FmuInstance:
 
     def __init__(self, component, unzip_dir, model_description, log):
         self.name = component.name
+        self.parameters = component.parameters
         self.md = model_description
         self.variables = {v.name: v for v in model_description.modelVariables}
         self._log = log
@@ -226,12 +228,24 @@ class FmuInstance:
         candidates = self.md.modelVariables if declared is None else declared   # undeclared: every input
         return [v.name for v in candidates if v.causality == "input"]
 
+    def stateless_inputs(self) -> set:
+        """Inputs that reach no state of this instance with its parameters, only outputs that depend on them directly
+        (declared): an ideal speed source's tau_load (a Motor with ideal_speed_source: its speed follows its
+        profile whatever torque acts on it). A value held into one over a step moves nothing."""
+        if self.md.modelName == "Motor" and "ideal_speed_source" in self.variables:
+            value = self.parameters.get("ideal_speed_source", self.variables["ideal_speed_source"].start)
+            if value is True or str(value).lower() in ("true", "1"):
+                return {"tau_load"}
+        return set()
+
     def vr(self, name):
         try:
             return self.variables[name].valueReference
         except KeyError:
-            raise CosimulationError(f"component '{self.name}' ({self.md.modelName}) has no variable '{name}'; "
-                                    f"it has: {', '.join(self.variables)}") from None
+            close = difflib.get_close_matches(name, list(self.variables), n=1)
+            raise CosimulationError(f"component '{self.name}' ({self.md.modelName}) has no variable '{name}'"
+                                    + (f" (did you mean '{self.name}.{close[0]}'?)" if close else "")
+                                    + f"; it has: {', '.join(self.variables)}") from None
 
     def set_value(self, name, value):
         var = self.variables.get(name)
@@ -531,15 +545,23 @@ class Cosimulation:
         # watched for divergence and chatter (``_watch_growth``): the torn connections, then, for chatter only, one
         # connection on a loop for each pair of components that no watched connection joins yet (a chatter runs
         # through every connection of its loop), the last in transfer order: the one that closes the loop, its
-        # value held over the next step
+        # value held over the next step; the ones into an input that reaches no state
+        # (``FmuInstance.stateless_inputs``: a value held there moves nothing, so a fast change is its source's own
+        # response, e.g. a joint's 2x torque sampled near twice a period) excepted from the chatter score (a
+        # CHATTER_SHARE of inf)
+        def stateless(i):
+            comp, inp = self._transfers[i][-1].target.split(".", 1)
+            return inp in self.instances[comp].stateless_inputs()
+
         pairs = {frozenset(self._where(self._transfers[i][-1])) for i in self._tears}
         self._watched = list(self._tears)
         for i in reversed(range(len(self._transfers))):
             pair = frozenset(self._where(self._transfers[i][-1]))
-            if pair not in pairs and reaches(*self._where(self._transfers[i][-1])[::-1]):
+            if pair not in pairs and reaches(*self._where(self._transfers[i][-1])[::-1]) and not stateless(i):
                 pairs.add(pair)
                 self._watched.append(i)
         self._watch_views = [views[i][:1] for i in self._watched]
+        self._chatter_shares = [math.inf if stateless(i) else CHATTER_SHARE for i in self._watched]
         rolled = dict.fromkeys(self._transfers[i][-1].target.split(".", 1)[0] for i in self._tears)
         self._rolled = [(self.instances[name], name) for name in rolled]
         # per rolled-back component: (fmi2GetFMUstate, fmi2SetFMUstate, fmi2FreeFMUstate, component, name), the
@@ -805,8 +827,8 @@ class Cosimulation:
         d_k = -(J_driven / J_driver) d_k-1, docs/cosimulation.md); per watched connection, chatter (``CHATTER_STEPS``).
         Raises CouplingInstabilityError."""
         noise = IMPLICIT_NOISE_TOLERANCES * COUPLING_RTOL if self.coupling == "implicit" else 0.0
-        torn, floor, share = len(self._tears), NOISE_FLOOR, CHATTER_SHARE
-        for k, (state, view) in enumerate(zip(self._growth, self._watch_views)):
+        torn, floor = len(self._tears), NOISE_FLOOR
+        for k, (state, view, share) in enumerate(zip(self._growth, self._watch_views, self._chatter_shares)):
             g = view[0]
             d = g - state[0]
             size = d if d >= 0.0 else -d

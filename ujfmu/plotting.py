@@ -313,10 +313,11 @@ def plot_sweep(sweep, out_dir):
         amplitudes = {order: np.array([r[f"{out}.h{order}"] for r in rows], dtype=float) for order in orders}
         # the axis floor from the largest order or |value| (an order of round-off on a constant is not a track)
         every = [r for _, group in tracked for r in group]
-        top = max((float(r[f"{out}.h{order}"]) for r in every for order in orders), default=0.0)
+        top = float(np.nanmax([r[f"{out}.h{order}"] for r in every for order in orders] or [0.0], initial=0.0))
         scale = max([top] + [max(abs(r[f"{out}.max"]), abs(r[f"{out}.min"])) for r in every])
         floor = k * scale * ORDER_TRACK_FLOOR if scale > 0.0 else 1e-300
         clipped = False
+        unresolved = sorted({order for r in every for order in orders if np.isnan(r[f"{out}.h{order}"])})
         for g, (key, group) in enumerate(tracked):
             for i, order in enumerate(orders):
                 amp = np.array([r[f"{out}.h{order}"] for r in group], dtype=float)
@@ -336,12 +337,16 @@ def plot_sweep(sweep, out_dir):
         ax1.grid(alpha=0.3, which="both")
         ax1.set_title(f"{out}: order tracks" + (f" ({label(key0)})" if label(key0) and len(tracked) == 1 else "")
                       + (f"\norders below {ORDER_TRACK_FLOOR:g} of its largest order or |value| drawn on the floor"
-                         if clipped else ""), fontsize=9, loc="left")
+                         if clipped else "")
+                      + (f"\n{', '.join(f'{o}x' for o in unresolved)} missing where the step does not resolve it "
+                         "(NaN in the table)" if unresolved else ""), fontsize=9, loc="left")
         if campbell:
             ax2 = ax2[0]
             for order, amp in amplitudes.items():
                 seen = np.where(k * amp >= floor, amp, 0.0)   # those on the tracks' floor: the smallest marker
-                ax2.scatter(x, order * speed_hz, s=2 + 200 * seen / (top or 1.0), alpha=0.6, label=f"{order}x")
+                resolved = ~np.isnan(amp)                       # unresolved orders: no marker
+                ax2.scatter(x[resolved], order * speed_hz[resolved], s=2 + 200 * seen[resolved] / (top or 1.0),
+                            alpha=0.6, label=f"{order}x")
             banded, modes = False, sorted(modes, key=lambda m: m[1])
             span = max(np.ptp(ax2.get_ylim()), 1e-12)
             # a label goes below its line where the next mode's line is close above (its label goes above)

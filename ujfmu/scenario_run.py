@@ -15,9 +15,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from fmpy import read_model_description
 from fmpy.util import write_csv
 
 from .build import DEFAULT_FMU_DIR
+from .build3 import DEFAULT_FMU3_DIR
 from .extras import available, preload
 from .fmu.base import MIN_SAMPLES_PER_PERIOD, RESOLVING_SAMPLES_PER_PERIOD, samples_per_period, sampling_interval
 from .master import CosimulationError, cosimulate
@@ -63,6 +65,8 @@ CONSTANT_REFERENCE = 1e-9
 RANGE_FLOOR = 10.0
 #: operating point: a drive's mean speed over the end window within this fraction of its set point (as sweeps)
 OPERATING_TOL = 0.01
+#: a drive below this fraction of its set speed where a run failed had nearly stopped (``stalled_drive_hint``)
+STALLED = 0.1
 #: end window of the operating-point check when the scenario has no steady_from: this fraction of the run
 END_WINDOW = 0.1
 
@@ -282,9 +286,14 @@ class ScenarioResult:
         return "FAIL" if self.failed else "PASS" if self.passed else "NOT CHECKED"
 
     def _fmu_dir_option(self) -> str:
-        """' --fmu-dir DIR' where the run used FMUs from another folder than the default, else ''."""
-        elsewhere = self.fmu_dir is not None and Path(self.fmu_dir).resolve() != Path(DEFAULT_FMU_DIR).resolve()
-        return f" --fmu-dir {self.fmu_dir}" if elsewhere else ""
+        """The options that run the same FMUs again: " --fmi 3" for FMI 3.0 FMUs (results in results/fmi3/) and
+        " --fmu-dir DIR" for FMUs from another folder than their version's default; "" for the default FMI 2.0."""
+        if self.fmu_dir is None:
+            return ""
+        here = Path(self.fmu_dir).resolve()
+        fmi3 = here == Path(DEFAULT_FMU3_DIR).resolve() or _fmi_version(self.scenario, here) == "3.0"
+        elsewhere = here != Path(DEFAULT_FMU3_DIR if fmi3 else DEFAULT_FMU_DIR).resolve()
+        return (" --fmi 3" if fmi3 else "") + (f" --fmu-dir {self.fmu_dir}" if elsewhere else "")
 
     def not_checked_reason(self, step_check_follows: bool = False) -> str:
         """Why nothing was compared; step_check_follows: the step-halving estimate is printed after the summary
@@ -351,6 +360,15 @@ SCIPY_NOTE = "fmpy.util.validate_result: not computed (it needs scipy: pip insta
 
 #: fewest instants the result and the reference must share to be compared there rather than by interpolation
 MIN_COMMON_INSTANTS = 20
+
+
+def _fmi_version(scenario: Scenario, fmu_dir: Path) -> str | None:
+    """The fmiVersion of the scenario's first FMU in fmu_dir (None if it cannot be read)."""
+    try:
+        fmu = next(iter(scenario.components.values()))[0]
+        return read_model_description(str(fmu_dir / f"{fmu}.fmu"), validate=False).fmiVersion
+    except Exception:
+        return None
 
 
 def common_instants(t: np.ndarray, t_ref: np.ndarray, slack: float) -> tuple:
@@ -459,6 +477,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                                output_interval=scenario.output_interval, diagnostics=diagnostics)
     except CosimulationError as exc:
         hint = torque_driven_hint(scenario, str(exc.args[0]) if exc.args else "")
+        if exc.partial is not None:
+            hint = "\n".join(h for h in (stalled_drive_hint(scenario, exc.partial), hint) if h)
         if hint:
             exc.args = (f"{exc.args[0]}\n{hint}",) + exc.args[1:]
         if exc.partial is not None and extra:
@@ -537,6 +557,24 @@ def torque_driven_hint(scenario: Scenario, message: str) -> str:
                     f"MotorController ({driver}.tau_motor -> {comp}.tau_in, {comp}.omega_in -> {driver}.omega, "
                     f"the rotor inertia as {comp}'s J_drive), as scenarios/{TORQUE_DRIVEN_EXAMPLES[fmu]}.toml does "
                     "(README, \"Choose the wiring for the host\")")
+    return ""
+
+
+def stalled_drive_hint(scenario: Scenario, partial: np.ndarray) -> str:
+    """'' unless a drive of the scenario had nearly stopped, below a tenth of its set speed, where a run failed (the
+    last row of its partial results, the drives' speeds and set points among them): then what that means."""
+    for speed, set_point in operating_pairs(scenario):
+        if len(partial) < 2 or speed not in partial.dtype.names or set_point not in partial.dtype.names:
+            continue
+        value, target = float(partial[speed][-1]), float(partial[set_point][-1])
+        if abs(target) > 0.0 and abs(value) < STALLED * abs(target):
+            drive = speed.partition(".")[0]
+            limit = scenario.parameters_with_defaults(drive).get("tau_max")
+            return (f"hint: when it failed, {speed} = {speed_text(value)} against its set point {set_point} = "
+                    f"{speed_text(target)}: the drive had nearly stopped, as one at its torque limit"
+                    + (f" (tau_max = {limit:g} N.m)" if limit is not None else "") + " does against a larger "
+                    "load, and a load's torque reversing about zero speed chatters; if so, give the drive more "
+                    "torque (tau_max) or lower the load")
     return ""
 
 

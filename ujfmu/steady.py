@@ -5,7 +5,8 @@ revolutions and reduces each output to its figures. Whether it was steady is mea
 
 - **Steady-state criterion.** The figures that do not depend on where the samples fall in a revolution (the mean and
   the amplitudes of the requested running-speed orders of every output and of the running speed, from one
-  least-squares fit of orders 0..max(8, 2 x the highest requested), so that other orders do not leak in) are
+  least-squares fit of orders 0..max(8, 2 x the highest requested), so that other orders do not leak in; an order
+  k the samples cannot resolve, with fewer than 4k + 2 a revolution, is NaN and left out: ``unresolved_orders``) are
   measured over back-to-back windows of the same number of revolutions from 3T/4 to T. The point is steady when
   every such figure f of the last window agrees with those of every earlier one, |f(T) - f(t)| <= steady_tol *
   max(|f(T)|, FLOOR * largest figure of that output) (a response that only beats, never settling, then shows its
@@ -68,35 +69,64 @@ def record_window(cosim, running_speed: str, revolutions: float) -> Window:
     return Window(start, angle, table)
 
 
+def samples_per_revolution(window: Window) -> float:
+    """Samples per revolution of the running angle over the window."""
+    return len(window.angle) * 2.0 * math.pi / max(abs(window.angle[-1] - window.angle[0]), 1e-300)
+
+
+def nyquist_order(window: Window) -> int:
+    """The highest order the window's fit may take: int(samples per revolution / 2) - 1 (below the sampling's
+    Nyquist order, with one order to spare)."""
+    return int(samples_per_revolution(window) / 2.0) - 1
+
+
 def fitted_orders(window: Window, orders) -> range:
     """Orders 1..K fitted together: K = max(8, 2 max(orders)) so that unrequested orders do not leak into the
-    requested ones or the mean, fewer if a revolution has too few samples (but at least max(orders))."""
-    per_revolution = len(window.angle) * 2.0 * math.pi / max(abs(window.angle[-1] - window.angle[0]), 1e-300)
-    return range(1, max(max(orders), min(max(8, 2 * max(orders)), int(per_revolution / 2.0) - 1)) + 1)
+    requested ones or the mean, fewer if a revolution has too few samples (``nyquist_order``, at least 1)."""
+    return range(1, max(1, min(max(8, 2 * max(orders)), nyquist_order(window))) + 1)
+
+
+def unresolved_orders(window: Window, orders) -> tuple:
+    """The orders k of ``orders`` the window cannot resolve: the fit does not reach 2k (``fitted_orders``' margin,
+    which needs at least 4k + 2 samples a revolution), so the orders above it, which a joint's response carries,
+    alias onto k. Their amplitudes are NaN in the figures and the steady-state check leaves them out."""
+    top = nyquist_order(window)
+    return tuple(k for k in orders if 2 * k > top)
+
+
+def resolving_step(order: int, speed: float) -> float:
+    """The longest communication step [s] that resolves ``order`` at ``speed`` [rad/s]: 4 order + 2 samples a
+    revolution (``unresolved_orders``)."""
+    return 2.0 * math.pi / (abs(speed) * (4 * order + 2))
+
+
+def _amplitudes(amps, fitted: range, orders, unresolved: tuple) -> list:
+    return [math.nan if k in unresolved or k > len(fitted) else float(amps[k - 1]) for k in orders]
 
 
 def figures(window: Window, outputs, orders) -> dict:
     """{"out.max", "out.min", "out.p2p", "out.mean", "out.rms", "out.h<k>"} of a window: extremes and RMS of the
     samples, mean and order amplitudes from the fit of ``fitted_orders`` (exact for a periodic signal, wherever
-    the window's ends fall)."""
+    the window's ends fall); NaN for the ``unresolved_orders``."""
     result = {}
-    fitted = fitted_orders(window, orders)
+    fitted, unresolved = fitted_orders(window, orders), unresolved_orders(window, orders)
     for out in outputs:
         y = window.table[out]
         c0, amps, _ = order_fit(window.angle, y, fitted)
         values = dict(max=y.max(), min=y.min(), p2p=np.ptp(y), mean=c0, rms=math.sqrt(np.mean(y * y)))
-        values.update({f"h{k}": amps[k - 1] for k in orders})
+        values.update({f"h{k}": a for k, a in zip(orders, _amplitudes(amps, fitted, orders, unresolved))})
         result.update({f"{out}.{k}": float(v) for k, v in values.items()})
     return result
 
 
 def periodic_figures(window: Window, signals, orders) -> dict:
-    """{signal: [mean, amplitude of each order]} from one fit of ``fitted_orders`` (criterion above)."""
-    fitted = fitted_orders(window, orders)
+    """{signal: [mean, amplitude of each order]} from one fit of ``fitted_orders`` (criterion above); NaN for the
+    ``unresolved_orders``."""
+    fitted, unresolved = fitted_orders(window, orders), unresolved_orders(window, orders)
     result = {}
     for name in signals:
         c0, amplitudes, _ = order_fit(window.angle, window.table[name], fitted)
-        result[name] = [float(c0)] + [float(amplitudes[k - 1]) for k in orders]
+        result[name] = [float(c0)] + _amplitudes(amplitudes, fitted, orders, unresolved)
     return result
 
 
@@ -105,8 +135,10 @@ def steady_change(new: dict, old: dict, orders=None) -> tuple:
     windows' ``periodic_figures`` of these orders; <= steady_tol means steady (module docstring)."""
     worst, name, against = 0.0, "", "itself"
     for signal, figures_new in new.items():
-        scale = max(abs(f) for f in figures_new)
+        scale = max((abs(f) for f in figures_new if not math.isnan(f)), default=0.0)
         for i, (f_new, f_old) in enumerate(zip(figures_new, old[signal])):
+            if math.isnan(f_new) or math.isnan(f_old):   # an unresolved order: not a figure
+                continue
             allowance = max(abs(f_new), FLOOR * scale)
             change = abs(f_new - f_old)
             relative = change / allowance if allowance > 0 else (0.0 if change == 0 else math.inf)
@@ -212,7 +244,22 @@ def _measured(window, s):
     out = figures(window, s.outputs, s.orders)
     speed = window.table[s.running_speed]
     out["speed_mean"] = float(order_fit(window.angle, speed, fitted_orders(window, s.orders))[0])
+    out["note"] = unresolved_note(window, s.orders, out["speed_mean"])
     return out
+
+
+def unresolved_note(window: Window, orders, speed: float) -> str:
+    """What a point's NaN order amplitudes mean and how to resolve them ("" when every order is resolved)."""
+    unresolved = unresolved_orders(window, orders)
+    if not unresolved:
+        return ""
+    h = float(window.table["time"][1] - window.table["time"][0])
+    top = max(unresolved)
+    names = ", ".join(f"{k}x" for k in unresolved)
+    return (f"order{'s' if len(unresolved) > 1 else ''} {names} not resolved (NaN): {samples_per_revolution(window):.3g} "
+            f"samples a revolution at {speed_text(speed)} with a step of {h:g} s, where the {top}x order needs at "
+            f"least {4 * top + 2} (its fit must reach order {2 * top}, or the orders above alias onto it); take a "
+            f"step of at most {resolving_step(top, speed):.3g} s (--step) or leave the order out (--orders)")
 
 
 def speed_text(value: float) -> str:

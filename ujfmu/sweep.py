@@ -7,7 +7,8 @@ amplitudes of chosen running-speed orders (least squares on the running angle, `
 Steady state is checked, not assumed, and the settle time extended until it holds (``ujfmu.steady``: the figures
 over the last quarter of the settle time agree within ``steady_tol``); so is the operating point (a Motor's speed
 against its set point).
-A point's status is ``ok``, ``not_steady``, ``off_target`` or ``error``.
+A point's status is ``ok``, ``not_steady``, ``off_target`` or ``error``. An order amplitude the step does not
+resolve at the point's speed is NaN, with a note saying why (``steady.unresolved_orders``).
 
 The FMUs go to each dask worker once (a WorkerPlugin writes them to a local folder), so a cluster needs no
 shared file system; the workers need ujfmu installed. Resumable: every finished point is appended at once to
@@ -577,7 +578,7 @@ class Sweep:
 
     def table(self) -> list:
         """One flat dict a point, in grid order, as the CSV: the swept parameters by name (SI), status, the
-        figures of every output, wall_s, error (the record's "point" is kept as well)."""
+        figures of every output, wall_s, error, note (the record's "point" is kept as well)."""
         return [{**r["point"], **{k: v for k, v in r.items() if k not in ("config", "grid")}}
                 for r in self.records()]
 
@@ -587,12 +588,18 @@ class Sweep:
         cols = ["speed_mean"] + self.settings.columns() + ["settled_s", "steady_change"]
         with open(self.csv, "w", newline="") as f:
             writer = csv.writer(f)
-            writer.writerow(param_cols + ["status"] + cols + ["wall_s", "error"])
+            writer.writerow(param_cols + ["status"] + cols + ["wall_s", "error", "note"])
             for record in self.records():
                 writer.writerow([repr(float(record["point"][n])) for n in param_cols] + [record["status"]]
                                 + [repr(record[c]) if c in record else "" for c in cols]
-                                + [f"{record.get('wall_s', float('nan')):.3f}", record["error"]])
+                                + [f"{record.get('wall_s', float('nan')):.3f}", record["error"],
+                                   record.get("note", "")])
         return self.csv
+
+    def unresolved(self):
+        """Records of the points whose order amplitudes are partly NaN, not resolved at their step and speed (the
+        record's "note" says which and why: ``steady.unresolved_orders``)."""
+        return [r for r in self.table() if r.get("note")]
 
     def failed(self):
         """Records of the points that are not ok (failed, not steady, operating point missed or not run)."""
