@@ -260,7 +260,8 @@ class UjfmuSlave(Fmi2Slave):
         outputs among vrs are computed first (through an output's getter, which names it in an error), then every
         value is read from the instance's attributes."""
         try:
-            if self._stale:
+            if self._stale and not (self._partial and self._load_reads is not None
+                                    and self._load_reads.isdisjoint(vrs)):
                 if self._state_vrs and vrs and self._state_vrs.issuperset(vrs):
                     self.read_state_outputs(vrs)
                 else:
@@ -429,6 +430,9 @@ class UjfmuSlave(Fmi2Slave):
     _output_free = frozenset()
     #: names of the inputs only the outputs of ``compute_load_outputs`` depend on; set by derive()
     _load_inputs = frozenset()
+    #: value references of the outputs ``compute_load_outputs`` computes, where the model names them (a read of
+    #: none of them while only those are stale computes nothing: the others are valid); None: any read does
+    _load_reads = None
 
     def derive(self):
         """Set the DERIVED attributes from the parameters (runs before initialize and after a state restore)."""
@@ -542,7 +546,7 @@ class ModelSlave(UjfmuSlave):
     #: the model's ``outputs(p, t, y, u)``, and its ``state_outputs(p, t, y)`` where it has them (the protocol's
     #: option: the outputs it names in ``STATE_OUTPUTS``)
     _outputs = _state_outputs = None
-    DERIVED = ("_p", "_output_free", "_kinematic", "_load_inputs")
+    DERIVED = ("_p", "_output_free", "_kinematic", "_load_inputs", "_load_reads")
     #: the inputs ``MODEL.load_outputs`` covers (the outputs that depend on them are all in it)
     LOAD_INPUTS = ("tau_load",)
 
@@ -584,6 +588,11 @@ class ModelSlave(UjfmuSlave):
         loads = set(self.LOAD_INPUTS) if hasattr(self.MODEL, "load_outputs") else set()
         self._load_inputs = frozenset(loads & {v.name for v in self.VARIABLES if v.causality == "input"}
                                       - self._output_free)
+        names = getattr(self.MODEL, "load_output_names", None)
+        self._load_reads = None
+        if names is not None and self._load_inputs:   # value references: the VARIABLES' order (UjfmuSlave.__init__)
+            vr_of = {var.name: vr for vr, var in enumerate(self.VARIABLES)}
+            self._load_reads = frozenset(vr_of[name] for name in names(self._p))
         self._kinematic = bool(getattr(self.MODEL, "kinematic", _never)(self._p))
 
     def initialize(self, start_time):

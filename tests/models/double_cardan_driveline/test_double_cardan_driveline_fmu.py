@@ -125,3 +125,28 @@ def test_steps_from_the_outputs_evaluation_are_the_steps_evaluated_afresh(monkey
     fresh = start("e")
     fresh._set_fmu_state(cls._fmu_state_from_bytes(cls._fmu_state_to_bytes(state)))
     assert [(step(fresh, k, 1.0), fresh._y)[1] for k in range(30, 40)] == first
+
+
+@pytest.mark.parametrize("rigid", [True, False])
+def test_the_output_flange_torque_follows_the_load_set_after_a_read(open_fmu, rigid):
+    """The host's order: omega_in, read, tau_load, read. tau_out = J_load dw4/dt + tau_load answers the load set
+    after the first read: rigid, the output's acceleration is kinematic, so tau_out moves by the load's change and
+    tau_in by rho = omega_out / omega_in times it; flexible without crosses' or intermediate inertia, tau_out is
+    joint 2's torque on the output shaft, which the load does not move at that instant (nor tau_in)."""
+    inst = open_fmu("DoubleCardanDriveline")
+    inst.initialize(dict(rigid_intermediate_shaft=rigid, beta2=5 * DEG, J_load=0.05))
+    for k in range(50):
+        inst.set(omega_in=100.0 + 2.0 * k, tau_load=20.0)
+        inst.get("omega_out")
+        inst.slave.doStep(k * 1e-3, 1e-3)
+    inst.set(omega_in=200.0)
+    omega_in, omega_out, tau_in, tau_out = inst.get("omega_in", "omega_out", "tau_in", "tau_out")
+    inst.set(tau_load=50.0)
+    (tau_in_later,) = inst.get("tau_in")   # the outputs that do not move with the load, read alone first
+    (tau_out_later,) = inst.get("tau_out")
+    if rigid:
+        assert tau_out_later - tau_out == pytest.approx(30.0, rel=1e-9)
+        assert tau_in_later - tau_in == pytest.approx(30.0 * omega_out / omega_in, rel=1e-9)
+    else:
+        assert (tau_out_later, tau_in_later) == (pytest.approx(tau_out, rel=1e-12), tau_in)
+    assert abs(tau_out - 20.0) > 1.0   # the output shaft accelerates with the kinematics' 2x

@@ -181,6 +181,60 @@ def test_rigid_power_balance_against_independent_kinetic_energy():
     assert np.max(np.abs(power - dtdt)[2:-2]) < 1e-5 * np.max(np.abs(power))
 
 
+def test_rigid_output_flange_torque_passes_on_the_power_the_inner_parts_do_not_keep():
+    """tau_out = J_load dw4/dt + tau_load at the output shaft's flange: tau_in w1 - tau_out w4 = d/dt of the kinetic
+    energy of what lies between (input shaft, crosses, intermediate shaft), from the reference's vector kinematics,
+    along a speed-varying input; with no inertia between, tau_in w1 = tau_out w4 (massless joints pass the power
+    on). A constant-velocity layout at constant speed passes tau_load itself."""
+    b = dict(BRUTTI, I_intermediate=0.004)
+    t = np.linspace(0.0, 0.05, 5001)
+    alpha, tau_load = 400.0, 300.0
+    w1, phi1 = 200.0 + alpha * t, 0.2 + 200.0 * t + 0.5 * alpha * t ** 2
+    for inertias in (b, dict(b, I_input=0.0, I_cross_pin=0.0, I_cross_normal=0.0, I_intermediate=0.0)):
+        p = driveline(10 * DEG, 14 * DEG, yoke_phase=0.3, plane=0.1, **inertias)
+        rg = reference(10 * DEG, 14 * DEG, 0.3, 0.1, **inertias).rigid(phi1)
+        inner = 0.5 * rg["j_eq"] * w1 ** 2 - 0.5 * p.J_load * (rg["rho"] * w1) ** 2
+        states = [dc.rigid_state(p, x, w, alpha, tau_load) for x, w in zip(phi1, w1)]
+        power = np.array([s["tau_in"] * w - s["tau_out"] * s["omega4"] for s, w in zip(states, w1)])
+        flange = np.array([s["tau_out"] for s in states])
+        assert np.ptp(flange) > 1.0                                          # the flange torque's 2x swing
+        kept = np.gradient(inner, t, edge_order=2)
+        assert np.max(np.abs(power - kept)[2:-2]) < 1e-6 * tau_load * np.max(w1)   # of the power passed on
+        assert np.max(np.abs(kept)) > 10.0 or inertias["I_input"] == 0.0
+    assert np.max(np.abs(power)) < 1e-12 * tau_load * np.max(w1)             # no inertia between: none kept
+    cv = driveline(10 * DEG, 10 * DEG, **BRUTTI)
+    assert all(dc.rigid_state(cv, x, 200.0, 0.0, tau_load)["tau_out"] == pytest.approx(tau_load, rel=1e-12)
+               for x in np.linspace(0.0, math.pi, 7))
+
+
+@pytest.mark.parametrize("massless", [False, True])
+def test_flexible_output_flange_torque_is_the_reference_equations(massless):
+    """A flexible shaft's tau_out (speed- and torque-driven) is J_load phi4'' + tau_load with phi4'' from Lagrange's
+    equations of the independent reference (sympy, vector kinematics), at random rigs, states and inputs."""
+    rng = np.random.default_rng(19)
+    for _ in range(40):
+        p = _random_rig(rng, massless)
+        ref = reference(p.beta1, p.beta2, p.yoke_phase, p.joint_plane_angle, I_input=p.I_input,
+                        I_cross_pin=p.I_cross_pin, I_cross_normal=p.I_cross_normal, I_intermediate=p.I_intermediate)
+        phi1, w1, alpha, tau_load = rng.uniform(-50, 50), rng.uniform(-100, 100), rng.uniform(-500, 500), \
+            rng.uniform(-9, 9)
+        y = (rng.uniform(-50, 50), rng.uniform(-100, 100), rng.uniform(-0.05, 0.05), rng.uniform(-5, 5))
+        acc, _ = ref.accelerations((phi1, y[0], y[2]), (w1, y[1], y[3]), known_alpha1=alpha, tau_load=tau_load)
+        expected = p.J_load * acc[1] + tau_load
+        ours = dc.outputs(p, 0.0, dc.State(*y), dc.Drive(phi1, w1, alpha, tau_load))["tau_out"]
+        assert ours == pytest.approx(expected, rel=1e-9, abs=1e-9 * (1.0 + abs(p.J_load * acc[1])))
+        assert dc.load_outputs(p, 0.0, dc.State(*y), dc.Drive(phi1, w1, alpha, tau_load)) == {"tau_out": ours}
+        fields = {f: getattr(p, f) for f in ("beta1", "beta2", "yoke_phase", "joint_plane_angle", *OMAR, "I_input",
+                                             "I_cross_pin", "I_cross_normal", "I_intermediate")}
+        q = dc.TorqueDrivenParameters(**fields, J_drive=0.01, omega_in_start=0.0)
+        tau_drive = rng.uniform(-50, 50)
+        acc, _ = ref.accelerations((phi1, y[0], y[2]), (w1, y[1], y[3]), tau_drive=tau_drive, extra_inertia=0.01,
+                                   tau_load=tau_load)
+        driven = dc.TorqueDriven.outputs(q, 0.0, (phi1, w1, *y), dc.TorqueDriven.Inputs(tau_drive, tau_load))
+        assert driven["tau_out"] == pytest.approx(q.J_load * acc[1] + tau_load, rel=1e-9,
+                                                  abs=1e-9 * (1.0 + abs(q.J_load * acc[1])))
+
+
 # --- acceptance 3: Omar's natural frequencies; flexible power balance -----------------------------------------
 
 def test_aligned_linearised_system_has_omars_natural_frequencies():
@@ -269,7 +323,8 @@ def test_straight_line_derivatives_are_the_composed_equations(massless):
 @pytest.mark.parametrize("massless", [False, True])
 def test_fmu_outputs_are_the_composed_flexible_outputs(massless):
     """The FMU's outputs (``outputs``: the kinematics of the straight-line code) are flexible_outputs (power balance
-    tested above) and the state, at random layouts, inertias, states and inputs."""
+    tested above) and the state, at random layouts, inertias, states and inputs (tau_out against the reference's
+    equations: test_flexible_output_flange_torque_is_the_reference_equations)."""
     rng = np.random.default_rng(17)
     for _ in range(200):
         p = _random_rig(rng, massless)
@@ -280,7 +335,7 @@ def test_fmu_outputs_are_the_composed_flexible_outputs(massless):
         expected = {"phi_out": y.phi4, "omega_out": y.omega4, "dynamic_misalignment": y.phi, "twist": out["twist"],
                     "tau_in": out["tau_in"], "shaft_torque": out["shaft_torque"], "omega_intermediate": out["omega2"],
                     "stored_energy": out["energy"]}
-        assert ours.keys() == expected.keys()
+        assert ours.keys() == expected.keys() | {"tau_out"}
         for key, value in expected.items():
             assert ours[key] == pytest.approx(value, rel=1e-12, abs=1e-12 * (1.0 + abs(value))), key
 

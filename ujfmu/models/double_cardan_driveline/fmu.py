@@ -86,6 +86,9 @@ class DoubleCardanDriveline(PrescribedInputSlave):
         output("phi_in", "rad", "Input shaft angle phi1, continuous over revolutions"),
         output("alpha_in", "rad/s2", "Input shaft angular acceleration estimated from omega_in", ("omega_in",)),
         output("stored_energy", "J", "Kinetic plus elastic energy of the driveline", ("omega_in",)),
+        output("tau_out", "N.m", "Torque at the output shaft's flange, passed by joint 2 to the output shaft and "
+               "load: J_load*d(omega_out)/dt + tau_load (its 2x order is the excitation of what the output drives)",
+               ("omega_in", "tau_load")),
     )
     DEFAULT_EXPERIMENT = (0.0, 3.0, 1.0e-3)
 

@@ -201,8 +201,10 @@ def rigid_state(p: Parameters, phi1: float, omega1: float, alpha1: float, tau_lo
         J_eq = J_in + J_out rho^2,   rho = dphi4/dphi1 = r1 / r2,
     and Lagrange with the load's virtual work (-tau_load dphi4):
         tau_in = J_eq alpha1 + J_eq' w1^2 / 2 + rho tau_load.
+    The output shaft's acceleration is alpha4 = rho alpha1 + rho' w1^2, and the torque at its flange (joint 2's
+    output yoke) tau_out = J_load alpha4 + tau_load.
     Returns dict: phi2, phi4, omega2, omega4, tau_in, shaft_torque (at the middle of the intermediate shaft), energy,
-    inertia (J_eq).
+    inertia (J_eq), tau_out.
     """
     phi2 = phi1 + joint_error(phi1, p.beta1)
     phi4 = joint_inverse(phi2 + p.delta, p.beta2) - p.delta
@@ -218,7 +220,8 @@ def rigid_state(p: Parameters, phi1: float, omega1: float, alpha1: float, tau_lo
     tau_in = j_eq * alpha1 + 0.5 * dj_eq * w2 + rho * tau_load
     shaft = (tau_in - j_in * alpha1 - 0.5 * dj_in * w2) / r1
     return {"phi2": phi2, "phi4": phi4, "omega2": r1 * omega1, "omega4": rho * omega1, "tau_in": tau_in,
-            "shaft_torque": shaft, "energy": 0.5 * j_eq * w2, "inertia": j_eq}
+            "shaft_torque": shaft, "energy": 0.5 * j_eq * w2, "inertia": j_eq,
+            "tau_out": p.J_load * (rho * alpha1 + drho * w2) + tau_load}
 
 
 # --- flexible intermediate shaft (Omar, Eqs. 16-19 re-derived): states phi4, w4, phi, dphi ----------------------
@@ -722,9 +725,32 @@ def drive_derivatives(p: Parameters, t: float, y: State, phi: float, omega: floa
 
 
 def output_free_inputs(p: Parameters) -> tuple:
-    """A flexible shaft's outputs (:func:`flexible_outputs`) and start do not depend on tau_load, which enters only
-    the output shaft's equation of motion; a rigid one's tau_in does (rho tau_load)."""
-    return () if p.rigid_intermediate_shaft else ("tau_load",)
+    """None: tau_out depends on tau_load (and a rigid shaft's tau_in, rho tau_load); :func:`load_outputs` gives
+    those outputs alone."""
+    return ()
+
+
+def load_output_names(p: Parameters) -> tuple:
+    """The outputs that depend on tau_load (:func:`load_outputs`): a flexible shaft's tau_out alone (tau_load enters
+    only the output shaft's equation of motion), a rigid one's tau_in and shaft torque too."""
+    return ("tau_out",) if not p.rigid_intermediate_shaft else ("tau_in", "shaft_torque", "tau_out")
+
+
+def load_outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
+    """The outputs of :func:`outputs` that depend on tau_load (:func:`load_output_names`), the same numbers: rigid,
+    from :func:`rigid_state`; flexible, tau_out from the outputs' evaluation at this state (:func:`_output_rates`)."""
+    if p.rigid_intermediate_shaft:
+        out = rigid_state(p, u.phi, u.omega, u.alpha, u.tau_load)
+        return {"tau_in": out["tau_in"], "shaft_torque": out["shaft_torque"], "tau_out": out["tau_out"]}
+    (_, _, _, _, _, net, j_out), _ = _output_rates(p, u.phi, u.omega, y, y)
+    return {"tau_out": output_flange_torque(p, net, j_out, u.tau_load)}
+
+
+def output_flange_torque(p: Parameters, net: float, j_out: float, tau_load: float) -> float:
+    """tau_out = J_load dw4/dt + tau_load, dw4/dt = (net - tau_load) / J_out (:func:`_flexible_rates`): the torque
+    joint 2's output yoke passes to the output shaft and load (J_out adds the crosses' and intermediate shaft's
+    share to J_load; without them tau_out = net)."""
+    return tau_load + p.J_load * (net - tau_load) / j_out
 
 
 def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
@@ -794,16 +820,17 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
         out = rigid_state(p, u.phi, u.omega, u.alpha, u.tau_load)
         return {"phi_out": out["phi4"], "omega_out": out["omega4"], "twist": 0.0, "dynamic_misalignment": 0.0,
                 "tau_in": out["tau_in"], "shaft_torque": out["shaft_torque"], "omega_intermediate": out["omega2"],
-                "stored_energy": out["energy"]}
-    return flexible_output_values(p, u.phi, u.omega, u.alpha, y)
+                "stored_energy": out["energy"], "tau_out": out["tau_out"]}
+    return flexible_output_values(p, u.phi, u.omega, u.alpha, y, tau_load=u.tau_load)
 
 
 def flexible_output_values(p: Parameters, phi1: float, omega1: float, alpha1: float | None, y: Sequence[float],
-        tau_drive: float = 0.0, j_drive: float | None = None, key: tuple | None = None) -> tuple:
+        tau_drive: float = 0.0, j_drive: float | None = None, key: tuple | None = None, tau_load: float = 0.0) -> tuple:
     """The FMU's outputs: :func:`flexible_outputs` with its kinematics from :func:`_flexible_rates` (tau_load 0),
     one call instead of eight (tests compare them), kept for the step and a second read (:func:`_output_rates`; key:
-    the state object y is, or is part of, default y). With j_drive (the torque-driven driveline), alpha1 is the
-    input shaft's acceleration under tau_drive (:func:`torque_driven_rates`), returned as alpha_in."""
+    the state object y is, or is part of, default y), and tau_out at tau_load (:func:`output_flange_torque`). With
+    j_drive (the torque-driven driveline), alpha1 is the input shaft's acceleration under tau_drive
+    (:func:`torque_driven_rates`), returned as alpha_in."""
     phi4, omega4, phi, dphi = y
     (rates, r1, shaft, twist, e1, net, j_out), (j_in, dj_in) = _output_rates(p, phi1, omega1, y,
                                                                              y if key is None else key)
@@ -813,6 +840,7 @@ def flexible_output_values(p: Parameters, phi1: float, omega1: float, alpha1: fl
         alpha1 = (tau_drive - spin - driven) / j_drive
     values = {"phi_out": phi4, "omega_out": omega4, "dynamic_misalignment": phi, "twist": twist,
               "tau_in": j_in * alpha1 + spin + driven, "shaft_torque": shaft,
+              "tau_out": tau_load + p.J_load * (net - tau_load) / j_out,   # output_flange_torque, inlined
               "omega_intermediate": r1 * omega1 + e1 * dphi,
               "stored_energy": 0.5 * (j_in * omega1 * omega1 + j_out * omega4 * omega4 + p.m_lat * dphi * dphi
                                       + p.k_theta * twist * twist + p.k_phi * p.lever2 * phi * phi)}
@@ -944,11 +972,6 @@ class TorqueDriven:
         return torque_driven_step(p, t, h, y, u, omega_max, rk4.substeps(TorqueDriven.rate_bound(p, y, omega_max), h),
                                   k1)
 
-    @staticmethod
-    def output_free_inputs(p: TorqueDrivenParameters) -> tuple:
-        """:func:`output_free_inputs`: with a flexible shaft the input shaft's acceleration (an output) is driven by
-        tau_in and the shaft torque, not by tau_load."""
-        return output_free_inputs(p)
 
     @staticmethod
     def rate_bound(p: TorqueDrivenParameters, y: tuple, omega_max: float) -> float:
@@ -982,7 +1005,7 @@ class TorqueDriven:
         """:meth:`outputs` of a flexible shaft: :func:`flexible_output_values` at the state's input motion under
         u.tau_in (its evaluation kept with the whole state y as key: a read after the torques change and the step's
         :meth:`derivatives` reuse it)."""
-        values = flexible_output_values(p, y[0], y[1], None, y[2:], u.tau_in, p.J_drive, y)
+        values = flexible_output_values(p, y[0], y[1], None, y[2:], u.tau_in, p.J_drive, y, u.tau_load)
         return torque_driven_outputs(values, y, values.pop("alpha_in"))
 
     @staticmethod

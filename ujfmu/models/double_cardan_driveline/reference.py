@@ -80,7 +80,8 @@ def _equations():
     rho = sp.diff(phi2_static, p1) / sp.diff(phi3_static, p4)
     j_eq = j_in + j_out * rho ** 2
     rigid = [phi2_static, phi3_static, sp.diff(phi3_static, p4), rho, j_eq,
-             sp.diff(j_eq, p1) + sp.diff(j_eq, p4) * rho, j_in, sp.diff(j_in, p1), sp.diff(phi2_static, p1)]
+             sp.diff(j_eq, p1) + sp.diff(j_eq, p4) * rho, j_in, sp.diff(j_in, p1), sp.diff(phi2_static, p1),
+             sp.diff(rho, p1) + sp.diff(rho, p4) * rho]
     # M row by row and h as one flat list of plain floats for one state (math, shared subexpressions: the solve's
     # inner loop, several times numpy on scalars)
     return (sp.lambdify(args, [*mass, *h], "math", cse=True),
@@ -129,10 +130,11 @@ class DrivelineReference:
         return phi4
 
     def rigid(self, phi1):
-        """dict of phi2, phi4, rho, J_eq, dJ_eq/dphi1, J_in, dJ_in/dphi1, r1 along phi1."""
+        """dict of phi2, phi4, rho, J_eq, dJ_eq/dphi1, J_in, dJ_in/dphi1, r1, drho/dphi1 along phi1."""
         phi4 = self.rigid_phi4(phi1)
-        phi2, _, _, rho, j_eq, dj_eq, j_in, dj_in, r1 = self._rigid((phi1, phi4), self.params)
-        return dict(phi2=phi2, phi4=phi4, rho=rho, j_eq=j_eq, dj_eq=dj_eq, j_in=j_in, dj_in=dj_in, r1=r1)
+        phi2, _, _, rho, j_eq, dj_eq, j_in, dj_in, r1, drho = self._rigid((phi1, phi4), self.params)
+        return dict(phi2=phi2, phi4=phi4, rho=rho, j_eq=j_eq, dj_eq=dj_eq, j_in=j_in, dj_in=dj_in, r1=r1,
+                    drho=drho)
 
 
 def generate(scenario):
@@ -170,6 +172,7 @@ def generate(scenario):
             "driveline.omega_intermediate": rg["r1"] * w1,
             "driveline.shaft_torque": (tau_in - rg["j_in"] * a1 - 0.5 * rg["dj_in"] * w1 ** 2) / rg["r1"],
             "driveline.stored_energy": 0.5 * rg["j_eq"] * w1 ** 2,
+            "driveline.tau_out": pd["J_load"] * (rg["rho"] * a1 + rg["drho"] * w1 ** 2) + tau_l,
         })
         how = ("closed form along the prescribed input (rigid shaft): output angle by Newton on the vector "
                "kinematics, tau_in from d(T)/dt + tau_load w4 with T from the bodies' angular velocities (sympy)")
@@ -205,17 +208,18 @@ def generate(scenario):
             tau_m, _ = pi_law(pm, t, w1, integral)
         phi1 = phi1_0 + phi_m
         tau_l = load_torque(pl, w4)
-        tau_in = np.empty_like(t)
+        tau_in, a4 = np.empty_like(t), np.empty_like(t)
         if not ideal:
             a1 = np.empty_like(t)
         for i in range(len(t)):
             q, qd = (phi1[i], phi4[i], f[i]), (w1[i], w4[i], v[i])
             if ideal:
-                _, tau_in[i] = ref.accelerations(q, qd, known_alpha1=float(a1[i]), tau_load=tau_l[i])
+                acc, tau_in[i] = ref.accelerations(q, qd, known_alpha1=float(a1[i]), tau_load=tau_l[i])
             else:
                 acc, tau_in[i] = ref.accelerations(q, qd, tau_drive=float(tau_m[i]), extra_inertia=jm,
                                                    tau_load=tau_l[i])
                 a1[i] = acc[0]
+            a4[i] = acc[1]
         twist, dtwist, w2, energy = ref.outputs((phi1, phi4, f), (w1, w4, v))
         dissipation = (pd["xi_theta"] * pd["k_theta"] * dtwist ** 2
                        + pd["xi_phi"] * pd["k_phi"] * (pd["L_c"] * np.cos(pd["beta1"])) ** 2 * v ** 2)
@@ -223,7 +227,7 @@ def generate(scenario):
             "driveline.phi_out": phi4, "driveline.omega_out": w4, "driveline.tau_in": tau_in,
             "driveline.twist": twist, "driveline.dynamic_misalignment": f, "driveline.omega_intermediate": w2,
             "driveline.shaft_torque": pd["k_theta"] * twist + pd["xi_theta"] * pd["k_theta"] * dtwist,
-            "driveline.stored_energy": energy,
+            "driveline.stored_energy": energy, "driveline.tau_out": pd["J_load"] * a4 + tau_l,
         })
         how = (f"monolithic ODE of {drive_name(ideal)} + driveline + load, Lagrange's "
                f"equations formed by sympy from vector kinematics and energies, scipy DOP853 rtol={RTOL:g} "
