@@ -105,18 +105,22 @@ def test_check_step_shows_a_constant_signal_in_absolute_terms(fmu_dir, tmp_path,
 
 def test_check_step_judges_an_untoleranced_constant_signal_by_its_magnitude(monkeypatch):
     """Without a tolerance a signal is allowed 2% of its range; a constant one (range 0, which allowed nothing but
-    an exact 0 before) 2% of its magnitude, shown in absolute terms; a varying one stays in % of its range."""
+    an exact 0 before) 2% of its magnitude, shown in absolute terms, as is one that varies by round-off only (a
+    Load's 300 N.m within 1.2e-10 N.m, which read "0.189% of range"); a varying one stays in % of its range."""
     from ujfmu import scenario_run
     s = Scenario(LIGHT)
-    s.tolerances, s.record = {}, ["a.x", "a.y"]
-    coarse = {"a.x": np.array([5.0, 5.0 + 1e-9, 5.0]), "a.y": np.array([0.0, 1.0, 2.0])}
-    extrapolated = {"a.x": np.full(3, 5.0), "a.y": np.array([0.0, 1.01, 2.0])}
+    s.tolerances, s.record = {}, ["a.x", "a.y", "a.z"]
+    coarse = {"a.x": np.array([5.0, 5.0 + 1e-9, 5.0]), "a.y": np.array([0.0, 1.0, 2.0]),
+              "a.z": np.array([300.0, 300.0 + 2.3e-13, 300.0])}
+    extrapolated = {"a.x": np.full(3, 5.0), "a.y": np.array([0.0, 1.01, 2.0]),
+                    "a.z": np.array([300.0, 300.0 + 1.2e-10, 300.0])}
     monkeypatch.setattr(scenario_run, "extrapolate_step", lambda run, fmu_dir, table: extrapolated)
     est = stepsize.estimate(s, coarse=coarse)
     assert est.absolute["a.x"] == (pytest.approx(1e-9), pytest.approx(0.1)) and est.within("a.x") and est.passed
     assert "a.y" not in est.absolute and est.errors["a.y"] == pytest.approx(0.005)
     line = next(line for line in est.lines() if "a.x" in line)
     assert "%" not in line and "(allowed 0.1; absolute" in line
+    assert est.absolute["a.z"][1] == pytest.approx(6.0) and "%" not in next(l for l in est.lines() if "a.z" in l)
     extrapolated["a.x"] = np.full(3, 5.2)                # 0.2 off: over 2% of 5.2
     assert not stepsize.estimate(s, coarse=coarse).passed
 

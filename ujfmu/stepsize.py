@@ -22,6 +22,9 @@ from .scenario_run import RANGE_FLOOR
 
 #: allowance per signal when the scenario gives no tolerance: a fraction of the signal's range
 DEFAULT_REL_RANGE = 0.02
+#: a signal without a tolerance whose range is below this fraction of its magnitude varies by round-off only (a
+#: Load's torque held at its law within 1e-10 N.m of 300 N.m): judged in absolute terms, not against that range
+ROUND_OFF_RANGE = 1e-9
 MAX_HALVINGS = 5
 
 
@@ -97,10 +100,11 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
         errors[name] = diff / span if span > 0.0 else (0.0 if diff == 0.0 else math.inf)
         allowed[name] = (tol.rel_range + (tol.abs / span if span > 0.0 else math.inf)) if tol else DEFAULT_REL_RANGE
         allowance = tol.rel_range * span + tol.abs if tol else DEFAULT_REL_RANGE * span
-        if span <= RANGE_FLOOR * allowance or span == 0.0:
+        magnitude = float(np.max(np.abs(extrapolated[name])))
+        if span <= RANGE_FLOOR * allowance or span == 0.0 or (not tol and span <= ROUND_OFF_RANGE * magnitude):
             # a (nearly) constant signal: its range says nothing; without a tolerance, 2% of its magnitude
             if not tol:
-                allowance = DEFAULT_REL_RANGE * float(np.max(np.abs(extrapolated[name])))
+                allowance = DEFAULT_REL_RANGE * magnitude
             absolute[name] = (diff, allowance)
     banded = []
     if (scenario.extrapolated_tolerances and scenario.reference_file is not None and scenario.reference_file.is_file()
