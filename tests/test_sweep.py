@@ -316,6 +316,27 @@ def test_another_grid_under_the_same_name_is_refused_and_a_rerun_says_what_it_re
     assert len(rows) == 1 and float(rows[0]["motor.omega_set"]) == pytest.approx(1500 * RPM)
 
 
+def test_the_same_grid_with_its_axes_in_another_order_reuses_its_points(fmu_dir, tmp_path, capsys):
+    """A grid is its points: the same two axes given the other way round reuse every point (they were refused as
+    another grid), and the table follows the order given (its first column, its rows)."""
+    args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_brutti_rigid.toml"),
+            "--output", "driveline.tau_in", "--running-speed", "motor.omega", "--settle", "0.01",
+            "--revolutions", "1", "--workers", "0", "--out", str(tmp_path), "--no-plot"]
+    speeds, loads = ["--param", "motor.omega_set=1000,2000rpm"], ["--param", "load.c2=0.017,0.02"]
+    assert main(args + speeds + loads) == 0
+    capsys.readouterr()
+    assert main(args + loads + speeds) == 0
+    assert "reused 4 of 4 points" in capsys.readouterr().out
+    with open(tmp_path / "double_cardan_brutti_rigid_sweep.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert list(rows[0])[:2] == ["load.c2", "motor.omega_set"]
+    assert [float(r["load.c2"]) for r in rows] == [0.017, 0.017, 0.02, 0.02]
+    # fan torque c w^2 at each point, whichever order computed it
+    assert all(float(r["driveline.tau_in.mean"]) == pytest.approx(float(r["load.c2"])
+                                                                   * float(r["motor.omega_set"]) ** 2, rel=2e-5)
+               for r in rows)
+
+
 def test_table_is_flat_like_the_csv(brutti, tmp_path, fmu_dir):
     sweep = brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=1000rpm")
     sweep.run(workers=0)

@@ -256,9 +256,10 @@ def unresolved_note(window: Window, orders, speed: float) -> str:
     h = float(window.table["time"][1] - window.table["time"][0])
     top = max(unresolved)
     names = ", ".join(f"{k}x" for k in unresolved)
-    return (f"order{'s' if len(unresolved) > 1 else ''} {names} not resolved (NaN): {samples_per_revolution(window):.3g} "
-            f"samples a revolution at {speed_text(speed)} with a step of {h:g} s, where the {top}x order needs at "
-            f"least {4 * top + 2} (its fit must reach order {2 * top}, or the orders above alias onto it); take a "
+    return (f"order{'s' if len(unresolved) > 1 else ''} {names} not resolved (NaN): "
+            f"{samples_per_revolution(window):.3g} samples a revolution at {speed_text(speed)} with a step of "
+            f"{h:g} s, where the {top}x order needs at least {4 * top + 2} (its fit must reach order {2 * top}, or "
+            f"the orders above alias onto it); take a "
             f"step of at most {resolving_step(top, speed):.3g} s (--step) or leave the order out (--orders)")
 
 

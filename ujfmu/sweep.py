@@ -15,8 +15,9 @@ shared file system; the workers need ujfmu installed. Resumable: every finished 
 ``<name>.jsonl`` next to the CSV; a rerun with the same settings, the same FMU builds and the same code (ujfmu
 version and the modules of POINT_CODE) skips the points already there (failed points are tried again), so an
 interrupted sweep loses nothing and a changed model or master never reuses stale points. A failing point is
-recorded with its error and the sweep goes on. One journal holds one grid: a sweep of another grid under the same name is refused
-(``SweepGridConflict``), so results of different grids never mix.
+recorded with its error and the sweep goes on. One journal holds one grid: a sweep of another grid under the same
+name is refused (``SweepGridConflict``), so results of different grids never mix; the same axes in another order are
+the same grid.
 
 From Python (keyword arguments of ``SweepSettings.from_scenario`` override the scenario's [sweep] table)::
 
@@ -464,7 +465,11 @@ class Sweep:
                              self.scenario.components.items()],
                             [(c.source, c.target) for c in self.scenario.connections], self.scenario.step_size,
                             settings, hashes, self.scenario.coupling)
-        self.grid = hashlib.sha256(json.dumps([[ax.names, ax.values] for ax in self.axes]).encode()).hexdigest()[:16]
+        # the grid whatever the order of its axes (the points are the same; the table and plots follow the order
+        # given), and as journals before that recorded it (the axes in order)
+        axes = [json.dumps([ax.names, ax.values]) for ax in self.axes]
+        self.grid = hashlib.sha256(json.dumps(sorted(axes)).encode()).hexdigest()[:16]
+        self._ordered_grid = hashlib.sha256(json.dumps([json.loads(a) for a in axes]).encode()).hexdigest()[:16]
         # results are only reused for the same FMU builds, code, scenario setup and settings
         builds = {f: fmu_build_digest(b) for f, b in self.fmu_blobs.items()}
         self.config = hashlib.sha256(json.dumps([asdict(settings), self.job.components, self.job.connections,
@@ -565,7 +570,7 @@ class Sweep:
                 grid = json.loads(line).get("grid", self.grid)
             except json.JSONDecodeError:
                 continue
-            if grid != self.grid:
+            if grid not in (self.grid, self._ordered_grid):
                 raise SweepGridConflict(
                     f"{self.journal} holds a sweep of {self.scenario.name} over another grid: give this one another "
                     f"name (--name, or Sweep(..., name=...)) to keep both, or delete {self.journal} to replace it")

@@ -47,7 +47,8 @@ and ``load_outputs(p, t, y, u) -> dict`` (the outputs that depend on the input t
 on either of its inputs tau_in and tau_load, the same numbers as ``outputs`` gives for them; every other output must
 not depend on those inputs: when a host sets them after reading the outputs, the FMU recomputes only these; default
 all of ``outputs``) with, optionally, ``load_output_names(p) -> tuple`` (their names at these parameters: a read of
-none of them then computes nothing, as the others are still valid), and ``STATE_OUTPUTS`` with ``state_outputs(p, t, y) -> dict`` (names of outputs that depend on
+none of them then computes nothing, as the others are still valid), and ``STATE_OUTPUTS`` with
+``state_outputs(p, t, y) -> dict`` (names of outputs that depend on
 no input, e.g. a torque-driven variant's speeds, which its host reads before it sets the torques, and their values,
 the same numbers as ``outputs`` gives for them: a read of only these computes only them; default all of
 ``outputs``), and ``EXCITATION_ORDER`` (a module constant: the highest order of the input speed the outputs carry at

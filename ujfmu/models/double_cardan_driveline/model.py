@@ -724,15 +724,10 @@ def drive_derivatives(p: Parameters, t: float, y: State, phi: float, omega: floa
     return _flexible_rates(p, phi, omega, y, tau_load)[0]
 
 
-def output_free_inputs(p: Parameters) -> tuple:
-    """None: tau_out depends on tau_load (and a rigid shaft's tau_in, rho tau_load); :func:`load_outputs` gives
-    those outputs alone."""
-    return ()
-
-
 def load_output_names(p: Parameters) -> tuple:
-    """The outputs that depend on tau_load (:func:`load_outputs`): a flexible shaft's tau_out alone (tau_load enters
-    only the output shaft's equation of motion), a rigid one's tau_in and shaft torque too."""
+    """The outputs that depend on tau_load (:func:`load_outputs`; no input is output-free, as tau_out depends on
+    tau_load): a flexible shaft's tau_out alone (tau_load enters only the output shaft's equation of motion), a rigid
+    one's tau_in (rho tau_load) and shaft torque too."""
     return ("tau_out",) if not p.rigid_intermediate_shaft else ("tau_in", "shaft_torque", "tau_out")
 
 
@@ -825,7 +820,8 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
 
 
 def flexible_output_values(p: Parameters, phi1: float, omega1: float, alpha1: float | None, y: Sequence[float],
-        tau_drive: float = 0.0, j_drive: float | None = None, key: tuple | None = None, tau_load: float = 0.0) -> tuple:
+        tau_drive: float = 0.0, j_drive: float | None = None, key: tuple | None = None,
+        tau_load: float = 0.0) -> dict:
     """The FMU's outputs: :func:`flexible_outputs` with its kinematics from :func:`_flexible_rates` (tau_load 0),
     one call instead of eight (tests compare them), kept for the step and a second read (:func:`_output_rates`; key:
     the state object y is, or is part of, default y), and tau_out at tau_load (:func:`output_flange_torque`). With
@@ -971,7 +967,6 @@ class TorqueDriven:
         omega_max = abs(k1[0]) + abs(k1[1]) * h
         return torque_driven_step(p, t, h, y, u, omega_max, rk4.substeps(TorqueDriven.rate_bound(p, y, omega_max), h),
                                   k1)
-
 
     @staticmethod
     def rate_bound(p: TorqueDrivenParameters, y: tuple, omega_max: float) -> float:
