@@ -145,15 +145,22 @@ def test_a_run_split_into_advance_calls_is_the_same_run(fmu_dir, scenario):
         assert (iterations, builds, time) == runs[0][1:]
 
 
-def test_open_loop_runs_explicitly_and_bitwise_like_explicit(fmu_dir):
-    """An ideal speed source ignores its tau_load: the implicit scheme finds dG/du = 0 at its first Jacobian and
-    steps explicitly from then on, giving the explicit result bit for bit."""
+@pytest.mark.parametrize("known", [True, False])
+def test_open_loop_runs_explicitly_and_bitwise_like_explicit(fmu_dir, monkeypatch, known):
+    """An ideal speed source ignores its tau_load: the connection into it is not torn (``stateless_inputs``), so
+    the implicit scheme steps explicitly; where the master does not know the input is stateless (another FMU), the
+    implicit scheme finds dG/du = 0 at its first Jacobian and steps explicitly from then on. Either way the result
+    is the explicit one bit for bit."""
+    from ujfmu.master import FmuInstance
+    if not known:
+        monkeypatch.setattr(FmuInstance, "stateless_inputs", lambda self: set())
     s = Scenario(battery.BATTERY_DIR.parent / "double_cardan_omar_torsional.toml")
     tables = {}
     for coupling in ("explicit", "implicit"):
         with Cosimulation(s.master_components(fmu_dir), s.connections, 1e-3, s.record, coupling=coupling) as cosim:
             tables[coupling] = cosim.run(300)
-            assert cosim.open_loop == (coupling == "implicit")
+            assert cosim.open_loop == (coupling == "implicit" and not known)
+            assert bool(cosim._tears) != known
     for name in s.record:
         np.testing.assert_array_equal(tables["implicit"][name], tables["explicit"][name])
 

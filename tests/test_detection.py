@@ -326,3 +326,21 @@ def test_a_failure_after_the_drive_stalled_names_the_stall(fmu_dir):
     assert "hint: when it failed, motor.omega = " in str(info.value)
     assert "against its set point motor.omega_ref = 150 rad/s" in str(info.value) and "tau_max = 0.5 N.m" in \
         str(info.value)
+
+
+def test_a_stiff_rotor_s_torque_into_an_ideal_source_is_not_torn_nor_an_instability(fmu_dir):
+    """Twin rotors with torsionally stiff shafts (K1T = K2T = 1e9 N.m/rad) on an ideal speed source: their input
+    torque, read at 1 ms, alternates between about -0.7 and 3.5 N.m (a torsional mode far above the step rate,
+    sampled), which had stopped the run as a coupling instability. The source's speed ignores that torque, so the
+    connection is not torn and nothing is held against it: the run completes, the discs follow the input as a
+    rigid rotor does, and the mean input torque is the load's (power balance at the same speed, up to the lateral
+    dampers' share)."""
+    stiff = with_changes(Scenario(Path(__file__).parent.parent / "scenarios" / "twin_jeffcott_steady.toml"),
+                         {"rotor.K1T": 1e9, "rotor.K2T": 1e9}, stop_time=0.15)
+    record = ["rotor.tau_in", "rotor.omega_disc1", "motor.omega", "load.tau"]
+    result = cosimulate(stiff.master_components(fmu_dir), stiff.connections, 0.15, 1e-3, record,
+                        coupling=stiff.coupling)
+    late = result["time"] > 0.1
+    assert len(result) == 151 and np.ptp(result["rotor.tau_in"][late]) > 2.0   # the sampled mode is there
+    assert np.max(np.abs(result["rotor.omega_disc1"] - result["motor.omega"])[late]) < 1e-3
+    assert result["rotor.tau_in"][late].mean() == pytest.approx(result["load.tau"][late].mean(), rel=0.01)

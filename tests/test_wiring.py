@@ -43,7 +43,8 @@ def test_stiff_double_cardan_speed_driven_diverges_in_libcosim(fmu_dir):
 def test_a_diverging_speed_driven_run_names_the_torque_driven_wiring(fmu_dir, tmp_path):
     """The speed-driven twin of the heavy Cardan case run as a scenario (explicit, as written): its coupling error
     names the joint's tau_in connection, and the message goes on to the remedy beside a smaller step, the
-    joint's torque-driven variant and the bundled scenario that wires it; a failure elsewhere gets no such hint."""
+    joint's torque-driven variant and the bundled scenario that wires it; a failure elsewhere, or with an ideal speed
+    source, gets no such hint."""
     import pytest
 
     from ujfmu.master import CosimulationError
@@ -57,3 +58,6 @@ def test_a_diverging_speed_driven_run_names_the_torque_driven_wiring(fmu_dir, tm
     assert ("wire it torque-driven instead: CardanJointTorqueDriven driven by a MotorController" in message
             and "J_rotor = 0.01 kg.m2" in message and "scenarios/cardan_heavy_torque_driven.toml" in message)
     assert torque_driven_hint(twin, "component 'load' refused the step at t = 0.1") == ""
+    # an ideal speed source ignores the torque: no heavier-side remedy applies to it
+    ideal = with_changes(twin, {"motor.ideal_speed_source": True})
+    assert torque_driven_hint(ideal, message.splitlines()[0]) == ""

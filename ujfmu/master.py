@@ -515,8 +515,9 @@ class Cosimulation:
         through its speed), and they lead back to the input's source, so the value held over [t_k, t_k+1] is
         the coupling approximation of a closed loop; an input with direct feedthrough to a connected output is
         made consistent at every communication point by the ordered transfer, and one on no loop (a speed fed
-        forward) has nothing to iterate. The components owning torn inputs are rolled back and restepped while
-        the torn values are iterated; the others step once per communication step.
+        forward) or that reaches no state (an ideal speed source's tau_load: the loop is open) has nothing to
+        iterate. The components owning torn inputs are rolled back and restepped while the torn values are
+        iterated; the others step once per communication step.
         """
         fed_through = {name: set() for name in self.instances}
         feeds = {name: set() for name in self.instances}
@@ -536,23 +537,24 @@ class Cosimulation:
                     todo.extend(feeds[comp])
             return False
 
+        def stateless(i):
+            """The connection feeds an input that reaches no state (``FmuInstance.stateless_inputs``): a value held
+            there moves nothing, so it closes no loop a step could hold back (an ideal speed source's torque)."""
+            comp, inp = self._transfers[i][-1].target.split(".", 1)
+            return inp in self.instances[comp].stateless_inputs()
+
         self._tears = []
         for i, transfer in enumerate(self._transfers):
             comp, inp = transfer[-1].target.split(".", 1)
-            if inp not in fed_through[comp] and reaches(comp, transfer[-1].source.split(".", 1)[0]):
+            if (inp not in fed_through[comp] and reaches(comp, transfer[-1].source.split(".", 1)[0])
+                    and not stateless(i)):
                 self._tears.append(i)
         self._tear_views = [views[i][:1] for i in self._tears]
         # watched for divergence and chatter (``_watch_growth``): the torn connections, then, for chatter only, one
         # connection on a loop for each pair of components that no watched connection joins yet (a chatter runs
         # through every connection of its loop), the last in transfer order: the one that closes the loop, its
-        # value held over the next step; the ones into an input that reaches no state
-        # (``FmuInstance.stateless_inputs``: a value held there moves nothing, so a fast change is its source's own
-        # response, e.g. a joint's 2x torque sampled near twice a period) excepted from the chatter score (a
-        # CHATTER_SHARE of inf)
-        def stateless(i):
-            comp, inp = self._transfers[i][-1].target.split(".", 1)
-            return inp in self.instances[comp].stateless_inputs()
-
+        # value held over the next step, but for one into an input that reaches no state (a fast change there is
+        # its source's own response, e.g. a joint's 2x torque read near twice a period into an ideal source)
         pairs = {frozenset(self._where(self._transfers[i][-1])) for i in self._tears}
         self._watched = list(self._tears)
         for i in reversed(range(len(self._transfers))):
@@ -561,7 +563,6 @@ class Cosimulation:
                 pairs.add(pair)
                 self._watched.append(i)
         self._watch_views = [views[i][:1] for i in self._watched]
-        self._chatter_shares = [math.inf if stateless(i) else CHATTER_SHARE for i in self._watched]
         rolled = dict.fromkeys(self._transfers[i][-1].target.split(".", 1)[0] for i in self._tears)
         self._rolled = [(self.instances[name], name) for name in rolled]
         # per rolled-back component: (fmi2GetFMUstate, fmi2SetFMUstate, fmi2FreeFMUstate, component, name), the
@@ -810,6 +811,9 @@ class Cosimulation:
         transmitted while growing GROWTH_FACTOR-fold ('' if none)."""
         for bond, energy in zip(self._bonds, self.bond_energies):
             d_e, before, e_speed = bond[6], bond[7], bond[8]
+            comp, inp = energy.torque.target.split(".", 1)
+            if inp in self.instances[comp].stateless_inputs():   # the torque moves nothing there: no coupling error
+                continue
             if abs(d_e) > ENERGY_RATIO * abs(e_speed) and abs(d_e) > GROWTH_FACTOR * abs(before) and d_e != 0.0:
                 a, b = energy.components
                 return (f"coupling instability between '{a}' and '{b}': the power bond {energy.speed.source} -> "
@@ -827,8 +831,8 @@ class Cosimulation:
         d_k = -(J_driven / J_driver) d_k-1, docs/cosimulation.md); per watched connection, chatter (``CHATTER_STEPS``).
         Raises CouplingInstabilityError."""
         noise = IMPLICIT_NOISE_TOLERANCES * COUPLING_RTOL if self.coupling == "implicit" else 0.0
-        torn, floor = len(self._tears), NOISE_FLOOR
-        for k, (state, view, share) in enumerate(zip(self._growth, self._watch_views, self._chatter_shares)):
+        torn, floor, share = len(self._tears), NOISE_FLOOR, CHATTER_SHARE
+        for k, (state, view) in enumerate(zip(self._growth, self._watch_views)):
             g = view[0]
             d = g - state[0]
             size = d if d >= 0.0 else -d

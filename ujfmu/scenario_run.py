@@ -548,7 +548,8 @@ def torque_driven_hint(scenario: Scenario, message: str) -> str:
         comp, _, port = conn.source.partition(".")
         driver, _, target = conn.target.partition(".")
         fmu = scenario.components.get(comp, ("", {}))[0]
-        if port == "tau_in" and target == "tau_load" and fmu in TORQUE_DRIVEN_EXAMPLES and conn.source in message:
+        if (port == "tau_in" and target == "tau_load" and fmu in TORQUE_DRIVEN_EXAMPLES and conn.source in message
+                and not ideal_speed_source(scenario, driver)):   # an ideal source's speed ignores the torque
             rotor = scenario.parameters_with_defaults(driver).get("J_rotor")
             return (f"hint: {comp} ({fmu}) follows the speed {driver} sets and returns, through {conn.source} -> "
                     f"{conn.target}, the torque its driven side's inertia needs; with a driven side heavier than "

@@ -105,3 +105,27 @@ def test_before_the_first_step_the_discs_turn_with_the_input(open_fmu):
     psi, ratio = tj.joint(tj.Parameters(**{**RIG, "beta": 20 * DEG, "phase_u1": 0.0, "phase_u2": 0.0}),
                           0.3, 0.0, 0.0, 0.0, 0.0)[:2]
     assert (phi_out, omega_out, omega_disc1) == pytest.approx((psi, ratio * 50.0, 50.0), rel=1e-14)
+
+
+@pytest.mark.parametrize("name", ["TwinJeffcottRotor", "TwinJeffcottRotorTorqueDriven"])
+def test_a_step_past_the_linear_shafts_validity_is_refused_naming_it(open_fmu, name):
+    """A 1 kg unbalance on disc 2 at 100 rad/s: as a plain Jeffcott rotor its steady orbit would be 35 mm, an end
+    slope 3 X / L2 of 0.17 rad, past the 0.1 rad within which a linear shaft holds (Euler-Bernoulli: the slope's
+    square against 1). The step that bends the shaft past it is refused, naming the slope, the disc and the limit,
+    and the state before it, within the limit, is kept; the default rig at its disc-2 resonance stays 20x inside."""
+    from fmpy.fmi1 import FMICallException
+    heavy = dict(RIG, m_u2=1.0)
+    amplitude = heavy["m_u2"] * RIG["e"] * 100.0 ** 2 / abs(RIG["K2X"] - (RIG["M2"] + 1.0) * 100.0 ** 2)
+    assert 3.0 * amplitude / RIG["L2"] > 1.5 * tj.MAX_END_SLOPE
+    assert 3.0 * jeffcott(2, W2, RIG)[0] / RIG["L2"] < tj.MAX_END_SLOPE / 20.0
+    inst = open_fmu(name)
+    torque_driven = name.endswith("TorqueDriven")
+    inst.initialize(dict(m_u2=1.0, **({"omega_in_start": 100.0, "J_drive": 10.0} if torque_driven else {})))
+    with pytest.raises(FMICallException):
+        for k in range(1000):
+            inst.set(**({"tau_in": 2.0} if torque_driven else {"omega_in": 100.0}), tau_load=2.0)
+            inst.slave.doStep(k * 1e-3, 1e-3)
+    assert 10 < k < 500
+    assert any("the shaft of disc 2 bent to an end slope of" in m and "past the 0.1 rad" in m for m in inst._log)
+    x2, y2 = inst.get("X2", "Y2")
+    assert 0.9 * tj.MAX_END_SLOPE < 3.0 * math.hypot(x2, y2) / RIG["L2"] <= tj.MAX_END_SLOPE

@@ -872,6 +872,27 @@ def check(p: Parameters) -> list:
     return []
 
 
+#: the largest end slope 3 |(X, Y)| / L [rad] either shaft may reach: its linear (Jeffcott) model, restoring force
+#: K X with the end slope 3 X / L of a simply supported beam, neglects the slope's square against 1 (Euler-Bernoulli
+#: small deflection), 1% at 0.1 rad (README.md, "Validity")
+MAX_END_SLOPE = 0.1
+
+
+def check_state(p: Parameters, y: State) -> list:
+    """Each shaft's end slope 3 sqrt(X^2 + Y^2) / L within MAX_END_SLOPE: a state past it has left the linear shafts'
+    validity (an undamped resonance, a large unbalance, a large joint angle's secondary couple), and a step to it is
+    refused with the reason instead of run on into a deflection the model cannot describe."""
+    bound = MAX_END_SLOPE * MAX_END_SLOPE / 9.0
+    r1, r2 = y[2] * y[2] + y[4] * y[4], y[8] * y[8] + y[10] * y[10]
+    if r1 <= bound * p.L1 * p.L1 and r2 <= bound * p.L2 * p.L2:
+        return []
+    i, r, span = (1, r1, p.L1) if r1 > bound * p.L1 * p.L1 else (2, r2, p.L2)
+    return [f"the shaft of disc {i} bent to an end slope of {3.0 * math.sqrt(r) / span:.3g} rad (disc {i}'s centre "
+            f"{math.sqrt(r):.3g} m off the axis, L{i} = {span:g} m), past the {MAX_END_SLOPE:g} rad within which its "
+            "linear (Jeffcott) model holds: the motion has left the model's validity (a resonance with little "
+            "damping, a large unbalance, or a large joint angle's secondary couple); results up to here are kept"]
+
+
 # --- the torque-driven rotor (TwinJeffcottRotorTorqueDriven): the input flange free, its motion in the state -------
 
 @dataclass(slots=True, kw_only=True)
@@ -1363,3 +1384,8 @@ class TorqueDriven:
     def check(p: TorqueDrivenParameters) -> list:
         """:func:`check`, and the flange needs an inertia to integrate."""
         return check(p) + shaft_inertia_problems("J_drive + J_gb", p.J_drive + p.J_gb, "gearbox flange")
+
+    @staticmethod
+    def check_state(p: TorqueDrivenParameters, y: tuple) -> list:
+        """:func:`check_state` of the rotor's part of the state."""
+        return check_state(p, y[2:])
