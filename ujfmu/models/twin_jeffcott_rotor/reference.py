@@ -154,7 +154,7 @@ def _equations():
     shaft1 = sp.diff(potential, phi_in) + sp.diff(rayleigh, w_in)   # generalised force the input must apply
     shaft2 = pr["K2T"] * twist2 + pr["C2T"] * (dpsi - qd[3])
     args = (q, qd, phi_in, w_in, tau_load, params)
-    outputs = [shaft1, shaft2, kinetic + potential, 2 * rayleigh]
+    outputs = [shaft1, shaft2, kinetic + potential]
     modules = [_NUMERIC, "numpy"]
     # the right-hand side's terms for one state: M row by row, f, the primary shaft torque and the dissipated
     # power, as one flat list of plain floats (math, common subexpressions shared: 7x numpy on scalars)
@@ -178,7 +178,7 @@ class RotorReference:
         return acc, values[42], values[43]
 
     def outputs(self, q, qd, phi_in, w_in):
-        """(primary shaft torque, secondary shaft torque, energy without the gearbox flange, dissipated power)."""
+        """(primary shaft torque, secondary shaft torque, energy without the gearbox flange)."""
         return self._outputs(q, qd, phi_in, w_in, 0.0, self.params)
 
 
@@ -237,7 +237,7 @@ def generate(scenario):
             tau_m, _ = pi_law(pm, t, w_in, integral)
         q, qd = ys[:6], ys[6:12]
         phi_in = phi0 + phi_m
-        shaft1, shaft2, energy, _ = ref.outputs(q, qd, phi_in, w_in)
+        shaft1, shaft2, energy = ref.outputs(q, qd, phi_in, w_in)
         if not ideal:
             a_in = (tau_m - shaft1) / (j_motor + pr["J_gb"])
             cols["motor.tau_motor"] = tau_m
