@@ -66,3 +66,16 @@ def test_order_fit_refuses_samples_at_too_few_angles():
     angle = 0.37 * np.arange(400)
     _, amplitudes, _ = order_fit(angle, np.cos(2 * angle), range(1, 5))
     assert amplitudes == pytest.approx([0.0, 1.0, 0.0, 0.0], abs=1e-9)
+
+
+def test_natural_frequencies_of_a_rig_take_the_fmus_other_defaults():
+    """The twin rotor's rig_parameters() leave out the FMU-only parameters (unbalance phases, start angle), which
+    had raised a bare KeyError: they take the FMU's declared start values, and the lateral modes are the discs'
+    Jeffcott frequencies sqrt(K / (M + m_u)), each in X and Y."""
+    from ujfmu.analysis import model_natural_frequency_range
+    from ujfmu.models.twin_jeffcott_rotor import model as tj
+    rig = tj.rig_parameters()
+    mean, _, _ = model_natural_frequency_range(tj, rig)
+    for i in (1, 2):
+        jeffcott = math.sqrt(rig[f"K{i}X"] / (rig[f"M{i}"] + rig[f"m_u{i}"]))
+        assert sum(abs(w / jeffcott - 1.0) < 2e-3 for w in mean) == 2, (i, jeffcott, mean)

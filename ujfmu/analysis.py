@@ -76,10 +76,20 @@ def natural_frequencies(rhs, y0, step=1e-7) -> np.ndarray:
 ANGLE_SAMPLES = 8
 
 
+def declared_parameters(model) -> dict:
+    """{name: start value} of the parameters the FMU over model (``MODEL``) declares."""
+    from .build import FMUS, fmu_class
+    for name in FMUS:
+        cls = fmu_class(name)
+        if cls.MODEL is model:
+            return {v.name: v.start for v in cls.VARIABLES if v.causality == "parameter"}
+    raise ValueError(f"no FMU of ujfmu is over the model {model!r}")
+
+
 def model_natural_frequency_range(model, parameters: dict) -> tuple:
     """(mean, lowest, highest) natural frequencies [rad/s] of a model (a module or class of the
-    ``ujfmu.models.protocol``) at parameters (by name; the FMU's declared defaults for those missing are the
-    caller's), linearised about its initial state at rest with its inputs zero (input shaft held, no load):
+    ``ujfmu.models.protocol``) at parameters (by name; those missing take the start values its FMU declares, e.g.
+    the unbalances' phases beside a twin rotor's ``rig_parameters()``), linearised about its initial state at rest with its inputs zero (input shaft held, no load):
     ``natural_frequencies`` of ``derivatives``. A speed-driven model (an input angle phi) is linearised at
     ``ANGLE_SAMPLES`` input angles over one period of its ``EXCITATION_ORDER``, the modes paired by rank: a joint's
     speed ratio and its derivative vary with the angle (Omar's torsional mode spans 138-148 rad/s at beta0 = 15 deg,
@@ -87,7 +97,10 @@ def model_natural_frequency_range(model, parameters: dict) -> tuple:
     A torque-driven model, its input angle a state, is linearised at 0 only. Empty arrays for a model without a
     state of its own or held kinematically."""
     import dataclasses
-    p = model.Parameters(**{f.name: parameters[f.name] for f in dataclasses.fields(model.Parameters) if f.init})
+    names = [f.name for f in dataclasses.fields(model.Parameters) if f.init]
+    if any(name not in parameters for name in names):
+        parameters = {**declared_parameters(model), **parameters}
+    p = model.Parameters(**{name: parameters[name] for name in names})
     if not model.State._fields or (hasattr(model, "kinematic") and model.kinematic(p)):
         return np.zeros(0), np.zeros(0), np.zeros(0)
     fields = model.Inputs._fields

@@ -15,9 +15,10 @@ revolutions and reduces each output to its figures. Whether it was steady is mea
   change measured. Otherwise T grows by GROWTH (1.5x), up to ``max_settle_time`` (default 8x the first T), so any
   decay slower than that shows as a change. T is at least four windows long, and windows are whole revolutions
   laid back to back from 3T/4 until one starts at T or later: the settle time used can pass ``max_settle_time``
-  (by up to one window, or up to four windows when the cap is shorter), and the not_steady message says so. A decay or drift much slower than 1/T
-  changes too little within the last quarter to be seen, so the first T must be of the order of the slowest time
-  constant: where a model's slowest decay rate is known (``analysis.decay_rates`` of its linearisation), a settle
+  (by up to two windows: the last growth ends at the cap, and each round of the check records two windows at least;
+  or up to four windows when the cap is shorter), and the not_steady message says so. A decay or drift much slower
+  than 1/T changes too little within the last quarter to be seen, so the first T must be of the order of the slowest
+  time constant: where a model's slowest decay rate is known (``analysis.decay_rates`` of its linearisation), a settle
   time of 2.8 / sigma or more makes the check decisive (the report does this for the twin rotor).
 - **Operating point.** Each (signal, set point) pair, e.g. a Motor's ``omega`` and ``omega_ref``, must agree in
   the mean over the measured window within ``operating_tol`` of the set point; a saturated drive that never
@@ -207,9 +208,9 @@ def settle_and_measure(cosim, settings) -> dict:
             if window.start >= start + settle - 0.5 * h:
                 break
         change, worst, against = max(steady_change(earlier[-1], old, s.orders) for old in earlier[:-1])
-        if change <= s.steady_tol or GROWTH * settle > cap * (1.0 + 1e-9):
+        if change <= s.steady_tol or settle >= cap * (1.0 - 1e-9) or window.start - start >= cap - 0.5 * h:
             break
-        settle *= GROWTH
+        settle = min(GROWTH * settle, cap)   # the last growth ends at the cap itself
     record.update(_measured(window, s), settled_s=window.start - start, steady_change=change)
     if change <= s.steady_tol:
         record.update(status=OK, error="")
