@@ -89,9 +89,10 @@ def declared_parameters(model) -> dict:
 def model_natural_frequency_range(model, parameters: dict) -> tuple:
     """(mean, lowest, highest) natural frequencies [rad/s] of a model (a module or class of the
     ``ujfmu.models.protocol``) at parameters (by name; those missing take the start values its FMU declares, e.g.
-    the unbalances' phases beside a twin rotor's ``rig_parameters()``), linearised about its initial state at rest with its inputs zero (input shaft held, no load):
-    ``natural_frequencies`` of ``derivatives``. A speed-driven model (an input angle phi) is linearised at
-    ``ANGLE_SAMPLES`` input angles over one period of its ``EXCITATION_ORDER``, the modes paired by rank: a joint's
+    the unbalances' phases beside a twin rotor's ``rig_parameters()``), linearised about its initial state at rest
+    with its inputs zero (input shaft held, no load): ``natural_frequencies`` of ``derivatives``. A speed-driven
+    model (an input angle phi) is linearised at ``ANGLE_SAMPLES`` input angles over one period of its
+    ``EXCITATION_ORDER``, the modes paired by rank: a joint's
     speed ratio and its derivative vary with the angle (Omar's torsional mode spans 138-148 rad/s at beta0 = 15 deg,
     mean 143.1 = sqrt(k/J) of the paper's 684 rpm critical speed; the linearisation at 0 deg alone is 3.5% high).
     A torque-driven model, its input angle a state, is linearised at 0 only. Empty arrays for a model without a

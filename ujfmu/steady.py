@@ -260,8 +260,8 @@ def unresolved_note(window: Window, orders, speed: float) -> str:
     return (f"order{'s' if len(unresolved) > 1 else ''} {names} not resolved (NaN): "
             f"{samples_per_revolution(window):.3g} samples a revolution at {speed_text(speed)} with a step of "
             f"{h:g} s, where the {top}x order needs at least {4 * top + 2} (its fit must reach order {2 * top}, or "
-            f"the orders above alias onto it); take a "
-            f"step of at most {resolving_step(top, speed):.3g} s (--step) or leave the order out (--orders)")
+            f"the orders above alias onto it); take a step of at most {resolving_step(top, speed):.3g} s (--step) "
+            "or leave the order out (--orders)")
 
 
 def speed_text(value: float) -> str:
