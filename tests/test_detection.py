@@ -347,3 +347,24 @@ def test_a_stiff_rotor_s_torque_into_an_ideal_source_is_not_torn_nor_an_instabil
     assert len(result) == 151 and np.ptp(result["rotor.tau_in"][late]) > 2.0   # the sampled mode is there
     assert np.max(np.abs(result["rotor.omega_disc1"] - result["motor.omega"])[late]) < 1e-3
     assert result["rotor.tau_in"][late].mean() == pytest.approx(result["load.tau"][late].mean(), rel=0.01)
+
+
+def test_a_steady_window_that_does_not_repeat_fails_the_run(fmu_dir):
+    """The twin rotor at disc 2's critical speed sqrt(K2 / (M2 + m_u2)) with its lateral damping removed: the orbit
+    grows linearly (about 2 mm a second), so a window from steady_from is no steady state, and the orbits and
+    spectra drawn from it would show a transient. The run fails, naming the figure that changed and the remedy; the
+    bundled run with its damping is steady there (tests/test_scenarios.py: in its reference)."""
+    from ujfmu.models.twin_jeffcott_rotor import model as tj
+    from ujfmu.scenario_run import run_scenario
+    rig = tj.rig_parameters()
+    critical = math.sqrt(rig["K2X"] / (rig["M2"] + rig["m_u2"]))
+    scenario = Scenario(Path(__file__).parent.parent / "scenarios" / "twin_jeffcott_steady.toml")
+    undamped = scenario.with_parameters({"motor.omega_set": critical, "rotor.C2X": 0.0, "rotor.C2Y": 0.0})
+    undamped.stop_time, undamped.steady_from = 8.0, 6.0
+    result = run_scenario(undamped, fmu_dir=fmu_dir, out_dir=None)
+    (check,) = result.steady_checks
+    assert not check.passed and check.change > 0.05 and result.verdict == "FAIL"
+    assert "steady from t = 6 s" in str(check) and "move steady_from later" in str(check)
+    damped = scenario.with_parameters({"motor.omega_set": critical})
+    damped.stop_time, damped.steady_from = 8.0, 6.0
+    assert run_scenario(damped, fmu_dir=fmu_dir, out_dir=None).steady_checks[0].change < 0.05

@@ -109,6 +109,51 @@ class OperatingPointCheck:
         return text
 
 
+#: a steady window's figures may differ between its two halves by this fraction of themselves (as a sweep's
+#: default steady_tol, ``ujfmu.steady``)
+STEADY_WINDOW_TOL = 1e-3
+
+
+@dataclass
+class SteadyWindowCheck:
+    """Whether the run repeats from ``output.steady_from`` on, the window its orbits and spectra are drawn from: the
+    mean and the 1x, 2x, 4x running-speed order amplitudes of every recorded signal (but running angles and energy
+    integrals) in the window's first and second halves (``ujfmu.steady.halves_change``)."""
+    since: float
+    change: float
+    worst: str
+    against: str
+
+    @property
+    def passed(self) -> bool:
+        return self.change <= STEADY_WINDOW_TOL
+
+    def __str__(self):
+        text = (f"{'ok  ' if self.passed else 'FAIL'} steady from t = {self.since:g} s (output.steady_from): the "
+                f"{self.worst} differs between the window's halves by {self.change:.3g} of {self.against} (allowed "
+                f"{STEADY_WINDOW_TOL:g})")
+        if not self.passed:
+            text += ("; the response is not steady there, so the orbits and spectra drawn from it show a transient: "
+                     "move steady_from later or lengthen stop_time, or look for a response that grows (no damping at "
+                     "a resonance) or never settles")
+        return text
+
+
+def check_steady_window(scenario: Scenario, table: np.ndarray) -> list:
+    """A SteadyWindowCheck where the scenario has a steady_from and a running speed (its window's angle), else none."""
+    from .steady import grows, halves_change
+    if not (scenario.steady_from > scenario.start_time and scenario.running_speed in table.dtype.names):
+        return []
+    window = table[table["time"] >= scenario.steady_from - 1e-9]
+    signals = [n for n in scenario.record if not grows(n) and n in table.dtype.names]
+    if len(window) < 16 or not signals:
+        return []
+    speed = window[scenario.running_speed]
+    angle = np.concatenate(([0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(window["time"]))))
+    change, worst, against = halves_change(angle, window, signals)
+    return [SteadyWindowCheck(scenario.steady_from, change, worst, against)]
+
+
 @dataclass
 class SamplingCheck:
     """A drivetrain component's record against the highest order of the input speed its outputs carry at full size
@@ -249,6 +294,7 @@ class ScenarioResult:
     extra_plots: list = field(default_factory=list)   # orbits and spectra, when the scenario asks for them
     operating_checks: list = field(default_factory=list)   # OperatingPointCheck per drive
     sampling_checks: list = field(default_factory=list)   # SamplingCheck per drivetrain component
+    steady_checks: list = field(default_factory=list)   # SteadyWindowCheck of output.steady_from, if any
     bonds: list = field(default_factory=list)   # ujfmu.master.BondEnergy per power bond (co-simulation only)
     model_exchange: bool = False   # run under CVode (ujfmu.model_exchange) instead of co-simulated
     skipped_bands: str = ""   # why the [reference.extrapolated] bands were not checked, if they were not
@@ -279,7 +325,7 @@ class ScenarioResult:
     @property
     def failed(self) -> bool:
         return any(not c.passed for c in self.checks + self.extrapolated_checks + self.operating_checks
-                   + self.sampling_checks)
+                   + self.sampling_checks + self.steady_checks)
 
     @property
     def verdict(self) -> str:
@@ -328,6 +374,7 @@ class ScenarioResult:
         lines += [f"  not compared: {name}: {why}" for name, why in self.scenario.not_compared.items()]
         lines += [f"  {c}" for c in self.operating_checks]
         lines += [f"  {c}" for c in self.sampling_checks]
+        lines += [f"  {c}" for c in self.steady_checks]
         lines += [f"  {b}" for b in self.bonds]
         figures = ("[reference.tolerance] holds figures chosen for the scenario's own parameters (a few times the "
                    "error its run reaches there): a copy with other parameters needs figures of its own, the accuracy "
@@ -487,11 +534,12 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
             _write_partial(scenario, exc, Path(out_dir), plot)
         raise
     operating, sampling = check_operating_points(scenario, table), check_sampling(scenario, table)
+    steady = check_steady_window(scenario, table)
     if extra:
         table = _without(table, extra)
     result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start, fmu_dir=Path(fmu_dir),
                             operating_checks=operating,
-                            sampling_checks=sampling,
+                            sampling_checks=sampling, steady_checks=steady,
                             bonds=annotate_bonds(scenario, diagnostics.get("bonds", [])),
                             model_exchange=model_exchange)
     if reference is not None and scenario.tolerances:
@@ -614,7 +662,9 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
                                      bool(outside)),
                                     ("operating point not reached", any(not c.passed for c in r.operating_checks)),
                                     ("record aliases a model's excitation order",
-                                     any(not c.passed for c in r.sampling_checks)))
+                                     any(not c.passed for c in r.sampling_checks)),
+                                    ("not steady from output.steady_from",
+                                     any(not c.passed for c in r.steady_checks)))
                    if bad]
             failure = ET.SubElement(case, "failure", message="; ".join(why))
             failure.text = r.summary()

@@ -890,7 +890,8 @@ def check_state(p: Parameters, y: State) -> list:
     return [f"the shaft of disc {i} bent to an end slope of {3.0 * math.sqrt(r) / span:.3g} rad (disc {i}'s centre "
             f"{math.sqrt(r):.3g} m off the axis, L{i} = {span:g} m), past the {MAX_END_SLOPE:g} rad within which its "
             "linear (Jeffcott) model holds: the motion has left the model's validity (a resonance with little "
-            "damping, a large unbalance, or a large joint angle's secondary couple); results up to here are kept"]
+            "damping, a large unbalance, a large joint angle's secondary couple, or a torque beyond what the shafts "
+            "carry); results up to here are kept"]
 
 
 # --- the torque-driven rotor (TwinJeffcottRotorTorqueDriven): the input flange free, its motion in the state -------
