@@ -177,6 +177,12 @@ class HeldInput:
 _STATUS = ["ok", "warning", "discard", "error", "fatal", "pending"]
 
 
+def is_ideal_speed_source(model_name: str, value) -> bool:
+    """A Motor FMU whose ideal_speed_source parameter is value (a bool, or as modelDescription.xml writes it) is an
+    ideal speed source: its speed follows its profile whatever torque acts on it."""
+    return model_name == "Motor" and (value is True or str(value).lower() in ("true", "1"))
+
+
 class FmuInstance:
     """One FMU instance over fmpy's FMU2Slave: variables by name, FMU log messages collected in ``log``."""
 
@@ -232,11 +238,9 @@ class FmuInstance:
         """Inputs that reach no state of this instance with its parameters, only outputs that depend on them directly
         (declared): an ideal speed source's tau_load (a Motor with ideal_speed_source: its speed follows its
         profile whatever torque acts on it). A value held into one over a step moves nothing."""
-        if self.md.modelName == "Motor" and "ideal_speed_source" in self.variables:
-            value = self.parameters.get("ideal_speed_source", self.variables["ideal_speed_source"].start)
-            if value is True or str(value).lower() in ("true", "1"):
-                return {"tau_load"}
-        return set()
+        start = self.variables.get("ideal_speed_source")
+        value = self.parameters.get("ideal_speed_source", start.start if start is not None else None)
+        return {"tau_load"} if is_ideal_speed_source(self.md.modelName, value) else set()
 
     def vr(self, name):
         try:

@@ -112,14 +112,15 @@ class Tolerance:
     abs: float = 0.0
 
 
-def _model_name(path: Path) -> str | None:
-    """The modelName of an FMU file's modelDescription.xml (None where it cannot be read: the run reports that)."""
+def description_attribute(path: Path, attribute: str) -> str | None:
+    """An attribute of an FMU file's fmiModelDescription element, e.g. modelName or fmiVersion (None where it cannot
+    be read: the run reports that)."""
     try:
         with zipfile.ZipFile(path) as fmu:
             head = fmu.read("modelDescription.xml")[:4096].decode("utf-8", "replace")
     except (OSError, KeyError, zipfile.BadZipFile):
         return None
-    found = re.search(r'<fmiModelDescription\b[^>]*\smodelName="([^"]*)"', head)
+    found = re.search(rf'<fmiModelDescription\b[^>]*\s{attribute}="([^"]*)"', head)
     return found.group(1) if found else None
 
 
@@ -510,7 +511,7 @@ class Scenario:
             if not path.is_file():
                 raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path.absolute()} not found "
                                     f"({build_hint(fmu_dir)})")
-            model = _model_name(path)
+            model = description_attribute(path, "modelName")
             if model is not None and model != fmu:
                 raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path.absolute()} holds the "
                                     f"model {model!r} (its modelDescription.xml says so), not {fmu!r}: a file copied "

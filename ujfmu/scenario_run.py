@@ -15,15 +15,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from fmpy import read_model_description
 from fmpy.util import write_csv
 
 from .build import DEFAULT_FMU_DIR
 from .build3 import DEFAULT_FMU3_DIR
 from .extras import available, preload
 from .fmu.base import MIN_SAMPLES_PER_PERIOD, RESOLVING_SAMPLES_PER_PERIOD, samples_per_period, sampling_interval
-from .master import CosimulationError, cosimulate
-from .scenario import Scenario, ScenarioError
+from .master import CosimulationError, cosimulate, is_ideal_speed_source
+from .scenario import Scenario, ScenarioError, description_attribute
 from .steady import speed_text
 
 DEFAULT_OUT_DIR = Path("results")
@@ -213,8 +212,8 @@ def check_sampling(scenario: Scenario, table: np.ndarray) -> list:
 def ideal_speed_source(scenario: Scenario, name: str) -> bool:
     """The component is a Motor that is an ideal speed source (its speed follows its profile, whatever torque acts
     on it)."""
-    return scenario.components[name][0] == "Motor" and bool(
-        scenario.parameters_with_defaults(name).get("ideal_speed_source"))
+    return is_ideal_speed_source(scenario.components[name][0],
+                                 scenario.parameters_with_defaults(name).get("ideal_speed_source"))
 
 
 def annotate_bonds(scenario: Scenario, bonds: list) -> list:
@@ -337,7 +336,9 @@ class ScenarioResult:
         if self.fmu_dir is None:
             return ""
         here = Path(self.fmu_dir).resolve()
-        fmi3 = here == Path(DEFAULT_FMU3_DIR).resolve() or _fmi_version(self.scenario, here) == "3.0"
+        first = next(iter(self.scenario.components.values()))[0]
+        fmi3 = (here == Path(DEFAULT_FMU3_DIR).resolve()
+                or description_attribute(here / f"{first}.fmu", "fmiVersion") == "3.0")
         elsewhere = here != Path(DEFAULT_FMU3_DIR if fmi3 else DEFAULT_FMU_DIR).resolve()
         return (" --fmi 3" if fmi3 else "") + (f" --fmu-dir {self.fmu_dir}" if elsewhere else "")
 
@@ -407,15 +408,6 @@ SCIPY_NOTE = "fmpy.util.validate_result: not computed (it needs scipy: pip insta
 
 #: fewest instants the result and the reference must share to be compared there rather than by interpolation
 MIN_COMMON_INSTANTS = 20
-
-
-def _fmi_version(scenario: Scenario, fmu_dir: Path) -> str | None:
-    """The fmiVersion of the scenario's first FMU in fmu_dir (None if it cannot be read)."""
-    try:
-        fmu = next(iter(scenario.components.values()))[0]
-        return read_model_description(str(fmu_dir / f"{fmu}.fmu"), validate=False).fmiVersion
-    except Exception:
-        return None
 
 
 def common_instants(t: np.ndarray, t_ref: np.ndarray, slack: float) -> tuple:

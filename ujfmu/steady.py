@@ -101,8 +101,9 @@ def resolving_step(order: int, speed: float) -> float:
     return 2.0 * math.pi / (abs(speed) * (4 * order + 2))
 
 
-def _amplitudes(amps, fitted: range, orders, unresolved: tuple) -> list:
-    return [math.nan if k in unresolved or k > len(fitted) else float(amps[k - 1]) for k in orders]
+def _amplitudes(amps, orders, unresolved: tuple) -> list:
+    """The amplitudes of the orders (the fit reaches each resolved one), NaN for the unresolved."""
+    return [math.nan if k in unresolved else float(amps[k - 1]) for k in orders]
 
 
 def figures(window: Window, outputs, orders) -> dict:
@@ -115,7 +116,7 @@ def figures(window: Window, outputs, orders) -> dict:
         y = window.table[out]
         c0, amps, _ = order_fit(window.angle, y, fitted)
         values = dict(max=y.max(), min=y.min(), p2p=np.ptp(y), mean=c0, rms=math.sqrt(np.mean(y * y)))
-        values.update({f"h{k}": a for k, a in zip(orders, _amplitudes(amps, fitted, orders, unresolved))})
+        values.update({f"h{k}": a for k, a in zip(orders, _amplitudes(amps, orders, unresolved))})
         result.update({f"{out}.{k}": float(v) for k, v in values.items()})
     return result
 
@@ -127,7 +128,7 @@ def periodic_figures(window: Window, signals, orders) -> dict:
     result = {}
     for name in signals:
         c0, amplitudes, _ = order_fit(window.angle, window.table[name], fitted)
-        result[name] = [float(c0)] + _amplitudes(amplitudes, fitted, orders, unresolved)
+        result[name] = [float(c0)] + _amplitudes(amplitudes, orders, unresolved)
     return result
 
 

@@ -836,7 +836,7 @@ def flexible_output_values(p: Parameters, phi1: float, omega1: float, alpha1: fl
         alpha1 = (tau_drive - spin - driven) / j_drive
     values = {"phi_out": phi4, "omega_out": omega4, "dynamic_misalignment": phi, "twist": twist,
               "tau_in": j_in * alpha1 + spin + driven, "shaft_torque": shaft,
-              "tau_out": tau_load + p.J_load * (net - tau_load) / j_out,   # output_flange_torque, inlined
+              "tau_out": output_flange_torque(p, net, j_out, tau_load),
               "omega_intermediate": r1 * omega1 + e1 * dphi,
               "stored_energy": 0.5 * (j_in * omega1 * omega1 + j_out * omega4 * omega4 + p.m_lat * dphi * dphi
                                       + p.k_theta * twist * twist + p.k_phi * p.lever2 * phi * phi)}

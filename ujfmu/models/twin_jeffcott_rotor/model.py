@@ -876,13 +876,15 @@ def check(p: Parameters) -> list:
 #: K X with the end slope 3 X / L of a simply supported beam, neglects the slope's square against 1 (Euler-Bernoulli
 #: small deflection), 1% at 0.1 rad (README.md, "Validity")
 MAX_END_SLOPE = 0.1
+#: (MAX_END_SLOPE / 3)^2: the bound of X^2 + Y^2 per L^2 (``check_state``)
+_DEFLECTION_BOUND = (MAX_END_SLOPE / 3.0) ** 2
 
 
 def check_state(p: Parameters, y: State) -> list:
     """Each shaft's end slope 3 sqrt(X^2 + Y^2) / L within MAX_END_SLOPE: a state past it has left the linear shafts'
     validity (an undamped resonance, a large unbalance, a large joint angle's secondary couple), and a step to it is
     refused with the reason instead of run on into a deflection the model cannot describe."""
-    bound = MAX_END_SLOPE * MAX_END_SLOPE / 9.0
+    bound = _DEFLECTION_BOUND
     r1, r2 = y[2] * y[2] + y[4] * y[4], y[8] * y[8] + y[10] * y[10]
     if r1 <= bound * p.L1 * p.L1 and r2 <= bound * p.L2 * p.L2:
         return []
