@@ -217,6 +217,8 @@ def test_a_record_that_aliases_the_joints_2x_order_fails(fmu_dir, tmp_path, caps
         assert f"record step of {step:g} s" in line and "record at most every 0.002 s" in line
         if samples == 1:   # the aliased record: one joint angle, a constant output speed
             assert np.ptp(table["jointomega_out"]) < 1e-9 * 157.08
+        # the 1x (25 Hz) is at Nyquist too at 0.02 s, resolved at 0.01 s (4 samples)
+        assert ("so does its 1x (2 samples a period)" in line) == (samples == 1)
         junit = tmp_path / "report.xml"
         main(["--fmu-dir", str(fmu_dir), "check", str(path), "--no-plot", "--out", str(tmp_path), "--junit",
               str(junit)])

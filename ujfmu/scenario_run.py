@@ -181,11 +181,15 @@ class SamplingCheck:
         if self.passed:
             return f"ok   {what}, {self.samples:.3g} samples a period (more than {MIN_SAMPLES_PER_PERIOD:g})"
         resolving = sampling_interval(RESOLVING_SAMPLES_PER_PERIOD, self.order, self.omega)
+        lower = [f"its {k}x ({samples_per_period(k, self.omega, self.interval):.3g} samples a period)"
+                 for k in range(self.order - 1, 0, -1)
+                 if samples_per_period(k, self.omega, self.interval) <= MIN_SAMPLES_PER_PERIOD]
+        also = f"; so does {' and '.join(lower)}" if lower else ""
         return (f"FAIL {what}, {self.samples:.3g} samples a period at a record step of {self.interval:g} s, at most "
                 f"{MIN_SAMPLES_PER_PERIOD:g} (Nyquist): the record aliases the order (a step of a whole number of its "
                 f"periods samples one joint angle and shows a constant; the reference, sampled at the same instants, "
-                f"agrees); record at most every {resolving:.3g} s to sample it {RESOLVING_SAMPLES_PER_PERIOD:g} "
-                f"times a period (step_size, and output_interval)")
+                f"agrees){also}; record at most every {resolving:.3g} s to sample it "
+                f"{RESOLVING_SAMPLES_PER_PERIOD:g} times a period (step_size, and output_interval)")
 
 
 def sampled_components(scenario: Scenario) -> list:
