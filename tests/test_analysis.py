@@ -1,6 +1,7 @@
 """Signal analysis helpers: order amplitudes and spectra recover known signals."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -79,3 +80,26 @@ def test_natural_frequencies_of_a_rig_take_the_fmus_other_defaults():
     for i in (1, 2):
         jeffcott = math.sqrt(rig[f"K{i}X"] / (rig[f"M{i}"] + rig[f"m_u{i}"]))
         assert sum(abs(w / jeffcott - 1.0) < 2e-3 for w in mean) == 2, (i, jeffcott, mean)
+
+
+def test_scenario_modes_are_the_jeffcott_frequencies_and_their_order_crossings():
+    """The twin rotor scenario's lateral modes: each disc's sqrt(K / (M + m_u)), X and Y merged into one line of 2
+    modes (a round shaft); drives and loads have none of their own. A crossing of the k-th order is at omega_n / k,
+    and the drive's set speed is the motor's omega_set."""
+    from ujfmu.analysis import drive_speeds, scenario_modes
+    from ujfmu.models.twin_jeffcott_rotor import model as tj
+    from ujfmu.scenario import Scenario
+    scenario = Scenario(Path(__file__).parent.parent / "scenarios" / "twin_jeffcott_steady.toml")
+    rig = tj.rig_parameters()
+    modes = scenario_modes(scenario)
+    assert {m.component for m in modes} == {"rotor"} and all(m.orders == 2 for m in modes)
+    for i in (1, 2):
+        jeffcott = math.sqrt(rig[f"K{i}X"] / (rig[f"M{i}"] + rig[f"m_u{i}"]))
+        match = [m for m in modes if abs(m.omega / jeffcott - 1.0) < 2e-3]
+        assert len(match) == 1 and match[0].count == 2, (i, jeffcott, modes)
+        assert match[0].critical_speed(1) == pytest.approx(jeffcott, rel=2e-3)
+        assert match[0].critical_speed(2) == pytest.approx(jeffcott / 2, rel=2e-3)
+    stiffer = scenario_modes(scenario, {"rotor.K2X": 4.0 * rig["K2X"], "rotor.K2Y": 4.0 * rig["K2Y"]})
+    disc2 = math.sqrt(rig["K2X"] / (rig["M2"] + rig["m_u2"]))
+    assert any(abs(m.omega / (2.0 * disc2) - 1.0) < 2e-3 for m in stiffer)   # sqrt(4 K / m)
+    assert drive_speeds(scenario) == {"motor.omega_set": 100.0}

@@ -524,3 +524,27 @@ def test_an_unreadable_reference_says_what_the_file_is(fmu_dir, tmp_path, capsys
             reference.write_text(text)
         assert main(["--fmu-dir", str(fmu_dir), "run", str(scenario), "--no-plot", "--out", str(tmp_path)]) == 2
         assert words in capsys.readouterr().err
+
+
+def test_modes_names_the_nearest_order_crossing_of_the_set_speed(capsys):
+    """`ujfmu modes`: Omar's double Cardan at 684 rpm runs at the 2x crossing of its torsional mode (the paper's
+    critical speed: sqrt(k/J) = 143.1 rad/s mean over the input angle, crossed by the 2x at 683.4 rpm), reported
+    as the nearest crossing within 10%; --set moves the speed (in rpm) and the margin follows; a --set of a range
+    or an unknown parameter is an error naming the option."""
+    scenarios = Path(__file__).parent.parent / "scenarios"
+    assert main(["modes", str(scenarios / "double_cardan_omar_torsional.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "143.14 rad/s" in out and "2x at 71.5697 rad/s (683.44 rpm)" in out
+    assert "nearest crossing is the 2x order's with driveline's 143.14 rad/s mode, at 71.57 rad/s: 0.1% above it " \
+           "(within 10%)" in out
+    assert main(["modes", str(scenarios / "double_cardan_omar_torsional.toml"), "--set",
+                 "motor.omega_set=500rpm"]) == 0
+    out = capsys.readouterr().out
+    # 500 rpm against the 2x crossings at 383.10 and 683.44 rpm: 30.5% above the first, 26.8% below the second
+    assert "2x order's with driveline's 143.14 rad/s mode, at 71.57 rad/s: 26.8% below it\n" in out
+    assert "from rest to it the speed crosses 1: 2x with 80.237 rad/s at 40.118 rad/s" in out
+    assert main(["modes", str(scenarios / "double_cardan_omar_torsional.toml"), "--set",
+                 "motor.omega_set=1:2:1"]) == 2
+    assert "--set 'motor.omega_set=1:2:1': one value" in capsys.readouterr().err
+    assert main(["modes", str(scenarios / "double_cardan_omar_torsional.toml"), "--set", "driveline.nope=1"]) == 2
+    assert "--set 'driveline.nope=1'" in capsys.readouterr().err

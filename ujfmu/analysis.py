@@ -1,5 +1,7 @@
 """Signal analysis of results (numpy): running-speed harmonics (order amplitudes), amplitude spectra, orbits."""
 
+from dataclasses import dataclass
+
 import numpy as np
 
 
@@ -116,3 +118,65 @@ def model_natural_frequency_range(model, parameters: dict) -> tuple:
         samples = [samples[0]]
     frequencies = np.array(samples)
     return frequencies.mean(axis=0), frequencies.min(axis=0), frequencies.max(axis=0)
+
+
+#: FMUs whose eigenvalues are not modes of the driveline (the drive's speed loop, a load law)
+DRIVES_AND_LOADS = ("Motor", "MotorController", "Load")
+#: an order crossing within this fraction of a drive's set speed is reported as near it (``ujfmu modes``)
+NEAR_CRITICAL = 0.1
+
+
+@dataclass
+class Mode:
+    """A natural frequency of a machine component of a scenario (``scenario_modes``): its mean over the input
+    angle omega [rad/s], the number of modes merged into it (within 0.5%: the X and Y modes of a round shaft),
+    the range low-high the linearisation spans over the input angle, and the highest order of the input speed
+    the component's outputs carry (its model's ``EXCITATION_ORDER``: a joint's 2x)."""
+    component: str
+    omega: float
+    count: int
+    low: float
+    high: float
+    orders: int
+
+    def critical_speed(self, order: int) -> float:
+        """The input speed [rad/s] whose order-th harmonic is at this frequency (a Campbell diagram's crossing):
+        omega / order."""
+        return self.omega / order
+
+
+def scenario_modes(scenario, point: dict | None = None) -> list[Mode]:
+    """The natural frequencies of every machine component of scenario (drives and loads left out) at its
+    parameters with point's {"component.parameter": value} applied: ``model_natural_frequency_range`` (the model's
+    own linearisation at rest, input shaft held, no load), frequencies within 0.5% of each other merged."""
+    from .build import fmu_class
+    modes = []
+    for name, (fmu, _) in scenario.components.items():
+        if fmu in DRIVES_AND_LOADS:
+            continue
+        parameters = scenario.parameters_with_defaults(name)
+        parameters.update({k.partition(".")[2]: v for k, v in (point or {}).items() if k.partition(".")[0] == name})
+        cls = fmu_class(fmu)
+        orders = getattr(cls.PHYSICS, "EXCITATION_ORDER", 1)
+        merged = []
+        for omega, low, high in zip(*model_natural_frequency_range(cls.MODEL, parameters)):
+            if merged and omega <= merged[-1].omega * 1.005:
+                merged[-1].count += 1
+                merged[-1].low, merged[-1].high = min(merged[-1].low, float(low)), max(merged[-1].high, float(high))
+            else:
+                merged.append(Mode(name, float(omega), 1, float(low), float(high), orders))
+        modes += merged
+    return modes
+
+
+def drive_speeds(scenario) -> dict:
+    """{"component.omega_set": speed [rad/s]} of the scenario's drives (Motor, MotorController): the speed each
+    profile settles at; a step profile's omega_initial too."""
+    speeds = {}
+    for name, (fmu, _) in scenario.components.items():
+        if fmu in ("Motor", "MotorController"):
+            values = scenario.parameters_with_defaults(name)
+            speeds[f"{name}.omega_set"] = float(values["omega_set"])
+            if int(values.get("profile", 0)) == 2:
+                speeds[f"{name}.omega_initial"] = float(values["omega_initial"])
+    return speeds

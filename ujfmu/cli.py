@@ -391,6 +391,57 @@ def _status_summary(counts, total):
     return f"{total} points: " + ", ".join(parts)
 
 
+def cmd_modes(args):
+    from .analysis import NEAR_CRITICAL, drive_speeds, scenario_modes
+    from .scenario import Scenario, ScenarioError
+    from .steady import speed_text
+    from .sweep import parse_axis
+    scenario = Scenario(args.scenario)
+    changes = {}
+    for text in args.set or []:
+        axis = parse_axis(text, scenario, "--set")
+        if len(axis.values) != 1:
+            raise ScenarioError(f"--set {text!r}: one value (COMP.PAR=VALUE[rpm|deg]), not {len(axis.values)} "
+                                "(`ujfmu sweep --param` takes ranges)")
+        changes.update({name: axis.values[0] for name in axis.names})
+    if changes:
+        scenario = scenario.with_parameters(changes)
+    modes = scenario_modes(scenario)
+    print(f"{scenario.name}: natural frequencies omega_n of its machine components, each linearised at rest (input "
+          "shaft held, no load; the mean over the input angle, and the range it spans), and the input speeds at which "
+          "each order of the input speed that the component carries meets them (the crossings of a Campbell "
+          "diagram: the k-th order at omega_n / k)")
+    if not modes:
+        print("  no component with modes of its own (rigid or kinematic models)")
+        return 0
+    for m in modes:
+        spread = f", {m.low:.5g}-{m.high:.5g} over the input angle" if m.high > 1.005 * m.low else ""
+        merged = f", {m.count} modes" if m.count > 1 else ""
+        crossings = "; ".join(f"{k}x at {speed_text(m.critical_speed(k))}" for k in range(1, m.orders + 1))
+        print(f"  {m.component}: {m.omega:.5g} rad/s ({m.omega / (2 * math.pi):.5g} Hz{merged}{spread}): "
+              f"{crossings}")
+    for name, speed in drive_speeds(scenario).items():
+        if speed == 0.0:
+            continue
+        crossings = sorted(((abs(speed) / m.critical_speed(k) - 1.0, m, k) for m in modes
+                            for k in range(1, m.orders + 1)), key=lambda item: abs(item[0]))
+        margin, m, k = crossings[0]
+        near = abs(margin) < NEAR_CRITICAL
+        print(f"  {name} = {speed_text(abs(speed))}: the nearest crossing is the {k}x order's with {m.component}'s "
+              f"{m.omega:.5g} rad/s mode, at {m.critical_speed(k):.5g} rad/s: {100 * abs(margin):.1f}% "
+              f"{'above' if margin > 0 else 'below'} it" + (f" (within {100 * NEAR_CRITICAL:g}%)" if near else ""))
+        below = [(m, k) for m in modes for k in range(1, m.orders + 1) if m.critical_speed(k) < abs(speed)]
+        if below:
+            print(f"    from rest to it the speed crosses {len(below)}: "
+                  + ", ".join(f"{k}x with {m.omega:.5g} rad/s at {m.critical_speed(k):.5g} rad/s"
+                              for m, k in sorted(below, key=lambda mk: mk[0].critical_speed(mk[1]))))
+    print("  A crossing resonates where the order's forcing acts on the mode's shape (an unbalance drives lateral "
+          "modes at 1x; a Cardan joint's 2x drives twist and, through its secondary couple, lateral motion), and "
+          "the damping sets how much: run the scenario, or sweep the speed (`ujfmu sweep`, whose order figure "
+          "draws these lines on a Campbell diagram), to see the response.")
+    return 0
+
+
 def cmd_export_ssp(args):
     from .scenario import Scenario
     from .ssp import export_ssp
@@ -586,6 +637,10 @@ def main(argv=None):
     _out(p, "results/", "output folder")
     p.add_argument("--no-plot", action="store_true")
     p.add_argument("--no-progress", action="store_true", help="same as --quiet for the progress bar")
+    p = command("modes", cmd_modes, "natural frequencies and critical speeds of a scenario's components")
+    p.add_argument("scenario", type=Path)
+    p.add_argument("--set", action="append", metavar="COMP.PAR=VALUE[rpm|deg]",
+                   help="a parameter instead of the scenario's (several --set for several), e.g. rotor.beta=10deg")
     p = command("export-ssp", cmd_export_ssp, "write scenarios as SSP packages (SystemStructure.ssd + FMUs)")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     _out(p, "results/", "writes <scenario>.ssp here (results/fmi3/ with --fmi 3)")

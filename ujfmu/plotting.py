@@ -197,34 +197,6 @@ def _plot_points_not_ok(ax, sweep, xs, out, k):
     return drawn
 
 
-#: FMUs whose eigenvalues are not modes of the driveline (the drive's speed loop, a load law)
-DRIVES_AND_LOADS = ("Motor", "MotorController", "Load")
-
-
-def natural_frequency_lines(scenario, point: dict) -> list:
-    """[(component, natural frequency [rad/s], multiplicity, lowest, highest)] of every machine component of
-    scenario at its parameters with point's ({comp.par: value}) applied: ``analysis.model_natural_frequency_range``
-    (the model's own linearisation at rest, its mean over the input angle and the range it spans), frequencies
-    within 0.5% of each other merged (e.g. the X and Y modes of a round shaft)."""
-    from .analysis import model_natural_frequency_range
-    from .build import fmu_class
-    lines = []
-    for name, (fmu, _) in scenario.components.items():
-        if fmu in DRIVES_AND_LOADS:
-            continue
-        parameters = scenario.parameters_with_defaults(name)
-        parameters.update({k.partition(".")[2]: v for k, v in point.items() if k.partition(".")[0] == name})
-        merged = []
-        for omega, low, high in zip(*model_natural_frequency_range(fmu_class(fmu).MODEL, parameters)):
-            if merged and omega <= merged[-1][0] * 1.005:
-                merged[-1][1] += 1
-                merged[-1][2], merged[-1][3] = min(merged[-1][2], low), max(merged[-1][3], high)
-            else:
-                merged.append([float(omega), 1, float(low), float(high)])
-        lines += [(name, omega, count, low, high) for omega, count, low, high in merged]
-    return lines
-
-
 #: the order tracks' log axis reaches down to this fraction of the output's largest order amplitude or |value|:
 #: an order that vanishes by symmetry (1e-13 of the others, round-off) sits on this floor instead of stretching
 #: the axis over a dozen decades
@@ -307,7 +279,12 @@ def plot_sweep(sweep, out_dir):
     key0, rows = tracked[0]
     x = xs(rows)
     speed_hz = np.array([abs(r["speed_mean"]) / (2 * np.pi) for r in rows])
-    modes = natural_frequency_lines(scenario, rows[0]["point"] if rows else {}) if campbell else []
+    if campbell:
+        from .analysis import scenario_modes
+        modes = [(m.component, m.omega, m.count, m.low, m.high)
+                 for m in scenario_modes(scenario, rows[0]["point"] if rows else {})]
+    else:
+        modes = []
     for (ax1, *ax2), out in zip(panels, shown):
         unit, k = display(scenario.unit(out))
         amplitudes = {order: np.array([r[f"{out}.h{order}"] for r in rows], dtype=float) for order in orders}

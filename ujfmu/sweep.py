@@ -198,17 +198,17 @@ class SweepSettingsError(ScenarioError):
                              + "\n  - ".join(self.problems))
 
 
-def parse_axis(text: str, scenario) -> Axis:
+def parse_axis(text: str, scenario, option: str = "--param") -> Axis:
     """``comp.par[,comp.par...]=START:STOP:STEP[unit]`` (inclusive) or ``=V1,V2,...[unit]``; unit rpm (for a
     parameter in rad/s) or deg (for one in rad), in any letter case.
 
     scenario: a Scenario or the path of a scenario file. Values are checked against the parameters' declared
-    ranges; a ScenarioError names the argument otherwise.
+    ranges; a ScenarioError names the argument (as ``option``) otherwise.
     """
     scenario = scenario if isinstance(scenario, Scenario) else Scenario(scenario)
     names_text, sep, values_text = text.partition("=")
     if not sep:
-        raise ScenarioError(f"--param {text!r}: expected component.parameter=START:STOP:STEP")
+        raise ScenarioError(f"{option} {text!r}: expected component.parameter=START:STOP:STEP")
     match = re.fullmatch(r"\s*(.*?)\s*(rpm|deg)?\s*", values_text, re.IGNORECASE)
     body, unit = match.group(1), (match.group(2) or "").lower()
     names = tuple(n.strip() for n in names_text.split(","))
@@ -219,10 +219,10 @@ def parse_axis(text: str, scenario) -> Axis:
         else:
             axis = Axis.of(names, [float(x) for x in body.split(",")], unit)
     except ValueError as exc:
-        raise ScenarioError(f"--param {text!r}: bad values {values_text!r} ({exc}); expected numbers "
+        raise ScenarioError(f"{option} {text!r}: bad values {values_text!r} ({exc}); expected numbers "
                             "START:STOP:STEP or V1,V2,..., optionally followed by rpm (rad/s parameters) or deg "
                             "(rad parameters), in any case: 1000RPM is 1000rpm") from None
-    axis.check(scenario, f"--param {text!r}")
+    axis.check(scenario, f"{option} {text!r}")
     return axis
 
 
