@@ -1,4 +1,5 @@
-"""Signal analysis of results (numpy): running-speed harmonics (order amplitudes), amplitude spectra, orbits."""
+"""Signal analysis of results (numpy): running-speed harmonics (order amplitudes), amplitude spectra, orbits; the
+models' natural frequencies (linearisation) and the speeds at which the orders cross them."""
 
 from dataclasses import dataclass
 
