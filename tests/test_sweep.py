@@ -416,15 +416,38 @@ def test_a_not_steady_message_states_the_settle_time_used_and_why_it_passed_max_
 
 
 def test_the_steady_state_change_names_the_order_and_what_it_is_relative_to():
-    """Window figures [mean, 1x, 2x]: a 1x amplitude below 1% of the signal's largest figure is judged against that
-    1% (FLOOR), and the verdict says so, with the order; a large figure is judged against itself."""
-    from ujfmu.steady import FLOOR, steady_change
-    old = {"x": [2.0, 1e-8, 0.5]}
-    change, name, against = steady_change({"x": [2.0, 3e-8, 0.5]}, old, (1, 2))
+    """Window figures [mean, 1x, 2x]: a 1x amplitude below 1% of the signal's size is judged against that 1%
+    (FLOOR), and the verdict says so, with the order; a large figure is judged against itself."""
+    from ujfmu.steady import FLOOR, Periodic, steady_change
+    old = {"x": Periodic([2.0, 1e-8, 0.5], 2.0)}
+    change, name, against = steady_change({"x": Periodic([2.0, 3e-8, 0.5], 2.0)}, old, (1, 2))
     assert change == pytest.approx(2e-8 / (FLOOR * 2.0)) and name == "x 1x order amplitude"
-    assert against == f"its allowance, {FLOOR:g} of the signal's largest figure 2 (it is 3e-08 itself)"
-    change, name, against = steady_change({"x": [2.0, 1e-8, 0.6]}, old, (1, 2))
+    assert against == (f"its allowance, {FLOOR:g} of the signal's size 2 (its largest figure, or half its "
+                       "peak-to-peak; it is 3e-08 itself)")
+    change, name, against = steady_change({"x": Periodic([2.0, 1e-8, 0.6], 2.0)}, old, (1, 2))
     assert change == pytest.approx(0.1 / 0.6) and (name, against) == ("x 2x order amplitude", "itself")
+
+
+@pytest.mark.parametrize("drift", [0.0, 0.01])
+def test_an_order_the_step_does_not_resolve_still_counts_toward_the_signals_size(drift):
+    """A ring coupling's misalignment moment at 150 rad/s read every 5 ms: 8.4 samples a revolution, so its 2x
+    (3.28 N.m, mean 0) is unresolved and left out of the figures; the 1x that remains is round-off, 1e-8, and
+    differs by 30% between the record's halves. Judged against its own size it had failed the steady check (0.3
+    of itself); the signal's size counts the 2x (half its peak-to-peak), so the noise is far within 1e-3 of it. A
+    mean that drifts by 1% of the amplitude between the halves is still caught."""
+    from ujfmu.steady import halves_change, unresolved_orders, Window
+    t = np.arange(400) * 5e-3
+    angle = 150.0 * t
+    second = t >= t[200]
+    y = 3.28 * np.cos(2 * angle + 0.3) + 1e-8 * np.where(second, 1.3, 1.0) * np.cos(angle) \
+        + np.where(second, drift * 3.28, 0.0)
+    table = np.rec.fromarrays([t, y], names="time,m")
+    assert unresolved_orders(Window(0.0, angle, table), (1, 2, 4)) == (2, 4)
+    change, name, _ = halves_change(angle, table, ["m"])
+    if drift:
+        assert change > 0.5 and name == "m mean"
+    else:
+        assert change < 1e-3, (change, name)
 
 
 def test_a_drive_that_misses_its_set_speed_is_off_target(fmu_dir, tmp_path, capsys):
@@ -534,3 +557,16 @@ def test_ctrl_c_stops_an_in_process_sweep_with_its_points_kept(fmu_dir, tmp_path
     assert 2 <= len(records) < 61 and all(r["status"] == "ok" for r in records), records
     assert f"interrupted; {len(records)} of 61 points are in {journal}" in stderr
     assert "Traceback" not in stderr
+
+
+def test_a_misspelled_sweep_setting_from_python_is_refused_not_ignored():
+    """SweepSettings.from_scenario(settle=..., revolutoins=...) had run with the scenario's settle time and 2
+    revolutions: each unknown keyword is named with the setting it resembles."""
+    path = Path(__file__).parent.parent / "scenarios" / "double_cardan_omar_torsional.toml"
+    with pytest.raises(ScenarioError) as info:
+        SweepSettings.from_scenario(path, settle=0.5, revolutoins=10)
+    text = str(info.value)
+    assert "no setting 'revolutoins' (did you mean 'revolutions'?)" in text
+    assert "no setting 'settle' (did you mean 'settle_time'?)" in text
+    settings = SweepSettings.from_scenario(path, settle_time=0.5, revolutions=10)
+    assert (settings.settle_time, settings.revolutions) == (0.5, 10.0)

@@ -4,22 +4,23 @@ A sweep point (``ujfmu.sweep.run_point``) settles for ``settle_time``, then reco
 revolutions and reduces each output to its figures. Whether it was steady is measured, not assumed:
 
 - **Steady-state criterion.** The figures that do not depend on where the samples fall in a revolution (the mean and
-  the amplitudes of the requested running-speed orders of every output and of the running speed, from one
-  least-squares fit of orders 0..max(8, 2 x the highest requested), so that other orders do not leak in; an order
-  k the samples cannot resolve, with fewer than 4k + 2 a revolution, is NaN and left out: ``unresolved_orders``) are
-  measured over back-to-back windows of the same number of revolutions from 3T/4 to T. The point is steady when
-  every such figure f of the last window agrees with those of every earlier one, |f(T) - f(t)| <= steady_tol *
-  max(|f(T)|, FLOOR * largest figure of that output) (a response that only beats, never settling, then shows its
-  variation within the quarter). A transient decaying as exp(-sigma t) changes by A exp(-sigma T) (exp(sigma T/4) -
-  1) between 3T/4 and T and leaves A exp(-sigma T) at T: once sigma T >= 4 ln 2 = 2.8 the error left is below the
-  change measured. Otherwise T grows by GROWTH (1.5x), up to ``max_settle_time`` (default 8x the first T), so any
-  decay slower than that shows as a change. T is at least four windows long, and windows are whole revolutions
-  laid back to back from 3T/4 until one starts at T or later: the settle time used can pass ``max_settle_time``
-  (by up to two windows: the last growth ends at the cap, and each round of the check records two windows at least;
-  or up to four windows when the cap is shorter), and the not_steady message says so. A decay or drift much slower
-  than 1/T changes too little within the last quarter to be seen, so the first T must be of the order of the slowest
-  time constant: where a model's slowest decay rate is known (``analysis.decay_rates`` of its linearisation), a settle
-  time of 2.8 / sigma or more makes the check decisive (the report does this for the twin rotor).
+  the amplitudes of the requested running-speed orders of every output and of the running speed, from one least-
+  squares fit of orders 0..max(8, 2 x the highest requested), so that other orders do not leak in; an order k the
+  samples cannot resolve, with fewer than 4k + 2 a revolution, is NaN and left out: ``unresolved_orders``) are
+  measured over back-to-back windows of the same number of revolutions from 3T/4 to T. The point is steady when every
+  such figure f of the last window agrees with those of every earlier one, |f(T) - f(t)| <= steady_tol * max(|f(T)|,
+  FLOOR * size of that output: its largest figure, or half its peak-to-peak over the window where that is larger, so
+  that orders the step does not resolve still count toward its size) (a response that only beats, never settling, then
+  shows its variation within the quarter). A transient decaying as exp(-sigma t) changes by A exp(-sigma T) (exp(sigma
+  T/4) - 1) between 3T/4 and T and leaves A exp(-sigma T) at T: once sigma T >= 4 ln 2 = 2.8 the error left is below
+  the change measured. Otherwise T grows by GROWTH (1.5x), up to ``max_settle_time`` (default 8x the first T), so any
+  decay slower than that shows as a change. T is at least four windows long, and windows are whole revolutions laid
+  back to back from 3T/4 until one starts at T or later: the settle time used can pass ``max_settle_time`` (by up to
+  two windows: the last growth ends at the cap, and each round of the check records two windows at least; or up to
+  four windows when the cap is shorter), and the not_steady message says so. A decay or drift much slower than 1/T
+  changes too little within the last quarter to be seen, so the first T must be of the order of the slowest time
+  constant: where a model's slowest decay rate is known (``analysis.decay_rates`` of its linearisation), a settle time
+  of 2.8 / sigma or more makes the check decisive (the report does this for the twin rotor).
 - **Operating point.** Each (signal, set point) pair, e.g. a Motor's ``omega`` and ``omega_ref``, must agree in
   the mean over the measured window within ``operating_tol`` of the set point; a saturated drive that never
   reaches its speed is flagged, not measured as if it had.
@@ -30,6 +31,7 @@ signal and set point named); ``error`` (the point failed; message kept).
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -121,14 +123,25 @@ def figures(window: Window, outputs, orders) -> dict:
     return result
 
 
+class Periodic(NamedTuple):
+    """One signal's figures over a window (``periodic_figures``): [mean, amplitude of each order] (NaN for an
+    unresolved order), and its size, the larger of those and half its samples' peak-to-peak (which counts the
+    orders the step does not resolve): the steady-state check's scale, not itself compared."""
+    figures: list
+    size: float
+
+
 def periodic_figures(window: Window, signals, orders) -> dict:
-    """{signal: [mean, amplitude of each order]} from one fit of ``fitted_orders`` (criterion above); NaN for the
+    """{signal: Periodic} from one fit of ``fitted_orders`` (criterion above); NaN for the
     ``unresolved_orders``."""
     fitted, unresolved = fitted_orders(window, orders), unresolved_orders(window, orders)
     result = {}
     for name in signals:
-        c0, amplitudes, _ = order_fit(window.angle, window.table[name], fitted)
-        result[name] = [float(c0)] + _amplitudes(amplitudes, orders, unresolved)
+        y = window.table[name]
+        c0, amplitudes, _ = order_fit(window.angle, y, fitted)
+        values = [float(c0)] + _amplitudes(amplitudes, orders, unresolved)
+        size = max([abs(v) for v in values if not math.isnan(v)] + [0.5 * float(np.ptp(y))])
+        result[name] = Periodic(values, size)
     return result
 
 
@@ -136,9 +149,8 @@ def steady_change(new: dict, old: dict, orders=None) -> tuple:
     """(largest change relative to its allowance, 'signal figure', what the change is relative to) between two
     windows' ``periodic_figures`` of these orders; <= steady_tol means steady (module docstring)."""
     worst, name, against = 0.0, "", "itself"
-    for signal, figures_new in new.items():
-        scale = max((abs(f) for f in figures_new if not math.isnan(f)), default=0.0)
-        for i, (f_new, f_old) in enumerate(zip(figures_new, old[signal])):
+    for signal, (figures_new, scale) in new.items():
+        for i, (f_new, f_old) in enumerate(zip(figures_new, old[signal].figures)):
             if math.isnan(f_new) or math.isnan(f_old):   # an unresolved order: not a figure
                 continue
             allowance = max(abs(f_new), FLOOR * scale)
@@ -147,8 +159,8 @@ def steady_change(new: dict, old: dict, orders=None) -> tuple:
             if not relative <= worst:
                 figure = "mean" if i == 0 else f"{orders[i - 1]}x order amplitude" if orders else "order amplitude"
                 against = ("itself" if abs(f_new) >= FLOOR * scale else
-                           f"its allowance, {FLOOR:g} of the signal's largest figure {scale:.3g} (it is "
-                           f"{f_new:.3g} itself)")
+                           f"its allowance, {FLOOR:g} of the signal's size {scale:.3g} (its largest figure, or "
+                           f"half its peak-to-peak; it is {f_new:.3g} itself)")
                 worst, name = relative, f"{signal} {figure}"
     return worst, name, against
 

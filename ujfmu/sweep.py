@@ -52,7 +52,7 @@ from pathlib import Path
 
 from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
 from .master import Component, Connection, Cosimulation
-from .scenario import Scenario, ScenarioError
+from .scenario import SWEEP_KEYS, Scenario, ScenarioError
 from .steady import ERROR, FIGURES, FINAL, OK, STATUSES, grows, settle_and_measure
 
 #: human units accepted after a --param range, and their factor to SI
@@ -277,6 +277,15 @@ class SweepSettings:
         running_speed), settle_time [s] (needed), revolutions (default 4), orders (default (1, 2, 4)).
         scenario: a Scenario or the path of a scenario file."""
         scenario = scenario if isinstance(scenario, Scenario) else Scenario(scenario)
+        known = SWEEP_KEYS - {"params"}
+        unknown = []
+        for key in sorted(set(overrides) - known):
+            close = difflib.get_close_matches(key, known, n=1)
+            unknown.append(f"SweepSettings.from_scenario: no setting {key!r}"
+                           + (f" (did you mean {close[0]!r}?)" if close else "")
+                           + f"; the settings are {', '.join(sorted(known))}")
+        if unknown:
+            raise SweepSettingsError(unknown)
         table = dict(scenario.sweep)
         table.update({k: v for k, v in overrides.items() if v is not None})
         where = f"{scenario.path}: [sweep]"
