@@ -32,7 +32,10 @@ def test_a_scenario_with_changed_parameters_runs_unchecked_under_its_own_name(fm
     phased = scenario.with_parameters({"driveline.yoke_phase": math.pi / 2})
     result = ujfmu.run_scenario(phased, fmu_dir=fmu_dir, out_dir=tmp_path, plot=False)
     assert result.csv == tmp_path / "double_cardan_brutti_rigid_changed.csv" and result.verdict == "NOT CHECKED"
-    assert "(changed: driveline.yoke_phase = 1.5708)" in phased.title and scenario.reference_file is not None
+    assert "(changed: driveline.yoke_phase = 1.5708 rad (90 deg))" in phased.title
+    assert scenario.reference_file is not None
+    phased.record.append("driveline.tau_out")   # the copy's lists are its own: the file's scenario records as before
+    assert "driveline.tau_out" not in scenario.record and phased.connections is not scenario.connections
     omega_in, omega_out = result.table["motor.omega"], result.table["driveline.omega_out"]
     late = result.table["time"] > 0.5 * result.table["time"][-1]
     swing = np.ptp(omega_out[late] / omega_in[late])

@@ -119,3 +119,40 @@ def test_steps_that_record_nothing_leave_read_and_run_where_a_recording_run_is(f
     assert row.tobytes() == np.array([full[150][name] for name in columns]).tobytes()
     assert all(rest[name].tobytes() == full[name][150:].tobytes() for name in columns)
     np.testing.assert_allclose(rest["time"], full["time"][150:], rtol=1e-15)
+
+
+def test_values_of_the_wrong_type_are_refused_not_read_as_truthy(fmu_dir):
+    """A Motor's ideal_speed_source = "false" had run as True (any non-empty string is truthy), a different drive:
+    a Boolean takes True or False (or 0, 1), a Real a number; each refusal names the component, the variable and
+    what it takes. 0 and 1 still set a Boolean, and an int a Real."""
+    def motor(**values):
+        return [Component("motor", fmu_dir / "Motor.fmu", dict(profile=0, omega_set=50.0, **values)),
+                Component("load", fmu_dir / "Load.fmu", dict(T0=0.3))]
+    wiring = [Connection("motor.omega", "load.omega"), Connection("load.tau", "motor.tau_load")]
+    for value in ("false", "no", 0.5, None):
+        with pytest.raises(CosimulationError, match=rf"component 'motor' \(Motor\): ideal_speed_source = "
+                                                    rf"{value!r} must be True or False"):
+            cosimulate(motor(ideal_speed_source=value), wiring, 0.01, 1e-3, ["motor.omega"])
+    with pytest.raises(CosimulationError, match=r"omega_set = '50rpm' must be a real number \[rad/s\]"):
+        cosimulate([Component("motor", fmu_dir / "Motor.fmu", dict(profile=0, omega_set="50rpm"))] + motor()[1:],
+                   wiring, 0.01, 1e-3, ["motor.omega"])
+    ideal = cosimulate(motor(ideal_speed_source=1), wiring, 0.01, 1e-3, ["motor.omega"])
+    pi = cosimulate(motor(ideal_speed_source=False), wiring, 0.01, 1e-3, ["motor.omega"])
+    assert ideal["motor.omega"][-1] == 50.0 and pi["motor.omega"][-1] != 50.0
+
+
+def test_the_master_names_what_is_wrong_with_its_arguments(fmu_dir):
+    """Zero step (had been a ZeroDivisionError), a recorded signal given as one string (had been read letter by
+    letter: "no component 'j'"), the same component name twice (had been an error about a fixed parameter); a
+    (source, target) pair is taken as a Connection, with the same results."""
+    comps = chain(fmu_dir)
+    for step in (0.0, -1e-3, float("nan")):
+        with pytest.raises(CosimulationError, match="communication step size .* must be finite and > 0"):
+            cosimulate(comps, CONNECTIONS, 0.01, step, ["joint.omega_out"])
+    with pytest.raises(CosimulationError, match=r"record = 'joint.omega_out' is one string: give a list"):
+        cosimulate(comps, CONNECTIONS, 0.01, 1e-3, "joint.omega_out")
+    with pytest.raises(CosimulationError, match="component name 'load' used more than once"):
+        cosimulate(comps + [comps[-1]], CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])
+    pairs = cosimulate(comps, [(c.source, c.target) for c in CONNECTIONS], 0.01, 1e-3, ["joint.omega_out"])
+    objects = cosimulate(comps, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])
+    assert np.array_equal(pairs["joint.omega_out"], objects["joint.omega_out"])

@@ -11,7 +11,7 @@ from ctypes import byref
 
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
-from .master import _STATUS, FmuInstance
+from .master import _STATUS, FmuInstance, typed_value
 
 
 class FmuInstance3(FmuInstance):
@@ -72,15 +72,16 @@ class FmuInstance3(FmuInstance):
         var = self.variables.get(name)
         if var is None:
             self.vr(name)
+        value = typed_value(self, var, value)
         if var.type == "Float64":
-            self.slave.setFloat64([var.valueReference], [float(value)])
+            self.slave.setFloat64([var.valueReference], [value])
         elif var.type in ("Int32", "Int64", "Enumeration"):
-            getattr(self.slave, f"set{'Int64' if var.type == 'Enumeration' else var.type}")(
-                [var.valueReference], [int(value)])
+            setter = f"set{'Int64' if var.type == 'Enumeration' else var.type}"
+            getattr(self.slave, setter)([var.valueReference], [value])
         elif var.type == "Boolean":
-            self.slave.setBoolean([var.valueReference], [bool(value)])
+            self.slave.setBoolean([var.valueReference], [value])
         else:
-            self.slave.setString([var.valueReference], [str(value)])
+            self.slave.setString([var.valueReference], [value])
 
     def get(self, *names):
         """Float64 values by name."""

@@ -27,6 +27,7 @@ residual of every power bond (``Cosimulation.bond_energies``) and keep the recor
 import atexit
 import difflib
 import math
+import numbers
 import shutil
 import tempfile
 import warnings
@@ -194,8 +195,9 @@ class FmuInstance:
         self._log = log
 
         def logger(env, instance, status, category, message):
+            # an FMI 2.0 message is a printf format: without arguments, '%%' is a literal '%'
             log.append(f"[{_STATUS[status] if 0 <= status < 6 else status}] {instance.decode()}: "
-                       f"{message.decode(errors='replace')}")
+                       f"{message.decode(errors='replace').replace('%%', '%')}")
 
         self._callbacks = fmi2CallbackFunctions()
         self._callbacks.logger = fmi2CallbackLoggerTYPE(logger)
@@ -252,17 +254,19 @@ class FmuInstance:
                                     + f"; it has: {', '.join(self.variables)}") from None
 
     def set_value(self, name, value):
+        """Set a variable by name to a value of its declared type (``typed_value``)."""
         var = self.variables.get(name)
         if var is None:
             self.vr(name)
+        value = typed_value(self, var, value)
         if var.type == "Real":
-            self.slave.setReal([var.valueReference], [float(value)])
+            self.slave.setReal([var.valueReference], [value])
         elif var.type in ("Integer", "Enumeration"):
-            self.slave.setInteger([var.valueReference], [int(value)])
+            self.slave.setInteger([var.valueReference], [value])
         elif var.type == "Boolean":
-            self.slave.setBoolean([var.valueReference], [bool(value)])
+            self.slave.setBoolean([var.valueReference], [value])
         else:
-            self.slave.setString([var.valueReference], [str(value)])
+            self.slave.setString([var.valueReference], [value])
 
     def get(self, *names):
         """Real values by name."""
@@ -386,6 +390,7 @@ class Cosimulation:
             raise CosimulationError(f"{exc}" + self._log_text()) from exc
 
     def _setup(self, components, connections, record):
+        components, connections, record = _checked_setup(components, connections, record)
         for comp in components:
             if not Path(comp.fmu).is_file():
                 raise CosimulationError(f"component '{comp.name}': FMU file {comp.fmu} not found "
@@ -1146,6 +1151,68 @@ def held_inputs(instances: dict, connections: list, parameters: dict) -> list:
     return held
 
 
+#: the kind of value each FMI 2.0 and 3.0 variable type takes (``typed_value``)
+_VALUE_KINDS = {"Real": "a real number", "Float64": "a real number", "Float32": "a real number",
+                "Integer": "a whole number", "Int32": "a whole number", "Int64": "a whole number",
+                "Enumeration": "a whole number", "Boolean": "True or False"}
+
+
+def typed_value(instance, var, value):
+    """value as its FMI variable's type takes it: a real number (float) for a Real / Float64, a whole number (int)
+    for an Integer or Enumeration, True or False (0 or 1) for a Boolean, a string for a String. Anything else is a
+    CosimulationError naming the component and variable: a string "false" or 0.5 is not read as a truthy
+    Boolean, nor "10deg" as a Real."""
+    kind = _VALUE_KINDS.get(var.type)
+    if kind is None:
+        return str(value)
+    number = isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+    if kind == "a real number" and number:
+        return float(value)
+    if kind == "a whole number" and number and float(value).is_integer():
+        return int(value)
+    if kind == "True or False" and (isinstance(value, (bool, np.bool_)) or (number and value in (0, 1))):
+        return bool(value)
+    unit = f" [{var.unit}]" if kind == "a real number" and var.unit else ""
+    raise CosimulationError(f"component '{instance.name}' ({instance.md.modelName}): {var.name} = {value!r} must be "
+                            f"{kind}{unit} ({var.type} in the modelDescription)"
+                            + ("; give SI numbers (10 deg = 0.1745 rad, 1000 rpm = 104.7 rad/s)"
+                               if isinstance(value, str) and kind == "a real number" else ""))
+
+
+def _checked_setup(components, connections, record) -> tuple:
+    """(components, connections, record) as the master takes them, or a CosimulationError naming what is wrong:
+    components are ``Component`` objects with distinct names, connections ``Connection`` objects (or (source,
+    target) pairs of "component.variable" names), record a list of such names (not one string)."""
+    components, connections = list(components), list(connections)
+    for i, comp in enumerate(components):
+        if not isinstance(comp, Component):
+            raise CosimulationError(f"components[{i}] = {comp!r} is a {type(comp).__name__}: give "
+                                    "Component(name, fmu_path, parameters)")
+    names = [comp.name for comp in components]
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:
+        raise CosimulationError(f"component name{'s' if len(twice) > 1 else ''} {', '.join(map(repr, twice))} "
+                                "used more than once: each component needs a name of its own (connections and "
+                                "recorded signals name it)")
+    checked = []
+    for i, conn in enumerate(connections):
+        if not isinstance(conn, Connection):
+            if isinstance(conn, (tuple, list)) and len(conn) == 2 and all(isinstance(x, str) for x in conn):
+                conn = Connection(*conn)
+            else:
+                raise CosimulationError(f"connections[{i}] = {conn!r}: give Connection('comp.output', 'comp.input') "
+                                        "or a (source, target) pair of such names")
+        checked.append(conn)
+    if isinstance(record, str):
+        raise CosimulationError(f"record = {record!r} is one string: give a list of 'component.variable' names, "
+                                f"e.g. [{record!r}]")
+    record = list(record)
+    for name in record:
+        if not isinstance(name, str):
+            raise CosimulationError(f"record: {name!r} is not a 'component.variable' name")
+    return components, checked, record
+
+
 def _check_interval(output_interval):
     if isinstance(output_interval, bool) or not isinstance(output_interval, int) or output_interval < 1:
         raise CosimulationError(f"output interval {output_interval!r} must be a whole number of steps >= 1")
@@ -1164,6 +1231,8 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
     (also when the run fails) with "bonds" (``BondEnergy`` per power bond) and "held_inputs" (``HeldInput`` per
     input no connection feeds).
     """
+    if not (isinstance(step_size, numbers.Real) and step_size > 0.0 and math.isfinite(step_size)):
+        raise CosimulationError(f"communication step size {step_size!r} must be finite and > 0")
     n_steps = int(round((stop_time - start_time) / step_size))
     if n_steps < 1 or not math.isclose(start_time + n_steps * step_size, stop_time, rel_tol=1e-9, abs_tol=1e-12):
         raise CosimulationError(f"stop_time - start_time = {stop_time - start_time} is not a whole number of "

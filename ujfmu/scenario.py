@@ -313,9 +313,9 @@ class Scenario:
         return dict(values)
 
     def with_values(self, changes: dict) -> "Scenario":
-        """A copy with parameters {"component.parameter": value} set as given, unchecked, the rest shared."""
-        out = copy.copy(self)
-        out.components = {n: (fmu, dict(values)) for n, (fmu, values) in self.components.items()}
+        """A copy with parameters {"component.parameter": value} set as given, unchecked; its lists and tables
+        (record, plot, connections, tolerances, ...) are its own, so a change to the copy leaves this one as it is."""
+        out = copy.deepcopy(self)
         for key, value in changes.items():
             comp, _, par = key.partition(".")
             out.components[comp][1][par] = value
@@ -341,11 +341,21 @@ class Scenario:
                 raise ScenarioError(f"{self.path}: with_parameters: components.{comp}.parameters: "
                                     f"{'; '.join(problems)}")
         out.name = name or f"{self.name}_changed"
-        out.title = (f"{self.title} (changed: "
-                     + ", ".join(f"{key} = {value:g}" if isinstance(value, float) else f"{key} = {value}"
-                                 for key, value in changes.items()) + ")")
+        out.title = f"{self.title} (changed: " + ", ".join(self._change_text(k, v) for k, v in changes.items()) + ")"
         out.reference_file, out.tolerances, out.extrapolated_tolerances = None, {}, {}
         return out
+
+    def _change_text(self, key: str, value) -> str:
+        """'component.parameter = value unit' for a title, with deg or rpm beside rad and rad/s."""
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            return f"{key} = {value}"
+        unit = self.unit(key)
+        text = f"{key} = {value:g}" + (f" {unit}" if unit else "")
+        if unit == "rad":
+            text += f" ({math.degrees(value):.6g} deg)"
+        elif unit == "rad/s":
+            text += f" ({value * 30.0 / math.pi:.6g} rpm)"
+        return text
 
     def unit(self, name: str) -> str:
         """The declared unit of a "component.variable" ("" when it has none)."""
