@@ -16,7 +16,12 @@
 static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status, fmi2String category,
                    fmi2String message, ...) {
     (void)env;
-    fprintf(stderr, "[%d] %s %s: %s\n", (int)status, instance, category, message);
+    va_list args;   /* the message is a printf format (FMI 2.0, fmi2CallbackLogger): '%%' is a literal '%' */
+    va_start(args, message);
+    fprintf(stderr, "[%d] %s %s: ", (int)status, instance, category);
+    vfprintf(stderr, message, args);
+    fputc('\n', stderr);
+    va_end(args);
 }
 
 #define LOAD(name) \

@@ -235,6 +235,12 @@ class UjfmuSlave(Fmi2Slave):
         self._known = frozenset(self.__dict__) | {"_known"} | self.STATE.keys() | set(self.DERIVED)
         _LIVE.add(self)
 
+    def log(self, msg, status=Fmi2Status.ok, category=None, debug=None):
+        """pythonfmu's log with every '%' doubled: an FMI 2.0 logger message is a printf format (fmi2CallbackLogger),
+        which a host expands (fmpy's simulate_fmu, a C host's vsnprintf), so a literal '%' in a figure or in
+        the host's own instance name would read as a conversion: garbage, or a crash on '%s'."""
+        super().log(msg.replace("%", "%%"), status, category)
+
     def _output_getter(self, name):
         def get():
             if self._stale:

@@ -107,3 +107,23 @@ def test_output_read_in_initialization_mode_with_bad_parameters_is_an_error_not_
     with pytest.raises(FMICallException):
         inst.get("tau_in", "omega_out")
     assert any("cannot compute" in m for m in inst._log), inst._log
+
+
+def test_a_percent_sign_in_a_message_reaches_a_formatting_host_intact(fmu_dir):
+    """An FMI 2.0 logger message is a printf format, which fmpy's simulate_fmu expands like a C host: the
+    default error angles' warning at a 2 deg bend ("-25.4% ... +34.4% at the mirror-image bend") had arrived as
+    "+34.4 0x0.05...p-1022t the mirror-image" ('%a' read as a conversion). It arrives as written, and the
+    run completes."""
+    from fmpy import simulate_fmu
+    messages = []
+
+    def logger(component, instance, status, category, message):
+        messages.append(message.decode())
+    inputs = np.array([(0.0, 62.83, 0.3), (1.0, 62.83, 0.3)],
+                      dtype=[("time", float), ("omega_in", float), ("tau_load", float)])
+    result = simulate_fmu(str(fmu_dir / "CardanJoint.fmu"), stop_time=0.01, output_interval=1e-3, input=inputs,
+                          start_values={"bend_angle": math.radians(2.0)}, output=["omega_out"], logger=logger,
+                          debug_logging=True)
+    assert result["time"][-1] == pytest.approx(0.01)
+    (warning,) = [m for m in messages if "error_angle_beta" in m]
+    assert "% at the mirror-image bend_angle" in warning and "0x" not in warning and "%%" not in warning

@@ -216,3 +216,29 @@ def test_straight_line_joint_is_the_composed_kinematics_at_random_joints_states_
         assert out["tau_input_shaft"] == pytest.approx(drive - jd * out["alpha_in"], rel=1e-12, abs=1e-12 * scale)
         for name in ("M_x", "M_y", "M_z", "omega_out", "phi_out"):
             assert out[name] == pytest.approx(speed_driven[name], rel=1e-11, abs=1e-11 * scale)
+
+
+def _lab_joint(bend_deg, beta=cardan.LAB_ERROR_ANGLE, gamma=cardan.LAB_ERROR_ANGLE):
+    return cardan.Parameters(bend_angle=math.radians(bend_deg), bend_plane_angle=0.0, error_angle_beta=beta,
+                             error_angle_gamma=gamma, J1=2e-7, J2=0.0)
+
+
+@pytest.mark.parametrize("bend_deg", [2.0, -2.0, 4.0])
+def test_the_default_error_angles_at_a_small_bend_are_named(bend_deg):
+    """At a vehicle's few degrees of bend the laboratory joint's 0.3 deg error angles (the defaults) change the 2x
+    velocity-ratio swing by a quarter or a third, one way for a bend and the other for its mirror image: a warning
+    gives both changes and the remedy. The swing it compares with is the ideal joint's closed form
+    1/cos(phi) - cos(phi). At 30 deg (Feng's joint) the change is under 5%, and error angles set by hand, or 0,
+    draw none."""
+    phi = math.radians(bend_deg)
+    ideal = cardan.ratio_swing(cardan.joint_frame(phi, 0.0, 0.0, 0.0))
+    assert ideal == pytest.approx(1.0 / math.cos(phi) - math.cos(phi), rel=1e-6)
+    actual = cardan.ratio_swing(_lab_joint(bend_deg).frame)
+    mirror = cardan.ratio_swing(_lab_joint(-bend_deg).frame)
+    assert abs(actual / ideal - 1.0) > 0.1 and (actual - ideal) * (mirror - ideal) < 0.0   # opposite ways
+    (message,) = cardan.advice(_lab_joint(bend_deg))
+    assert f"by {100 * (actual / ideal - 1):+.3g}%" in message and f"{100 * (mirror / ideal - 1):+.3g}% at the " \
+           "mirror-image" in message and "set both to 0 for an ideal joint" in message
+    assert cardan.advice(_lab_joint(30.0)) == []
+    assert cardan.advice(_lab_joint(bend_deg, 0.0, 0.0)) == []
+    assert cardan.advice(_lab_joint(bend_deg, math.radians(0.2), math.radians(0.3))) == []

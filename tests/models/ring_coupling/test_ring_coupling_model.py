@@ -165,3 +165,15 @@ def test_written_out_rate_bound_is_the_larger_of_the_natural_and_forcing_rates()
         omega_max, w2 = rng.uniform(0.0, 400.0), rng.uniform(-400.0, 400.0)
         assert rc.rate_bound(p, (0.0, w2), omega_max) == rk4.fastest_rate(p.natural_rate,
                                                                           rc.forcing_rate(omega_max, w2))
+
+
+def test_a_misalignment_large_against_the_ring_is_named():
+    """M_p = 157 (EI/R^3) e^2 is the paper's result for e small against R; at e = 99 mm on a 0.1 m ring the model
+    ran (shaft 2 backwards, a 1.5 rad twist) without a word: above e = 0.1 R a warning names e/R and the mm slip.
+    The paper's 3 mm on 0.1 m, and 10 mm on a 0.2 m ring, draw none."""
+    def ring(e, R=0.1):
+        return coupling(e=e, R=R, c_s=rc.rotational_stiffness(E, D, R))
+    (message,) = rc.advice(ring(0.099))
+    assert "e = 0.099 m is 0.99 of the ring radius R = 0.1 m" in message and "e = 9.9e-05 m" in message
+    assert rc.advice(ring(0.003)) == [] and rc.advice(ring(0.01, 0.2)) == []
+    assert len(rc.advice(ring(0.0101))) == 1

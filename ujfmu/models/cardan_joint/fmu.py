@@ -40,10 +40,10 @@ class CardanJoint(PrescribedInputSlave):
         parameter("bend_plane_angle", 0.0, "rad",
                   "Structural misalignment delta, C_delta = R_y(delta) (Feng Eq. 1): a second bend component about "
                   "y, not the azimuth of the bend plane (shaft angle acos(cos phi cos delta))", **_ANGLE),
-        parameter("error_angle_beta", math.radians(0.3), "rad",
+        parameter("error_angle_beta", cardan.LAB_ERROR_ANGLE, "rad",
                   "Error misalignment beta, C_beta = R_x(-beta) (Feng Eq. 1); laboratory model 0.3 deg (set it and "
                   "error_angle_gamma to 0 for an ideal joint)", **_ANGLE),
-        parameter("error_angle_gamma", math.radians(0.3), "rad",
+        parameter("error_angle_gamma", cardan.LAB_ERROR_ANGLE, "rad",
                   "Error misalignment gamma, C_gamma = R_y(-gamma) (Feng Eq. 1); laboratory model 0.3 deg (set it "
                   "and error_angle_beta to 0 for an ideal joint)", **_ANGLE),
         parameter("J1", 2.0e-7, "kg.m2", "Driving shaft moment of inertia (Feng Eq. 8); laboratory model",

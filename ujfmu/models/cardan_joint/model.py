@@ -31,6 +31,10 @@ from ..protocol import (Drive, NoState, Torques, kinematic_always, no_derivative
 
 #: Largest admissible magnitude of each misalignment angle and of the total shaft angle acos(K_z) [rad].
 MAX_ANGLE = math.radians(89.0)
+#: the error misalignments beta, gamma of Feng et al.'s laboratory joint, the FMU's defaults [rad]
+LAB_ERROR_ANGLE = math.radians(0.3)
+#: a 2x speed swing changed by more than this fraction by the default error angles draws a warning (``advice``)
+ERROR_ANGLE_EFFECT = 0.05
 #: the order of the input speed the outputs carry at full size: the joint's speed ratio turns twice a revolution (its
 #: 4x, 6x, ... are smaller by q, q^2, ..., q = tan^2(beta/2)); a record must sample it (``ujfmu.scenario_run``)
 EXCITATION_ORDER = 2
@@ -217,6 +221,35 @@ def load_outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
     return {"tau_in": tau_in, "M_x": m_x, "M_y": m_y, "M_z": m_z}
 
 
+def ratio_swing(frame: tuple, samples: int = 360) -> float:
+    """Peak-to-peak of the velocity ratio omega2/omega1 over a revolution (:func:`velocity_ratio` at ``samples``
+    input angles)."""
+    values = [velocity_ratio(frame, 2.0 * math.pi * k / samples) for k in range(samples)]
+    return max(values) - min(values)
+
+
+def advice(p: Parameters) -> list:
+    """A warning when the error angles are left at the laboratory joint's (``LAB_ERROR_ANGLE``) and change the
+    joint's 2x velocity-ratio swing by more than ``ERROR_ANGLE_EFFECT`` from the ideal joint's at the same bend
+    (at a bend of a few degrees, a vehicle's, by a quarter or a third, with the bend's sign)."""
+    if p.error_angle_beta != LAB_ERROR_ANGLE or p.error_angle_gamma != LAB_ERROR_ANGLE:
+        return []
+    ideal = ratio_swing(joint_frame(p.bend_angle, p.bend_plane_angle, 0.0, 0.0))
+    actual = ratio_swing(p.frame)
+    mirror = ratio_swing(joint_frame(-p.bend_angle, p.bend_plane_angle, LAB_ERROR_ANGLE, LAB_ERROR_ANGLE))
+    if ideal > 1e-12 and abs(actual / ideal - 1.0) <= ERROR_ANGLE_EFFECT:
+        return []
+    if ideal > 1e-12:
+        change = (f"by {100.0 * (actual / ideal - 1.0):+.3g}% (to {actual:.4g} peak-to-peak; "
+                  f"{100.0 * (mirror / ideal - 1.0):+.3g}% at the mirror-image bend_angle = "
+                  f"{-p.bend_angle:.4g} rad)")
+    else:
+        change = f"from none, the ideal joint's at this bend, to {actual:.4g} peak-to-peak"
+    return [f"error_angle_beta = error_angle_gamma = {math.degrees(LAB_ERROR_ANGLE):g} deg are the defaults, Feng "
+            f"et al.'s laboratory joint's manufacturing errors: they change the joint's 2x velocity-ratio swing "
+            f"{change}; set both to 0 for an ideal joint"]
+
+
 def check(p: Parameters) -> list:
     """The total shaft angle acos(K_z) must stay within MAX_ANGLE."""
     angle = shaft_angle(p.frame)
@@ -305,6 +338,8 @@ class TorqueDriven:
     def check(p: TorqueDrivenParameters) -> list:
         """:func:`check`, and the driving shaft needs an inertia to integrate."""
         return check(p) + shaft_inertia_problems("J_drive + J1", p.J_drive + p.J1, "driving shaft")
+
+    advice = staticmethod(advice)
 
 
 def _rot_x(t):

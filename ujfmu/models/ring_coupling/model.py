@@ -221,16 +221,30 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
 DEFAULT_RING = (2.1e11, 0.003, 0.1)
 
 
+#: a misalignment above this fraction of the ring radius draws a warning (``advice``)
+LARGE_MISALIGNMENT = 0.1
+
+
 def advice(p: Parameters) -> list:
     """Warnings on valid parameters that are likely not what was meant: c_s left at the default ring's 87 EI/R
-    while R, d or E describe another ring (c_s is a parameter of its own, not derived from them)."""
+    while R, d or E describe another ring (c_s is a parameter of its own, not derived from them); a misalignment
+    e above ``LARGE_MISALIGNMENT`` of R, where the paper's e^2 law (Eq. 7, derived for e small against R) is not
+    established."""
+    messages = []
     default = rotational_stiffness(*DEFAULT_RING)
     own = rotational_stiffness(p.E, p.d, p.R)
     if p.c_s == default and abs(own - default) > 1e-3 * default:
-        return [f"c_s = {p.c_s:.6g} N.m/rad is the default ring's stiffness (87 EI/R for R = {DEFAULT_RING[2]:g} m, "
-                f"d = {DEFAULT_RING[1]:g} m, E = {DEFAULT_RING[0]:g} Pa), but this ring's 87 EI/R is {own:.6g} N.m/rad: "
-                f"set c_s = {own:.6g} for it (or 0 for the paper's pendulum case, Eq. 9)"]
-    return []
+        messages.append(f"c_s = {p.c_s:.6g} N.m/rad is the default ring's stiffness (87 EI/R for R = "
+                        f"{DEFAULT_RING[2]:g} m, d = {DEFAULT_RING[1]:g} m, E = {DEFAULT_RING[0]:g} Pa), but this "
+                        f"ring's 87 EI/R is {own:.6g} N.m/rad: set c_s = {own:.6g} for it (or 0 for the paper's "
+                        "pendulum case, Eq. 9)")
+    if p.e > LARGE_MISALIGNMENT * p.R:
+        messages.append(f"e = {p.e:.6g} m is {p.e / p.R:.3g} of the ring radius R = {p.R:.6g} m: the misalignment "
+                        "moment M_p = 157 (EI/R^3) e^2 is the paper's result for a misalignment small against the "
+                        f"ring, and above e = {LARGE_MISALIGNMENT:g} R the model runs outside what the paper "
+                        "establishes (its twist and moment may be far from a real ring's); if e was meant in mm, "
+                        f"e = {p.e / 1000.0:.6g} m")
+    return messages
 
 
 def check(p: Parameters) -> list:
