@@ -551,3 +551,24 @@ def test_modes_names_the_nearest_order_crossing_of_the_set_speed(capsys):
     assert "--set 'motor.omega_set=1:2:1': one value" in capsys.readouterr().err
     assert main(["modes", str(scenarios / "double_cardan_omar_torsional.toml"), "--set", "driveline.nope=1"]) == 2
     assert "--set 'driveline.nope=1'" in capsys.readouterr().err
+
+
+def test_junit_says_which_comparison_a_signal_failed(tmp_path):
+    """A signal within its reference band but outside its [reference.extrapolated] band (the step-halving
+    estimate) had been listed as "outside tolerance of the reference": the failure names each comparison
+    with its own signals."""
+    from types import SimpleNamespace
+
+    from ujfmu.scenario_run import write_junit
+
+    def check(name, passed):
+        return SimpleNamespace(name=name, passed=passed)
+    result = SimpleNamespace(
+        scenario=SimpleNamespace(name="heavy"), failed=True, checked=True, total_time=1.0,
+        checks=[check("joint.tau_in", True), check("load.tau", False)],
+        extrapolated_checks=[check("joint.tau_in", False), check("load.tau", True)],
+        operating_checks=[], sampling_checks=[], steady_checks=[], summary=lambda: "FAIL heavy")
+    path = write_junit([result], tmp_path / "report.xml")
+    message = ET.parse(path).getroot().find("testcase").find("failure").get("message")
+    assert message == ("signal outside tolerance of the reference: load.tau; step-halving error estimate outside "
+                       "[reference.extrapolated]: joint.tau_in")

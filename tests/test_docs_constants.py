@@ -110,7 +110,7 @@ def _quoted_values():
         ("docs/cosimulation.md", r"\+-(1e\d) rad/s", SPEED_RANGE["max"]),
         ("docs/cosimulation.md", r"\+-(1e\d) N.m", TORQUE_RANGE["max"]),
         ("README.md", r"`steady_tol` \(default (1e-\d) of", SweepSettings.steady_tol),
-        ("README.md", r"or of (\d+)% of the output's largest figure", 100 * FLOOR),
+        ("README.md", r"or of (\d+)% of the output's size", 100 * FLOOR),
         ("README.md", r"T grows ([\d.]+)x", GROWTH),
         ("README.md", r"within (\d+)% of its set point", 100 * SweepSettings.operating_tol),
     ]

@@ -156,3 +156,15 @@ def test_the_master_names_what_is_wrong_with_its_arguments(fmu_dir):
     pairs = cosimulate(comps, [(c.source, c.target) for c in CONNECTIONS], 0.01, 1e-3, ["joint.omega_out"])
     objects = cosimulate(comps, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])
     assert np.array_equal(pairs["joint.omega_out"], objects["joint.omega_out"])
+
+
+def test_an_fmus_warning_reaches_a_python_caller(fmu_dir):
+    """cosimulate had returned the run of a joint whose default error angles change its 2x swing by a quarter
+    (the FMU's warning, in the log only) without a word: it is an FmuWarning, with the FMU's message."""
+    import math
+
+    from ujfmu.master import FmuWarning
+    comps = chain(fmu_dir)
+    comps[1] = Component("joint", fmu_dir / "CardanJoint.fmu", {"bend_angle": math.radians(2.0)})
+    with pytest.warns(FmuWarning, match=r"\[warning\] joint: .*error_angle_beta = error_angle_gamma = 0.3 deg"):
+        cosimulate(comps, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])

@@ -570,3 +570,23 @@ def test_a_misspelled_sweep_setting_from_python_is_refused_not_ignored():
     assert "no setting 'settle' (did you mean 'settle_time'?)" in text
     settings = SweepSettings.from_scenario(path, settle_time=0.5, revolutions=10)
     assert (settings.settle_time, settings.revolutions) == (0.5, 10.0)
+
+
+def test_a_points_fmu_warnings_are_kept_and_a_failed_point_has_every_column(tmp_path, fmu_dir):
+    """Ring coupling at 100 rad/s over e = 3 mm (the paper's), 50 mm (half the ring radius: the FMU warns that the
+    e^2 law is outside what the paper establishes) and 0.2 m (beyond R: the FMU refuses it). The warning is in
+    the point's "warnings" (table and CSV), not lost; the failed point's figures are NaN in the table, so a loop
+    over the rows does not stop at a KeyError."""
+    ring = Scenario(SCENARIOS / "ring_coupling_fig3.toml")
+    settings = SweepSettings.from_scenario(ring, outputs=["coupling.x_e"], running_speed="motor.omega",
+                                           settle_time=0.02, revolutions=2, steady_tol=0.0)
+    sweep = Sweep(ring, [parse_axis("coupling.e=0.003,0.05,0.2", ring)], settings, out_dir=tmp_path, fmu_dir=fmu_dir)
+    sweep.run(workers=0, progress=False)
+    paper, half, beyond = sweep.table()
+    assert paper["status"] == half["status"] == "ok" and beyond["status"] == "error"
+    assert paper["warnings"] == "" and "e = 0.05 m is 0.5 of the ring radius R = 0.1 m" in half["warnings"]
+    assert "must be smaller than the ring radius" in beyond["error"] and math.isnan(beyond["coupling.x_e.h2"])
+    assert math.isnan(beyond["speed_mean"]) and half["coupling.x_e.h2"] > paper["coupling.x_e.h2"] > 0.0
+    with open(sweep.csv) as f:
+        rows = list(csv.DictReader(f))
+    assert "e = 0.05 m is 0.5 of the ring radius" in rows[1]["warnings"] and rows[0]["warnings"] == ""

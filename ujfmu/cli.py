@@ -12,6 +12,7 @@ import os
 import signal
 import sys
 import time
+import warnings
 from pathlib import Path
 
 from .build import DEFAULT_FMU_DIR, FMUS, REPO_DIR
@@ -703,7 +704,10 @@ def main(argv=None):
         from .build3 import DEFAULT_FMU3_DIR
         args.fmu_dir = DEFAULT_FMU3_DIR
     try:
-        return args.func(args)
+        from .master import FmuWarning
+        with warnings.catch_warnings():   # the commands print what the FMUs warn of in their own terms
+            warnings.simplefilter("ignore", FmuWarning)
+            return args.func(args)
     except KeyboardInterrupt:
         print(f"\nujfmu {args.command}: interrupted", file=sys.stderr)
         return 130

@@ -114,6 +114,11 @@ class HeldInputWarning(UserWarning):
     """Inputs no connection feeds and no component parameter sets: held at their declared start values."""
 
 
+class FmuWarning(UserWarning):
+    """A warning an FMU logged (its message, from ``Cosimulation.log``): e.g. parameters that are valid but likely
+    not what was meant, or outputs read too seldom for the input speed's orders."""
+
+
 @dataclass
 class Component:
     name: str
@@ -380,6 +385,7 @@ class Cosimulation:
         self.instances = {}
         OPEN[0] += 1
         self._open = True
+        self._warned = 0             # log entries already raised as FmuWarning
         try:
             self._setup(components, connections, record)
         except CosimulationError:
@@ -388,6 +394,14 @@ class Cosimulation:
         except Exception as exc:
             self.close()
             raise CosimulationError(f"{exc}" + self._log_text()) from exc
+        self._warn_fmu_warnings()
+
+    def _warn_fmu_warnings(self):
+        """An ``FmuWarning`` for each warning the FMUs logged since the last call."""
+        new, self._warned = self.log[self._warned:], len(self.log)
+        for entry in new:
+            if entry.startswith("[warning]"):
+                warnings.warn(entry, FmuWarning, stacklevel=3)
 
     def _setup(self, components, connections, record):
         components, connections, record = _checked_setup(components, connections, record)
@@ -1046,6 +1060,8 @@ class Cosimulation:
         except CosimulationError as exc:   # keep what was recorded up to the last completed step
             exc.partial = self._table(t0, values[:self.rows_done + 1], steps)
             raise
+        finally:
+            self._warn_fmu_warnings()
         return self._table(t0, values, steps)
 
     def _table(self, t0, values, steps):

@@ -125,6 +125,14 @@ def description_attribute(path: Path, attribute: str) -> str | None:
 
 
 class Scenario:
+    """A scenario file read and checked (README, "Scenario format"): what ``run_scenario`` and the master run.
+
+    Attributes a caller may read, and set on a copy (``with_parameters``) before running it: ``name``, ``title``,
+    ``start_time``, ``stop_time``, ``step_size``, ``output_interval``, ``coupling`` ("implicit" or "explicit"),
+    ``components`` ({name: (FMU name, {parameter: value})}), ``inputs``, ``connections`` (``master.Connection``),
+    ``record`` ("component.variable" names), ``tolerances`` ({signal: Tolerance}), ``running_speed``,
+    ``steady_from``, ``sweep`` (its [sweep] table); ``reference_file`` is None on a changed copy."""
+
     def __init__(self, path):
         self.path = Path(path)
         try:

@@ -653,9 +653,12 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
         case = ET.SubElement(suite, "testcase", classname=classname, name=r.scenario.name,
                              time=f"{r.total_time:.3f}")
         if r.failed:
-            outside = [c.name for c in r.checks + r.extrapolated_checks if not c.passed]
+            outside = [c.name for c in r.checks if not c.passed]
+            extrapolated = [c.name for c in r.extrapolated_checks if not c.passed]
             why = [w for w, bad in (("signal outside tolerance of the reference: " + ", ".join(dict.fromkeys(outside)),
                                      bool(outside)),
+                                    ("step-halving error estimate outside [reference.extrapolated]: "
+                                     + ", ".join(dict.fromkeys(extrapolated)), bool(extrapolated)),
                                     ("operating point not reached", any(not c.passed for c in r.operating_checks)),
                                     ("record aliases a model's excitation order",
                                      any(not c.passed for c in r.sampling_checks)),

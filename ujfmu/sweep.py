@@ -45,13 +45,14 @@ import sys
 import tempfile
 import threading
 import time
+import warnings
 import zipfile
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
-from .master import Component, Connection, Cosimulation
+from .master import Component, Connection, Cosimulation, FmuWarning
 from .scenario import SWEEP_KEYS, Scenario, ScenarioError
 from .steady import ERROR, FIGURES, FINAL, OK, STATUSES, grows, settle_and_measure
 
@@ -363,6 +364,7 @@ def run_point(job, point, fmu_blobs=None):
     """
     started = time.perf_counter()
     record = {"point": point, "status": OK, "error": ""}
+    logged = []
     try:
         fmu_dir = _worker_fmu_dir(job.fmu_hashes, fmu_blobs)
         params = {}
@@ -373,11 +375,19 @@ def run_point(job, point, fmu_blobs=None):
                       for name, fmu, parameters in job.components]
         s = job.settings
         signals = list(dict.fromkeys(s.outputs + [s.running_speed] + [x for pair in s.operating_point for x in pair]))
-        with Cosimulation(components, [Connection(a, b) for a, b in job.connections], job.step_size,
-                          signals, coupling=job.coupling) as cosim:
-            record.update(settle_and_measure(cosim, s))
+        with warnings.catch_warnings(record=True) as logged:   # the FMUs' warnings go into the record
+            warnings.simplefilter("always", FmuWarning)
+            with Cosimulation(components, [Connection(a, b) for a, b in job.connections], job.step_size,
+                              signals, coupling=job.coupling) as cosim:
+                record.update(settle_and_measure(cosim, s))
     except Exception as exc:  # a failing point is data, not the end of the sweep
         record.update(status=ERROR, error=f"{type(exc).__name__}: {exc}".replace("\n", " | ")[:2000])
+    fmu = [str(w.message) for w in logged if issubclass(w.category, FmuWarning)]
+    if fmu:
+        record["warnings"] = " | ".join(dict.fromkeys(fmu))[:2000]
+    for w in logged:   # the others as they would have been
+        if not issubclass(w.category, FmuWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     record["wall_s"] = time.perf_counter() - started
     return record
 
@@ -592,9 +602,12 @@ class Sweep:
 
     def table(self) -> list:
         """One flat dict a point, in grid order, as the CSV: the swept parameters by name (SI), status, the
-        figures of every output, wall_s, error, note (the record's "point" is kept as well)."""
-        return [{**r["point"], **{k: v for k, v in r.items() if k not in ("config", "grid")}}
-                for r in self.records()]
+        figures of every output (NaN for a point without them: failed or not run), speed_mean, settled_s,
+        steady_change, wall_s, error, note, warnings (the record's "point" is kept as well)."""
+        blank = dict.fromkeys(["speed_mean"] + self.settings.columns() + ["settled_s", "steady_change", "wall_s"],
+                              math.nan)
+        return [{**r["point"], **blank, "note": "", "warnings": "",
+                 **{k: v for k, v in r.items() if k not in ("config", "grid")}} for r in self.records()]
 
     def write_csv(self):
         """The tidy CSV: one row a point; swept parameters in SI units, then the figures of every output."""
@@ -602,12 +615,12 @@ class Sweep:
         cols = ["speed_mean"] + self.settings.columns() + ["settled_s", "steady_change"]
         with open(self.csv, "w", newline="") as f:
             writer = csv.writer(f)
-            writer.writerow(param_cols + ["status"] + cols + ["wall_s", "error", "note"])
+            writer.writerow(param_cols + ["status"] + cols + ["wall_s", "error", "note", "warnings"])
             for record in self.records():
                 writer.writerow([repr(float(record["point"][n])) for n in param_cols] + [record["status"]]
                                 + [repr(record[c]) if c in record else "" for c in cols]
                                 + [f"{record.get('wall_s', float('nan')):.3f}", record["error"],
-                                   record.get("note", "")])
+                                   record.get("note", ""), record.get("warnings", "")])
         return self.csv
 
     def unresolved(self):
