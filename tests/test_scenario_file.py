@@ -96,6 +96,9 @@ def test_good_file_loads(tmp_path):
     ('stop_time = 1.0', 'stoptime = 1.0', "[experiment]: unknown field(s) stoptime"),   # not "stop_time = None"
     # [reference]: every recorded signal compared or not_compared with a reason; tolerances well-formed
     ('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x"]' + REF, "output.record: j.M_x neither compared"),
+    # the provisional band it suggests: relative for a signal, absolute for a running angle (its range grows)
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x", "j.phi_out"]' + REF,
+     '"j.M_x" = { rel_range = 0.05 }; "j.phi_out" = { abs = 1e-3 } (it grows along the run: an absolute band)'),
     ('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x"]' + REF + '\n[reference.not_compared]\n"j.M_x" = " "',
      "reference.not_compared.j.M_x"),
     ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF + '\n[reference.not_compared]\n"j.M_y" = "why"',

@@ -259,11 +259,14 @@ class Scenario:
         if self.reference_file is not None:
             missing = [n for n in self.record if n not in self.tolerances and n not in self.not_compared]
             if missing:
+                from .steady import grows
+                bands = [f"\"{n}\" = {{ abs = 1e-3 }} (it grows along the run: an absolute band)" if grows(n)
+                         else f"\"{n}\" = {{ rel_range = 0.05 }}" for n in missing[:2]]
                 raise ScenarioError(f"{self.path}: output.record: {', '.join(missing)} neither compared "
                                     "([reference.tolerance]) nor listed in reference.not_compared with the reason; "
                                     "while you make a new reference (`ujfmu references`) and choose the bands "
                                     "(`ujfmu run --check-step`), give each a provisional band, e.g. "
-                                    f"\"{missing[0]}\" = {{ rel_range = 0.05 }}")
+                                    + "; ".join(bands))
         self.plot = list(out.get("plot", self.tolerances or self.record))
         self.orbits = [tuple(pair) for pair in out.get("orbits", [])]
         for i, pair in enumerate(self.orbits):

@@ -151,3 +151,25 @@ def test_state_outputs_are_the_outputs_without_feedthrough_at_any_inputs(name, r
     for inputs in (u, u._replace(**{field: getattr(u, field) + 7.0 for field in u._fields})):
         full = model.outputs(p, 0.4, y, inputs)
         assert model.state_outputs(p, 0.4, y) == {k: full[k] for k in names}
+
+
+@pytest.mark.parametrize("name, angle", [("CardanJoint", "bend_angle"), ("CardanJointTorqueDriven", "bend_angle"),
+                                         ("DoubleCardanDriveline", "beta1"), ("DoubleCardanDriveline", "beta2"),
+                                         ("TwinJeffcottRotor", "beta"), ("TwinJeffcottRotorTorqueDriven", "beta")])
+def test_a_joint_angle_past_45_deg_asks_whether_degrees_were_meant(name, angle):
+    """bend_angle = 1.2 (meant as 1.2 deg) had run a 68.8 deg joint without a word: each joint model's advice
+    names an angle past 45 deg, its speed-ratio swing cos(b) .. 1/cos(b), and the value in rad had it been
+    degrees; 30 deg (Feng's joint) and -45 deg draw none."""
+    import math
+    cls = fmu_class(name)
+    values = {v.name: v.start for v in cls.VARIABLES if v.causality == "parameter"}
+    if name.startswith("CardanJoint"):
+        values.update(error_angle_beta=0.0, error_angle_gamma=0.0)
+    names = [f.name for f in dataclasses.fields(cls.MODEL.Parameters) if f.init]
+
+    def p_of(value):
+        return cls.MODEL.Parameters(**{n: {**values, angle: value}[n] for n in names})
+    (message,) = [m for m in cls.MODEL.advice(p_of(1.2)) if m.startswith(f"{angle} = ")]
+    assert "68.75 deg" in message and "between 0.362 and 2.76" in message and f"{angle} = 0.020944 rad" in message
+    assert not [m for m in cls.MODEL.advice(p_of(math.radians(30.0))) if m.startswith(f"{angle} = ")]
+    assert not [m for m in cls.MODEL.advice(p_of(-math.radians(45.0))) if m.startswith(f"{angle} = ")]

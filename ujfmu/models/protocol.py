@@ -64,6 +64,7 @@ attributes are the names above (e.g. ``TorqueDriven`` in ``cardan_joint/model.py
 declares that class as its MODEL.
 """
 
+import math
 from typing import NamedTuple, Protocol
 
 
@@ -102,6 +103,22 @@ def shaft_inertia_problems(names: str, inertia: float, shaft: str) -> list:
         return []
     return [f"{names} = {inertia!r} kg.m2 must be > 0 (allowed range (0, 2000] kg.m2): the {shaft} needs an inertia "
             "to integrate"]
+
+
+#: a Hooke joint angle [rad] beyond which a model's advice asks whether degrees were meant (45 deg: the speed ratio
+#: then swings between 0.71 and 1.41 already)
+LARGE_JOINT_ANGLE = math.radians(45.0)
+
+
+def joint_angle_advice(name: str, angle: float) -> list:
+    """A warning for a joint angle [rad] beyond ``LARGE_JOINT_ANGLE``, valid but far past a driveline's usual
+    few to 30 degrees, and what it is if the number was meant in degrees."""
+    if abs(angle) <= LARGE_JOINT_ANGLE:
+        return []
+    return [f"{name} = {angle:.6g} rad is {math.degrees(angle):.4g} deg, past the {math.degrees(LARGE_JOINT_ANGLE):g} "
+            f"deg of an unusually steep joint (its speed ratio swings between {math.cos(angle):.3g} and "
+            f"{1.0 / math.cos(angle):.3g}); if the value was meant in degrees, {name} = {math.radians(angle):.6g} rad "
+            "(the FMUs take SI units)"]
 
 
 # --- the protocol functions of a kinematic model without a state of its own (State has no fields) -------------

@@ -26,8 +26,8 @@ import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
-from ..protocol import (Drive, NoState, Torques, kinematic_always, no_derivatives, no_rate, no_state,
-                        shaft_inertia_problems)
+from ..protocol import (Drive, NoState, Torques, joint_angle_advice, kinematic_always, no_derivatives, no_rate,
+                        no_state, shaft_inertia_problems)
 
 #: Largest admissible magnitude of each misalignment angle and of the total shaft angle acos(K_z) [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -229,25 +229,27 @@ def ratio_swing(frame: tuple, samples: int = 360) -> float:
 
 
 def advice(p: Parameters) -> list:
-    """A warning when the error angles are left at the laboratory joint's (``LAB_ERROR_ANGLE``) and change the
-    joint's 2x velocity-ratio swing by more than ``ERROR_ANGLE_EFFECT`` from the ideal joint's at the same bend
-    (at a bend of a few degrees, a vehicle's, by a quarter or a third, with the bend's sign)."""
+    """Warnings: a bend past ``protocol.LARGE_JOINT_ANGLE`` (degrees meant?); the error angles left at the
+    laboratory joint's (``LAB_ERROR_ANGLE``) where they change the joint's 2x velocity-ratio swing by more than
+    ``ERROR_ANGLE_EFFECT`` from the ideal joint's at the same bend (at a bend of a few degrees, a vehicle's, by a
+    quarter or a third, with the bend's sign)."""
+    angles = joint_angle_advice("bend_angle", p.bend_angle)
     if p.error_angle_beta != LAB_ERROR_ANGLE or p.error_angle_gamma != LAB_ERROR_ANGLE:
-        return []
+        return angles
     ideal = ratio_swing(joint_frame(p.bend_angle, p.bend_plane_angle, 0.0, 0.0))
     actual = ratio_swing(p.frame)
     mirror = ratio_swing(joint_frame(-p.bend_angle, p.bend_plane_angle, LAB_ERROR_ANGLE, LAB_ERROR_ANGLE))
     if ideal > 1e-12 and abs(actual / ideal - 1.0) <= ERROR_ANGLE_EFFECT:
-        return []
+        return angles
     if ideal > 1e-12:
         change = (f"by {100.0 * (actual / ideal - 1.0):+.3g}% (to {actual:.4g} peak-to-peak; "
                   f"{100.0 * (mirror / ideal - 1.0):+.3g}% at the mirror-image bend_angle = "
                   f"{-p.bend_angle:.4g} rad)")
     else:
         change = f"from none, the ideal joint's at this bend, to {actual:.4g} peak-to-peak"
-    return [f"error_angle_beta = error_angle_gamma = {math.degrees(LAB_ERROR_ANGLE):g} deg are the defaults, Feng "
-            f"et al.'s laboratory joint's manufacturing errors: they change the joint's 2x velocity-ratio swing "
-            f"{change}; set both to 0 for an ideal joint"]
+    return angles + [f"error_angle_beta = error_angle_gamma = {math.degrees(LAB_ERROR_ANGLE):g} deg are the "
+                     f"defaults, Feng et al.'s laboratory joint's manufacturing errors: they change the joint's 2x "
+                     f"velocity-ratio swing {change}; set both to 0 for an ideal joint"]
 
 
 def check(p: Parameters) -> list:

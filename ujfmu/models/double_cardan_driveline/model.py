@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ...fmu import rk4, series
-from ..protocol import Drive, Torques, shaft_inertia_problems, torque_driven_outputs
+from ..protocol import Drive, Torques, joint_angle_advice, shaft_inertia_problems, torque_driven_outputs
 
 #: Largest admissible magnitude of a joint angle (static plus dynamic) [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -845,6 +845,12 @@ def flexible_output_values(p: Parameters, phi1: float, omega1: float, alpha1: fl
     return values
 
 
+def advice(p: Parameters) -> list:
+    """Warnings on valid parameters likely not meant: a joint angle past ``protocol.LARGE_JOINT_ANGLE`` (degrees
+    given as radians?)."""
+    return joint_angle_advice("beta1", p.beta1) + joint_angle_advice("beta2", p.beta2)
+
+
 def check(p: Parameters) -> list:
     """A rigid cross has I_normal <= 2 I_pin; a flexible shaft needs an output inertia."""
     problems = []
@@ -1007,6 +1013,8 @@ class TorqueDriven:
     def check(p: TorqueDrivenParameters) -> list:
         """:func:`check`, and the input shaft needs an inertia to integrate."""
         return check(p) + shaft_inertia_problems("J_drive + I_input", p.J_drive + p.I_input, "input shaft")
+
+    advice = staticmethod(advice)
 
     @staticmethod
     def check_state(p: TorqueDrivenParameters, y: tuple) -> list:

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from ...fmu import rk4, series
-from ..protocol import Drive, Torques, shaft_inertia_problems, torque_driven_outputs
+from ..protocol import Drive, Torques, joint_angle_advice, shaft_inertia_problems, torque_driven_outputs
 
 #: Largest admissible joint angle magnitude [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -867,6 +867,12 @@ def output_free_inputs(p: Parameters) -> tuple:
     return ("tau_load",)
 
 
+def advice(p: Parameters) -> list:
+    """Warnings on valid parameters likely not meant: a joint angle past ``protocol.LARGE_JOINT_ANGLE`` (degrees
+    given as radians?)."""
+    return joint_angle_advice("beta", p.beta)
+
+
 def check(p: Parameters) -> list:
     """Every parameter's own range suffices."""
     return []
@@ -1387,6 +1393,8 @@ class TorqueDriven:
     def check(p: TorqueDrivenParameters) -> list:
         """:func:`check`, and the flange needs an inertia to integrate."""
         return check(p) + shaft_inertia_problems("J_drive + J_gb", p.J_drive + p.J_gb, "gearbox flange")
+
+    advice = staticmethod(advice)
 
     @staticmethod
     def check_state(p: TorqueDrivenParameters, y: tuple) -> list:
