@@ -232,6 +232,26 @@ def test_progress_is_a_callback_and_the_cli_draws_no_bar_off_a_terminal(fmu_dir,
     assert "results:" not in capsys.readouterr().out   # --quiet: the verdict only
 
 
+@pytest.mark.parametrize("scenario", ["cardan_constant_speed", "cardan_startup"])   # explicit, implicit steps
+def test_a_progress_callback_that_returns_false_stops_the_run_and_keeps_its_results(fmu_dir, tmp_path, scenario):
+    """As fmpy's step_finished: returning False stops the run at that report (a caller's time budget had to raise
+    an exception and lost the results); RunStopped carries the rows up to there, also written to the CSV, and
+    no hint about the drive (a run-up stopped early is not a stalled drive)."""
+    from ujfmu.master import RunStopped
+    from ujfmu.scenario import Scenario
+    path = SCENARIOS / f"{scenario}.toml"
+    s = Scenario(path)
+    n = int(round((s.stop_time - s.start_time) / s.step_size))
+    with pytest.raises(RunStopped) as info:
+        ujfmu.run_scenario(path, fmu_dir=fmu_dir, out_dir=tmp_path, plot=False,
+                           progress=lambda done, total: done < total // 2)
+    partial = info.value.partial
+    assert n // 2 <= len(partial) - 1 <= n // 2 + n // 200 + 1 and "hint" not in str(info.value)
+    assert f"stopped by the progress callback after {len(partial) - 1} of {n} steps" in str(info.value)
+    written = np.genfromtxt(tmp_path / f"{scenario}.csv", delimiter=",", names=True)
+    assert len(written) == len(partial) and written["time"][-1] == pytest.approx(partial["time"][-1])
+
+
 def test_a_long_run_says_its_pace_and_what_sets_it_once_unless_quiet(fmu_dir, tmp_path, capsys, monkeypatch):
     """With the thresholds at zero every run counts as long: one note (not one per report) on stderr, in seconds
     per simulated second and minutes to go, naming what sets the substeps and where the rule is; --quiet: none."""

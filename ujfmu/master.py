@@ -106,6 +106,11 @@ class CosimulationError(RuntimeError):
     partial = None
 
 
+class RunStopped(CosimulationError):
+    """The progress callback returned False (as fmpy's ``step_finished`` can): the run stopped there, its results
+    up to that step in ``partial``."""
+
+
 class CouplingInstabilityError(CosimulationError):
     """The coupling went unstable: the message names the connection, the step, the growth and the remedy."""
 
@@ -693,7 +698,8 @@ class Cosimulation:
     def advance(self, n_steps, rows=None, progress=None, output_interval=1):
         """Take n_steps communication steps; when rows is given, record into it after every output_interval-th
         step and after the last (rows: ceil(n_steps / output_interval) x len(columns)). progress: optional
-        callable(steps_done, n_steps) called now and then. ``rows_done``: the rows written so far."""
+        callable(steps_done, n_steps) called now and then; returning False stops the run there (``RunStopped``).
+        ``rows_done``: the rows written so far."""
         _check_interval(output_interval)
         implicit = self.coupling == "implicit" and bool(self._tears) and not self.open_loop
         monitor = bool(self._watched or self._bonds)
@@ -724,8 +730,9 @@ class Cosimulation:
                     self._watch()
                 if STOP[0]:
                     raise KeyboardInterrupt
-            if progress is not None and k % every == 0:
-                progress(k, n_steps)
+            if progress is not None and k % every == 0 and progress(k, n_steps) is False and k < n_steps:
+                raise RunStopped(f"t = {self.time!r}: stopped by the progress callback after {k} of {n_steps} steps "
+                                 "(it returned False); the results up to here are kept")
 
     def _explicit_steps(self, k, count, n_steps, interval, rows):
         """Steps k+1 .. k+count of n_steps, explicit: step every FMU from t with its inputs held, transfer the

@@ -21,7 +21,7 @@ from .build import DEFAULT_FMU_DIR
 from .build3 import DEFAULT_FMU3_DIR
 from .extras import available, preload
 from .fmu.base import MIN_SAMPLES_PER_PERIOD, RESOLVING_SAMPLES_PER_PERIOD, samples_per_period, sampling_interval
-from .master import CosimulationError, cosimulate, is_ideal_speed_source
+from .master import CosimulationError, RunStopped, cosimulate, is_ideal_speed_source
 from .scenario import Scenario, ScenarioError, description_attribute
 from .steady import speed_text
 
@@ -519,8 +519,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                                progress=progress or None, coupling=scenario.coupling,
                                output_interval=scenario.output_interval, diagnostics=diagnostics)
     except CosimulationError as exc:
-        hint = torque_driven_hint(scenario, str(exc.args[0]) if exc.args else "")
-        if exc.partial is not None:
+        hint = "" if isinstance(exc, RunStopped) else torque_driven_hint(scenario, str(exc.args[0]) if exc.args else "")
+        if exc.partial is not None and not isinstance(exc, RunStopped):
             hint = "\n".join(h for h in (stalled_drive_hint(scenario, exc.partial), hint) if h)
         if hint:
             exc.args = (f"{exc.args[0]}\n{hint}",) + exc.args[1:]
