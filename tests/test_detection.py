@@ -370,3 +370,38 @@ def test_a_steady_window_that_does_not_repeat_fails_the_run(fmu_dir):
     damped = scenario.with_parameters({"motor.omega_set": critical})
     damped.stop_time, damped.steady_from = 8.0, 6.0
     assert run_scenario(damped, fmu_dir=fmu_dir, out_dir=None).steady_checks[0].change < 0.05
+
+
+def test_a_refusal_after_an_oscillation_of_a_few_steps_names_the_coupling(fmu_dir):
+    """A twin rotor 1000x stiffer in torsion, disc 2 ten times the motor's rotor, behind a PI motor at 1 ms: the
+    coupling diverges over a period of 3-4 steps, which the master's per-step watch (a reversal at every step) does
+    not catch, until the rotor refuses a step as past its model's validity, a cause in the physics. The error now
+    adds that a connected signal oscillated with a growing step-to-step change before it, and the remedies (a
+    smaller step, the torque-driven wiring); no stalled-drive hint (the drive was running)."""
+    from ujfmu.scenario_run import run_scenario
+    stiff = with_changes(Scenario(Path(__file__).parent.parent / "scenarios" / "twin_jeffcott_runup.toml"),
+                         {"rotor.beta": math.radians(20.0), "rotor.K1T": 328852.0, "rotor.K2T": 274044.0,
+                          "rotor.J_M2": 0.5, "motor.tau_max": 100.0, "motor.accel": 100.0}, stop_time=0.1)
+    stiff.reference_file = None
+    with pytest.raises(CosimulationError) as info:
+        run_scenario(stiff, fmu_dir=fmu_dir, out_dir=None)
+    text = str(info.value)
+    assert "refused the step" in text and "past the 0.1 rad within which its linear (Jeffcott) model holds" in text
+    assert "oscillated with a step-to-step change" in text and "a coupling going unstable over a period of a few " \
+           "steps, not the model" in text and "--step auto" in text and "torque-driven wiring" in text
+    assert "nearly stopped" not in text
+
+
+def test_a_drive_short_of_its_torque_limit_is_not_called_stalled(fmu_dir):
+    """Omar's start-up, shaft 1000x stiffer and load inertia 10x the motor's rotor, explicit coupling: the coupling
+    diverges 4 ms into the ramp, where the set point is 0.06 rad/s and the drive near rest, but its torque (at most
+    4 N.m) is far from its 10 N.m limit: the instability is named, and no hint says the drive had stalled at its
+    torque limit."""
+    from ujfmu.scenario_run import run_scenario
+    heavy = with_changes(Scenario(Path(__file__).parent.parent / "scenarios" / "double_cardan_omar_startup.toml"),
+                         {"driveline.k_theta": 92200.0, "driveline.J_load": 0.5, "motor.tau_max": 10.0},
+                         stop_time=0.1)
+    heavy.coupling, heavy.reference_file = "explicit", None
+    with pytest.raises(CouplingInstabilityError) as info:
+        run_scenario(heavy, fmu_dir=fmu_dir, out_dir=None)
+    assert "nearly stopped" not in str(info.value)

@@ -298,7 +298,7 @@ def cmd_references(args):
     for module in ("scipy", "sympy"):
         require(module, "references", "ujfmu references")
     from .references import generate, provenance_of, scenario_of, write_reference
-    from .references.common import ReferenceStallError, WiringError
+    from .references.common import ReferenceCheckError, ReferenceStallError, WiringError
     from .scenario import Scenario, ScenarioError
     wrote = 0
     for path in _scenarios(args.scenarios):
@@ -317,6 +317,11 @@ def cmd_references(args):
             table, provenance = generate(scenario)
         except (WiringError, ReferenceStallError) as exc:
             raise ScenarioError(f"{scenario.path}: {exc}") from None
+        except ReferenceCheckError as exc:
+            raise ScenarioError(f"{exc}; the reference is not written. Each law is checked on the scenario's "
+                                "output grid, so a step_size that does not resolve the fastest motion can fail it "
+                                "where the solve itself is accurate: try the scenario at a smaller step_size; if it "
+                                "fails there too, the generator is at fault (please report it)") from None
         write_reference(target, table, provenance)
         _say(args, f"wrote {scenario.reference_file}")
         wrote += 1

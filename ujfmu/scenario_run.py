@@ -21,7 +21,7 @@ from .build import DEFAULT_FMU_DIR
 from .build3 import DEFAULT_FMU3_DIR
 from .extras import available, preload
 from .fmu.base import MIN_SAMPLES_PER_PERIOD, RESOLVING_SAMPLES_PER_PERIOD, samples_per_period, sampling_interval
-from .master import CosimulationError, RunStopped, cosimulate, is_ideal_speed_source
+from .master import CosimulationError, CouplingInstabilityError, RunStopped, cosimulate, is_ideal_speed_source
 from .scenario import Scenario, ScenarioError, description_attribute
 from .steady import speed_text
 
@@ -521,7 +521,9 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     except CosimulationError as exc:
         hint = "" if isinstance(exc, RunStopped) else torque_driven_hint(scenario, str(exc.args[0]) if exc.args else "")
         if exc.partial is not None and not isinstance(exc, RunStopped):
-            hint = "\n".join(h for h in (stalled_drive_hint(scenario, exc.partial), hint) if h)
+            oscillating = "" if isinstance(exc, CouplingInstabilityError) else oscillation_hint(scenario, exc.partial)
+            stalled = "" if oscillating else stalled_drive_hint(scenario, exc.partial)
+            hint = "\n".join(h for h in (oscillating, stalled, hint) if h)
         if hint:
             exc.args = (f"{exc.args[0]}\n{hint}",) + exc.args[1:]
         if exc.partial is not None and extra:
@@ -605,9 +607,49 @@ def torque_driven_hint(scenario: Scenario, message: str) -> str:
     return ""
 
 
+#: steps before a failure that ``oscillation_hint`` looks at, and the growth of the step-to-step change over its
+#: last third (against its first half) and the reversals there that make an oscillation growing at the step rate
+OSCILLATION_WINDOW, OSCILLATION_GROWTH, OSCILLATION_REVERSALS = 24, 10.0, 2
+
+
+def oscillation_hint(scenario: Scenario, partial: np.ndarray) -> str:
+    """'' unless a connected signal of the partial results (recorded at every step) oscillated over the steps
+    before a failure with a step-to-step change that grew ``OSCILLATION_GROWTH``-fold, reversing at least
+    ``OSCILLATION_REVERSALS`` times: a coupling diverging over a period of a few steps, which the master's per-step
+    watch (a sign change at every step) does not catch, and which then shows as an FMU's refusal (an input past
+    its range, a model past its validity). Then what that means and the remedies."""
+    if len(partial) < OSCILLATION_WINDOW or (scenario.output_interval or 1) != 1:
+        return ""
+    connected = {name for c in scenario.connections for name in (c.source, c.target)}
+    third = OSCILLATION_WINDOW // 3
+    worst = None
+    for name in partial.dtype.names:
+        if name not in connected:
+            continue
+        change = np.diff(np.asarray(partial[name][-OSCILLATION_WINDOW:], dtype=float))
+        before = float(np.max(np.abs(change[:OSCILLATION_WINDOW // 2])))
+        late = change[-third:]
+        growth = float(np.max(np.abs(late))) / max(before, 1e-12 * float(np.max(np.abs(partial[name]))), 1e-300)
+        reversals = int(np.sum(late[1:] * late[:-1] < 0.0))
+        if growth >= OSCILLATION_GROWTH and reversals >= OSCILLATION_REVERSALS and (worst is None or growth > worst[1]):
+            worst = (name, growth, reversals)
+    if worst is None:
+        return ""
+    name, growth, reversals = worst
+    return (f"hint: over the last {third} steps before it failed, {name} oscillated with a step-to-step change "
+            f"{growth:.3g}x that of the {OSCILLATION_WINDOW // 2} steps before, reversing {reversals} times: a "
+            f"coupling going unstable over a period of a few steps, not the model (the FMU's refusal follows from "
+            f"its inputs). Remedy: a smaller step (`ujfmu run {scenario.path} --step auto` picks one)"
+            + ("" if scenario.coupling == "implicit" else ", the implicit coupling (the default)")
+            + ", or, for a driven side heavier than its driver or a stiff shaft, the torque-driven wiring (README, "
+            "\"Choose the wiring for the host\")")
+
+
 def stalled_drive_hint(scenario: Scenario, partial: np.ndarray) -> str:
     """'' unless a drive of the scenario had nearly stopped, below a tenth of its set speed, where a run failed (the
-    last row of its partial results, the drives' speeds and set points among them): then what that means."""
+    last row of its partial results, the drives' speeds and set points among them), at its torque limit over the
+    last steps where its torque is recorded (a drive just starting a ramp, short of its limit, is not stalled):
+    then what that means."""
     for speed, set_point in operating_pairs(scenario):
         if len(partial) < 2 or speed not in partial.dtype.names or set_point not in partial.dtype.names:
             continue
@@ -615,6 +657,10 @@ def stalled_drive_hint(scenario: Scenario, partial: np.ndarray) -> str:
         if abs(target) > 0.0 and abs(value) < STALLED * abs(target):
             drive = speed.partition(".")[0]
             limit = scenario.parameters_with_defaults(drive).get("tau_max")
+            torque = f"{drive}.tau_motor"
+            if limit is not None and torque in partial.dtype.names and not (
+                    np.max(np.abs(partial[torque][-10:])) >= 0.95 * limit):   # short of its limit: not stalled by it
+                continue
             return (f"hint: when it failed, {speed} = {speed_text(value)} against its set point {set_point} = "
                     f"{speed_text(target)}: the drive had nearly stopped, as one at its torque limit"
                     + (f" (tau_max = {limit:g} N.m)" if limit is not None else "") + " does against a larger "

@@ -137,6 +137,21 @@ def test_unit_hints_only_where_the_converted_value_fits():
     assert torque.check(2e7).endswith("N.m")
 
 
+def test_an_input_out_of_range_at_the_first_step_names_the_unit_slip_not_the_coupling(fmu_dir):
+    """At the first step no coupling can have diverged yet: an input past its range there (a host's table in rpm)
+    names the slip it likely is, not an unstable coupling."""
+    log = []
+    inst = open_instance(fmu_dir, "DoubleCardanDriveline", log)
+    try:
+        inst.initialize()
+        inst.set(omega_in=15000.0, tau_load=0.0)
+        assert inst.raw("fmi2DoStep")(inst.slave.component, 0.0, 1e-3, 1) == 2
+        assert "omega_in = 15000.0 is outside its allowed range [-10000, 10000] rad/s (15000 rpm = 1571 rad/s?)" \
+            in log[-1] and "coupling" not in log[-1], log
+    finally:
+        inst.free()
+
+
 def test_an_input_out_of_range_while_stepping_names_an_unstable_coupling_first(fmu_dir):
     """A speed of -36086 rad/s arriving at a step (a host's explicit coupling diverging, as libcosim's did): the
     refusal names that cause and its remedies before the unit slip it might also be; a NaN is only not finite."""
@@ -150,6 +165,8 @@ def test_an_input_out_of_range_while_stepping_names_an_unstable_coupling_first(f
         assert inst.raw("fmi2DoStep")(inst.slave.component, 1e-3, 1e-3, 1) == 2
         assert "omega_in = -36085.6 is outside its allowed range [-10000, 10000] rad/s" in log[-1], log
         assert "coupling going unstable" in log[-1] and "torque-driven wiring" in log[-1], log
+        assert log[-1].index("coupling going unstable") < log[-1].index(
+            "or, if the host gives this input in another unit: -36085.6 rpm = -3779 rad/s?"), log
         inst.set(omega_in=math.nan)
         assert inst.raw("fmi2DoStep")(inst.slave.component, 1e-3, 1e-3, 1) == 2
         assert "not a finite number" in log[-1] and "coupling" not in log[-1], log

@@ -87,14 +87,16 @@ class Var:
         unit = "" if self.unit in (None, "1") else f" {self.unit}"
         return f"[{lo}, {hi}]{unit}"
 
-    def check(self, value):
-        """None if value is admissible, else a message naming the variable and its allowed range."""
+    def check(self, value, hint=True):
+        """None if value is admissible, else a message naming the variable and its allowed range (with the likely
+        unit slip, ``unit_hint``, unless hint is false)."""
         if self.type is bool:
             return None
         if not math.isfinite(value):
             return f"{self.name} = {value!r} is not a finite number (allowed range {self.range_text()})"
         if not self.within(value):
-            return f"{self.name} = {value!r} is outside its allowed range {self.range_text()}{self.unit_hint(value)}"
+            return (f"{self.name} = {value!r} is outside its allowed range {self.range_text()}"
+                    + (self.unit_hint(value) if hint else ""))
         return None
 
     def within(self, value):
@@ -115,7 +117,8 @@ class Var:
         return f" ({value:.6g} {human[0]} = {value * human[1]:.4g} {self.unit}?)"
 
 
-#: said with an input out of its range at a step: the likelier cause than a unit slip once the run is under way
+#: said with an input out of its range at a step after the first: the likelier cause than a unit slip once the run
+#: is under way
 UNSTABLE_INPUT = ("; an input this far out usually comes from the host's coupling going unstable (values growing "
                   "step by step): take a smaller communication step or, for a driven side heavier than its driver, "
                   "the torque-driven wiring (ujfmu README, \"Choose the wiring for the host\")")
@@ -497,6 +500,15 @@ class UjfmuSlave(Fmi2Slave):
         """Warnings on valid parameters that are likely not what was meant (the model's ``advice``)."""
         return []
 
+    def _input_problem(self, var, value, current_time, step_size):
+        """Why an input out of its range refuses the step: at the first step the likely unit slip (a host's table in
+        rpm or deg); later a coupling going unstable first (``UNSTABLE_INPUT``), the slip after it."""
+        if current_time <= self._start_time + 0.5 * step_size or not math.isfinite(value):
+            return var.check(value)
+        slip = var.unit_hint(value)
+        return var.check(value, hint=False) + UNSTABLE_INPUT + (
+            f"; or, if the host gives this input in another unit: {slip.strip()[1:-1]}" if slip else "")
+
     def do_step(self, current_time, step_size):
         try:
             if not (step_size > 0.0 and math.isfinite(step_size)):
@@ -504,7 +516,7 @@ class UjfmuSlave(Fmi2Slave):
             values = self.__dict__
             for name, lo, hi, var in self._input_bounds:
                 if not lo <= values[name] <= hi:   # NaN and inf fail too
-                    raise ValueError(var.check(values[name]) + (UNSTABLE_INPUT if math.isfinite(values[name]) else ""))
+                    raise ValueError(self._input_problem(var, values[name], current_time, step_size))
             self.advance(current_time, step_size)
             self._stale, self._partial = True, False
             return True

@@ -319,6 +319,20 @@ def check_close(scenario, what: str, actual, expected, scale: float, rtol: float
     return deviation / scale
 
 
+def simpson_error(t: np.ndarray, power) -> float:
+    """A bound of the error of Simpson's rule integrating power over the grid t: (t_end - t0) max|h^4 P| / 180,
+    h^4 P the fourth differences (negligible on a grid that resolves the motion; a stiff shaft sampled at 1 ms
+    needs it)."""
+    return (t[-1] - t[0]) * float(np.max(np.abs(np.diff(np.asarray(power, dtype=float), 4)), initial=0.0)) / 180.0
+
+
+def check_integral(scenario, what: str, t: np.ndarray, integral, power, rtol: float) -> float:
+    """An integrated state (e.g. the work put in) against Simpson's rule on power over the grid t: within rtol of
+    its largest magnitude plus the quadrature's error (``simpson_error``)."""
+    scale = max(float(np.max(np.abs(integral))), 1e-300)
+    return check_close(scenario, what, integral, work(t, power), scale, rtol + simpson_error(t, power) / scale)
+
+
 def check_energy_balance(scenario, what: str, t: np.ndarray, stored, power_in, power_out, rtol: float) -> float:
     """Energy balance stored(t) - stored(t0) = integral of (power_in - power_out) dt; the scale is the larger of
     the largest stored energy and the largest work put in. Allowed: rtol * scale plus the quadrature error of
@@ -326,7 +340,6 @@ def check_energy_balance(scenario, what: str, t: np.ndarray, stored, power_in, p
     power (negligible on a grid that resolves the motion; a stiff shaft sampled at 1 ms needs it)."""
     supplied = work(t, power_in)
     scale = max(float(np.max(np.abs(stored))), float(np.max(np.abs(supplied))), 1e-300)
-    net = np.asarray(power_in, dtype=float) - np.asarray(power_out, dtype=float)
-    quadrature = (t[-1] - t[0]) * float(np.max(np.abs(np.diff(net, 4)), initial=0.0)) / 180.0
+    quadrature = simpson_error(t, np.asarray(power_in, dtype=float) - np.asarray(power_out, dtype=float))
     return check_close(scenario, what, stored - stored[0], supplied - work(t, power_out), scale,
                        rtol + quadrature / scale)
