@@ -236,3 +236,21 @@ def test_a_solve_sliding_on_a_discontinuity_stops_with_the_reason_instead_of_cra
     assert at == pytest.approx(0.5, abs=1e-3) and "tau_max" in str(info.value)
     smooth = solve_piecewise(lambda time, y: -y, np.array([1.0]), t, motor, 1e-10, 1e-12)
     assert np.allclose(smooth[0], np.exp(-t), rtol=1e-8)
+
+
+def test_an_integral_checked_on_a_coarse_grid_allows_simpsons_error_and_no_more():
+    """A stiff shaft's torsional mode sampled coarsely (1500 rad/s every 1 ms, 4.2 samples a period): Simpson's
+    rule on the sampled power misses its exact integral by far more than 1e-6 of it, which had failed a correct
+    reference's self-check. check_integral allows the quadrature's error estimate (fourth differences, as the
+    energy balance does; conservative while the grid resolves the power) and still fails an integral 5% off."""
+    from ujfmu.references.common import ReferenceCheckError, check_integral, simpson_error, work
+    t = np.linspace(0.0, 1.0, 1001)
+    omega, p0, a = 1500.0, 100.0, 10.0
+    power = p0 + a * np.sin(omega * t)
+    exact = p0 * t + a * (1.0 - np.cos(omega * t)) / omega
+    missed = np.max(np.abs(work(t, power) - exact))
+    assert 1e-6 * p0 < missed <= simpson_error(t, power)
+    scenario = type("S", (), {"path": "stiff.toml"})()
+    check_integral(scenario, "input_work", t, exact, power, 1e-6)
+    with pytest.raises(ReferenceCheckError, match="stiff.toml: reference self-check failed: input_work"):
+        check_integral(scenario, "input_work", t, 1.05 * exact, power, 1e-6)

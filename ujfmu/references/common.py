@@ -320,9 +320,10 @@ def check_close(scenario, what: str, actual, expected, scale: float, rtol: float
 
 
 def simpson_error(t: np.ndarray, power) -> float:
-    """A bound of the error of Simpson's rule integrating power over the grid t: (t_end - t0) max|h^4 P| / 180,
-    h^4 P the fourth differences (negligible on a grid that resolves the motion; a stiff shaft sampled at 1 ms
-    needs it)."""
+    """An estimate of the error of Simpson's rule integrating power over the grid t: (t_end - t0) max|h^4 P| / 180,
+    h^4 P the fourth differences (negligible on a grid that resolves the motion, a stiff shaft sampled at 1 ms needs
+    it; conservative while the grid has more than two samples a period of the power's fastest content, not
+    where it aliases it)."""
     return (t[-1] - t[0]) * float(np.max(np.abs(np.diff(np.asarray(power, dtype=float), 4)), initial=0.0)) / 180.0
 
 
