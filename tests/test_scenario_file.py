@@ -272,3 +272,12 @@ def test_a_name_in_the_wrong_table_or_misspelt_says_where_it_goes(tmp_path, old,
     with pytest.raises(ScenarioError) as err:
         Scenario(write(tmp_path, text))
     assert says in str(err.value)
+
+
+def test_no_bundled_scenario_sets_parameters_its_models_warn_of():
+    """The models' advice (a joint past 45 deg, a set speed past 1000 rad/s, the default error angles where they
+    matter, a ring misalignment large against the ring, a ring's c_s left at another ring's) is silent on every
+    bundled scenario: each sets what it means."""
+    from pathlib import Path
+    for path in sorted((Path(__file__).parent.parent / "scenarios").glob("*.toml")):
+        assert Scenario(path).model_advice() == [], path

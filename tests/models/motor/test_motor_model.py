@@ -216,3 +216,16 @@ def test_controller_step_across_a_profile_corner_falls_back_to_rk4():
     assert across == controller_rk4_step(p, 0.1, 1e-3, y, 3.0)
     assert across[0] != pytest.approx(1.5e-5, rel=1e-3)
     assert motor.Controller.integrate(p, 0.1005, 1e-3, y, u)[0] == pytest.approx(0.015 * 1e-3, rel=1e-12)
+
+
+def test_a_set_speed_past_1000_rad_s_asks_whether_rpm_was_meant():
+    """omega_set = 3000 meant as rpm had run at 28,648 rpm without a word: the Motor's and the MotorController's
+    advice give the rpm it is and the rad/s it would be (3000 rpm = 314.159 rad/s); a step profile's omega_initial
+    too; 600 rad/s (5730 rpm) draws none."""
+    def drive(omega_set, profile=motor.CONSTANT, omega_initial=0.0):
+        return motor.Parameters(5.0, 125.0, 30.0, profile, omega_set, 15.0, 1.0, omega_initial, J_rotor=0.05)
+    (message,) = motor.advice(drive(3000.0))
+    assert message == ("omega_set = 3000 rad/s is 28647.9 rpm; if the value was meant in rpm, omega_set = 314.159 "
+                       "rad/s (the FMUs take SI units)")
+    assert motor.Controller.advice(drive(3000.0)) == [message]
+    assert len(motor.advice(drive(600.0, motor.STEP, -2000.0))) == 1 and motor.advice(drive(600.0)) == []

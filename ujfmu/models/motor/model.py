@@ -241,6 +241,22 @@ def load_outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
     return {}
 
 
+#: a set speed [rad/s] past which the drive's advice asks whether rpm was meant (about 9500 rpm: past a Cardan
+#: propshaft's usual speeds)
+LARGE_SPEED = 1000.0
+
+
+def advice(p: ControllerParameters) -> list:
+    """Warnings on valid parameters likely not meant: a set speed past ``LARGE_SPEED`` (rpm given as rad/s?)."""
+    messages = []
+    for name in ("omega_set", "omega_initial") if p.profile == STEP else ("omega_set",):
+        value = getattr(p, name)
+        if abs(value) > LARGE_SPEED:
+            messages.append(f"{name} = {value:.6g} rad/s is {value * 30.0 / math.pi:.6g} rpm; if the value was meant "
+                            f"in rpm, {name} = {value * math.pi / 30.0:.6g} rad/s (the FMUs take SI units)")
+    return messages
+
+
 def check(p: Parameters) -> list:
     """The ramp runs from rest up to omega_set >= 0."""
     if p.profile == RAMP and p.omega_set < 0.0:
@@ -328,6 +344,8 @@ class Controller:
     def check(p: ControllerParameters) -> list:
         """:func:`check` (the profile's parameters, named as the Motor's)."""
         return check(p)
+
+    advice = staticmethod(advice)
 
     #: names of the event indicators (FMI 3.0 Model Exchange): where the right-hand side switches
     EVENT_INDICATORS = (("upper_limit", "Kp e + Ki I - tau_max: > 0 while the torque limit +tau_max holds"),
