@@ -22,7 +22,7 @@ def test_published_values_are_data_that_the_committed_report_shows():
             count += 1
             assert v.paper in BY_KEY and v.value > 0 and (v.band is None or 0 < v.band < 1)
             assert f"| {v.quantity} | {v.value:.4g} |" in report, v.id
-    assert count == 27
+    assert count == 29
 
 
 def test_sections_come_from_the_model_folders_in_report_order():
@@ -63,3 +63,14 @@ def test_an_axis_says_its_si_unit_and_flags_a_speed_given_without_one():
     assert "rad/s" in rpm and "given as 955..2865 rpm" in rpm and "taken as" not in rpm
     angle = parse_axis("driveline.beta1=5,10deg", scenario).describe(scenario)
     assert "rad" in angle and "given as 5..10 deg" in angle
+
+
+def test_a_trend_is_a_verdict_only_where_it_holds():
+    """A value outside its band is "reproduced in trend" only where the caller checked the effect the paper shows
+    (a direction, a sign) and it holds; a trend that does not hold is "not reproduced", naming it. Any text had
+    passed before, unchecked."""
+    from ujfmu.report import verdict
+    assert verdict(1.02, 1.0, 0.03) == "reproduced (within 3%)"
+    assert verdict(1.66, 2.0, 0.1, trend=("rises with beta0", True)) == "reproduced in trend: rises with beta0"
+    assert verdict(0.9, 2.0, 0.1, trend=("rises with beta0", False)) == "not reproduced: rises with beta0"
+    assert verdict(0.9, 2.0, 0.1) == "not reproduced"

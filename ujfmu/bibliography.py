@@ -35,9 +35,9 @@ REFERENCES = (
               "Proceedings of the Tenth World Congress on the Theory of Machines and Mechanisms (IFToMM), Oulu, "
               "Finland, June 20-24", 1999,
               used_for="DoubleCardanDriveline, rigid intermediate shaft (section 4); Load (M_u = c omega^2)"),
-    Reference("Tchomeni2019", "Tchomeni, Alugongo, Masu",
-              "Modeling and vibration analysis of twin-rotor system interconnected by a Hooke's joint",
-              "Vibroengineering Procedia, vol. 27", 2019,
+    Reference("Tchomeni2019", "B. X. Tchomeni, A. A. Alugongo, L. Masu",
+              "Modeling and vibration analysis of twin-rotor system interconnected by a Hooke's joint (Part A)",
+              "Vibroengineering Procedia, vol. 27, pp. 1-6", 2019,
               used_for="TwinJeffcottRotor (Eqs. 1-11)"),
     Reference("Turla2002", "Vytautas Turla, Igor Iljin",
               "The investigation of dynamics of misaligned units in vehicle transmission",

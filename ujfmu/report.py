@@ -107,9 +107,14 @@ def within(ours, paper, rel):
 
 
 def verdict(ours, paper, rel, trend=None):
+    """'reproduced (within rel)' when ours is within rel of paper; else, where trend = (text, holds) names the
+    effect the paper shows and whether ours shows it (checked by the caller: a direction, a sign), 'reproduced in
+    trend: text' if it holds; otherwise 'not reproduced'."""
     if within(ours, paper, rel):
         return f"reproduced (within {100 * rel:.0f}%)"
-    return f"reproduced in trend: {trend}" if trend else "not reproduced"
+    if trend is not None and trend[1]:
+        return f"reproduced in trend: {trend[0]}"
+    return "not reproduced" + (f": {trend[0]}" if trend is not None else "")
 
 
 def peak(xs, ys):
@@ -203,7 +208,9 @@ def render(sections):
              "\"Paper\" is the published value, \"ours\" comes from co-simulating the built FMUs with fmpy "
              "(`ujfmu.sweep`: every point a full co-simulation run to steady state); the difference is relative to "
              "the paper. Verdicts: reproduced (within the stated band), reproduced in trend (the effect and its "
-             "direction, not the value), not reproduced (the reason is in the notes and the model docs).", "",
+             "direction, checked, not the value), not reproduced (the reason is in the notes and the model docs); "
+             "consistent (a closed form or identity of the paper's own inputs, or arithmetic on ours: it checks our "
+             "reading of the paper, not the model against a published result), no published value (ours only).", "",
              "Steady state is checked, not assumed (`ujfmu.steady`): a point's figures (the mean and the "
              "running-speed order amplitudes of every output) over the measuring window at the settle time T "
              "must agree with those over every window back to 3T/4 (back-to-back windows) within "

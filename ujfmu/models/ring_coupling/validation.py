@@ -59,7 +59,9 @@ def turla(rep: Report) -> Section:
             errors.append(abs(eq20(q, w) - amp) / amp)
         monotone = all(a > b for a, b in zip(errors, errors[1:]))
         s.row(f"Fig. 4: lower speed limit of Eq. (20), R = {radius} m", None, None, "rad/s",
-              "reproduced in trend (no published numbers)" if monotone else "not reproduced",
+              "no published value: derived from Eqs. (20), (22); the FMU's error against Eq. (20) falls with "
+              "the speed" if monotone else "not reproduced: the FMU's error against Eq. (20) does not fall with "
+              "the speed",
               paper_text="stroked zone, no number",
               ours_text=f"{limits[comp]:.1f}; error of Eq. (20) at " + ", ".join(
                   f"{f:g}" for f in factors) + " w_min: " + " / ".join(f"{100 * e:.0f}%" for e in errors))

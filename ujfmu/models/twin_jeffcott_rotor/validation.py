@@ -17,6 +17,10 @@ from ...sweep import Axis, SweepSettings
 from . import model as tj
 
 
+#: the 2x / 1x amplitude ratio at which a whirl orbit starts to cross itself (loops): 1/2
+LOOP_RATIO = 0.5
+
+
 def twin_decay_rates(parameters: dict) -> np.ndarray:
     """Decay rates [1/s] of the TwinJeffcottRotor's free modes, slowest first: eigenvalues of its equations
     linearised at rest with the input held (an ideal speed source), no load (``analysis.decay_rates``)."""
@@ -52,7 +56,7 @@ def tchomeni(rep: Report) -> Section:
           else "not reproduced", paper_text="2x present when misaligned",
           ours_text=" / ".join([below(ratios[0])] + [f"{v:.3g}" for v in ratios[1:]]))
     s.row("1x (unbalance) amplitude of disc 2 barely depends on beta (X2 1x at 0 and 15 deg)", None, None, "m",
-          "consistent", paper_text="-", ours_text=f"{rows[0]['rotor.X2.h1']:.4g} / {rows[3]['rotor.X2.h1']:.4g}")
+          "no published value", paper_text="-", ours_text=f"{rows[0]['rotor.X2.h1']:.4g} / {rows[3]['rotor.X2.h1']:.4g}")
     aligned = rows[0]
     circular = max(abs(aligned[f"rotor.X{i}.h1"] - aligned[f"rotor.Y{i}.h1"]) / aligned[f"rotor.X{i}.h1"]
                    for i in (1, 2))
@@ -70,9 +74,22 @@ def tchomeni(rep: Report) -> Section:
                           out_dir=rep.work_dir, progress=False)
     for extra in result.extra_plots:
         shutil.copy(extra, rep.figure_dir / f"tchomeni_{Path(extra).name}")
-    loops = "reproduced qualitatively" if result.passed else "scenario failed its reference check"
-    s.row("orbits of the misaligned rotor form irregular loops (aligned: circles)", None, None, "-", loops,
-          paper_text="irregular loops", ours_text="see orbit figure (beta = 0 vs 10 deg, 70 rad/s)")
+    # a 1x circle of radius A with a 2x part B crosses itself only where the 2x's speed 2B passes the 1x's A
+    distortion = [max(r["rotor.X2.h2"] / r["rotor.X2.h1"], r["rotor.Y2.h2"] / r["rotor.Y2.h1"]) for r in rows]
+    if not result.passed:
+        loops = "not reproduced: the orbit scenario failed its reference check"
+    elif max(distortion) >= LOOP_RATIO:
+        loops = "reproduced qualitatively"
+    elif distortion[0] < 1e-4 and all(a < b for a, b in zip(distortion, distortion[1:])):
+        loops = (f"reproduced in trend: the 2x distorts the orbit more as beta grows; loops, which need 2x / 1x >= "
+                 f"{LOOP_RATIO:g}, are not reached at the operating points run")
+    else:
+        loops = "not reproduced"
+    s.row("unbalanced, misaligned output shaft: irregular orbit loops (Fig. 7; Fig. 5 balanced)", None, None, "1",
+          loops, paper_text="irregular loops",
+          ours_text="2x / 1x of disc 2 at beta = 0, 5, 10, 15 deg: " + " / ".join(
+              [below(distortion[0])] + [f"{v:.3g}" for v in distortion[1:]])
+          + "; orbit figure: beta = 0 vs 10 deg at 70 rad/s")
     s.row("unstable operation / divergent equilibrium (Fig. 7)", None, None, "-",
           "not reproduced at the operating points run", paper_text="unstable", ours_text="bounded, steady orbits")
     s.figures += [(f"tchomeni_{Path(p).name}", cap) for p, cap in
