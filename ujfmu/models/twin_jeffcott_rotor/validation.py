@@ -56,7 +56,8 @@ def tchomeni(rep: Report) -> Section:
           else "not reproduced", paper_text="2x present when misaligned",
           ours_text=" / ".join([below(ratios[0])] + [f"{v:.3g}" for v in ratios[1:]]))
     s.row("1x (unbalance) amplitude of disc 2 barely depends on beta (X2 1x at 0 and 15 deg)", None, None, "m",
-          "no published value", paper_text="-", ours_text=f"{rows[0]['rotor.X2.h1']:.4g} / {rows[3]['rotor.X2.h1']:.4g}")
+          "no published value", paper_text="-",
+          ours_text=f"{rows[0]['rotor.X2.h1']:.4g} / {rows[3]['rotor.X2.h1']:.4g}")
     aligned = rows[0]
     circular = max(abs(aligned[f"rotor.X{i}.h1"] - aligned[f"rotor.Y{i}.h1"]) / aligned[f"rotor.X{i}.h1"]
                    for i in (1, 2))
