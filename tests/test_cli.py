@@ -1,5 +1,6 @@
 """Command line and Python entry points: run, check with JUnit, failing exit status."""
 
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -68,12 +69,13 @@ def test_check_writes_junit_and_fails_on_a_failing_scenario(fmu_dir, tmp_path, c
     text = (SCENARIOS / "cardan_constant_speed.toml").read_text()
     strict = tmp_path / "too_strict.toml"
     # the same run with a 0.31 N.m load, compared with the 0.3 N.m reference: must fail (the reference copied
-    # without its setup digest, as one made by hand, which is compared whatever the setup)
+    # without its setup digest, as one made by hand, which is compared whatever the setup where the scenario names
+    # no generator to make it)
     lines = (SCENARIOS / "references" / "cardan_constant_speed.csv").read_text().splitlines(keepends=True)
     (tmp_path / "references").mkdir()
     (tmp_path / "references" / "too_strict.csv").write_text("# the 0.3 N.m closed form\n" + "".join(lines[1:]))
     strict.write_text(text.replace("T0 = 0.3,", "T0 = 0.31,").replace(
-        "references/cardan_constant_speed.csv", "references/too_strict.csv"))
+        "references/cardan_constant_speed.csv", "references/too_strict.csv").replace('generator = "cardan_joint"', ""))
     junit = tmp_path / "report.xml"
     code = main(["--fmu-dir", str(fmu_dir), "check", str(SCENARIOS / "cardan_constant_speed.toml"), str(strict),
                  "--junit", str(junit), "--out", str(tmp_path / "out"), "--no-plot"])
@@ -592,3 +594,128 @@ def test_junit_says_which_comparison_a_signal_failed(tmp_path):
     message = ET.parse(path).getroot().find("testcase").find("failure").get("message")
     assert message == ("signal outside tolerance of the reference: load.tau; step-halving error estimate outside "
                        "[reference.extrapolated]: joint.tau_in")
+
+
+def test_fmus_built_from_other_sources_are_refused_before_anything_runs(fmu_dir, tmp_path, capsys):
+    """An FMU built before the model was edited (or by another checkout) had passed `ujfmu check`, which then
+    checked old code: its build hash (in its runtime package's name) is compared with the one these sources give,
+    and a mismatch is an error naming the FMU and the rebuild, for run, check and sweeps alike."""
+    import shutil
+    import zipfile
+
+    from ujfmu.scenario import Scenario, ScenarioError
+    from ujfmu.sweep import Sweep, SweepSettings, parse_axis
+    stale = tmp_path / "fmus"
+    shutil.copytree(fmu_dir, stale)
+    with zipfile.ZipFile(fmu_dir / "Load.fmu") as old, zipfile.ZipFile(stale / "Load.fmu", "w") as new:
+        for item in old.infolist():
+            name = re.sub(r"(ujfmu_load_)[0-9a-f]{10}(_entry\.py)$", r"\g<1>0123456789\2", item.filename)
+            new.writestr(name, old.read(item.filename))
+    scenario = Scenario(SCENARIOS / "cardan_startup.toml")
+    with pytest.raises(ScenarioError, match=r"Load.fmu was built from other sources than this ujfmu's .*its build "
+                                            r"hash 0123456789"):
+        scenario.check_fmus(stale)
+    assert main(["--fmu-dir", str(stale), "check", str(SCENARIOS / "cardan_startup.toml"), "--no-plot",
+                 "--out", str(tmp_path / "out")]) == 2
+    assert "rebuild it" in capsys.readouterr().out
+    with pytest.raises(ScenarioError, match="was built from other sources"):
+        Sweep(scenario, [parse_axis("motor.omega_set=100,150", scenario)],
+              SweepSettings.from_scenario(scenario, settle_time=0.1, running_speed="motor.omega"), out_dir=tmp_path,
+              fmu_dir=stale)
+    scenario.check_fmus(fmu_dir)   # the session's own build: accepted
+
+
+def test_a_command_run_in_another_checkout_says_whose_sources_it_uses(tmp_path, capsys, monkeypatch):
+    """A CI job whose cached venv holds another checkout's editable install had built and checked that checkout's
+    code, not the one in its directory, without a word: the command warns, naming both."""
+    from ujfmu.build import PACKAGE_DIR
+    from ujfmu.cli import other_checkout
+    (tmp_path / "ujfmu").mkdir()
+    (tmp_path / "ujfmu" / "__init__.py").write_text("")
+    assert other_checkout(tmp_path) == tmp_path / "ujfmu" and other_checkout(PACKAGE_DIR.parent) is None
+    monkeypatch.chdir(tmp_path)
+    main(["modes", str(SCENARIOS / "twin_jeffcott_steady.toml")])
+    err = capsys.readouterr().err
+    assert f"this directory holds another ujfmu checkout ({tmp_path / 'ujfmu'})" in err and str(PACKAGE_DIR) in err
+
+
+def test_the_gate_does_not_pass_on_what_it_did_not_check(fmu_dir, tmp_path, capsys):
+    """Ways a CI gate had shown green: an all-pass JUnit report of an earlier run left in place by a run that never
+    got to write its own (an empty folder, an interruption, a kill); two scenarios of one name sharing a case and a
+    CSV; a reference that is the co-simulation's own output. Each now fails, naming why."""
+    junit = tmp_path / "report.xml"
+    junit.write_text('<testsuite tests="16" failures="0" errors="0"/>')
+    (tmp_path / "empty").mkdir()
+    assert main(["--fmu-dir", str(fmu_dir), "check", str(tmp_path / "empty"), "--junit", str(junit)]) == 2
+    suite = ET.parse(junit).getroot()
+    assert suite.get("errors") == "1" and "did not finish" in suite.find("testcase").find("error").get("message")
+    assert main(["--fmu-dir", str(fmu_dir), "check", str(SCENARIOS / "cardan_constant_speed.toml"), "--junit",
+                 str(tmp_path)]) == 2
+    assert f"--junit {tmp_path} is a folder" in capsys.readouterr().err
+    (tmp_path / "other").mkdir()
+    twin = tmp_path / "other" / "cardan_constant_speed.toml"
+    twin.write_text((SCENARIOS / "cardan_constant_speed.toml").read_text())
+    assert main(["--fmu-dir", str(fmu_dir), "check", str(SCENARIOS / "cardan_constant_speed.toml"), str(twin)]) == 2
+    assert "scenarios of the same name would share their results and JUnit case" in capsys.readouterr().err
+    # a run's own CSV, copied in as the reference of a scenario that names no generator (made by hand)
+    out = tmp_path / "out"
+    assert main(["--fmu-dir", str(fmu_dir), "run", str(SCENARIOS / "cardan_constant_speed.toml"), "--no-plot",
+                 "--out", str(out)]) == 0
+    (tmp_path / "references").mkdir()
+    (tmp_path / "references" / "selfref.csv").write_text((out / "cardan_constant_speed.csv").read_text())
+    selfref = tmp_path / "selfref.toml"
+    selfref.write_text((SCENARIOS / "cardan_constant_speed.toml").read_text().replace(
+        "references/cardan_constant_speed.csv", "references/selfref.csv").replace('generator = "cardan_joint"', ""))
+    capsys.readouterr()
+    assert main(["--fmu-dir", str(fmu_dir), "check", str(selfref), "--no-plot", "--out", str(out)]) == 2
+    assert "equals this run to the last digit in every compared signal" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda rows: rows[:2] + [rows[2].replace(rows[2].split(",")[1], "inf", 1)] + rows[3:], "has inf in column"),
+    (lambda rows: rows[:2] + [rows[3], rows[2]] + rows[4:], "has times that do not increase (data row 2"),
+    (lambda rows: rows[:2], "a header but no data rows"),
+    (lambda rows: [r for r in rows if not r.startswith("#")], "has no provenance line"),
+])
+def test_a_reference_that_checks_nothing_is_refused(tmp_path, edit, message):
+    """A reference with an infinite value (its band became infinite: any error passed), with times out of order
+    (fmpy's validate_result never returned), without data, or without the provenance line of the generator its
+    scenario names (a file made otherwise): refused before anything runs, naming the file and the row."""
+    from ujfmu.scenario import Scenario, ScenarioError
+    rows = (SCENARIOS / "references" / "cardan_constant_speed.csv").read_text().splitlines()
+    (tmp_path / "references").mkdir()
+    (tmp_path / "references" / "cardan_constant_speed.csv").write_text("\n".join(edit(rows)) + "\n")
+    (tmp_path / "cardan_constant_speed.toml").write_text((SCENARIOS / "cardan_constant_speed.toml").read_text())
+    with pytest.raises(ScenarioError, match=re.escape(message)):
+        Scenario(tmp_path / "cardan_constant_speed.toml").reference()
+
+
+def test_a_band_of_the_whole_range_is_refused(tmp_path):
+    """rel_range = 1e9 had passed a model 238x outside its real band: a band of the signal's whole range or more
+    checks nothing of its course, and the scenario file is refused, naming the signal."""
+    from ujfmu.scenario import Scenario, ScenarioError
+    text = (SCENARIOS / "cardan_constant_speed.toml").read_text()
+    wide = tmp_path / "wide.toml"
+    wide.write_text(re.sub(r'("joint\.tau_in" = )\{[^}]*\}', r'\1{ rel_range = 1e9 }', text))
+    assert wide.read_text() != text
+    with pytest.raises(ScenarioError, match=r"reference.tolerance.joint.tau_in: rel_range = 1e\+09 allows an error"):
+        Scenario(wide)
+
+
+def test_a_truncated_fmu_and_a_subfolder_left_out_are_named(fmu_dir, tmp_path, capsys):
+    """A truncated FMU had failed with "File is not a zip file", naming neither file nor remedy; scenarios in a
+    subfolder of a folder given to `check` are left out (a folder stands for its own *.toml), which a note says."""
+    import shutil
+
+    from ujfmu.scenario import Scenario, ScenarioError
+    cut = tmp_path / "fmus"
+    shutil.copytree(fmu_dir, cut)
+    (cut / "Load.fmu").write_bytes((fmu_dir / "Load.fmu").read_bytes()[:1000])
+    with pytest.raises(ScenarioError, match=r"Load.fmu is not an FMU \(not a zip archive: truncated"):
+        Scenario(SCENARIOS / "cardan_startup.toml").check_fmus(cut)
+    (tmp_path / "gate" / "team").mkdir(parents=True)
+    shutil.copy(SCENARIOS / "cardan_constant_speed.toml", tmp_path / "gate" / "team" / "mine.toml")
+    (tmp_path / "gate" / "mine.toml").write_text("not toml [")
+    main(["--fmu-dir", str(fmu_dir), "check", str(tmp_path / "gate"), "--no-plot", "--out", str(tmp_path / "o")])
+    assert f"not included, a folder standing for its own *.toml only: {tmp_path / 'gate' / 'team'} (1 scenario " \
+           "file)" in capsys.readouterr().err

@@ -15,7 +15,7 @@ import time
 import warnings
 from pathlib import Path
 
-from .build import DEFAULT_FMU_DIR, FMUS, REPO_DIR
+from .build import DEFAULT_FMU_DIR, FMUS, PACKAGE_DIR, REPO_DIR
 from .extras import MissingExtraError, available, require
 
 DEFAULT_SCENARIO_DIR = Path("scenarios")
@@ -27,7 +27,8 @@ class UsageError(Exception):
 
 
 def _scenarios(paths):
-    """The scenario files named, a folder standing for its *.toml files; default: scenarios/*.toml."""
+    """The scenario files named, a folder standing for its *.toml files (not its subfolders', which a note names);
+    default: scenarios/*.toml."""
     if paths:
         found = []
         for path in map(Path, paths):
@@ -36,6 +37,7 @@ def _scenarios(paths):
                 if not inside:
                     raise UsageError(f"{path} is a folder without scenario files (*.toml)")
                 found += inside
+                _note_subfolders(path, paths)
             else:
                 found.append(path)
         return found
@@ -43,7 +45,22 @@ def _scenarios(paths):
     if not found:
         raise UsageError(f"no scenario files (*.toml) in {DEFAULT_SCENARIO_DIR.absolute()}: name scenario files, "
                          "or run this in a folder that has a scenarios/ folder")
+    _note_subfolders(DEFAULT_SCENARIO_DIR, [])
     return found
+
+
+def _note_subfolders(folder: Path, named) -> None:
+    """A note on stderr naming the subfolders of folder that hold scenario files not taken (a folder stands for its
+    own *.toml), unless named too; the bundled coupling battery (``ujfmu battery`` runs it) goes unsaid."""
+    from .battery import BATTERY_DIR
+    named = {Path(p).resolve() for p in named}
+    left = [(sub, len(list(sub.rglob("*.toml")))) for sub in sorted(folder.iterdir())
+            if sub.is_dir() and sub.resolve() not in named and sub.resolve() != BATTERY_DIR.resolve()
+            and any(sub.rglob("*.toml"))]
+    if left:
+        print("note: not included, a folder standing for its own *.toml only: " + ", ".join(
+            f"{sub} ({count} scenario file{'s' if count > 1 else ''})" for sub, count in left)
+              + "; name a subfolder to include it", file=sys.stderr)
 
 
 #: off a terminal (a CI log), sweeps say their progress in a line at each tenth of their points and at least every
@@ -137,6 +154,8 @@ def cmd_build(args):
     fmu_dir = args.fmu_dir
     if args.fmi == 3:   # FMI 3.0 (pythonfmu3)
         from .build3 import build_all3 as build_all
+    if not args.quiet:
+        print(f"building from the sources of {PACKAGE_DIR}", file=sys.stderr)
     with _progress(args, "building FMUs", "fmu") as progress:
         for i, name in enumerate(names):
             path = build_all(fmu_dir, [name])[0]
@@ -144,6 +163,15 @@ def cmd_build(args):
             if progress:
                 progress(i + 1, len(names))
     return 0
+
+
+def other_checkout(cwd: Path | None = None) -> Path | None:
+    """The ujfmu package of another checkout in the current directory (cwd/ujfmu) than the one this command runs
+    from, else None: its build, run and check use this one's sources, not that checkout's."""
+    here = (cwd or Path.cwd()) / "ujfmu"
+    if (here / "__init__.py").is_file() and here.resolve() != PACKAGE_DIR:
+        return here
+    return None
 
 
 def _check_fmi3(scenario, fmu_dir) -> None:
@@ -246,12 +274,32 @@ def cmd_run(args):
     return 1 if result.failed or not step_ok else 0
 
 
+#: the JUnit report's one case until ``ujfmu check`` writes its own: a run that never gets there fails
+UNFINISHED = ("did not finish: interrupted, killed, or stopped by an error before writing its report (its output "
+              "says which); this placeholder stands until a run completes")
+
+
 def cmd_check(args):
     from .master import CosimulationError
     from .scenario import ScenarioError
     from .scenario_run import write_junit
     results, skipped, errors = [], {}, {}
-    for path in _scenarios(args.scenarios):
+    kind = "model_exchange" if args.model_exchange else "fmi3" if getattr(args, "fmi", 2) == 3 else ""
+    if args.junit:   # a report of an earlier run must not stand for this one, whatever becomes of it
+        if Path(args.junit).is_dir():
+            raise UsageError(f"--junit {args.junit} is a folder: give the report's file name, e.g. "
+                             f"{Path(args.junit) / 'report.xml'}")
+        write_junit([], args.junit, {"ujfmu check": UNFINISHED}, kind=kind)
+    paths = _scenarios(args.scenarios)
+    names = {}
+    for path in paths:
+        names.setdefault(Path(path).stem, []).append(str(path))
+    twice = {name: where for name, where in names.items() if len(where) > 1}
+    if twice:
+        raise UsageError("scenarios of the same name would share their results and JUnit case: "
+                         + "; ".join(f"{name}: {', '.join(where)}" for name, where in twice.items())
+                         + " (rename one, or check them in separate runs with their own --out and --junit)")
+    for path in paths:
         try:
             if args.model_exchange:
                 from .model_exchange import ModelExchangeError
@@ -269,7 +317,6 @@ def cmd_check(args):
     _plots_missing(args)
     _band_missing(results)
     if args.junit:
-        kind = "model_exchange" if args.model_exchange else "fmi3" if getattr(args, "fmi", 2) == 3 else ""
         print(f"JUnit report: {write_junit(results, args.junit, errors, skipped, kind)}")
     failed = [r for r in results if r.failed]
     unchecked = [r for r in results if not r.checked and not r.failed]
@@ -708,6 +755,11 @@ def main(argv=None):
     if getattr(args, "fmi", 2) == 3 and args.fmu_dir == DEFAULT_FMU_DIR:   # --fmi 3: fmus/fmi3/ by default
         from .build3 import DEFAULT_FMU3_DIR
         args.fmu_dir = DEFAULT_FMU3_DIR
+    other = other_checkout()
+    if other is not None:
+        print(f"ujfmu: warning: this directory holds another ujfmu checkout ({other.absolute()}) than the one this "
+              f"command runs from ({PACKAGE_DIR}): FMUs are built, and scenarios run, from the latter's sources; "
+              "install this one (`pip install -e .` in a venv of its own) to check its code", file=sys.stderr)
     try:
         from .master import FmuWarning
         with warnings.catch_warnings():   # the commands print what the FMUs warn of in their own terms

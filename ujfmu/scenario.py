@@ -43,7 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .build import DEFAULT_FMU_DIR, FMUS, REPO_DIR, build_hint, fmu_class
+from .build import DEFAULT_FMU_DIR, FMUS, PACKAGE_DIR, REPO_DIR, build_hint, fmu_class, source_hash
+from .fmu.base import model_stem
 from .master import COUPLINGS, DEFAULT_COUPLING, Component, Connection
 
 
@@ -122,6 +123,46 @@ def description_attribute(path: Path, attribute: str) -> str | None:
         return None
     found = re.search(rf'<fmiModelDescription\b[^>]*\s{attribute}="([^"]*)"', head)
     return found.group(1) if found else None
+
+
+#: an FMU's runtime package entry, named after the FMU and the hash of the sources it was built from
+_BUILD_ENTRY = re.compile(r"resources/ujfmu(3?)_\w+_([0-9a-f]{10})_entry\.py")
+
+
+def reference_problem(table: np.ndarray, columns: list) -> str:
+    """'' if the reference's columns are finite and its times increase, else what is wrong (the first row):
+    a NaN or infinite value compares as nothing (an infinite band passes any error), and times out of order make
+    the comparison's interpolation meaningless (fmpy's validate_result does not return)."""
+    if len(table) < 2:
+        return f"has {len(table)} row{'s' * (len(table) != 1)} of data"
+    for name in dict.fromkeys(columns):
+        bad = np.flatnonzero(~np.isfinite(table[name]))
+        if len(bad):
+            return f"has {table[name][bad[0]]} in column {name} (data row {bad[0] + 1})"
+    steps = np.diff(table["time"])
+    if not np.all(steps > 0.0):
+        row = int(np.flatnonzero(~(steps > 0.0))[0]) + 2
+        return (f"has times that do not increase (data row {row}: {table['time'][row - 1]!r} after "
+                f"{table['time'][row - 2]!r})")
+    return ""
+
+
+def stale_build(path: Path, fmu: str) -> tuple:
+    """(the build hash an FMU file of ujfmu's model fmu carries, the hash a build from this ujfmu's sources gives):
+    different when the file was built from other sources (stale, or another checkout's). Equal (nothing to say)
+    for a file without a ujfmu runtime package or one that cannot be read."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            found = [m for m in map(_BUILD_ENTRY.fullmatch, archive.namelist()) if m]
+    except (OSError, zipfile.BadZipFile):
+        return None, None
+    if len(found) != 1 or fmu not in FMUS:
+        return None, None
+    stem = model_stem(fmu_class(fmu).__module__)
+    if found[0].group(1):
+        from .build3 import fmi3_hash
+        return found[0].group(2), fmi3_hash(stem)
+    return found[0].group(2), source_hash(stem)
 
 
 class Scenario:
@@ -451,9 +492,20 @@ class Scenario:
                                 f"(setup {made_for}, the scenario's is now {self.setup_digest()}: a component, "
                                 "parameter, set input, connection or the start time changed since); regenerate it: "
                                 f"`ujfmu references {self.path}`")
-        missing = [n for n in ["time", *self.tolerances, *self.extrapolated_tolerances] if n not in table.dtype.names]
+        missing = list(dict.fromkeys(n for n in ["time", *self.tolerances, *self.extrapolated_tolerances]
+                                     if n not in table.dtype.names))
         if missing:
             raise ScenarioError(f"{field}: no column {', '.join(missing)} in {self.reference_file}")
+        problem = reference_problem(table, ["time", *self.tolerances, *self.extrapolated_tolerances])
+        if problem:
+            raise ScenarioError(f"{field}: {self.reference_file} {problem}: a reference must be a finite solution on "
+                                "increasing times; regenerate it"
+                                + (f" (`ujfmu references {self.path}`)" if self.reference_generator else ""))
+        if made_for is None and self.reference_generator:
+            raise ScenarioError(f"{field}: {self.reference_file} has no provenance line (the '#' line `ujfmu "
+                                f"references` writes: how it was made, for which setup), though the scenario names "
+                                f"its generator {self.reference_generator!r}: a file made otherwise, or edited, would "
+                                f"be compared unchecked; regenerate it: `ujfmu references {self.path}`")
         return table, provenance
 
     def foreign_reference(self, owner: str | None) -> str:
@@ -493,6 +545,10 @@ class Scenario:
             values = {k: self._number(tol, f"{field}.{k}") for k in tol}
             if any(v < 0 for v in values.values()):
                 raise ScenarioError(f"{self.path}: {field}: bounds must not be negative, got {tol!r}")
+            if values.get("rel_range", 0.0) >= 1.0:
+                raise ScenarioError(f"{self.path}: {field}: rel_range = {values['rel_range']:g} allows an error of the "
+                                    "signal's whole range or more, which checks nothing of its course; give the "
+                                    "accuracy the study needs (`ujfmu run --check-step` estimates this step's)")
             tolerances[name] = Tolerance(**values)
         return tolerances
 
@@ -532,11 +588,22 @@ class Scenario:
             if not path.is_file():
                 raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path.absolute()} not found "
                                     f"({build_hint(fmu_dir)})")
+            if not zipfile.is_zipfile(path):
+                raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path.absolute()} is not an "
+                                    f"FMU (not a zip archive: truncated, or overwritten by another file); rebuild it "
+                                    f"({build_hint(fmu_dir)})")
             model = description_attribute(path, "modelName")
             if model is not None and model != fmu:
                 raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path.absolute()} holds the "
                                     f"model {model!r} (its modelDescription.xml says so), not {fmu!r}: a file copied "
                                     f"or renamed over it; rebuild it ({build_hint(fmu_dir)})")
+            built, now = stale_build(path, fmu)
+            if built != now:
+                raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path.absolute()} was built from "
+                                    f"other sources than this ujfmu's ({PACKAGE_DIR}): its build hash {built}, these "
+                                    f"sources' {now} (the model's equations or the FMU layer changed since, or it was "
+                                    f"built by another checkout or version); rebuild it ({build_hint(fmu_dir)}), so "
+                                    "that what is checked is the code you have")
 
     def model_problems(self, component) -> list:
         """What the component's model refuses in its parameters as a whole (``MODEL.check``, which the FMU runs at

@@ -542,7 +542,14 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                             model_exchange=model_exchange)
     if reference is not None and scenario.tolerances:
         result.checks = compare(table, reference, scenario.tolerances)
-        from .references import method_of
+        from .references import method_of, setup_of
+        if setup_of(provenance) is None and len(table) > 2 and all(c.max_error == 0.0 for c in result.checks):
+            raise ScenarioError(f"{scenario.path}: [reference] file {scenario.reference_file} equals this run to the "
+                                "last digit in every compared signal and does not say how it was made (no '#' "
+                                "provenance line with the setup it was made for): it is a copy of a co-simulation's "
+                                "output, and comparing a run with itself checks nothing. A reference comes from an "
+                                "independent computation: a closed form or a monolithic solve (README, \"Scenario "
+                                "format\")")
         result.reference_method = method_of(provenance)
         # fmpy's band scales with each signal's range: a signal constant to within its absolute tolerance (say the
         # output speed of a constant-velocity layout) is checked by compare() alone

@@ -478,6 +478,7 @@ class Sweep:
         if missing:
             raise FileNotFoundError(f"FMU {', '.join(missing)} not found in {self.fmu_dir.absolute()} "
                                     f"({build_hint(self.fmu_dir)})")
+        self.scenario.check_fmus(self.fmu_dir)   # each holds its model, built from these sources
         self.fmu_blobs = {f: (self.fmu_dir / f"{f}.fmu").read_bytes() for f in fmus}
         hashes = {f: hashlib.sha256(b).hexdigest()[:16] for f, b in self.fmu_blobs.items()}
         self.job = PointJob([(n, fmu, self.scenario.start_values(n)) for n, (fmu, _) in

@@ -53,7 +53,9 @@ def read_reference(path):
     with _open(path, "r") as f:
         lines = f.read().splitlines()
     provenance = " ".join(line[1:].strip() for line in lines if line.startswith("#"))
-    body = [line for line in lines if not line.startswith("#")]
+    body = [line for line in lines if not line.startswith("#") and line.strip()]
+    if len(body) < 2:
+        raise ValueError("no header and data rows" if not body else "a header but no data rows")
     names = [n.strip().strip('"') for n in body[0].split(",")]
     data = np.loadtxt(io.StringIO("\n".join(body[1:])), delimiter=",", ndmin=2)
     return np.rec.fromarrays(data.T, names=names), provenance
