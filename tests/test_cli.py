@@ -719,3 +719,19 @@ def test_a_truncated_fmu_and_a_subfolder_left_out_are_named(fmu_dir, tmp_path, c
     main(["--fmu-dir", str(fmu_dir), "check", str(tmp_path / "gate"), "--no-plot", "--out", str(tmp_path / "o")])
     assert f"not included, a folder standing for its own *.toml only: {tmp_path / 'gate' / 'team'} (1 scenario " \
            "file)" in capsys.readouterr().err
+
+
+def test_an_unexpected_exception_exits_3_not_as_a_failed_check(capsys):
+    """A bug's exception had ended the command with Python's status 1, a FAIL's: it prints its traceback and
+    exits with 3."""
+    from ujfmu.cli import INTERNAL_ERROR, run_and_exit
+
+    def broken():
+        raise RuntimeError("a bug")
+    with pytest.raises(SystemExit) as info, pytest.MonkeyPatch.context() as mp:
+        mp.setattr("os._exit", lambda code: (_ for _ in ()).throw(SystemExit(code)))
+        mp.setattr("atexit._run_exitfuncs", lambda: None)   # this process's exit handlers stay for its exit
+        run_and_exit(broken)
+    assert info.value.code == INTERNAL_ERROR == 3
+    err = capsys.readouterr().err
+    assert "RuntimeError: a bug" in err and "internal error" in err

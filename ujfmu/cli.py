@@ -12,6 +12,7 @@ import os
 import signal
 import sys
 import time
+import traceback
 import warnings
 from pathlib import Path
 
@@ -846,6 +847,10 @@ def _interrupt(signum, frame) -> None:
     raise KeyboardInterrupt
 
 
+#: the exit status of an unexpected exception (a bug), apart from 1 (a check failed) and 2 (could not run)
+INTERNAL_ERROR = 3
+
+
 def run_and_exit(function) -> None:
     """Run function() (a command's main: its exit status, or SystemExit), then, once Python's exit handlers have run
     and the output is flushed, end the process with that status without the shared libraries' destructors.
@@ -856,6 +861,11 @@ def run_and_exit(function) -> None:
         code = function()
     except SystemExit as exc:
         code = exc.code
+    except Exception:   # not a user error (those are messages, status 2): a bug, told apart from a FAIL
+        traceback.print_exc()
+        print(f"ujfmu: internal error (a bug: please report it with the traceback above); exit status "
+              f"{INTERNAL_ERROR}", file=sys.stderr)
+        code = INTERNAL_ERROR
     if code is None:
         code = 0
     elif not isinstance(code, int):
