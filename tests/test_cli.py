@@ -158,6 +158,9 @@ def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_p
     assert suite.get("skipped") == "1" and suite.get("failures") == "0"
     cases = {c.get("name"): c for c in suite.iter("testcase")}
     assert cases["unchecked"].find("skipped") is not None and cases["cardan_constant_speed"].find("skipped") is None
+    # --strict: a gate that checks every scenario it is given fails on the unchecked one
+    assert main(["check", str(SCENARIOS / "cardan_constant_speed.toml"), str(unchecked), "--strict"] + common) == 1
+    assert "--strict: 1 scenario(s) not checked: unchecked" in capsys.readouterr().err
 
 
 def test_result_names_compared_and_uncompared_signals(fmu_dir, tmp_path):

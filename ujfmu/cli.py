@@ -339,6 +339,10 @@ def cmd_check(args):
         print(f"ujfmu: error: nothing was checked: none of the {len(results)} scenario(s) compares a signal with a "
               "reference (add [reference] file and [reference.tolerance] to a scenario)", file=sys.stderr)
         return 1
+    if unchecked and args.strict:
+        print(f"ujfmu: error: --strict: {len(unchecked)} scenario(s) not checked: "
+              f"{', '.join(r.scenario.name for r in unchecked)}", file=sys.stderr)
+        return 1
     return 1 if failed else 0
 
 
@@ -653,6 +657,9 @@ def main(argv=None):
         else:
             p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")
+            p.add_argument("--strict", action="store_true",
+                           help="exit with status 1 when any scenario is not checked (no [reference] with "
+                                "tolerances), not only when none is")
         _out(p, "results/", "output folder; results/fmi3/ with --fmi 3, results/model_exchange/ with "
                              "--model-exchange, so that runs of different FMU kinds do not overwrite each other")
         p.add_argument("--no-plot", action="store_true")
