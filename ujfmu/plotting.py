@@ -281,8 +281,7 @@ def plot_sweep(sweep, out_dir):
     speed_hz = np.array([abs(r["speed_mean"]) / (2 * np.pi) for r in rows])
     if campbell:
         from .analysis import scenario_modes
-        modes = [(m.component, m.omega, m.count, m.low, m.high)
-                 for m in scenario_modes(scenario, rows[0]["point"] if rows else {})]
+        modes = sorted(scenario_modes(scenario, rows[0]["point"] if rows else {}), key=lambda m: m.omega)
     else:
         modes = []
     for (ax1, *ax2), out in zip(panels, shown):
@@ -324,11 +323,12 @@ def plot_sweep(sweep, out_dir):
                 resolved = ~np.isnan(amp)                       # unresolved orders: no marker
                 ax2.scatter(x[resolved], order * speed_hz[resolved], s=2 + 200 * seen[resolved] / (top or 1.0),
                             alpha=0.6, label=f"{order}x")
-            banded, modes = False, sorted(modes, key=lambda m: m[1])
+            banded = False
             span = max(np.ptp(ax2.get_ylim()), 1e-12)
             # a label goes below its line where the next mode's line is close above (its label goes above)
-            below = [b[1] - a[1] < 0.04 * span * 2 * np.pi for a, b in zip(modes, modes[1:])] + [False]
-            for i, (component, omega_n, count, low, high) in enumerate(modes):
+            below = [b.omega - a.omega < 0.04 * span * 2 * np.pi for a, b in zip(modes, modes[1:])] + [False]
+            for i, mode in enumerate(modes):
+                component, omega_n, count, low, high = mode.component, mode.omega, mode.count, mode.low, mode.high
                 f_n = omega_n / (2 * np.pi)
                 ax2.axhline(f_n, color="0.35", ls=":", lw=0.9,
                             label="natural frequencies (at rest, mean over the input angle)" if i == 0 else None)

@@ -146,7 +146,7 @@ def omar(rep: Report) -> Section:
               "consistent (closed form of the figure's k_phi)")
         s.row(p_rpm.quantity, p_rpm.value, rpm, p_rpm.unit, verdict(rpm, p_rpm.value, p_rpm.band))
         ours_ratio, paper_ratio = value / l_peak, p_peak.value / paper5[1]
-        fig12_peak = math.degrees(value)   # the last figure's, quoted in the notes
+        fig12_peak, printed = math.degrees(value), p_peak.value   # the last figure's, quoted in the notes
         s.row(p_peak.quantity, p_peak.value, math.degrees(value), p_peak.unit,
               verdict(math.degrees(value), p_peak.value, p_peak.band,
                       trend=(f"ratio to the Table 1 stiffness's peak {ours_ratio:.2f} (paper {paper_ratio:.2f}, "
@@ -156,8 +156,8 @@ def omar(rep: Report) -> Section:
                f"T/k_theta that does not grow with beta0, and {dynamic[30] / dynamic[15]:.2f} in its vibration "
                "(half its peak-to-peak, peak over speed): neither reading gives 2, and the "
                "figure is not in the text, so the paper's measure is unknown; the twist does rise with beta0. "
-               f"Fig. 12's peak, {fig12_peak:.3g} deg against the printed \"attenuated to 0.005\", differs by "
-               f"{100 * (fig12_peak / 0.005 - 1):.0f}%: more than the printed digit's rounding ({fig12_peak:.3g} "
+               f"Fig. 12's peak, {fig12_peak:.3g} deg against the printed \"attenuated to {printed:g}\", differs by "
+               f"{100 * (fig12_peak / printed - 1):.0f}%: more than the printed digit's rounding ({fig12_peak:.3g} "
                f"rounds to {fig12_peak:.1g}), so either the paper truncated it or "
                "its model differs from ours there; the attenuation itself (a smaller peak than at Table 1's "
                "stiffness) is reproduced. Table 2 and Figs. 4, 11, 12 come out of the corrected equations (printed "
