@@ -1,7 +1,8 @@
 """Detection and reporting: a divergence too fast for the alternation count is still blamed on the coupling, a
 refusal with no coupling evidence stays a range error, the energy residual of the power bonds, inputs held
 unconnected, a drive that does not reach its set point in a run without a reference, a record that aliases a joint's
-2x order, and the energy figure of a bond from an ideal speed source."""
+2x order, the energy figure of a bond from an ideal speed source, and the explicit steps' watch a block at a
+time."""
 
 import math
 import warnings
@@ -9,11 +10,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 
-from ujfmu import battery
+from ujfmu import battery, master
 from ujfmu.cli import main
-from ujfmu.master import (Component, Connection, CosimulationError, CouplingInstabilityError, HeldInputWarning,
-                          cosimulate)
+from ujfmu.master import (COUPLING_RTOL, IMPLICIT_NOISE_TOLERANCES, Component, Connection, CosimulationError,
+                          CouplingInstabilityError, HeldInputWarning, cosimulate, energy_block, watch_block,
+                          watch_step)
 from ujfmu.references import read_reference
 from ujfmu.scenario import Scenario
 from ujfmu.wiring import with_changes
@@ -405,3 +409,133 @@ def test_a_drive_short_of_its_torque_limit_is_not_called_stalled(fmu_dir):
     with pytest.raises(CouplingInstabilityError) as info:
         run_scenario(heavy, fmu_dir=fmu_dir, out_dir=None)
     assert "nearly stopped" not in str(info.value)
+
+
+# --- the explicit steps' watch, a block at a time -------------------------------------------------------------------
+
+def _fresh_states(first):
+    return [[v, 0.0, 0, 0.0, abs(v), 0.0, 0, 0, 0, 0.0] for v in first]
+
+
+def _same(a, b):
+    return len(a) == len(b) and all(x == y or (x != x and y != y) for x, y in zip(a, b))
+
+
+def _signal(draw, n):
+    """One watched connection's values over n steps: pieces of what couplings carry (a constant, a ramp, a sampled
+    oscillation, an alternation growing or dying at the step rate, a chatter between two levels, round-off, NaN)."""
+    values, level = [], draw(st.floats(-50.0, 50.0))
+    while len(values) < n:
+        kind = draw(st.sampled_from(["constant", "ramp", "sine", "alternation", "chatter", "round-off", "nan"]))
+        length = draw(st.integers(1, 12))
+        if kind == "constant":
+            piece = [level] * length
+        elif kind == "ramp":
+            slope = draw(st.floats(-5.0, 5.0))
+            piece = [level + slope * (i + 1) for i in range(length)]
+        elif kind == "sine":
+            amplitude, per = draw(st.floats(0.0, 20.0)), draw(st.integers(2, 20))
+            piece = [level + amplitude * math.sin(2.0 * math.pi * i / per) for i in range(length)]
+        elif kind == "alternation":   # from round-off to the level's size, a share of it
+            start = draw(st.sampled_from([1e-12, 1e-4, 1e-3, 1e-2, 0.1, 1.0])) * max(1.0, abs(level))
+            ratio = draw(st.sampled_from([0.5, 1.0, 1.6, 3.0, 12.0]))
+            piece = [level + start * (-ratio) ** i for i in range(length)]
+        elif kind == "chatter":
+            swing = draw(st.floats(0.0, 30.0))
+            piece = [level + (swing if draw(st.integers(0, 9)) else 0.0) * (-1) ** i for i in range(length)]
+        elif kind == "round-off":
+            piece = [level + 1e-15 * (-1) ** i for i in range(length)]
+        else:
+            piece = [math.nan] * draw(st.integers(1, 2))
+        values += piece
+        level = piece[-1] if piece[-1] == piece[-1] else level
+    return values[:n]
+
+
+@st.composite
+def _watched(draw):
+    m, n = draw(st.integers(1, 3)), draw(st.integers(1, 80))
+    columns = [_signal(draw, n + 1) for _ in range(m)]
+    values = np.array(columns).T
+    splits = sorted(set(draw(st.lists(st.integers(1, n - 1), max_size=6)))) if n > 1 else []
+    return values, draw(st.integers(0, m)), draw(st.sampled_from([0.0, IMPLICIT_NOISE_TOLERANCES * COUPLING_RTOL])), splits
+
+
+@settings(max_examples=400, deadline=None)
+@given(_watched())
+@example((np.array([[50.0]] + [[50.0 + 1e-3 * (-3.0) ** k] for k in range(1, 9)]), 1, 0.0, [2]))
+def test_the_block_watch_trips_where_the_step_watch_does_and_keeps_its_states(case):
+    """The explicit steps are watched a block at a time (``watch_block``: vectorized where no step can trip,
+    step by step otherwise). Over any split into blocks it must trip at the same step and connection, for the same
+    reason, as the step-by-step watch (``watch_step``), and leave the same states to the next block."""
+    values, torn, noise, splits = case
+    exact = _fresh_states(values[0])
+    expected = None
+    for row, now in enumerate(values[1:]):
+        hit = watch_step(exact, now.tolist(), torn, noise)
+        if hit is not None:
+            expected = (row,) + hit
+            break
+    blocked, got, done = _fresh_states(values[0]), None, 0
+    for a, b in zip([0] + splits, splits + [len(values) - 1]):
+        hit = watch_block(blocked, values[1 + a:1 + b], torn, noise)
+        if hit is not None:
+            got = (a + hit[0],) + hit[1:]
+            break
+    assert got == expected
+    assert all(_same(x, y) for x, y in zip(exact, blocked)), (exact, blocked)
+
+
+def test_the_block_watch_skips_the_step_loop_only_where_nothing_can_trip(monkeypatch):
+    """A smooth oscillation, a ramp and a constant are watched without the step loop; a growing alternation
+    (x3 a step) in a torn connection goes through it and trips at its third reversal in a row, the first change
+    8x the one the reversals began from."""
+    calls = []
+    monkeypatch.setattr(master, "watch_step", lambda *a: calls.append(a) or watch_step(*a))
+    t = np.arange(1, 201) * 1e-3
+    quiet = np.column_stack([10.0 + 2.0 * np.sin(2 * np.pi * 5 * t), 3.0 * t, np.full_like(t, -4.0)])
+    assert watch_block(_fresh_states([10.0, 0.0, -4.0]), quiet, 2, 0.0) is None and not calls
+    growing = np.array([[1.0 + 0.01 * (-3.0) ** k] for k in range(1, 9)])
+    # changes -0.03, 0.12, -0.36, 1.08: reversals from the second on, the third 9x the 0.12 they began from
+    assert watch_block(_fresh_states([1.0]), growing, 1, 0.0) == (3, 0, "growth") and calls
+    # the same about 100, each change below a tenth of the value (no chatter): the growth alone trips it
+    calls.clear()
+    growing = 100.0 + np.array([[1e-3 * (-3.0) ** k] for k in range(1, 9)])
+    assert watch_block(_fresh_states([100.0]), growing, 1, 0.0) == (3, 0, "growth") and calls
+
+
+def test_energy_block_sums_the_step_residuals_in_order():
+    """``energy_block`` against the residual of Sadjina et al. (2017) step by step: each side holds its input at
+    the step's start, dE_k = h/2 (w_k tau_k+1 - tau_k w_k+1), E_speed = tau_k h/2 (w_k + w_k+1)."""
+    rng = np.random.default_rng(3)
+    w, tau, h = rng.normal(10.0, 2.0, (50, 2)), rng.normal(0.0, 5.0, (50, 2)), 1e-3
+    bonds = [[None, None, -1, -1, w[0, b], tau[0, b], 0.0, 0.0, 0.0] for b in range(2)]
+    energies = [master.BondEnergy(None, None) for _ in range(2)]
+    energy_block(bonds, energies, w[1:21], tau[1:21], h / 2)
+    energy_block(bonds, energies, w[21:], tau[21:], h / 2)
+    for b in range(2):
+        d_e = [h / 2 * (w[k, b] * tau[k + 1, b] - tau[k, b] * w[k + 1, b]) for k in range(49)]
+        e_speed = [tau[k, b] * h / 2 * (w[k, b] + w[k + 1, b]) for k in range(49)]
+        assert energies[b].residual == pytest.approx(sum(d_e), rel=1e-12)
+        assert energies[b].residual_abs == pytest.approx(sum(map(abs, d_e)), rel=1e-12)
+        assert energies[b].transmitted == pytest.approx(sum(map(abs, e_speed)), rel=1e-12)
+        assert bonds[b][4:9] == pytest.approx([w[-1, b], tau[-1, b], d_e[-1], d_e[-2], e_speed[-1]], rel=1e-12)
+
+
+@pytest.mark.parametrize("block", [1, 2, 3, 1024])
+def test_a_divergence_is_reported_at_its_step_whatever_the_watch_block(fmu_dir, monkeypatch, block):
+    """battery_00 explicit diverges at t = 0.004 and its joint logs an aliasing warning at the step after. Watched a
+    block at a time, the run must stop with the same message as watched at every step (block 1): the same step,
+    growth and log (nothing logged after it), the results up to that step and the bonds' energy up to it."""
+    def stopped(size):
+        monkeypatch.setattr(master, "WATCH_BLOCK", size)
+        diagnostics = {}
+        s = Scenario(HEAVY)
+        with pytest.raises(CouplingInstabilityError) as info:
+            _run(s, fmu_dir, "explicit", stop=0.05, diagnostics=diagnostics)
+        bonds = [(b.residual, b.transmitted) for b in diagnostics["bonds"]]
+        return str(info.value), info.value.partial.tolist(), bonds
+
+    message, partial, energy = stopped(block)
+    assert (message, partial, energy) == stopped(1)
+    assert "t = 0.004" in message and "t = 0.005" not in message and len(partial) == 5

@@ -69,6 +69,9 @@ GROWTH_STEPS, GROWTH_FACTOR, GROWTH_FLOOR = 3, 8.0, 1e-3
 #: of a divergence: an unloaded constant-velocity driveline's tau_in is 1e-15 N.m of alternating noise about 0, and a
 #: real divergence passes this within a few steps
 NOISE_FLOOR = 1e-9
+#: explicit steps are watched this many at a time (``watch_block``), and before any failure is reported: a
+#: divergence is reported at the step it began, the steps taken after it are dropped
+WATCH_BLOCK = 1024
 #: chatter: a connection on a loop whose change keeps reversing its sign, each reversal by at least CHATTER_SHARE of
 #: its largest |value|: an oscillation at the step rate that does not die out (a switching component faster than
 #: the step, e.g. a Load's friction torque smoothed over a band of speed that one step jumps across), which no
@@ -507,10 +510,11 @@ class Cosimulation:
         self._readers = [bare_get(comp, vrs, offsets[len(gets) + i]) for i, (comp, vrs) in enumerate(readers)]
         # per connection, in feedthrough order: (get, source, its vr, 1, value, set, target, its vr, connection),
         # value the one-value view of the scratch row where the connection's value is read to
-        self._transfers, views = [], []
+        self._transfers, views, columns = [], [], []
         for conn, (dst, vr, g, pos) in zip(ordered, sets):
             src = self.instances[conn.source.split(".", 1)[0]]
             value = segment(offsets[g] + pos, 1)
+            columns.append(offsets[g] + pos)
             views.append(np.frombuffer(value, dtype=np.float64))
             self._transfers.append((src.raw("fmi2GetReal"), src.slave.component, _vrs(gets[g][1][pos]), 1, value,
                                     self.instances[dst].raw("fmi2SetReal"), self.instances[dst].slave.component,
@@ -520,6 +524,8 @@ class Cosimulation:
         self._steppers = [(inst.raw("fmi2DoStep"), inst.slave.component, name)
                           for name, inst in self.instances.items()]
         self._plan_tearing(views)
+        # the scratch row's columns of the watched connections and of the bonds' speeds and torques
+        self._watch_columns = np.array([columns[i] for i in self._watched], dtype=np.intp)
         self._communicate()
         self._fresh = True
         # per watched connection (torn first): [last value, last change, alternations, |change| when they began,
@@ -527,6 +533,8 @@ class Cosimulation:
         # the last change above NOISE_FLOOR]
         self._growth = [[v[0], 0.0, 0, 0.0, abs(v[0]), 0.0, 0, 0, 0, 0.0] for v in self._watch_views]
         self._plan_bonds(views)
+        self._bond_columns = tuple(np.array([columns[i] for i in pairs], dtype=np.intp)
+                                   for pairs in zip(*self._bond_pairs)) if self._bonds else ()
         self.held_inputs = held_inputs(self.instances, connections, {c.name: c.parameters for c in components})
         given = {(c.name, name) for c in components for name in c.parameters}
         unstated = [h for h in self.held_inputs if (h.component, h.name) not in given]
@@ -631,11 +639,12 @@ class Cosimulation:
             kind = unit(conn)
             if pair[0] != pair[1] and kind in (SPEED_UNIT, TORQUE_UNIT):
                 (speeds if kind == SPEED_UNIT else torques).setdefault(pair, []).append(i)
-        self.bond_energies, self._bonds = [], []
+        self.bond_energies, self._bonds, self._bond_pairs = [], [], []
         tear_pos = {i: k for k, i in enumerate(self._tears)}
         for (a, b), speed_list in speeds.items():
             for w, tau in zip(speed_list, torques.get((b, a), [])):
                 self.bond_energies.append(BondEnergy(self._transfers[w][-1], self._transfers[tau][-1]))
+                self._bond_pairs.append((w, tau))
                 # [speed value, torque value (one-value ctypes arrays in the scratch row), speed's tear position,
                 # torque's, previous speed, previous torque, last residual, the one before, last E_speed]
                 self._bonds.append([self._transfers[w][4], self._transfers[tau][4], tear_pos.get(w, -1),
@@ -737,18 +746,23 @@ class Cosimulation:
     def _explicit_steps(self, k, count, n_steps, interval, rows):
         """Steps k+1 .. k+count of n_steps, explicit: step every FMU from t with its inputs held, transfer the
         connections (``_communicate``), record after every interval-th step and the last. Recorded points are
-        copies of the scratch row, gathered into rows' columns in blocks."""
+        copies of the scratch row, gathered into rows' columns in blocks; so are the watched steps' (every step's),
+        watched a block at a time (``_watch_rows``) and before any failure is reported."""
         h, start, steps = self.step_size, self.start_time, self.steps_done
         steppers, ops, lean, readers = self._bare_steppers, self._ops, self._lean_ops, self._readers
-        watch = self._watch if self._watched or self._bonds else None
         stop = STOP
         step_c, t_c = c_double(h), c_double()
-        block, filled, first_row = None, 0, self.rows_done
+        scratch, size = addressof(self._scratch), sizeof(self._scratch)
+        block, filled, first_row, first_steps = None, 0, self.rows_done, steps
         if rows is not None:
             due = (k + count) // interval - k // interval + (k + count == n_steps and n_steps % interval != 0)
-            block = np.empty((min(due, 4096), len(self._scratch_view)))
+            block = np.empty((min(due, WATCH_BLOCK if interval == 1 else 4096), len(self._scratch_view)))
             base, stride = block.ctypes.data, block.strides[0]
-            scratch, size = addressof(self._scratch), sizeof(self._scratch)
+        watched, pending, shared = None, 0, False
+        if self._watched or self._bonds:
+            shared = block is not None and interval == 1   # every step recorded: the watch reads the record block
+            watched = block if shared else np.empty((min(count, WATCH_BLOCK), len(self._scratch_view)))
+            watch_base, watch_stride = watched.ctypes.data, watched.strides[0]
 
         def flush():
             nonlocal filled, first_row
@@ -756,35 +770,68 @@ class Cosimulation:
             first_row += filled
             self.rows_done, filled = first_row, 0
 
+        def settle(failing=False):
+            """Watch the pending steps (failing: before a failure in the step after them is reported); where the
+            watch trips, keep the rows and the log up to that step."""
+            nonlocal pending, logged
+            n, pending = pending, 0
+            try:
+                self._watch_rows(block[filled - n:filled] if shared else watched[:n], steps - n, logged,
+                                 not failing)
+                logged = len(log)
+            except CouplingInstabilityError:
+                j = k + self.steps_done - first_steps   # the step it tripped at, counted as j is
+                kept[0] = first_rows + j // interval - k // interval + (j == n_steps and n_steps % interval != 0)
+                raise
+
+        first_rows, kept, log = self.rows_done, [None], self.log
+        logged = len(log)   # the log's length when the pending steps began but for the last one
         record = self._fresh
         try:
             for j in range(k + 1, k + count + 1):
                 t_c.value = start + steps * h
                 for do_step, comp, name in steppers:
                     if do_step(comp, t_c, step_c, 1) > 1:
+                        if pending:
+                            settle(failing=True)
                         self._refused(name, t_c.value)
                 steps += 1
                 self.steps_done, self.time = steps, start + steps * h
                 record = block is not None and (j % interval == 0 or j == n_steps)
                 for op in ops if record else lean:
                     if op[0](op[1], op[2], op[3], op[4]) > 1:
+                        if pending:
+                            settle(failing=True)
                         self._op_failed(op)
                 if record:
                     for op in readers:
                         if op[0](op[1], op[2], op[3], op[4]) > 1:
+                            if pending:
+                                settle(failing=True)
                             self._op_failed(op)
                     memmove(base + filled * stride, scratch, size)
                     filled += 1
-                    if filled == len(block):
-                        flush()
-                if watch is not None:
-                    watch()
+                if watched is not None:
+                    if not shared:
+                        memmove(watch_base + pending * watch_stride, scratch, size)
+                    pending += 1
+                    # a full block, this step logged, or the record block it shares is full
+                    if pending == len(watched) or len(log) != logged or (shared and filled == len(block)):
+                        settle()
+                if record and filled == len(block):
+                    flush()
                 if stop[0]:
+                    if pending:
+                        settle()
                     raise KeyboardInterrupt
+            if pending:
+                settle()
         finally:
             self._fresh = record   # whether the recorded signals riding on the transfers are those of now
             if filled:
                 flush()
+            if kept[0] is not None:
+                self.rows_done = min(self.rows_done, kept[0])
 
     def _step(self, steppers, t, h):
         """fmi2DoStep of each of steppers (bare: t and h as c_double)."""
@@ -856,48 +903,38 @@ class Cosimulation:
         return ""
 
     def _watch_growth(self):
-        """Detect a diverging coupling: per torn connection, the change d_k = g_k - g_k-1 of the value it
-        carries alternating in sign at every step while |d| grows (the explicit inertia coupling's mode
-        d_k = -(J_driven / J_driver) d_k-1, docs/cosimulation.md); per watched connection, chatter (``CHATTER_STEPS``).
+        """One step of the divergence and chatter watch (``watch_step``) on the watched connections' values now.
         Raises CouplingInstabilityError."""
-        noise = IMPLICIT_NOISE_TOLERANCES * COUPLING_RTOL if self.coupling == "implicit" else 0.0
-        torn, floor, share = len(self._tears), NOISE_FLOOR, CHATTER_SHARE
-        for k, (state, view) in enumerate(zip(self._growth, self._watch_views)):
-            g = view[0]
-            d = g - state[0]
-            size = d if d >= 0.0 else -d
-            top = g if g >= 0.0 else -g
-            if top > state[4]:
-                state[4] = top
-            top = state[4]
-            last = state[1]
-            state[0], state[1] = g, d
-            if k < torn:   # growth: the alternations of a torn connection's change
-                state[5] = last
-                if d * last < 0.0 and size > floor:
-                    state[2] += 1
-                    if state[2] == 1:
-                        state[3] = max(size, noise * top)
-                else:
-                    state[2], state[3] = 0, size
-                if (state[2] >= GROWTH_STEPS and size > GROWTH_FACTOR * state[3]
-                        and size > GROWTH_FLOOR * top):
-                    raise CouplingInstabilityError(self._growth_report(force=True) + self._log_text())
-            if size >= share * top and size > floor:   # chatter: the score of large reversals
-                if d * state[9] < 0.0:
-                    state[6] += 1
-                    state[8] += 1
-                else:
-                    state[6] = max(0, state[6] - CHATTER_BREAK)
-                state[9] = d
-            elif state[6]:   # a small change (a saturated value held): the score fades
-                state[6] = max(0, state[6] - CHATTER_FADE)
-            if state[6]:
-                state[7] += 1
-                if state[6] >= CHATTER_STEPS:
-                    raise CouplingInstabilityError(self._chatter_report(k, state) + self._log_text())
-            elif state[7]:
-                state[7] = state[8] = 0
+        hit = watch_step(self._growth, [view[0] for view in self._watch_views], len(self._tears), self._noise())
+        if hit is not None:
+            self._watch_tripped(*hit)
+
+    def _noise(self):
+        return IMPLICIT_NOISE_TOLERANCES * COUPLING_RTOL if self.coupling == "implicit" else 0.0
+
+    def _watch_tripped(self, k, kind):
+        report = self._growth_report(force=True) if kind == "growth" else self._chatter_report(k, self._growth[k])
+        raise CouplingInstabilityError(report + self._log_text())
+
+    def _watch_rows(self, rows, steps_before, log_at, last_logged=True):
+        """The watch over explicit steps steps_before+1, ... whose scratch rows are rows (n x scratch): divergence
+        and chatter (``watch_block``) and the power bonds' energy (``energy_block``) up to the step the watch trips
+        at, if it does: steps_done and time are then set to that step's, the log cut to its length then (log_at:
+        its length before the last row's step, which alone may have logged, and only if last_logged), and
+        CouplingInstabilityError is raised."""
+        hit = watch_block(self._growth, rows[:, self._watch_columns], len(self._tears),
+                          self._noise()) if self._watched else None
+        upto = len(rows) if hit is None else hit[0] + 1
+        if self._bonds:
+            energy_block(self._bonds, self.bond_energies, rows[:upto, self._bond_columns[0]],
+                         rows[:upto, self._bond_columns[1]], 0.5 * self.step_size)
+        if hit is not None:
+            row, k, kind = hit
+            if row < len(rows) - 1 or not last_logged:
+                del self.log[log_at:]
+            self.steps_done = steps_before + row + 1
+            self.time = self.start_time + self.steps_done * self.step_size
+            self._watch_tripped(k, kind)
 
     def _chatter_report(self, k, state):
         """Words on the k-th watched connection chattering: reversing at nearly every step without dying out
@@ -1123,6 +1160,126 @@ def blend_weight(d_g: np.ndarray) -> float:
         mid = 0.5 * (lo + hi)
         lo, hi = (lo, mid) if inertia_amplification(d_g, mid) <= AMPLIFICATION_BOUND else (mid, hi)
     return hi
+
+
+
+def watch_step(states: list, values: list, torn: int, noise: float):
+    """One communication step of the divergence and chatter watch. states: per watched connection (torn first)
+    [last value, last change, alternations, |change| when they began, largest |value|, the change before the
+    last, chatter score, steps and reversals since the score left 0, the last large change], updated in place;
+    values: their values now; torn: how many are torn; noise: the least |change| a growth is measured from, as a
+    share of the largest |value|.
+
+    Growth: a torn connection's change d_k = g_k - g_k-1 alternating in sign at GROWTH_STEPS steps in a row
+    while |d| grows GROWTH_FACTOR-fold (the explicit inertia coupling's mode d_k = -(J_driven / J_driver) d_k-1,
+    docs/cosimulation.md); chatter: the score of ``CHATTER_STEPS``. Returns (k, "growth" or "chatter") of the
+    first connection that trips, None when none does (the later connections' states are then not updated)."""
+    floor, share = NOISE_FLOOR, CHATTER_SHARE
+    for k, (state, g) in enumerate(zip(states, values)):
+        d = g - state[0]
+        size = d if d >= 0.0 else -d
+        top = g if g >= 0.0 else -g
+        if top > state[4]:
+            state[4] = top
+        top = state[4]
+        last = state[1]
+        state[0], state[1] = g, d
+        if k < torn:   # growth: the alternations of a torn connection's change
+            state[5] = last
+            if d * last < 0.0 and size > floor:
+                state[2] += 1
+                if state[2] == 1:
+                    state[3] = max(size, noise * top)
+            else:
+                state[2], state[3] = 0, size
+            if (state[2] >= GROWTH_STEPS and size > GROWTH_FACTOR * state[3]
+                    and size > GROWTH_FLOOR * top):
+                return k, "growth"
+        if size >= share * top and size > floor:   # chatter: the score of large reversals
+            if d * state[9] < 0.0:
+                state[6] += 1
+                state[8] += 1
+            else:
+                state[6] = max(0, state[6] - CHATTER_BREAK)
+            state[9] = d
+        elif state[6]:   # a small change (a saturated value held): the score fades
+            state[6] = max(0, state[6] - CHATTER_FADE)
+        if state[6]:
+            state[7] += 1
+            if state[6] >= CHATTER_STEPS:
+                return k, "chatter"
+        elif state[7]:
+            state[7] = state[8] = 0
+    return None
+
+
+def watch_block(states: list, values: np.ndarray, torn: int, noise: float):
+    """``watch_step`` over the rows of values (n steps x len(states)) in order: (row, k, kind) of the first trip,
+    None when none trips; states as after the last step watched.
+
+    Vectorized where it can show that no step trips and no chatter score rises (no growth run reaches
+    GROWTH_STEPS growing GROWTH_FACTOR-fold, no large change reverses the last large one, every score 0): the
+    states are then set from the block's last steps. Otherwise every row goes through ``watch_step``."""
+    n, m = values.shape
+    if n == 0 or m == 0:
+        return None
+    s = np.array(states, dtype=np.float64)
+    idx = np.arange(n)[:, None]
+    with np.errstate(all="ignore"):
+        g = values
+        d = g - np.vstack([s[:, 0], g[:-1]])
+        size = np.abs(d)
+        top = np.fmax.accumulate(np.vstack([s[:, 4], np.abs(g)]), axis=0)[1:]
+        last = np.vstack([s[:, 1], d[:-1]])
+        # chatter: a large change against the last large one (its sign carried by states[9])
+        large = (size >= CHATTER_SHARE * top) & (size > NOISE_FLOOR)
+        upto = np.maximum.accumulate(np.where(large, idx, -1), axis=0)   # the last large change's row, or -1
+        before = np.vstack([np.full(m, -1), upto[:-1]])
+        reference = np.where(before >= 0, np.take_along_axis(d, np.maximum(before, 0), axis=0), s[:, 9])
+        quiet = not (s[:, 6].any() or (large & (d * reference < 0.0)).any() or np.isnan(s[:, 4]).any())
+        # growth of the torn ones: the run of alternations up to each row and |change| when it began
+        alternating = (d * last < 0.0) & (size > NOISE_FLOOR)
+        broken = np.maximum.accumulate(np.where(alternating, -1, idx), axis=0)   # last row not alternating
+        carried = broken < 0
+        run = np.where(carried, s[:, 2] + idx + 1, idx - broken)
+        began = np.take_along_axis(np.maximum(size, noise * top), np.clip(broken + 1, 0, n - 1), axis=0)
+        began = np.where(carried & (s[:, 2] > 0), s[:, 3], began)
+        trips = (run >= GROWTH_STEPS) & (size > GROWTH_FACTOR * began) & (size > GROWTH_FLOOR * top)
+    if not quiet or trips[:, :torn].any():
+        for row in range(n):
+            hit = watch_step(states, values[row].tolist(), torn, noise)
+            if hit is not None:
+                return (row,) + hit
+        return None
+    for k, state in enumerate(states):
+        state[0], state[1], state[4] = float(g[-1, k]), float(d[-1, k]), float(top[-1, k])
+        if k < torn:
+            state[5] = float(last[-1, k])
+            state[2], state[3] = ((int(run[-1, k]), float(began[-1, k])) if alternating[-1, k]
+                                  else (0, float(size[-1, k])))
+        if upto[-1, k] >= 0:
+            state[9] = float(d[upto[-1, k], k])
+    return None
+
+
+def energy_block(bonds: list, energies: list, w: np.ndarray, tau: np.ndarray, half: float) -> None:
+    """``Cosimulation._account_energy`` over n explicit steps (each side held its input at its value at the step's
+    start): w, tau the bonds' speeds and torques after each step (n x len(bonds)); the residuals are summed in
+    step order, as step by step."""
+    if len(w) == 0:
+        return
+    start = np.array([[bond[4] for bond in bonds], [bond[5] for bond in bonds]])
+    w_before = np.vstack([start[0], w[:-1]])
+    tau_before = np.vstack([start[1], tau[:-1]])
+    e_speed = tau_before * half * (w_before + w)
+    d_e = w_before * half * (tau_before + tau) - e_speed
+    for b, (bond, energy) in enumerate(zip(bonds, energies)):
+        energy.residual = float(np.add.accumulate(np.append(energy.residual, d_e[:, b]))[-1])
+        energy.residual_abs = float(np.add.accumulate(np.append(energy.residual_abs, np.abs(d_e[:, b])))[-1])
+        energy.transmitted = float(np.add.accumulate(np.append(energy.transmitted, np.abs(e_speed[:, b])))[-1])
+        bond[7] = float(d_e[-2, b]) if len(d_e) > 1 else bond[6]
+        bond[4], bond[5], bond[6], bond[8] = (float(w[-1, b]), float(tau[-1, b]), float(d_e[-1, b]),
+                                              float(e_speed[-1, b]))
 
 
 def _dot(a: list, b: list) -> float:
