@@ -21,7 +21,8 @@ components owning them rolled back with fmi2GetFMUstate/fmi2SetFMUstate; theta i
 
 Both watch the torn connections for a diverging coupling (``CouplingInstabilityError``), account the energy
 residual of every power bond (``Cosimulation.bond_energies``) and keep the recorded results up to a failure
-(``CosimulationError.partial``).
+(``CosimulationError.partial``); the implicit scheme after every step, the explicit one a block of steps at a time
+(``watch_block``, ``energy_block``) with the same outcome.
 """
 
 import atexit
@@ -1160,7 +1161,6 @@ def blend_weight(d_g: np.ndarray) -> float:
         mid = 0.5 * (lo + hi)
         lo, hi = (lo, mid) if inertia_amplification(d_g, mid) <= AMPLIFICATION_BOUND else (mid, hi)
     return hi
-
 
 
 def watch_step(states: list, values: list, torn: int, noise: float):
