@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 
 from ujfmu import battery, master
 from ujfmu.cli import main
-from ujfmu.master import (COUPLING_RTOL, IMPLICIT_NOISE_TOLERANCES, Component, Connection, CosimulationError,
-                          CouplingInstabilityError, HeldInputWarning, cosimulate, energy_block, watch_block,
+from ujfmu.master import (COUPLING_RTOL, IMPLICIT_NOISE_TOLERANCES, Component, Connection, Cosimulation,
+                          CosimulationError, CouplingInstabilityError, HeldInputWarning, cosimulate, energy_block, watch_block,
                           watch_step)
 from ujfmu.references import read_reference
 from ujfmu.scenario import Scenario
@@ -522,20 +522,27 @@ def test_energy_block_sums_the_step_residuals_in_order():
         assert bonds[b][4:9] == pytest.approx([w[-1, b], tau[-1, b], d_e[-1], d_e[-2], e_speed[-1]], rel=1e-12)
 
 
-@pytest.mark.parametrize("block", [1, 2, 3, 1024])
-def test_a_divergence_is_reported_at_its_step_whatever_the_watch_block(fmu_dir, monkeypatch, block):
+@pytest.mark.parametrize("block, how", [(1, "chunked"), (2, "whole"), (3, "whole"), (3, "chunked"), (3, "split"),
+                                        (1024, "whole"), (1024, "chunked"), (1024, "split")])
+def test_a_divergence_is_reported_at_its_step_whatever_the_watch_block(fmu_dir, monkeypatch, block, how):
     """battery_00 explicit diverges at t = 0.004 and its joint logs an aliasing warning at the step after. Watched a
-    block at a time, the run must stop with the same message as watched at every step (block 1): the same step,
-    growth and log (nothing logged after it), the results up to that step and the bonds' energy up to it."""
-    def stopped(size):
+    block at a time, over a run in one piece, in pieces between progress reports (chunked: 300 steps, a report
+    after every step, the steps not yet watched carried from piece to piece) or split into two runs (one step, then
+    the rest), it must stop with the same message as watched at every step (block 1): the same step, growth and log
+    (nothing logged after it), the results up to that step and the bonds' energy up to it."""
+    def stopped(size, how="whole"):
         monkeypatch.setattr(master, "WATCH_BLOCK", size)
-        diagnostics = {}
         s = Scenario(HEAVY)
-        with pytest.raises(CouplingInstabilityError) as info:
-            _run(s, fmu_dir, "explicit", stop=0.05, diagnostics=diagnostics)
-        bonds = [(b.residual, b.transmitted) for b in diagnostics["bonds"]]
+        steps = 300 if how == "chunked" else 50
+        with Cosimulation(s.master_components(fmu_dir), s.connections, s.step_size, s.record,
+                          coupling="explicit") as cosim:
+            if how == "split":
+                cosim.run(1)
+            with pytest.raises(CouplingInstabilityError) as info:
+                cosim.run(steps, progress=(lambda *a: None) if how == "chunked" else None)
+            bonds = [(b.residual, b.transmitted) for b in cosim.bond_energies]
         return str(info.value), info.value.partial.tolist(), bonds
 
-    message, partial, energy = stopped(block)
-    assert (message, partial, energy) == stopped(1)
-    assert "t = 0.004" in message and "t = 0.005" not in message and len(partial) == 5
+    message, partial, energy = stopped(block, how)
+    assert (message, partial, energy) == stopped(1, "split" if how == "split" else "whole")
+    assert "t = 0.004" in message and "t = 0.005" not in message and len(partial) == (4 if how == "split" else 5)

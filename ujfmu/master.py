@@ -715,6 +715,11 @@ class Cosimulation:
         monitor = bool(self._watched or self._bonds)
         every = max(1, n_steps // 200)
         self.rows_done, k = 0, 0
+        # the explicit steps' watch: [scratch rows of the steps not yet watched, how many, the log's length before
+        # the last of them]; rows recorded up to the step it trips at
+        self._watch_buffer = ([np.empty((min(n_steps, WATCH_BLOCK), len(self._scratch_view))), 0, len(self.log)]
+                              if monitor else None)
+        self._advance_start, self._rows_kept = self.steps_done, None
         h, start = self.step_size, self.start_time
         if STOP[0]:   # asked while the FMUs were being set up
             raise KeyboardInterrupt
@@ -741,29 +746,39 @@ class Cosimulation:
                 if STOP[0]:
                     raise KeyboardInterrupt
             if progress is not None and k % every == 0 and progress(k, n_steps) is False and k < n_steps:
+                buffer = self._watch_buffer
+                if buffer is not None and buffer[1]:   # the steps taken first, as a failure would
+                    try:
+                        self._settle(buffer[0][:buffer[1]], self.steps_done, n_steps, output_interval)
+                    finally:
+                        if self._rows_kept is not None:
+                            self.rows_done = min(self.rows_done, self._rows_kept)
                 raise RunStopped(f"t = {self.time!r}: stopped by the progress callback after {k} of {n_steps} steps "
                                  "(it returned False); the results up to here are kept")
 
     def _explicit_steps(self, k, count, n_steps, interval, rows):
         """Steps k+1 .. k+count of n_steps, explicit: step every FMU from t with its inputs held, transfer the
         connections (``_communicate``), record after every interval-th step and the last. Recorded points are
-        copies of the scratch row, gathered into rows' columns in blocks; so are the watched steps' (every step's),
-        watched a block at a time (``_watch_rows``) and before any failure is reported."""
+        copies of the scratch row, gathered into rows' columns in blocks. So are the watched steps' (every step's,
+        kept across calls in ``_watch_buffer``), watched a block at a time (``_settle``): when the block is full,
+        when an FMU logged in the last step, at the run's last step and before any failure is reported."""
         h, start, steps = self.step_size, self.start_time, self.steps_done
         steppers, ops, lean, readers = self._bare_steppers, self._ops, self._lean_ops, self._readers
         stop = STOP
         step_c, t_c = c_double(h), c_double()
         scratch, size = addressof(self._scratch), sizeof(self._scratch)
-        block, filled, first_row, first_steps = None, 0, self.rows_done, steps
+        block, filled, first_row = None, 0, self.rows_done
         if rows is not None:
             due = (k + count) // interval - k // interval + (k + count == n_steps and n_steps % interval != 0)
             block = np.empty((min(due, WATCH_BLOCK if interval == 1 else 4096), len(self._scratch_view)))
             base, stride = block.ctypes.data, block.strides[0]
-        watched, pending, shared = None, 0, False
-        if self._watched or self._bonds:
-            shared = block is not None and interval == 1   # every step recorded: the watch reads the record block
-            watched = block if shared else np.empty((min(count, WATCH_BLOCK), len(self._scratch_view)))
+        buffer, watched, pending, logged, shared, log = self._watch_buffer, None, 0, 0, False, self.log
+        if buffer is not None:
+            # a call that takes the whole run recording every step: the watch reads the record block
+            shared = block is not None and interval == 1 and k == 0 and count == n_steps
+            watched = block if shared else buffer[0]
             watch_base, watch_stride = watched.ctypes.data, watched.strides[0]
+            pending, logged = buffer[1], buffer[2]
 
         def flush():
             nonlocal filled, first_row
@@ -771,22 +786,18 @@ class Cosimulation:
             first_row += filled
             self.rows_done, filled = first_row, 0
 
-        def settle(failing=False):
-            """Watch the pending steps (failing: before a failure in the step after them is reported); where the
-            watch trips, keep the rows and the log up to that step."""
+        def settle(last, failing=False):
+            """Watch the pending steps, the last of them step ``last`` (failing: before a failure in the step after
+            them is reported)."""
             nonlocal pending, logged
-            n, pending = pending, 0
+            buffer[1], buffer[2] = pending, logged
+            view = block[filled - pending:filled] if shared else watched[:pending]
+            pending = 0
             try:
-                self._watch_rows(block[filled - n:filled] if shared else watched[:n], steps - n, logged,
-                                 not failing)
-                logged = len(log)
-            except CouplingInstabilityError:
-                j = k + self.steps_done - first_steps   # the step it tripped at, counted as j is
-                kept[0] = first_rows + j // interval - k // interval + (j == n_steps and n_steps % interval != 0)
-                raise
+                self._settle(view, last, n_steps, interval, not failing)
+            finally:
+                pending, logged = buffer[1], buffer[2]
 
-        first_rows, kept, log = self.rows_done, [None], self.log
-        logged = len(log)   # the log's length when the pending steps began but for the last one
         record = self._fresh
         try:
             for j in range(k + 1, k + count + 1):
@@ -794,7 +805,7 @@ class Cosimulation:
                 for do_step, comp, name in steppers:
                     if do_step(comp, t_c, step_c, 1) > 1:
                         if pending:
-                            settle(failing=True)
+                            settle(steps, failing=True)
                         self._refused(name, t_c.value)
                 steps += 1
                 self.steps_done, self.time = steps, start + steps * h
@@ -802,13 +813,13 @@ class Cosimulation:
                 for op in ops if record else lean:
                     if op[0](op[1], op[2], op[3], op[4]) > 1:
                         if pending:
-                            settle(failing=True)
+                            settle(steps - 1, failing=True)
                         self._op_failed(op)
                 if record:
                     for op in readers:
                         if op[0](op[1], op[2], op[3], op[4]) > 1:
                             if pending:
-                                settle(failing=True)
+                                settle(steps - 1, failing=True)
                             self._op_failed(op)
                     memmove(base + filled * stride, scratch, size)
                     filled += 1
@@ -818,21 +829,36 @@ class Cosimulation:
                     pending += 1
                     # a full block, this step logged, or the record block it shares is full
                     if pending == len(watched) or len(log) != logged or (shared and filled == len(block)):
-                        settle()
+                        settle(steps)
                 if record and filled == len(block):
                     flush()
                 if stop[0]:
                     if pending:
-                        settle()
+                        settle(steps)
                     raise KeyboardInterrupt
-            if pending:
-                settle()
+            if pending and k + count == n_steps:
+                settle(steps)
         finally:
             self._fresh = record   # whether the recorded signals riding on the transfers are those of now
+            if buffer is not None:
+                buffer[1], buffer[2] = (0, logged) if shared else (pending, logged)
             if filled:
                 flush()
-            if kept[0] is not None:
-                self.rows_done = min(self.rows_done, kept[0])
+            if self._rows_kept is not None:
+                self.rows_done = min(self.rows_done, self._rows_kept)
+
+    def _settle(self, rows, last, n_steps, interval, last_logged=True):
+        """``_watch_rows`` over rows, the scratch rows of the explicit steps up to step ``last``; where the watch
+        trips, ``_rows_kept`` becomes the rows recorded up to that step (of the advance over n_steps recording every
+        interval-th)."""
+        self._watch_buffer[1] = 0
+        try:
+            self._watch_rows(rows, last - len(rows), self._watch_buffer[2], last_logged)
+            self._watch_buffer[2] = len(self.log)
+        except CouplingInstabilityError:
+            j = self.steps_done - self._advance_start
+            self._rows_kept = j // interval + (j == n_steps and n_steps % interval != 0)
+            raise
 
     def _step(self, steppers, t, h):
         """fmi2DoStep of each of steppers (bare: t and h as c_double)."""
