@@ -546,3 +546,25 @@ def test_a_divergence_is_reported_at_its_step_whatever_the_watch_block(fmu_dir, 
     message, partial, energy = stopped(block, how)
     assert (message, partial, energy) == stopped(1, "split" if how == "split" else "whole")
     assert "t = 0.004" in message and "t = 0.005" not in message and len(partial) == (4 if how == "split" else 5)
+
+
+@pytest.mark.parametrize("rate", [1.2, 1.49, 3.0])
+def test_a_slow_divergence_is_named_with_its_rate(fmu_dir, rate):
+    """A torn connection alternating at every step while growing only 1.2 or 1.49-fold a step trips the watch
+    once its change is 8x the one the alternations began from; the error names the connection, the reversals and
+    the rate as a fast one's does (it had been an empty message below 1.5x a step, and the rate one step short)."""
+    s = Scenario(LIGHT)
+    with Cosimulation(s.master_components(fmu_dir), s.connections, s.step_size, s.record,
+                      coupling="explicit") as cosim:
+        cosim.run(5)
+        column = cosim._watch_columns[0]   # joint.tau_in -> motor.tau_load, torn
+        cosim._growth[0][1] = 0.0   # no change before: the alternations begin with the second change
+        rows = np.tile(cosim._scratch_view, (40, 1))
+        rows[:, column] += 1e-2 * (-rate) ** np.arange(1, 41)
+        with pytest.raises(CouplingInstabilityError) as info:
+            cosim._watch_rows(rows, cosim.steps_done, len(cosim.log))
+    # changes d_k = 1e-2 (-rate)^(k-1) (1 + rate) from k = 2: the n-th alternation is 8x the first at rate^(n-1) > 8
+    reversals = next(n for n in range(3, 40) if rate ** (n - 1) > 8.0)
+    assert str(info.value).startswith(
+        "coupling instability between 'joint' and 'motor': joint.tau_in -> motor.tau_load changes sign at every step "
+        f"for {reversals} steps, growing x{rate:.3g} per step"), str(info.value)

@@ -940,7 +940,7 @@ class Cosimulation:
         return IMPLICIT_NOISE_TOLERANCES * COUPLING_RTOL if self.coupling == "implicit" else 0.0
 
     def _watch_tripped(self, k, kind):
-        report = self._growth_report(force=True) if kind == "growth" else self._chatter_report(k, self._growth[k])
+        report = self._growth_report(tripped=k) if kind == "growth" else self._chatter_report(k, self._growth[k])
         raise CouplingInstabilityError(report + self._log_text())
 
     def _watch_rows(self, rows, steps_before, log_at, last_logged=True):
@@ -979,10 +979,16 @@ class Cosimulation:
                 "`ujfmu run --check-step`), or make the switching smoother (a Load's omega_smooth). Results up to "
                 "here are kept")
 
-    def _growth_report(self, force=False):
-        """Words on the fastest-growing alternating torn connection ('' if none is growing)."""
-        worst = self._worst_tear(lambda state: (abs(state[1]) / state[3]) ** (1.0 / state[2]) if (
-            state[2] >= 2 and state[3] > 0.0 and abs(state[1]) > 1.5 ** state[2] * state[3]) else None)
+    def _growth_report(self, tripped=None):
+        """Words on the growing alternation of the torn connection the watch tripped on (tripped: its index among
+        the watched), else of the fastest-growing one whose alternations grew 1.5-fold a step ('' if none). Its
+        rate per step: the change now over the one its n alternations began with, to the power 1 / (n - 1)."""
+        if tripped is not None:   # GROWTH_FACTOR-fold over its alternations: any rate per step
+            state = self._growth[tripped]
+            worst = self._tears[tripped], (abs(state[1]) / state[3]) ** (1.0 / (state[2] - 1)), state
+        else:
+            worst = self._worst_tear(lambda state: (abs(state[1]) / state[3]) ** (1.0 / (state[2] - 1)) if (
+                state[2] >= 2 and state[3] > 0.0 and abs(state[1]) > 1.5 ** state[2] * state[3]) else None)
         if worst is None:
             return ""
         i, ratio, state = worst
