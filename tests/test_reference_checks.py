@@ -218,6 +218,7 @@ def test_the_command_line_names_the_expected_wiring_without_a_traceback(tmp_path
     assert main(["references", str(scenario.path)]) == 2
     err = capsys.readouterr().err
     assert "ujfmu: error:" in err and "components 'motor', 'driveline', 'load'" in err and "Traceback" not in err
+    assert err.count(str(scenario.path)) == 1, err   # named once
 
 
 def test_a_solve_sliding_on_a_discontinuity_stops_with_the_reason_instead_of_crawling():

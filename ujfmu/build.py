@@ -225,6 +225,8 @@ def documentation_html(name, cls):
                                  f"{html.escape(BY_KEY[k].used_for)}" for k in keys) + "</p>" if keys else
                "<p>No paper: a generic component of the ujfmu library (see its equations above).</p>")
     bibliography = "".join(f"<li>[{r.key}] {html.escape(r.text())}</li>" for r in REFERENCES)
+    half = (", and smaller than half of it for this FMU, whose acceleration estimate is second order"
+            if getattr(cls, "ACCELERATION_ORDER", 1) == 2 else "")
     return f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>{name} (ujfmu {__version__})</title>
 <style>body{{font-family:sans-serif;max-width:60em}}table{{border-collapse:collapse}}
@@ -247,8 +249,7 @@ does. A drivetrain FMU is driven by the speed <code>omega_in</code> and answers 
 contains the inertia torques of what it drives (an inertia times the acceleration it estimates from the speed
 history). With an explicit master (Jacobi or Gauss-Seidel, no iteration) this is stable only when the inertia
 reflected through <code>tau_in</code> is smaller than the driver's own inertia (a motor rotor, say), whatever the
-step, and smaller than half of it for the CardanJoint (whose acceleration estimate is second order): give the
-driver the larger inertia, use an iterating master, or use the torque-driven variant. A stiff spring between two
+step{half}: give the driver the larger inertia, use an iterating master, or use the torque-driven variant. A stiff spring between two
 FMUs needs h well below 2/omega_n of that spring, and a load whose slope d(tau)/d(omega) is large compared with
 J/h (J the inertia it acts on) needs a smaller step. The default experiment's step ({step} s) is what the ujfmu scenarios use;
 they are checked against independent reference solutions at 1 ms. Check a new layout by halving the step: the

@@ -150,7 +150,8 @@ def cmd_build(args):
     from .build import build_all
     unknown = [n for n in args.names if n not in FMUS]
     if unknown:
-        raise UsageError(f"unknown FMU {', '.join(unknown)}; known: {', '.join(FMUS)}")
+        raise UsageError(f"unknown FMU {', '.join(unknown)}; known: {', '.join(FMUS)} (a new model is registered in "
+                         "ujfmu/build.py FMUS: docs/contributing.md)")
     names = args.names or list(FMUS)
     fmu_dir = args.fmu_dir
     if args.fmi == 3:   # FMI 3.0 (pythonfmu3)
@@ -367,8 +368,9 @@ def cmd_references(args):
         _say(args, f"{scenario.path}: solving the reference ({scenario.stop_time - scenario.start_time:g} s)")
         try:
             table, provenance = generate(scenario)
-        except (WiringError, ReferenceStallError) as exc:
-            raise ScenarioError(f"{scenario.path}: {exc}") from None
+        except (WiringError, ReferenceStallError) as exc:   # named once: a wiring error starts with the path
+            text = str(exc)
+            raise ScenarioError(text if text.startswith(f"{scenario.path}:") else f"{scenario.path}: {text}") from None
         except ReferenceCheckError as exc:
             raise ScenarioError(f"{exc}; the reference is not written. Each law is checked on the scenario's "
                                 "output grid, so a step_size that does not resolve the fastest motion can fail it "

@@ -179,3 +179,15 @@ def test_a_multistep_history_is_restored_with_the_state(name):
     inst._set_fmu_state(state)
     inst._history = inst.MODEL.NO_HISTORY
     assert run_py(inst, 40, 20) != first
+
+
+def test_a_prescribed_input_fmu_without_the_input_shafts_outputs_is_refused_at_declaration():
+    """A speed-driven FMU computes phi_in and alpha_in with every output; one that does not declare them could
+    not save its state (fmi2GetFMUstate refuses undeclared attributes), so the class is refused where it is
+    declared, naming them."""
+    from ujfmu.fmu.base import PrescribedInputSlave
+    from ujfmu.models.cardan_joint.fmu import CardanJoint
+    variables = tuple(v for v in CardanJoint.VARIABLES if v.name not in ("phi_in", "alpha_in"))
+    with pytest.raises(TypeError, match="declares the outputs phi_in, alpha_in"):
+        type("Bare", (PrescribedInputSlave,), {"__module__": __name__, "VARIABLES": variables})
+    type("Full", (PrescribedInputSlave,), {"__module__": __name__, "VARIABLES": CardanJoint.VARIABLES})

@@ -815,11 +815,21 @@ class PrescribedInputSlave(ModelSlave):
         h1, h2 = self._h_prev, self._h_prev2
         return slope + h1 * (slope - (self._omega_prev - self._omega_prev2) / h2) / (h1 + h2)
 
+    #: the input shaft's outputs every such FMU declares (``compute_outputs`` sets them; an attribute the FMU does
+    #: not declare could not be saved with its state, fmi2GetFMUstate)
+    INPUT_SHAFT_OUTPUTS = ("phi_in", "alpha_in")
+
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
         model = cls.__dict__.get("MODEL")
         if model is not None:
             cls._drive_derivatives = staticmethod(drive_derivatives(model))
+        declared = {v.name for v in cls.__dict__.get("VARIABLES", ()) if v.causality == "output"}
+        missing = [name for name in cls.INPUT_SHAFT_OUTPUTS if declared and name not in declared]
+        if missing:
+            raise TypeError(f"{cls.__name__}: a PrescribedInputSlave declares the outputs {', '.join(missing)} "
+                            "(the input shaft's angle [rad] and acceleration [rad/s2], which it computes with every "
+                            "output): add output(...) for each to VARIABLES, as the CardanJoint does")
 
     def model_inputs(self):
         return _new_inputs(Drive, (self._phi_in, self.omega_in, self.input_acceleration(), self.tau_load))

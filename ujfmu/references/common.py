@@ -217,10 +217,12 @@ def chain_topology(machine: str, fmu: str) -> str:
 def check_chain_wiring(scenario, generator: str, machine: str, fmu: str) -> None:
     """check_wiring for the three-component chain motor -> machine -> load of chain_topology: the machine's FMU
     (fmu or its TorqueDriven variant) chooses the wiring."""
+    from ..build import FMUS
     entry = scenario.components.get(machine)
-    torque_driven = entry is not None and entry[0] == fmu + "TorqueDriven"
+    variant = fmu + "TorqueDriven" if fmu + "TorqueDriven" in FMUS else None
+    torque_driven = entry is not None and entry[0] == variant
     components = {"motor": ("MotorController",) if torque_driven else ("Motor",),
-                  machine: (fmu + "TorqueDriven",) if torque_driven else (fmu, fmu + "TorqueDriven"),
+                  machine: (variant,) if torque_driven else (fmu, variant) if variant else (fmu,),
                   "load": ("Load",)}
     connections = [(a.format(m=machine), b.format(m=machine)) for a, b in CHAIN_CONNECTIONS[torque_driven]]
     check_wiring(scenario, generator, chain_topology(machine, fmu), components, connections)
