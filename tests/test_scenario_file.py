@@ -1,5 +1,7 @@
 """Scenario files: errors name the file and the field."""
 
+import copy
+
 import pytest
 
 from ujfmu.scenario import Scenario, ScenarioError
@@ -202,6 +204,42 @@ def test_a_reference_stays_valid_when_only_the_run_or_its_checks_change(tmp_path
     changed = (GOOD + REF).replace(old, new)
     assert changed != GOOD + REF
     assert list(Scenario(write(tmp_path, changed)).read_reference()["j.tau_in"]) == [0.0, 1.0]
+
+
+def test_a_reference_made_with_other_fmu_defaults_is_refused_naming_the_remedy(tmp_path, monkeypatch):
+    """The scenario leaves the joint's J2 and the load's c2 at their FMU defaults: a reference made for them, read
+    after an update changed one of those defaults, solved another system. Reading it fails and says how to
+    regenerate it; a default the scenario sets itself, or of an input a connection feeds, does not count."""
+    from ujfmu.models.cardan_joint.fmu import CardanJoint
+    from ujfmu.models.load.fmu import Load
+    from ujfmu.references import DEFAULTS_TAG, SETUP_TAG
+
+    def made_for(text):
+        scenario = Scenario(write(tmp_path, text + REF))
+        (tmp_path / "r.csv").write_text(f"# by hand {SETUP_TAG}{scenario.setup_digest()}] {DEFAULTS_TAG}"
+                                        f'{scenario.defaults_digest()}]\n"time","j.tau_in"\n0,0.0\n1,1.0\n')
+        return scenario.path
+
+    def with_default(cls, name, start):
+        changed = []
+        for v in cls.VARIABLES:
+            if v.name == name:
+                v = copy.copy(v)
+                v.start = start
+            changed.append(v)
+        monkeypatch.setattr(cls, "VARIABLES", tuple(changed))
+
+    path = made_for(GOOD)
+    with_default(Load, "omega", 3.0)   # fed by j.omega_out
+    assert len(Scenario(path).read_reference()) == 2
+    with_default(CardanJoint, "J2", 7e-3)
+    with pytest.raises(ScenarioError) as err:
+        Scenario(path).read_reference()
+    assert "made with other FMU defaults" in str(err.value) and f"ujfmu references {path}" in str(err.value)
+    monkeypatch.undo()
+    path = made_for(GOOD.replace('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { J2 = 1e-3 }'))
+    with_default(CardanJoint, "J2", 7e-3)   # the scenario's own value holds
+    assert len(Scenario(path).read_reference()) == 2
 
 
 def test_a_reference_without_a_setup_digest_is_read_as_it_is(tmp_path):

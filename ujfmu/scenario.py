@@ -445,6 +445,18 @@ class Scenario:
                  "start_time": float(self.start_time)}
         return hashlib.sha256(json.dumps(setup, sort_keys=True).encode()).hexdigest()[:12]
 
+    def defaults_digest(self) -> str:
+        """Digest of the FMU defaults a reference of this scenario relies on: the declared start value of every
+        parameter and unconnected input of its components that the scenario leaves unset (a default changed in an
+        update of an FMU changes the system the reference solved, which :meth:`setup_digest` cannot see)."""
+        setup, connected = {}, {c.target for c in self.connections}
+        for name, (fmu, params) in sorted(self.components.items()):
+            given = {**params, **self.inputs.get(name, {}), **{t.split(".", 1)[1]: None for t in connected
+                                                                if t.split(".", 1)[0] == name}}
+            setup[name] = [fmu, {v.name: v.start for v in fmu_class(fmu).VARIABLES
+                                 if v.causality in ("parameter", "input") and v.name not in given}]
+        return hashlib.sha256(json.dumps(setup, sort_keys=True, default=float).encode()).hexdigest()[:12]
+
     def read_reference(self):
         """The [reference] file as a structured array (:meth:`reference`)."""
         return self.reference()[0]
@@ -458,7 +470,7 @@ class Scenario:
         """(table, provenance) of the [reference] file; ScenarioError naming the scenario and the field when it
         cannot be read, or when its provenance line names another setup (setup_digest) than the scenario's: a
         reference left over from other parameters or wiring would compare against another system."""
-        from .references import read_reference, scenario_of, setup_of
+        from .references import defaults_of, read_reference, scenario_of, setup_of
         field = f"{self.path}: [reference] file = {self.reference_file_text!r}"
         if not self.reference_file.is_file():
             raise ScenarioError(f"{field}: {self.reference_file} not found (the path is relative to the scenario "
@@ -492,6 +504,13 @@ class Scenario:
                                 f"(setup {made_for}, the scenario's is now {self.setup_digest()}: a component, "
                                 "parameter, set input, connection or the start time changed since); regenerate it: "
                                 f"`ujfmu references {self.path}`")
+        made_with = defaults_of(provenance)
+        if made_with is not None and made_with != self.defaults_digest():
+            raise ScenarioError(f"{field}: {self.reference_file} was made with other FMU defaults (defaults "
+                                f"{made_with}, now {self.defaults_digest()}): the declared default of a parameter or "
+                                "input this scenario leaves unset changed since (an update of an FMU), so the "
+                                f"reference solved another system; regenerate it: `ujfmu references {self.path}`, or "
+                                "set the parameter in the scenario to the value the reference was made with")
         missing = list(dict.fromkeys(n for n in ["time", *self.tolerances, *self.extrapolated_tolerances]
                                      if n not in table.dtype.names))
         if missing:

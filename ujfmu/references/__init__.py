@@ -63,7 +63,7 @@ def read_reference(path):
 
 def generate(scenario):
     """(table, provenance) for a scenario, by its [reference] generator; the provenance ends with the scenario's
-    setup digest, which ``Scenario.read_reference`` checks."""
+    setup digest and the digest of the FMU defaults it relies on, which ``Scenario.read_reference`` checks."""
     name = scenario.reference_generator
     if name in RENAMED:
         raise KeyError(f"{scenario.path}: reference generator '{name}' is now called '{RENAMED[name]}': write "
@@ -78,7 +78,8 @@ def generate(scenario):
                                       "pip install 'ujfmu[references]'", name=dependency) from None
     module, function = GENERATORS[name]
     table, provenance = getattr(importlib.import_module(module), function)(scenario)
-    return table, f"{provenance}. {regenerate_text(scenario)} {SETUP_TAG}{scenario.setup_digest()}]"
+    return table, (f"{provenance}. {regenerate_text(scenario)} {SETUP_TAG}{scenario.setup_digest()}] "
+                   f"{DEFAULTS_TAG}{scenario.defaults_digest()}]")
 
 
 #: the clone this package lives in (an editable install): committed scenarios are named relative to it
@@ -128,4 +129,15 @@ def setup_of(provenance: str) -> str | None:
     """The scenario setup digest a reference's provenance line names, None for a reference made without one
     (by hand, or by another tool)."""
     match = re.search(re.escape(SETUP_TAG) + r"([0-9a-f]+)\]", provenance)
+    return match.group(1) if match else None
+
+
+#: how a provenance line names the FMU defaults the scenario relies on (``Scenario.defaults_digest``)
+DEFAULTS_TAG = "[FMU defaults "
+
+
+def defaults_of(provenance: str) -> str | None:
+    """The digest of the FMU defaults a reference's provenance line names, None for a reference made without one
+    (by hand, by another tool, or before references named them)."""
+    match = re.search(re.escape(DEFAULTS_TAG) + r"([0-9a-f]+)\]", provenance)
     return match.group(1) if match else None

@@ -214,12 +214,11 @@ def chain_topology(machine: str, fmu: str) -> str:
             f"connections {_arrows(torque)})")
 
 
-def check_chain_wiring(scenario, generator: str, machine: str, fmu: str) -> None:
+def check_chain_wiring(scenario, generator: str, machine: str, fmu: str, torque_driven_variant: bool = True) -> None:
     """check_wiring for the three-component chain motor -> machine -> load of chain_topology: the machine's FMU
-    (fmu or its TorqueDriven variant) chooses the wiring."""
-    from ..build import FMUS
+    (fmu or, where the model has one, its TorqueDriven variant) chooses the wiring."""
     entry = scenario.components.get(machine)
-    variant = fmu + "TorqueDriven" if fmu + "TorqueDriven" in FMUS else None
+    variant = fmu + "TorqueDriven" if torque_driven_variant else None
     torque_driven = entry is not None and entry[0] == variant
     components = {"motor": ("MotorController",) if torque_driven else ("Motor",),
                   machine: (variant,) if torque_driven else (fmu, variant) if variant else (fmu,),
