@@ -116,6 +116,18 @@ def test_sweep_settings_from_python_list_every_problem(brutti):
     assert len(err.value.problems) == 2 and "did you mean motor.omega_set?" in str(err.value)
 
 
+def test_a_running_speed_that_is_not_a_speed_is_refused_naming_the_speeds(brutti):
+    """Revolutions are counted from a shaft's speed: an angle (rad) or a torque given as the running speed is
+    refused before any point runs, with the scenario's speed outputs (it had settled one point for minutes)."""
+    from ujfmu.sweep import SweepSettingsError
+    for name, unit in (("driveline.phi_out", "rad"), ("driveline.tau_in", "N.m")):
+        with pytest.raises(SweepSettingsError) as err:
+            SweepSettings.from_scenario(brutti, running_speed=name, settle_time=0.1)
+        assert f"running_speed (--running-speed) = {name} is in {unit}, not rad/s" in str(err.value)
+        assert "motor.omega" in str(err.value) and "driveline.omega_out" in str(err.value)
+    assert SweepSettings.from_scenario(brutti, running_speed="driveline.omega_out", settle_time=0.1)
+
+
 def test_default_outputs_leave_out_the_signals_that_grow_in_any_steady_state():
     """A sweep of twin_jeffcott_steady without outputs reduces its compared signals but for the running angles
     and the energy integrals: input_work grows by the load's power (2 N.m x 100 rad/s), so with it no point could
@@ -177,7 +189,7 @@ def test_an_order_the_step_cannot_resolve_is_nan_with_the_step_that_would(brutti
         sweep.run(workers=0, progress=False)
         rows[h] = sweep.table()
     slow, fast = rows[1e-3]
-    assert slow["status"] == fast["status"] == "ok" and slow["note"] == ""
+    assert slow["status"] == fast["status"] == "ok" and "not resolved" not in slow["note"]   # its peaks': below
     assert math.isnan(fast["driveline.tau_in.h4"]) and not math.isnan(slow["driveline.tau_in.h4"])
     assert fast["driveline.tau_in.h2"] == pytest.approx(rows[1e-4][1]["driveline.tau_in.h2"], rel=1e-6)
     assert ("order 4x not resolved" in fast["note"] and "12.5 samples a revolution" in fast["note"]
@@ -230,6 +242,21 @@ def test_a_failing_point_is_recorded_and_the_sweep_goes_on(tmp_path, fmu_dir):
     assert sweep.failed() == [bad]
 
 
+def test_a_scheduler_address_nobody_listens_on_is_a_plain_error(fmu_dir, tmp_path, capsys):
+    """--scheduler at an address with no scheduler: after dask's connect timeout (1 s here), a usage error naming
+    the address and the remedies, exit status 2, no traceback (it had been an internal error, status 3)."""
+    import dask
+    import distributed  # noqa: F401 (its config defaults loaded first: leaving the set below would drop them)
+    args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_brutti_rigid.toml"),
+            "--param", "motor.omega_set=1000,2000rpm", "--output", "driveline.tau_in", "--running-speed",
+            "motor.omega", "--settle", "0.01", "--steady-tol", "0", "--scheduler", "tcp://127.0.0.1:1",
+            "--out", str(tmp_path), "--no-progress", "--no-plot"]
+    with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
+        assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "--scheduler 'tcp://127.0.0.1:1': cannot reach a dask scheduler there" in err and "Traceback" not in err
+
+
 def test_dask_local_cluster_and_scheduler_address_give_the_in_process_results(brutti, tmp_path, fmu_dir,
                                                                              monkeypatch):
     """The distributed path on a real LocalCluster with two worker processes, reached by its address as
@@ -259,6 +286,8 @@ def test_cli_sweep_writes_table_and_plots_and_reports_bad_parameters(fmu_dir, tm
     assert main(args) == 0
     out, err = capsys.readouterr()
     assert "points done" not in err   # --no-progress: none
+    # --steady-tol 0: no point is called steady (it had read "4 ok (steady at the operating point)")
+    assert "4 ok (at the operating point; steady state not checked (--steady-tol 0))" in out, out
     assert "4 points (2 motor.omega_set 104.7..209.4 rad/s (given as 1000..2000 rpm) x " \
            "2 driveline.beta1,driveline.beta2 0.08727..0.1745 rad (given as 5..10 deg))" in out
     for name in ("double_cardan_brutti_rigid_sweep.csv", "double_cardan_brutti_rigid_sweep.png",
@@ -413,6 +442,42 @@ def test_a_not_steady_message_states_the_settle_time_used_and_why_it_passed_max_
         assert f"past max_settle_time = {cap:g} s by {r['settled_s'] - cap:.3g} s because the check lays whole " \
                "measurement windows" in r["error"] and cap in (0.26, 0.4)
         assert r["settled_s"] - cap < 2 * window
+
+
+@pytest.mark.parametrize("revolutions", [2.0, 2.37])
+def test_rms_is_the_mean_and_orders_by_parseval_wherever_the_window_ends(revolutions):
+    """A signal 0.054 + 2e-4 cos(2 theta) + 1e-4 cos(4 theta): its RMS is sqrt(c0^2 + (a2^2 + a4^2) / 2) whether
+    the window holds whole revolutions or not, and never below |mean| (the samples' own RMS over 2.37 revolutions
+    with both ends is not: a sweep had shown rms < |mean|)."""
+    from ujfmu.steady import Window, figures
+    angle = np.linspace(0.0, revolutions * 2.0 * np.pi, 176)
+    y = 0.054 + 2e-4 * np.cos(2.0 * angle) + 1e-4 * np.cos(4.0 * angle)
+    table = np.rec.fromarrays([angle / 100.0, y], names="time,x")
+    out = figures(Window(0.0, angle, table), ["x"], (2, 4))
+    assert out["x.mean"] == pytest.approx(0.054, rel=1e-12) and out["x.h2"] == pytest.approx(2e-4, rel=1e-9)
+    assert out["x.rms"] == pytest.approx(math.sqrt(0.054 ** 2 + (2e-4 ** 2 + 1e-4 ** 2) / 2.0), rel=1e-12)
+    assert out["x.rms"] ** 2 - out["x.mean"] ** 2 == pytest.approx((2e-4 ** 2 + 1e-4 ** 2) / 2.0, rel=1e-6)
+
+
+def test_extremes_read_too_few_times_a_period_are_noted_with_the_step_that_reads_them(brutti, tmp_path, fmu_dir):
+    """The rigid driveline's tau_in is shaped by its 2x order. At a 1 ms step it is read 10 times a period at 3000
+    rpm, where a sampled extreme may miss the peak by 1 - cos(pi / 10) of the amplitude, 4.7%: the point's note
+    says so with the step that reads it within 1%, and the p2p does fall short of twice the (exact) amplitude;
+    at 500 rpm (60 reads a period, 0.14%) there is no note."""
+    brutti.step_size = 1e-3
+    settings = SweepSettings.from_scenario(brutti, outputs=["driveline.tau_in"], running_speed="motor.omega",
+                                           settle_time=0.01, revolutions=2, steady_tol=0.0)
+    sweep = Sweep(brutti, [parse_axis("motor.omega_set=500,3000rpm", brutti)], settings, out_dir=tmp_path,
+                  fmu_dir=fmu_dir)
+    sweep.run(workers=0)
+    slow, fast = sweep.table()
+    assert slow["note"] == "" and sweep.coarse_peaks() == [fast]
+    reads = 2.0 * math.pi / (3000 * RPM * 1e-3) / 2.0
+    assert (f"driveline.tau_in's 2x order is read {reads:.3g} times a period, so they may fall short of its peaks by "
+            f"up to {100 * (1 - math.cos(math.pi / reads)):.2g}% of its amplitude") in fast["note"]
+    step = 2.0 * math.pi / (3000 * RPM * 2) * math.acos(0.99) / math.pi
+    assert f"a step of at most {step:.3g} s (--step)" in fast["note"]
+    assert 0.01 < 1.0 - fast["driveline.tau_in.p2p"] / (2.0 * fast["driveline.tau_in.h2"]) < 0.047
 
 
 def test_the_steady_state_change_names_the_order_and_what_it_is_relative_to():

@@ -433,8 +433,14 @@ def cmd_sweep(args):
     if unresolved:
         print(f"  {len(unresolved)} point{'s have' if len(unresolved) > 1 else ' has'} order amplitudes that the "
               f"step does not resolve, NaN in the table; at the fastest: "
-              f"{max(unresolved, key=lambda r: abs(r.get('speed_mean', 0.0)))['note']}")
-    print(_status_summary(sweep.status_counts(), len(sweep.points)), file=sys.stderr if failed else sys.stdout)
+              f"{max(unresolved, key=lambda r: abs(r.get('speed_mean', 0.0)))['note'].split('; max, min and p2p')[0]}")
+    coarse = sweep.coarse_peaks()
+    if coarse:
+        fastest = max(coarse, key=lambda r: abs(r.get("speed_mean", 0.0)))["note"]
+        print(f"  {len(coarse)} point{'s' if len(coarse) > 1 else ''}' max, min and p2p may fall short of the peaks "
+              f"(read too few times a period); at the fastest: {fastest[fastest.index('max, min and p2p'):]}")
+    print(_status_summary(sweep.status_counts(), len(sweep.points), steady_checked=bool(sweep.settings.steady_tol)),
+          file=sys.stderr if failed else sys.stdout)
     return 1 if failed else 0
 
 
@@ -444,9 +450,12 @@ STATUS_MEANING = {"ok": "steady at the operating point", "not_steady": "not stea
                   "missing": "not run"}
 
 
-def _status_summary(counts, total):
-    """'N points: a ok (steady at the operating point), b not_steady (...), ...'."""
-    parts = [f"{n} {status} ({STATUS_MEANING.get(status, status)})" for status, n in sorted(
+def _status_summary(counts, total, steady_checked=True):
+    """'N points: a ok (steady at the operating point), b not_steady (...), ...'; without the steady-state check
+    (--steady-tol 0) an ok point is only at its operating point."""
+    meaning = STATUS_MEANING if steady_checked else {
+        **STATUS_MEANING, "ok": "at the operating point; steady state not checked (--steady-tol 0)"}
+    parts = [f"{n} {status} ({meaning.get(status, status)})" for status, n in sorted(
         counts.items(), key=lambda item: list(STATUS_MEANING).index(item[0]) if item[0] in STATUS_MEANING else 99)]
     return f"{total} points: " + ", ".join(parts)
 

@@ -940,7 +940,8 @@ class Cosimulation:
         return IMPLICIT_NOISE_TOLERANCES * COUPLING_RTOL if self.coupling == "implicit" else 0.0
 
     def _watch_tripped(self, k, kind):
-        report = self._growth_report(tripped=k) if kind == "growth" else self._chatter_report(k, self._growth[k])
+        report = (self._growth_report(tripped=k) if kind == "growth" else
+                  self._chatter_report(k, self._growth[k]))
         raise CouplingInstabilityError(report + self._log_text())
 
     def _watch_rows(self, rows, steps_before, log_at, last_logged=True):

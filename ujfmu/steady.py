@@ -62,8 +62,8 @@ def record_window(cosim, running_speed: str, revolutions: float) -> Window:
     cosim.read(now)
     speed = now[cosim.columns.index(running_speed)]
     if not (math.isfinite(speed) and abs(speed) > 1e-9):
-        raise ValueError(f"running speed {running_speed} = {speed!r} rad/s at t = {cosim.time:g} s: no revolutions "
-                         "to measure over")
+        raise ValueError(f"running speed {running_speed} = {float(speed)!r} rad/s at t = {cosim.time:g} s: no "
+                         "revolutions to measure over")
     h = cosim.step_size
     start = cosim.time
     table = cosim.run(max(8, int(math.ceil(revolutions * 2.0 * math.pi / abs(speed) / h))))
@@ -109,15 +109,20 @@ def _amplitudes(amps, orders, unresolved: tuple) -> list:
 
 
 def figures(window: Window, outputs, orders) -> dict:
-    """{"out.max", "out.min", "out.p2p", "out.mean", "out.rms", "out.h<k>"} of a window: extremes and RMS of the
-    samples, mean and order amplitudes from the fit of ``fitted_orders`` (exact for a periodic signal, wherever
-    the window's ends fall); NaN for the ``unresolved_orders``."""
+    """{"out.max", "out.min", "out.p2p", "out.mean", "out.rms", "out.h<k>"} of a window: extremes of the samples;
+    mean and order amplitudes from the fit of ``fitted_orders`` (exact for a periodic signal, wherever the
+    window's ends fall); RMS, mean included, of the fit by Parseval, sqrt(c0^2 + sum_k a_k^2 / 2), with the mean
+    square of what the fit leaves (so rms >= |mean|, and rms^2 - mean^2 is the vibration's, wherever the window's
+    ends fall: the samples' own RMS over a window of a whole number of steps, not of revolutions, is not); NaN for
+    the ``unresolved_orders``."""
     result = {}
     fitted, unresolved = fitted_orders(window, orders), unresolved_orders(window, orders)
     for out in outputs:
         y = window.table[out]
-        c0, amps, _ = order_fit(window.angle, y, fitted)
-        values = dict(max=y.max(), min=y.min(), p2p=np.ptp(y), mean=c0, rms=math.sqrt(np.mean(y * y)))
+        c0, amps, phases = order_fit(window.angle, y, fitted)
+        fit = c0 + sum(a * np.cos(k * window.angle - p) for k, a, p in zip(fitted, amps, phases))
+        rms = math.sqrt(c0 * c0 + 0.5 * float(np.sum(amps * amps)) + float(np.mean((y - fit) ** 2)))
+        values = dict(max=y.max(), min=y.min(), p2p=np.ptp(y), mean=c0, rms=rms)
         values.update({f"h{k}": a for k, a in zip(orders, _amplitudes(amps, orders, unresolved))})
         result.update({f"{out}.{k}": float(v) for k, v in values.items()})
     return result
@@ -258,8 +263,44 @@ def _measured(window, s):
     out = figures(window, s.outputs, s.orders)
     speed = window.table[s.running_speed]
     out["speed_mean"] = float(order_fit(window.angle, speed, fitted_orders(window, s.orders))[0])
-    out["note"] = unresolved_note(window, s.orders, out["speed_mean"])
+    out["note"] = "; ".join(n for n in (unresolved_note(window, s.orders, out["speed_mean"]),
+                                        peak_note(window, s.outputs, s.orders, out["speed_mean"])) if n)
     return out
+
+
+#: a sampled extreme may fall short of a sinusoid's peak by 1 - cos(pi / n) of its amplitude, n samples a period:
+#: the max, min and p2p are noted where that exceeds PEAK_SHORTFALL of the order that shapes them
+PEAK_SHORTFALL = 0.01
+#: the orders that shape a signal's extremes: fitted amplitudes at least this share of its largest
+SHAPING_ORDER = 0.05
+
+
+def peak_note(window: Window, outputs, orders, speed: float) -> str:
+    """Why the max, min and p2p may fall short of the peaks ("" when they cannot by more than PEAK_SHORTFALL):
+    they are the extremes of the samples at the communication points, and the highest order that shapes an output
+    (``SHAPING_ORDER``) is read n times a period; the output where that costs most, with the step that reads it
+    often enough."""
+    steps = (len(window.angle) - 1) * 2.0 * math.pi / max(abs(window.angle[-1] - window.angle[0]), 1e-300)
+    fitted, worst = fitted_orders(window, orders), None
+    for out in outputs:
+        if grows(out):
+            continue
+        amps = order_fit(window.angle, window.table[out], fitted)[1]
+        if not len(amps) or not amps.max() > 0.0:
+            continue
+        k = max(j for j, a in zip(fitted, amps) if a >= SHAPING_ORDER * amps.max())
+        n = steps / k   # reads a period
+        shortfall = 1.0 - math.cos(math.pi / n) if n > 2.0 else 1.0
+        if shortfall > PEAK_SHORTFALL and (worst is None or shortfall > worst[0]):
+            worst = shortfall, out, k, n
+    if worst is None:
+        return ""
+    shortfall, out, k, n = worst
+    step = 2.0 * math.pi / (abs(speed) * k) * math.acos(1.0 - PEAK_SHORTFALL) / math.pi if speed else math.nan
+    return (f"max, min and p2p are the samples' extremes: {out}'s {k}x order is read {n:.3g} times a period, so "
+            f"they may fall short of its peaks by up to {100.0 * shortfall:.2g}% of its amplitude (the order "
+            f"amplitudes are exact); a step of at most {step:.3g} s (--step) reads it closely enough for "
+            f"{100.0 * PEAK_SHORTFALL:g}%")
 
 
 def unresolved_note(window: Window, orders, speed: float) -> str:

@@ -316,6 +316,13 @@ class SweepSettings:
                 scenario._check_signal(name, "sweep signal")
             except ScenarioError as exc:
                 problems.append(str(exc))
+            else:
+                if name == running_speed and scenario.unit(name) != "rad/s":
+                    speeds = [f"{c}.{v.name}" for c, (fmu, _) in scenario.components.items()
+                              for v in fmu_class(fmu).VARIABLES if v.unit == "rad/s" and v.causality == "output"]
+                    problems.append(f"{where} running_speed (--running-speed) = {name} is in "
+                                    f"{scenario.unit(name) or 'no unit'}, not rad/s: whole revolutions are counted "
+                                    f"from a shaft's speed; this scenario's speeds: {', '.join(speeds)}")
         settle = number("settle_time", test=lambda x: x >= 0, needs=" >= 0 [s]")
         if "settle_time" not in table:
             problems.append(f"{where} settle_time (--settle on the command line, settle_time=... from Python) "
@@ -625,9 +632,16 @@ class Sweep:
         return self.csv
 
     def unresolved(self):
-        """Records of the points whose order amplitudes are partly NaN, not resolved at their step and speed (the
-        record's "note" says which and why: ``steady.unresolved_orders``)."""
-        return [r for r in self.table() if r.get("note")]
+        """Records of the measured points whose order amplitudes are partly NaN, not resolved at their step and
+        speed (the record's "note" says which and why: ``steady.unresolved_orders``)."""
+        orders = [c for c in self.settings.columns() if c.rsplit(".", 1)[1].startswith("h")]
+        return [r for r in self.table() if r.get("status") in FINAL and any(math.isnan(r[c]) for c in orders)]
+
+    def coarse_peaks(self):
+        """Records of the measured points whose max, min and p2p may fall short of the peaks by more than
+        ``steady.PEAK_SHORTFALL`` (their note says how far, and the step that reads the peaks closely:
+        ``steady.peak_note``)."""
+        return [r for r in self.table() if r.get("status") in FINAL and "the samples' extremes" in r.get("note", "")]
 
     def failed(self):
         """Records of the points that are not ok (failed, not steady, operating point missed or not run)."""
@@ -659,7 +673,12 @@ def dask_client(workers=None, scheduler=None):
         if security.require_encryption and not scheduler.startswith("tls://"):
             raise ScenarioError(f"--scheduler {scheduler!r}: the dask config requires encryption "
                                 "(distributed.comm.require-encryption); give a tls:// address")
-        return Client(scheduler, security=security)
+        try:
+            return Client(scheduler, security=security)
+        except (OSError, TimeoutError) as exc:   # nothing listening, a wrong address, a firewall
+            raise ScenarioError(f"--scheduler {scheduler!r}: cannot reach a dask scheduler there ({exc}); start one "
+                                "(`dask scheduler` prints its address) and its workers, or leave --scheduler out "
+                                "to run on a local cluster (--workers N) or in this process (--workers 0)") from None
     with _main_script_hidden(), _interrupt_ignored():
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=40, security=security)
