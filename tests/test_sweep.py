@@ -620,8 +620,11 @@ def test_ctrl_c_stops_an_in_process_sweep_with_its_points_kept(fmu_dir, tmp_path
     assert process.returncode == 130, (stdout, stderr)
     records = [json.loads(line) for line in journal.read_text().splitlines()]
     assert 2 <= len(records) < 61 and all(r["status"] == "ok" for r in records), records
-    assert f"interrupted; {len(records)} of 61 points are in {journal}" in stderr
+    assert f"interrupted; {len(records)} of 61 points are in {journal} and in {out / 'interrupted.csv'}" in stderr
     assert "Traceback" not in stderr
+    with open(out / "interrupted.csv") as f:   # the table so far, the points not run marked
+        statuses = [row["status"] for row in csv.DictReader(f)]
+    assert statuses.count("ok") == len(records) and statuses.count("missing") == 61 - len(records)
 
 
 def test_a_misspelled_sweep_setting_from_python_is_refused_not_ignored():

@@ -411,8 +411,10 @@ def cmd_sweep(args):
             sweep.run(workers=args.workers, scheduler=args.scheduler, progress=progress)
     except KeyboardInterrupt:
         kept = sum(r["status"] != "missing" for r in sweep.records())
-        print(f"\n{sweep.name}: interrupted; {kept} of {len(sweep.points)} points are in {sweep.journal}: run the "
-              "same command again to compute only the others", file=sys.stderr)
+        table = sweep.write_csv()
+        print(f"\n{sweep.name}: interrupted; {kept} of {len(sweep.points)} points are in {sweep.journal} and in "
+              f"{table} (the others with status missing): run the same command again to compute only the others",
+              file=sys.stderr)
         return 130
     if sweep.reused:
         print(f"  reused {sweep.reused} of {len(sweep.points)} points from {sweep.journal}")
