@@ -242,6 +242,25 @@ def test_a_failing_point_is_recorded_and_the_sweep_goes_on(tmp_path, fmu_dir):
     assert sweep.failed() == [bad]
 
 
+def test_a_point_whose_coupling_diverges_names_the_torque_driven_wiring(tmp_path, fmu_dir):
+    """A CardanJoint whose driven side is 20x the PI motor's rotor, coupled explicitly, diverges: the point's error
+    gives the remedy `ujfmu run` gives, the torque-driven wiring (it had said only to reduce the step)."""
+    from ujfmu import battery
+    scenario = Scenario(battery.BATTERY_DIR / "battery_02.toml")
+    scenario.coupling = "explicit"
+    rotor = scenario.components["motor"][1]["J_rotor"]
+    settings = SweepSettings.from_scenario(scenario, outputs=["joint.tau_in"], running_speed="motor.omega",
+                                           settle_time=0.1, revolutions=1, steady_tol=0.0)
+    sweep = Sweep(scenario, [parse_axis(f"joint.J2={0.01 * rotor},{20 * rotor}", scenario)], settings,
+                  out_dir=tmp_path, fmu_dir=fmu_dir)
+    sweep.run(workers=0, progress=False)
+    light, heavy = sweep.table()
+    assert "hint" not in light["error"] and heavy["status"] == "error"
+    assert "coupling instability between 'joint' and 'motor'" in heavy["error"]
+    assert ("hint: joint (CardanJoint) follows the speed motor sets" in heavy["error"]
+            and "CardanJointTorqueDriven driven by a MotorController" in heavy["error"]), heavy["error"]
+
+
 def test_a_scheduler_address_nobody_listens_on_is_a_plain_error(fmu_dir, tmp_path, capsys):
     """--scheduler at an address with no scheduler: after dask's connect timeout (1 s here), a usage error naming
     the address and the remedies, exit status 2, no traceback (it had been an internal error, status 3)."""

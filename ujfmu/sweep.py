@@ -553,6 +553,12 @@ class Sweep:
 
             def keep(record):
                 record["config"], record["grid"] = self.config, self.grid
+                if record["status"] == ERROR:   # the wiring's remedy, as `ujfmu run` gives it
+                    from .scenario_run import torque_driven_hint
+                    at = self.scenario.with_parameters(record["point"]) if record["point"] else self.scenario
+                    hint = torque_driven_hint(at, record["error"])
+                    if hint:
+                        record["error"] += " | " + hint
                 journal.write((json.dumps(record) + "\n").encode())
                 journal.flush()
                 count[0] += 1
