@@ -233,8 +233,13 @@ def settle_and_measure(cosim, settings) -> dict:
     if change <= s.steady_tol:
         record.update(status=OK, error="")
     else:
-        record.update(status=NOT_STEADY, error=not_steady_message(
-            window.start - start, first, cap, length, s, worst, change, against))
+        message = not_steady_message(window.start - start, first, cap, length, s, worst, change, against)
+        if unresolved_orders(window, s.orders):   # aliases of the unresolved orders move between windows
+            message += (f"; but at this step the fit reaches only order {nyquist_order(window)} "
+                        f"({samples_per_revolution(window):.3g} samples a revolution): the orders above alias onto "
+                        "the ones below and differ from window to window, so a smaller step (--step: the note "
+                        "gives one) is the likelier remedy")
+        record.update(status=NOT_STEADY, error=message)
     return _check_operating_point(window, s, record)
 
 
