@@ -504,18 +504,22 @@ def test_the_block_watch_skips_the_step_loop_only_where_nothing_can_trip(monkeyp
     assert watch_block(_fresh_states([100.0]), growing, 1, 0.0) == (3, 0, "growth") and calls
 
 
-def test_energy_block_sums_the_step_residuals_in_order():
-    """``energy_block`` against the residual of Sadjina et al. (2017) step by step: each side holds its input at
-    the step's start, dE_k = h/2 (w_k tau_k+1 - tau_k w_k+1), E_speed = tau_k h/2 (w_k + w_k+1)."""
+@pytest.mark.parametrize("torn", [False, True])
+def test_energy_block_sums_the_step_residuals_in_order(torn):
+    """``energy_block`` against the residual of Sadjina et al. (2017) step by step: each side holds its input over
+    the step, dE_k = h/2 (w_held (tau_k + tau_k+1) - tau_held (w_k + w_k+1)), E_speed = tau_held h/2 (w_k + w_k+1);
+    explicit, the held values are those at the step's start; implicit (torn), a torn input's the iterated value."""
     rng = np.random.default_rng(3)
     w, tau, h = rng.normal(10.0, 2.0, (50, 2)), rng.normal(0.0, 5.0, (50, 2)), 1e-3
-    bonds = [[None, None, -1, -1, w[0, b], tau[0, b], 0.0, 0.0, 0.0] for b in range(2)]
+    held = rng.normal(0.0, 5.0, (49, 2)) if torn else None   # the torque of bond 1 torn, first of two
+    bonds = [[None, None, -1, 0 if torn and b == 1 else -1, w[0, b], tau[0, b], 0.0, 0.0, 0.0] for b in range(2)]
     energies = [master.BondEnergy(None, None) for _ in range(2)]
-    energy_block(bonds, energies, w[1:21], tau[1:21], h / 2)
-    energy_block(bonds, energies, w[21:], tau[21:], h / 2)
+    energy_block(bonds, energies, w[1:21], tau[1:21], h / 2, None if held is None else held[:20])
+    energy_block(bonds, energies, w[21:], tau[21:], h / 2, None if held is None else held[20:])
     for b in range(2):
-        d_e = [h / 2 * (w[k, b] * tau[k + 1, b] - tau[k, b] * w[k + 1, b]) for k in range(49)]
-        e_speed = [tau[k, b] * h / 2 * (w[k, b] + w[k + 1, b]) for k in range(49)]
+        tau_held = [held[k, 0] if torn and b == 1 else tau[k, b] for k in range(49)]
+        e_speed = [tau_held[k] * h / 2 * (w[k, b] + w[k + 1, b]) for k in range(49)]
+        d_e = [w[k, b] * h / 2 * (tau[k, b] + tau[k + 1, b]) - e_speed[k] for k in range(49)]
         assert energies[b].residual == pytest.approx(sum(d_e), rel=1e-12)
         assert energies[b].residual_abs == pytest.approx(sum(map(abs, d_e)), rel=1e-12)
         assert energies[b].transmitted == pytest.approx(sum(map(abs, e_speed)), rel=1e-12)
@@ -568,3 +572,67 @@ def test_a_slow_divergence_is_named_with_its_rate(fmu_dir, rate):
     assert str(info.value).startswith(
         "coupling instability between 'joint' and 'motor': joint.tau_in -> motor.tau_load changes sign at every step "
         f"for {reversals} steps, growing x{rate:.3g} per step"), str(info.value)
+
+
+@pytest.mark.parametrize("block", [7, 1024])
+def test_implicit_steps_are_watched_a_block_at_a_time_with_the_same_outcome(fmu_dir, monkeypatch, block):
+    """battery_02 (a PI motor, its torque torn) coupled implicitly: watched a block at a time, its bonds' energy
+    and the watch's states are a watch's after every step (block 1), and a trip of the watch at step 123 (made
+    up here: the implicit scheme of the bundled set-ups does not diverge) stops the run there, with the same
+    message, results and energy."""
+    real = master.watch_block
+
+    def tripping_at(step):
+        seen = [0]
+
+        def watch(states, values, torn, noise):   # the states as the real watch leaves them at that step
+            first, seen[0] = seen[0], seen[0] + len(values)
+            if not first < step <= seen[0]:
+                return real(states, values, torn, noise)
+            return real(states, values[:step - first], torn, noise) or (step - first - 1, 0, "chatter")
+        return watch
+
+    def run(size, trip=None):
+        monkeypatch.setattr(master, "WATCH_BLOCK", size)
+        monkeypatch.setattr(master, "watch_block", tripping_at(trip) if trip else real)
+        s = Scenario(LIGHT)
+        with Cosimulation(s.master_components(fmu_dir), s.connections, s.step_size, s.record,
+                          coupling="implicit") as cosim:
+            try:
+                outcome = cosim.run(300).tolist()
+            except CouplingInstabilityError as exc:
+                outcome = (str(exc), exc.partial.tolist())
+            return outcome, [(b.residual, b.transmitted) for b in cosim.bond_energies], cosim._growth
+
+    assert run(block) == run(1)
+    stopped = run(block, 123)
+    assert stopped == run(1, 123)
+    message, partial = stopped[0]
+    assert message.startswith("coupling chatter between") and "t = 0.123" in message and len(partial) == 124
+
+
+def test_a_refused_implicit_step_is_reported_with_the_watch_up_to_it(fmu_dir, monkeypatch):
+    """A component refusing a step reads the watch's states for its words on the coupling (``_refused``): with
+    the implicit steps watched a block at a time, those not yet watched are watched first, so the report at step
+    150 and the watch's states are those of a watch after every step (block 1), and nothing is left pending."""
+    s = Scenario(LIGHT)
+
+    def refused_at_150(block):
+        monkeypatch.setattr(master, "WATCH_BLOCK", block)
+        seen = {}
+
+        def refuse(done, total):
+            if done == 150:
+                with pytest.raises(CosimulationError) as info:
+                    cosim._refused("motor", cosim.time)
+                seen.update(message=str(info.value), pending=len(cosim._held_rows),
+                            growth=[list(state) for state in cosim._growth])
+
+        with Cosimulation(s.master_components(fmu_dir), s.connections, s.step_size, s.record,
+                          coupling="implicit") as cosim:
+            cosim.run(300, progress=refuse)
+        return seen
+
+    seen = refused_at_150(1024)
+    assert seen == refused_at_150(1)
+    assert seen["message"].startswith("component 'motor' refused the step at t = 0.15") and seen["pending"] == 0

@@ -21,8 +21,8 @@ components owning them rolled back with fmi2GetFMUstate/fmi2SetFMUstate; theta i
 
 Both watch the torn connections for a diverging coupling (``CouplingInstabilityError``), account the energy
 residual of every power bond (``Cosimulation.bond_energies``) and keep the recorded results up to a failure
-(``CosimulationError.partial``); the implicit scheme after every step, the explicit one a block of steps at a time
-(``watch_block``, ``energy_block``) with the same outcome.
+(``CosimulationError.partial``), watching a block of steps at a time (``watch_block``, ``energy_block``) with the
+outcome of a watch after every step.
 """
 
 import atexit
@@ -70,8 +70,8 @@ GROWTH_STEPS, GROWTH_FACTOR, GROWTH_FLOOR = 3, 8.0, 1e-3
 #: of a divergence: an unloaded constant-velocity driveline's tau_in is 1e-15 N.m of alternating noise about 0, and a
 #: real divergence passes this within a few steps
 NOISE_FLOOR = 1e-9
-#: explicit steps are watched this many at a time (``watch_block``), and before any failure is reported: a
-#: divergence is reported at the step it began, the steps taken after it are dropped
+#: steps are watched this many at a time (``watch_block``), and before any failure is reported: a divergence is
+#: reported at the step it began, the steps taken after it are dropped
 WATCH_BLOCK = 1024
 #: chatter: a connection on a loop whose change keeps reversing its sign, each reversal by at least CHATTER_SHARE of
 #: its largest |value|: an oscillation at the step rate that does not die out (a switching component faster than
@@ -389,6 +389,7 @@ class Cosimulation:
         self.open_loop = False       # implicit coupling found the torn values independent of the torn inputs
         self.step_size, self.time, self.steps_done = step_size, start_time, 0
         self.rows_done = 0           # rows recorded by the last advance
+        self._watch_buffer, self._held_rows = None, []   # the steps not yet watched (``advance``)
         self.start_time = start_time
         self.log = []
         self.instances = {}
@@ -532,7 +533,7 @@ class Cosimulation:
         # per watched connection (torn first): [last value, last change, alternations, |change| when they began,
         # max |value|, the change before the last, chatter score, steps and reversals since the score left 0,
         # the last change above NOISE_FLOOR]
-        self._growth = [[v[0], 0.0, 0, 0.0, abs(v[0]), 0.0, 0, 0, 0, 0.0] for v in self._watch_views]
+        self._growth = [[v[0], 0.0, 0, 0.0, abs(v[0]), 0.0, 0, 0, 0, 0.0] for v in self._watch_values]
         self._plan_bonds(views)
         self._bond_columns = tuple(np.array([columns[i] for i in pairs], dtype=np.intp)
                                    for pairs in zip(*self._bond_pairs)) if self._bonds else ()
@@ -587,7 +588,7 @@ class Cosimulation:
                     and not stateless(i)):
                 self._tears.append(i)
         self._tear_views = [views[i][:1] for i in self._tears]
-        # watched for divergence and chatter (``_watch_growth``): the torn connections, then, for chatter only, one
+        # watched for divergence and chatter (``watch_step``): the torn connections, then, for chatter only, one
         # connection on a loop for each pair of components that no watched connection joins yet (a chatter runs
         # through every connection of its loop), the last in transfer order: the one that closes the loop, its
         # value held over the next step, but for one into an input that reaches no state (a fast change there is
@@ -599,7 +600,9 @@ class Cosimulation:
             if pair not in pairs and reaches(*self._where(self._transfers[i][-1])[::-1]) and not stateless(i):
                 pairs.add(pair)
                 self._watched.append(i)
-        self._watch_views = [views[i][:1] for i in self._watched]
+        # their values now (one-value ctypes arrays in the scratch row: v[0] is a Python float, whose arithmetic
+        # in the watch is several times a numpy scalar's speed)
+        self._watch_values = [self._transfers[i][4] for i in self._watched]
         rolled = dict.fromkeys(self._transfers[i][-1].target.split(".", 1)[0] for i in self._tears)
         self._rolled = [(self.instances[name], name) for name in rolled]
         # per rolled-back component: (fmi2GetFMUstate, fmi2SetFMUstate, fmi2FreeFMUstate, component, name), the
@@ -627,7 +630,7 @@ class Cosimulation:
     def _plan_bonds(self, views):
         """Power bonds: a connection carrying a speed (rad/s) from component A to B paired with one carrying a
         torque (N.m) from B back to A (the k-th speed with the k-th torque when there are several). Their product
-        is the power A and B exchange; ``_account_energy`` keeps each bond's energy residual."""
+        is the power A and B exchange; ``energy_block`` keeps each bond's energy residual."""
         def unit(conn):
             comp, name = conn.source.split(".", 1)
             var = self.instances[comp].variables[name]
@@ -652,34 +655,6 @@ class Cosimulation:
                                     tear_pos.get(tau, -1),
                                     float(views[w][0]), float(views[tau][0]), 0.0, 0.0, 0.0])
         self._held = None   # implicit coupling: the torn inputs' values held over the last step
-
-    def _account_energy(self):
-        """Energy residual of every power bond over the step just taken (Sadjina et al. 2017): each side held
-        its input over [t_k, t_k+1] (u_held) and its own output moved from y_k to y_k+1, so
-
-            E_speed  = tau_held h (w_k + w_k+1)/2,     E_torque = w_held h (tau_k + tau_k+1)/2,
-            dE_k     = E_torque - E_speed
-
-        (explicit coupling: tau_held = tau_k, w_held = w_k, dE_k = h/2 (w_k tau_k+1 - tau_k w_k+1)). A perfect
-        coupling has dE_k = 0; for a speed-driven bond dE_k > 0 is energy the coupling created."""
-        half, held = 0.5 * self.step_size, self._held
-        self._held = None
-        for bond, energy in zip(self._bonds, self.bond_energies):
-            w, tau = bond[0][0], bond[1][0]   # ctypes values: Python floats
-            w_held = held[bond[2]] if held is not None and bond[2] >= 0 else bond[4]
-            tau_held = held[bond[3]] if held is not None and bond[3] >= 0 else bond[5]
-            e_speed = tau_held * half * (bond[4] + w)
-            d_e = w_held * half * (bond[5] + tau) - e_speed
-            energy.residual += d_e
-            energy.residual_abs += abs(d_e)
-            energy.transmitted += abs(e_speed)
-            bond[4], bond[5], bond[6], bond[7], bond[8] = w, tau, d_e, bond[6], e_speed
-
-    def _watch(self):
-        if self._bonds:
-            self._account_energy()
-        if self._watched:
-            self._watch_growth()
 
     def _log_text(self):
         return ("\nFMU log:\n" + "\n".join(self.log)) if self.log else ""
@@ -715,11 +690,16 @@ class Cosimulation:
         monitor = bool(self._watched or self._bonds)
         every = max(1, n_steps // 200)
         self.rows_done, k = 0, 0
-        # the explicit steps' watch: [scratch rows of the steps not yet watched, how many, the log's length before
-        # the last of them]; rows recorded up to the step it trips at
+        # the watch: [scratch rows of the steps not yet watched, how many, the log's length before the last of
+        # them]; the torn inputs' values held over each of them (implicit steps); rows recorded up to the step it
+        # trips at
         self._watch_buffer = ([np.empty((min(n_steps, WATCH_BLOCK), len(self._scratch_view))), 0, len(self.log)]
                               if monitor else None)
+        self._held_rows, self._advance_plan = [], (n_steps, output_interval)
         self._advance_start, self._rows_kept = self.steps_done, None
+        if monitor:
+            watched_at, watched_stride = self._watch_buffer[0].ctypes.data, self._watch_buffer[0].strides[0]
+            scratch, scratch_size = addressof(self._scratch), sizeof(self._scratch)
         h, start = self.step_size, self.start_time
         if STOP[0]:   # asked while the FMUs were being set up
             raise KeyboardInterrupt
@@ -730,7 +710,11 @@ class Cosimulation:
                 k += count
             else:
                 t = start + self.steps_done * h
-                self._implicit_step(t, h)
+                try:
+                    self._implicit_step(t, h)
+                except CosimulationError:   # a divergence the watch has not seen yet is reported first
+                    self._settle_implicit(failing=True)
+                    raise
                 self._fresh = True
                 implicit = not self.open_loop
                 self.steps_done += 1
@@ -741,8 +725,15 @@ class Cosimulation:
                 if rows is not None and (k % output_interval == 0 or k == n_steps):
                     self.read(rows[self.rows_done])
                     self.rows_done += 1
-                if monitor:
-                    self._watch()
+                if monitor:   # the step's scratch row and held inputs, watched a block at a time
+                    buffer = self._watch_buffer
+                    memmove(watched_at + buffer[1] * watched_stride, scratch, scratch_size)
+                    buffer[1] += 1
+                    self._held_rows.append(self._held)
+                    self._held = None
+                    if (buffer[1] == len(buffer[0]) or len(self.log) != buffer[2] or k == n_steps or not implicit
+                            or STOP[0]):
+                        self._settle_implicit()
                 if STOP[0]:
                     raise KeyboardInterrupt
             if progress is not None and k % every == 0 and progress(k, n_steps) is False and k < n_steps:
@@ -847,18 +838,31 @@ class Cosimulation:
             if self._rows_kept is not None:
                 self.rows_done = min(self.rows_done, self._rows_kept)
 
-    def _settle(self, rows, last, n_steps, interval, last_logged=True):
-        """``_watch_rows`` over rows, the scratch rows of the explicit steps up to step ``last``; where the watch
-        trips, ``_rows_kept`` becomes the rows recorded up to that step (of the advance over n_steps recording every
-        interval-th)."""
+    def _settle(self, rows, last, n_steps, interval, last_logged=True, held=None):
+        """``_watch_rows`` over rows, the scratch rows of the steps up to step ``last`` (held: the torn inputs'
+        values over each, implicit steps); where the watch trips, ``_rows_kept`` becomes the rows recorded up to
+        that step (of the advance over n_steps recording every interval-th)."""
         self._watch_buffer[1] = 0
         try:
-            self._watch_rows(rows, last - len(rows), self._watch_buffer[2], last_logged)
+            self._watch_rows(rows, last - len(rows), self._watch_buffer[2], last_logged, held)
             self._watch_buffer[2] = len(self.log)
         except CouplingInstabilityError:
             j = self.steps_done - self._advance_start
             self._rows_kept = j // interval + (j == n_steps and n_steps % interval != 0)
             raise
+
+    def _settle_implicit(self, failing=False):
+        """``_settle`` the implicit steps not yet watched (failing: before a failure in the step after them is
+        reported); where the watch trips, the rows recorded after that step are dropped."""
+        buffer = self._watch_buffer
+        if buffer is None or not buffer[1]:
+            return
+        held, self._held_rows = np.array(self._held_rows, dtype=np.float64), []
+        try:
+            self._settle(buffer[0][:buffer[1]], self.steps_done, *self._advance_plan, not failing, held)
+        finally:
+            if self._rows_kept is not None:
+                self.rows_done = min(self.rows_done, self._rows_kept)
 
     def _step(self, steppers, t, h):
         """fmi2DoStep of each of steppers (bare: t and h as c_double)."""
@@ -867,6 +871,8 @@ class Cosimulation:
                 self._refused(name, t.value)
 
     def _refused(self, name, t):
+        if self._held_rows:   # implicit steps not yet watched: the reports below need them
+            self._settle_implicit(failing=True)
         growing = self._growth_report() or self._jump_report() or self._energy_report()
         if growing:   # a port left its range because the coupling was diverging
             raise CouplingInstabilityError(
@@ -929,13 +935,6 @@ class Cosimulation:
                         "to here are kept")
         return ""
 
-    def _watch_growth(self):
-        """One step of the divergence and chatter watch (``watch_step``) on the watched connections' values now.
-        Raises CouplingInstabilityError."""
-        hit = watch_step(self._growth, [view[0] for view in self._watch_views], len(self._tears), self._noise())
-        if hit is not None:
-            self._watch_tripped(*hit)
-
     def _noise(self):
         return IMPLICIT_NOISE_TOLERANCES * COUPLING_RTOL if self.coupling == "implicit" else 0.0
 
@@ -944,10 +943,10 @@ class Cosimulation:
                   self._chatter_report(k, self._growth[k]))
         raise CouplingInstabilityError(report + self._log_text())
 
-    def _watch_rows(self, rows, steps_before, log_at, last_logged=True):
-        """The watch over explicit steps steps_before+1, ... whose scratch rows are rows (n x scratch): divergence
-        and chatter (``watch_block``) and the power bonds' energy (``energy_block``) up to the step the watch trips
-        at, if it does: steps_done and time are then set to that step's, the log cut to its length then (log_at:
+    def _watch_rows(self, rows, steps_before, log_at, last_logged=True, held=None):
+        """The watch over steps steps_before+1, ... whose scratch rows are rows (n x scratch), held the torn inputs'
+        values over each (implicit steps; None: explicit): divergence and chatter (``watch_block``) and the power
+        bonds' energy (``energy_block``) up to the step the watch trips at, if it does: steps_done and time are then set to that step's, the log cut to its length then (log_at:
         its length before the last row's step, which alone may have logged, and only if last_logged), and
         CouplingInstabilityError is raised."""
         hit = watch_block(self._growth, rows[:, self._watch_columns], len(self._tears),
@@ -955,7 +954,8 @@ class Cosimulation:
         upto = len(rows) if hit is None else hit[0] + 1
         if self._bonds:
             energy_block(self._bonds, self.bond_energies, rows[:upto, self._bond_columns[0]],
-                         rows[:upto, self._bond_columns[1]], 0.5 * self.step_size)
+                         rows[:upto, self._bond_columns[1]], 0.5 * self.step_size,
+                         None if held is None else held[:upto])
         if hit is not None:
             row, k, kind = hit
             if row < len(rows) - 1 or not last_logged:
@@ -1295,17 +1295,35 @@ def watch_block(states: list, values: np.ndarray, torn: int, noise: float):
     return None
 
 
-def energy_block(bonds: list, energies: list, w: np.ndarray, tau: np.ndarray, half: float) -> None:
-    """``Cosimulation._account_energy`` over n explicit steps (each side held its input at its value at the step's
-    start): w, tau the bonds' speeds and torques after each step (n x len(bonds)); the residuals are summed in
-    step order, as step by step."""
+def energy_block(bonds: list, energies: list, w: np.ndarray, tau: np.ndarray, half: float,
+                 held: np.ndarray | None = None) -> None:
+    """The energy residual of every power bond over n steps (Sadjina et al. 2017), added to energies (``BondEnergy``)
+    in step order: each side held its input over [t_k, t_k+1] (u_held) and its own output moved from y_k to
+    y_k+1, so
+
+        E_speed  = tau_held h (w_k + w_k+1)/2,     E_torque = w_held h (tau_k + tau_k+1)/2,
+        dE_k     = E_torque - E_speed
+
+    w, tau: the bonds' speeds and torques after each step (n x len(bonds)); held: the torn inputs' values held over
+    each step (n x torn, implicit coupling), else each side held its input at the step's start (explicit:
+    dE_k = h/2 (w_k tau_k+1 - tau_k w_k+1)). A perfect coupling has dE_k = 0; for a speed-driven bond dE_k > 0 is
+    energy the coupling created. bonds: per bond [speed, torque (unused here), the speed's and the torque's tear
+    position or -1, previous speed, previous torque, last residual, the one before, last E_speed], updated."""
     if len(w) == 0:
         return
     start = np.array([[bond[4] for bond in bonds], [bond[5] for bond in bonds]])
     w_before = np.vstack([start[0], w[:-1]])
     tau_before = np.vstack([start[1], tau[:-1]])
-    e_speed = tau_before * half * (w_before + w)
-    d_e = w_before * half * (tau_before + tau) - e_speed
+    w_held, tau_held = w_before, tau_before
+    if held is not None:
+        w_held, tau_held = w_before.copy(), tau_before.copy()
+        for b, bond in enumerate(bonds):
+            if bond[2] >= 0:
+                w_held[:, b] = held[:, bond[2]]
+            if bond[3] >= 0:
+                tau_held[:, b] = held[:, bond[3]]
+    e_speed = tau_held * half * (w_before + w)
+    d_e = w_held * half * (tau_before + tau) - e_speed
     for b, (bond, energy) in enumerate(zip(bonds, energies)):
         energy.residual = float(np.add.accumulate(np.append(energy.residual, d_e[:, b]))[-1])
         energy.residual_abs = float(np.add.accumulate(np.append(energy.residual_abs, np.abs(d_e[:, b])))[-1])

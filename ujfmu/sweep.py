@@ -553,9 +553,12 @@ class Sweep:
 
             def keep(record):
                 record["config"], record["grid"] = self.config, self.grid
-                if record["status"] == ERROR:   # the wiring's remedy, as `ujfmu run` gives it
+                if record["status"] == ERROR and "coupling" in record["error"]:   # the wiring's remedy, as run's
                     from .scenario_run import torque_driven_hint
-                    at = self.scenario.with_parameters(record["point"]) if record["point"] else self.scenario
+                    try:   # the point's own rotor inertia for the words
+                        at = self.scenario.with_parameters(record["point"]) if record["point"] else self.scenario
+                    except ScenarioError:
+                        at = self.scenario
                     hint = torque_driven_hint(at, record["error"])
                     if hint:
                         record["error"] += " | " + hint
