@@ -127,3 +127,21 @@ def test_a_percent_sign_in_a_message_reaches_a_formatting_host_intact(fmu_dir):
     assert result["time"][-1] == pytest.approx(0.01)
     (warning,) = [m for m in messages if "error_angle_beta" in m]
     assert "% at the mirror-image bend_angle" in warning and "0x" not in warning and "%%" not in warning
+
+
+@pytest.mark.parametrize("phase, low, high", [(math.pi / 2, 1.0, 1.0),
+                                              (0.0, math.cos(0.35) ** 2, 1.0 / math.cos(0.35) ** 2)])
+def test_two_joints_in_a_z_layout_cancel_when_their_yokes_are_in_phase(fmu_dir, phase, low, high):
+    """Two ideal CardanJoints of 0.35 rad in series on a constant-speed ideal source (README, "Angle origins"): with
+    the second's phi_in_start a quarter turn after the first's phi_out at the start, the intermediate yokes are in
+    phase and the output turns at the input's speed (a Z layout, the classical cancellation); with both at 0 the 2x
+    fluctuations add, the ratio from cos^2 beta to 1/cos^2 beta."""
+    from ujfmu.master import Component, Connection, cosimulate
+    joint = dict(bend_angle=0.35, error_angle_beta=0.0, error_angle_gamma=0.0)
+    components = [Component("motor", fmu_dir / "Motor.fmu", dict(ideal_speed_source=True, profile=0, omega_set=30.0)),
+                  Component("j1", fmu_dir / "CardanJoint.fmu", joint),
+                  Component("j2", fmu_dir / "CardanJoint.fmu", dict(joint, phi_in_start=phase))]
+    connections = [Connection("motor.omega", "j1.omega_in"), Connection("j1.omega_out", "j2.omega_in")]
+    table = cosimulate(components, connections, 0.5, 1e-4, ["motor.omega", "j2.omega_out"], coupling="explicit")
+    ratio = table["j2.omega_out"] / table["motor.omega"]
+    assert ratio.min() == pytest.approx(low, rel=1e-5) and ratio.max() == pytest.approx(high, rel=1e-5)

@@ -28,7 +28,7 @@ class CardanJoint(PrescribedInputSlave):
     joint is stable while its inertia reflected to the input, J1 + J2 r^2, is below half the driver's.
 
     Signs: omega_in, omega_out > 0 turn the shafts the same way; tau_in > 0 is the torque the driver applies in
-    the direction of rotation; tau_load > 0 opposes the driven shaft's rotation; M_z > 0 drives the driven shaft.
+    the sense of positive rotation; tau_load > 0 opposes positive rotation of the driven shaft; M_z > 0 drives it.
     Lossless: tau_in*omega_in = M_z*omega_out when J1 = J2 = 0.
     """
 
@@ -52,7 +52,7 @@ class CardanJoint(PrescribedInputSlave):
                   "Driven-side moment of inertia carried by the joint (0: Feng's massless driven side)", **_INERTIA),
         parameter("phi_in_start", 0.0, "rad", "Driving shaft angle theta1 at the start time", min=-1.0e6, max=1.0e6),
         input_("omega_in", 0.0, "rad/s", "Driving shaft angular speed omega1", **SPEED_RANGE),
-        input_("tau_load", 0.0, "N.m", "Load torque on the driven shaft (positive opposes its rotation)",
+        input_("tau_load", 0.0, "N.m", "Load torque on the driven shaft (positive opposes positive rotation)",
                **TORQUE_RANGE),
         output("omega_out", "rad/s", "Driven shaft angular speed omega2 = r(theta1)*omega1", ("omega_in",)),
         output("phi_out", "rad", "Driven shaft angle theta2, continuous over revolutions"),

@@ -31,7 +31,7 @@ class DoubleCardanDriveline(PrescribedInputSlave):
       The intermediate shaft's inertia is lumped half at each end. The driveline starts untwisted, phi = 0, with
       the output at the kinematic speed of omega_in as it is at the first step.
     Layout: yoke_phase = joint_plane_angle and beta1 = beta2 (Z) or beta1 = -beta2 (W) is constant velocity.
-    Signs: speeds > 0 the same way round; tau_in > 0 drives, tau_load > 0 opposes the output's rotation;
+    Signs: speeds > 0 the same way round; tau_in > 0 drives, tau_load > 0 opposes the output's positive rotation;
     twist = phi2 - phi3 > 0 and shaft_torque > 0 while transmitting positive torque.
     """
 
@@ -71,7 +71,7 @@ class DoubleCardanDriveline(PrescribedInputSlave):
         parameter("phi_in_start", 0.0, "rad", "Input shaft angle phi1 at the start time (0: yoke in joint 1's plane)",
                   min=-1.0e6, max=1.0e6),
         input_("omega_in", 0.0, "rad/s", "Input shaft angular speed omega1", **SPEED_RANGE),
-        input_("tau_load", 0.0, "N.m", "Load torque on the output shaft (positive opposes its rotation)",
+        input_("tau_load", 0.0, "N.m", "Load torque on the output shaft (positive opposes positive rotation)",
                **TORQUE_RANGE),
         output("omega_out", "rad/s", "Output shaft angular speed omega4", ("omega_in",)),
         output("phi_out", "rad", "Output shaft angle phi4, continuous over revolutions"),

@@ -19,7 +19,7 @@ class Motor(ModelSlave):
 
     Profiles: 0 constant omega_set; 1 ramp from rest at t = 0 s at accel up to omega_set (Feng's start-up: 30 rad/s^2);
     2 step from omega_initial to omega_set at t_step.
-    Signs: omega, phi, tau_motor > 0 in the direction of rotation; tau_load > 0 opposes the rotation.
+    Signs: omega, phi, tau_motor > 0 in the sense of positive rotation; tau_load > 0 opposes positive rotation.
     """
 
     MODEL = motor
@@ -36,7 +36,7 @@ class Motor(ModelSlave):
         parameter("omega_initial", 0.0, "rad/s", "Speed before the step", **_SPEED),
         parameter("ideal_speed_source", False, None, "True: follow the profile exactly (ideal speed source)",
                   type=bool),
-        input_("tau_load", 0.0, "N.m", "Reaction torque of the driven machine (positive opposes rotation)",
+        input_("tau_load", 0.0, "N.m", "Reaction torque of the driven machine (positive opposes positive rotation)",
                **TORQUE_RANGE),
         output("omega", "rad/s", "Rotor speed"),
         output("phi", "rad", "Rotor angle, continuous over revolutions"),
@@ -57,7 +57,7 @@ class MotorController(ModelSlave):
     anti-windup, with omega the speed the host passes in (held over a step: a sampled speed controller). The
     rotor inertia belongs to the driven model: set the torque-driven joint's J_drive to the motor's J_rotor and
     connect tau_motor -> tau_in, omega_in -> omega. The integral starts at 0.
-    Signs as Motor's: tau_motor > 0 drives in the direction of rotation.
+    Signs as Motor's: tau_motor > 0 drives in the sense of positive rotation.
     """
 
     MODEL = motor.Controller

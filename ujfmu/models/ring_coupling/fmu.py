@@ -19,7 +19,7 @@ class RingCoupling(PrescribedInputSlave):
     tau_in = I1 alpha_in - M_p - c_s x_e - c_d x_e'. Integrated with classical RK4 substeps.
     Default c_s = 87 EI/R for the default wire and ring (the paper's "87 EI/R^3" has the wrong units; Eq. 22 needs
     EI/R): set c_s again when changing R, d or E. Signs: speeds > 0 the same way round; tau_in > 0 drives;
-    tau_load > 0 opposes shaft 2's rotation; transmitted_torque > 0 drives shaft 2.
+    tau_load > 0 opposes shaft 2's positive rotation; transmitted_torque > 0 drives shaft 2.
     """
 
     MODEL = rc
@@ -48,7 +48,7 @@ class RingCoupling(PrescribedInputSlave):
         parameter("omega_out_start", 0.0, "rad/s", "Shaft 2 speed at the start when start_at_input_speed is false",
                   min=-1.0e5, max=1.0e5),
         input_("omega_in", 0.0, "rad/s", "Shaft 1 angular speed", **SPEED_RANGE),
-        input_("tau_load", 0.0, "N.m", "Load torque on shaft 2 (positive opposes its rotation)",
+        input_("tau_load", 0.0, "N.m", "Load torque on shaft 2 (positive opposes positive rotation)",
                **TORQUE_RANGE),
         output("omega_out", "rad/s", "Shaft 2 angular speed", ("omega_in",)),
         output("phi_out", "rad", "Shaft 2 angle phi2, continuous over revolutions"),

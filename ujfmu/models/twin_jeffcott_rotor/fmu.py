@@ -52,7 +52,7 @@ class TwinJeffcottRotor(PrescribedInputSlave):
     Runge-Kutta method (model.exponential_step), one substep per 1 ms step on the default rig; the input angle
     follows omega_in extrapolated linearly over each step (alpha_in the backward difference). Starts with untwisted
     shafts and centred discs turning with the input until the first step.
-    Signs: tau_in > 0 drives; tau_load > 0 opposes disc 2's rotation; shaft torques > 0 while transmitting drive.
+    Signs: tau_in > 0 drives; tau_load > 0 opposes disc 2's positive rotation; shaft torques > 0 while transmitting drive.
     X1, Y1 in the primary shaft's frame, X2, Y2 in the secondary's; X lies in the plane of the two shafts.
     """
 
@@ -69,7 +69,7 @@ class TwinJeffcottRotor(PrescribedInputSlave):
         parameter("phi_in_start", 0.0, "rad", "Input angle at the start time (0: driving pin normal to the plane "
                   "of the shafts)", min=-1.0e6, max=1.0e6),
         input_("omega_in", 0.0, "rad/s", "Input (gearbox output) angular speed", **SPEED_RANGE),
-        input_("tau_load", 0.0, "N.m", "Load torque on disc 2 (positive opposes its rotation)",
+        input_("tau_load", 0.0, "N.m", "Load torque on disc 2 (positive opposes positive rotation)",
                **TORQUE_RANGE),
         output("omega_out", "rad/s", "Disc 2 angular speed theta2'", ("omega_in",)),
         output("phi_out", "rad", "Disc 2 angle theta2, continuous over revolutions"),
