@@ -636,3 +636,20 @@ def test_a_refused_implicit_step_is_reported_with_the_watch_up_to_it(fmu_dir, mo
     seen = refused_at_150(1024)
     assert seen == refused_at_150(1)
     assert seen["message"].startswith("component 'motor' refused the step at t = 0.15") and seen["pending"] == 0
+
+
+def test_a_run_stopped_by_its_callback_keeps_the_watch_up_to_there(fmu_dir, monkeypatch):
+    """Stopped by the progress callback at step 150 (RunStopped), an implicit run's bonds' energy is that of a
+    watch after every step up to there, its held inputs included, whatever the block."""
+    from ujfmu.master import RunStopped
+    s = Scenario(LIGHT)
+
+    def stopped(block):
+        monkeypatch.setattr(master, "WATCH_BLOCK", block)
+        with Cosimulation(s.master_components(fmu_dir), s.connections, s.step_size, s.record,
+                          coupling="implicit") as cosim:
+            with pytest.raises(RunStopped) as info:
+                cosim.run(300, progress=lambda done, total: done != 150)
+            return len(info.value.partial), [(b.residual, b.transmitted) for b in cosim.bond_energies]
+
+    assert stopped(1024) == stopped(1) and stopped(1)[0] == 151

@@ -713,7 +713,7 @@ class Cosimulation:
                 try:
                     self._implicit_step(t, h)
                 except CosimulationError:   # a divergence the watch has not seen yet is reported first
-                    self._settle_implicit(failing=True)
+                    self._settle_pending(failing=True)
                     raise
                 self._fresh = True
                 implicit = not self.open_loop
@@ -733,17 +733,11 @@ class Cosimulation:
                     self._held = None
                     if (buffer[1] == len(buffer[0]) or len(self.log) != buffer[2] or k == n_steps or not implicit
                             or STOP[0]):
-                        self._settle_implicit()
+                        self._settle_pending()
                 if STOP[0]:
                     raise KeyboardInterrupt
             if progress is not None and k % every == 0 and progress(k, n_steps) is False and k < n_steps:
-                buffer = self._watch_buffer
-                if buffer is not None and buffer[1]:   # the steps taken first, as a failure would
-                    try:
-                        self._settle(buffer[0][:buffer[1]], self.steps_done, n_steps, output_interval)
-                    finally:
-                        if self._rows_kept is not None:
-                            self.rows_done = min(self.rows_done, self._rows_kept)
+                self._settle_pending()   # the steps taken first, as a failure would
                 raise RunStopped(f"t = {self.time!r}: stopped by the progress callback after {k} of {n_steps} steps "
                                  "(it returned False); the results up to here are kept")
 
@@ -851,13 +845,14 @@ class Cosimulation:
             self._rows_kept = j // interval + (j == n_steps and n_steps % interval != 0)
             raise
 
-    def _settle_implicit(self, failing=False):
-        """``_settle`` the implicit steps not yet watched (failing: before a failure in the step after them is
-        reported); where the watch trips, the rows recorded after that step are dropped."""
+    def _settle_pending(self, failing=False):
+        """``_settle`` the steps not yet watched in ``_watch_buffer`` (failing: before a failure in the step after
+        them is reported); where the watch trips, the rows recorded after that step are dropped."""
         buffer = self._watch_buffer
         if buffer is None or not buffer[1]:
             return
-        held, self._held_rows = np.array(self._held_rows, dtype=np.float64), []
+        held = np.array(self._held_rows, dtype=np.float64) if self._held_rows else None   # implicit steps
+        self._held_rows = []
         try:
             self._settle(buffer[0][:buffer[1]], self.steps_done, *self._advance_plan, not failing, held)
         finally:
@@ -872,7 +867,7 @@ class Cosimulation:
 
     def _refused(self, name, t):
         if self._held_rows:   # implicit steps not yet watched: the reports below need them
-            self._settle_implicit(failing=True)
+            self._settle_pending(failing=True)
         growing = self._growth_report() or self._jump_report() or self._energy_report()
         if growing:   # a port left its range because the coupling was diverging
             raise CouplingInstabilityError(
