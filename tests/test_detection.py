@@ -653,3 +653,20 @@ def test_a_run_stopped_by_its_callback_keeps_the_watch_up_to_there(fmu_dir, monk
             return len(info.value.partial), [(b.residual, b.transmitted) for b in cosim.bond_energies]
 
     assert stopped(1024) == stopped(1) and stopped(1)[0] == 151
+
+
+def test_a_run_stopped_by_its_loads_chatter_names_the_load_and_its_remedies(fmu_dir):
+    """Omar's start-up against a 200 N.m load smoothed over 1 rad/s: one step of the load moves his 4.5 g.m2 output
+    by 44 rad/s, so its torque reverses at every step from rest and the coupling to the motor diverges (a first-day
+    trial's propshaft). The error's hint is the load's, with omega_smooth and the step that would do, not the
+    torque-driven wiring (the driven side is 70x lighter than the rotor)."""
+    from ujfmu.scenario_run import run_scenario
+    scenario = Scenario(Path(__file__).parent.parent / "scenarios" / "double_cardan_omar_startup.toml")
+    scenario = scenario.with_parameters({"load.T0": 200.0, "motor.J_rotor": 0.3, "motor.Kp": 50.0,
+                                         "motor.Ki": 1250.0, "motor.tau_max": 400.0})
+    scenario.stop_time = 0.1
+    with pytest.raises(CosimulationError) as info:
+        run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, progress=False)
+    message = str(info.value)
+    assert "hint: load: its constant torque T0 = 200 N.m reverses within omega_smooth = 1 rad/s" in message
+    assert "Widen omega_smooth to at least 44.4 rad/s" in message and "torque-driven" not in message

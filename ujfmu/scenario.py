@@ -103,6 +103,35 @@ def not_found_hint(path: Path) -> str:
     return f"; did you mean {' or '.join(str(candidates[name]) for name in close)}?"
 
 
+
+#: a Load whose constant torque, in one step, moves the inertia it acts on by more than this many omega_smooth is
+#: named before a run that starts from rest (``Scenario.model_advice``): it chatters even where the shaft only
+#: passes through rest; from 1 on it chatters where the shaft stays near rest (a stall), which a failure's hint
+#: names (Omar's driveline at a constant speed runs at 1111 with his 1e-3 rad/s, his start-up at 1.1)
+LOAD_CHATTER_ADVICE = 10.0
+
+
+@dataclass
+class LoadChatter:
+    """A Load's constant torque against the output inertia it acts on (``Scenario.load_chatter``)."""
+    load: str
+    driven: str
+    inertia: float
+    torque: float
+    smooth: float
+    step: float
+    ratio: float   # T0 h / (J omega_smooth)
+
+    def text(self) -> str:
+        reach = self.torque * self.step / self.inertia
+        return (f"{self.load}: its constant torque T0 = {self.torque:g} N.m reverses within omega_smooth = "
+                f"{self.smooth:g} rad/s of rest, and one step of it ({self.step:g} s) moves {self.driven}'s output "
+                f"inertia J = {self.inertia:g} kg.m2 by T0 h / J = {reach:.3g} rad/s, "
+                f"{self.ratio:.3g}x omega_smooth: near rest (a start, a stall) the load's torque reverses at every "
+                f"step, and the run stops as a coupling instability or chatter. Widen omega_smooth to at least "
+                f"{reach:.3g} rad/s, or take a step of at most {self.inertia * self.smooth / self.torque:.3g} s")
+
+
 class ScenarioError(ValueError):
     """A scenario file is invalid; the message names the file and the field."""
 
@@ -632,8 +661,35 @@ class Scenario:
 
     def model_advice(self) -> list:
         """'component: warning' for valid parameters that are likely not what was meant (``MODEL.advice``, which
-        the FMU logs at initialization: e.g. a ring coupling's c_s left at the default ring's)."""
-        return [f"{name}: {message}" for name in self.components for message in self._ask_model(name, "advice")]
+        the FMU logs at initialization: e.g. a ring coupling's c_s left at the default ring's), and, where a drive
+        starts from rest (a Motor's ramp, or its step from 0), a Load that chatters as its shaft passes through rest
+        (:meth:`load_chatter`, ``LOAD_CHATTER_ADVICE``)."""
+        from_rest = any(fmu in ("Motor", "MotorController") and (
+            values["profile"] == 1 or values["profile"] == 2 and values["omega_initial"] == 0.0)
+            for fmu, values in ((fmu, self.parameters_with_defaults(name)) for name, (fmu, _) in
+                                self.components.items()))
+        return ([f"{name}: {message}" for name in self.components for message in self._ask_model(name, "advice")]
+                + [chatter.text() for chatter in self.load_chatter()
+                   if from_rest and chatter.ratio > LOAD_CHATTER_ADVICE])
+
+    def load_chatter(self) -> list:
+        """``LoadChatter`` of each Load fed from a component's ``omega_out`` whose model has an output inertia of
+        its own (the protocol's ``free_output_inertia``): one step of the Load's constant torque T0 moves that inertia by
+        T0 h / J, and where that exceeds omega_smooth, the band within which T0 reverses, a shaft near rest sees the
+        torque reverse at every step (README, "Port and sign conventions")."""
+        found = []
+        for conn in self.connections:
+            load, _, port = conn.target.partition(".")
+            driven, _, out = conn.source.partition(".")
+            if port != "omega" or out != "omega_out" or self.components.get(load, ("",))[0] != "Load":
+                continue
+            inertia = self._ask_model(driven, "free_output_inertia")
+            law = self.parameters_with_defaults(load)
+            if isinstance(inertia, float) and inertia > 0.0 and law["T0"] > 0.0:
+                reach = law["T0"] * self.step_size / inertia
+                found.append(LoadChatter(load, driven, inertia, float(law["T0"]), float(law["omega_smooth"]),
+                                         self.step_size, reach / law["omega_smooth"]))
+        return found
 
     def _ask_model(self, component, what) -> list:
         model = getattr(fmu_class(self.components[component][0]), "MODEL", None)

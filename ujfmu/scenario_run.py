@@ -519,7 +519,9 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                                progress=progress or None, coupling=scenario.coupling,
                                output_interval=scenario.output_interval, diagnostics=diagnostics)
     except CosimulationError as exc:
-        hint = "" if isinstance(exc, RunStopped) else torque_driven_hint(scenario, str(exc.args[0]) if exc.args else "")
+        chatter = [c for c in scenario.load_chatter() if c.ratio > 1.0]   # the likelier cause, with its remedy
+        hint = "" if isinstance(exc, RunStopped) else "\n".join(f"hint: {c.text()}" for c in chatter) or (
+            torque_driven_hint(scenario, str(exc.args[0]) if exc.args else ""))
         if exc.partial is not None and not isinstance(exc, RunStopped):
             oscillating = "" if isinstance(exc, CouplingInstabilityError) else oscillation_hint(scenario, exc.partial)
             stalled = "" if oscillating else stalled_drive_hint(scenario, exc.partial)

@@ -27,8 +27,10 @@ A model without a state of its own (a kinematic joint, a load law) takes :class:
 
 Optional: ``kinematic(p) -> bool`` (default False; True: the state is not integrated but held from the first
 step on, the outputs following the inputs alone), ``advice(p) -> list`` (warnings on valid parameters that are
-likely not what was meant, logged at initialization and printed by ``ujfmu run``; default none) and
-``check_state(p, y) -> list``
+likely not what was meant, logged at initialization and printed by ``ujfmu run``; default none),
+``free_output_inertia(p) -> float | None`` (the inertia [kg.m2] a load on the output shaft accelerates on its own, behind
+the model's compliance; default None, where the output follows the input's kinematics: tooling compares a Load's
+torque with it, ``Scenario.load_chatter``) and ``check_state(p, y) -> list``
 (messages when a state reached by a step is outside the model's validity; default none) and
 ``output_free_inputs(p) -> tuple`` (names of FMU inputs that neither ``outputs`` nor ``initial_state`` depend on at
 these parameters, e.g. a load torque that only enters the derivatives: a change of them leaves the outputs valid,

@@ -845,6 +845,12 @@ def flexible_output_values(p: Parameters, phi1: float, omega1: float, alpha1: fl
     return values
 
 
+def free_output_inertia(p: Parameters) -> float | None:
+    """The output side's mean inertia (:func:`mean_output_inertia`: J_load and what the joint passes on) behind the
+    intermediate shaft's compliance; None with a rigid shaft (the output then follows the joints' kinematics)."""
+    return None if p.rigid_intermediate_shaft else p.J_mean
+
+
 def advice(p: Parameters) -> list:
     """Warnings on valid parameters likely not meant: a joint angle past ``protocol.LARGE_JOINT_ANGLE`` (degrees
     given as radians?)."""
@@ -1015,6 +1021,7 @@ class TorqueDriven:
         return check(p) + shaft_inertia_problems("J_drive + I_input", p.J_drive + p.I_input, "input shaft")
 
     advice = staticmethod(advice)
+    free_output_inertia = staticmethod(free_output_inertia)
 
     @staticmethod
     def check_state(p: TorqueDrivenParameters, y: tuple) -> list:

@@ -225,6 +225,11 @@ DEFAULT_RING = (2.1e11, 0.003, 0.1)
 LARGE_MISALIGNMENT = 0.1
 
 
+def free_output_inertia(p: Parameters) -> float:
+    """Shaft 2's I2 behind the ring's stiffness c_s."""
+    return p.I2
+
+
 def advice(p: Parameters) -> list:
     """Warnings on valid parameters that are likely not what was meant: c_s left at the default ring's 87 EI/R
     while R, d or E describe another ring (c_s is a parameter of its own, not derived from them); a misalignment
@@ -336,6 +341,7 @@ class TorqueDriven:
         return {"alpha_in": alpha, "tau_input_shaft": p.I1 * alpha - m_p + elastic}
 
     advice = staticmethod(advice)
+    free_output_inertia = staticmethod(free_output_inertia)
 
     @staticmethod
     def check(p: TorqueDrivenParameters) -> list:
