@@ -103,3 +103,20 @@ def test_scenario_modes_are_the_jeffcott_frequencies_and_their_order_crossings()
     disc2 = math.sqrt(rig["K2X"] / (rig["M2"] + rig["m_u2"]))
     assert any(abs(m.omega / (2.0 * disc2) - 1.0) < 2e-3 for m in stiffer)   # sqrt(4 K / m)
     assert drive_speeds(scenario) == {"motor.omega_set": 100.0}
+
+
+@pytest.mark.parametrize("ideal", [True, False])
+def test_a_shafts_torsional_mode_is_free_at_a_pi_motors_rotor_and_held_at_an_ideal_source(ideal):
+    """A straight (0 deg) double Cardan, k_theta 1.5e4 N.m/rad to a 0.2 kg.m2 output, driven by a motor with a
+    0.3 kg.m2 rotor: held by an ideal speed source, its torsional mode is sqrt(k / J_load) = 273.9 rad/s; driven by
+    a PI motor it is the two-mass sqrt(k (1 / J_load + 1 / J_rotor)) = 353.6 rad/s (the speed loop left out), which
+    a first-day trial's sweep found where the held figure had put the crossing 22% low."""
+    from ujfmu.analysis import scenario_modes
+    from ujfmu.scenario import Scenario
+    scenario = Scenario(Path(__file__).parent.parent / "scenarios" / "double_cardan_omar_startup.toml")
+    scenario = scenario.with_parameters({"driveline.beta1": 0.0, "driveline.beta2": 0.0, "driveline.k_theta": 1.5e4,
+                                         "driveline.J_load": 0.2, "motor.J_rotor": 0.3,
+                                         "motor.ideal_speed_source": ideal})
+    k, j_load, rotor = 1.5e4, 0.2, 0.3
+    expected = math.sqrt(k / j_load) if ideal else math.sqrt(k * (1.0 / j_load + 1.0 / rotor))
+    assert any(abs(m.omega / expected - 1.0) < 1e-6 for m in scenario_modes(scenario)), scenario_modes(scenario)

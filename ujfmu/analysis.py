@@ -149,8 +149,19 @@ class Mode:
 def scenario_modes(scenario, point: dict | None = None) -> list[Mode]:
     """The natural frequencies of every machine component of scenario (drives and loads left out) at its
     parameters with point's {"component.parameter": value} applied: ``model_natural_frequency_range`` (the model's
-    own linearisation at rest, input shaft held, no load), frequencies within 0.5% of each other merged."""
-    from .build import fmu_class
+    own linearisation at rest, no load), frequencies within 0.5% of each other merged. A speed-driven component's
+    input shaft is held where an ideal speed source drives it; where a PI Motor does, it is free with the motor's
+    rotor inertia on it (the model's torque-driven variant with J_drive = J_rotor; the speed loop left out), as a
+    torque-driven component's is with its own J_drive."""
+    from .build import FMUS, fmu_class
+    rotors = {}   # component -> the rotor inertia of the PI Motor that drives its omega_in
+    for conn in scenario.connections:
+        driver, _, out = conn.source.partition(".")
+        driven, _, port = conn.target.partition(".")
+        if out == "omega" and port == "omega_in" and scenario.components.get(driver, ("",))[0] == "Motor":
+            motor = scenario.parameters_with_defaults(driver)
+            if not motor["ideal_speed_source"]:
+                rotors[driven] = float(motor["J_rotor"])
     modes = []
     for name, (fmu, _) in scenario.components.items():
         if fmu in DRIVES_AND_LOADS:
@@ -158,9 +169,13 @@ def scenario_modes(scenario, point: dict | None = None) -> list[Mode]:
         parameters = scenario.parameters_with_defaults(name)
         parameters.update({k.partition(".")[2]: v for k, v in (point or {}).items() if k.partition(".")[0] == name})
         cls = fmu_class(fmu)
+        model = cls.MODEL
+        if name in rotors and fmu + "TorqueDriven" in FMUS:
+            model = fmu_class(fmu + "TorqueDriven").MODEL
+            parameters.update(J_drive=rotors[name], omega_in_start=0.0)
         orders = getattr(cls.PHYSICS, "EXCITATION_ORDER", 1)
         merged = []
-        for omega, low, high in zip(*model_natural_frequency_range(cls.MODEL, parameters)):
+        for omega, low, high in zip(*model_natural_frequency_range(model, parameters)):
             if merged and omega <= merged[-1].omega * 1.005:
                 merged[-1].count += 1
                 merged[-1].low, merged[-1].high = min(merged[-1].low, float(low)), max(merged[-1].high, float(high))

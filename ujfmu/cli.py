@@ -478,10 +478,11 @@ def cmd_modes(args):
     if changes:
         scenario = scenario.with_parameters(changes)
     modes = scenario_modes(scenario)
-    print(f"{scenario.name}: natural frequencies omega_n of its machine components, each linearised at rest (input "
-          "shaft held, no load; the mean over the input angle, and the range it spans), and the input speeds at which "
-          "each order of the input speed that the component carries meets them (the crossings of a Campbell "
-          "diagram: the k-th order at omega_n / k)")
+    print(f"{scenario.name}: natural frequencies omega_n of its machine components, each linearised at rest (no "
+          "load; the input shaft held where an ideal speed source drives it, free with the rotor inertia where a PI "
+          "motor does, its speed loop left out; the mean over the input angle, and the range it spans), and the input "
+          "speeds at which each order of the input speed that the component carries meets them (the crossings of a "
+          "Campbell diagram: the k-th order at omega_n / k)")
     if not modes:
         print("  no component with modes of its own (rigid or kinematic models)")
         return 0
