@@ -173,3 +173,23 @@ def test_a_joint_angle_past_45_deg_asks_whether_degrees_were_meant(name, angle):
     assert "68.75 deg" in message and "between 0.362 and 2.76" in message and f"{angle} = 0.020944 rad" in message
     assert not [m for m in cls.MODEL.advice(p_of(math.radians(30.0))) if m.startswith(f"{angle} = ")]
     assert not [m for m in cls.MODEL.advice(p_of(-math.radians(45.0))) if m.startswith(f"{angle} = ")]
+
+
+@pytest.mark.parametrize("name, angle", [("DoubleCardanDriveline", "yoke_phase"),
+                                         ("DoubleCardanDriveline", "joint_plane_angle"),
+                                         ("DoubleCardanDrivelineTorqueDriven", "yoke_phase")])
+def test_a_phase_of_whole_radians_asks_whether_degrees_were_meant(name, angle):
+    """yoke_phase = 3.0 (meant as 3 deg) had run yokes 172 deg apart without a word (a first-day trial): a phase
+    that is a whole number of radians from 1 on names its degrees and the value had it been degrees; a phase in
+    radians (0, pi/6, pi/2, -1.5) draws none."""
+    import math
+    cls = fmu_class(name)
+    values = {v.name: v.start for v in cls.VARIABLES if v.causality == "parameter"}
+    names = [f.name for f in dataclasses.fields(cls.MODEL.Parameters) if f.init]
+
+    def p_of(value):
+        return cls.MODEL.Parameters(**{n: {**values, angle: value}[n] for n in names})
+    (message,) = [m for m in cls.MODEL.advice(p_of(3.0)) if m.startswith(f"{angle} = ")]
+    assert "171.9 deg" in message and f"{angle} = 0.0523599 rad" in message
+    for value in (0.0, math.pi / 6, math.pi / 2, -1.5):
+        assert not [m for m in cls.MODEL.advice(p_of(value)) if m.startswith(f"{angle} = ")], value

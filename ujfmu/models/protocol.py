@@ -123,6 +123,16 @@ def joint_angle_advice(name: str, angle: float) -> list:
             "(the FMUs take SI units)"]
 
 
+def phase_angle_advice(name: str, angle: float) -> list:
+    """A warning for a phase angle [rad] that is a whole number of radians from 1 on (3.0, 90.0): valid, but what a
+    phase given in degrees looks like, where a phase meant in radians is 0 or a fraction of pi; and what it is if
+    the number was meant in degrees."""
+    if angle == 0.0 or abs(angle) < 1.0 or angle != round(angle):
+        return []
+    return [f"{name} = {angle:g} rad is {math.degrees(angle):.4g} deg; if the value was meant in degrees, {name} = "
+            f"{math.radians(angle):.6g} rad (the FMUs take SI units)"]
+
+
 # --- the protocol functions of a kinematic model without a state of its own (State has no fields) -------------
 
 class NoState(NamedTuple):

@@ -36,7 +36,8 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ...fmu import rk4, series
-from ..protocol import Drive, Torques, joint_angle_advice, shaft_inertia_problems, torque_driven_outputs
+from ..protocol import (Drive, Torques, joint_angle_advice, phase_angle_advice, shaft_inertia_problems,
+                        torque_driven_outputs)
 
 #: Largest admissible magnitude of a joint angle (static plus dynamic) [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -852,9 +853,11 @@ def free_output_inertia(p: Parameters) -> float | None:
 
 
 def advice(p: Parameters) -> list:
-    """Warnings on valid parameters likely not meant: a joint angle past ``protocol.LARGE_JOINT_ANGLE`` (degrees
-    given as radians?)."""
-    return joint_angle_advice("beta1", p.beta1) + joint_angle_advice("beta2", p.beta2)
+    """Warnings on valid parameters likely not meant: a joint angle past ``protocol.LARGE_JOINT_ANGLE``, a phase
+    that is a whole number of radians (``protocol.phase_angle_advice``): degrees given as radians?"""
+    return (joint_angle_advice("beta1", p.beta1) + joint_angle_advice("beta2", p.beta2)
+            + phase_angle_advice("yoke_phase", p.yoke_phase)
+            + phase_angle_advice("joint_plane_angle", p.joint_plane_angle))
 
 
 def check(p: Parameters) -> list:
