@@ -220,7 +220,7 @@ def test_default_folders_are_the_current_directorys(tmp_path, monkeypatch, capsy
     assert "or give --fmu-dir DIR where they were built" in err
 
 
-def test_progress_is_a_callback_and_the_cli_draws_no_bar_off_a_terminal(fmu_dir, tmp_path, capsys):
+def test_progress_is_a_callback_and_the_cli_draws_no_bar_off_a_terminal(fmu_dir, tmp_path, capsys, monkeypatch):
     calls = []
     ujfmu.run_scenario(SCENARIOS / "cardan_constant_speed.toml", fmu_dir=fmu_dir, out_dir=None,
                        progress=lambda done, total: calls.append((done, total)))
@@ -230,8 +230,15 @@ def test_progress_is_a_callback_and_the_cli_draws_no_bar_off_a_terminal(fmu_dir,
                  str(tmp_path), "--no-plot"]) == 0
     captured = capsys.readouterr()
     assert "\r" not in captured.err + captured.out and "PASS cardan_constant_speed" in captured.out
-    # the verdict says what it compared against: the file and how it was made (its provenance line)
-    assert "  against references/cardan_constant_speed.csv: closed form (ideal speed source)" in captured.out
+    # the verdict says what it compared against: the file, as a path from the current directory (the clone here;
+    # not from the scenario's folder: "references/..." did not exist from where it was run), and how it was made
+    # (its provenance line)
+    monkeypatch.chdir(SCENARIOS.parent)
+    assert main(["run", str(SCENARIOS / "cardan_constant_speed.toml"), "--fmu-dir", str(fmu_dir), "--out",
+                 str(tmp_path), "--no-plot"]) == 0
+    captured = capsys.readouterr()
+    assert ("  against scenarios/references/cardan_constant_speed.csv: closed form (ideal speed source)"
+            in captured.out)
     assert main(["-q", "run", str(SCENARIOS / "cardan_constant_speed.toml"), "--fmu-dir", str(fmu_dir), "--out",
                  str(tmp_path), "--no-plot"]) == 0
     assert "results:" not in capsys.readouterr().out   # --quiet: the verdict only
@@ -738,3 +745,19 @@ def test_an_unexpected_exception_exits_3_not_as_a_failed_check(capsys):
     assert info.value.code == INTERNAL_ERROR == 3
     err = capsys.readouterr().err
     assert "RuntimeError: a bug" in err and "internal error" in err
+
+
+def test_fmus_not_found_from_another_directory_names_the_checkouts_own(tmp_path, capsys, monkeypatch):
+    """Run from a folder without fmus/, the error names the checkout's own FMUs and the --fmu-dir that reaches them
+    (following "run `ujfmu build` first" there had built a second set in the wrong folder: a first-day trial)."""
+    from ujfmu import build
+    checkout = tmp_path / "checkout"
+    (checkout / "fmus").mkdir(parents=True)
+    (checkout / "fmus" / "Motor.fmu").write_bytes(b"")
+    monkeypatch.setattr(build, "REPO_DIR", checkout)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    assert main(["run", str(SCENARIOS / "cardan_constant_speed.toml"), "--no-plot"]) == 2
+    err = capsys.readouterr().err
+    assert "fmus/Motor.fmu not found" in err and f"this checkout's are in {checkout / 'fmus'}: --fmu-dir " in err

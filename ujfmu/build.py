@@ -67,8 +67,12 @@ UNITS = {
 
 def build_hint(fmu_dir) -> str:
     """The command that builds the FMUs into fmu_dir, for "not found" messages."""
+    built = REPO_DIR / DEFAULT_FMU_DIR   # this checkout's (an editable install): where `ujfmu build` there put them
     if Path(fmu_dir).absolute() == DEFAULT_FMU_DIR.absolute():
-        return "run `ujfmu build` first, or give --fmu-dir DIR where they were built: fmus/ is the current directory's"
+        there = (f"; this checkout's are in {built}: --fmu-dir {built}" if (built / "Motor.fmu").is_file()
+                 and built.resolve() != DEFAULT_FMU_DIR.resolve() else "")
+        return ("run `ujfmu build` first, or give --fmu-dir DIR where they were built: fmus/ is the current "
+                f"directory's{there}")
     if Path(fmu_dir).absolute() == (DEFAULT_FMU_DIR / "fmi3").absolute():
         return "run `ujfmu build --fmi 3` first, or give --fmu-dir DIR where they were built"
     return f"run `ujfmu build --fmu-dir {fmu_dir}` first"

@@ -366,7 +366,7 @@ class ScenarioResult:
                 f"{span:g} s simulated)")
         lines = [head]
         if self.checks:
-            lines.append(f"  against {self.scenario.reference_file_text}"
+            lines.append(f"  against {shown_path(self.scenario.reference_file)}"
                          + (f": {self.reference_method}" if self.reference_method else ""))
         lines += [f"  {c}" for c in self.checks]
         if self.extrapolated_checks:
@@ -593,6 +593,16 @@ TORQUE_DRIVEN_EXAMPLES = {"CardanJoint": "cardan_heavy_torque_driven",
                           "DoubleCardanDriveline": "double_cardan_stiff_torque_driven",
                           "TwinJeffcottRotor": "twin_jeffcott_torque_driven",
                           "RingCoupling": "ring_coupling_torque_driven"}
+
+
+def shown_path(path: Path) -> str:
+    """A file's path as a message shows it: relative to the current directory where it lies below it (as the
+    results' paths are), else absolute (a reference's path in the scenario file is relative to that file)."""
+    path = Path(path).resolve()
+    try:
+        return str(path.relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
 
 
 def torque_driven_hint(scenario: Scenario, message: str) -> str:
