@@ -228,9 +228,29 @@ def documentation_html(name, cls):
     sources = ("<p>" + "; ".join(f"[{k}] {html.escape(BY_KEY[k].authors)} ({BY_KEY[k].year}): "
                                  f"{html.escape(BY_KEY[k].used_for)}" for k in keys) + "</p>" if keys else
                "<p>No paper: a generic component of the ujfmu library (see its equations above).</p>")
-    bibliography = "".join(f"<li>[{r.key}] {html.escape(r.text())}</li>" for r in REFERENCES)
+    bibliography = ("<h2>Bibliography</h2><p>The sources of the ujfmu library's models; this FMU cites those under "
+                    "Sources, if any.</p><ul>" + "".join(f"<li>[{r.key}] {html.escape(r.text())}</li>"
+                                                          for r in REFERENCES) + "</ul>")
     half = (", and smaller than half of it for this FMU, whose acceleration estimate is second order"
             if getattr(cls, "ACCELERATION_ORDER", 1) == 2 else "")
+    ports = {v.name for v in cls.VARIABLES}
+    if "omega_in" in ports and "tau_in" in ports:   # a drivetrain FMU, either causality
+        coupling = f"""A drivetrain FMU driven by the speed <code>omega_in</code> answers with <code>tau_in</code>, which
+contains the inertia torques of what it drives (an inertia times the acceleration it estimates from the speed
+history). With an explicit master (Jacobi or Gauss-Seidel, no iteration) this is stable only when the inertia
+reflected through <code>tau_in</code> is smaller than the driver's own inertia (a motor rotor, say), whatever the
+step{half}: give the driver the larger inertia, use an iterating master, or use the torque-driven variant (driving
+torque <code>tau_in</code> in, <code>omega_in</code> out). A stiff spring between two FMUs needs h well below
+2/omega_n of that spring."""
+    elif "tau_motor" in ports:   # Motor, MotorController
+        coupling = """Its speed controller sees the speed at the start of each communication step: with a PI loop
+closed through another FMU, the torque it commands is a step late, which holds while Kp h / J (J the inertia the
+loop turns) is below about 2 with ordered transfers and 1 in a master that transfers after all steps."""
+    else:   # Load
+        coupling = """Its torque follows the speed it reads at each communication point: where the law's slope
+d(tau)/d(omega) is large against J/h (J the inertia it acts on), or where its constant torque T0 moves that inertia
+across omega_smooth within one step (T0 h / J above omega_smooth), a shaft near rest sees the torque reverse at every
+step: widen omega_smooth or take a smaller step."""
     return f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>{name} (ujfmu {__version__})</title>
 <style>body{{font-family:sans-serif;max-width:60em}}table{{border-collapse:collapse}}
@@ -249,13 +269,7 @@ non-Python host must preload libpython, e.g. <code>LD_PRELOAD=/usr/lib/x86_64-li
 <h2>Step size and stability</h2>
 <p>Inside each communication step the FMU integrates its own states with as many classical RK4 substeps as its
 fastest rate needs, so its internal accuracy does not depend on the host's step; the coupling with the other FMUs
-does. A drivetrain FMU is driven by the speed <code>omega_in</code> and answers with <code>tau_in</code>, which
-contains the inertia torques of what it drives (an inertia times the acceleration it estimates from the speed
-history). With an explicit master (Jacobi or Gauss-Seidel, no iteration) this is stable only when the inertia
-reflected through <code>tau_in</code> is smaller than the driver's own inertia (a motor rotor, say), whatever the
-step{half}: give the driver the larger inertia, use an iterating master, or use the torque-driven variant. A stiff spring between two
-FMUs needs h well below 2/omega_n of that spring, and a load whose slope d(tau)/d(omega) is large compared with
-J/h (J the inertia it acts on) needs a smaller step. The default experiment's step ({step} s) is what the ujfmu scenarios use;
+does. {coupling} The default experiment's step ({step} s) is what the ujfmu scenarios use;
 they are checked against independent reference solutions at 1 ms. Check a new layout by halving the step: the
 results must not change beyond your tolerance.</p>
 <h2>Errors and logging</h2>
@@ -267,8 +281,7 @@ is not finite and positive, or a step that would need more than 100000 RK4 subst
 (fmi2Discard) with a logged error naming the cause; the instance stays usable.</p>
 <h2>Sources</h2>
 {sources}
-<h2>Bibliography</h2>
-<ul>{bibliography}</ul>
+{bibliography}
 </body></html>
 """
 
