@@ -97,7 +97,9 @@ def _quoted_values():
     """(doc, pattern capturing one number, the code's value) for constants quoted in prose."""
     from ujfmu.fmu.base import SPEED_RANGE, TORQUE_RANGE
     from ujfmu.models.ring_coupling import model as rc
+    from ujfmu.scenario import LOAD_CHATTER_ADVICE
     from ujfmu.steady import FLOOR, GROWTH
+    from ujfmu.stepsize import DEFAULT_REL_RANGE
     from ujfmu.sweep import SweepSettings
     return [
         (RING, r"M_p = (\d+) \(EI/R\^3\)", rc.MP_COEFFICIENT),
@@ -113,6 +115,8 @@ def _quoted_values():
         ("README.md", r"or of (\d+)% of the output's size", 100 * FLOOR),
         ("README.md", r"T grows ([\d.]+)x", GROWTH),
         ("README.md", r"within (\d+)% of its set point", 100 * SweepSettings.operating_tol),
+        ("README.md", r"against (\d+)% of the signal's range", 100 * DEFAULT_REL_RANGE),
+        ("README.md", r"above (\d+) omega_smooth \(J the output inertia", LOAD_CHATTER_ADVICE),
     ]
 
 
