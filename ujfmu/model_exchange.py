@@ -17,6 +17,7 @@ from ctypes import c_double
 import numpy as np
 from fmpy.fmi3 import FMU3Model
 
+from .build3 import ME_TOLERANCE
 from .fmi3_host import FmuInstance3
 from .master import CosimulationError, _feedthrough_order, extracted
 
@@ -55,7 +56,7 @@ class _NoInput:
 
 
 def simulate_me(components, connections, stop_time: float, output_interval: float, record, start_time=0.0,
-                relative_tolerance: float = 1e-8, events: list | None = None,
+                relative_tolerance: float = ME_TOLERANCE, events: list | None = None,
                 event_indicators: bool = True) -> np.ndarray:
     """Integrate the components' Model Exchange FMUs together with CVode; a structured array with 'time' and one
     column per recorded 'comp.var' at start_time + k * output_interval (as ``master.cosimulate`` returns).
@@ -242,7 +243,8 @@ def _failures(failure):
     return failure[0] + (f" (then {len(failure) - 1} more failed calls)" if len(failure) > 1 else "")
 
 
-def simulate_scenario_me(scenario, fmu_dir, relative_tolerance: float = 1e-8, extra: list = ()) -> np.ndarray:
+def simulate_scenario_me(scenario, fmu_dir, relative_tolerance: float = ME_TOLERANCE, extra: list = ()
+                         ) -> np.ndarray:
     """The scenario (a ``ujfmu.scenario.Scenario``) run with the Model Exchange FMUs of fmu_dir, output at its
     communication step; extra: signals recorded besides the scenario's."""
     scenario.check_fmus(fmu_dir)
