@@ -411,10 +411,12 @@ def cmd_sweep(args):
             sweep.run(workers=args.workers, scheduler=args.scheduler, progress=progress)
     except KeyboardInterrupt:
         kept = sum(r["status"] != "missing" for r in sweep.records())
-        table = sweep.write_csv()
-        print(f"\n{sweep.name}: interrupted; {kept} of {len(sweep.points)} points are in {sweep.journal} and in "
-              f"{table} (the others with status missing): run the same command again to compute only the others",
-              file=sys.stderr)
+        try:
+            table = f" and in {sweep.write_csv()} (the others with status missing)"
+        except OSError:   # interrupted before its folder was made
+            table = ""
+        print(f"\n{sweep.name}: interrupted; {kept} of {len(sweep.points)} points are in {sweep.journal}{table}: run "
+              "the same command again to compute only the others", file=sys.stderr)
         return 130
     if sweep.reused:
         print(f"  reused {sweep.reused} of {len(sweep.points)} points from {sweep.journal}")
