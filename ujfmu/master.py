@@ -533,10 +533,11 @@ class Cosimulation:
         # per watched connection (torn first): [last value, last change, alternations, |change| when they began,
         # max |value|, the change before the last, chatter score, steps and reversals since the score left 0,
         # the last change above NOISE_FLOOR]
-        self._growth = [[v[0], 0.0, 0, 0.0, abs(v[0]), 0.0, 0, 0, 0, 0.0] for v in self._watch_values]
+        self._growth = [[g, 0.0, 0, 0.0, abs(g), 0.0, 0, 0, 0, 0.0]
+                        for g in (float(views[i][0]) for i in self._watched)]
         self._plan_bonds(views)
-        self._bond_columns = tuple(np.array([columns[i] for i in pairs], dtype=np.intp)
-                                   for pairs in zip(*self._bond_pairs)) if self._bonds else ()
+        self._bond_columns = tuple(np.array([columns[bond[k]] for bond in self._bonds], dtype=np.intp)
+                                   for k in (0, 1)) if self._bonds else ()
         self.held_inputs = held_inputs(self.instances, connections, {c.name: c.parameters for c in components})
         given = {(c.name, name) for c in components for name in c.parameters}
         unstated = [h for h in self.held_inputs if (h.component, h.name) not in given]
@@ -587,7 +588,6 @@ class Cosimulation:
             if (inp not in fed_through[comp] and reaches(comp, transfer[-1].source.split(".", 1)[0])
                     and not stateless(i)):
                 self._tears.append(i)
-        self._tear_views = [views[i][:1] for i in self._tears]
         # watched for divergence and chatter (``watch_step``): the torn connections, then, for chatter only, one
         # connection on a loop for each pair of components that no watched connection joins yet (a chatter runs
         # through every connection of its loop), the last in transfer order: the one that closes the loop, its
@@ -600,9 +600,6 @@ class Cosimulation:
             if pair not in pairs and reaches(*self._where(self._transfers[i][-1])[::-1]) and not stateless(i):
                 pairs.add(pair)
                 self._watched.append(i)
-        # their values now (one-value ctypes arrays in the scratch row: v[0] is a Python float, whose arithmetic
-        # in the watch is several times a numpy scalar's speed)
-        self._watch_values = [self._transfers[i][4] for i in self._watched]
         rolled = dict.fromkeys(self._transfers[i][-1].target.split(".", 1)[0] for i in self._tears)
         self._rolled = [(self.instances[name], name) for name in rolled]
         # per rolled-back component: (fmi2GetFMUstate, fmi2SetFMUstate, fmi2FreeFMUstate, component, name), the
@@ -643,16 +640,14 @@ class Cosimulation:
             kind = unit(conn)
             if pair[0] != pair[1] and kind in (SPEED_UNIT, TORQUE_UNIT):
                 (speeds if kind == SPEED_UNIT else torques).setdefault(pair, []).append(i)
-        self.bond_energies, self._bonds, self._bond_pairs = [], [], []
+        self.bond_energies, self._bonds = [], []
         tear_pos = {i: k for k, i in enumerate(self._tears)}
         for (a, b), speed_list in speeds.items():
             for w, tau in zip(speed_list, torques.get((b, a), [])):
                 self.bond_energies.append(BondEnergy(self._transfers[w][-1], self._transfers[tau][-1]))
-                self._bond_pairs.append((w, tau))
-                # [speed value, torque value (one-value ctypes arrays in the scratch row), speed's tear position,
-                # torque's, previous speed, previous torque, last residual, the one before, last E_speed]
-                self._bonds.append([self._transfers[w][4], self._transfers[tau][4], tear_pos.get(w, -1),
-                                    tear_pos.get(tau, -1),
+                # [speed's and torque's connections (their transfer index), their tear positions, previous
+                # speed, previous torque, last residual, the one before, last E_speed] (``energy_block``)
+                self._bonds.append([w, tau, tear_pos.get(w, -1), tear_pos.get(tau, -1),
                                     float(views[w][0]), float(views[tau][0]), 0.0, 0.0, 0.0])
         self._held = None   # implicit coupling: the torn inputs' values held over the last step
 
@@ -941,9 +936,9 @@ class Cosimulation:
     def _watch_rows(self, rows, steps_before, log_at, last_logged=True, held=None):
         """The watch over steps steps_before+1, ... whose scratch rows are rows (n x scratch), held the torn inputs'
         values over each (implicit steps; None: explicit): divergence and chatter (``watch_block``) and the power
-        bonds' energy (``energy_block``) up to the step the watch trips at, if it does: steps_done and time are then set to that step's, the log cut to its length then (log_at:
-        its length before the last row's step, which alone may have logged, and only if last_logged), and
-        CouplingInstabilityError is raised."""
+        bonds' energy (``energy_block``) up to the step the watch trips at, if it does: steps_done and time are
+        then set to that step's, the log cut to its length then (log_at: its length before the last row's step,
+        which alone may have logged, and only if last_logged), and CouplingInstabilityError is raised."""
         hit = watch_block(self._growth, rows[:, self._watch_columns], len(self._tears),
                           self._noise()) if self._watched else None
         upto = len(rows) if hit is None else hit[0] + 1
@@ -1302,7 +1297,7 @@ def energy_block(bonds: list, energies: list, w: np.ndarray, tau: np.ndarray, ha
     w, tau: the bonds' speeds and torques after each step (n x len(bonds)); held: the torn inputs' values held over
     each step (n x torn, implicit coupling), else each side held its input at the step's start (explicit:
     dE_k = h/2 (w_k tau_k+1 - tau_k w_k+1)). A perfect coupling has dE_k = 0; for a speed-driven bond dE_k > 0 is
-    energy the coupling created. bonds: per bond [speed, torque (unused here), the speed's and the torque's tear
+    energy the coupling created. bonds: per bond [speed's and torque's connections (unused here), their tear
     position or -1, previous speed, previous torque, last residual, the one before, last E_speed], updated."""
     if len(w) == 0:
         return

@@ -35,6 +35,7 @@ import difflib
 import hashlib
 import json
 import math
+import numbers
 import re
 import tomllib
 import zipfile
@@ -674,18 +675,18 @@ class Scenario:
 
     def load_chatter(self) -> list:
         """``LoadChatter`` of each Load fed from a component's ``omega_out`` whose model has an output inertia of
-        its own (the protocol's ``free_output_inertia``): one step of the Load's constant torque T0 moves that inertia by
-        T0 h / J, and where that exceeds omega_smooth, the band within which T0 reverses, a shaft near rest sees the
-        torque reverse at every step (README, "Port and sign conventions")."""
+        its own (the protocol's ``free_output_inertia``): one step of the Load's constant torque T0 moves that
+        inertia by T0 h / J, and where that exceeds omega_smooth, the band within which T0 reverses, a shaft near
+        rest sees the torque reverse at every step (README, "Port and sign conventions")."""
         found = []
         for conn in self.connections:
             load, _, port = conn.target.partition(".")
             driven, _, out = conn.source.partition(".")
             if port != "omega" or out != "omega_out" or self.components.get(load, ("",))[0] != "Load":
                 continue
-            inertia = self._ask_model(driven, "free_output_inertia")
+            inertia = self._ask_model(driven, "free_output_inertia")   # [] where the model has none
             law = self.parameters_with_defaults(load)
-            if isinstance(inertia, float) and inertia > 0.0 and law["T0"] > 0.0:
+            if isinstance(inertia, numbers.Real) and inertia > 0.0 and law["T0"] > 0.0:
                 reach = law["T0"] * self.step_size / inertia
                 found.append(LoadChatter(load, driven, inertia, float(law["T0"]), float(law["omega_smooth"]),
                                          self.step_size, reach / law["omega_smooth"]))

@@ -108,13 +108,14 @@ def _amplitudes(amps, orders, unresolved: tuple) -> list:
     return [math.nan if k in unresolved else float(amps[k - 1]) for k in orders]
 
 
-def figures(window: Window, outputs, orders) -> dict:
+def figures(window: Window, outputs, orders, fits: dict | None = None) -> dict:
     """{"out.max", "out.min", "out.p2p", "out.mean", "out.rms", "out.h<k>"} of a window: extremes of the samples;
     mean and order amplitudes from the fit of ``fitted_orders`` (exact for a periodic signal, wherever the
     window's ends fall); RMS, mean included, of the fit by Parseval, sqrt(c0^2 + sum_k a_k^2 / 2), with the mean
     square of what the fit leaves (so rms >= |mean|, and rms^2 - mean^2 is the vibration's, wherever the window's
     ends fall: the samples' own RMS over a window of a whole number of steps, not of revolutions, is not); NaN for
-    the ``unresolved_orders``."""
+    the ``unresolved_orders``. fits, when given, receives each output's fitted amplitudes (orders
+    ``fitted_orders``)."""
     result = {}
     fitted, unresolved = fitted_orders(window, orders), unresolved_orders(window, orders)
     for out in outputs:
@@ -122,6 +123,8 @@ def figures(window: Window, outputs, orders) -> dict:
         c0, amps, phases = order_fit(window.angle, y, fitted)
         fit = c0 + sum(a * np.cos(k * window.angle - p) for k, a, p in zip(fitted, amps, phases))
         rms = math.sqrt(c0 * c0 + 0.5 * float(np.sum(amps * amps)) + float(np.mean((y - fit) ** 2)))
+        if fits is not None:
+            fits[out] = amps
         values = dict(max=y.max(), min=y.min(), p2p=np.ptp(y), mean=c0, rms=rms)
         values.update({f"h{k}": a for k, a in zip(orders, _amplitudes(amps, orders, unresolved))})
         result.update({f"{out}.{k}": float(v) for k, v in values.items()})
@@ -265,11 +268,12 @@ def not_steady_message(settled: float, earlier_start: float, cap: float, length:
 
 
 def _measured(window, s):
-    out = figures(window, s.outputs, s.orders)
+    fits = {}
+    out = figures(window, s.outputs, s.orders, fits)
     speed = window.table[s.running_speed]
     out["speed_mean"] = float(order_fit(window.angle, speed, fitted_orders(window, s.orders))[0])
     out["note"] = "; ".join(n for n in (unresolved_note(window, s.orders, out["speed_mean"]),
-                                        peak_note(window, s.outputs, s.orders, out["speed_mean"])) if n)
+                                        peak_note(window, fits, s.orders, out["speed_mean"])) if n)
     return out
 
 
@@ -280,17 +284,16 @@ PEAK_SHORTFALL = 0.01
 SHAPING_ORDER = 0.05
 
 
-def peak_note(window: Window, outputs, orders, speed: float) -> str:
+def peak_note(window: Window, fits: dict, orders, speed: float) -> str:
     """Why the max, min and p2p may fall short of the peaks ("" when they cannot by more than PEAK_SHORTFALL):
     they are the extremes of the samples at the communication points, and the highest order that shapes an output
-    (``SHAPING_ORDER``) is read n times a period; the output where that costs most, with the step that reads it
-    often enough."""
+    (``SHAPING_ORDER``, of its amplitudes in fits: ``figures``) is read n times a period; the output where that
+    costs most, with the step that reads it often enough."""
     steps = (len(window.angle) - 1) * 2.0 * math.pi / max(abs(window.angle[-1] - window.angle[0]), 1e-300)
     fitted, worst = fitted_orders(window, orders), None
-    for out in outputs:
+    for out, amps in fits.items():
         if grows(out):
             continue
-        amps = order_fit(window.angle, window.table[out], fitted)[1]
         if not len(amps) or not amps.max() > 0.0:
             continue
         k = max(j for j, a in zip(fitted, amps) if a >= SHAPING_ORDER * amps.max())
