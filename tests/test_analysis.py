@@ -57,6 +57,16 @@ def test_natural_frequencies_of_a_damped_oscillator_and_a_rigid_body():
     assert natural_frequencies(rhs, [0.0, 0.0, 0.0, 0.0]) == pytest.approx([w], rel=1e-6)
 
 
+def test_a_coupled_rigid_body_motion_is_not_a_mode():
+    """The ring coupling's two shafts turning together (a double eigenvalue 0 of its linearisation, which the
+    finite differences split into a pair near 0) is not listed as a natural frequency, nor are its order crossings
+    near rest; its torsional mode (170.46 rad/s, the two-mass closed form of a fresh-eyes analyst) is."""
+    from ujfmu.analysis import scenario_modes
+    from ujfmu.scenario import Scenario
+    modes = scenario_modes(Scenario(Path(__file__).parent.parent / "scenarios" / "ring_coupling_startup.toml"))
+    assert [round(m.omega, 2) for m in modes] == [170.46]
+
+
 def test_order_fit_refuses_samples_at_too_few_angles():
     """Four samples a revolution, the step a whole quarter turn: cos(2 angle) and the mean take the same values
     at every sample, so orders 1-4 cannot be told apart: refused, not one of many solutions. The same record at

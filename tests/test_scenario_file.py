@@ -340,3 +340,25 @@ def test_a_load_that_chatters_from_rest_is_named_before_the_run(torque, warned):
         assert ("moves driveline's output inertia J = 0.0045 kg.m2 by T0 h / J = 44.4 rad/s, 44.4x "
                 "omega_smooth" in advice[0])
         assert "Widen omega_smooth to at least 44.4 rad/s, or take a step of at most 2.25e-05 s" in advice[0]
+
+
+def test_every_problem_of_a_file_is_named_in_one_reading(tmp_path):
+    """Several independent mistakes (a misspelt and an out-of-range parameter, a misspelt port in a connection and in
+    the record, an unknown field in [experiment]) are all named at once, one a line, so a file is fixed in one
+    pass; a connection to a component whose FMU is unknown is not named again, nor are the inputs a misspelt
+    connection was meant to feed."""
+    text = (GOOD.replace('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { bend_anlge = 0.1, J1 = -1.0 }')
+            .replace('to = "l.omega"', 'to = "l.omegaa"').replace('record = ["j.tau_in"]', 'record = ["j.tau_inn"]')
+            .replace("step_size = 1e-3", "step_size = 1e-3\nstop_tme = 2.0"))
+    with pytest.raises(ScenarioError) as error:
+        Scenario(write(tmp_path, text))
+    lines = str(error.value).splitlines()
+    assert lines[0] == f"{tmp_path / 's.toml'}: 5 problems:"
+    for line, words in zip(lines[1:], ["[experiment]: unknown field(s) stop_tme", "parameters.bend_anlge",
+                                       "parameters.J1", "connections[0].to = 'l.omegaa'", "output.record[0]"]):
+        assert line.startswith("  - ") and words in line, (line, words)
+    unknown_fmu = GOOD.replace('fmu = "Load"', 'fmu = "Loud"').replace('record = ["j.tau_in"]', 'record = ["j.tau_inn"]')
+    with pytest.raises(ScenarioError) as error:
+        Scenario(write(tmp_path, unknown_fmu))
+    assert "2 problems" in str(error.value) and "components.l.fmu" in str(error.value)
+    assert "connections" not in str(error.value) and "not connected" not in str(error.value)

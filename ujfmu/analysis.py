@@ -70,9 +70,12 @@ def decay_rates(rhs, y0, step=1e-7):
 def natural_frequencies(rhs, y0, step=1e-7) -> np.ndarray:
     """Undamped natural frequencies [rad/s] of the linearisation of y' = rhs(y) at y0, ascending: |lambda| of each
     eigenvalue pair lambda = -zeta w_n +- i w_n sqrt(1 - zeta^2) of the Jacobian (|lambda| = w_n); real
-    eigenvalues (rigid-body motion, integrators, overdamped modes) have none."""
+    eigenvalues (rigid-body motion, integrators, overdamped modes) have none, and neither has a pair within 1e-6 of
+    the largest |lambda| (a rigid-body motion through a coupling, whose double eigenvalue 0 the finite differences
+    split into a pair near 0: the ring coupling's at 1.4e-6 rad/s)."""
     lam = np.linalg.eigvals(jacobian(rhs, y0, step))
-    return np.sort(np.abs(lam[lam.imag > 1e-9 * np.maximum(1.0, np.abs(lam))]))
+    size = np.max(np.abs(lam), initial=0.0)
+    return np.sort(np.abs(lam[(lam.imag > 1e-9 * np.maximum(1.0, np.abs(lam))) & (np.abs(lam) > 1e-6 * size)]))
 
 
 #: input angles per period of a model's excitation order at which ``model_natural_frequency_range`` linearises

@@ -29,6 +29,7 @@
     whose provenance names another setup (``Scenario.setup_digest``) than the scenario's is refused.
 """
 
+import contextlib
 import copy
 import dataclasses
 import difflib
@@ -38,6 +39,7 @@ import math
 import numbers
 import re
 import tomllib
+import types
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -137,6 +139,42 @@ class ScenarioError(ValueError):
     """A scenario file is invalid; the message names the file and the field."""
 
 
+class _Reported(Exception):
+    """A part of a scenario file left for problems already gathered (``_Problems``)."""
+
+
+class _Problems:
+    """The problems of one scenario file, gathered part by part so that one reading names them all."""
+
+    def __init__(self, path: Path):
+        self.path, self.messages = path, []
+
+    def add(self, message: str) -> None:
+        self.messages.append(message)
+
+    @contextlib.contextmanager
+    def kept(self):
+        """A part of the file read: a ScenarioError inside is kept and ends the part; yields an object whose ``ok``
+        says afterwards whether the part was read without one."""
+        part = types.SimpleNamespace(ok=True)
+        try:
+            yield part
+        except ScenarioError as exc:
+            self.messages.append(str(exc))
+            part.ok = False
+        except _Reported:
+            part.ok = False
+
+    def raise_any(self) -> None:
+        """ScenarioError with the one problem, or with all of them, one a line."""
+        if len(self.messages) == 1:
+            raise ScenarioError(self.messages[0])
+        if self.messages:
+            prefix = f"{self.path}: "
+            raise ScenarioError(f"{self.path}: {len(self.messages)} problems:\n"
+                                + "\n".join("  - " + m.removeprefix(prefix) for m in self.messages))
+
+
 @dataclass
 class Tolerance:
     rel_range: float = 0.0
@@ -216,6 +254,24 @@ class Scenario:
         except tomllib.TOMLDecodeError as exc:
             raise ScenarioError(f"{self.path}: {exc}") from None
         self.name = self.path.stem
+        problems = _Problems(self.path)
+        with problems.kept():
+            self._read_header(data)
+        with problems.kept() as experiment:
+            self._read_experiment(self._table(data, "experiment"))
+        broken = self._read_components(data, problems)
+        self._read_connections(data, problems, broken)
+        with problems.kept():
+            self._read_output(data.get("output", {}), problems, broken, experiment.ok)
+        with problems.kept():
+            output = data.get("output", {})
+            self._read_reference(data.get("reference", {}), output if isinstance(output, dict) else {})
+        with problems.kept():
+            self._read_sweep(data.get("sweep", {}))
+        problems.raise_any()
+
+    def _read_header(self, data):
+        """The top-level fields: only known ones; title and description strings."""
         unknown = set(data) - TOP_LEVEL_KEYS
         if unknown:
             raise ScenarioError(f"{self.path}: unknown top-level field(s) {', '.join(sorted(unknown))}; "
@@ -225,7 +281,9 @@ class Scenario:
         for field, value in (("title", self.title), ("description", self.description)):
             if not isinstance(value, str):
                 raise ScenarioError(f"{self.path}: {field} = {value!r} must be a string")
-        exp = self._table(data, "experiment")
+
+    def _read_experiment(self, exp):
+        """[experiment]: times, step, coupling scheme and output interval."""
         unknown = set(exp) - EXPERIMENT_KEYS
         if unknown:   # before the required ones: a misspelt stop_time is named as such, not as a missing value
             raise ScenarioError(f"{self.path}: [experiment]: unknown field(s) {', '.join(sorted(unknown))}; "
@@ -251,58 +309,107 @@ class Scenario:
                                 f"{self.stop_time - self.start_time:g} s must be a whole number (at least 1) of "
                                 f"communication steps of step_size = {self.step_size:g} s")
 
+    def _read_components(self, data, problems) -> set:
+        """[components.*], each checked on its own: the names of those whose FMU is not known (their variables
+        cannot be checked where they are named); the problems kept in problems."""
         self.components = {}
         self.inputs = {}
-        for cname, comp in self._table(data, "components").items():
-            if not isinstance(comp, dict) or set(comp) - {"fmu", "parameters", "inputs"}:
-                raise ScenarioError(f"{self.path}: components.{cname}: fields are fmu, parameters and inputs, got "
-                                    f"{sorted(comp) if isinstance(comp, dict) else comp!r}")
-            fmu = comp.get("fmu")
-            if fmu not in FMUS:
-                close = difflib.get_close_matches(str(fmu), FMUS, n=1)
-                raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r} is not one of {list(FMUS)}"
-                                    + (f" (did you mean {close[0]!r}?)" if close else ""))
-            params = self._values(cname, fmu, comp, "parameters")
-            self.inputs[cname] = self._values(cname, fmu, comp, "inputs")
-            self.components[cname] = (fmu, params)
-            problems = self.model_problems(cname)
-            if problems:
-                raise ScenarioError(f"{self.path}: components.{cname}.parameters: {'; '.join(problems)}")
+        broken = set()
+        with problems.kept():
+            self._table(data, "components")
+        for cname, comp in data["components"].items() if isinstance(data.get("components"), dict) else ():
+            with problems.kept() as component:
+                if not isinstance(comp, dict) or set(comp) - {"fmu", "parameters", "inputs"}:
+                    raise ScenarioError(f"{self.path}: components.{cname}: fields are fmu, parameters and inputs, "
+                                        f"got {sorted(comp) if isinstance(comp, dict) else comp!r}")
+                fmu = comp.get("fmu")
+                if fmu not in FMUS:
+                    close = difflib.get_close_matches(str(fmu), FMUS, n=1)
+                    raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r} is not one of {list(FMUS)}"
+                                        + (f" (did you mean {close[0]!r}?)" if close else ""))
+            if not component.ok:
+                broken.add(cname)
+                continue
+            with problems.kept():
+                params = self._values(cname, fmu, comp, "parameters", problems)
+                inputs = self._values(cname, fmu, comp, "inputs", problems)
+                # the FMU is known: its variables are checked where connections and outputs name them
+                self.components[cname] = (fmu, params or {})
+                self.inputs[cname] = inputs if inputs is not None else dict(comp.get("inputs", {}))
+                model = self.model_problems(cname) if params is not None else []
+                if model:
+                    raise ScenarioError(f"{self.path}: components.{cname}.parameters: {'; '.join(model)}")
+        return broken
 
+    def _read_connections(self, data, problems, broken):
+        """[[connections]], each checked on its own (one to or from a component with a problem is not: its
+        problem is named already), then every input of the components fed or set."""
         self.connections = []
         fed = {}
+        complete = True
         for i, conn in enumerate(data.get("connections", [])):
             src, dst = conn.get("from"), conn.get("to")
-            out = self._check_signal(src, f"connections[{i}].from", "output")
-            inp = self._check_signal(dst, f"connections[{i}].to", "input")
-            if (out.type, out.unit) != (inp.type, inp.unit):
-                raise ScenarioError(f"{self.path}: connections[{i}]: {src} [{out.unit or out.type.__name__}] "
-                                    f"cannot feed {dst} [{inp.unit or inp.type.__name__}]: units differ")
-            if dst in fed:
-                raise ScenarioError(f"{self.path}: connections[{i}].to = {dst!r} is already fed by "
-                                    f"connections[{fed[dst]}]")
-            fed[dst] = i
-            self.connections.append(Connection(src, dst))
-
+            if {str(src).partition(".")[0], str(dst).partition(".")[0]} & broken:
+                complete = False
+                continue
+            with problems.kept() as connection:
+                out = self._check_signal(src, f"connections[{i}].from", "output")
+                inp = self._check_signal(dst, f"connections[{i}].to", "input")
+                if (out.type, out.unit) != (inp.type, inp.unit):
+                    raise ScenarioError(f"{self.path}: connections[{i}]: {src} [{out.unit or out.type.__name__}] "
+                                        f"cannot feed {dst} [{inp.unit or inp.type.__name__}]: units differ")
+                if dst in fed:
+                    raise ScenarioError(f"{self.path}: connections[{i}].to = {dst!r} is already fed by "
+                                        f"connections[{fed[dst]}]")
+                fed[dst] = i
+                self.connections.append(Connection(src, dst))
+            complete = complete and connection.ok
         unfed = [f"{cname}.{v.name}" for cname, (fmu, _) in self.components.items()
                  for v in fmu_class(fmu).VARIABLES
                  if v.causality == "input" and f"{cname}.{v.name}" not in fed and v.name not in self.inputs[cname]]
-        if unfed:
+        if unfed and complete:   # an input a connection with a problem was meant to feed is not named again
             first = unfed[0].split(".", 1)
-            raise ScenarioError(
+            problems.add(
                 f"{self.path}: input(s) {', '.join(unfed)} not connected: connect each ([[connections]] to = ...) "
                 f"or set it explicitly, held constant, e.g. [components.{first[0]}] inputs = {{ {first[1]} = 0.0 }}")
 
-        out = data.get("output", {})
+    def _read_output(self, out, problems, broken, timed):
+        """[output]: recorded signals (each checked on its own, those of a component with a problem not), the ones
+        plotted, drawn as orbits or spectra, the running speed, and steady_from within the experiment's times
+        (where those are valid: ``timed``)."""
         unknown = set(out) - OUTPUT_KEYS if isinstance(out, dict) else {"(not a table)"}
         if unknown:
+            self.record = []
             raise ScenarioError(f"{self.path}: [output]: unknown field(s) {', '.join(sorted(unknown))}; "
                                 f"known: {', '.join(sorted(OUTPUT_KEYS))}")
         self.record = list(out.get("record", []))
         for i, name in enumerate(self.record):
-            self._check_signal(name, f"output.record[{i}]")
-        ref = data.get("reference", {})
-        self.reference_file_text = ref.get("file")
+            if str(name).partition(".")[0] not in broken:
+                with problems.kept():
+                    self._check_signal(name, f"output.record[{i}]")
+        self.orbits = [tuple(pair) for pair in out.get("orbits", [])]
+        for i, pair in enumerate(self.orbits):
+            if len(pair) != 2:
+                raise ScenarioError(f"{self.path}: output.orbits[{i}] = {list(pair)!r} must be [x, y] signals")
+        self.spectra = list(out.get("spectra", []))
+        self.running_speed = out.get("running_speed")
+        for field, names in (("orbits", [n for pair in self.orbits for n in pair]), ("spectra", self.spectra),
+                             ("running_speed", [self.running_speed] if self.running_speed else [])):
+            for name in names:
+                if name not in self.record:
+                    raise ScenarioError(f"{self.path}: output.{field}: {name!r} is not a recorded signal")
+        if timed:
+            self.steady_from = self._number(out, "output.steady_from", self.start_time)
+            if not self.start_time <= self.steady_from < self.stop_time:
+                raise ScenarioError(f"{self.path}: output.steady_from = {self.steady_from!r} s must lie in "
+                                    f"[start_time, stop_time) = [{self.start_time!r}, {self.stop_time!r}) s")
+
+    def _read_reference(self, ref, out):
+        """[reference]: the file, its generator, the bands and the signals not compared (every recorded signal is
+        one or the other); then [output] out's plot (default: the compared signals)."""
+        self.tolerances = {}
+        self.plot = list(out.get("plot", self.record))
+        self.reference_file_text = ref.get("file") if isinstance(ref, dict) else None
         unknown = set(ref) - REFERENCE_KEYS if isinstance(ref, dict) else {"(not a table)"}
         if unknown:
             raise ScenarioError(f"{self.path}: [reference]: unknown field(s) {', '.join(sorted(unknown))}; "
@@ -339,23 +446,13 @@ class Scenario:
                                     "(`ujfmu run --check-step`), give each a provisional band, e.g. "
                                     + "; ".join(bands))
         self.plot = list(out.get("plot", self.tolerances or self.record))
-        self.orbits = [tuple(pair) for pair in out.get("orbits", [])]
-        for i, pair in enumerate(self.orbits):
-            if len(pair) != 2:
-                raise ScenarioError(f"{self.path}: output.orbits[{i}] = {list(pair)!r} must be [x, y] signals")
-        self.spectra = list(out.get("spectra", []))
-        self.running_speed = out.get("running_speed")
-        for field, names in (("plot", self.plot), ("orbits", [n for pair in self.orbits for n in pair]),
-                             ("spectra", self.spectra),
-                             ("running_speed", [self.running_speed] if self.running_speed else [])):
-            for name in names:
-                if name not in self.record:
-                    raise ScenarioError(f"{self.path}: output.{field}: {name!r} is not a recorded signal")
-        self.steady_from = self._number(out, "output.steady_from", self.start_time)
-        if not self.start_time <= self.steady_from < self.stop_time:
-            raise ScenarioError(f"{self.path}: output.steady_from = {self.steady_from!r} s must lie in "
-                                f"[start_time, stop_time) = [{self.start_time!r}, {self.stop_time!r}) s")
-        self.sweep = data.get("sweep", {})
+        for name in self.plot:
+            if name not in self.record:
+                raise ScenarioError(f"{self.path}: output.plot: {name!r} is not a recorded signal")
+
+    def _read_sweep(self, sweep):
+        """[sweep]: known fields, numbers where numbers go, recorded signals."""
+        self.sweep = sweep
         unknown = set(self.sweep) - SWEEP_KEYS if isinstance(self.sweep, dict) else {"(not a table)"}
         if unknown:
             raise ScenarioError(f"{self.path}: [sweep]: unknown field(s) {', '.join(sorted(unknown))}; "
@@ -368,31 +465,37 @@ class Scenario:
             if name not in self.record:
                 raise ScenarioError(f"{self.path}: sweep: {name!r} is not a recorded signal")
 
-    def _values(self, cname, fmu, comp, key):
+    def _values(self, cname, fmu, comp, key, problems):
         """components.NAME.parameters or .inputs: declared names of that causality, values of the declared type
-        within range."""
+        within range; None where any is not (each named in problems)."""
         causality = key[:-1]
         values = comp.get(key, {})
         if not isinstance(values, dict):
             raise ScenarioError(f"{self.path}: components.{cname}.{key} must be a table {{ name = value, ... }}")
         declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == causality}
+        valid = True
         for pname, value in values.items():
-            field = f"components.{cname}.{key}.{pname}"
-            if pname not in declared:
-                other = next((v.causality for v in fmu_class(fmu).VARIABLES if v.name == pname), None)
-                close = [] if other else difflib.get_close_matches(pname, declared, n=2, cutoff=0.6)
-                raise ScenarioError(f"{self.path}: {field}: {fmu} has no {causality} '{pname}'"
-                                    + (f" (it is {_OTHER_CAUSALITY.get(other, 'an ' + str(other))})" if other else "")
-                                    + (f" (did you mean {' or '.join(close)}?)" if close else "")
-                                    + f" (it has {', '.join(declared) or 'none'})")
-            var = declared[pname]
-            kinds = (bool,) if var.type is bool else (int,) if var.type is int else (int, float)
-            if not isinstance(value, kinds) or (var.type is not bool and isinstance(value, bool)):
-                raise ScenarioError(f"{self.path}: {field} = {value!r} must be {_expected(var)}")
-            problem = var.check(var.type(value))
-            if problem:
-                raise ScenarioError(f"{self.path}: {field}: {problem}")
-        return dict(values)
+            with problems.kept() as item:
+                self._check_value(fmu, declared, causality, f"components.{cname}.{key}.{pname}", pname, value)
+            valid = valid and item.ok
+        return dict(values) if valid else None
+
+    def _check_value(self, fmu, declared, causality, field, pname, value):
+        """ScenarioError unless pname is one of the declared variables and value of its type and within range."""
+        if pname not in declared:
+            other = next((v.causality for v in fmu_class(fmu).VARIABLES if v.name == pname), None)
+            close = [] if other else difflib.get_close_matches(pname, declared, n=2, cutoff=0.6)
+            raise ScenarioError(f"{self.path}: {field}: {fmu} has no {causality} '{pname}'"
+                                + (f" (it is {_OTHER_CAUSALITY.get(other, 'an ' + str(other))})" if other else "")
+                                + (f" (did you mean {' or '.join(close)}?)" if close else "")
+                                + f" (it has {', '.join(declared) or 'none'})")
+        var = declared[pname]
+        kinds = (bool,) if var.type is bool else (int,) if var.type is int else (int, float)
+        if not isinstance(value, kinds) or (var.type is not bool and isinstance(value, bool)):
+            raise ScenarioError(f"{self.path}: {field} = {value!r} must be {_expected(var)}")
+        problem = var.check(var.type(value))
+        if problem:
+            raise ScenarioError(f"{self.path}: {field}: {problem}")
 
     def with_values(self, changes: dict) -> "Scenario":
         """A copy with parameters {"component.parameter": value} set as given, unchecked; its lists and tables
@@ -415,7 +518,9 @@ class Scenario:
                 raise ScenarioError(f"{self.path}: with_parameters: no component '{comp}' in {key!r}"
                                     + (f" (did you mean {close[0]!r}?)" if close else "")
                                     + f" (it has {', '.join(self.components)})")
-            self._values(comp, self.components[comp][0], {"parameters": {par: value}}, "parameters")
+            fmu = self.components[comp][0]
+            declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
+            self._check_value(fmu, declared, "parameter", f"components.{comp}.parameters.{par}", par, value)
         out = self.with_values(changes)
         for comp in {key.partition(".")[0] for key in changes}:
             problems = out.model_problems(comp)

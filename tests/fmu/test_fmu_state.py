@@ -2,6 +2,7 @@
 through serialize / deserialize into a fresh instance; fmi2Reset returns to the initial state."""
 
 import pytest
+from fmpy.fmi1 import FMICallException
 from fmu_helpers import INPUTS, inputs_of, outputs_of
 
 from ujfmu.build import FMUS, fmu_class
@@ -57,6 +58,50 @@ def test_serialized_state_continues_in_a_fresh_instance(open_fmu, name):
     fresh.slave.setFMUstate(restored)
     fresh.slave.freeFMUstate(restored)
     assert run(fresh, 40, 60) == first
+
+
+@pytest.mark.parametrize("name", list(FMUS))
+def test_a_running_state_restored_in_initialization_mode_is_the_state_after_it(open_fmu, name):
+    """The restart sequence setupExperiment, enterInitializationMode, setFMUstate (a state saved while stepping),
+    exitInitializationMode continues from the restored state bitwise (FMI 2.0 allows fmi2SetFMUstate in
+    initialization mode): leaving initialization mode does not start the model again from its start values."""
+    inst = open_fmu(name, "original")
+    inst.initialize()
+    run(inst, 0, 40)
+    state = inst.slave.getFMUstate()
+    data = inst.slave.serializeFMUstate(state)
+    inst.slave.freeFMUstate(state)
+    first = run(inst, 40, 60)
+    fresh = open_fmu(name, "restarted")
+    fresh.slave.setupExperiment(startTime=0.0)
+    fresh.slave.enterInitializationMode()
+    restored = fresh.slave.deSerializeFMUstate(data)
+    fresh.slave.setFMUstate(restored)
+    fresh.slave.freeFMUstate(restored)
+    fresh.slave.exitInitializationMode()
+    assert run(fresh, 40, 60) == first
+
+
+@pytest.mark.parametrize("name", ["DoubleCardanDrivelineTorqueDriven", "Motor"])
+def test_a_step_from_a_state_saved_before_initialization_is_refused_naming_the_remedy(open_fmu, name):
+    """A state saved in initialization mode holds no model state; restored into a stepping instance, a step from it
+    is refused (fmi2Discard) with the reason and the remedy, where it had stepped on from what the instance held
+    before; so is a step before fmi2ExitInitializationMode."""
+    inst = open_fmu(name, "rewound")
+    inst.slave.setupExperiment(startTime=0.0)
+    inst.slave.enterInitializationMode()
+    early = inst.slave.getFMUstate()
+    inst.slave.exitInitializationMode()
+    run(inst, 0, 20)
+    inst.slave.setFMUstate(early)
+    with pytest.raises(FMICallException):
+        inst.slave.doStep(20 * H, H)
+    assert any("not initialized" in m and "restore one saved after it" in m for m in inst._log), inst._log
+    never = open_fmu(name, "uninitialized")
+    never.slave.setupExperiment(startTime=0.0)
+    with pytest.raises(FMICallException):
+        never.slave.doStep(0.0, H)
+    assert any("call fmi2ExitInitializationMode before fmi2DoStep" in m for m in never._log), never._log
 
 
 @pytest.mark.parametrize("name", list(FMUS))

@@ -139,3 +139,16 @@ def test_given_first_stage_rates_are_used_as_they_are():
                                                                                           0.01, 3)
     assert rk4.integrate_held(_nonlinear, p, t0, u, y0, 0.01, 3, tuple(1.1 * k for k in k1)) != \
         rk4.integrate_held(_nonlinear, p, t0, u, y0, 0.01, 3)
+
+
+def test_a_step_differing_by_the_rounding_of_the_hosts_times_keeps_the_substep():
+    """``rk4.kept_substep``: the differences t_(k+1) - t_k of times t_k = k dt (up to t = 1000 s at dt = 1 ms) are
+    all taken as the substep kept; a step 1e-8 longer, or half as long, is not (it is a new step length)."""
+    dt = 1e-3
+    for k in (1, 7, 12345, 999_998):
+        a, b = k * dt, (k + 1) * dt
+        assert rk4.kept_substep((b - a) / 4, dt / 4, a, 4) == dt / 4
+    assert any((k + 1) * dt - k * dt != dt for k in range(1000))   # the differences do vary
+    for t in (0.0, 1000.0):
+        assert rk4.kept_substep(dt * (1 + 1e-8), dt, t, 1) == dt * (1 + 1e-8)
+        assert rk4.kept_substep(dt / 2, dt, t, 1) == dt / 2

@@ -221,6 +221,12 @@ def test_state_get_set_and_serialize_round_trip_bitwise(fmu3_dir, opened, name):
     fresh.initialize()
     fresh.slave.setFMUState(fresh.slave.deserializeFMUState(blob))
     assert np.array_equal(_record(fresh, 30, 30 * H), first)
+    restarted = _open(FmuInstance3, fmu3_dir, name, [], "c")   # restored in initialization mode: it stands
+    opened.append(restarted)
+    restarted.slave.enterInitializationMode(startTime=0.0)
+    restarted.slave.setFMUState(restarted.slave.deserializeFMUState(blob))
+    restarted.slave.exitInitializationMode()
+    assert np.array_equal(_record(restarted, 30, 30 * H), first)
     damaged = bytearray(blob)
     damaged[len(damaged) // 2] ^= 1
     with pytest.raises(FMICallException):

@@ -48,6 +48,11 @@ from . import rk4
 
 _TYPES = {float: Real, int: Integer, bool: Boolean}
 #: life-cycle attributes of UjfmuSlave that are part of the FMU state
+#: why a step is refused before initialization: fmi2DoStep before fmi2ExitInitializationMode, or after
+#: fmi2SetFMUstate restored a state saved before it (which holds no model state to step from)
+NOT_INITIALIZED = ("the instance is not initialized: call fmi2ExitInitializationMode before fmi2DoStep; a state "
+                   "saved before it and restored by fmi2SetFMUstate has no model state to step from (restore one "
+                   "saved after it, or fmi2Reset and initialize again)")
 _LIFECYCLE_KINDS = {"_stale": "bool", "_initialized": "bool", "_running": "bool", "_start_time": "float"}
 
 #: Objects pythonfmu 0.7.0 releases twice after a Python exception (once when it turns the exception into
@@ -370,7 +375,7 @@ class UjfmuSlave(Fmi2Slave):
     def _fmu_state_from_bytes(cls, data):
         """fmi2DeSerializeFMUstate: pythonfmu calls this on the class, so a rejection pins the objects of every
         live instance of the class (see _PINNED_AFTER_EXCEPTION) and logs the reason to the instance when it is
-        the only one (pythonfmu's fmi2Fatal message carries the reason in any case)."""
+        the only one (pythonfmu's own fmi2Fatal message does not always carry it: docs/security.md)."""
         try:
             return decode_state(cls, bytes(data))
         except Exception as exc:    # StateError; anything else is a bug, but must not reach pythonfmu unpinned
@@ -487,6 +492,8 @@ class UjfmuSlave(Fmi2Slave):
         self.initialize(self._start_time)
 
     def exit_initialization_mode(self):
+        if self._running:   # a state saved while stepping, restored in initialization mode: it is the state now
+            return
         invalid = self._invalid()
         if invalid:
             self._raise_to_host(f"{self.modelName} '{self.instance_name}': {invalid}")
@@ -511,6 +518,8 @@ class UjfmuSlave(Fmi2Slave):
 
     def do_step(self, current_time, step_size):
         try:
+            if not self._running:
+                raise ValueError(NOT_INITIALIZED)
             if not (step_size > 0.0 and math.isfinite(step_size)):
                 raise ValueError(f"communication step size = {step_size!r} must be finite and > 0")
             values = self.__dict__

@@ -199,6 +199,9 @@ def integrate(p: Parameters, t: float, h: float, y: State, u: Inputs) -> tuple:
     i.e. no profile corner inside (t, t + h) and the torque within its limit all along (:func:`pi_torque_bound`
     <= tau_max): y(t + h) = P (y, c, d) of :func:`pi_propagator`; elsewhere (the limit reached or crossed, a
     corner inside the step) the classical RK4 substeps of :func:`rate_bound` (order 4), as the FMU's default."""
+    memo = p.propagator_memo
+    if memo is not None:   # a step that differs from the last by the rounding of the host's times only: the same
+        h = rk4.kept_substep(h, memo[0], t, 1)
     corner = p.corner
     if corner is None or not t < corner < t + h:
         r0, a, _ = reference(p, t)

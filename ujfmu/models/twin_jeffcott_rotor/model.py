@@ -611,6 +611,19 @@ def _krogstad_substep(p: Parameters, ops: tuple, h: float, t0: float, phi_in: fl
 
 #: the points of N the method keeps: N at t, t - h, ..., t - 5h
 HISTORY_POINTS = 6
+#: h times N's own rate bound (:func:`remainder_rate_bound`) at most in a substep of the Adams method: its PEC mode
+#: (N at the predicted state joins the history, the corrected state is not evaluated) diverged at h times that
+#: bound 0.2-0.3 (joint angles 30-45 deg, shafts of 1e5-1e7 N.m/rad: tests), where ETDRK4-B's steps hold at
+#: ``rk4.RATE_STEP`` = 0.5; at 0.15 it held on all of them
+ADAMS_RATE_STEP = 0.125
+
+
+def adams_substeps(p: Parameters, t_span: float, w_in: float, alpha_in: float) -> int:
+    """Substeps of :func:`multistep_step`: :func:`exponential_substeps`' rule, and h times N's own rate bound at
+    most ``ADAMS_RATE_STEP`` (fewer substeps leave the method unstable at large joint angles and stiff shafts)."""
+    w_max = max(abs(w_in), abs(w_in + alpha_in * t_span))
+    return rk4.substeps(max(p.remainder_rate + 2.0 * w_max, 0.5 * p.linear_rate,
+                            p.remainder_rate * rk4.RATE_STEP / ADAMS_RATE_STEP), t_span)
 #: per history point: N_0's 8 rows (N without the held inputs' part, :func:`_input_free`), G's lateral rows (X2', Y2'),
 #: the input speed (B's input-work row / J_gb)
 _POINT = 11
@@ -673,9 +686,10 @@ def multistep_step(p: Parameters, t: float, t_span: float, phi_in: float, w_in: 
     predictor alone is of order 6). tau_load and alpha_in enter N linearly, so the points are kept without the held
     inputs' part (:func:`_input_free`) and recombined with each step's held inputs as they are read: no stored point
     changes when the inputs do. A history of another substep length, not ending at t, or across a jump of the
-    inputs (``INPUT_JUMP``) is discarded and rebuilt by :func:`exponential_step`'s substeps, each adding its N_u."""
-    n = exponential_substeps(p, t_span, w_in, alpha_in)
-    h = t_span / n
+    inputs (``INPUT_JUMP``) is discarded and rebuilt by :func:`exponential_step`'s substeps, each adding its N_u.
+    Substeps: :func:`adams_substeps`."""
+    n = adams_substeps(p, t_span, w_in, alpha_in)
+    h = rk4.kept_substep(t_span / n, history[0], t, n)
     w_next = history[15] + (history[4] * h if history[2] < HISTORY_POINTS else 0.0)   # the newest point's speed
     if (history[0] != h or abs(history[1] - t) > 1e-6 * h or abs(tau_load - history[3]) / p.j_eff2
             + abs(alpha_in - history[4]) + abs(w_in - w_next) / h > INPUT_JUMP):
@@ -899,7 +913,8 @@ def check_state(p: Parameters, y: State) -> list:
             f"{math.sqrt(r):.3g} m off the axis, L{i} = {span:g} m), past the {MAX_END_SLOPE:g} rad within which its "
             "linear (Jeffcott) model holds: the motion has left the model's validity (a resonance with little "
             "damping, a large unbalance, a large joint angle's secondary couple, or a torque beyond what the shafts "
-            "carry); results up to here are kept"]
+            "carry); results up to here are kept. If the same run at half the communication step does not stop "
+            "here, the integration was at fault, not the physics: use that step, and report it"]
 
 
 # --- the torque-driven rotor (TwinJeffcottRotorTorqueDriven): the input flange free, its motion in the state -------
@@ -1083,6 +1098,13 @@ def torque_exponential_substeps(p: TorqueDrivenParameters, t_span: float, w_max:
     return rk4.substeps(max(p.remainder_rate + 2.0 * w_max, 0.5 * p.torque_linear_rate), t_span)
 
 
+def torque_adams_substeps(p: TorqueDrivenParameters, t_span: float, w_max: float) -> int:
+    """Substeps of :func:`torque_multistep_step`: :func:`torque_exponential_substeps`' rule, and h times N's own
+    rate bound at most ``ADAMS_RATE_STEP`` (:func:`adams_substeps`)."""
+    return rk4.substeps(max(p.remainder_rate + 2.0 * w_max, 0.5 * p.torque_linear_rate,
+                            p.remainder_rate * rk4.RATE_STEP / ADAMS_RATE_STEP), t_span)
+
+
 def torque_exponential_step(p: TorqueDrivenParameters, t_span: float, y: Sequence[float], tau_in: float,
                             tau_load: float) -> list:
     """Advance the torque-driven state y (:attr:`TorqueDriven.State`) over t_span, tau_in and tau_load held, with
@@ -1210,10 +1232,10 @@ def torque_multistep_step(p: TorqueDrivenParameters, t: float, t_span: float, y:
     (operators: :func:`_torque_adams_operators`). The energy rows (L = 0) by the same weights, scalar. Observed order
     5 from a start (tests). Without a history, with one of another substep length, not ending at t, or across a
     step of the torques (``TORQUE_INPUT_JUMP``), the substeps are :func:`torque_exponential_step`'s (bitwise), each
-    adding its N_u, until HISTORY_POINTS points are held. Substeps: :func:`torque_exponential_substeps`."""
+    adding its N_u, until HISTORY_POINTS points are held. Substeps: :func:`torque_adams_substeps`."""
     phi, w = y[0], y[1]
-    n = torque_exponential_substeps(p, t_span, abs(w) + abs(input_acceleration(p, y, tau_in)) * t_span)
-    h = t_span / n
+    n = torque_adams_substeps(p, t_span, abs(w) + abs(input_acceleration(p, y, tau_in)) * t_span)
+    h = rk4.kept_substep(t_span / n, history[0], t, n)
     if (history[0] != h or abs(history[1] - t) > 1e-6 * h or abs(tau_in - history[3]) * p.inverse_j_in
             + abs(tau_load - history[4]) / p.j_eff2 > TORQUE_INPUT_JUMP):
         history = TORQUE_NO_HISTORY
