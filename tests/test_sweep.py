@@ -393,6 +393,22 @@ def test_table_is_flat_like_the_csv(brutti, tmp_path, fmu_dir):
     assert set(header) <= set(row) and row["motor.omega_set"] == pytest.approx(1000 * RPM)
 
 
+def test_a_columns_file_gives_every_column_its_unit(brutti, tmp_path, fmu_dir):
+    """Beside the CSV, ``<name>.columns.csv`` lists every column of the table with its unit and meaning: the swept
+    speed in rad/s (given in rpm), the input torque's figures and orders in N.m, the settle time in s."""
+    sweep = brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=1000rpm")
+    sweep.run(workers=0)
+    with open(sweep.csv) as f:
+        header = next(csv.reader(f))
+    with open(tmp_path / "double_cardan_brutti_rigid_sweep.columns.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["column"] for r in rows] == header
+    units = {r["column"]: r["unit"] for r in rows}
+    assert units["motor.omega_set"] == "rad/s" and units["speed_mean"] == "rad/s" and units["settled_s"] == "s"
+    assert {units[f"driveline.tau_in.{f}"] for f in ("max", "min", "p2p", "mean", "rms", "h1", "h2", "h4")} == {"N.m"}
+    assert all(r["meaning"] for r in rows)
+
+
 def ring_sweep(tmp_path, fmu_dir, specs, name, **settings):
     scenario = Scenario(SCENARIOS / "ring_coupling_fig3.toml")
     settings = SweepSettings.from_scenario(scenario, outputs=["coupling.x_e"], running_speed="motor.omega",

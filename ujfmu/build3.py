@@ -141,7 +141,7 @@ def _xml(root) -> bytes:
 
 def model_description3(name: str, model, pythonfmu3_version: str = "") -> bytes:
     """modelDescription.xml (FMI 3.0) of the FMU of model, from its declaration."""
-    from .fmu3.base import STATES, event_indicator_variables, fmi3_variables
+    from .fmu3.base import NOMINALS, STATES, event_indicator_variables, fmi3_variables
 
     variables = fmi3_variables(model)
     vr = {var.name: i for i, (var, _) in enumerate(variables, start=1)}
@@ -190,6 +190,8 @@ def model_description3(name: str, model, pythonfmu3_version: str = "") -> bytes:
             attrs["start"] = repr(var.type(var.start)) if var.type is not bool else str(var.start).lower()
         if derivative_of is not None:
             attrs["derivative"] = str(vr[derivative_of])
+        if var.name.startswith("x.") and var.unit in NOMINALS:   # as fmi3GetNominalsOfContinuousStates gives
+            attrs["nominal"] = repr(NOMINALS[var.unit])
         ET.SubElement(model_vars, tag, attrs)
     structure = ET.SubElement(root, "ModelStructure")
     outputs = [v for v, _ in variables if v.causality == "output"]

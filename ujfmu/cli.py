@@ -423,7 +423,7 @@ def cmd_sweep(args):
     if sweep.superseded:
         print(f"  recomputed {sweep.superseded} points that {sweep.journal} holds from other settings, FMU builds "
               "or code (a journal's points serve only a rerun with the same)")
-    _say(args, f"  table: {sweep.csv}\n  journal: {sweep.journal}")
+    _say(args, f"  table: {sweep.csv} (units: {sweep.csv.with_suffix('.columns.csv')})\n  journal: {sweep.journal}")
     if not args.no_plot and available("matplotlib"):
         for path in sweep.plot():
             _say(args, f"  plot:  {path}")

@@ -63,9 +63,10 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
 
     The FMUs' event indicators (the MotorController's torque limit and anti-windup switches) are CVode's root
     functions: the solver stops where one changes sign (located to its tolerance), every FMU goes through event
-    mode and the solver restarts there, so no step straddles a switch of the right-hand side. Each such event is
-    appended to ``events`` (if given) as (time, 'comp.indicator'); ``event_indicators=False`` leaves the switches
-    to the solver's error control."""
+    mode and the solver restarts there, so no step straddles a switch of the right-hand side. So does every time
+    event an FMU announces (fmi3UpdateDiscreteStates' nextEventTime: the MotorController's profile corner). Each
+    event is appended to ``events`` (if given) as (time, 'comp.indicator') or (time, 'comp.time event');
+    ``event_indicators=False`` leaves the switches to the solver's error control."""
     from fmpy.sundials import CVodeSolver
 
     n_out = int(round((stop_time - start_time) / output_interval))
@@ -101,10 +102,22 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
             for src, out, dst, inp in transfers:
                 dst.setFloat64(inp, src.getFloat64(out))
 
+        time_events = {}   # component name -> its next time event (fmi3UpdateDiscreteStates' nextEventTime)
+
+        def update(name, inst):
+            """Event iteration of one FMU (fmi3UpdateDiscreteStates until it needs no more), keeping the next
+            time event it announces."""
+            while True:
+                result = inst.slave.updateDiscreteStates()
+                if not result[0]:
+                    break
+            time_events.pop(name, None)
+            if result[4]:
+                time_events[name] = result[5]
+
         transfer()
-        for inst in instances.values():
-            while inst.slave.updateDiscreteStates()[0]:
-                pass
+        for name, inst in instances.items():
+            update(name, inst)
             inst.slave.enterContinuousTimeMode()
         parts, offset = [], 0
         for inst in instances.values():
@@ -131,18 +144,19 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
                 failed("event indicators", exc)
                 z[:] = np.nan
 
-        def event(t, roots):
-            """Event mode for every FMU at a located switch, then continuous-time mode and a solver restart."""
+        def event(t, roots, timed=()):
+            """Event mode for every FMU at a located switch or a time event, then continuous-time mode and a solver
+            restart."""
             set_time(t)
             transfer()
-            for inst in instances.values():
+            for name, inst in instances.items():
                 inst.slave.enterEventMode()
-                while inst.slave.updateDiscreteStates()[0]:
-                    pass
+                update(name, inst)
                 inst.slave.enterContinuousTimeMode()
             solver.reset(t)
             if events is not None:
                 events.extend((t, z_names[i]) for i in np.flatnonzero(roots))
+                events.extend((t, f"{name}.time event") for name in timed)
 
         def get_x(ptr, n):
             x = np.ctypeslib.as_array(ptr, (n,))
@@ -195,17 +209,21 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
         for k in range(1, n_out + 1):
             t_next = start_time + k * output_interval
             while True:
+                t_stop = min([t_next, *(at for at in time_events.values() if at > t)])
                 try:
-                    state_event, roots, t_reached = solver.step(t, t_next)
+                    state_event, roots, t_reached = solver.step(t, t_stop)
                 except RuntimeError as exc:
-                    raise ModelExchangeError(f"CVode failed between t = {t!r} and {t_next!r}: "
+                    raise ModelExchangeError(f"CVode failed between t = {t!r} and {t_stop!r}: "
                                              + _failures(failure or [str(exc)])) from None
                 if failure:
-                    raise ModelExchangeError(f"between t = {t!r} and {t_next!r}: " + _failures(failure))
-                if not state_event or t_reached >= t_next:
-                    break
-                event(t_reached, roots)
-                t = t_reached
+                    raise ModelExchangeError(f"between t = {t!r} and {t_stop!r}: " + _failures(failure))
+                timed = [] if state_event else [name for name, at in time_events.items() if at == t_stop]
+                if state_event and t_reached < t_next or timed:
+                    event(t_reached, roots if state_event else np.zeros(nz, bool), timed)
+                    t = t_reached
+                    if t < t_next:
+                        continue
+                break
             t = t_next
             set_time(t)
             read(values[k])

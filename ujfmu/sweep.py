@@ -638,7 +638,45 @@ class Sweep:
                                 + [repr(record[c]) if c in record else "" for c in cols]
                                 + [f"{record.get('wall_s', float('nan')):.3f}", record["error"],
                                    record.get("note", ""), record.get("warnings", "")])
+        self.write_columns()
         return self.csv
+
+    #: what each figure of an output is (its column ``<output>.<figure>``), in that output's unit
+    FIGURE_MEANINGS = {"max": "largest sample over the measured revolutions",
+                       "min": "smallest sample over the measured revolutions",
+                       "p2p": "max - min", "mean": "mean (least-squares fit of the orders against the running angle)",
+                       "rms": "RMS, mean included: sqrt(mean^2 + sum of a_k^2 / 2 + the fit's residual mean square)"}
+
+    def column_units(self) -> dict:
+        """{CSV column: (unit, meaning)}: the swept parameters in their declared SI units, the figures of every output
+        in the output's unit (an order's amplitude zero-to-peak), the bookkeeping columns in theirs ("" for none)."""
+        columns = {}
+        for axis in self.axes:
+            for name in axis.names:
+                columns[name] = (self.scenario.unit(name), "swept parameter (SI)")
+        columns["status"] = ("", "ok, not_steady, off_target, error or missing")
+        columns["speed_mean"] = ("rad/s", f"mean running speed ({self.settings.running_speed})")
+        for output in self.settings.outputs:
+            unit = self.scenario.unit(output)
+            for figure in FIGURES:
+                columns[f"{output}.{figure}"] = (unit, self.FIGURE_MEANINGS[figure])
+            for k in self.settings.orders:
+                columns[f"{output}.h{k}"] = (unit, f"amplitude (zero to peak) of the {k}x running-speed order")
+        columns.update(settled_s=("s", "settle time used"),
+                       steady_change=("1", "largest change of a figure between the last windows, of its size"),
+                       wall_s=("s", "wall time of the point"), error=("", "why the point is not ok"),
+                       note=("", "what limits its figures"), warnings=("", "what its FMUs warned of"))
+        return columns
+
+    def write_columns(self) -> Path:
+        """``<name>.columns.csv`` beside the table: column, unit, meaning, one row per column of the CSV, so a
+        spreadsheet or a script reads the units with the numbers; returns its path."""
+        path = self.csv.with_suffix(".columns.csv")
+        with open(path, "w", newline="") as f:
+            writer = csv.writer(f)
+            writer.writerow(["column", "unit", "meaning"])
+            writer.writerows([name, unit, meaning] for name, (unit, meaning) in self.column_units().items())
+        return path
 
     def unresolved(self):
         """Records of the measured points whose order amplitudes are partly NaN, not resolved at their step and

@@ -283,14 +283,15 @@ def _saturating_drive(fmu3_dir):
 
 
 def test_event_indicators_locate_the_pi_limit_switch_to_solver_tolerance(fmu3_dir):
-    """The MotorController's event indicators (Kp e + Ki I -+ tau_max, e) are CVode's root functions: the end of
-    the torque limit is located at the closed form's t* = 1.95 s and the speed error's zero at t* + 0.1 s, each
-    to 1e-7 s, and the speed follows the closed form to 1e-6 of its range."""
+    """The MotorController's event indicators (Kp e + Ki I -+ tau_max; e while limited) are CVode's root
+    functions: the end of the torque limit is located at the closed form's t* = 1.95 s to 1e-7 s, and the speed
+    follows the closed form to 1e-6 of its range. The speed error's zero at t* + 0.1 s, out of the limit, switches
+    nothing and is no event (it had been one, as is every zero of a held speed's ripple)."""
     components, connections = _saturating_drive(fmu3_dir)
     events = []
     table = simulate_me(components, connections, 2.5, 0.01, ["joint.omega_in", "motor.tau_motor"], events=events)
-    assert [name for _, name in events] == ["motor.z.upper_limit", "motor.z.speed_error"]
-    assert events[0][0] == pytest.approx(1.95, abs=1e-7) and events[1][0] == pytest.approx(2.05, abs=1e-7)
+    assert [name for _, name in events] == ["motor.z.upper_limit"]
+    assert events[0][0] == pytest.approx(1.95, abs=1e-7)
     t = table["time"]
     s = t - 1.95
     closed = np.where(s < 0.0, 50.0 * t, 100.0 - (2.5 - 25.0 * s) * np.exp(-10.0 * np.maximum(s, 0.0)))
@@ -299,17 +300,36 @@ def test_event_indicators_locate_the_pi_limit_switch_to_solver_tolerance(fmu3_di
 
 
 def test_event_indicators_are_declared_and_read(fmu3_dir, opened):
-    """Three event indicators in the modelDescription; at a state inside the limit they have the closed-form
-    values Kp e + Ki I -+ tau_max and e."""
+    """Three event indicators in the modelDescription, with their closed-form values Kp e + Ki I -+ tau_max and,
+    at a state past the limit, e, within it 1 (a zero of e switches nothing there)."""
     inst = _open(MeInstance, fmu3_dir, "MotorController", [])
     opened.append(inst)
     assert [u.variable.name for u in inst.md.eventIndicators] == ["z.upper_limit", "z.lower_limit", "z.speed_error"]
     inst.initialize(dict(profile=0, omega_set=100.0, Kp=2.0, Ki=10.0, tau_max=5.0))
-    inst.set(omega=99.0)
-    inst.buffer[0] = -0.1
-    inst.slave.setContinuousStates(inst.buffer, 1)
-    inst.slave.getEventIndicators(inst.z_buffer, 3)
-    assert list(inst.z_buffer) == pytest.approx([2.0 - 1.0 - 5.0, 2.0 - 1.0 + 5.0, 1.0], rel=1e-12)
+    inst.set(omega=98.0)
+    for integral, e_or_one in ((-0.1, 1.0), (0.5, 2.0)):   # v = 4 + 10 I: within the limit, past it
+        inst.buffer[0] = integral
+        inst.slave.setContinuousStates(inst.buffer, 1)
+        inst.slave.getEventIndicators(inst.z_buffer, 3)
+        v = 4.0 + 10.0 * integral
+        assert list(inst.z_buffer) == pytest.approx([v - 5.0, v + 5.0, e_or_one], rel=1e-12)
+
+
+def test_a_step_of_the_speed_profile_is_a_time_event(fmu3_dir):
+    """The MotorController announces its profile's step (profile 2, t_step = 0.3 s) as a time event
+    (fmi3UpdateDiscreteStates' nextEventTime), so a Model Exchange host's solver stops there instead of stepping
+    across the jump of the torque: ``simulate_me`` lists it at 0.3 s exactly, and the speed after it follows the
+    critically damped PI loop's closed form (a step of 2 rad/s within the limit, J = 0.1 kg.m2, Kp = 2, Ki = 10:
+    e = (2 - 20 s) exp(-10 s), s = t - 0.3) to 1e-6 rad/s."""
+    components, connections = _saturating_drive(fmu3_dir)
+    components[0] = Component("motor", fmu3_dir / "MotorController.fmu", dict(
+        profile=2, omega_initial=0.0, omega_set=2.0, t_step=0.3, Kp=2.0, Ki=10.0, tau_max=5.0))
+    events = []
+    table = simulate_me(components, connections, 1.0, 0.01, ["joint.omega_in"], events=events)
+    assert events == [(0.3, "motor.time event")]
+    s = table["time"] - 0.3
+    closed = np.where(s < 0.0, 0.0, 2.0 - (2.0 - 20.0 * s) * np.exp(-10.0 * np.maximum(s, 0.0)))
+    assert np.max(np.abs(table["joint.omega_in"] - closed)) <= 1e-6
 
 
 def test_a_step_that_aliases_the_2x_order_is_said_once_in_fmi3(fmu3_dir, opened):
@@ -325,3 +345,59 @@ def test_a_step_that_aliases_the_2x_order_is_said_once_in_fmi3(fmu3_dir, opened)
         assert step(inst.slave.component, k * 0.02, 0.02, 1) == 0
     warnings = [m for m in log if "2x order" in m]
     assert len(warnings) == 1 and "reads the outputs once a period" in warnings[0], log
+
+
+def test_the_states_nominals_are_in_the_model_description_as_the_fmu_gives_them(fmu3_dir, opened):
+    """The twin rotor's disc displacements and velocities carry their nominals (1e-4 m, 1e-2 m/s) in the
+    modelDescription, the values fmi3GetNominalsOfContinuousStates gives, so a host that scales its solver's
+    absolute tolerance from the XML resolves them as finely (a fresh-eyes host's LSODA had Y1 80x less accurate
+    with the XML's default 1)."""
+    inst = _open(MeInstance, fmu3_dir, "TwinJeffcottRotorTorqueDriven", [])
+    opened.append(inst)
+    inst.initialize()
+    inst.slave.getNominalsOfContinuousStates(inst.buffer, inst.nx)
+    from_xml = {v.name: v.nominal for v in inst.md.modelVariables if v.name.startswith("x.")}
+    names = [v.name for v in inst.md.modelVariables if v.name.startswith("x.")]
+    assert [float(from_xml[n] or 1.0) for n in names] == list(inst.buffer[:inst.nx])
+    assert float(from_xml["x.Y1"]) == 1e-4 and float(from_xml["x.dY1"]) == 1e-2
+
+
+def test_derivatives_read_by_value_reference_are_refused_as_the_derivative_call_is(fmu3_dir, opened):
+    """der(x.*) read through fmi3GetFloat64 passes the same checks as fmi3GetContinuousStateDerivatives: a speed
+    state outside the speed range or a non-finite state (also the MotorController's integral, whose derivative does
+    not depend on it) gives NaN with the reason logged, where it had given a finite number silently."""
+    log = []
+    inst = _open(MeInstance, fmu3_dir, "CardanJointTorqueDriven", log)
+    opened.append(inst)
+    inst.initialize()
+    inst.buffer[0], inst.buffer[1] = 0.3, 2e4
+    inst.slave.setContinuousStates(inst.buffer, 2)
+    assert math.isnan(inst.get("der(x.omega1)")[0])
+    assert any("outside the speed range" in m for m in log), log
+    controller = _open(MeInstance, fmu3_dir, "MotorController", log)
+    opened.append(controller)
+    controller.initialize(dict(profile=0, omega_set=10.0))
+    controller.buffer[0] = math.nan
+    controller.slave.setContinuousStates(controller.buffer, 1)
+    controller.slave.getContinuousStateDerivatives(controller.buffer, 1)
+    assert math.isnan(controller.buffer[0]) and any("x.integral" in m or "integral = nan" in m for m in log), log
+
+
+def test_the_time_read_after_a_restore_is_the_states(fmu3_dir, opened):
+    """After fmi3SetFMUState the independent variable reads the time the state was saved at, the time the model
+    evaluates at (it had kept the later one), and in Co-Simulation it reads the end of the last step."""
+    inst = _open(MeInstance, fmu3_dir, "MotorController", [])
+    opened.append(inst)
+    inst.initialize(dict(profile=1, accel=20.0, omega_set=100.0))
+    inst.slave.enterContinuousTimeMode()
+    inst.slave.setTime(0.5)
+    state = inst.slave.getFMUState()
+    inst.slave.setTime(2.0)
+    inst.slave.setFMUState(state)
+    assert inst.slave.getFloat64([0])[0] == 0.5 and inst.get("omega_ref")[0] == pytest.approx(10.0)
+    inst.slave.freeFMUState(state)
+    cs = _open(FmuInstance3, fmu3_dir, "Load", [])
+    opened.append(cs)
+    cs.initialize()
+    cs.slave.doStep(0.0, 0.25)
+    assert cs.slave.getFloat64([0])[0] == 0.25

@@ -33,7 +33,7 @@ import weakref
 from pythonfmu3 import Boolean, DefaultExperiment, Float64, Fmi3Causality, Fmi3SlaveBase, Fmi3Status, Int32
 from pythonfmu3 import Fmi3StepResult, Fmi3Variability
 from pythonfmu3.cosimulation import CoSimulation
-from pythonfmu3.modelexchange import ModelExchange
+from pythonfmu3.modelexchange import Fmi3UpdateDiscreteStatesResult, ModelExchange
 
 from ..fmu import base as fmu_base
 
@@ -68,7 +68,8 @@ class ContinuousStates:
 
 
 #: nominal magnitude of a continuous state by unit (1 for the others): a disc-centre displacement of a Jeffcott
-#: rotor is of the order of 1e-4 m and its velocity of 1e-2 m/s
+#: rotor is of the order of 1e-4 m and its velocity of 1e-2 m/s (fmi3GetNominalsOfContinuousStates, and the
+#: states' ``nominal`` in the modelDescription)
 NOMINALS = {"m": 1.0e-4, "m/s": 1.0e-2}
 
 
@@ -238,7 +239,7 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
             i = index.index(name)
             return lambda: self._continuous(self._states.get)[i]
         i = index.index(name[4:-1])
-        return lambda: self._continuous(self._states.derivatives)[i]
+        return lambda: self.get_continuous_state_derivatives()[i]   # the same checks, NaN where they refuse
 
     # --- logging and errors ---
     def _log_from_core(self, message, status=Fmi3Status.ok, *args, **kwargs):
@@ -295,6 +296,8 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
             core._start()
         self._stepped = True
         ok = core.do_step(current_time, step_size)
+        if ok:
+            self.time = current_time + step_size
         return Fmi3StepResult() if ok else Fmi3StepResult(status=Fmi3Status.discard)
 
     # --- FMU state: the core's data-only state ---
@@ -304,6 +307,7 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
     def _set_fmu_state(self, state):
         self._guarded(self._core._set_fmu_state)(state)
         self._stepped = True
+        self.time = getattr(self._core, "_time", self.time)   # the independent variable the state was saved at
 
     @staticmethod
     def _fmu_state_to_bytes(state):
@@ -364,6 +368,8 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
                 raise ValueError(f"they are not finite ({rates!r}): check the inputs and parameters")
             top = fmu_base.SPEED_RANGE["max"]
             for (name, unit, _), x in zip(self._states.names, self._continuous(self._states.get)):
+                if not math.isfinite(x):
+                    raise ValueError(f"the state {name} = {x!r} is not finite")
                 if unit == "rad/s" and not abs(x) <= top:   # the speed range a Co-Simulation step keeps to
                     raise ValueError(f"the state {name} = {x!r} rad/s is outside the speed range [-{top:g}, {top:g}] "
                                      "rad/s the FMU is made for: the torques outrun the inertias (check tau_in, "
@@ -400,6 +406,18 @@ class ModelExchangeFmu(Fmi3Model, ModelExchange):
 
     def get_continuous_state_derivatives(self):
         return Fmi3Model.get_continuous_state_derivatives(self)
+
+    def update_discrete_states(self):
+        """No discrete states; the next time event where the model has one after the current time
+        (``MODEL.next_time_event(p, t)``: the MotorController's profile corner), so a host's solver stops there
+        instead of stepping across a jump of the right-hand side."""
+        result = Fmi3UpdateDiscreteStatesResult()
+        function = getattr(self.MODEL.MODEL, "next_time_event", None)
+        if function is not None:
+            at = self._continuous(lambda core: function(core._p, self.time))
+            if at is not None:
+                result.nextEventTimeDefined, result.nextEventTime = True, float(at)
+        return result
 
 
 def fmi3_class(model) -> type:

@@ -353,12 +353,23 @@ class Controller:
     #: names of the event indicators (FMI 3.0 Model Exchange): where the right-hand side switches
     EVENT_INDICATORS = (("upper_limit", "Kp e + Ki I - tau_max: > 0 while the torque limit +tau_max holds"),
                         ("lower_limit", "Kp e + Ki I + tau_max: < 0 while the torque limit -tau_max holds"),
-                        ("speed_error", "e = omega_ref - omega: its sign switches the anti-windup while limited"))
+                        ("speed_error", "e = omega_ref - omega while a torque limit holds, where its sign switches "
+                                        "the anti-windup; 1 rad/s otherwise, where it switches nothing"))
 
     @staticmethod
     def event_indicators(p: ControllerParameters, t: float, y: tuple, u: tuple) -> tuple:
-        """(u - tau_max, u + tau_max, e) with u = Kp e + Ki I: :func:`pi_torque` changes branch exactly where one
-        of them changes sign (the clamp at +-tau_max, the conditional integration at e = 0 while clamped)."""
+        """(v - tau_max, v + tau_max, e while clamped, else 1) with v = Kp e + Ki I: :func:`pi_torque` changes
+        branch exactly where one of them changes sign (the clamp at +-tau_max, the conditional integration at e = 0
+        while clamped). Unclamped, a zero of e switches nothing (a speed held with a ripple crosses it twice a
+        period of the ripple: an event at each would stop the host's solver for nothing); the third indicator jumps
+        only where the first or second changes sign, an event itself."""
         e = reference(p, t)[0] - u.omega
         v = p.Kp * e + p.Ki * y[0]
-        return v - p.tau_max, v + p.tau_max, e
+        return v - p.tau_max, v + p.tau_max, (e if abs(v) > p.tau_max else 1.0)
+
+    @staticmethod
+    def next_time_event(p: ControllerParameters, t: float) -> float | None:
+        """The profile's corner (:func:`profile_corner`) where it lies after t: a time event, as omega_ref's slope
+        (the ramp's end) or omega_ref itself (the step) jumps there; None after it or without one."""
+        corner = p.corner
+        return corner if corner is not None and corner > t else None

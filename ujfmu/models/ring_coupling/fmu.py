@@ -55,7 +55,8 @@ class RingCoupling(PrescribedInputSlave):
         output("tau_in", "N.m", "Torque demanded from the driver, I1 alpha_in - M_p - c_s x_e - c_d x_e'",
                ("omega_in",)),
         output("x_e", "rad", "Unevenness angle of shaft 2, phi2 - phi1 - (alpha2 - alpha1) (paper Eq. 8)"),
-        output("M_p", "N.m", "Internal moment of resistance of the misaligned ring, Eq. (7)"),
+        output("M_p", "N.m", "Misalignment moment of the ring on shaft 2, Eq. (7) (the paper's 'internal moment of "
+               "resistance'; positive accelerates shaft 2, and the same moment acts on shaft 1)"),
         output("transmitted_torque", "N.m", "Torque of the coupling on shaft 2, M_p - c_s x_e - c_d x_e'",
                ("omega_in",)),
         output("phi_in", "rad", "Shaft 1 angle phi1, continuous over revolutions"),
