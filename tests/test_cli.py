@@ -761,3 +761,30 @@ def test_fmus_not_found_from_another_directory_names_the_checkouts_own(tmp_path,
     assert main(["run", str(SCENARIOS / "cardan_constant_speed.toml"), "--no-plot"]) == 2
     err = capsys.readouterr().err
     assert "fmus/Motor.fmu not found" in err and f"this checkout's are in {checkout / 'fmus'}: --fmu-dir " in err
+
+
+def test_a_gate_in_a_checkout_whose_code_differs_from_the_installed_one_refuses(tmp_path, capsys):
+    """A CI job whose ujfmu was installed from other sources than the checkout its scenarios are in (a cached venv,
+    a wheel built before the change) had built and checked the installed code and passed, even with the checkout's
+    model edited: `check` and `run` refuse (status 2), naming the checkout and how to install it; a checkout with
+    the same sources (a non-editable install of it) is fine."""
+    import shutil
+
+    from ujfmu.build import PACKAGE_DIR
+    from ujfmu.cli import foreign_checkout
+    checkout = tmp_path / "checkout"
+    shutil.copytree(PACKAGE_DIR, checkout / "ujfmu", ignore=shutil.ignore_patterns("__pycache__"))
+    (checkout / "pyproject.toml").write_text("[project]\nname = 'ujfmu'\n")
+    (checkout / "scenarios").mkdir()
+    scenario = checkout / "scenarios" / "cardan_constant_speed.toml"
+    shutil.copy(SCENARIOS / "cardan_constant_speed.toml", scenario)
+    assert foreign_checkout([scenario]) is None                    # the same sources
+    model = checkout / "ujfmu" / "models" / "cardan_joint" / "model.py"
+    model.write_text(model.read_text() + "\n# edited\n")
+    assert foreign_checkout([scenario]) == checkout / "ujfmu"
+    junit = tmp_path / "report.xml"
+    for command in (["check", str(scenario), "--junit", str(junit)], ["run", str(scenario)]):
+        assert main(command) == 2
+        err = capsys.readouterr().err
+        assert f"{checkout} is a ujfmu checkout whose sources differ" in err and f"pip install -e {checkout}" in err
+    assert "did not finish" in junit.read_text()

@@ -30,8 +30,8 @@ def test_feedthrough_is_consistent_at_every_communication_point(fmu_dir):
 
 
 def test_algebraic_loop_is_reported(fmu_dir):
-    comps = [Component("a", fmu_dir / "Load.fmu", {}), Component("b", fmu_dir / "Load.fmu", {})]
-    loop = [Connection("a.tau", "b.omega"), Connection("b.tau", "a.omega")]
+    comps = [Component("a", fmu_dir / "CardanJoint.fmu", {}), Component("b", fmu_dir / "CardanJoint.fmu", {})]
+    loop = [Connection("a.omega_out", "b.omega_in"), Connection("b.omega_out", "a.omega_in")]   # both feed through
     with pytest.raises(CosimulationError, match="algebraic loop"):
         cosimulate(comps, loop, 0.01, 1e-3, ["a.tau"])
 
@@ -156,6 +156,25 @@ def test_the_master_names_what_is_wrong_with_its_arguments(fmu_dir):
     pairs = cosimulate(comps, [(c.source, c.target) for c in CONNECTIONS], 0.01, 1e-3, ["joint.omega_out"])
     objects = cosimulate(comps, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])
     assert np.array_equal(pairs["joint.omega_out"], objects["joint.omega_out"])
+
+
+def test_the_master_refuses_wiring_a_scenario_file_refuses(fmu_dir):
+    """Connections given in code are checked as a scenario file's are (they had run silently): an input fed twice
+    (the first connection had won), an angle wired into a speed (units differ), an output as a target, an input
+    both connected and set in the component's parameters (the set value had been dropped), a name without a
+    component; each a CosimulationError naming the connection."""
+    comps = chain(fmu_dir)
+    bad = {"is already fed by connections\\[0\\]": CONNECTIONS + [Connection("motor.omega", "joint.omega_in")],
+           "motor.phi \\[rad\\] cannot feed joint.omega_in \\[rad/s\\]: units differ":
+               [Connection("motor.phi", "joint.omega_in")] + CONNECTIONS[1:],
+           "joint.tau_in is an output, not an input": CONNECTIONS + [Connection("load.tau", "joint.tau_in")],
+           "connections\\[0\\].source = 'motoromega'": [Connection("motoromega", "joint.omega_in")] + CONNECTIONS[1:]}
+    for message, connections in bad.items():
+        with pytest.raises(CosimulationError, match=message):
+            cosimulate(comps, connections, 0.01, 1e-3, ["joint.omega_out"])
+    comps[2] = Component("load", fmu_dir / "Load.fmu", dict(T0=0.3, omega=5.0))
+    with pytest.raises(CosimulationError, match="feeds load.omega, which the component's parameters also set"):
+        cosimulate(comps, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])
 
 
 def test_an_fmus_warning_reaches_a_python_caller(fmu_dir):

@@ -176,6 +176,44 @@ def other_checkout(cwd: Path | None = None) -> Path | None:
     return None
 
 
+def _sources_digest(package: Path) -> str:
+    """SHA-256 of every Python source of a ujfmu package (relative path and content, in path order)."""
+    import hashlib
+    digest = hashlib.sha256()
+    for path in sorted(package.rglob("*.py")):
+        digest.update(str(path.relative_to(package)).encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
+def _own_checkout(paths) -> None:
+    """UsageError where the current directory or a scenario of paths lies in a ujfmu checkout whose sources differ
+    from those this command runs from (``foreign_checkout``): a gate there would check other code than the
+    checkout's, and pass on it."""
+    foreign = foreign_checkout([Path.cwd(), *paths])
+    if foreign is not None:
+        raise UsageError(f"{foreign.parent} is a ujfmu checkout whose sources differ from those of the ujfmu this "
+                         f"command runs from ({PACKAGE_DIR}): its FMUs would be built, and its scenarios checked, "
+                         f"with the latter's code, not the checkout's. Install the checkout (`pip install -e "
+                         f"{foreign.parent}` in a venv of its own, fresh for each CI job) and run its `ujfmu`")
+
+
+def foreign_checkout(paths) -> Path | None:
+    """The ujfmu package of a checkout that holds one of paths (a checkout: a folder with pyproject.toml and
+    ujfmu/__init__.py, searched up from each path) whose sources differ from those this command runs from, else
+    None. A gate that ran there would check the installed ujfmu's code, not that checkout's."""
+    seen = set()
+    for path in paths:
+        for folder in [Path(path).resolve(), *Path(path).resolve().parents]:
+            package = folder / "ujfmu"
+            if (package / "__init__.py").is_file() and (folder / "pyproject.toml").is_file():
+                if package.resolve() != PACKAGE_DIR and package not in seen:
+                    seen.add(package)
+                    if _sources_digest(package) != _sources_digest(PACKAGE_DIR):
+                        return package
+                break
+    return None
+
+
 def _check_fmi3(scenario, fmu_dir) -> None:
     """UsageError unless every FMU of the scenario in fmu_dir is an FMI 3.0 FMU (--fmi 3, --model-exchange)."""
     from fmpy import read_model_description
@@ -251,6 +289,7 @@ def _step_size(text: str, auto: bool = False) -> float:
 def cmd_run(args):
     from . import stepsize
     from .scenario import Scenario
+    _own_checkout([args.scenario])
     scenario = Scenario(args.scenario)
     if args.model_exchange and (args.step == "auto" or args.check_step):
         raise UsageError("--step auto and --check-step estimate a co-simulation's coupling error; a Model Exchange "
@@ -292,6 +331,7 @@ def cmd_check(args):
             raise UsageError(f"--junit {args.junit} is a folder: give the report's file name, e.g. "
                              f"{Path(args.junit) / 'report.xml'}")
         write_junit([], args.junit, {"ujfmu check": UNFINISHED}, kind=kind)
+    _own_checkout(list(args.scenarios or []))
     paths = _scenarios(args.scenarios)
     names = {}
     for path in paths:
@@ -678,7 +718,7 @@ def main(argv=None):
                                 "tolerances), not only when none is")
         _out(p, "results/", "output folder; results/fmi3/ with --fmi 3, results/model_exchange/ with "
                              "--model-exchange, so that runs of different FMU kinds do not overwrite each other")
-        p.add_argument("--no-plot", action="store_true")
+        p.add_argument("--no-plot", action="store_true", help="write no figures (about half the time)")
         _fmi(p, "run the FMI 3.0 Co-Simulation FMUs")
         p.add_argument("--model-exchange", action="store_true",
                        help="run the FMI 3.0 Model Exchange FMUs together under fmpy's CVode instead of "
@@ -712,7 +752,7 @@ def main(argv=None):
     p.add_argument("--name", help="output name (default: <scenario>_sweep); a grid other than the one in the "
                                   "journal under this name is refused")
     _out(p, "results/", "output folder")
-    p.add_argument("--no-plot", action="store_true")
+    p.add_argument("--no-plot", action="store_true", help="write no figures")
     p.add_argument("--no-progress", action="store_true", help="same as --quiet for the progress bar")
     p = command("modes", cmd_modes, "natural frequencies and critical speeds of a scenario's components")
     p.add_argument("scenario", type=Path)

@@ -425,6 +425,7 @@ class Cosimulation:
             else:
                 instance = FmuInstance
             self.instances[comp.name] = instance(comp, unzip_dir, md, self.log)
+        check_wiring(connections, self.instances)
         for comp in components:
             self.instances[comp.name].initialize(comp.parameters, self.start_time)
 
@@ -871,9 +872,11 @@ class Cosimulation:
         raise CosimulationError(f"component '{name}' refused the step at t = {t!r}" + self._log_text())
 
     def _remedy(self):
-        return ("use coupling = \"implicit\" in [experiment] (the default), which iterates this connection "
-                "every step" if self.coupling == "explicit" else
-                "reduce step_size (try half) and check the step with `ujfmu run --check-step`")
+        return ("use the implicit coupling (the default; coupling = \"implicit\" in a scenario's [experiment], "
+                "coupling=\"implicit\" from Python), which iterates this connection every step"
+                if self.coupling == "explicit" else
+                "reduce the step (step_size: try half) and check it with `ujfmu run --check-step` (from Python: "
+                "ujfmu.stepsize.estimate)")
 
     def _where(self, conn):
         return conn.source.split(".", 1)[0], conn.target.split(".", 1)[0]
@@ -1351,6 +1354,43 @@ def _broyden(inverse: list, du: list, h_dr: list, denominator: float) -> None:
         c = a - b
         for j, w in enumerate(du_h):
             row[j] += c * w / denominator
+
+
+def _unit(var) -> str:
+    """A variable's unit, its own or its declared type's ('' for none)."""
+    return var.unit or (var.declaredType.unit if var.declaredType is not None else None) or ""
+
+
+def check_wiring(connections: list, instances: dict) -> None:
+    """CosimulationError naming the connection where one joins an output to an input of another unit or type, feeds
+    an input another connection feeds already, or feeds an input the component's parameters also set (the
+    connection would override it silently), as a scenario file refuses them; names are 'component.variable'."""
+    fed = {}
+    for i, conn in enumerate(connections):
+        ends = []
+        for role, end in (("source", conn.source), ("target", conn.target)):
+            comp, dot, name = str(end).partition(".")
+            if not dot or comp not in instances:
+                raise CosimulationError(f"connections[{i}].{role} = {end!r}: give 'component.variable' with one of "
+                                        f"the components {', '.join(map(repr, instances))}")
+            inst = instances[comp]
+            inst.vr(name)   # names the variables it has where it has no such one
+            ends.append((inst, inst.variables[name]))
+        (_, out), (target, inp) = ends
+        if inp.causality != "input":
+            raise CosimulationError(f"connections[{i}]: {conn.target} is an {inp.causality}, not an input")
+        if (_VALUE_KINDS.get(out.type, out.type), _unit(out)) != (_VALUE_KINDS.get(inp.type, inp.type), _unit(inp)):
+            raise CosimulationError(f"connections[{i}]: {conn.source} [{_unit(out) or out.type}] cannot feed "
+                                    f"{conn.target} [{_unit(inp) or inp.type}]: units differ")
+        if conn.target in fed:
+            raise CosimulationError(f"connections[{i}].target = {conn.target!r} is already fed by connections"
+                                    f"[{fed[conn.target]}] ({connections[fed[conn.target]].source}): an input takes "
+                                    "one connection")
+        if inp.name in target.parameters:
+            raise CosimulationError(f"connections[{i}] feeds {conn.target}, which the component's parameters also "
+                                    f"set ({target.parameters[inp.name]!r}): the connection would override it; drop "
+                                    "one of the two")
+        fed[conn.target] = i
 
 
 def held_inputs(instances: dict, connections: list, parameters: dict) -> list:

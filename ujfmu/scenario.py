@@ -511,16 +511,23 @@ class Scenario:
         are; named ``name`` (default ``<name>_changed``: its CSV and figures do not overwrite this scenario's), its
         title saying what changed, and without the reference: a reference is made for the file's setup, so the copy
         runs unchecked (give it a scenario file and `ujfmu references` to check it)."""
+        problems = _Problems(self.path)
+        if name is not None and (not isinstance(name, str) or not name or name.startswith(".")
+                                 or any(c in name for c in "/\\\0")):
+            problems.add(f"{self.path}: with_parameters: name = {name!r} must be a plain file name (no path "
+                         "separators, not starting with '.'): it names the files a run writes")
         for key, value in changes.items():
-            comp, _, par = key.partition(".")
-            if comp not in self.components:
-                close = difflib.get_close_matches(comp, self.components, n=1)
-                raise ScenarioError(f"{self.path}: with_parameters: no component '{comp}' in {key!r}"
-                                    + (f" (did you mean {close[0]!r}?)" if close else "")
-                                    + f" (it has {', '.join(self.components)})")
-            fmu = self.components[comp][0]
-            declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
-            self._check_value(fmu, declared, "parameter", f"components.{comp}.parameters.{par}", par, value)
+            with problems.kept():
+                comp, _, par = key.partition(".")
+                if comp not in self.components:
+                    close = difflib.get_close_matches(comp, self.components, n=1)
+                    raise ScenarioError(f"{self.path}: with_parameters: no component '{comp}' in {key!r}"
+                                        + (f" (did you mean {close[0]!r}?)" if close else "")
+                                        + f" (it has {', '.join(self.components)})")
+                fmu = self.components[comp][0]
+                declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
+                self._check_value(fmu, declared, "parameter", f"components.{comp}.parameters.{par}", par, value)
+        problems.raise_any()
         out = self.with_values(changes)
         for comp in {key.partition(".")[0] for key in changes}:
             problems = out.model_problems(comp)
@@ -545,9 +552,16 @@ class Scenario:
         return text
 
     def unit(self, name: str) -> str:
-        """The declared unit of a "component.variable" ("" when it has none)."""
+        """The declared unit of a "component.variable" ("" when it has none), "s" for "time" (a table's first
+        column); ScenarioError for a name the scenario does not have."""
+        if name == "time":
+            return "s"
         comp, _, var = name.partition(".")
-        declared = {v.name: v for v in fmu_class(self.components[comp][0]).VARIABLES}
+        declared = {v.name: v for v in fmu_class(self.components[comp][0]).VARIABLES} if comp in self.components \
+            else {}
+        if var not in declared:
+            raise ScenarioError(f"{self.path}: {name!r} is not a variable of this scenario's components "
+                                f"({', '.join(self.components)}): give 'component.variable'")
         return declared[var].unit or ""
 
     def start_values(self, component):
