@@ -153,6 +153,10 @@ def test_the_master_names_what_is_wrong_with_its_arguments(fmu_dir):
         cosimulate(comps, CONNECTIONS, 0.01, 1e-3, "joint.omega_out")
     with pytest.raises(CosimulationError, match="component name 'load' used more than once"):
         cosimulate(comps + [comps[-1]], CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])
+    with pytest.raises(CosimulationError, match="record names 'joint.omega_out' more than once"):
+        cosimulate(comps, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out", "joint.omega_out"])
+    with pytest.raises(CosimulationError, match=r"\('load'\): parameters = None must be a dict"):
+        cosimulate(comps[:2] + [Component("load", comps[2].fmu, None)], CONNECTIONS, 0.01, 1e-3, [])
     pairs = cosimulate(comps, [(c.source, c.target) for c in CONNECTIONS], 0.01, 1e-3, ["joint.omega_out"])
     objects = cosimulate(comps, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])
     assert np.array_equal(pairs["joint.omega_out"], objects["joint.omega_out"])

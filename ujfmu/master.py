@@ -130,6 +130,9 @@ class FmuWarning(UserWarning):
 
 @dataclass
 class Component:
+    """One FMU instance of a co-simulation: its name (connections and recorded signals say 'name.variable'), the
+    FMU file's path, and the values of its parameters and of any unconnected input it holds ({name: value}, SI)."""
+
     name: str
     fmu: Path
     parameters: dict = field(default_factory=dict)
@@ -137,6 +140,8 @@ class Component:
 
 @dataclass
 class Connection:
+    """An output of one component feeding an input of another, each 'component.variable' (same unit and type)."""
+
     source: str   # "component.output"
     target: str   # "component.input"
 
@@ -1448,7 +1453,10 @@ def _checked_setup(components, connections, record) -> tuple:
     for i, comp in enumerate(components):
         if not isinstance(comp, Component):
             raise CosimulationError(f"components[{i}] = {comp!r} is a {type(comp).__name__}: give "
-                                    "Component(name, fmu_path, parameters)")
+                                    "Component(name, fmu, parameters): fmu the FMU file's path, parameters a dict")
+        if not isinstance(comp.parameters, dict):
+            raise CosimulationError(f"components[{i}] ('{comp.name}'): parameters = {comp.parameters!r} must be a "
+                                    "dict {name: value} ({} for none)")
     names = [comp.name for comp in components]
     twice = sorted({name for name in names if names.count(name) > 1})
     if twice:
@@ -1471,6 +1479,10 @@ def _checked_setup(components, connections, record) -> tuple:
     for name in record:
         if not isinstance(name, str):
             raise CosimulationError(f"record: {name!r} is not a 'component.variable' name")
+    twice = sorted({name for name in record if record.count(name) > 1})
+    if twice:
+        raise CosimulationError(f"record names {', '.join(map(repr, twice))} more than once: each signal is a "
+                                "column of the table, once")
     return components, checked, record
 
 
