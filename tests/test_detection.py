@@ -464,6 +464,8 @@ def _watched(draw):
 @settings(max_examples=400, deadline=None)
 @given(_watched())
 @example((np.array([[50.0]] + [[50.0 + 1e-3 * (-3.0) ** k] for k in range(1, 9)]), 1, 0.0, [2]))
+# the trip's step alone in a block: only the reversals carried over from the block before make it one
+@example((np.array([[50.0]] + [[50.0 + 1e-3 * (-3.0) ** k] for k in range(1, 9)]), 1, 0.0, [3, 4]))
 def test_the_block_watch_trips_where_the_step_watch_does_and_keeps_its_states(case):
     """The explicit steps are watched a block at a time (``watch_block``: vectorized where no step can trip,
     step by step otherwise). Over any split into blocks it must trip at the same step and connection, for the same

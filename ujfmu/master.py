@@ -636,8 +636,7 @@ class Cosimulation:
         is the power A and B exchange; ``energy_block`` keeps each bond's energy residual."""
         def unit(conn):
             comp, name = conn.source.split(".", 1)
-            var = self.instances[comp].variables[name]
-            return var.unit or (var.declaredType.unit if var.declaredType is not None else None)
+            return _unit(self.instances[comp].variables[name]) or None
 
         speeds, torques = {}, {}
         for i, transfer in enumerate(self._transfers):
@@ -1412,8 +1411,7 @@ def held_inputs(instances: dict, connections: list, parameters: dict) -> list:
                 value = float(value)
             except (TypeError, ValueError):
                 value = math.nan
-            unit = var.unit or (var.declaredType.unit if var.declaredType is not None else None) or ""
-            held.append(HeldInput(comp, var.name, value, unit))
+            held.append(HeldInput(comp, var.name, value, _unit(var)))
     return held
 
 

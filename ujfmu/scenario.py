@@ -139,10 +139,6 @@ class ScenarioError(ValueError):
     """A scenario file is invalid; the message names the file and the field."""
 
 
-class _Reported(Exception):
-    """A part of a scenario file left for problems already gathered (``_Problems``)."""
-
-
 class _Problems:
     """The problems of one scenario file, gathered part by part so that one reading names them all."""
 
@@ -161,8 +157,6 @@ class _Problems:
             yield part
         except ScenarioError as exc:
             self.messages.append(str(exc))
-            part.ok = False
-        except _Reported:
             part.ok = False
 
     def raise_any(self) -> None:
@@ -330,10 +324,11 @@ class Scenario:
             if not component.ok:
                 broken.add(cname)
                 continue
+            # the FMU is known: its variables are checked where connections and outputs name them
+            self.components[cname], self.inputs[cname] = (fmu, {}), {}
             with problems.kept():
                 params = self._values(cname, fmu, comp, "parameters", problems)
                 inputs = self._values(cname, fmu, comp, "inputs", problems)
-                # the FMU is known: its variables are checked where connections and outputs name them
                 self.components[cname] = (fmu, params or {})
                 self.inputs[cname] = inputs if inputs is not None else dict(comp.get("inputs", {}))
                 model = self.model_problems(cname) if params is not None else []

@@ -47,12 +47,12 @@ from ..models.protocol import Drive
 from . import rk4
 
 _TYPES = {float: Real, int: Integer, bool: Boolean}
-#: life-cycle attributes of UjfmuSlave that are part of the FMU state
 #: why a step is refused before initialization: fmi2DoStep before fmi2ExitInitializationMode, or after
 #: fmi2SetFMUstate restored a state saved before it (which holds no model state to step from)
 NOT_INITIALIZED = ("the instance is not initialized: call fmi2ExitInitializationMode before fmi2DoStep; a state "
                    "saved before it and restored by fmi2SetFMUstate has no model state to step from (restore one "
                    "saved after it, or fmi2Reset and initialize again)")
+#: life-cycle attributes of UjfmuSlave that are part of the FMU state
 _LIFECYCLE_KINDS = {"_stale": "bool", "_initialized": "bool", "_running": "bool", "_start_time": "float"}
 
 #: Objects pythonfmu 0.7.0 releases twice after a Python exception (once when it turns the exception into

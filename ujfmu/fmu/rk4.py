@@ -45,15 +45,16 @@ def fastest_rate(natural: float, forcing: float) -> float:
     return max(natural, forcing)
 
 
+#: the relative rounding of a double
+_EPS = sys.float_info.epsilon
+
+
 def kept_substep(h: float, kept: float, t: float, n: int) -> float:
     """``kept`` (the substep length a multistep method's history or a step operator was made for) where this step's
     substep h (of n) differs from it by no more than the rounding of the times a host computes its steps from,
     |h - kept| <= 8 eps (|t| + n h) / n (fmpy's simulate_fmu steps t_(k+1) - t_k with t_k = k dt, which differ
     from dt in their last bits), so the history and its operators carry on; else h."""
     return kept if abs(h - kept) <= 8.0 * _EPS * (abs(t) + n * h) / n else h
-
-
-_EPS = sys.float_info.epsilon
 
 #: more substeps than this in one communication step means parameters far outside any real driveline (or a huge
 #: step): the step is refused with a message instead of keeping the host busy for hours
