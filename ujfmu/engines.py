@@ -75,7 +75,7 @@ def run(engine: str, ssp: Path, scenario_path: Path, cpus: set[int] | None = Non
     if reason:
         raise RuntimeError(reason)
     command = [sys.executable, "-m", "ujfmu.engines", engine, str(ssp), str(scenario_path)]
-    for attempt in range(1, CRASH_ATTEMPTS + 1):
+    for _ in range(CRASH_ATTEMPTS):
         done = subprocess.run(command, capture_output=True, text=True, timeout=timeout,
                               preexec_fn=(lambda: os.sched_setaffinity(0, cpus)) if cpus else None)
         if done.returncode >= 0:   # not killed by a signal: a result, or an error it says
