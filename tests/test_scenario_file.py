@@ -47,6 +47,7 @@ def test_good_file_loads(tmp_path):
     ('fmu = "Load"', 'fmu = "Loud"', "components.l.fmu"),
     ('to = "l.omega"', 'to = "l.omegaa"', "connections[0].to"),
     ('to = "l.omega"', 'to = "x.omega"', "unknown component"),
+    ('fmu = "Load"', 'fmu = "Load"\ninputs = { omega = 1.0 }', "connections[0].to = 'l.omega' is also set under"),
     ('from = "j.omega_out"', 'from = "j.omega_in"', "not an output"),
     ('step_size = 1e-3', 'step_size = "fast"', "experiment.step_size"),
     ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { J3 = 1 }', "parameters.J3"),

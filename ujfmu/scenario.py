@@ -356,6 +356,10 @@ class Scenario:
                 if dst in fed:
                     raise ScenarioError(f"{self.path}: connections[{i}].to = {dst!r} is already fed by "
                                         f"connections[{fed[dst]}]")
+                comp, _, name = dst.partition(".")
+                if name in self.inputs[comp]:
+                    raise ScenarioError(f"{self.path}: connections[{i}].to = {dst!r} is also set under "
+                                        f"components.{comp}.inputs: the connection would override it; drop one")
                 fed[dst] = i
                 self.connections.append(Connection(src, dst))
             complete = complete and connection.ok
@@ -402,8 +406,6 @@ class Scenario:
     def _read_reference(self, ref, out):
         """[reference]: the file, its generator, the bands and the signals not compared (every recorded signal is
         one or the other); then [output] out's plot (default: the compared signals)."""
-        self.tolerances = {}
-        self.plot = list(out.get("plot", self.record))
         self.reference_file_text = ref.get("file") if isinstance(ref, dict) else None
         unknown = set(ref) - REFERENCE_KEYS if isinstance(ref, dict) else {"(not a table)"}
         if unknown:

@@ -656,12 +656,10 @@ class Sweep:
                 columns[name] = (self.scenario.unit(name), "swept parameter (SI)")
         columns["status"] = ("", "ok, not_steady, off_target, error or missing")
         columns["speed_mean"] = ("rad/s", f"mean running speed ({self.settings.running_speed})")
-        for output in self.settings.outputs:
-            unit = self.scenario.unit(output)
-            for figure in FIGURES:
-                columns[f"{output}.{figure}"] = (unit, self.FIGURE_MEANINGS[figure])
-            for k in self.settings.orders:
-                columns[f"{output}.h{k}"] = (unit, f"amplitude (zero to peak) of the {k}x running-speed order")
+        for column in self.settings.columns():   # <output>.<figure>, <output>.h<k>
+            output, figure = column.rsplit(".", 1)
+            columns[column] = (self.scenario.unit(output), self.FIGURE_MEANINGS.get(figure) or
+                               f"amplitude (zero to peak) of the {figure[1:]}x running-speed order")
         columns.update(settled_s=("s", "settle time used"),
                        steady_change=("1", "largest change of a figure between the last windows, of its size"),
                        wall_s=("s", "wall time of the point"), error=("", "why the point is not ok"),

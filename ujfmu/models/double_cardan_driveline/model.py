@@ -640,10 +640,8 @@ def multistep_step(p: Parameters, t: float, t_span: float, phi1: float, w1: floa
     :func:`start_steps`: one on Omar's driveline), its N_n added to the history until it holds six points."""
     w_max = max(abs(w1), abs(w1 + alpha1 * t_span))
     n = 1 if (p.remainder_rate + 4.0 * w_max) * t_span <= rk4.RATE_STEP else adams_substeps(p, t_span, w_max)
-    h = t_span / n
+    h = rk4.kept_substep(t_span / n, history[0], t, n)
     count = history[2]
-    if count:
-        h = rk4.kept_substep(h, history[0], t, n)
     if count and (history[0] != h or abs(history[1] - t) > 1e-6 * h
                   or abs(tau_load - history[3]) * history[18] + abs(alpha1 - history[4])
                   + abs(w1 - history[5]) / h > INPUT_JUMP):
