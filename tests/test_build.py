@@ -49,3 +49,21 @@ def test_digest_covers_what_the_fmu_ships_and_nothing_else(tmp_path):
         before = after
     (root / "fmu" / "rk4.py").write_text((root / "fmu" / "rk4.py").read_text() + "\n# changed\n")
     assert all(sources_digest(stem, root) != before[stem] for stem in STEMS)
+
+
+def test_a_rebuild_of_the_same_sources_gives_the_same_bytes(tmp_path, fmu_dir, fmu3_dir, monkeypatch):
+    """FMUs had differed byte for byte between builds (pythonfmu's random guid and build time, the archive's file
+    dates), so a CI cache or a checksum could not tell a changed FMU from a rebuilt one: a rebuild of the same
+    sources is now the same file, FMI 2.0 and 3.0, its guid a function of the sources; SOURCE_DATE_EPOCH dates the
+    archive's files."""
+    from ujfmu.build import build_fmu
+    from ujfmu.build3 import build_fmu3
+    again, again3 = build_fmu("Load", tmp_path / "2"), build_fmu3("Load", tmp_path / "3")
+    assert again.read_bytes() == (fmu_dir / "Load.fmu").read_bytes()
+    assert again3.read_bytes() == (fmu3_dir / "Load.fmu").read_bytes()
+    with zipfile.ZipFile(again) as archive:
+        assert {i.date_time for i in archive.infolist()} == {(1980, 1, 1, 0, 0, 0)}
+        assert b"generationDateAndTime" not in archive.read("modelDescription.xml")
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")   # 2026-01-01 00:00:00 UTC
+    with zipfile.ZipFile(build_fmu("Load", tmp_path / "epoch")) as archive:
+        assert {i.date_time for i in archive.infolist()} == {(2026, 1, 1, 0, 0, 0)}

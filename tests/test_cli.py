@@ -635,6 +635,17 @@ def test_fmus_built_from_other_sources_are_refused_before_anything_runs(fmu_dir,
     scenario.check_fmus(fmu_dir)   # the session's own build: accepted
 
 
+def test_an_edit_of_the_module_that_writes_the_model_description_makes_the_fmus_stale(tmp_path, monkeypatch):
+    """The build hash covers the module that writes the modelDescription, not only the runtime sources: an FMU
+    built before an edit of it (units, model structure) had been taken as fresh."""
+    from ujfmu import build
+    before = build.source_hash("load")
+    edited = tmp_path / "build.py"
+    edited.write_bytes(build.WRITERS[0].read_bytes() + b"\n# edited\n")
+    monkeypatch.setattr(build, "WRITERS", (edited,))
+    assert build.source_hash("load") != before
+
+
 def test_a_command_run_in_another_checkout_says_whose_sources_it_uses(tmp_path, capsys, monkeypatch):
     """A CI job whose cached venv holds another checkout's editable install had built and checked that checkout's
     code, not the one in its directory, without a word: the command warns, naming both."""
@@ -679,6 +690,26 @@ def test_the_gate_does_not_pass_on_what_it_did_not_check(fmu_dir, tmp_path, caps
     capsys.readouterr()
     assert main(["--fmu-dir", str(fmu_dir), "check", str(selfref), "--no-plot", "--out", str(out)]) == 2
     assert "equals this run to the last digit in every compared signal" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv, kind", [
+    (["check", "--junit", "{junit}", "--bogus"], ""),
+    (["check", "--fmi", "3", "--junit={junit}", "--output-interval", "0"], ".fmi3"),
+    (["check", "--model-exchange", "--junit", "{junit}", "--fmi", "3", "--fmi", "4"], ".model_exchange"),
+])
+def test_a_refused_command_line_leaves_no_earlier_report_standing(tmp_path, capsys, argv, kind):
+    """An argparse usage error (status 2) had left the JUnit report of an earlier run in place, all passed: the
+    report now holds one error case that quotes the refusal, in the suite of the run's kind."""
+    junit = tmp_path / "report.xml"
+    junit.write_text('<testsuite tests="16" failures="0" errors="0"/>')
+    with pytest.raises(SystemExit) as exc:
+        main([a.replace("{junit}", str(junit)) for a in argv])
+    assert exc.value.code == 2
+    refusal = capsys.readouterr().err.strip().splitlines()[-1].split("error: ", 1)[1]
+    suite = ET.parse(junit).getroot()
+    (case,) = suite.findall("testcase")
+    assert suite.get("errors") == "1" and case.get("classname") == "ujfmu.scenarios" + kind
+    assert case.find("error").get("message").startswith(f"the command line was refused: {refusal}")
 
 
 @pytest.mark.parametrize("edit, message", [

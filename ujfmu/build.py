@@ -11,9 +11,12 @@ of one FMU, never shadow each other's modules.
 import hashlib
 import html
 import importlib
+import os
 import shutil
 import sys
 import tempfile
+import time
+import uuid
 import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
@@ -84,11 +87,20 @@ def fmu_class(name: str) -> type:
     return getattr(importlib.import_module(f"ujfmu.models.{stem}.fmu"), cls)
 
 
+#: the modules that write what an FMU ships besides its runtime sources (the modelDescription): in its build hash
+WRITERS = (Path(__file__),)
+
+
 def source_hash(stem: str) -> str:
-    """Hash of everything an FMU of model stem ships (the version and the build digest of its runtime sources,
-    which also tags the FMU's serialized states), so a changed model never reuses an old module name."""
+    """Hash of everything an FMU of model stem ships: the version, the build digest of its runtime sources (which
+    also tags the FMU's serialized states) and this module, which writes its modelDescription; so a changed model
+    never reuses an old module name, and an FMU built before a change of either is found stale."""
     from .fmu.base import sources_digest
-    return hashlib.sha256(f"{__version__} {sources_digest(stem)}".encode()).hexdigest()[:10]
+    digest = hashlib.sha256(f"{__version__} {sources_digest(stem)}".encode())
+    for path in WRITERS:
+        digest.update(b"\0" + path.read_bytes())
+    return digest.hexdigest()[:10]
+
 
 
 def build_all(dest=DEFAULT_FMU_DIR, names=None):
@@ -148,12 +160,13 @@ def build_fmu(name, dest=DEFAULT_FMU_DIR, pass_through=False):
             for mod in [m for m in sys.modules if m == unique or m.startswith(unique + ".")
                         or m == entry.stem]:
                 del sys.modules[mod]
-    _rewrite_model_description(Path(built), cls)
+    _rewrite_model_description(Path(built), cls, unique)
     return Path(built)
 
 
-def _rewrite_model_description(fmu_path, cls):
-    """Add unit definitions, units, ranges, output dependencies and InitialUnknowns from cls.VARIABLES."""
+def _rewrite_model_description(fmu_path, cls, guid_key: str):
+    """Add unit definitions, units, ranges, output dependencies and InitialUnknowns from cls.VARIABLES; the guid
+    from guid_key (the FMU's runtime package name: its name and build hash) instead of pythonfmu's random one."""
     with zipfile.ZipFile(fmu_path) as zf:
         entries = {info: zf.read(info) for info in zf.infolist()}
     md_info = next(i for i in entries if i.filename == "modelDescription.xml")
@@ -170,6 +183,8 @@ def _rewrite_model_description(fmu_path, cls):
         for dname, factor in display.items():
             ET.SubElement(u, "DisplayUnit", name=dname, factor=repr(factor))
     root.insert(list(root).index(root.find("CoSimulation")) + 1, unit_defs)
+    root.set("guid", "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, f"ujfmu/{guid_key}")) + "}")   # the same for a rebuild
+    root.attrib.pop("generationDateAndTime", None)   # optional; the archive's dates are archive_date()
     cs = root.find("CoSimulation")   # UjfmuSlave saves, restores and serializes its whole state
     cs.set("canGetAndSetFMUstate", "true")
     cs.set("canSerializeFMUstate", "true")
@@ -203,9 +218,28 @@ def _rewrite_model_description(fmu_path, cls):
 
     ET.indent(root)
     entries[md_info] = b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="utf-8")
-    with zipfile.ZipFile(fmu_path, "w", zipfile.ZIP_DEFLATED) as zf:
-        for info, data in entries.items():
-            zf.writestr(info, data)
+    write_archive(fmu_path, {info.filename: data for info, data in entries.items()})
+
+
+def archive_date() -> tuple:
+    """The date every file of an FMU archive carries: SOURCE_DATE_EPOCH's where it is set (the reproducible-builds
+    convention), else 1980-01-01 (the earliest a zip file can hold)."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    if epoch.isdigit():
+        return max(time.gmtime(int(epoch))[:6], (1980, 1, 1, 0, 0, 0))
+    return 1980, 1, 1, 0, 0, 0
+
+
+def write_archive(path, entries: dict) -> None:
+    """The FMU archive at path of entries (file name -> bytes), reproducible: sorted by name, every file dated
+    :func:`archive_date`, so that a build of the same sources gives the same bytes (a CI cache, a checksum)."""
+    date = archive_date()
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as zf:
+        for name in sorted(entries):
+            info = zipfile.ZipInfo(name, date_time=date)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o100644 << 16   # a regular file, rw-r--r--
+            zf.writestr(info, entries[name])
 
 
 def documentation_html(name, cls):

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from . import __version__
 from .build import (DEFAULT_FMU_DIR, FMUS, PACKAGE_DIR, UNITS, documentation_html, fmu_class, source_hash,
-                    stage_runtime)
+                    stage_runtime, write_archive)
 
 #: default folder of the FMI 3.0 FMUs (same file names as the FMI 2.0 ones: a scenario runs either version with
 #: --fmu-dir)
@@ -60,10 +60,10 @@ ME_TOLERANCE = 1e-8
 
 def fmi3_hash(stem: str) -> str:
     """Hash of everything an FMI 3.0 FMU of model stem ships: the FMI 2.0 runtime's hash, the FMI 3.0 layer,
-    pythonfmu3's version."""
+    pythonfmu3's version and this module (which writes its modelDescription)."""
     import pythonfmu3
     digest = hashlib.sha256(f"{source_hash(stem)} {pythonfmu3.__version__}".encode())
-    for path in sorted((PACKAGE_DIR / "fmu3").glob("*.py")):
+    for path in [Path(__file__), *sorted((PACKAGE_DIR / "fmu3").glob("*.py"))]:
         digest.update(path.name.encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()[:10]
 
@@ -129,9 +129,7 @@ def _finish(fmu_path, name, model, pythonfmu3_version):
         entries = {info.filename: zf.read(info) for info in zf.infolist()}
     entries["modelDescription.xml"] = model_description3(name, model, pythonfmu3_version)
     entries["terminalsAndIcons/terminalsAndIcons.xml"] = terminals_and_icons(name, model)
-    with zipfile.ZipFile(fmu_path, "w", zipfile.ZIP_DEFLATED) as zf:
-        for filename, data in entries.items():
-            zf.writestr(filename, data)
+    write_archive(fmu_path, entries)
 
 
 def _xml(root) -> bytes:

@@ -681,14 +681,58 @@ def _out(parser, default, helptext):
     parser.set_defaults(out_default=Path(default))
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser that keeps its last usage error's message (:func:`_usage_error_report`)."""
+
+    refused = None
+
+    def error(self, message):
+        _Parser.refused = message
+        super().error(message)
+
+
+def _usage_error_report(argv: list, message: str) -> None:
+    """A refused `ujfmu check` command line with --junit: the report at that path says so, an error case, so that
+    a CI job's earlier report (passed, or the last run's) does not stand for a run that never started."""
+    if "check" not in argv:
+        return
+    path, kind = None, ""
+    for i, a in enumerate(argv):
+        if a == "--junit" and i + 1 < len(argv):
+            path = argv[i + 1]
+        elif a.startswith("--junit="):
+            path = a.split("=", 1)[1]
+        elif a == "--model-exchange":
+            kind = "model_exchange"
+        elif (a == "--fmi" and argv[i + 1:i + 2] == ["3"] or a == "--fmi=3") and kind != "model_exchange":
+            kind = "fmi3"
+    if not path or Path(path).is_dir():
+        return
+    from .scenario_run import write_junit
+    with contextlib.suppress(OSError):
+        write_junit([], path, {"ujfmu check": f"the command line was refused: {message} (ujfmu check --help)"},
+                    kind=kind)
+
+
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="ujfmu", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    raw = list(sys.argv[1:] if argv is None else argv)
+    try:
+        return _main(raw)
+    except SystemExit as exc:
+        if exc.code not in (0, None) and _Parser.refused is not None:
+            _usage_error_report(raw, _Parser.refused)
+        raise
+    finally:
+        _Parser.refused = None
+
+
+def _main(raw: list):
+    parser = _Parser(prog="ujfmu", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     _common(parser, suppress=False)
     parser.add_argument("--out", type=Path, default=argparse.SUPPRESS,
                         help="output folder or file of the command (see the command's --help)")
     sub = parser.add_subparsers(dest="command", required=True)
-    common = argparse.ArgumentParser(add_help=False)
+    common = _Parser(add_help=False)
     _common(common, suppress=True)
 
     def command(name, func, helptext):
@@ -800,7 +844,7 @@ def main(argv=None):
     p.add_argument("--timeout", type=float, default=900.0, help="seconds per mutant (default: 900)")
     p.add_argument("--nice", type=int, default=19, help="CPU niceness of the test runs (default: 19)")
     _out(p, "results/", "writes mutate.jsonl here")
-    args = parser.parse_args(_joined_values(sys.argv[1:] if argv is None else argv, ("--step",)))
+    args = parser.parse_args(_joined_values(raw, ("--step",)))
     if args.command == "battery" and not args.coupling:
         args.coupling = ["explicit", "implicit"]
     if getattr(args, "no_progress", False):

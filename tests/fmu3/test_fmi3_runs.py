@@ -383,6 +383,22 @@ def test_derivatives_read_by_value_reference_are_refused_as_the_derivative_call_
     assert math.isnan(controller.buffer[0]) and any("x.integral" in m or "integral = nan" in m for m in log), log
 
 
+def test_a_time_that_is_not_finite_is_refused_and_the_time_kept(fmu3_dir, opened):
+    """fmi3SetTime(NaN) or inf is an error naming the time kept (it had been taken, and every derivative after it
+    evaluated the profile at NaN); the instance goes on at the time it had."""
+    log = []
+    inst = _open(MeInstance, fmu3_dir, "MotorController", log)
+    opened.append(inst)
+    inst.initialize(dict(profile=1, accel=20.0, omega_set=100.0))
+    inst.slave.enterContinuousTimeMode()
+    inst.slave.setTime(0.5)
+    for bad in (math.nan, math.inf):
+        with pytest.raises(Exception):
+            inst.slave.setTime(bad)
+    assert sum("the time must be finite; the time stays at 0.5" in m for m in log) == 2, log
+    assert inst.slave.getFloat64([0])[0] == 0.5 and inst.get("omega_ref")[0] == pytest.approx(10.0)
+
+
 def test_the_time_read_after_a_restore_is_the_states(fmu3_dir, opened):
     """After fmi3SetFMUState the independent variable reads the time the state was saved at, the time the model
     evaluates at (it had kept the later one), and in Co-Simulation it reads the end of the last step."""

@@ -381,6 +381,9 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
             return [math.nan] * len(self._states.names)
 
     def set_time(self, time):
+        if not math.isfinite(time):
+            self._raise_to_host(f"{self._core.modelName} '{self.instance_name}': fmi3SetTime({time!r}) refused: "
+                                f"the time must be finite; the time stays at {self.time!r}")
         self.time = time
         self._states.set_time(self._core, time)
         self._core._stale, self._core._partial = True, False

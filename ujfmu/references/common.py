@@ -12,11 +12,11 @@ def profile(p, t):
     """Speed reference (omega, alpha, angle) of the Motor FMU's profiles, written out independently."""
     t = np.asarray(t, dtype=float)
     prof, w_set, acc, t_step, w0 = p["profile"], p["omega_set"], p["accel"], p["t_step"], p["omega_initial"]
-    if prof == 1:
+    if prof == 1:   # at rest before t = 0
         te = w_set / acc
-        up = t < te
-        return (np.where(up, acc * t, w_set), np.where(up, acc, 0.0),
-                np.where(up, 0.5 * acc * t**2, 0.5 * acc * te**2 + w_set * (t - te)))
+        up, rest = t < te, t < 0.0
+        return (np.where(rest, 0.0, np.where(up, acc * t, w_set)), np.where(rest | ~up, 0.0, acc),
+                np.where(rest, 0.0, np.where(up, 0.5 * acc * t**2, 0.5 * acc * te**2 + w_set * (t - te))))
     if prof == 2:
         before = t < t_step
         return (np.where(before, w0, w_set), np.zeros_like(t),
@@ -52,9 +52,9 @@ def feeds(scenario, source: str, target: str) -> bool:
 
 
 def corners(p, t0, t1):
-    """Integration interval cut at the profile's corners (ramp end, step)."""
+    """Integration interval cut at the profile's corners (ramp start and end, step)."""
     if p["profile"] == 1:
-        cuts = [p["omega_set"] / p["accel"]]
+        cuts = [0.0, p["omega_set"] / p["accel"]]
     elif p["profile"] == 2:
         cuts = [p["t_step"]]
     else:

@@ -22,6 +22,20 @@ def test_ramp_profile_and_its_integral():
     assert (w, a) == (150.0, 0.0) and ang == pytest.approx(0.5 * 30 * 25 + 150 * 2)
 
 
+def test_ramp_is_at_rest_before_it_starts():
+    """A run that starts before t = 0 finds the ramp at rest (it runs up from rest at t = 0), never backwards; the
+    ramp's start is a corner as its end is: a time event for a Model Exchange host, and a step across it is RK4's,
+    which follows the kink (the exact PI step assumes one linear piece)."""
+    assert motor.speed_reference(-0.5, motor.RAMP, 150.0, 30.0, 0.0, 0.0) == (0.0, 0.0, 0.0)
+    assert motor.speed_reference(0.0, motor.RAMP, 150.0, 30.0, 0.0, 0.0) == (0.0, 30.0, 0.0)   # the ramp's piece
+    p = motor.Parameters(0.2, 10.0, 5.0, motor.RAMP, 3.0, 30.0, 0.0, 0.0, J_rotor=1e-3)
+    assert [motor.Controller.next_time_event(p, t) for t in (-1.0, 0.0, 0.05, 0.1)] == [0.0, 0.1, 0.1, None]
+    y, u = (0.0, 0.0, 0.0), motor.Inputs(0.0)
+    assert motor.integrate(p, -2e-3, 1e-3, y, u) == y                   # at rest before the ramp
+    across = motor.integrate(p, -5e-4, 1e-3, y, u)
+    assert across == rk4_step(p, -5e-4, 1e-3, y, 0.0) and across[1] > 0.0
+
+
 def test_step_and_constant_profiles():
     assert motor.speed_reference(0.5, motor.STEP, 10.0, 1.0, 1.0, 2.0) == (2.0, 0.0, 1.0)
     assert motor.speed_reference(1.5, motor.STEP, 10.0, 1.0, 1.0, 2.0) == (10.0, 0.0, 2.0 + 5.0)

@@ -7,7 +7,7 @@
 
 Speed profiles omega_ref(t) (Feng et al. accelerate the driving shaft at alpha = 30 rad/s^2 from rest):
     CONSTANT: omega_ref = omega_set
-    RAMP:     omega_ref = min(accel * t, omega_set)  (from rest)
+    RAMP:     omega_ref = min(accel * t, omega_set) from t = 0, at rest before
     STEP:     omega_ref = omega_initial before t_step, omega_set from t_step on
 Numerics (PI mode, :func:`integrate`): exact to round-off while the loop is linear over the step (the torque
 within its limit all along, :func:`pi_torque_bound`; no profile corner inside), else classical RK4 (order 4). The
@@ -31,6 +31,8 @@ def speed_reference(t: float, profile: int, omega_set: float,
         accel: float, t_step: float, omega_initial: float) -> tuple:
     """(omega_ref, alpha_ref, phi_ref): reference speed, its derivative and its integral from t = 0."""
     if profile == RAMP:
+        if t < 0.0:   # at rest until the ramp starts (a run may start before t = 0)
+            return 0.0, 0.0, 0.0
         t_end = omega_set / accel
         if t < t_end:
             return accel * t, accel, 0.5 * accel * t * t
@@ -66,11 +68,11 @@ class ControllerParameters:
     accel: float
     t_step: float
     omega_initial: float
-    #: :func:`profile_corner`
-    corner: float | None = field(init=False, repr=False, default=None)
+    #: :func:`profile_corners`
+    corners: tuple = field(init=False, repr=False, default=())
 
     def __post_init__(self):
-        self.corner = profile_corner(self)
+        self.corners = profile_corners(self)
 
 
 @dataclass(slots=True, kw_only=True)
@@ -133,14 +135,23 @@ def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
     return (p.Kp / p.J_rotor + math.sqrt(p.Ki / p.J_rotor)) * (rk4.RATE_STEP / POLE_STEP)
 
 
-def profile_corner(p: ControllerParameters) -> float | None:
-    """The time where omega_ref(t) leaves one linear piece for the next (ramp end omega_set/accel, step time
-    t_step), None for the constant profile: between corners omega_ref(t) = omega_ref(t0) + alpha_ref (t - t0)."""
+def profile_corners(p: ControllerParameters) -> tuple:
+    """The times where omega_ref(t) leaves one linear piece for the next, in order (the ramp's start 0 and end
+    omega_set/accel, the step time t_step; none for the constant profile): between corners
+    omega_ref(t) = omega_ref(t0) + alpha_ref (t - t0)."""
     if p.profile == RAMP:
-        return p.omega_set / p.accel
+        return 0.0, p.omega_set / p.accel
     if p.profile == STEP:
-        return p.t_step
-    return None
+        return (p.t_step,)
+    return ()
+
+
+def corner_inside(p: ControllerParameters, t: float, h: float) -> bool:
+    """True if a corner of the profile (:func:`profile_corners`) lies inside (t, t + h)."""
+    for corner in p.corners:
+        if t < corner < t + h:
+            return True
+    return False
 
 
 #: (J_rotor, Kp, Ki, h) -> the propagator rows of :func:`pi_propagator`; bounded (a sweep may visit many)
@@ -202,8 +213,7 @@ def integrate(p: Parameters, t: float, h: float, y: State, u: Inputs) -> tuple:
     memo = p.propagator_memo
     if memo is not None:   # a step that differs from the last by the rounding of the host's times only: the same
         h = rk4.kept_substep(h, memo[0], t, 1)
-    corner = p.corner
-    if corner is None or not t < corner < t + h:
+    if not corner_inside(p, t, h):
         r0, a, _ = reference(p, t)
         tau_load, kp, j = u[0], p.Kp, p.J_rotor
         cw, dw = (kp * r0 - tau_load) / j, kp * a / j
@@ -329,8 +339,7 @@ class Controller:
         |Kp e + Ki I| <= tau_max all along (:func:`controller_torque_peak`); elsewhere one classical RK4 step of
         :meth:`derivatives` (the clamp and the anti-windup), as the FMU's default. RK4 integrates the linear
         e(s) exactly too: the closed form is the same number to round-off, at a quarter of the cost."""
-        corner = p.corner
-        if corner is None or not t < corner < t + h:
+        if not corner_inside(p, t, h):
             r0, a, _ = reference(p, t)
             e0, integral = r0 - u[0], y[0]
             if controller_torque_peak(p, h, e0, a, integral) <= p.tau_max:
@@ -369,7 +378,9 @@ class Controller:
 
     @staticmethod
     def next_time_event(p: ControllerParameters, t: float) -> float | None:
-        """The profile's corner (:func:`profile_corner`) where it lies after t: a time event, as omega_ref's slope
-        (the ramp's end) or omega_ref itself (the step) jumps there; None after it or without one."""
-        corner = p.corner
-        return corner if corner is not None and corner > t else None
+        """The profile's first corner after t (:func:`profile_corners`): a time event, as omega_ref's slope (the
+        ramp's start and end) or omega_ref itself (the step) jumps there; None after the last or without one."""
+        for corner in p.corners:
+            if corner > t:
+                return corner
+        return None
