@@ -72,6 +72,20 @@ def test_bent_ends_turn_by_the_exact_rotation_about_the_bending_plane_normal(bet
             assert math.remainder(psi - math.atan2(-px, py), 2 * math.pi) == pytest.approx(0.0, abs=1e-13)
 
 
+@pytest.mark.parametrize("beta_deg", [5.0, 30.0, -12.0])
+def test_a_disc_displaced_along_plus_x_steepens_the_bend_by_its_end_slope(beta_deg):
+    """The outputs' sign convention (README, "The system"): +X of either disc points to the side the
+    secondary shaft leans to at beta > 0, the inside of the bend. A disc at +X turns its shaft's joint end by the
+    end slope 3 X / L away from the other shaft (primary: its end's axis towards -X1; secondary: towards +X2), so
+    the joint works at beta + 3 X / L exactly; at -X at beta - 3 X / L."""
+    b = beta_deg * DEG
+    for th in np.linspace(-3.0, 3.0, 11):
+        for slope in (1e-3, -2e-3, 0.05):
+            steeper = tj.joint(rotor(beta=b + slope), th, 0.0, 0.0, 0.0, 0.0)[0]
+            assert tj.joint(rotor(beta=b), th, slope, 0.0, 0.0, 0.0)[0] == pytest.approx(steeper, abs=1e-13)
+            assert tj.joint(rotor(beta=b), th, 0.0, 0.0, slope, 0.0)[0] == pytest.approx(steeper, abs=1e-13)
+
+
 def test_aligned_joint_does_not_couple_lateral_motion_at_first_order():
     p = rotor(beta=0.0)
     for th in np.linspace(0, 2 * math.pi, 13):

@@ -53,7 +53,9 @@ class TwinJeffcottRotor(PrescribedInputSlave):
     follows omega_in extrapolated linearly over each step (alpha_in the backward difference). Starts with untwisted
     shafts and centred discs turning with the input until the first step.
     Signs: tau_in > 0 drives; tau_load > 0 opposes disc 2's positive rotation; shaft torques > 0 while transmitting drive.
-    X1, Y1 in the primary shaft's frame, X2, Y2 in the secondary's; X lies in the plane of the two shafts.
+    X1, Y1 in the primary shaft's frame, X2, Y2 in the secondary's: Z along each shaft towards the load, X in the
+    plane of the two shafts, positive towards the side the secondary shaft leans to at beta > 0 (the inside of the
+    bend), Y = Z x X (README.md, "The system").
     """
 
     MODEL = tj
@@ -75,10 +77,14 @@ class TwinJeffcottRotor(PrescribedInputSlave):
         output("phi_out", "rad", "Disc 2 angle theta2, continuous over revolutions"),
         output("tau_in", "N.m", "Torque demanded from the driver, J_gb alpha_in + primary shaft torque",
                ("omega_in",)),
-        output("X1", "m", "Disc 1 centre displacement along X (primary frame, in the plane of the shafts)"),
-        output("Y1", "m", "Disc 1 centre displacement along Y (normal to the plane of the shafts)"),
-        output("X2", "m", "Disc 2 centre displacement along X (secondary frame, in the plane of the shafts)"),
-        output("Y2", "m", "Disc 2 centre displacement along Y (normal to the plane of the shafts)"),
+        output("X1", "m", "Disc 1 centre displacement along X (primary frame, in the plane of the shafts, "
+               "positive towards the side the secondary shaft leans to at beta > 0)"),
+        output("Y1", "m", "Disc 1 centre displacement along Y (normal to the plane of the shafts, Z x X, Z "
+               "towards the load)"),
+        output("X2", "m", "Disc 2 centre displacement along X (secondary frame, in the plane of the shafts, "
+               "positive towards the inside of the bend at beta > 0)"),
+        output("Y2", "m", "Disc 2 centre displacement along Y (normal to the plane of the shafts, Z x X, Z "
+               "towards the load)"),
         output("phi_in", "rad", "Input angle, continuous over revolutions"),
         output("alpha_in", "rad/s2", "Input angular acceleration estimated from omega_in", ("omega_in",)),
         output("phi_disc1", "rad", "Disc 1 angle theta1, continuous over revolutions"),
