@@ -595,8 +595,8 @@ def test_a_drive_that_misses_its_set_speed_is_off_target(fmu_dir, tmp_path, caps
 
 def test_points_are_reused_by_the_same_code_and_fmu_builds_only(brutti, tmp_path, fmu_dir, monkeypatch):
     """A journal's points are reused by a rerun of the same code on FMUs of the same build, also rebuilt (the FMU
-    files differ in their time stamps only); another version of the master-side code or another FMU build
-    computes them again."""
+    files differ in their time stamps only: built with another SOURCE_DATE_EPOCH); another version of the
+    master-side code or another FMU build computes them again."""
     import shutil
 
     import ujfmu.sweep
@@ -604,7 +604,9 @@ def test_points_are_reused_by_the_same_code_and_fmu_builds_only(brutti, tmp_path
     brutti_sweep(brutti, tmp_path, fmu_dir).run(workers=0, progress=False)
     rebuilt = tmp_path / "rebuilt"
     shutil.copytree(fmu_dir, rebuilt)
-    build_fmu("Load", rebuilt)   # the same sources built again: other bytes, the same build digest
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")
+    build_fmu("Load", rebuilt)   # the same sources built again, dated otherwise: other bytes, the same build digest
+    monkeypatch.delenv("SOURCE_DATE_EPOCH")
     assert (rebuilt / "Load.fmu").read_bytes() != (fmu_dir / "Load.fmu").read_bytes()
     assert len(brutti_sweep(brutti, tmp_path, rebuilt).done()) == 3
     # another build of the Load: its runtime package carries another source hash
@@ -712,3 +714,16 @@ def test_a_points_fmu_warnings_are_kept_and_a_failed_point_has_every_column(tmp_
     with open(sweep.csv) as f:
         rows = list(csv.DictReader(f))
     assert "e = 0.05 m is 0.5 of the ring radius" in rows[1]["warnings"] and rows[0]["warnings"] == ""
+
+
+def test_a_sweep_on_workers_without_dask_installed_names_the_extra(brutti, fmu_dir, tmp_path, monkeypatch):
+    """The README's Python recipe in a plain install (no `sweep` extra) had stopped on a bare ModuleNotFoundError
+    from inside Sweep.run: it names the extra and the in-process way, before any point runs; workers=0 runs."""
+    from ujfmu.extras import MissingExtraError
+    monkeypatch.setitem(sys.modules, "distributed", None)   # import distributed -> ImportError
+    sweep = brutti_sweep(brutti, tmp_path, fmu_dir, "motor.omega_set=100", "nodask")
+    with pytest.raises(MissingExtraError, match=r"workers=0.*pip install 'ujfmu\[sweep\]'"):
+        sweep.run()
+    assert not sweep.journal.exists()
+    sweep.run(workers=0)
+    assert [row["status"] for row in sweep.table()] == ["ok"]

@@ -1,4 +1,5 @@
-"""Command line: ujfmu build | run | check | references | sweep | export-ssp | bench | battery | report | mutate.
+"""Command line: ujfmu build | run | check | references | sweep | modes | export-ssp | bench | battery | report |
+mutate.
 
 The folders fmus/, scenarios/ and results/ are those of the current directory. The common options (--fmu-dir,
 --out, --quiet) go before or after the command. The library reports progress through callbacks; this module
@@ -359,7 +360,8 @@ def cmd_check(args):
     _plots_missing(args)
     _band_missing(results)
     if args.junit:
-        print(f"JUnit report: {write_junit(results, args.junit, errors, skipped, kind)}")
+        report = write_junit(results, args.junit, errors, skipped, kind)
+        _say(args, f"JUnit report: {report}")
     failed = [r for r in results if r.failed]
     unchecked = [r for r in results if not r.checked and not r.failed]
     print(f"{len(results) - len(failed) - len(unchecked)} passed, {len(failed)} failed, "

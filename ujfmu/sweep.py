@@ -52,6 +52,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
+from .extras import require
 from .master import Component, Connection, Cosimulation, FmuWarning
 from .scenario import SWEEP_KEYS, Scenario, ScenarioError
 from .steady import ERROR, FIGURES, FINAL, OK, STATUSES, grows, settle_and_measure
@@ -533,6 +534,9 @@ class Sweep:
         dask.distributed scheduler (its workers need ujfmu installed; the FMUs are sent to them). client: a
         dask.distributed Client to use instead (kept open). progress: optional callable(points_done,
         points_total), called as points finish (points reused from the journal count as done)."""
+        if client is None and (workers != 0 or scheduler is not None):
+            require("distributed", "sweep", "Sweep.run with dask workers (sweep.run(workers=0) runs in this process "
+                    "without it)")
         self.out_dir.mkdir(parents=True, exist_ok=True)
         self._check_grid()
         others = set()
