@@ -255,3 +255,17 @@ def test_an_integral_checked_on_a_coarse_grid_allows_simpsons_error_and_no_more(
     check_integral(scenario, "input_work", t, exact, power, 1e-6)
     with pytest.raises(ReferenceCheckError, match="stiff.toml: reference self-check failed: input_work"):
         check_integral(scenario, "input_work", t, 1.05 * exact, power, 1e-6)
+
+
+def test_a_compared_signal_the_generator_does_not_compute_is_named_before_a_reference_is_written(tmp_path):
+    """A band on motor.omega_ref (which the generator does not solve for) had given a reference without the column;
+    the run then stopped on 'no column motor.omega_ref' with no remedy. The generation stops first, naming the
+    signal, the move to not_compared and what the generator computes."""
+    from ujfmu.references import generate
+    from ujfmu.scenario import ScenarioError
+    scenario = rewired(tmp_path, "cardan_startup", ('"motor.tau_motor", ', '"motor.tau_motor", "motor.omega_ref", '),
+                       ('"motor.phi" = { abs = 0.0003 }', '"motor.phi" = { abs = 0.0003 }\n"motor.omega_ref" = '
+                                                           '{ rel_range = 0.05 }'))
+    with pytest.raises(ScenarioError, match=r"does not compute motor.omega_ref, which \[reference.tolerance\] "
+                                            r"compares: move it to \[reference.not_compared\].*motor\.omega"):
+        generate(scenario)

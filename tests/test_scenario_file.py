@@ -363,3 +363,28 @@ def test_every_problem_of_a_file_is_named_in_one_reading(tmp_path):
         Scenario(write(tmp_path, unknown_fmu))
     assert "2 problems" in str(error.value) and "components.l.fmu" in str(error.value)
     assert "connections" not in str(error.value) and "not connected" not in str(error.value)
+
+
+@pytest.mark.parametrize("old, new", [('[output]\nrecord = ["j.tau_in"]\n', ""),
+                                      ('record = ["j.tau_in"]', "record = []")])
+def test_a_file_that_records_nothing_is_refused_naming_what_it_could_record(tmp_path, old, new):
+    """A scenario without [output] (or with an empty record) had run, written a CSV of times alone and exited 0:
+    nothing recorded, nothing checked. It is a file problem naming the components' outputs."""
+    with pytest.raises(ScenarioError, match=r"output.record: no signal is recorded.*e\.g\. record = \['j\.omega_out'"
+                                            r".*l\.tau"):
+        Scenario(write(tmp_path, GOOD.replace(old, new)))
+
+
+@pytest.mark.parametrize("old, new, says", [
+    ("stop_time = 1.0", "stop_time = 5.0\n", "whole number (at least 1) of communication steps of step_size = 0.003 s "
+                                              "(e.g. stop_time = 4.998 or 5.001 s, or a step_size that divides 5 s "
+                                              "such as 0.0025 s)"),
+    ("stop_time = 1.0\n", "", "experiment.stop_time is missing: give it a number (seconds)"),
+])
+def test_experiment_times_that_do_not_fit_say_what_would(tmp_path, old, new, says):
+    """A stop time that is no whole number of steps names two that are and a round step that divides the span; a
+    missing time is named missing (it had read 'stop_time = None must be a finite number')."""
+    text = GOOD.replace(old, new).replace("step_size = 1e-3", "step_size = 0.003")
+    with pytest.raises(ScenarioError) as err:
+        Scenario(write(tmp_path, text))
+    assert says in str(err.value)

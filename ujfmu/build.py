@@ -185,6 +185,8 @@ def _rewrite_model_description(fmu_path, cls, guid_key: str):
     root.insert(list(root).index(root.find("CoSimulation")) + 1, unit_defs)
     root.set("guid", "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, f"ujfmu/{guid_key}")) + "}")   # the same for a rebuild
     root.attrib.pop("generationDateAndTime", None)   # optional; the archive's dates are archive_date()
+    root.set("generationTool", f"ujfmu {__version__} ({root.get('generationTool', 'pythonfmu')})")   # as FMI 3.0's
+    root.set("version", __version__)
     cs = root.find("CoSimulation")   # UjfmuSlave saves, restores and serializes its whole state
     cs.set("canGetAndSetFMUstate", "true")
     cs.set("canSerializeFMUstate", "true")

@@ -483,8 +483,8 @@ def cmd_sweep(args):
     coarse = sweep.coarse_peaks()
     if coarse:
         fastest = max(coarse, key=lambda r: abs(r.get("speed_mean", 0.0)))["note"]
-        print(f"  {len(coarse)} point{'s' if len(coarse) > 1 else ''}' max, min and p2p may fall short of the peaks "
-              f"(read too few times a period); at the fastest: {fastest[fastest.index('max, min and p2p'):]}")
+        print(f"  the max, min and p2p of {len(coarse)} point{'s' if len(coarse) > 1 else ''} may fall short of the "
+              f"peaks (read too few times a period); at the fastest: {fastest[fastest.index('max, min and p2p'):]}")
     print(_status_summary(sweep.status_counts(), len(sweep.points), steady_checked=bool(sweep.settings.steady_tol)),
           file=sys.stderr if failed else sys.stdout)
     return 1 if failed else 0

@@ -139,6 +139,17 @@ class ScenarioError(ValueError):
     """A scenario file is invalid; the message names the file and the field."""
 
 
+def _round_step(span: float, step: float) -> float:
+    """The largest of 1, 2, 2.5 and 5 times a power of 10 that is at most step and divides span into whole steps
+    (step itself if none of the 20 below it does)."""
+    for exponent in range(math.floor(math.log10(step)), math.floor(math.log10(step)) - 20, -1):
+        for mantissa in (5.0, 2.5, 2.0, 1.0):
+            h = mantissa * 10.0 ** exponent
+            if h <= step * (1 + 1e-12) and math.isclose(span / h, round(span / h), rel_tol=1e-9, abs_tol=1e-9):
+                return h
+    return step
+
+
 class _Problems:
     """The problems of one scenario file, gathered part by part so that one reading names them all."""
 
@@ -299,9 +310,16 @@ class Scenario:
                                 "number of communication steps >= 1 (1: record every step)")
         steps = (self.stop_time - self.start_time) / self.step_size
         if round(steps) < 1 or not math.isclose(round(steps), steps, rel_tol=1e-9, abs_tol=1e-9):
-            raise ScenarioError(f"{self.path}: [experiment] stop_time - start_time = "
-                                f"{self.stop_time - self.start_time:g} s must be a whole number (at least 1) of "
-                                f"communication steps of step_size = {self.step_size:g} s")
+            span = self.stop_time - self.start_time
+            hint = ""
+            if span > 0.0:
+                stops = dict.fromkeys(f"{self.start_time + n * self.step_size:.12g}"
+                                      for n in (math.floor(steps), math.ceil(steps)) if n >= 1)
+                hint = (f" (e.g. stop_time = {' or '.join(stops)} s, or a step_size that divides {span:g} s such as "
+                        f"{_round_step(span, self.step_size):g} s)")
+            raise ScenarioError(f"{self.path}: [experiment] stop_time - start_time = {span:g} s must be a whole "
+                                f"number (at least 1) of communication steps of step_size = {self.step_size:g} s"
+                                + hint)
 
     def _read_components(self, data, problems) -> set:
         """[components.*], each checked on its own: the names of those whose FMU is not known (their variables
@@ -382,6 +400,12 @@ class Scenario:
             raise ScenarioError(f"{self.path}: [output]: unknown field(s) {', '.join(sorted(unknown))}; "
                                 f"known: {', '.join(sorted(OUTPUT_KEYS))}")
         self.record = list(out.get("record", []))
+        if not self.record:
+            offered = [f"{c}.{v.name}" for c, (fmu, _) in self.components.items() if fmu in FMUS
+                       for v in fmu_class(fmu).VARIABLES if v.causality == "output"]
+            problems.add(f"{self.path}: output.record: no signal is recorded, so a run would write a table of times "
+                         f"alone and check nothing; name what to record under [output], e.g. record = "
+                         f"{offered[:3]!r}" + (f" (the components' outputs: {', '.join(offered)})" if offered else ""))
         for i, name in enumerate(self.record):
             if str(name).partition(".")[0] not in broken:
                 with problems.kept():
@@ -724,6 +748,8 @@ class Scenario:
 
     def _number(self, table, field, default=None):
         value = table.get(field.split(".")[-1], default)
+        if value is None:
+            raise ScenarioError(f"{self.path}: {field} is missing: give it a number (seconds)")
         if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
             raise ScenarioError(f"{self.path}: {field} = {value!r} must be a finite number")
         return float(value)

@@ -187,8 +187,8 @@ class SamplingCheck:
         also = f"; so does {' and '.join(lower)}" if lower else ""
         return (f"FAIL {what}, {self.samples:.3g} samples a period at a record step of {self.interval:g} s, at most "
                 f"{MIN_SAMPLES_PER_PERIOD:g} (Nyquist): the record aliases the order (a step of a whole number of its "
-                f"periods samples one joint angle and shows a constant; the reference, sampled at the same instants, "
-                f"agrees){also}; record at most every {resolving:.3g} s to sample it "
+                f"periods samples one joint angle and shows a constant, and a reference sampled at the same instants "
+                f"agrees with it){also}; record at most every {resolving:.3g} s to sample it "
                 f"{RESOLVING_SAMPLES_PER_PERIOD:g} times a period (step_size, and output_interval)")
 
 

@@ -152,6 +152,9 @@ def test_a_fixed_parameter_or_an_output_set_while_stepping_is_refused_in_fmi3(fm
     with pytest.raises(FMICallException):
         inst.set(omega_out=1.0)
     assert any("omega_out is an output" in m for m in log), log
+    fixed = next(m for m in log if "parameter bend_angle is fixed" in m)   # in FMI 3.0's names, as every message
+    assert "before fmi3ExitInitializationMode (or after fmi3Reset)" in fixed
+    assert not [m for m in log if "fmi2" in m], log
 
 
 def test_model_exchange_bad_input_gives_nan_derivatives_with_a_message(fmu3_dir, opened):

@@ -28,6 +28,7 @@ host's logger also with logging off.
 """
 
 import math
+import re
 import weakref
 
 from pythonfmu3 import Boolean, DefaultExperiment, Float64, Fmi3Causality, Fmi3SlaveBase, Fmi3Status, Int32
@@ -162,6 +163,22 @@ def fmi3_variables(model) -> tuple:
     return tuple((v, None) for v in model.VARIABLES) + state_variables(model) + event_indicator_variables(model)
 
 
+#: FMI 2.0 names the shared core's messages use, as FMI 3.0 spells them (:func:`fmi3_names`)
+_FMI3_SPELLING = {"GetReal": "GetFloat64", "SetReal": "SetFloat64", "FMUstate": "FMUState",
+                  "DeSerialize": "Deserialize"}
+
+
+def fmi3_names(message: str) -> str:
+    """message with each FMI 2.0 function or status name (fmi2DoStep, fmi2SetFMUstate, fmi2GetReal, fmi2Discard...)
+    written as FMI 3.0 names it: the core's messages are shared with the FMI 2.0 FMUs."""
+    def fmi3(match):
+        name = match.group(1)
+        for old, new in _FMI3_SPELLING.items():
+            name = name.replace(old, new)
+        return "fmi3" + name
+    return re.sub(r"\bfmi2(\w+)", fmi3, message)
+
+
 # --- the FMU -------------------------------------------------------------------------------------------------------
 class Fmi3Model(Fmi3SlaveBase, CoSimulation):
     """FMI 3.0 Co-Simulation FMU of the ujfmu model ``MODEL`` (see the module docstring)."""
@@ -243,7 +260,7 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
 
     # --- logging and errors ---
     def _log_from_core(self, message, status=Fmi3Status.ok, *args, **kwargs):
-        self.log(message, Fmi3Status(int(status)))
+        self.log(fmi3_names(message), Fmi3Status(int(status)))
 
     def _pin(self):
         _PINNED_AFTER_EXCEPTION.extend((self, self, type(self), self.log_queue))

@@ -78,6 +78,14 @@ def generate(scenario):
                                       "pip install 'ujfmu[references]'", name=dependency) from None
     module, function = GENERATORS[name]
     table, provenance = getattr(importlib.import_module(module), function)(scenario)
+    missing = [n for n in scenario.tolerances if n not in table.dtype.names]
+    if missing:
+        from ..scenario import ScenarioError
+        given = [n for n in table.dtype.names if n != "time"]
+        raise ScenarioError(f"{scenario.path}: the reference generator '{name}' does not compute "
+                       f"{', '.join(missing)}, which [reference.tolerance] compares: move "
+                       f"{'it' if len(missing) == 1 else 'them'} to [reference.not_compared] with the reason "
+                       f"(it computes {', '.join(given)}); no reference was written")
     return table, (f"{provenance}. {regenerate_text(scenario)} {SETUP_TAG}{scenario.setup_digest()}] "
                    f"{DEFAULTS_TAG}{scenario.defaults_digest()}]")
 
