@@ -16,7 +16,8 @@ class RingCoupling(PrescribedInputSlave):
     M_p = 157 (EI/R^3) e^2 cos(phi1 + phi2) (Eq. 7), the elastic torque -c_s x_e - c_d x_e' with
     x_e = phi2 - phi1 - (phi_out_start - phi_in_start) (Eq. 8), minus tau_load. c_s = c_d = tau_load = 0 is the
     paper's Eq. (9), the pendulum of Eq. (12). M_p derives from the ring's potential and acts on both shafts, so
-    tau_in = I1 alpha_in - M_p - c_s x_e - c_d x_e'. Integrated with classical RK4 substeps.
+    tau_in = I1 alpha_in - M_p - c_s x_e - c_d x_e'. Integrated by Krogstad's fourth-order exponential Runge-Kutta
+    method with the ring's oscillator exact (model.exponential_steps): an undamped ring keeps its free motion.
     Default c_s = 87 EI/R for the default wire and ring (the paper's "87 EI/R^3" has the wrong units; Eq. 22 needs
     EI/R): set c_s again when changing R, d or E. Signs: speeds > 0 the same way round; tau_in > 0 drives;
     tau_load > 0 opposes shaft 2's positive rotation; transmitted_torque > 0 drives shaft 2.
@@ -73,7 +74,8 @@ class RingCouplingTorqueDriven(TorqueDrivenSlave):
     The same coupling as RingCoupling (Turla, Iljin Eqs. 5-22), with shaft 1 free: its angle and speed are a
     state integrated from (J_drive + I1) alpha_in = tau_in + M_p + c_s x_e + c_d x_e', J_drive the driver's rotor
     inertia lumped on shaft 1 (model.TorqueDriven); shaft 2 as in RingCoupling; tau_in and tau_load held over each
-    step (classical RK4, substeps from the two-mass natural rate and the 2x forcing). Outputs as RingCoupling's;
+    step (Krogstad's exponential Runge-Kutta method, the rigid rotation and the two-mass oscillator exact:
+    model.torque_exponential_steps). Outputs as RingCoupling's;
     tau_input_shaft = tau_in - J_drive*alpha_in is what RingCoupling calls tau_in. start_at_input_speed starts
     shaft 2 at omega_in_start. Offers Model Exchange (FMI 3.0). Wire it to MotorController (tau_motor -> tau_in,
     omega_in -> omega) and a Load (omega_out -> omega, tau -> tau_load). Signs as RingCoupling's.

@@ -20,12 +20,13 @@ With c_s = c_d = tau_load = 0 this is Eq. (9), the pendulum y'' + A_e sin y = 0 
 (Eq. 11-12), A_e = 157 e^2 EI / (I2 R^3).
 """
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
-from ...fmu import rk4
+from ...fmu import rk4, series
 from ..protocol import Drive, Torques, shaft_inertia_problems
 
 #: Eq. (5)/(7): M_p = MP_COEFFICIENT (EI/R^3) e^2 cos(phi1 + phi2)
@@ -86,11 +87,21 @@ class Parameters:
     mp_amplitude: float = field(init=False, repr=False)
     offset: float = field(init=False, repr=False)
     natural_rate: float = field(init=False, repr=False)
+    #: the linear part L of the FMU's exponential integrator (:func:`linear_blocks`), the bound of its rates and of
+    #: the remainder N's own (:func:`exponential_steps`)
+    linear: tuple = field(init=False, repr=False)
+    linear_rate: float = field(init=False, repr=False)
+    remainder_rate: float = field(init=False, repr=False)
+    #: (h, :func:`krogstad_operators` at h) of the last substep length, a pure cache (one float compared a step)
+    operators_memo: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
         self.mp_amplitude = MP_COEFFICIENT * bending_stiffness(self.E, self.d) * self.e * self.e / self.R ** 3
         self.offset = self.phi_out_start - self.phi_in_start        # alpha2 - alpha1
         self.natural_rate = natural_rate(self)
+        self.linear = linear_blocks(self.c_s, self.c_d, self.I2)
+        self.linear_rate = math.sqrt(self.c_s / self.I2) + self.c_d / self.I2
+        self.remainder_rate = math.sqrt(self.mp_amplitude / self.I2)
 
 
 def torques(p: Parameters, phi1: float, w1: float, phi2: float, w2: float) -> tuple:
@@ -158,43 +169,104 @@ def drive_derivatives(p: Parameters, t: float, y: State, phi: float, omega: floa
 
 
 def integrate(p: Parameters, t: float, h: float, y: State, u: Drive) -> tuple:
-    """The FMU's step (the protocol's optional ``integrate``): classical RK4, fourth order, of
-    :func:`drive_derivatives` from the input motion u at the step's start (phi(s) = phi + s (omega + alpha s / 2),
-    w(s) = omega + alpha s, tau_load held, as ``rk4.integrate_drive``) in ``rk4.substeps`` of :func:`rate_bound` at
-    the input speed's bound over the step, max(|omega|, |omega + alpha h|): :func:`rk4_steps`."""
+    """The FMU's step (the protocol's optional ``integrate``): :func:`exponential_steps` from the input motion u at
+    the step's start (phi(s) = phi + s (omega + alpha s / 2), w(s) = omega + alpha s, tau_load held), in
+    :func:`exponential_substeps` at the input speed's bound over the step, max(|omega|, |omega + alpha h|)."""
     phi, omega, alpha, tau_load = u
-    n = rk4.substeps(rate_bound(p, y, max(abs(omega), abs(omega + alpha * h))), h)
-    return rk4_steps(p, y, h, n, phi, omega, alpha, tau_load)
+    n = exponential_substeps(p, h, max(abs(omega), abs(omega + alpha * h)), y[1])
+    return exponential_steps(p, y, h, n, phi, omega, alpha, tau_load)
 
 
-def rk4_steps(p: Parameters, y: Sequence[float], t_span: float, n: int, phi0: float, w0: float, alpha: float,
-              tau_load: float) -> tuple:
-    """``rk4.integrate_drive(drive_derivatives, p, t, y, t_span, n, phi0, w0, alpha, tau_load)`` with the equation
-    of motion (:func:`drive_derivatives`) written into the four stages: the same operations in the same order, so
-    the same numbers bit for bit (test), without a call per stage. Classical RK4: fourth order (test: observed
-    order against a fine independent solve)."""
-    amplitude, c_s, c_d, offset, i2 = p.mp_amplitude, p.c_s, p.c_d, p.offset, p.I2
-    cos = math.cos
+# --- the FMU's step: an exponential Runge-Kutta method, the ring's linear oscillator exact -------------------------
+
+def linear_blocks(c_s: float, c_d: float, inertia: float) -> tuple:
+    """L of the exponential integrator: the ring's oscillator in the twist x_e = phi2 - phi1 - offset and its rate,
+    ((0, 1), (-c_s / J, -c_d / J)) with J the inertia it moves (I2 behind a prescribed shaft 1; the two shafts'
+    reduced inertia in the torque-driven coupling)."""
+    return ((0.0, 1.0), (-c_s / inertia, -c_d / inertia)),
+
+
+#: the rigid rotation's block of the torque-driven coupling's L: d/dt (theta, Omega) = (Omega, 0)
+RIGID_BLOCK = ((0.0, 1.0), (0.0, 0.0))
+
+
+def exponential_substeps(p: Parameters, t_span: float, w_in: float, w_out: float) -> int:
+    """Substeps of :func:`exponential_steps`: each resolves the remainder N's own rate (sqrt(M_p amplitude / J),
+    ``remainder_rate``) plus the ring's forcing at 2 max(|w1|, |w2|) (:func:`forcing_rate`), and keeps h |lambda| <=
+    1 over L's eigenvalues (``rk4.substeps``: h rate <= RATE_STEP = 0.5), where the phi-functions' series converge
+    fast; the oscillator itself needs no resolving (its part is exact)."""
+    return rk4.substeps(max(p.remainder_rate + forcing_rate(w_in, w_out), 0.5 * p.linear_rate), t_span)
+
+
+@functools.lru_cache(maxsize=64)
+def krogstad_operators(blocks: tuple, h: float) -> tuple:
+    """Per 2x2 block of L (:func:`linear_blocks`), the operators of one substep of h of Krogstad's method
+    (:func:`exponential_steps`), memoized (varying steps evict the oldest): E(h/2) and E(h) = exp(h L) row by row
+    (4 numbers each), then the rate columns (L acts on N's second row alone: N = (0, g)) of Q1 = (h/2) phi_1(h L/2),
+    Q2 = h phi_2(h L/2), R1 = h phi_1(h L), R2 = 2 h phi_2(h L), S1 = h (2 phi_2 - 4 phi_3)(h L),
+    S2 = h (4 phi_3 - phi_2)(h L) (2 numbers each)."""
+    half = 0.5 * h
+
+    def full(block, step):
+        if block == RIGID_BLOCK:   # L^2 = 0: exp(step L) = I + step L
+            return 1.0, step, 0.0, 1.0
+        return tuple(v for row in series.phi_sum(block, step, (1.0,)) for v in row)
+
+    def rate_column(block, step, coefficients):
+        if block == RIGID_BLOCK:   # phi_k(step L) = I / k! + step L / (k + 1)!
+            return (step * sum(c / math.factorial(k + 1) for k, c in enumerate(coefficients)),
+                    sum(c / math.factorial(k) for k, c in enumerate(coefficients)))
+        return tuple(row[0] for row in series.phi_sum(block, step, coefficients, (1,)))
+
+    return tuple((full(b, half), full(b, h), rate_column(b, half, (0.0, half)), rate_column(b, half, (0.0, 0.0, h)),
+                  rate_column(b, h, (0.0, h)), rate_column(b, h, (0.0, 0.0, 2.0 * h)),
+                  rate_column(b, h, (0.0, 0.0, 2.0 * h, -4.0 * h)), rate_column(b, h, (0.0, 0.0, -h, 4.0 * h)))
+                 for b in blocks)
+
+
+def operators(p: Parameters, h: float) -> tuple:
+    """:func:`krogstad_operators` (p.linear, h), kept on p for the last h: its memo hashes L every call, this
+    compares one float."""
+    memo = p.operators_memo
+    if memo is None or memo[0] != h:
+        memo = p.operators_memo = h, krogstad_operators(p.linear, h)
+    return memo[1]
+
+
+def exponential_steps(p: Parameters, y: Sequence[float], t_span: float, n: int, phi0: float, w0: float,
+                      alpha: float, tau_load: float) -> tuple:
+    """Shaft 2's state after t_span (shaft 1 at phi(s) = phi0 + s (w0 + alpha s / 2), tau_load held) by n substeps
+    of Krogstad's fourth-order exponential Runge-Kutta method (ETDRK4-B: Krogstad, "Generalized integrating factor
+    methods for stiff PDEs", J. Comput. Phys. 203, 2005) in the twist z = (x, x') of x = phi2 - phi(s) - offset:
+        z' = L z + (0, g),   L = ((0, 1), (-c_s/I2, -c_d/I2)),   g = (M_p - tau_load) / I2 - alpha,
+        M_p = 157 (EI/R^3) e^2 cos(2 phi(s) + offset + x)                                  (Eq. 9 in the twist)
+    The ring's free oscillation is exact at any step (an undamped ring keeps its amplitude and phase, which RK4 at
+    h omega_n = 0.5 lost by 1e-4 a substep); g, the misalignment moment turning at twice the running speed, by four
+    evaluations a substep (N_u = g(t, z), D_i = g(stage i) - N_u):
+        a = E(h/2) z + Q1 N_u,  b = a + Q2 D_a,  c = E(h) z + R1 N_u + R2 D_b,
+        z+ = E(h) z + R1 N_u + S1 (D_a + D_b) + S2 D_c                       (:func:`krogstad_operators`)
+    Order 4 (test against a fine independent solve); with L = 0 it is classical RK4."""
     h = t_span / n
-    hh, h6 = 0.5 * h, h / 6.0
+    (e, f, q1, q2, r1, r2, s1, s2), = operators(p, h)
+    amplitude, offset, load = p.mp_amplitude / p.I2, p.offset, tau_load / p.I2 + alpha
+    cos = math.cos
+    x, v = y[0] - phi0 - offset, y[1] - w0
     s = 0.0
-    phi_s, w_s = phi0 + s * (w0 + 0.5 * alpha * s), w0 + alpha * s
-    y0, y1 = y
     for _ in range(n):
         sm, se = s + 0.5 * h, s + h
-        phi_m, w_m = phi0 + sm * (w0 + 0.5 * alpha * sm), w0 + alpha * sm
-        phi_e, w_e = phi0 + se * (w0 + 0.5 * alpha * se), w0 + alpha * se
-        a1 = (amplitude * cos(phi_s + y0) - (c_s * (y0 - phi_s - offset) + c_d * (y1 - w_s)) - tau_load) / i2
-        z0, b0 = y0 + hh * y1, y1 + hh * a1
-        b1 = (amplitude * cos(phi_m + z0) - (c_s * (z0 - phi_m - offset) + c_d * (b0 - w_m)) - tau_load) / i2
-        z0, c0 = y0 + hh * b0, y1 + hh * b1
-        c1 = (amplitude * cos(phi_m + z0) - (c_s * (z0 - phi_m - offset) + c_d * (c0 - w_m)) - tau_load) / i2
-        z0, d0 = y0 + h * c0, y1 + h * c1
-        d1 = (amplitude * cos(phi_e + z0) - (c_s * (z0 - phi_e - offset) + c_d * (d0 - w_e)) - tau_load) / i2
-        y0, y1 = y0 + h6 * (y1 + 2.0 * (b0 + c0) + d0), y1 + h6 * (a1 + 2.0 * (b1 + c1) + d1)
+        at_u = 2.0 * (phi0 + s * (w0 + 0.5 * alpha * s)) + offset
+        at_m = 2.0 * (phi0 + sm * (w0 + 0.5 * alpha * sm)) + offset
+        at_e = 2.0 * (phi0 + se * (w0 + 0.5 * alpha * se)) + offset
+        nu = amplitude * cos(at_u + x) - load
+        ax = e[0] * x + e[1] * v + q1[0] * nu   # g depends on the stages' x alone
+        da = amplitude * cos(at_m + ax) - load - nu
+        db = amplitude * cos(at_m + ax + q2[0] * da) - load - nu
+        cx, cv = f[0] * x + f[1] * v + r1[0] * nu, f[2] * x + f[3] * v + r1[1] * nu
+        dc = amplitude * cos(at_e + cx + r2[0] * db) - load - nu
+        dab = da + db
+        x, v = cx + s1[0] * dab + s2[0] * dc, cv + s1[1] * dab + s2[1] * dc
         s = se
-        phi_s, w_s = phi_e, w_e
-    return y0, y1
+    return (x + phi0 + t_span * (w0 + 0.5 * alpha * t_span) + offset, v + w0 + alpha * t_span)
 
 
 def forcing_rate(omega_max: float, omega_out: float) -> float:
@@ -208,7 +280,8 @@ def forcing_rate(omega_max: float, omega_out: float) -> float:
 
 def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
     """max(natural rate, forcing rate): the free motion and the 2x forcing (:func:`forcing_rate`), the larger
-    resolved, not their sum (``rk4.fastest_rate``), written out (the FMU's step asks for it every step)."""
+    resolved, not their sum (``rk4.fastest_rate``): the protocol's RK4 rule, not used by the FMU, which steps with
+    :func:`integrate`."""
     return max(p.natural_rate, 2.0 * max(omega_max, abs(y[1])))
 
 
@@ -277,6 +350,13 @@ class TorqueDrivenParameters(Parameters):
         if j_in > 0.0:
             mobility = 1.0 / self.I2 + 1.0 / j_in
             self.natural_rate = math.sqrt((self.c_s + self.mp_amplitude) * mobility) + self.c_d * mobility
+            # the exponential integrator's (torque_exponential_steps): the rigid rotation and the twist oscillator
+            # of the reduced inertia; N's rates, sqrt(M_p amplitude (4 / (J_in + I2) + kappa (1/I2 - 1/J_in)))
+            self.linear = (RIGID_BLOCK, linear_blocks(self.c_s, self.c_d, 1.0 / mobility)[0])
+            self.linear_rate = math.sqrt(self.c_s * mobility) + self.c_d * mobility
+            total = j_in + self.I2
+            self.remainder_rate = math.sqrt(self.mp_amplitude * (4.0 / total + (j_in - self.I2) ** 2
+                                                                 / (total * j_in * self.I2)))
 
 
 def input_acceleration(p: TorqueDrivenParameters, tau_in: float, m_p: float, elastic: float) -> float:
@@ -284,6 +364,45 @@ def input_acceleration(p: TorqueDrivenParameters, tau_in: float, m_p: float, ela
     shaft 1: -dPi/dphi1 = M_p and the elastic torque's reaction, see the module docstring), from M_p and the
     elastic torque on shaft 2 of :func:`torques` at the state."""
     return (tau_in + m_p - elastic) / (p.J_drive + p.I1)
+
+
+def torque_exponential_steps(p: TorqueDrivenParameters, y: Sequence[float], t_span: float, n: int, tau_in: float,
+                             tau_load: float) -> tuple:
+    """The torque-driven coupling's state (phi1, w1, phi2, w2) after t_span (the torques held) by n substeps of
+    Krogstad's method (:func:`exponential_steps`) in the coordinates of its two motions, J_in = J_drive + I1,
+    J = J_in + I2: the rigid rotation theta = (J_in phi1 + I2 phi2) / J and the twist x = phi2 - phi1 - offset,
+        J theta'' = tau_in - tau_load + 2 M_p
+        x'' = -(c_s x + c_d x') (1/I2 + 1/J_in) + M_p (1/I2 - 1/J_in) - tau_load / I2 - tau_in / J_in
+        M_p = 157 (EI/R^3) e^2 cos(2 theta + kappa (x + offset)),  kappa = (J_in - I2) / J
+    (the shafts' equations of :meth:`TorqueDriven.derivatives` added and subtracted; M_p acts on both shafts). L
+    holds the rotation's block (0, 1; 0, 0) and the twist's oscillator exactly; N = (0, g_theta, 0, g_x) its
+    remainders."""
+    h = t_span / n
+    (er, fr, q1r, q2r, r1r, r2r, s1r, s2r), (e, f, q1, q2, r1, r2, s1, s2) = operators(p, h)
+    j_in, i2 = p.J_drive + p.I1, p.I2
+    c1, c2 = j_in / (j_in + i2), i2 / (j_in + i2)
+    kappa, offset, amplitude, cos = c1 - c2, p.offset, p.mp_amplitude, math.cos
+    rigid, rigid_mp = (tau_in - tau_load) / (j_in + i2), 2.0 / (j_in + i2)
+    twist, twist_mp = -tau_load / i2 - tau_in / j_in, 1.0 / i2 - 1.0 / j_in
+    phi1, w1, phi2, w2 = y
+    th, om, x, v = c1 * phi1 + c2 * phi2, c1 * w1 + c2 * w2, phi2 - phi1 - offset, w2 - w1
+    for _ in range(n):
+        mp = amplitude * cos(2.0 * th + kappa * (x + offset))
+        nr, nx = rigid + rigid_mp * mp, twist + twist_mp * mp
+        ath, ax = er[0] * th + er[1] * om + q1r[0] * nr, e[0] * x + e[1] * v + q1[0] * nx
+        mp_a = amplitude * cos(2.0 * ath + kappa * (ax + offset))
+        dar, dax = rigid_mp * mp_a + rigid - nr, twist_mp * mp_a + twist - nx
+        bth, bx = ath + q2r[0] * dar, ax + q2[0] * dax
+        mp_b = amplitude * cos(2.0 * bth + kappa * (bx + offset))
+        dbr, dbx = rigid_mp * mp_b + rigid - nr, twist_mp * mp_b + twist - nx
+        cth, com = fr[0] * th + fr[1] * om + r1r[0] * nr, fr[2] * th + fr[3] * om + r1r[1] * nr
+        cx, cv = f[0] * x + f[1] * v + r1[0] * nx, f[2] * x + f[3] * v + r1[1] * nx
+        mp_c = amplitude * cos(2.0 * (cth + r2r[0] * dbr) + kappa * (cx + r2[0] * dbx + offset))
+        dcr, dcx = rigid_mp * mp_c + rigid - nr, twist_mp * mp_c + twist - nx
+        sr, sx = dar + dbr, dax + dbx
+        th, om = cth + s1r[0] * sr + s2r[0] * dcr, com + s1r[1] * sr + s2r[1] * dcr
+        x, v = cx + s1[0] * sx + s2[0] * dcx, cv + s1[1] * sx + s2[1] * dcx
+    return th - c2 * (x + offset), om - c2 * v, th + c1 * (x + offset), om + c1 * v
 
 
 class TorqueDriven:
@@ -322,6 +441,20 @@ class TorqueDriven:
     def rate_bound(p: TorqueDrivenParameters, y: tuple, omega_max: float) -> float:
         """max(natural-rate bound with shaft 1 free, forcing rate), as :func:`rate_bound`."""
         return rk4.fastest_rate(p.natural_rate, forcing_rate(omega_max, y[3]))
+
+    @staticmethod
+    def input_acceleration(p: TorqueDrivenParameters, y: tuple, u: Torques) -> float:
+        """Shaft 1's acceleration at the state y under the torques u (:func:`input_acceleration`)."""
+        m_p, _, elastic = torques(p, y[0], y[1], y[2], y[3])
+        return input_acceleration(p, u.tau_in, m_p, elastic)
+
+    @staticmethod
+    def integrate(p: TorqueDrivenParameters, t: float, h: float, y: tuple, u: Torques) -> tuple:
+        """The FMU's step: :func:`torque_exponential_steps` in :func:`exponential_substeps` at shaft 1's speed bound
+        over the step, |w1| + |alpha1| h, and shaft 2's speed."""
+        reach = abs(y[1]) + abs(TorqueDriven.input_acceleration(p, y, u)) * h
+        n = exponential_substeps(p, h, reach, y[3])
+        return torque_exponential_steps(p, y, h, n, u.tau_in, u.tau_load)
 
     @staticmethod
     def outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
