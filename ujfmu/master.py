@@ -680,13 +680,18 @@ class Cosimulation:
                 self._op_failed(op)
         row[:] = self._scratch_view[self._record_index]
 
+    @property
+    def iterates(self) -> bool:
+        """True when the steps iterate the torn inputs (the implicit scheme with a loop to close, not found open)."""
+        return self.coupling == "implicit" and bool(self._tears) and not self.open_loop
+
     def advance(self, n_steps, rows=None, progress=None, output_interval=1):
         """Take n_steps communication steps; when rows is given, record into it after every output_interval-th
         step and after the last (rows: ceil(n_steps / output_interval) x len(columns)). progress: optional
         callable(steps_done, n_steps) called now and then; returning False stops the run there (``RunStopped``).
         ``rows_done``: the rows written so far."""
         _check_interval(output_interval)
-        implicit = self.coupling == "implicit" and bool(self._tears) and not self.open_loop
+        implicit = self.iterates
         monitor = bool(self._watched or self._bonds)
         every = max(1, n_steps // 200)
         self.rows_done, k = 0, 0

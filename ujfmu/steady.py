@@ -11,7 +11,8 @@ revolutions and reduces each output to its figures. Whether it was steady is mea
   such figure f of the last window agrees with those of every earlier one, |f(T) - f(t)| <= steady_tol * max(|f(T)|,
   FLOOR * size of that output: its largest figure, or half its peak-to-peak over the window where that is larger, so
   that orders the step does not resolve still count toward its size) (a response that only beats, never settling, then
-  shows its variation within the quarter). A transient decaying as exp(-sigma t) changes by A exp(-sigma T) (exp(sigma
+  shows its variation within the quarter), or the change is within the coupling's own noise, ``coupling_noise``
+  (3e-4) of that size under the implicit scheme (whose iteration stops within that of a torn input's value). A transient decaying as exp(-sigma t) changes by A exp(-sigma T) (exp(sigma
   T/4) - 1) between 3T/4 and T and leaves A exp(-sigma T) at T: once sigma T >= 4 ln 2 = 2.8 the error left is below
   the change measured. Otherwise T grows by GROWTH (1.5x), up to ``max_settle_time`` (default 8x the first T), so any
   decay slower than that shows as a change. T is at least four windows long, and windows are whole revolutions laid
@@ -153,9 +154,10 @@ def periodic_figures(window: Window, signals, orders) -> dict:
     return result
 
 
-def steady_change(new: dict, old: dict, orders=None) -> tuple:
+def steady_change(new: dict, old: dict, orders=None, noise: float = 0.0) -> tuple:
     """(largest change relative to its allowance, 'signal figure', what the change is relative to) between two
-    windows' ``periodic_figures`` of these orders; <= steady_tol means steady (module docstring)."""
+    windows' ``periodic_figures`` of these orders; <= steady_tol means steady (module docstring). A change of at
+    most noise times the signal's size is the coupling's resolution (:func:`coupling_noise`), not a change."""
     worst, name, against = 0.0, "", "itself"
     for signal, (figures_new, scale) in new.items():
         for i, (f_new, f_old) in enumerate(zip(figures_new, old[signal].figures)):
@@ -163,12 +165,14 @@ def steady_change(new: dict, old: dict, orders=None) -> tuple:
                 continue
             allowance = max(abs(f_new), FLOOR * scale)
             change = abs(f_new - f_old)
+            if change <= noise * scale:
+                continue
             relative = change / allowance if allowance > 0 else (0.0 if change == 0 else math.inf)
             if not relative <= worst:
                 figure = "mean" if i == 0 else f"{orders[i - 1]}x order amplitude" if orders else "order amplitude"
-                against = ("itself" if abs(f_new) >= FLOOR * scale else
-                           f"its allowance, {FLOOR:g} of the signal's size {scale:.3g} (its largest figure, or "
-                           f"half its peak-to-peak; it is {f_new:.3g} itself)")
+                against = (f"itself ({abs(f_new):.3g}; the change {change:.3g})" if abs(f_new) >= FLOOR * scale else
+                           f"its allowance {allowance:.3g}, {FLOOR:g} of the signal's size {scale:.3g} (its largest "
+                           f"figure, or half its peak-to-peak; it is {f_new:.3g} itself; the change {change:.3g})")
                 worst, name = relative, f"{signal} {figure}"
     return worst, name, against
 
@@ -199,6 +203,17 @@ def grows(signal: str) -> bool:
     return is_running_angle(signal) or signal.partition(".")[2] in ENERGY_INTEGRALS
 
 
+def coupling_noise(cosim) -> float:
+    """The relative size of the step-to-step noise the co-simulation's coupling leaves in its signals: the implicit
+    scheme ends its iteration within ``master.COUPLING_RTOL`` (3e-4) of a torn input's largest value, so a figure
+    can move between windows by that much of its signal's size without any change of the motion (a fresh-eyes
+    trial: a 1x order of 1e-5 of a shaft torque's mean, absent from the monolithic solve and from the explicit
+    scheme, wandered by twice itself and failed steady points); 0 where the steps do not iterate (the explicit
+    scheme, or nothing to close: ``Cosimulation.iterates``)."""
+    from .master import COUPLING_RTOL
+    return COUPLING_RTOL if getattr(cosim, "iterates", False) else 0.0
+
+
 def settle_and_measure(cosim, settings) -> dict:
     """Settle the co-simulation, check steadiness and the operating point, measure; returns the record fields:
     the figures, ``status``, ``error`` (the reason for a status other than ok), ``settled_s`` (the settle time
@@ -212,6 +227,7 @@ def settle_and_measure(cosim, settings) -> dict:
         record.update(_measured(window, s), settled_s=window.start - cosim.start_time, steady_change=math.nan)
         return _check_operating_point(window, s, record)
     signals = [x for x in dict.fromkeys(s.outputs + [s.running_speed]) if not grows(x)]
+    noise = coupling_noise(cosim)
     start = cosim.time
     settle, cap = s.settle_time, None
     while True:
@@ -228,7 +244,7 @@ def settle_and_measure(cosim, settings) -> dict:
             earlier.append(periodic_figures(window, signals, s.orders))
             if window.start >= start + settle - 0.5 * h:
                 break
-        change, worst, against = max(steady_change(earlier[-1], old, s.orders) for old in earlier[:-1])
+        change, worst, against = max(steady_change(earlier[-1], old, s.orders, noise) for old in earlier[:-1])
         if change <= s.steady_tol or settle >= cap * (1.0 - 1e-9) or window.start - start >= cap - 0.5 * h:
             break
         settle = min(GROWTH * settle, cap)   # the last growth ends at the cap itself
