@@ -1505,7 +1505,7 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
 
     progress: optional callable(steps_done, steps_total) called now and then. diagnostics: optional dict, filled
     (also when the run fails) with "bonds" (``BondEnergy`` per power bond) and "held_inputs" (``HeldInput`` per
-    input no connection feeds).
+    input no connection feeds), and after a run with "iterates" (``Cosimulation.iterates``).
     """
     if not (isinstance(step_size, numbers.Real) and step_size > 0.0 and math.isfinite(step_size)):
         raise CosimulationError(f"communication step size {step_size!r} must be finite and > 0")
@@ -1516,4 +1516,7 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
     with Cosimulation(components, connections, step_size, record, start_time, coupling) as cosim:
         if diagnostics is not None:
             diagnostics.update(bonds=cosim.bond_energies, held_inputs=cosim.held_inputs)
-        return cosim.run(n_steps, progress, output_interval)
+        table = cosim.run(n_steps, progress, output_interval)
+        if diagnostics is not None:
+            diagnostics["iterates"] = cosim.iterates
+        return table

@@ -25,6 +25,8 @@
     [reference.extrapolated] "comp.var" = { rel_range = 0.001 }: the same test on the step-halving (Richardson)
                             extrapolation 2 y(h/2) - y(h) of runs at step_size and step_size/2, which removes the
                             first-order coupling error; for scenarios whose [reference.tolerance] must allow for it
+    [reference.orders]      "comp.var" = { rel = 0.05 }: its running-speed orders over the steady window within
+                            rel of the reference's (needs output.running_speed and steady_from)
     With a reference file, every recorded signal is compared or listed in not_compared with its reason; a reference
     whose provenance names another setup (``Scenario.setup_digest``) than the scenario's is refused.
 """
@@ -58,7 +60,7 @@ EXPERIMENT_KEYS = {"start_time", "stop_time", "step_size", "coupling", "output_i
 SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions", "orders", "steady_tol",
               "max_settle_time"}
 OUTPUT_KEYS = {"record", "plot", "orbits", "spectra", "running_speed", "steady_from"}
-REFERENCE_KEYS = {"file", "generator", "tolerance", "extrapolated", "not_compared"}
+REFERENCE_KEYS = {"file", "generator", "tolerance", "extrapolated", "not_compared", "orders"}
 TOLERANCE_KEYS = {"rel_range", "abs"}
 
 
@@ -466,6 +468,7 @@ class Scenario:
                                     "while you make a new reference (`ujfmu references`) and choose the bands "
                                     "(`ujfmu run --check-step`), give each a provisional band, e.g. "
                                     + "; ".join(bands))
+        self.order_tolerances = self._order_tolerances(ref)
         self.plot = list(out.get("plot", self.tolerances or self.record))
         for name in self.plot:
             if name not in self.record:
@@ -558,6 +561,7 @@ class Scenario:
         out.name = name or f"{self.name}_changed"
         out.title = f"{self.title} (changed: " + ", ".join(self._change_text(k, v) for k, v in changes.items()) + ")"
         out.reference_file, out.tolerances, out.extrapolated_tolerances = None, {}, {}
+        out.order_tolerances = {}
         return out
 
     def _change_text(self, key: str, value) -> str:
@@ -718,6 +722,34 @@ class Scenario:
                                 f"scenario's folder {folder}; `ujfmu references` writes only inside it (give a "
                                 f"relative path such as references/{self.name}.csv)")
         return path
+
+    def _order_tolerances(self, ref) -> dict:
+        """{signal: rel} of [reference.orders]: each a recorded signal whose running-speed orders the run must match
+        within rel of the reference's over the steady window, which needs output.steady_from, output.running_speed
+        and a reference file (``scenario_run.check_orders``)."""
+        table = ref.get("orders", {})
+        if not isinstance(table, dict):
+            raise ScenarioError(f"{self.path}: [reference.orders] must be a table")
+        start = getattr(self, "start_time", 0.0)
+        if table and (self.reference_file is None or getattr(self, "running_speed", None) is None
+                      or not getattr(self, "steady_from", start) > start):
+            raise ScenarioError(f"{self.path}: [reference.orders] compares the running-speed orders over the steady "
+                                "window, so it needs a reference file, output.running_speed (the speed whose "
+                                "revolutions the orders count) and output.steady_from (where the window starts, after "
+                                "the start-up)")
+        orders = {}
+        for name, tol in table.items():
+            field = f"reference.orders.{name}"
+            if name not in self.record:
+                raise ScenarioError(f"{self.path}: {field}: not a recorded signal")
+            if not isinstance(tol, dict) or set(tol) != {"rel"}:
+                raise ScenarioError(f"{self.path}: {field} = {tol!r} must be {{ rel = ... }}: the error allowed on "
+                                    "each order's amplitude as a fraction of the reference's")
+            rel = self._number(tol, f"{field}.rel")
+            if not 0.0 < rel < 1.0:
+                raise ScenarioError(f"{self.path}: {field}.rel = {rel:g} must lie in (0, 1)")
+            orders[name] = rel
+        return orders
 
     def _tolerances(self, ref, key):
         """{signal: Tolerance} of [reference.<key>]; each a recorded signal with finite, non-negative bounds."""

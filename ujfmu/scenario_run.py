@@ -128,6 +128,9 @@ class SteadyWindowCheck:
         return self.change <= STEADY_WINDOW_TOL
 
     def __str__(self):
+        if not self.worst:   # no figure moved past the coupling's noise (``ujfmu.steady.coupling_noise``)
+            return (f"ok   steady from t = {self.since:g} s (output.steady_from): every figure repeats between the "
+                    "window's halves (to the coupling's resolution: ujfmu.steady.coupling_noise)")
         text = (f"{'ok  ' if self.passed else 'FAIL'} steady from t = {self.since:g} s (output.steady_from): the "
                 f"{self.worst} differs between the window's halves by {self.change:.3g} of {self.against} (allowed "
                 f"{STEADY_WINDOW_TOL:g})")
@@ -138,8 +141,10 @@ class SteadyWindowCheck:
         return text
 
 
-def check_steady_window(scenario: Scenario, table: np.ndarray) -> list:
-    """A SteadyWindowCheck where the scenario has a steady_from and a running speed (its window's angle), else none."""
+def check_steady_window(scenario: Scenario, table: np.ndarray, iterated: bool = False) -> list:
+    """A SteadyWindowCheck where the scenario has a steady_from and a running speed (its window's angle), else none;
+    iterated: the run's steps iterated its torn inputs (``Cosimulation.iterates``), whose noise is no change."""
+    from .master import COUPLING_RTOL
     from .steady import grows, halves_change
     if not (scenario.steady_from > scenario.start_time and scenario.running_speed in table.dtype.names):
         return []
@@ -149,8 +154,65 @@ def check_steady_window(scenario: Scenario, table: np.ndarray) -> list:
         return []
     speed = window[scenario.running_speed]
     angle = np.concatenate(([0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(window["time"]))))
-    change, worst, against = halves_change(angle, window, signals)
+    change, worst, against = halves_change(angle, window, signals, noise=COUPLING_RTOL if iterated else 0.0)
     return [SteadyWindowCheck(scenario.steady_from, change, worst, against)]
+
+
+#: the running-speed orders [reference.orders] compares
+CHECKED_ORDERS = (1, 2, 4)
+#: an order whose amplitude in the reference is below this fraction of the signal's largest checked order carries
+#: too little of its vibration to be compared as a fraction of itself
+SIGNIFICANT_ORDER = 0.01
+
+
+@dataclass
+class OrderCheck:
+    """One running-speed order of a signal over the steady window (``output.steady_from`` on) against the
+    reference's over the same instants, by the same least-squares fit (``ujfmu.steady.periodic_figures``): a
+    vibration's amplitude, which [reference.tolerance]'s bands, scaled by the signal's whole range, cannot see."""
+    name: str
+    order: int
+    amplitude: float
+    reference_amplitude: float
+    rel: float
+
+    @property
+    def passed(self) -> bool:
+        return bool(abs(self.amplitude - self.reference_amplitude) <= self.rel * self.reference_amplitude)
+
+    def __str__(self):
+        off = (self.amplitude - self.reference_amplitude) / self.reference_amplitude
+        return (f"{'ok  ' if self.passed else 'FAIL'} {self.name} {self.order}x order amplitude "
+                f"{self.amplitude:.4g} against the reference's {self.reference_amplitude:.4g} ({100 * off:+.3g}%, "
+                f"allowed {100 * self.rel:.3g}%)")
+
+
+def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -> list:
+    """An OrderCheck per signal of [reference.orders] and per order of ``CHECKED_ORDERS`` the window resolves
+    whose reference amplitude is at least ``SIGNIFICANT_ORDER`` of the largest of them (the vibration, not the
+    signal's mean, is the scale: a speed's orders are a small fraction of the speed): both fitted against the run's
+    running angle over the samples from steady_from on, the reference taken at the run's instants (linear
+    interpolation where the grids differ)."""
+    from .steady import Window, periodic_figures
+    if not scenario.order_tolerances:
+        return []
+    rows = table["time"] >= scenario.steady_from - 1e-9
+    window, t = table[rows], table["time"][rows]
+    speed = window[scenario.running_speed]
+    angle = np.concatenate(([0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t))))
+    names = list(scenario.order_tolerances)
+    theirs = np.rec.fromarrays([t] + [np.interp(t, reference["time"], reference[n]) for n in names],
+                               names=["time"] + names)
+    mine = periodic_figures(Window(float(t[0]), angle, window), names, CHECKED_ORDERS)
+    ref = periodic_figures(Window(float(t[0]), angle, theirs), names, CHECKED_ORDERS)
+    checks = []
+    for name in names:
+        resolved = [a for a in ref[name].figures[1:] if not math.isnan(a)]
+        largest = max(resolved, default=0.0)
+        for k, a, a_ref in zip(CHECKED_ORDERS, mine[name].figures[1:], ref[name].figures[1:]):
+            if largest > 0.0 and not (math.isnan(a_ref) or a_ref < SIGNIFICANT_ORDER * largest):
+                checks.append(OrderCheck(name, k, a, a_ref, scenario.order_tolerances[name]))
+    return checks
 
 
 @dataclass
@@ -298,6 +360,7 @@ class ScenarioResult:
     operating_checks: list = field(default_factory=list)   # OperatingPointCheck per drive
     sampling_checks: list = field(default_factory=list)   # SamplingCheck per drivetrain component
     steady_checks: list = field(default_factory=list)   # SteadyWindowCheck of output.steady_from, if any
+    order_checks: list = field(default_factory=list)   # OrderCheck of [reference.orders], if any
     bonds: list = field(default_factory=list)   # ujfmu.master.BondEnergy per power bond (co-simulation only)
     model_exchange: bool = False   # run under CVode (ujfmu.model_exchange) instead of co-simulated
     skipped_bands: str = ""   # why the [reference.extrapolated] bands were not checked, if they were not
@@ -323,12 +386,12 @@ class ScenarioResult:
     @property
     def passed(self) -> bool:
         """Checked, and every compared signal within its tolerance."""
-        return self.checked and all(c.passed for c in self.checks + self.extrapolated_checks)
+        return self.checked and all(c.passed for c in self.checks + self.extrapolated_checks + self.order_checks)
 
     @property
     def failed(self) -> bool:
         return any(not c.passed for c in self.checks + self.extrapolated_checks + self.operating_checks
-                   + self.sampling_checks + self.steady_checks)
+                   + self.sampling_checks + self.steady_checks + self.order_checks)
 
     @property
     def verdict(self) -> str:
@@ -376,6 +439,10 @@ class ScenarioResult:
             lines += [f"  {c}" for c in self.extrapolated_checks]
         if self.skipped_bands:
             lines.append(f"  {self.skipped_bands}")
+        if self.order_checks:
+            lines.append(f"  running-speed orders of {self.scenario.running_speed} from t = "
+                         f"{self.scenario.steady_from:g} s ([reference.orders]):")
+            lines += [f"  {c}" for c in self.order_checks]
         lines += [f"  not compared: {name}: {why}" for name, why in self.scenario.not_compared.items()]
         lines += [f"  {c}" for c in self.operating_checks]
         lines += [f"  {c}" for c in self.sampling_checks]
@@ -384,6 +451,10 @@ class ScenarioResult:
         figures = ("[reference.tolerance] holds figures chosen for the scenario's own parameters (a few times the "
                    "error its run reaches there): a copy with other parameters needs figures of its own, the accuracy "
                    "its study needs")
+        if any(not c.passed for c in self.order_checks) and not self.model_exchange:
+            lines.append("  an order amplitude outside its tolerance: a vibration the coupling or the step distorts "
+                         "shows here first (the bands above scale with each signal's whole range); the implicit "
+                         "scheme or a smaller step (--step) resolves it if the error shrinks with the step")
         if any(not c.passed for c in self.checks + self.extrapolated_checks) and self.model_exchange:
             lines.append("  a signal outside its tolerance: a Model Exchange run has no communication step and no "
                          "coupling error (the host's solver integrates the equations to its own tolerance), so the "
@@ -534,7 +605,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
             _write_partial(scenario, exc, Path(out_dir), plot)
         raise
     operating, sampling = check_operating_points(scenario, table), check_sampling(scenario, table)
-    steady = check_steady_window(scenario, table)
+    steady = check_steady_window(scenario, table, diagnostics.get("iterates", False))
     if extra:
         table = _without(table, extra)
     result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start, fmu_dir=Path(fmu_dir),
@@ -553,6 +624,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                                 "independent computation: a closed form or a monolithic solve (README, \"Scenario "
                                 "format\")")
         result.reference_method = method_of(provenance)
+        result.order_checks = check_orders(scenario, table, reference)
         # fmpy's band scales with each signal's range: a signal constant to within its absolute tolerance (say the
         # output speed of a constant-velocity layout) is checked by compare() alone
         compared = ["time"] + [c.name for c in result.checks if c.reference_range > scenario.tolerances[c.name].abs]
@@ -725,6 +797,8 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
                                     ("step-halving error estimate outside [reference.extrapolated]: "
                                      + ", ".join(dict.fromkeys(extrapolated)), bool(extrapolated)),
                                     ("operating point not reached", any(not c.passed for c in r.operating_checks)),
+                                    ("running-speed order amplitude outside [reference.orders]",
+                                     any(not c.passed for c in r.order_checks)),
                                     ("record aliases a model's excitation order",
                                      any(not c.passed for c in r.sampling_checks)),
                                     ("not steady from output.steady_from",

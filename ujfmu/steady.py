@@ -177,13 +177,14 @@ def steady_change(new: dict, old: dict, orders=None, noise: float = 0.0) -> tupl
     return worst, name, against
 
 
-def halves_change(angle, table, signals, orders=(1, 2, 4)) -> tuple:
+def halves_change(angle, table, signals, orders=(1, 2, 4), noise: float = 0.0) -> tuple:
     """``steady_change`` between the first and the second half of a record (angle: the running angle of each
-    sample, table: a structured array with the signals): for a test that waited a fixed time, whether its
-    record repeats."""
+    sample, table: a structured array with the signals; noise: the coupling's, :func:`coupling_noise`): for a test
+    that waited a fixed time, whether its record repeats."""
     half = len(angle) // 2
     first, second = (Window(0.0, np.asarray(angle[part]), table[part]) for part in (slice(0, half), slice(half, None)))
-    return steady_change(periodic_figures(second, signals, orders), periodic_figures(first, signals, orders), orders)
+    return steady_change(periodic_figures(second, signals, orders), periodic_figures(first, signals, orders), orders,
+                         noise)
 
 
 def is_running_angle(signal: str) -> bool:
