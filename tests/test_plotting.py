@@ -163,7 +163,7 @@ def test_campbell_diagram_shows_the_natural_frequencies(fmu_dir, tmp_path, figur
     sweep.plot()   # no point run: the lines come from the model, not from the points
     campbell = figures[f"{sweep.name}_orders.png"].axes[1]
     legend = [t.get_text() for t in campbell.get_legend().get_texts()]
-    assert "natural frequencies (at rest, mean over the input angle)" in legend
+    assert "natural frequencies (at rest; input held: mean over the input angle, free: at angle 0)" in legend
     assert "their range over the input angle" in legend
     lines = sorted(line.get_ydata()[0] for line in campbell.get_lines() if line.get_linestyle() == ":")
     # lateral: sqrt(26331 / 4.09) = 80.24 rad/s is 383 rpm of 2x excitation, published as 381

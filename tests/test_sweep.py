@@ -541,7 +541,7 @@ def test_the_steady_state_change_names_the_order_and_what_it_is_relative_to():
     old = {"x": Periodic([2.0, 1e-8, 0.5], 2.0)}
     change, name, against = steady_change({"x": Periodic([2.0, 3e-8, 0.5], 2.0)}, old, (1, 2))
     assert change == pytest.approx(2e-8 / (FLOOR * 2.0)) and name == "x 1x order amplitude"
-    assert against == (f"its allowance 0.02, {FLOOR:g} of the signal's size 2 (its largest figure, or half its "
+    assert against == (f"its scale 0.02, {FLOOR:g} of the signal's size 2 (its largest figure, or half its "
                        "peak-to-peak; it is 3e-08 itself; the change 2e-08)")
     change, name, against = steady_change({"x": Periodic([2.0, 1e-8, 0.6], 2.0)}, old, (1, 2))
     assert change == pytest.approx(0.1 / 0.6)
@@ -549,23 +549,24 @@ def test_the_steady_state_change_names_the_order_and_what_it_is_relative_to():
 
 
 def test_a_change_within_the_implicit_couplings_noise_is_no_change():
-    """The implicit scheme stops iterating within COUPLING_RTOL (3e-4) of a torn input's value, so a figure moves
-    by up to about that much of its signal's size between windows with no change of the motion: a truck
+    """The implicit scheme stops iterating within COUPLING_RTOL (3e-4) of a torn input's value, so a window's figures
+    move by a fraction of that (FIGURE_NOISE: a tenth) of their signal's size with no change of the motion: a truck
     driveline's 1x order of 0.0098 N.m (1e-5 of its 998 N.m torque, absent from the monolithic solve) wandered by
     0.019 N.m and failed steady points at any settle time. Within the noise it is no change; beyond it, and
     always for the explicit scheme (noise 0), it counts as before."""
     from types import SimpleNamespace
 
     from ujfmu.master import COUPLING_RTOL
-    from ujfmu.steady import Periodic, coupling_noise, steady_change
-    assert coupling_noise(SimpleNamespace(iterates=True)) == COUPLING_RTOL
+    from ujfmu.steady import FIGURE_NOISE, Periodic, coupling_noise, steady_change
+    noise = coupling_noise(SimpleNamespace(iterates=True))
+    assert noise == FIGURE_NOISE * COUPLING_RTOL == pytest.approx(3e-5)
     assert coupling_noise(SimpleNamespace(iterates=False)) == 0.0
     old = {"torque": Periodic([998.0, 0.0098, 19.5], 998.0)}
     wandered = {"torque": Periodic([998.0, 0.0292, 19.5], 998.0)}
-    assert steady_change(wandered, old, (1, 2), COUPLING_RTOL)[0] == 0.0
+    assert steady_change(wandered, old, (1, 2), noise)[0] == 0.0
     assert steady_change(wandered, old, (1, 2))[0] == pytest.approx(0.0194 / 9.98)
-    moved = {"torque": Periodic([998.0, 0.0098, 19.9], 998.0)}   # 0.4 N.m: past the noise, 0.02 of itself
-    assert steady_change(moved, old, (1, 2), COUPLING_RTOL)[0] == pytest.approx(0.4 / 19.9)
+    moved = {"torque": Periodic([998.0, 0.0098, 19.54], 998.0)}   # 0.04 N.m: past the noise, 2e-3 of itself
+    assert steady_change(moved, old, (1, 2), noise)[0] == pytest.approx(0.04 / 19.54)
 
 
 @pytest.mark.parametrize("drift", [0.0, 0.01])
@@ -748,3 +749,24 @@ def test_a_sweep_on_workers_without_dask_installed_names_the_extra(brutti, fmu_d
     assert not sweep.journal.exists()
     sweep.run(workers=0)
     assert [row["status"] for row in sweep.table()] == ["ok"]
+
+
+def test_orders_are_fitted_against_the_running_angle_without_the_speeds_own_ripple():
+    """A PI motor's speed carries the joints' 2x (here 0.16 rad/s at 86 rad/s: its angle wobbles by 9.3e-4 rad at
+    2x), and a signal with a pure 2x of 3.48 in time: against the instantaneous angle the fit had found a false 4x
+    (0.035 where an FFT gives 0) and a shifted mean (a fresh-eyes NVH trial); against running_angle, the quadratic
+    through it, the 2x is 3.48, the 4x 0 and the mean the time mean, to 1e-4. A constant run-up's angle is kept."""
+    from ujfmu.steady import Window, periodic_figures, running_angle
+    t = np.arange(0.0, 0.5, 1e-3)
+    mean_speed, ripple = 86.0, 0.16
+    speed = mean_speed + ripple * np.cos(2.0 * mean_speed * t)
+    signal = 85.87 + 3.48 * np.cos(2.0 * mean_speed * t - 0.4)
+    table = np.rec.fromarrays([t, speed, signal], names=["time", "m.omega", "d.w"])
+    angle = running_angle(t, speed)
+    assert angle == pytest.approx(mean_speed * t, abs=2e-3)
+    figures = periodic_figures(Window(0.0, angle, table), ["d.w"], (1, 2, 4))["d.w"].figures
+    assert figures == pytest.approx([85.87, 0.0, 3.48, 0.0], abs=1e-4)
+    wobbling = np.concatenate(([0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t))))
+    assert periodic_figures(Window(0.0, wobbling, table), ["d.w"], (1, 2, 4))["d.w"].figures[3] > 3e-3
+    run_up = 10.0 + 40.0 * t
+    assert running_angle(t, run_up) == pytest.approx(10.0 * t + 20.0 * t * t, rel=1e-9, abs=1e-12)

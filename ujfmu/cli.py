@@ -507,7 +507,7 @@ def _status_summary(counts, total, steady_checked=True):
 
 
 def cmd_modes(args):
-    from .analysis import NEAR_CRITICAL, drive_speeds, scenario_modes
+    from .analysis import NEAR_CRITICAL, drive_speeds, held_input_modes, scenario_modes
     from .scenario import Scenario, ScenarioError
     from .steady import speed_text
     from .sweep import parse_axis
@@ -523,19 +523,28 @@ def cmd_modes(args):
         scenario = scenario.with_parameters(changes)
     modes = scenario_modes(scenario)
     print(f"{scenario.name}: natural frequencies omega_n of its machine components, each linearised at rest (no "
-          "load; the input shaft held where an ideal speed source drives it, free with the rotor inertia where a PI "
-          "motor does, its speed loop left out; the mean over the input angle, and the range it spans), and the input "
-          "speeds at which each order of the input speed that the component carries meets them (the crossings of a "
-          "Campbell diagram: the k-th order at omega_n / k)")
+          "load; the input shaft held where an ideal speed source drives it: the mean over the input angle, and the "
+          "range it spans; free with the rotor inertia where a PI motor does, its speed loop left out: at input "
+          "angle 0, which a joint's angle moves by a few percent), and the input speeds at which each order of the "
+          "input speed that the component carries meets them (the crossings of a Campbell diagram: the k-th order at "
+          "omega_n / k)")
     if not modes:
         print("  no component with modes of its own (rigid or kinematic models)")
         return 0
-    for m in modes:
-        spread = f", {m.low:.5g}-{m.high:.5g} over the input angle" if m.high > 1.005 * m.low else ""
-        merged = f", {m.count} modes" if m.count > 1 else ""
-        crossings = "; ".join(f"{k}x at {speed_text(m.critical_speed(k))}" for k in range(1, m.orders + 1))
-        print(f"  {m.component}: {m.omega:.5g} rad/s ({m.omega / (2 * math.pi):.5g} Hz{merged}{spread}): "
-              f"{crossings}")
+    def show(modes):
+        for m in modes:
+            spread = f", {m.low:.5g}-{m.high:.5g} over the input angle" if m.high > 1.005 * m.low else ""
+            merged = f", {m.count} modes" if m.count > 1 else ""
+            crossings = "; ".join(f"{k}x at {speed_text(m.critical_speed(k))}" for k in range(1, m.orders + 1))
+            print(f"  {m.component}: {m.omega:.5g} rad/s ({m.omega / (2 * math.pi):.5g} Hz{merged}{spread}): "
+                  f"{crossings}")
+    show(modes)
+    held = held_input_modes(scenario)
+    if held:
+        print(f"  where a PI motor drives {', '.join(dict.fromkeys(m.component for m in held))}, the modes above "
+              "have its input free (the speed loop left out); a loop much stiffer than a mode holds the input "
+              "instead, and the PI gains place each real mode between the two. With the input held:")
+        show(held)
     for name, speed in drive_speeds(scenario).items():
         if speed == 0.0:
             continue

@@ -166,7 +166,7 @@ def plot_spectra(result, path):
         ax.grid(alpha=0.3, which="both")
     axes[-1, 0].set_xlim(0, 6 if scenario.running_speed else None)
     axes[-1, 0].set_xlabel(f"frequency [{unit}]")
-    _title(fig, f"{scenario.title}: amplitude spectra (Hann window), t >= {scenario.steady_from:g} s", 9)
+    _title(fig, f"{scenario.title}: amplitude spectra (flat-top window), t >= {scenario.steady_from:g} s", 9)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -303,7 +303,7 @@ def plot_sweep(sweep, out_dir):
         if scale > 0.0:
             ax1.set_ylim(bottom=0.5 * floor)
         ax1.set_xlabel(xlabel)
-        ax1.set_ylabel(f"order amplitude [{unit}]")
+        ax1.set_ylabel(f"order amplitude, zero-to-peak [{unit}]")
         # orders by colour; with several values of the other axes, those by line style in a second legend
         ax1.add_artist(ax1.legend([Line2D([], [], color=f"C{i % 10}") for i in range(len(orders))],
                                   [f"{order}x" for order in orders], fontsize=8, loc="upper right"))
@@ -331,7 +331,8 @@ def plot_sweep(sweep, out_dir):
                 component, omega_n, count, low, high = mode.component, mode.omega, mode.count, mode.low, mode.high
                 f_n = omega_n / (2 * np.pi)
                 ax2.axhline(f_n, color="0.35", ls=":", lw=0.9,
-                            label="natural frequencies (at rest, mean over the input angle)" if i == 0 else None)
+                            label="natural frequencies (at rest; input held: mean over the input angle, "
+                                  "free: at angle 0)" if i == 0 else None)
                 if high > 1.005 * low:   # the range the linearisation spans over the input angle
                     ax2.axhspan(low / (2 * np.pi), high / (2 * np.pi), color="0.5", alpha=0.15, lw=0,
                                 label=None if banded else "their range over the input angle")

@@ -132,8 +132,8 @@ class SteadyWindowCheck:
             return (f"ok   steady from t = {self.since:g} s (output.steady_from): every figure repeats between the "
                     "window's halves (to the coupling's resolution: ujfmu.steady.coupling_noise)")
         text = (f"{'ok  ' if self.passed else 'FAIL'} steady from t = {self.since:g} s (output.steady_from): the "
-                f"{self.worst} differs between the window's halves by {self.change:.3g} of {self.against} (allowed "
-                f"{STEADY_WINDOW_TOL:g})")
+                f"{self.worst} differs between the window's halves by {self.change:.3g} times {self.against} "
+                f"(allowed: {STEADY_WINDOW_TOL:g} times)")
         if not self.passed:
             text += ("; the response is not steady there, so the orbits and spectra drawn from it show a transient: "
                      "move steady_from later or lengthen stop_time, or look for a response that grows (no damping at "
@@ -145,16 +145,16 @@ def check_steady_window(scenario: Scenario, table: np.ndarray, iterated: bool = 
     """A SteadyWindowCheck where the scenario has a steady_from and a running speed (its window's angle), else none;
     iterated: the run's steps iterated its torn inputs (``Cosimulation.iterates``), whose noise is no change."""
     from .master import COUPLING_RTOL
-    from .steady import grows, halves_change
+    from .steady import FIGURE_NOISE, grows, halves_change, running_angle
     if not (scenario.steady_from > scenario.start_time and scenario.running_speed in table.dtype.names):
         return []
     window = table[table["time"] >= scenario.steady_from - 1e-9]
     signals = [n for n in scenario.record if not grows(n) and n in table.dtype.names]
     if len(window) < 16 or not signals:
         return []
-    speed = window[scenario.running_speed]
-    angle = np.concatenate(([0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(window["time"]))))
-    change, worst, against = halves_change(angle, window, signals, noise=COUPLING_RTOL if iterated else 0.0)
+    angle = running_angle(window["time"], window[scenario.running_speed])
+    change, worst, against = halves_change(angle, window, signals,
+                                           noise=FIGURE_NOISE * COUPLING_RTOL if iterated else 0.0)
     return [SteadyWindowCheck(scenario.steady_from, change, worst, against)]
 
 
@@ -193,13 +193,12 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
     signal's mean, is the scale: a speed's orders are a small fraction of the speed): both fitted against the run's
     running angle over the samples from steady_from on, the reference taken at the run's instants (linear
     interpolation where the grids differ)."""
-    from .steady import Window, periodic_figures
+    from .steady import Window, periodic_figures, running_angle
     if not scenario.order_tolerances:
         return []
     rows = table["time"] >= scenario.steady_from - 1e-9
     window, t = table[rows], table["time"][rows]
-    speed = window[scenario.running_speed]
-    angle = np.concatenate(([0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t))))
+    angle = running_angle(t, window[scenario.running_speed])
     names = list(scenario.order_tolerances)
     theirs = np.rec.fromarrays([t] + [np.interp(t, reference["time"], reference[n]) for n in names],
                                names=["time"] + names)

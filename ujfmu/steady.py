@@ -12,7 +12,7 @@ revolutions and reduces each output to its figures. Whether it was steady is mea
   FLOOR * size of that output: its largest figure, or half its peak-to-peak over the window where that is larger, so
   that orders the step does not resolve still count toward its size) (a response that only beats, never settling, then
   shows its variation within the quarter), or the change is within the coupling's own noise, ``coupling_noise``
-  (3e-4) of that size under the implicit scheme (whose iteration stops within that of a torn input's value). A transient decaying as exp(-sigma t) changes by A exp(-sigma T) (exp(sigma
+  (3e-5) of that size under the implicit scheme (whose iteration stops within 3e-4 of a torn input's value). A transient decaying as exp(-sigma t) changes by A exp(-sigma T) (exp(sigma
   T/4) - 1) between 3T/4 and T and leaves A exp(-sigma T) at T: once sigma T >= 4 ln 2 = 2.8 the error left is below
   the change measured. Otherwise T grows by GROWTH (1.5x), up to ``max_settle_time`` (default 8x the first T), so any
   decay slower than that shows as a change. T is at least four windows long, and windows are whole revolutions laid
@@ -68,9 +68,21 @@ def record_window(cosim, running_speed: str, revolutions: float) -> Window:
     h = cosim.step_size
     start = cosim.time
     table = cosim.run(max(8, int(math.ceil(revolutions * 2.0 * math.pi / abs(speed) / h))))
-    w = table[running_speed]
-    angle = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * h)))
-    return Window(start, angle, table)
+    return Window(start, running_angle(table["time"], table[running_speed]), table)
+
+
+def running_angle(t: np.ndarray, speed: np.ndarray) -> np.ndarray:
+    """The running angle a window's orders are fitted against, from 0 at its first sample: the trapezoidal integral
+    of the running speed without the speed's own ripple, i.e. the least-squares quadratic in time through it (a
+    steady speed's angle is linear in time, a constant run-up's quadratic). A PI motor's speed carries the joints'
+    2x: against its instantaneous angle, a signal's 2x modulated into a false 4x and shifted the mean (a fresh-eyes
+    trial: omega_out's 4x 0.035 rad/s where an FFT of the record gives 0.0088, its mean 0.03 rad/s below its time
+    mean, below the input's)."""
+    angle = np.concatenate(([0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t))))
+    if len(t) < 3:
+        return angle
+    tau = t - t[0]
+    return np.polyval(np.polyfit(tau, angle, 2), tau)
 
 
 def samples_per_revolution(window: Window) -> float:
@@ -171,7 +183,7 @@ def steady_change(new: dict, old: dict, orders=None, noise: float = 0.0) -> tupl
             if not relative <= worst:
                 figure = "mean" if i == 0 else f"{orders[i - 1]}x order amplitude" if orders else "order amplitude"
                 against = (f"itself ({abs(f_new):.3g}; the change {change:.3g})" if abs(f_new) >= FLOOR * scale else
-                           f"its allowance {allowance:.3g}, {FLOOR:g} of the signal's size {scale:.3g} (its largest "
+                           f"its scale {allowance:.3g}, {FLOOR:g} of the signal's size {scale:.3g} (its largest "
                            f"figure, or half its peak-to-peak; it is {f_new:.3g} itself; the change {change:.3g})")
                 worst, name = relative, f"{signal} {figure}"
     return worst, name, against
@@ -204,15 +216,22 @@ def grows(signal: str) -> bool:
     return is_running_angle(signal) or signal.partition(".")[2] in ENERGY_INTEGRALS
 
 
+#: the noise of a window's figures under the implicit scheme, as a fraction of its iteration tolerance
+#: ``master.COUPLING_RTOL`` (the per-step residual, relative to a torn input's largest value): a fit over a window's
+#: hundreds of samples averages it down; measured 2e-5 of the signal's size (0.07 of the tolerance) on a truck
+#: driveline's shaft torque
+FIGURE_NOISE = 0.1
+
+
 def coupling_noise(cosim) -> float:
-    """The relative size of the step-to-step noise the co-simulation's coupling leaves in its signals: the implicit
-    scheme ends its iteration within ``master.COUPLING_RTOL`` (3e-4) of a torn input's largest value, so a figure
-    can move between windows by that much of its signal's size without any change of the motion (a fresh-eyes
-    trial: a 1x order of 1e-5 of a shaft torque's mean, absent from the monolithic solve and from the explicit
-    scheme, wandered by twice itself and failed steady points); 0 where the steps do not iterate (the explicit
-    scheme, or nothing to close: ``Cosimulation.iterates``)."""
+    """The relative size of the noise the co-simulation's coupling leaves in a window's figures: the implicit scheme
+    ends its iteration within ``master.COUPLING_RTOL`` (3e-4) of a torn input's largest value, and the figures move
+    between windows by up to ``FIGURE_NOISE`` of that times the signal's size (3e-5) without any change of the motion
+    (a fresh-eyes trial: a 1x order of 1e-5 of a shaft torque's mean, absent from the monolithic solve and from the
+    explicit scheme, wandered by twice itself and failed steady points at any settle time); 0 where the steps do
+    not iterate (the explicit scheme, or nothing to close: ``Cosimulation.iterates``)."""
     from .master import COUPLING_RTOL
-    return COUPLING_RTOL if getattr(cosim, "iterates", False) else 0.0
+    return FIGURE_NOISE * COUPLING_RTOL if getattr(cosim, "iterates", False) else 0.0
 
 
 def settle_and_measure(cosim, settings) -> dict:
@@ -268,8 +287,8 @@ def not_steady_message(settled: float, earlier_start: float, cap: float, length:
     """Why a point is not steady, with the settle time actually used (the start of the measured window) and, when
     that is past ``max_settle_time`` (cap), why: the criterion needs T >= 4 windows (module docstring), and
     windows are whole revolutions laid back to back from 3T/4, so the last starts up to one window after T."""
-    text = (f"not steady after {settled:.4g} s of settling: the {worst} changed by {change:.3g} of {against} since "
-            f"{earlier_start:.4g} s (allowed {s.steady_tol:g})")
+    text = (f"not steady after {settled:.4g} s of settling: the {worst} changed by {change:.3g} times {against} "
+            f"since {earlier_start:.4g} s (allowed: {s.steady_tol:g} times)")
     if settled > cap * (1.0 + 1e-9):
         windows = (f"measurement windows of {s.revolutions:g} revolution{'' if s.revolutions == 1 else 's'} of "
                    f"{s.running_speed} "
@@ -324,8 +343,9 @@ def peak_note(window: Window, fits: dict, orders, speed: float) -> str:
     step = 2.0 * math.pi / (abs(speed) * k) * math.acos(1.0 - PEAK_SHORTFALL) / math.pi if speed else math.nan
     return (f"max, min and p2p are the samples' extremes: {out}'s {k}x order is read {n:.3g} times a period, so "
             f"they may fall short of its peaks by up to {100.0 * shortfall:.2g}% of its amplitude (the order "
-            f"amplitudes are exact); a step of at most {step:.3g} s (--step) reads it closely enough for "
-            f"{100.0 * PEAK_SHORTFALL:g}%")
+            f"amplitudes, fitted to every sample, do not: they carry only the run's own error at this step, which "
+            f"`ujfmu run --check-step` estimates); a step of at most {step:.3g} s (--step) reads it closely enough "
+            f"for {100.0 * PEAK_SHORTFALL:g}%")
 
 
 def unresolved_note(window: Window, orders, speed: float) -> str:
