@@ -485,9 +485,21 @@ def cmd_sweep(args):
         fastest = max(coarse, key=lambda r: abs(r.get("speed_mean", 0.0)))["note"]
         print(f"  the max, min and p2p of {len(coarse)} point{'s' if len(coarse) > 1 else ''} may fall short of the "
               f"peaks (read too few times a period); at the fastest: {fastest[fastest.index('max, min and p2p'):]}")
+    step_ok = True
+    if args.check_step:
+        check = sweep.step_check()
+        if check is None:
+            print("  step check: no ok point to check", file=sys.stderr)
+            step_ok = False
+        else:
+            print("\n".join(f"  {line}" for line in check.lines(scenario)))
+            step_ok = check.passed
+    else:
+        print("  the order amplitudes carry the run's error at this step and coupling: --check-step reruns the "
+              "peak point at half the step to estimate it")
     print(_status_summary(sweep.status_counts(), len(sweep.points), steady_checked=bool(sweep.settings.steady_tol)),
           file=sys.stderr if failed else sys.stdout)
-    return 1 if failed else 0
+    return 1 if failed or not step_ok else 0
 
 
 #: what each sweep point status means, for the summary line
@@ -800,6 +812,9 @@ def _main(raw: list):
     p.add_argument("--orders", type=lambda s: tuple(int(k) for k in s.split(",")), help="orders, e.g. 1,2,4")
     p.add_argument("--step", metavar="SECONDS", help="communication step instead of the scenario's (as for run; "
                                                      "points of the journal at another step are not reused)")
+    p.add_argument("--check-step", action="store_true",
+                   help="rerun the peak point at half the step and estimate the order amplitudes' error (exit "
+                        "status 1 if above 2%%)")
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: no dask)")
     p.add_argument("--scheduler", help="address of a running dask.distributed scheduler, e.g. tls://host:8786; "
                         "it must be a trusted cluster (it runs what its clients submit); TLS settings come from "

@@ -343,8 +343,8 @@ def peak_note(window: Window, fits: dict, orders, speed: float) -> str:
     step = 2.0 * math.pi / (abs(speed) * k) * math.acos(1.0 - PEAK_SHORTFALL) / math.pi if speed else math.nan
     return (f"max, min and p2p are the samples' extremes: {out}'s {k}x order is read {n:.3g} times a period, so "
             f"they may fall short of its peaks by up to {100.0 * shortfall:.2g}% of its amplitude (the order "
-            f"amplitudes, fitted to every sample, do not: they carry only the run's own error at this step, which "
-            f"`ujfmu run --check-step` estimates); a step of at most {step:.3g} s (--step) reads it closely enough "
+            f"amplitudes, fitted to every sample, do not: they carry only the run's own error at this step, which a "
+            f"sweep's --check-step estimates); a step of at most {step:.3g} s (--step) reads it closely enough "
             f"for {100.0 * PEAK_SHORTFALL:g}%")
 
 
