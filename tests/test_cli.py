@@ -599,7 +599,7 @@ def test_junit_says_which_comparison_a_signal_failed(tmp_path):
         scenario=SimpleNamespace(name="heavy"), failed=True, checked=True, total_time=1.0,
         checks=[check("joint.tau_in", True), check("load.tau", False)],
         extrapolated_checks=[check("joint.tau_in", False), check("load.tau", True)],
-        operating_checks=[], sampling_checks=[], steady_checks=[], summary=lambda: "FAIL heavy")
+        operating_checks=[], sampling_checks=[], steady_checks=[], order_checks=[], summary=lambda: "FAIL heavy")
     path = write_junit([result], tmp_path / "report.xml")
     message = ET.parse(path).getroot().find("testcase").find("failure").get("message")
     assert message == ("signal outside tolerance of the reference: load.tau; step-halving error estimate outside "

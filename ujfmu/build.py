@@ -303,9 +303,11 @@ td,th{{border:1px solid #999;padding:2px 6px;vertical-align:top}}pre{{background
 {sys.version_info.major}.{sys.version_info.minor}). Python hosts (fmpy, libcosimpy) work as they are. On Linux a
 non-Python host must preload libpython, e.g. <code>LD_PRELOAD=/usr/lib/x86_64-linux-gnu/libpython3.11.so</code>.</p>
 <h2>Step size and stability</h2>
-<p>Inside each communication step the FMU integrates its own states with as many classical RK4 substeps as its
-fastest rate needs, so its internal accuracy does not depend on the host's step; the coupling with the other FMUs
-does. {coupling} The default experiment's step ({step} s) is what the ujfmu scenarios use;
+<p>Inside each communication step the FMU integrates its own states by the method the physics module above names
+(classical RK4, Dormand-Prince, an exponential Runge-Kutta or Adams method, or exactly), in as many substeps as its
+fastest rates need to stay stable and accurate; its error still falls with the host's step (fourth order or higher:
+halving the step divides it by 16 or more), and the coupling with the other FMUs depends on the step too.
+{coupling} The default experiment's step ({step} s) is what the ujfmu scenarios use;
 they are checked against independent reference solutions at 1 ms. Check a new layout by halving the step: the
 results must not change beyond your tolerance.</p>
 <h2>Errors and logging</h2>
@@ -313,8 +315,9 @@ results must not change beyond your tolerance.</p>
 logging is off, errors included. Turn on the FMU's logging in the host (fmi2Instantiate with loggingOn = true; in
 fmpy <code>debug_logging=True</code>) to see them. An invalid parameter makes fmi2ExitInitializationMode fail
 with a message naming the parameter and its allowed range; a non-finite or out-of-range input, a step size that
-is not finite and positive, or a step that would need more than 100000 RK4 substeps refuses the step
-(fmi2Discard) with a logged error naming the cause; the instance stays usable.</p>
+is not finite and positive, a step that would need more than 100000 substeps, or (a torque-driven FMU) a step that
+would take its input shaft out of its speed range refuses the step (fmi2Discard) with a logged error naming the
+cause; the instance stays usable.</p>
 <h2>Sources</h2>
 {sources}
 {bibliography}

@@ -32,7 +32,7 @@ REPOSITORY = Path(__file__).resolve().parents[1]
 DEFAULT_LIST = REPOSITORY / "mutants.toml"
 #: the areas the list must cover (a path prefix each)
 AREAS = {"physics": ("ujfmu/models/*/model.py", "ujfmu/models/protocol.py", "ujfmu/fmu/rk4.py"),
-         "FMU layer": ("ujfmu/models/*/fmu.py", "ujfmu/fmu/"), "master": "ujfmu/master.py",
+         "FMU layer": ("ujfmu/models/*/fmu.py", "ujfmu/fmu/", "ujfmu/build.py"), "master": "ujfmu/master.py",
          "scenario comparison": ("ujfmu/scenario.py", "ujfmu/scenario_run.py", "ujfmu/stepsize.py",
                                  "ujfmu/report.py"),
          "references": ("ujfmu/models/*/reference.py", "ujfmu/references/"),

@@ -219,7 +219,7 @@ class SamplingCheck:
     """A drivetrain component's record against the highest order of the input speed its outputs carry at full size
     (its model's ``EXCITATION_ORDER``: a joint's 2x): samples per period of that order at the run's largest
     |omega_in|, the record taken every ``interval`` s. At MIN_SAMPLES_PER_PERIOD or fewer the record aliases it: a
-    record step of a whole number of its periods samples one joint angle and shows a constant, and a reference
+    record step of a whole number of its periods samples one phase of it and shows a constant, and a reference
     sampled at the same instants agrees with it."""
     component: str
     order: int
@@ -248,7 +248,7 @@ class SamplingCheck:
         also = f"; so does {' and '.join(lower)}" if lower else ""
         return (f"FAIL {what}, {self.samples:.3g} samples a period at a record step of {self.interval:g} s, at most "
                 f"{MIN_SAMPLES_PER_PERIOD:g} (Nyquist): the record aliases the order (a step of a whole number of its "
-                f"periods samples one joint angle and shows a constant, and a reference sampled at the same instants "
+                f"periods samples one phase of it and shows a constant, and a reference sampled at the same instants "
                 f"agrees with it){also}; record at most every {resolving:.3g} s to sample it "
                 f"{RESOLVING_SAMPLES_PER_PERIOD:g} times a period (step_size, and output_interval)")
 

@@ -701,7 +701,7 @@ class ModelSlave(UjfmuSlave):
         """Log once, as a warning, that outputs read every step of h alias the model's ``EXCITATION_ORDER`` at the
         input speed omega [rad/s] (the caller checks h |omega| >= ``_aliasing_reach``): a host plotting or storing
         them at its communication points sees a false waveform (at a step of a whole number of the order's periods,
-        one joint angle: a constant), though the state is integrated as accurately as at any step."""
+        one phase of it: a constant), though the state is integrated as accurately as at any step."""
         self._aliasing_said = True
         order, omega = self.PHYSICS.EXCITATION_ORDER, abs(omega)
         reads = f"{samples_per_period(order, omega, h):.3g}"
@@ -710,7 +710,7 @@ class ModelSlave(UjfmuSlave):
                  f"reads the outputs {reads} a period of the input speed's "
                  f"{order}x order ({order * omega / (2.0 * math.pi):.4g} Hz at {omega:.6g} rad/s), at most "
                  f"{MIN_SAMPLES_PER_PERIOD:g}: read at the communication points they alias it (a step of a whole "
-                 f"number of its periods shows one joint angle, a constant); a step of at most "
+                 f"number of its periods reads one phase of it, a constant); a step of at most "
                  f"{sampling_interval(RESOLVING_SAMPLES_PER_PERIOD, order, omega):.3g} s reads it "
                  f"{RESOLVING_SAMPLES_PER_PERIOD:g} times a period. The integration within a step is unaffected. "
                  f"(Said once per instance.)", Fmi2Status.warning)

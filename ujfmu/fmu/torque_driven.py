@@ -95,7 +95,10 @@ class TorqueDrivenSlave(ModelSlave):
             self.say_aliasing(h, omega)
         if not reach <= SPEED_RANGE["max"]:
             raise ValueError(f"tau_in = {self.tau_in!r} N.m and tau_load = {self.tau_load!r} N.m: the input shaft "
-                             f"would reach {reach:.6g} rad/s within the step (omega_in = {omega!r} rad/s, alpha_in = "
-                             f"{alpha!r} rad/s2), outside its allowed range [{SPEED_RANGE['min']:.10g}, "
-                             f"{SPEED_RANGE['max']:.10g}] rad/s: reduce the torques or the step, or check J_drive")
+                             f"would reach {reach:.6g} rad/s within the step at its acceleration now (omega_in = "
+                             f"{omega!r} rad/s, alpha_in = {alpha!r} rad/s2, from these torques and the model's own on "
+                             f"the input shaft), outside its allowed range [{SPEED_RANGE['min']:.10g}, "
+                             f"{SPEED_RANGE['max']:.10g}] rad/s: reduce the torques or the step, or check J_drive (a "
+                             f"very light input shaft swings fast with the model's own torques: a smaller step follows "
+                             f"the swing the bound extrapolates)")
         return reach

@@ -30,7 +30,7 @@ class RingCoupling(PrescribedInputSlave):
         parameter("E", _E, "Pa", "Young's modulus of the wire (steel)", min=1.0, max=1.0e13),
         parameter("e", 0.003, "m", "Radial misalignment of the shafts, < R (paper e; Fig. 3: 3 mm)",
                   min=0.0, max=10.0),
-        parameter("I1", 0.0, "kg.m2", "Moment of inertia of shaft 1 with its half-coupling (driven by omega_in)",
+        parameter("I1", 0.0, "kg.m2", "Moment of inertia of shaft 1 (the input shaft) with its half-coupling",
                   min=0.0, max=1.0e3),
         parameter("I2", 0.05, "kg.m2", "Moment of inertia of shaft 2 with its half-coupling (paper I2)",
                   min=1.0e-9, max=1.0e3),
