@@ -12,7 +12,8 @@ revolutions and reduces each output to its figures. Whether it was steady is mea
   FLOOR * size of that output: its largest figure, or half its peak-to-peak over the window where that is larger, so
   that orders the step does not resolve still count toward its size) (a response that only beats, never settling, then
   shows its variation within the quarter), or the change is within the coupling's own noise, ``coupling_noise``
-  (3e-5) of that size under the implicit scheme (whose iteration stops within 3e-4 of a torn input's value). A transient decaying as exp(-sigma t) changes by A exp(-sigma T) (exp(sigma
+  (3e-5) of that size under the implicit scheme (whose iteration stops within 3e-4 of a torn input's value). A
+  transient decaying as exp(-sigma t) changes by A exp(-sigma T) (exp(sigma
   T/4) - 1) between 3T/4 and T and leaves A exp(-sigma T) at T: once sigma T >= 4 ln 2 = 2.8 the error left is below
   the change measured. Otherwise T grows by GROWTH (1.5x), up to ``max_settle_time`` (default 8x the first T), so any
   decay slower than that shows as a change. T is at least four windows long, and windows are whole revolutions laid

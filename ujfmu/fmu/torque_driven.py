@@ -99,6 +99,6 @@ class TorqueDrivenSlave(ModelSlave):
                              f"{omega!r} rad/s, alpha_in = {alpha!r} rad/s2, from these torques and the model's own on "
                              f"the input shaft), outside its allowed range [{SPEED_RANGE['min']:.10g}, "
                              f"{SPEED_RANGE['max']:.10g}] rad/s: reduce the torques or the step, or check J_drive (a "
-                             f"very light input shaft swings fast with the model's own torques: a smaller step follows "
-                             f"the swing the bound extrapolates)")
+                             f"very light input shaft swings fast under the model's own torques, which this bound "
+                             f"extrapolates over the step)")
         return reach

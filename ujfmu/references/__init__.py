@@ -83,9 +83,9 @@ def generate(scenario):
         from ..scenario import ScenarioError
         given = [n for n in table.dtype.names if n != "time"]
         raise ScenarioError(f"{scenario.path}: the reference generator '{name}' does not compute "
-                       f"{', '.join(missing)}, which [reference.tolerance] compares: move "
-                       f"{'it' if len(missing) == 1 else 'them'} to [reference.not_compared] with the reason "
-                       f"(it computes {', '.join(given)}); no reference was written")
+                            f"{', '.join(missing)}, which [reference.tolerance] compares: move "
+                            f"{'it' if len(missing) == 1 else 'them'} to [reference.not_compared] with the reason "
+                            f"(it computes {', '.join(given)}); no reference was written")
     return table, (f"{provenance}. {regenerate_text(scenario)} {SETUP_TAG}{scenario.setup_digest()}] "
                    f"{DEFAULTS_TAG}{scenario.defaults_digest()}]")
 

@@ -143,9 +143,10 @@ def test_the_fmus_step_is_fourth_order_against_a_fine_independent_solve():
 def test_an_undamped_rings_free_oscillation_keeps_its_amplitude_and_phase_at_any_step(torque_driven):
     """Without misalignment (M_p = 0) and damping the twist is a free harmonic oscillation, x_e = x0 cos(w_n t)
     + (v0 / w_n) sin(w_n t), w_n^2 = c_s / I2 behind a prescribed shaft (c_s (1/I2 + 1/J_in) with shaft 1 free):
-    the FMU's step keeps it to 1e-8 of its amplitude (round-off of angles of hundreds of rad) over 20 s (2200-8000 periods) at 1 ms steps, h w_n up to 0.8. RK4 at its
-    h w_n = 0.5 lost 1e-4 of the amplitude a substep and drifted in phase: the default torque-driven ring was 3.6%
-    of omega_in's range off at 2 s (a fresh-eyes FMI audit)."""
+    the FMU's step keeps it to 1e-8 of its amplitude (round-off of angles of hundreds of rad) over 20 s (2200-8000
+    periods) at 1 ms steps, h w_n up to 0.8. RK4 at its h w_n = 0.5 lost 1e-4 of the amplitude a substep and
+    drifted in phase: the default torque-driven ring was 3.6% of omega_in's range off at 2 s (a fresh-eyes FMI
+    audit)."""
     import math
     h, steps, x0, v0 = 1e-3, 20000, 2e-3, 0.3
     if torque_driven:
