@@ -179,3 +179,20 @@ def test_a_run_checks_its_orders_and_a_reference_with_another_vibration_fails_it
     assert "2x order amplitude 0.1259 against the reference's 0.1385 (-9.09%, allowed 1%)" in bad.summary()
     case = ET.parse(write_junit([bad], tmp_path / "r.xml")).getroot().find("testcase")
     assert "running-speed order amplitude outside [reference.orders]" in case.find("failure").get("message")
+
+
+@pytest.mark.parametrize("steady_from, speed, says", [(1.995, 100.0, "the window holds 5 samples"),
+                                                      (1.0, 0.0, "span no revolution: the running speed is 0")])
+def test_orders_that_cannot_be_fitted_name_the_window_not_a_traceback(steady_from, speed, says):
+    """A steady window of a few samples, or a running speed of 0 (no revolutions), is a scenario error naming
+    [reference.orders], the window and the remedy, not a numpy error out of the run."""
+    from types import SimpleNamespace
+
+    from ujfmu.scenario import ScenarioError
+    from ujfmu.scenario_run import check_orders
+    t = np.arange(0.0, 2.0, 1e-3)
+    table = np.rec.fromarrays([t, np.full_like(t, speed), np.cos(2 * speed * t)], names=["time", "m.omega", "d.T"])
+    scenario = SimpleNamespace(order_tolerances={"d.T": 0.05}, steady_from=steady_from, running_speed="m.omega",
+                               path=Path("s.toml"))
+    with pytest.raises(ScenarioError, match=rf"\[reference.orders\].*{re.escape(says)}.*move steady_from earlier"):
+        check_orders(scenario, table, table)

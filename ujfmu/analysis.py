@@ -32,6 +32,9 @@ def order_fit(angle, signal, orders):
     if rank < matrix.shape[1]:
         turns = abs(float(angle[-1] - angle[0])) / (2.0 * math.pi) if len(angle) > 1 else 0.0
         per_turn = len(angle) / turns if turns > 0.0 else math.inf
+        if turns == 0.0:
+            raise ValueError(f"the {len(angle)} samples span no revolution: the running speed is 0 over them, so "
+                             f"there are no orders to fit")
         if not (np.all(np.isfinite(angle)) and np.all(np.isfinite(signal))) or per_turn < 4.0:
             raise ValueError(f"the {len(angle)} samples span {turns:.3g} revolutions ({per_turn:.3g} a revolution) "
                              f"and cannot separate the mean and orders {', '.join(map(str, orders))} (rank {rank} of "

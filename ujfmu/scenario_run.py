@@ -202,8 +202,16 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
     names = list(scenario.order_tolerances)
     theirs = np.rec.fromarrays([t] + [np.interp(t, reference["time"], reference[n]) for n in names],
                                names=["time"] + names)
-    mine = periodic_figures(Window(float(t[0]), angle, window), names, CHECKED_ORDERS)
-    ref = periodic_figures(Window(float(t[0]), angle, theirs), names, CHECKED_ORDERS)
+    try:
+        if len(t) < 16:
+            raise ValueError(f"the window holds {len(t)} samples")
+        mine = periodic_figures(Window(float(t[0]), angle, window), names, CHECKED_ORDERS)
+        ref = periodic_figures(Window(float(t[0]), angle, theirs), names, CHECKED_ORDERS)
+    except ValueError as exc:
+        raise ScenarioError(f"{scenario.path}: [reference.orders]: the orders of {scenario.running_speed} cannot be "
+                            f"fitted over the window from output.steady_from = {scenario.steady_from:g} s: {exc} "
+                            "(a window of whole revolutions at a running speed: move steady_from earlier or "
+                            "lengthen stop_time)") from None
     checks = []
     for name in names:
         resolved = [a for a in ref[name].figures[1:] if not math.isnan(a)]
