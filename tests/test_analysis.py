@@ -159,3 +159,7 @@ def test_a_pi_driven_components_modes_come_with_the_held_input_bound():
     assert max(free) == pytest.approx(154.71, rel=1e-4) and max(held) == pytest.approx(143.14, rel=1e-4)
     assert held_input_modes(startup)[-1].critical_speed(2) * 30 / math.pi == pytest.approx(683.4, abs=0.1)
     assert held_input_modes(Scenario(SCENARIOS / "double_cardan_omar_torsional.toml")) == []
+    ring = Scenario(SCENARIOS / "ring_coupling_torque_driven.toml")   # a MotorController drives its tau_in
+    c_s, i2 = ring.parameters_with_defaults("coupling")["c_s"], ring.parameters_with_defaults("coupling")["I2"]
+    (held,) = held_input_modes(ring)
+    assert held.omega == pytest.approx(math.sqrt(c_s / i2), rel=1e-3) and held.omega < scenario_modes(ring)[0].omega

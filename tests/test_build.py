@@ -68,3 +68,20 @@ def test_a_rebuild_of_the_same_sources_gives_the_same_bytes(tmp_path, fmu_dir, f
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")   # 2026-01-01 00:00:00 UTC
     with zipfile.ZipFile(build_fmu("Load", tmp_path / "epoch")) as archive:
         assert {i.date_time for i in archive.infolist()} == {(2026, 1, 1, 0, 0, 0)}
+
+
+def test_a_source_date_a_zip_cannot_hold_or_not_a_number_spoils_no_fmu(tmp_path, monkeypatch, capsys):
+    """SOURCE_DATE_EPOCH past 2107 had crashed the build after it had emptied the FMU already there (a 22-byte zip):
+    it is held at the last date a zip holds, the archive is written beside the FMU and moved over it, and a value
+    that is no whole number is refused before anything is built."""
+    from ujfmu.build import ZIP_DATES, build_fmu
+    from ujfmu.cli import main
+    good = build_fmu("Load", tmp_path)
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "4400000000")
+    with zipfile.ZipFile(build_fmu("Load", tmp_path)) as archive:
+        assert {i.date_time for i in archive.infolist()} == {ZIP_DATES[1]}
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "abc")
+    before = good.read_bytes()
+    assert main(["--fmu-dir", str(tmp_path), "build", "Load"]) == 2
+    assert "SOURCE_DATE_EPOCH = 'abc' must be a whole number" in capsys.readouterr().err
+    assert good.read_bytes() == before and not list(tmp_path.glob("*.partial"))

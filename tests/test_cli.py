@@ -669,7 +669,9 @@ def test_the_gate_does_not_pass_on_what_it_did_not_check(fmu_dir, tmp_path, caps
     (tmp_path / "empty").mkdir()
     assert main(["--fmu-dir", str(fmu_dir), "check", str(tmp_path / "empty"), "--junit", str(junit)]) == 2
     suite = ET.parse(junit).getroot()
-    assert suite.get("errors") == "1" and "did not finish" in suite.find("testcase").find("error").get("message")
+    assert suite.get("errors") == "1"
+    assert "refused: " in suite.find("testcase").find("error").get("message")
+    assert "is a folder without scenario files" in suite.find("testcase").find("error").get("message")
     assert main(["--fmu-dir", str(fmu_dir), "check", str(SCENARIOS / "cardan_constant_speed.toml"), "--junit",
                  str(tmp_path)]) == 2
     assert f"--junit {tmp_path} is a folder" in capsys.readouterr().err
@@ -690,6 +692,19 @@ def test_the_gate_does_not_pass_on_what_it_did_not_check(fmu_dir, tmp_path, caps
     capsys.readouterr()
     assert main(["--fmu-dir", str(fmu_dir), "check", str(selfref), "--no-plot", "--out", str(out)]) == 2
     assert "equals this run to the last digit in every compared signal" in capsys.readouterr().out
+
+
+def test_a_check_refused_after_its_command_line_says_why_in_its_report(fmu_dir, tmp_path):
+    """Refusals after the command line was read (two scenarios of one name, FMUs not built) had left the JUnit
+    placeholder 'did not finish', not the reason: the report quotes the refusal."""
+    junit = tmp_path / "report.xml"
+    twice = str(SCENARIOS / "cardan_constant_speed.toml")
+    assert main(["--fmu-dir", str(fmu_dir), "check", twice, twice, "--junit", str(junit)]) == 2
+    message = ET.parse(junit).getroot().find("testcase").find("error").get("message")
+    assert message.startswith("refused: scenarios of the same name would share")
+    assert main(["--fmu-dir", str(tmp_path / "none"), "check", twice, "--junit", str(junit), "--no-plot",
+                 "--out", str(tmp_path / "out")]) == 2
+    assert "not found" in ET.parse(junit).getroot().find("testcase").find("error").get("message")
 
 
 @pytest.mark.parametrize("argv, kind", [
@@ -818,4 +833,4 @@ def test_a_gate_in_a_checkout_whose_code_differs_from_the_installed_one_refuses(
         assert main(command) == 2
         err = capsys.readouterr().err
         assert f"{checkout} is a ujfmu checkout whose sources differ" in err and f"pip install -e {checkout}" in err
-    assert "did not finish" in junit.read_text()
+    assert "refused: " in junit.read_text() and "sources differ" in junit.read_text()

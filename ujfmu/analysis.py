@@ -181,34 +181,42 @@ def scenario_modes(scenario, point: dict | None = None) -> list[Mode]:
 
 
 def held_input_modes(scenario, point: dict | None = None) -> list[Mode]:
-    """The other bound of the modes of the components a PI Motor drives (``scenario_modes`` has them with the input
-    free, the speed loop left out): their input shaft held, as a speed loop far stiffer than the mode holds it. The
+    """The other bound of the modes of the components a PI Motor or a MotorController drives (``scenario_modes`` has
+    them with the input free, the speed loop left out): their input shaft held, as a speed loop far stiffer than the
+    mode holds it. The
     PI loop's gains place each real mode between the two (a fresh-eyes trial's stiff loop, Kp = 840 N.m.s/rad on
     2.5 kg.m^2, showed no resonance at the free-input mode and the held-input one's instead)."""
     return _modes(scenario, point, held=True)
 
 
 def _modes(scenario, point: dict | None, held: bool) -> list[Mode]:
-    """``scenario_modes`` (held False) or ``held_input_modes`` (held True: only the components a PI Motor drives,
-    their speed-driven model with the input held)."""
+    """``scenario_modes`` (held False) or ``held_input_modes`` (held True: only the components a PI Motor or a
+    MotorController drives, their speed-driven model with the input held)."""
     from .build import FMUS, fmu_class
-    rotors = {}   # component -> the rotor inertia of the PI Motor that drives its omega_in
-    for conn in scenario.connections:
+    rotors, controlled = {}, set()   # the rotor inertia of the PI Motor driving a component's omega_in; the
+    for conn in scenario.connections:   # torque-driven components a MotorController's tau_motor drives
         driver, _, out = conn.source.partition(".")
         driven, _, port = conn.target.partition(".")
         if out == "omega" and port == "omega_in" and scenario.components.get(driver, ("",))[0] == "Motor":
             motor = scenario.parameters_with_defaults(driver)
             if not motor["ideal_speed_source"]:
                 rotors[driven] = float(motor["J_rotor"])
+        if out == "tau_motor" and port == "tau_in" and scenario.components.get(driver, ("",))[0] == "MotorController":
+            controlled.add(driven)
     modes = []
     for name, (fmu, _) in scenario.components.items():
-        if fmu in DRIVES_AND_LOADS or held and not (name in rotors and fmu + "TorqueDriven" in FMUS):
+        speed_driven = fmu.removesuffix("TorqueDriven")
+        pi_driven = (name in rotors and fmu + "TorqueDriven" in FMUS
+                     or name in controlled and fmu != speed_driven and speed_driven in FMUS)
+        if fmu in DRIVES_AND_LOADS or held and not pi_driven:
             continue
         parameters = scenario.parameters_with_defaults(name)
         parameters.update({k.partition(".")[2]: v for k, v in (point or {}).items() if k.partition(".")[0] == name})
         cls = fmu_class(fmu)
         model = cls.MODEL
-        if not held and name in rotors and fmu + "TorqueDriven" in FMUS:
+        if held and name in controlled:   # the speed-driven model: its input held
+            model = fmu_class(speed_driven).MODEL
+        elif not held and name in rotors and fmu + "TorqueDriven" in FMUS:
             model = fmu_class(fmu + "TorqueDriven").MODEL
             parameters.update(J_drive=rotors[name], omega_in_start=0.0)
         orders = getattr(cls.PHYSICS, "EXCITATION_ORDER", 1)

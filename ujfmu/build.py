@@ -223,25 +223,36 @@ def _rewrite_model_description(fmu_path, cls, guid_key: str):
     write_archive(fmu_path, {info.filename: data for info, data in entries.items()})
 
 
+#: the dates a zip file can hold (its DOS date field)
+ZIP_DATES = ((1980, 1, 1, 0, 0, 0), (2107, 12, 31, 23, 59, 58))
+
+
 def archive_date() -> tuple:
     """The date every file of an FMU archive carries: SOURCE_DATE_EPOCH's where it is set (the reproducible-builds
-    convention), else 1980-01-01 (the earliest a zip file can hold)."""
-    epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
-    if epoch.isdigit():
-        return max(time.gmtime(int(epoch))[:6], (1980, 1, 1, 0, 0, 0))
-    return 1980, 1, 1, 0, 0, 0
+    convention: seconds since 1970, UTC), within the dates a zip file can hold; else 1980-01-01. ValueError naming the
+    variable where it is set to anything but a whole number."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "")
+    if not epoch.strip():
+        return ZIP_DATES[0]
+    if not epoch.strip().isdigit():
+        raise ValueError(f"SOURCE_DATE_EPOCH = {epoch!r} must be a whole number of seconds since 1970-01-01 UTC "
+                         "(the reproducible-builds convention), or unset")
+    seconds = min(int(epoch), 4354819199)   # 2107-12-31 23:59:59 UTC: gmtime past the year 9999 would fail
+    return min(max(time.gmtime(seconds)[:6], ZIP_DATES[0]), ZIP_DATES[1])
 
 
 def write_archive(path, entries: dict) -> None:
     """The FMU archive at path of entries (file name -> bytes), reproducible: sorted by name, every file dated
     :func:`archive_date`, so that a build of the same sources gives the same bytes (a CI cache, a checksum)."""
     date = archive_date()
-    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as zf:
+    partial = Path(path).with_name(Path(path).name + ".partial")   # an FMU there stays whole if writing fails
+    with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
         for name in sorted(entries):
             info = zipfile.ZipInfo(name, date_time=date)
             info.compress_type = zipfile.ZIP_DEFLATED
             info.external_attr = 0o100644 << 16   # a regular file, rw-r--r--
             zf.writestr(info, entries[name])
+    os.replace(partial, path)
 
 
 def documentation_html(name, cls):

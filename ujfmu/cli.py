@@ -148,7 +148,11 @@ def _say(args, text):
 
 
 def cmd_build(args):
-    from .build import build_all
+    from .build import archive_date, build_all
+    try:
+        archive_date()   # a malformed SOURCE_DATE_EPOCH is refused before any FMU is written
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
     unknown = [n for n in args.names if n not in FMUS]
     if unknown:
         raise UsageError(f"unknown FMU {', '.join(unknown)}; known: {', '.join(FMUS)} (a new model is registered in "
@@ -322,16 +326,29 @@ UNFINISHED = ("did not finish: interrupted, killed, or stopped by an error befor
 
 
 def cmd_check(args):
-    from .master import CosimulationError
     from .scenario import ScenarioError
     from .scenario_run import write_junit
-    results, skipped, errors = [], {}, {}
     kind = "model_exchange" if args.model_exchange else "fmi3" if getattr(args, "fmi", 2) == 3 else ""
     if args.junit:   # a report of an earlier run must not stand for this one, whatever becomes of it
         if Path(args.junit).is_dir():
             raise UsageError(f"--junit {args.junit} is a folder: give the report's file name, e.g. "
                              f"{Path(args.junit) / 'report.xml'}")
         write_junit([], args.junit, {"ujfmu check": UNFINISHED}, kind=kind)
+    try:
+        return _check(args, kind)
+    except (UsageError, ScenarioError, FileNotFoundError, MissingExtraError) as exc:
+        with contextlib.suppress(OSError):   # refused before the run's own report replaced the placeholder
+            if args.junit and UNFINISHED in Path(args.junit).read_text():
+                write_junit([], args.junit, {"ujfmu check": f"refused: {exc}"}, kind=kind)
+        raise
+
+
+def _check(args, kind: str) -> int:
+    """`ujfmu check` after its JUnit placeholder (:func:`cmd_check`)."""
+    from .master import CosimulationError
+    from .scenario import ScenarioError
+    from .scenario_run import write_junit
+    results, skipped, errors = [], {}, {}
     _own_checkout(list(args.scenarios or []))
     paths = _scenarios(args.scenarios)
     names = {}
@@ -442,7 +459,7 @@ def cmd_sweep(args):
                                  max_settle_time=args.max_settle)
     sweep = Sweep(scenario, axes, settings, out_dir=args.out, name=args.name, fmu_dir=args.fmu_dir)
     grid = " x ".join(a.describe(scenario) for a in axes)
-    print(f"{sweep.name}: {len(sweep.points)} points ({grid}), "
+    print(f"{sweep.name}: {len(sweep.points)} point{'' if len(sweep.points) == 1 else 's'} ({grid}), "
           f"settle {settings.settle_time:g} s, {settings.revolutions:g} revolutions measured")
     for name in filter(grows, settings.outputs):
         print(f"  note: {name} grows with time in any steady state (a running angle or an energy integral): its "
@@ -515,7 +532,7 @@ def _status_summary(counts, total, steady_checked=True):
         **STATUS_MEANING, "ok": "at the operating point; steady state not checked (--steady-tol 0)"}
     parts = [f"{n} {status} ({meaning.get(status, status)})" for status, n in sorted(
         counts.items(), key=lambda item: list(STATUS_MEANING).index(item[0]) if item[0] in STATUS_MEANING else 99)]
-    return f"{total} points: " + ", ".join(parts)
+    return f"{total} point{'' if total == 1 else 's'}: " + ", ".join(parts)
 
 
 def cmd_modes(args):
@@ -553,19 +570,20 @@ def cmd_modes(args):
     show(modes)
     held = held_input_modes(scenario)
     if held:
-        print(f"  where a PI motor drives {', '.join(dict.fromkeys(m.component for m in held))}, the modes above "
+        print(f"  where a PI speed loop drives {', '.join(dict.fromkeys(m.component for m in held))}, the modes above "
               "have its input free (the speed loop left out); a loop much stiffer than a mode holds the input "
               "instead, and the PI gains place each real mode between the two. With the input held:")
         show(held)
     for name, speed in drive_speeds(scenario).items():
         if speed == 0.0:
             continue
-        crossings = sorted(((abs(speed) / m.critical_speed(k) - 1.0, m, k) for m in modes
+        crossings = sorted(((abs(speed) / m.critical_speed(k) - 1.0, m, k, bound)
+                            for m, bound in [(m, "") for m in modes] + [(m, " (input held)") for m in held]
                             for k in range(1, m.orders + 1)), key=lambda item: abs(item[0]))
-        margin, m, k = crossings[0]
+        margin, m, k, bound = crossings[0]
         near = abs(margin) < NEAR_CRITICAL
         print(f"  {name} = {speed_text(abs(speed))}: the nearest crossing is the {k}x order's with {m.component}'s "
-              f"{m.omega:.5g} rad/s mode, at {m.critical_speed(k):.5g} rad/s: {100 * abs(margin):.1f}% "
+              f"{m.omega:.5g} rad/s mode{bound}, at {m.critical_speed(k):.5g} rad/s: {100 * abs(margin):.1f}% "
               f"{'above' if margin > 0 else 'below'} it" + (f" (within {100 * NEAR_CRITICAL:g}%)" if near else ""))
         below = [(m, k) for m in modes for k in range(1, m.orders + 1) if m.critical_speed(k) < abs(speed)]
         if below:

@@ -731,17 +731,24 @@ class Scenario:
         if not isinstance(table, dict):
             raise ScenarioError(f"{self.path}: [reference.orders] must be a table")
         start = getattr(self, "start_time", 0.0)
-        if table and (self.reference_file is None or getattr(self, "running_speed", None) is None
-                      or not getattr(self, "steady_from", start) > start):
+        missing = [what for what, lacking in (
+            ("a reference file (reference.file)", self.reference_file is None),
+            ("output.running_speed (the speed whose revolutions the orders count)",
+             getattr(self, "running_speed", None) is None),
+            ("output.steady_from after start_time (where the window starts, after the start-up)",
+             not getattr(self, "steady_from", start) > start)) if lacking]
+        if table and missing:
             raise ScenarioError(f"{self.path}: [reference.orders] compares the running-speed orders over the steady "
-                                "window, so it needs a reference file, output.running_speed (the speed whose "
-                                "revolutions the orders count) and output.steady_from (where the window starts, after "
-                                "the start-up)")
+                                f"window, so it needs {' and '.join(missing)}")
         orders = {}
         for name, tol in table.items():
             field = f"reference.orders.{name}"
             if name not in self.record:
                 raise ScenarioError(f"{self.path}: {field}: not a recorded signal")
+            from .steady import grows
+            if grows(name):
+                raise ScenarioError(f"{self.path}: {field}: a running angle or an energy integral grows along the "
+                                    "run, and its orders over a window describe that ramp, not a vibration")
             if not isinstance(tol, dict) or set(tol) != {"rel"}:
                 raise ScenarioError(f"{self.path}: {field} = {tol!r} must be {{ rel = ... }}: the error allowed on "
                                     "each order's amplitude as a fraction of the reference's")

@@ -160,9 +160,12 @@ def check_steady_window(scenario: Scenario, table: np.ndarray, iterated: bool = 
 
 #: the running-speed orders [reference.orders] compares
 CHECKED_ORDERS = (1, 2, 4)
-#: an order whose amplitude in the reference is below this fraction of the signal's largest checked order carries
-#: too little of its vibration to be compared as a fraction of itself
+#: an order below this fraction of the signal's largest checked order, in the run and in the reference, carries too
+#: little of its vibration to be compared as a fraction of itself
 SIGNIFICANT_ORDER = 0.01
+#: a signal whose largest checked order is below this fraction of its size (its mean or half its peak-to-peak) has
+#: no vibration but round-off (a constant speed's 1e-14 of itself): nothing of it is compared
+NEGLIGIBLE_ORDER = 1e-9
 
 
 @dataclass
@@ -175,12 +178,15 @@ class OrderCheck:
     amplitude: float
     reference_amplitude: float
     rel: float
+    note: str = ""   # why nothing was compared (an order the step does not resolve, a signal without vibration)
 
     @property
     def passed(self) -> bool:
-        return bool(abs(self.amplitude - self.reference_amplitude) <= self.rel * self.reference_amplitude)
+        return bool(self.note or abs(self.amplitude - self.reference_amplitude) <= self.rel * self.reference_amplitude)
 
     def __str__(self):
+        if self.note:
+            return f"--   {self.name}: {self.note}"
         off = (self.amplitude - self.reference_amplitude) / self.reference_amplitude
         return (f"{'ok  ' if self.passed else 'FAIL'} {self.name} {self.order}x order amplitude "
                 f"{self.amplitude:.4g} against the reference's {self.reference_amplitude:.4g} ({100 * off:+.3g}%, "
@@ -214,11 +220,25 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
                             "lengthen stop_time)") from None
     checks = []
     for name in names:
-        resolved = [a for a in ref[name].figures[1:] if not math.isnan(a)]
+        rel, runs, refs = scenario.order_tolerances[name], mine[name].figures[1:], ref[name].figures[1:]
+        size = max(mine[name].size, ref[name].size)
+        resolved = [max(a, b) for a, b in zip(runs, refs) if not (math.isnan(a) or math.isnan(b))]
         largest = max(resolved, default=0.0)
-        for k, a, a_ref in zip(CHECKED_ORDERS, mine[name].figures[1:], ref[name].figures[1:]):
-            if largest > 0.0 and not (math.isnan(a_ref) or a_ref < SIGNIFICANT_ORDER * largest):
-                checks.append(OrderCheck(name, k, a, a_ref, scenario.order_tolerances[name]))
+        if not resolved:
+            checks.append(OrderCheck(name, 0, math.nan, math.nan, rel, note=(
+                "no order is resolved at this step (too few samples a revolution): nothing compared")))
+            continue
+        if not largest > NEGLIGIBLE_ORDER * size:
+            checks.append(OrderCheck(name, 0, math.nan, math.nan, rel, note=(
+                f"no order above round-off (the largest {largest:.3g}, of a signal of size {size:.3g}): nothing "
+                "compared")))
+            continue
+        for k, a, a_ref in zip(CHECKED_ORDERS, runs, refs):
+            if math.isnan(a) or math.isnan(a_ref):
+                checks.append(OrderCheck(name, k, a, a_ref, rel, note=(
+                    f"its {k}x order is not resolved at this step (too few samples a revolution): not compared")))
+            elif max(a, a_ref) >= SIGNIFICANT_ORDER * largest:   # in the run or in the reference: a spurious one too
+                checks.append(OrderCheck(name, k, a, a_ref, rel))
     return checks
 
 
