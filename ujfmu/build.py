@@ -237,7 +237,7 @@ def archive_date() -> tuple:
     if not epoch.strip().isdigit():
         raise ValueError(f"SOURCE_DATE_EPOCH = {epoch!r} must be a whole number of seconds since 1970-01-01 UTC "
                          "(the reproducible-builds convention), or unset")
-    seconds = min(int(epoch), 4354819199)   # 2107-12-31 23:59:59 UTC: gmtime past the year 9999 would fail
+    seconds = min(int(epoch), 4354819199)   # 2107-12-31 23:59:59 UTC: gmtime of a far later time fails
     return min(max(time.gmtime(seconds)[:6], ZIP_DATES[0]), ZIP_DATES[1])
 
 
