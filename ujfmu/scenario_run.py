@@ -194,11 +194,13 @@ class OrderCheck:
 
 
 def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -> list:
-    """An OrderCheck per signal of [reference.orders] and per order of ``CHECKED_ORDERS`` the window resolves
-    whose reference amplitude is at least ``SIGNIFICANT_ORDER`` of the largest of them (the vibration, not the
-    signal's mean, is the scale: a speed's orders are a small fraction of the speed): both fitted against the run's
-    running angle over the samples from steady_from on, the reference taken at the run's instants (linear
-    interpolation where the grids differ)."""
+    """An OrderCheck per signal of [reference.orders] and per order of ``CHECKED_ORDERS`` the window resolves whose
+    amplitude in the run or in the reference is at least ``SIGNIFICANT_ORDER`` of the largest of them (the vibration,
+    not the signal's mean, is the scale: a speed's orders are a small fraction of the speed; a spurious order of the
+    run counts too): both fitted against the run's running angle over the samples from steady_from on, the reference
+    taken at the run's instants (linear interpolation where the grids differ). An order the step does not resolve,
+    or a signal whose orders are round-off (``NEGLIGIBLE_ORDER`` of its size), gets a check with a note instead;
+    ScenarioError where the window cannot be fitted."""
     from .steady import Window, periodic_figures, running_angle
     if not scenario.order_tolerances:
         return []
