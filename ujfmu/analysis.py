@@ -57,8 +57,7 @@ FLAT_TOP = (0.21557895, 0.41663158, 0.277263158, 0.083578947, 0.006947368)
 def amplitude_spectrum(time, signal):
     """(frequency [Hz], single-sided amplitude) of a uniformly sampled signal, mean removed, flat-top window
     (``FLAT_TOP``) with its coherent gain corrected, so a sinusoid of amplitude A shows a peak of A within 0.2%
-    wherever its frequency falls between bins (a Hann window's peak reads up to 15% low there: a fresh-eyes trial's
-    2x read 3.28 for 3.48)."""
+    wherever its frequency falls between bins (a Hann window's peak reads up to 15% low there)."""
     time, signal = np.asarray(time, float), np.asarray(signal, float)
     n = len(signal)
     phase = 2.0 * np.pi * np.arange(n) / (n - 1)
@@ -184,8 +183,8 @@ def held_input_modes(scenario, point: dict | None = None) -> list[Mode]:
     """The other bound of the modes of the components a PI Motor or a MotorController drives (``scenario_modes`` has
     them with the input free, the speed loop left out): their input shaft held, as a speed loop far stiffer than the
     mode holds it. The
-    PI loop's gains place each real mode between the two (a fresh-eyes trial's stiff loop, Kp = 840 N.m.s/rad on
-    2.5 kg.m^2, showed no resonance at the free-input mode and the held-input one's instead)."""
+    PI loop's gains place each real mode between the two (a stiff loop, Kp = 840 N.m.s/rad on 2.5 kg.m^2, shows the
+    held-input mode's resonance, none at the free-input one)."""
     return _modes(scenario, point, held=True)
 
 

@@ -79,12 +79,12 @@ RIPPLE_ORDERS = 8
 def running_angle(t: np.ndarray, speed: np.ndarray) -> np.ndarray:
     """The running angle a window's orders are fitted against, from 0 at its first sample: the trapezoidal integral
     of the running speed without the speed's own ripple. A PI motor's speed carries the joints' 2x: against its
-    instantaneous angle, a signal's 2x modulated into a false 4x and shifted the mean (a fresh-eyes trial: omega_out's
-    4x 0.035 rad/s where an FFT of the record gives 0.0088). The smooth part is a quadratic in time (a steady
-    speed's angle is linear, a constant run-up's quadratic), fitted by least squares together with the ripple's
-    orders 1..``RIPPLE_ORDERS`` of it (as many as the samples resolve), twice: a quadratic alone takes part of a
-    ripple over a window that is no whole number of its periods into its slope (a second trial: 2.2e-3 rad/s of
-    60, enough to leak a 75 N.m 2x into a 1x 1000 times the true one and fail a steady run)."""
+    instantaneous angle, a signal's 2x would modulate into a false 4x and shift the mean (omega_out's 4x 0.035 rad/s
+    where an FFT of the record gives 0.0088). The smooth part is a quadratic in time (a steady speed's angle is
+    linear, a constant run-up's quadratic), fitted by least squares together with the ripple's orders
+    1..``RIPPLE_ORDERS`` of it (as many as the samples resolve), twice: a quadratic alone takes part of a ripple over
+    a window that is no whole number of its periods into its slope (2.2e-3 rad/s of 60 for a 3.4 rad/s 2x ripple,
+    enough to leak a 75 N.m 2x into a 1x 1000 times the true one)."""
     angle = np.concatenate(([0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t))))
     if len(t) < 3:
         return angle
@@ -243,9 +243,9 @@ def coupling_noise(cosim) -> float:
     """The relative size of the noise the co-simulation's coupling leaves in a window's figures: the implicit scheme
     ends its iteration within ``master.COUPLING_RTOL`` (3e-4) of a torn input's largest value, and the figures move
     between windows by up to ``FIGURE_NOISE`` of that times the signal's size (3e-5) without any change of the motion
-    (a fresh-eyes trial: a 1x order of 1e-5 of a shaft torque's mean, absent from the monolithic solve and from the
-    explicit scheme, wandered by twice itself and failed steady points at any settle time); 0 where the steps do
-    not iterate (the explicit scheme, or nothing to close: ``Cosimulation.iterates``)."""
+    (a 1x order of 1e-5 of a shaft torque's mean, absent from the monolithic solve and from the explicit scheme,
+    wanders by twice itself: no settle time makes it steady); 0 where the steps do not iterate (the explicit scheme,
+    or nothing to close: ``Cosimulation.iterates``)."""
     from .master import COUPLING_RTOL
     return FIGURE_NOISE * COUPLING_RTOL if getattr(cosim, "iterates", False) else 0.0
 

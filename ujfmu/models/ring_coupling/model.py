@@ -240,8 +240,8 @@ def exponential_steps(p: Parameters, y: Sequence[float], t_span: float, n: int, 
     methods for stiff PDEs", J. Comput. Phys. 203, 2005) in the twist z = (x, x') of x = phi2 - phi(s) - offset:
         z' = L z + (0, g),   L = ((0, 1), (-c_s/I2, -c_d/I2)),   g = (M_p - tau_load) / I2 - alpha,
         M_p = 157 (EI/R^3) e^2 cos(2 phi(s) + offset + x)                                  (Eq. 9 in the twist)
-    The ring's free oscillation is exact at any step (an undamped ring keeps its amplitude and phase, which RK4 at
-    h omega_n = 0.5 lost by 1e-4 a substep); g, the misalignment moment turning at twice the running speed, by four
+    The ring's free oscillation is exact at any step (an undamped ring keeps its amplitude and phase, of which RK4
+    at h omega_n = 0.5 would lose 1e-4 a substep); g, the misalignment moment turning at twice the running speed, by four
     evaluations a substep (N_u = g(t, z), D_i = g(stage i) - N_u):
         a = E(h/2) z + Q1 N_u,  b = a + Q2 D_a,  c = E(h) z + R1 N_u + R2 D_b,
         z+ = E(h) z + R1 N_u + S1 (D_a + D_b) + S2 D_c                       (:func:`krogstad_operators`)
