@@ -554,13 +554,11 @@ def test_a_change_within_the_implicit_couplings_noise_is_no_change():
     driveline's 1x order of 0.0098 N.m (1e-5 of its 998 N.m torque, absent from the monolithic solve) wandered by
     0.019 N.m and failed steady points at any settle time. Within the noise it is no change; beyond it, and
     always for the explicit scheme (noise 0), it counts as before."""
-    from types import SimpleNamespace
-
     from ujfmu.master import COUPLING_RTOL
     from ujfmu.steady import FIGURE_NOISE, Periodic, coupling_noise, steady_change
-    noise = coupling_noise(SimpleNamespace(iterates=True))
+    noise = coupling_noise(True)
     assert noise == FIGURE_NOISE * COUPLING_RTOL == pytest.approx(3e-5)
-    assert coupling_noise(SimpleNamespace(iterates=False)) == 0.0
+    assert coupling_noise(False) == 0.0
     old = {"torque": Periodic([998.0, 0.0098, 19.5], 998.0)}
     wandered = {"torque": Periodic([998.0, 0.0292, 19.5], 998.0)}
     assert steady_change(wandered, old, (1, 2), noise)[0] == 0.0

@@ -144,8 +144,7 @@ class SteadyWindowCheck:
 def check_steady_window(scenario: Scenario, table: np.ndarray, iterated: bool = False) -> list:
     """A SteadyWindowCheck where the scenario has a steady_from and a running speed (its window's angle), else none;
     iterated: the run's steps iterated its torn inputs (``Cosimulation.iterates``), whose noise is no change."""
-    from .master import COUPLING_RTOL
-    from .steady import FIGURE_NOISE, grows, halves_change, running_angle
+    from .steady import coupling_noise, grows, halves_change, running_angle
     if not (scenario.steady_from > scenario.start_time and scenario.running_speed in table.dtype.names):
         return []
     window = table[table["time"] >= scenario.steady_from - 1e-9]
@@ -153,8 +152,7 @@ def check_steady_window(scenario: Scenario, table: np.ndarray, iterated: bool = 
     if len(window) < 16 or not signals:
         return []
     angle = running_angle(window["time"], window[scenario.running_speed])
-    change, worst, against = halves_change(angle, window, signals,
-                                           noise=FIGURE_NOISE * COUPLING_RTOL if iterated else 0.0)
+    change, worst, against = halves_change(angle, window, signals, noise=coupling_noise(iterated))
     return [SteadyWindowCheck(scenario.steady_from, change, worst, against)]
 
 

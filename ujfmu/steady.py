@@ -239,15 +239,15 @@ def grows(signal: str) -> bool:
 FIGURE_NOISE = 0.1
 
 
-def coupling_noise(cosim) -> float:
+def coupling_noise(iterates: bool) -> float:
     """The relative size of the noise the co-simulation's coupling leaves in a window's figures: the implicit scheme
     ends its iteration within ``master.COUPLING_RTOL`` (3e-4) of a torn input's largest value, and the figures move
     between windows by up to ``FIGURE_NOISE`` of that times the signal's size (3e-5) without any change of the motion
     (a 1x order of 1e-5 of a shaft torque's mean, absent from the monolithic solve and from the explicit scheme,
-    wanders by twice itself: no settle time makes it steady); 0 where the steps do not iterate (the explicit scheme,
-    or nothing to close: ``Cosimulation.iterates``)."""
+    wanders by twice itself: no settle time makes it steady); 0 where the steps do not iterate (iterates False: the
+    explicit scheme, or nothing to close, ``Cosimulation.iterates``)."""
     from .master import COUPLING_RTOL
-    return FIGURE_NOISE * COUPLING_RTOL if getattr(cosim, "iterates", False) else 0.0
+    return FIGURE_NOISE * COUPLING_RTOL if iterates else 0.0
 
 
 def settle_and_measure(cosim, settings) -> dict:
@@ -263,7 +263,7 @@ def settle_and_measure(cosim, settings) -> dict:
         record.update(_measured(window, s), settled_s=window.start - cosim.start_time, steady_change=math.nan)
         return _check_operating_point(window, s, record)
     signals = [x for x in dict.fromkeys(s.outputs + [s.running_speed]) if not grows(x)]
-    noise = coupling_noise(cosim)
+    noise = coupling_noise(cosim.iterates)
     start = cosim.time
     settle, cap = s.settle_time, None
     while True:
