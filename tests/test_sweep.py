@@ -395,7 +395,9 @@ def test_table_is_flat_like_the_csv(brutti, tmp_path, fmu_dir):
 
 def test_a_columns_file_gives_every_column_its_unit(brutti, tmp_path, fmu_dir):
     """Beside the CSV, ``<name>.columns.csv`` lists every column of the table with its unit and meaning: the swept
-    speed in rad/s (given in rpm), the input torque's figures and orders in N.m, the settle time in s."""
+    speed in rad/s (given in rpm), the input torque's figures and orders in N.m, the settle time in s; every row
+    says the communication step and coupling it was run with (a table merged from sweeps at other steps keeps
+    them)."""
     sweep = brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=1000rpm")
     sweep.run(workers=0)
     with open(sweep.csv) as f:
@@ -407,6 +409,11 @@ def test_a_columns_file_gives_every_column_its_unit(brutti, tmp_path, fmu_dir):
     assert units["motor.omega_set"] == "rad/s" and units["speed_mean"] == "rad/s" and units["settled_s"] == "s"
     assert {units[f"driveline.tau_in.{f}"] for f in ("max", "min", "p2p", "mean", "rms", "h1", "h2", "h4")} == {"N.m"}
     assert all(r["meaning"] for r in rows)
+    assert units["step_size"] == "s"
+    with open(sweep.csv) as f:
+        row = next(csv.DictReader(f))
+    assert float(row["step_size"]) == brutti.step_size and row["coupling"] == brutti.coupling
+    assert sweep.table()[0]["step_size"] == brutti.step_size
 
 
 def ring_sweep(tmp_path, fmu_dir, specs, name, **settings):

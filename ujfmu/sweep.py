@@ -671,11 +671,13 @@ class Sweep:
     def table(self) -> list:
         """One flat dict a point, in grid order, as the CSV: the swept parameters by name (SI), status, the
         figures of every output (NaN for a point without them: failed or not run), speed_mean, settled_s,
-        steady_change, wall_s, error, note, warnings (the record's "point" is kept as well)."""
+        steady_change, wall_s, error, note, warnings, and the run's communication step_size and coupling (the
+        record's "point" is kept as well)."""
         blank = dict.fromkeys(["speed_mean"] + self.settings.columns() + ["settled_s", "steady_change", "wall_s"],
                               math.nan)
+        run = {"step_size": self.job.step_size, "coupling": self.job.coupling}
         return [{**r["point"], **blank, "note": "", "warnings": "",
-                 **{k: v for k, v in r.items() if k not in ("config", "grid")}} for r in self.records()]
+                 **{k: v for k, v in r.items() if k not in ("config", "grid")}, **run} for r in self.records()]
 
     def write_csv(self):
         """The tidy CSV: one row a point; swept parameters in SI units, then the figures of every output."""
@@ -683,12 +685,14 @@ class Sweep:
         cols = ["speed_mean"] + self.settings.columns() + ["settled_s", "steady_change"]
         with open(self.csv, "w", newline="") as f:
             writer = csv.writer(f)
-            writer.writerow(param_cols + ["status"] + cols + ["wall_s", "error", "note", "warnings"])
+            writer.writerow(param_cols + ["status"] + cols + ["wall_s", "error", "note", "warnings", "step_size",
+                                                             "coupling"])
+            run = [repr(float(self.job.step_size)), self.job.coupling]
             for record in self.records():
                 writer.writerow([repr(float(record["point"][n])) for n in param_cols] + [record["status"]]
                                 + [repr(record[c]) if c in record else "" for c in cols]
                                 + [f"{record.get('wall_s', float('nan')):.3f}", record["error"],
-                                   record.get("note", ""), record.get("warnings", "")])
+                                   record.get("note", ""), record.get("warnings", "")] + run)
         self.write_columns()
         return self.csv
 
@@ -714,7 +718,9 @@ class Sweep:
         columns.update(settled_s=("s", "settle time used"),
                        steady_change=("1", "largest change of a figure between the last windows, of its size"),
                        wall_s=("s", "wall time of the point"), error=("", "why the point is not ok"),
-                       note=("", "what limits its figures"), warnings=("", "what its FMUs warned of"))
+                       note=("", "what limits its figures"), warnings=("", "what its FMUs warned of"),
+                       step_size=("s", "communication step of the co-simulation (every point's)"),
+                       coupling=("", "coupling scheme: implicit (the steps iterate) or explicit"))
         return columns
 
     def write_columns(self) -> Path:
