@@ -558,7 +558,8 @@ class ModelSlave(UjfmuSlave):
     """
 
     MODEL = None
-    STATE = {"_time": "float", "_started": "bool", "_aliasing_said": "bool"}   # plus "_y", the model state
+    STATE = {"_time": "float", "_started": "bool", "_aliasing_said": "bool",
+             "_state_advice_said": "bool"}   # plus "_y", the model state
     #: h |omega_in| at and above which a host that reads the outputs every step h aliases the model's
     #: ``EXCITATION_ORDER`` (at most MIN_SAMPLES_PER_PERIOD reads a period); inf: the model declares none
     _aliasing_reach = math.inf
@@ -570,6 +571,9 @@ class ModelSlave(UjfmuSlave):
     _history_step = None
     #: the model's ``check_state(p, y)`` where it has one (the protocol's option)
     _check_state = None
+    #: the model's ``state_advice(p, h, y, u)`` where it has one (the protocol's option: warnings on a state reached
+    #: by a step of h under the inputs u that is valid but likely not meant; said once per instance)
+    _state_advice = None
     #: the model's ``outputs(p, t, y, u)``, and its ``state_outputs(p, t, y)`` where it has them (the protocol's
     #: option: the outputs it names in ``STATE_OUTPUTS``)
     _outputs = _state_outputs = None
@@ -588,6 +592,8 @@ class ModelSlave(UjfmuSlave):
                 cls._own_step = staticmethod(model.integrate)
             if hasattr(model, "check_state"):
                 cls._check_state = staticmethod(model.check_state)
+            if hasattr(model, "state_advice"):
+                cls._state_advice = staticmethod(model.state_advice)
             cls._outputs = staticmethod(model.outputs)
             order = getattr(cls.PHYSICS, "EXCITATION_ORDER", None)
             if order:
@@ -623,7 +629,7 @@ class ModelSlave(UjfmuSlave):
         self._kinematic = bool(getattr(self.MODEL, "kinematic", _never)(self._p))
 
     def initialize(self, start_time):
-        self._time, self._started, self._aliasing_said = start_time, False, False
+        self._time, self._started, self._aliasing_said, self._state_advice_said = start_time, False, False, False
         self._y = tuple(self.MODEL.initial_state(self._p, start_time, self.model_inputs()))
         if self._history_step is not None:
             self._history = self.MODEL.NO_HISTORY
@@ -687,7 +693,7 @@ class ModelSlave(UjfmuSlave):
 
     def step_state(self, t, h, u):
         """The state from t to t + h under the inputs u (:meth:`integrate`), checked finite and by the model's
-        ``check_state``, and the time."""
+        ``check_state`` (a refusal), its ``state_advice`` said once (a warning), and the time."""
         y = self.integrate(t, h, self._y if self._started else self.current_state(u), u)
         if not math.isfinite(sum(y)) and not all(map(math.isfinite, y)):   # a sum is finite unless one is not
             raise ValueError(f"the state became non-finite over the step ({y!r})")
@@ -695,6 +701,12 @@ class ModelSlave(UjfmuSlave):
             problems = self._check_state(self._p, y)
             if problems:
                 raise ValueError("; ".join(problems))
+        if self._state_advice is not None and not self._state_advice_said:
+            advice = self._state_advice(self._p, h, y, u)
+            if advice:
+                self._state_advice_said = True
+                self.log(f"{self.modelName} '{self.instance_name}': at t = {t + h:g} s " + "; ".join(advice)
+                         + " (Said once per instance.)", Fmi2Status.warning)
         self._y, self._started, self._time = y, True, t + h
 
     def say_aliasing(self, h, omega):

@@ -363,3 +363,31 @@ def test_torque_driven_outputs_are_the_speed_driven_ones_at_the_accelerating_inp
             value = speed_driven[out_key]
             assert ours[key] == pytest.approx(value, rel=1e-12, abs=1e-12 * (1.0 + abs(value))), key
         assert (ours["phi_in"], ours["omega_in"], ours["phi_out"], ours["omega_out"]) == (y[0], y[1], y[2], y[3])
+
+
+def test_a_twist_no_real_shaft_takes_is_said_wherever_it_is_reached():
+    """state_advice warns exactly where the intermediate shaft's twist phi2 - phi3 (flexible_kinematics, evaluated
+    afresh) passes LARGE_TWIST, at random joint angles up to 60 deg, dynamic misalignments up to 0.3 rad and input
+    and output angles around it (the cheap bound it uses first must never hide one), for both causalities; the
+    message names the stiffness to set. A rigid shaft has no twist to warn of."""
+    rng = np.random.default_rng(5)
+    said = 0
+    for _ in range(2000):
+        p = driveline(rng.uniform(-60, 60) * DEG, rng.uniform(-60, 60) * DEG, rng.uniform(0, 2 * math.pi),
+                      rng.uniform(0, 2 * math.pi))
+        phi1, h = rng.uniform(-20, 20), 1e-3
+        y = (phi1 - rng.uniform(-1.0, 1.0), 50.0, rng.uniform(-0.3, 0.3), 0.0)
+        u = dc.Drive(phi1 - h * 60.0, 60.0, 0.0, 0.0)   # phi1 at the step's end
+        twist = dc.flexible_kinematics(p, phi1, 0.0, y[0], 0.0, y[2], 0.0)[0]
+        advice = dc.state_advice(p, h, y, u)
+        assert bool(advice) == (abs(twist) > dc.LARGE_TWIST), (twist, advice)
+        torque = dc.TorqueDrivenParameters(**{f: getattr(p, f) for f in ("beta1", "beta2", "yoke_phase",
+                                                                         "joint_plane_angle", *OMAR, "I_input")},
+                                           J_drive=0.01, omega_in_start=0.0)
+        assert bool(dc.TorqueDriven.state_advice(torque, h, (phi1, 60.0) + y, dc.Torques(0.0, 0.0))) == bool(advice)
+        if advice:
+            said += 1
+            assert "k_theta" in advice[0] and f"{twist:.3g} rad" in advice[0]
+    assert 300 < said < 1700   # both sides of the bound are sampled
+    rigid = dc.Parameters(0.2, 0.2, 0.0, 0.0, **OMAR, rigid_intermediate_shaft=True)
+    assert dc.state_advice(rigid, 1e-3, (5.0, 0.0, 0.0, 0.0), dc.Drive(0.0, 0.0, 0.0, 0.0)) == []

@@ -105,7 +105,8 @@ class Parameters:
     inertia (constant_inertias: J_in = I_input and J_out = J_load at every angle), and the natural-rate bound of
     the flexible equations (0 for a rigid shaft, or where :func:`check` refuses the parameters), and the exponential
     Adams method's linear part and rate (:func:`linear_part`: J_mean, linear, its speed rows linear_rows,
-    remainder_rate).
+    remainder_rate), and the joints' largest kinematic errors at dynamic misalignments up to 0.2 rad (twist_slack:
+    :func:`state_advice`).
     outputs_memo: the outputs' last evaluation of the equations, which the step after them and a second read reuse
     (:func:`_output_rates`); adams_memo: the method's operators for the last substep length
     (:func:`adams_operators`); per parameters object, so per FMU instance; neither a parameter nor compared."""
@@ -142,6 +143,7 @@ class Parameters:
     linear: tuple = field(init=False, repr=False)
     linear_rows: tuple = field(init=False, repr=False)
     remainder_rate: float = field(init=False, repr=False)
+    twist_slack: float = field(init=False, repr=False)
     outputs_memo: tuple | None = field(default=None, init=False, repr=False, compare=False)
     adams_memo: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
@@ -162,6 +164,8 @@ class Parameters:
         self.linear = linear_part(self) if flexible else ()
         self.linear_rows = (*self.linear[0][1], *self.linear[1][1]) if flexible else ()
         self.remainder_rate = remainder_rate_bound(self) if flexible else 0.0
+        self.twist_slack = (_joint_error_bound(abs(self.beta1) + _TWIST_GATE_PHI)
+                            + _joint_error_bound(abs(self.beta2) + _TWIST_GATE_PHI))
 
 
 def input_inertia(p: Parameters, phi1: float) -> tuple:
@@ -873,6 +877,47 @@ def check(p: Parameters) -> list:
     return problems
 
 
+#: twist [rad] of the intermediate shaft past which :func:`state_advice` warns: a steel propshaft yields at about
+#: tau_yield L / (G r), 0.19 rad for L = 1.5 m, r = 40 mm (400 MPa, 80 GPa), and Omar's laboratory shaft twists
+#: less than 0.09 rad through both its critical speeds (the bundled references)
+LARGE_TWIST = 0.5
+#: dynamic misalignment [rad] up to which :func:`state_advice` bounds the joints' kinematic errors without
+#: evaluating them
+_TWIST_GATE_PHI = 0.2
+
+
+def _joint_error_bound(b: float) -> float:
+    """max over x of |y - x| for tan y = tan x / cos b: atan((1 - cos b) / (2 sqrt(cos b))) (at tan x = sqrt(cos b))."""
+    c = math.cos(min(abs(b), MAX_ANGLE))
+    return math.atan((1.0 - c) / (2.0 * math.sqrt(c)))
+
+
+def state_advice(p: Parameters, h: float, y: State, u: Drive) -> list:
+    """A warning where the flexible intermediate shaft's twist phi2 - phi3 passes ``LARGE_TWIST``: valid for the
+    model, whose torsion is linear at any twist, but not for a real shaft, so the shaft's parameters are likely not
+    the user's (the defaults are Omar's laboratory rig: a truck's torque twists its 92.2 N.m/rad by over 10 rad).
+    The input angle at the step's end, phi + h (omega + alpha h / 2), is the FMU's; the kinematics are evaluated only
+    where |phi1 - phi4| is within the joints' largest kinematic errors of the bound."""
+    if p.rigid_intermediate_shaft:
+        return []
+    return _twist_advice(p, u.phi + h * (u.omega + 0.5 * u.alpha * h), y)
+
+
+def _twist_advice(p: Parameters, phi1: float, y: Sequence[float]) -> list:
+    """:func:`state_advice` at the input angle phi1 and the speed-driven state y (phi4, omega4, phi, dphi)."""
+    phi4, _, phi, _ = y
+    if abs(phi) <= _TWIST_GATE_PHI and abs(phi1 - phi4) <= LARGE_TWIST - p.twist_slack:
+        return []
+    twist = flexible_kinematics(p, phi1, 0.0, phi4, 0.0, phi, 0.0)[0]
+    if abs(twist) <= LARGE_TWIST:
+        return []
+    return [f"the intermediate shaft is twisted {twist:.3g} rad ({math.degrees(twist):.3g} deg), a static torque of "
+            f"{p.k_theta * twist:.4g} N.m on k_theta = {p.k_theta:.6g} N.m/rad: past {LARGE_TWIST:g} rad, more than a "
+            "real driveshaft takes (a steel propshaft yields near 0.2 rad). The model's linear torsion still holds, "
+            "but the shaft is likely not yours: the defaults are Omar's laboratory rig (k_theta = 92.2 N.m/rad, "
+            "J_load = 0.0045 kg.m2, m_s, k_phi); set k_theta, xi_theta, m_s, k_phi and J_load for your driveline"]
+
+
 def check_state(p: Parameters, y: State) -> list:
     """Both joint angles plus the dynamic misalignment phi must stay within [-MAX_ANGLE, MAX_ANGLE]."""
     if abs(p.beta1 + y[2]) <= MAX_ANGLE and abs(p.beta2 + p.cos_plane * y[2]) <= MAX_ANGLE:
@@ -1030,6 +1075,13 @@ class TorqueDriven:
     def check_state(p: TorqueDrivenParameters, y: tuple) -> list:
         """:func:`check_state` of the speed-driven driveline's part of the state."""
         return check_state(p, y[2:])
+
+    @staticmethod
+    def state_advice(p: TorqueDrivenParameters, h: float, y: tuple, u: Torques) -> list:
+        """:func:`state_advice` at the input shaft's angle y[0]."""
+        if p.rigid_intermediate_shaft:
+            return []
+        return _twist_advice(p, y[0], y[2:])
 
 
 if __name__ == "__main__":
