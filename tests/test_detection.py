@@ -206,7 +206,7 @@ def test_a_record_that_aliases_the_joints_2x_order_fails(fmu_dir, tmp_path, caps
     samples one joint angle (omega_out constant, though it swings between cos 20 deg and 1 / cos 20 deg of the
     input), 0.01 s two of them (Nyquist): both FAIL with the remedy (a record step of at most 0.002 s, 10 samples a
     period), though no reference or step halving could tell; 4 and 20 samples a period pass (NOT CHECKED: no
-    reference). The input speed rides along without entering the CSV; JUnit names the reason."""
+    reference), saying how far short of the peaks the record's extremes may fall. The input speed rides along without entering the CSV; JUnit names the reason."""
     path = tmp_path / "joint.toml"
     path.write_text(JOINT_AT_1500_RPM.format(step=step))
     code = main(["--fmu-dir", str(fmu_dir), "run", str(path), "--no-plot", "--out", str(tmp_path)])
@@ -231,6 +231,11 @@ def test_a_record_that_aliases_the_joints_2x_order_fails(fmu_dir, tmp_path, caps
     else:
         assert code == 0 and out.startswith("NOT CHECKED") and line.strip().startswith("ok")
         assert np.ptp(table["jointomega_out"]) > 0.1 * 157.08 * (1 / math.cos(0.349) - math.cos(0.349))
+        # 4 samples a period may read the peaks 1 - cos(pi / 4) = 29% of the amplitude short; 20, 1.2%: both said,
+        # with the step that reads them within 1% (pi / acos(0.99) = 22.2 samples a period of 0.02 s)
+        shortfall = 100.0 * (1.0 - math.cos(math.pi / samples))
+        assert f"short of the order's peaks by up to {shortfall:.2g}% of its amplitude" in line
+        assert "record at most every 0.000901 s" in line
 
 
 def test_step_auto_passes_over_the_steps_whose_record_aliases(fmu_dir, tmp_path, capsys):

@@ -23,7 +23,7 @@ from .extras import available, preload
 from .fmu.base import MIN_SAMPLES_PER_PERIOD, RESOLVING_SAMPLES_PER_PERIOD, samples_per_period, sampling_interval
 from .master import CosimulationError, CouplingInstabilityError, RunStopped, cosimulate, is_ideal_speed_source
 from .scenario import Scenario, ScenarioError, description_attribute
-from .steady import speed_text
+from .steady import PEAK_SHORTFALL, speed_text
 
 DEFAULT_OUT_DIR = Path("results")
 preload()   # before any FMU is loaded (see extras.preload)
@@ -248,7 +248,9 @@ class SamplingCheck:
     (its model's ``EXCITATION_ORDER``: a joint's 2x): samples per period of that order at the run's largest
     |omega_in|, the record taken every ``interval`` s. At MIN_SAMPLES_PER_PERIOD or fewer the record aliases it: a
     record step of a whole number of its periods samples one phase of it and shows a constant, and a reference
-    sampled at the same instants agrees with it."""
+    sampled at the same instants agrees with it. Above, a passing check still says where the record's extremes
+    may fall short of the order's peaks by more than ``steady.PEAK_SHORTFALL`` of its amplitude (1 - cos(pi / n),
+    n samples a period)."""
     component: str
     order: int
     omega: float   # the largest |omega_in| recorded [rad/s]
@@ -268,7 +270,14 @@ class SamplingCheck:
         what = (f"sampling {self.component}: its {self.order}x order (up to {hertz:.4g} Hz at omega_in = "
                 f"{speed_text(self.omega)})")
         if self.passed:
-            return f"ok   {what}, {self.samples:.3g} samples a period (more than {MIN_SAMPLES_PER_PERIOD:g})"
+            shortfall = 1.0 - math.cos(math.pi / self.samples)
+            short = "" if shortfall <= PEAK_SHORTFALL else (
+                f"; the record's extremes may fall short of the order's peaks by up to {100.0 * shortfall:.2g}% of "
+                f"its amplitude: record at most every "
+                f"{sampling_interval(math.pi / math.acos(1.0 - PEAK_SHORTFALL), self.order, self.omega):.3g} s to "
+                f"read them within {100.0 * PEAK_SHORTFALL:g}%")
+            return (f"ok   {what}, {self.samples:.3g} samples a period (more than {MIN_SAMPLES_PER_PERIOD:g})"
+                    + short)
         resolving = sampling_interval(RESOLVING_SAMPLES_PER_PERIOD, self.order, self.omega)
         lower = [f"its {k}x ({samples_per_period(k, self.omega, self.interval):.3g} samples a period)"
                  for k in range(self.order - 1, 0, -1)

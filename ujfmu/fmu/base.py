@@ -126,7 +126,9 @@ class Var:
 #: is under way
 UNSTABLE_INPUT = ("; an input this far out usually comes from the host's coupling going unstable (values growing "
                   "step by step): take a smaller communication step or, for a driven side heavier than its driver, "
-                  "the torque-driven wiring (ujfmu README, \"Choose the wiring for the host\")")
+                  "the torque-driven wiring (ujfmu README, \"Choose the wiring for the host\"). If it did not grow "
+                  "step by step, the component it comes from really gives it: check that component's parameters "
+                  "(e.g. a joint angle near 90 deg, whose kinematics multiply the inertia torques)")
 
 
 def parameter(name, start, unit, description, min=None, max=None, type=float, variability="fixed"):
