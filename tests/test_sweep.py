@@ -850,3 +850,19 @@ def test_the_step_check_flags_order_amplitudes_that_depend_on_the_step(tmp_path,
     report = "\n".join(check.lines(scenario))
     assert ("HIGH driveline.omega_out.h2" in report) is not passed
     assert (tmp_path / "pi_sweep_step_check.jsonl").is_file()
+
+
+def test_the_sweep_summary_says_where_the_fmus_warned(tmp_path, fmu_dir, capsys):
+    """A point whose FMU warned (the ring at e = 50 mm, half its radius) is counted in the summary with the first
+    warning, not left to the CSV's warnings column under an all-ok line; a sweep without warnings says nothing."""
+    def sweep(values, name):
+        code = main(["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "ring_coupling_fig3.toml"), "--param",
+                     f"coupling.e={values}", "--output", "coupling.x_e", "--running-speed", "motor.omega",
+                     "--settle", "0.02", "--revolutions", "2", "--steady-tol", "0", "--name", name, "--out",
+                     str(tmp_path), "--workers", "0", "--no-plot", "--no-progress"])
+        return code, capsys.readouterr().out
+    code, out = sweep("0.003,0.05", "warned")
+    assert code == 0 and "the FMUs warned at 1 point (the CSV's warnings column)" in out
+    assert "e = 0.05 m is 0.5 of the ring radius" in out
+    code, out = sweep("0.003", "quiet")
+    assert code == 0 and "warned" not in out

@@ -502,6 +502,10 @@ def cmd_sweep(args):
         fastest = max(coarse, key=lambda r: abs(r.get("speed_mean", 0.0)))["note"]
         print(f"  the max, min and p2p of {len(coarse)} point{'s' if len(coarse) > 1 else ''} may fall short of the "
               f"peaks (read too few times a period); at the fastest: {fastest[fastest.index('max, min and p2p'):]}")
+    warned = [r for r in sweep.table() if r.get("warnings")]
+    if warned:
+        print(f"  the FMUs warned at {len(warned)} point{'s' if len(warned) > 1 else ''} (the CSV's warnings column); "
+              f"at the first: {warned[0]['warnings'][:400]}")
     step_ok = True
     if args.check_step:
         check = sweep.step_check()
