@@ -254,3 +254,26 @@ def test_step_auto_keeps_the_extrapolation_within_its_bands(fmu_dir):
     assert "outside its [reference.extrapolated] band" in "\n".join(at_1ms.lines())
     step, tried = stepsize.choose(s, fmu_dir)
     assert step == 5e-4 and len(tried) == 2 and all(c.passed for c in tried[1].extrapolated)
+
+
+def test_step_auto_stops_where_halving_does_not_shrink_the_error(monkeypatch):
+    """An error of fixed size over a few steps (a speed-driven torque's inertia term for two steps after a load
+    step: 8.1% of its range at 1 ms and at 0.125 ms alike) had --step auto halve on through steps that each cost
+    twice the last: it stops at the first halving that leaves an estimate over its allowance above 3/4 of itself,
+    naming the signal and both figures; an error that halves (first order) is halved on until it passes."""
+    from ujfmu.master import CosimulationError
+
+    def fake(figures):
+        def estimate(scenario, step, fmu_dir):
+            return stepsize.StepEstimate(step, {"joint.tau_in": figures(step)}, {"joint.tau_in": 0.02})
+        return estimate
+    scenario = type("S", (), {"step_size": 1e-3})()
+    monkeypatch.setattr(stepsize, "estimate", fake(lambda h: 0.081))
+    with pytest.raises(CosimulationError, match=r"0.001 s to 0.0005 s did not shrink .* joint.tau_in 8.1% -> 8.1%"):
+        stepsize.choose(scenario, None)
+    monkeypatch.setattr(stepsize, "estimate", fake(lambda h: 0.081 * (1.0 - 0.2 * (h < 1e-3))))   # 0.8x: stalled
+    with pytest.raises(CosimulationError, match="did not shrink"):
+        stepsize.choose(scenario, None)
+    monkeypatch.setattr(stepsize, "estimate", fake(lambda h: 0.081 * h / 1e-3))   # first order
+    step, tried = stepsize.choose(scenario, None)
+    assert step == 1.25e-4 and len(tried) == 4

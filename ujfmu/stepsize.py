@@ -26,6 +26,9 @@ DEFAULT_REL_RANGE = 0.02
 #: Load's torque held at its law within 1e-10 N.m of 300 N.m): judged in absolute terms, not against that range
 ROUND_OFF_RANGE = 1e-9
 MAX_HALVINGS = 5
+#: a signal's estimate that a halving leaves above this share of itself does not shrink with the step (a first-order
+#: error halves, a second-order one quarters): ``choose`` stops there instead of halving on
+STALLED = 0.75
 
 
 @dataclass
@@ -113,10 +116,19 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     return StepEstimate(run.step_size, errors, allowed, absolute=absolute, sampling=sampling, extrapolated=banded)
 
 
+def stalled(est: StepEstimate, previous: StepEstimate) -> list[str]:
+    """The signals over their allowance at est whose estimate the halving from previous left above ``STALLED`` of
+    itself: an error that does not shrink with the step."""
+    return [n for n in est.errors if not est.within(n) and n in previous.errors
+            and est.errors[n] > STALLED * previous.errors[n]]
+
+
 def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, list[StepEstimate]]:
     """The largest of step, step/2, step/4, ... (step the scenario's) whose estimate passes; (step, estimates).
 
-    Raises CosimulationError naming the last estimate when MAX_HALVINGS halvings do not reach the allowance."""
+    Raises CosimulationError naming the last estimate when MAX_HALVINGS halvings do not reach the allowance, or as
+    soon as a halving leaves a signal's estimate over its allowance without shrinking it (:func:`stalled`): each
+    halving doubles the cost, and no smaller step would reach it."""
     step, tried = scenario.step_size, []
     for _ in range(MAX_HALVINGS + 1):
         est = estimate(scenario, step, fmu_dir)
@@ -125,6 +137,18 @@ def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, lis
             progress("\n".join(est.lines()))
         if est.passed:
             return step, tried
+        stuck = stalled(est, tried[-2]) if len(tried) > 1 and not est.failure else []
+        if stuck:
+            before, after = tried[-2], est
+            figures = ", ".join(f"{n} {100 * before.errors[n]:.3g}% -> {100 * after.errors[n]:.3g}%" for n in stuck)
+            raise CosimulationError(
+                f"--step auto: halving the step from {before.step:g} s to {after.step:g} s did not shrink the "
+                f"estimated coupling error of {figures} of range (a first-order error halves): an error of a fixed "
+                "size over a few steps, which no smaller step removes (e.g. a speed-driven model's torque, whose "
+                "inertia term estimates the input acceleration from the held speeds, for two steps after a jump of "
+                "that acceleration: a load step, a drive's torque limit). `ujfmu run --check-step` shows where it "
+                "is; the torque-driven wiring integrates the input shaft instead (README, \"Choose the wiring for "
+                "the host\"):\n" + "\n".join(est.lines()))
         step /= 2.0
     raise CosimulationError(f"--step auto: no step down to {2.0 * step:g} s keeps the estimated coupling error "
                             f"within the allowance:\n" + "\n".join(tried[-1].lines()))
