@@ -272,7 +272,7 @@ class SamplingCheck:
         if self.passed:
             shortfall = 1.0 - math.cos(math.pi / self.samples)
             short = "" if shortfall <= PEAK_SHORTFALL else (
-                f"; the record's extremes may fall short of the order's peaks by up to {100.0 * shortfall:.2g}% of "
+                f"; the record's extremes may fall short of the order's peaks by up to {100.0 * shortfall:.3g}% of "
                 f"its amplitude: record at most every "
                 f"{sampling_interval(math.pi / math.acos(1.0 - PEAK_SHORTFALL), self.order, self.omega):.3g} s to "
                 f"read them within {100.0 * PEAK_SHORTFALL:g}%")
@@ -288,6 +288,53 @@ class SamplingCheck:
                 f"periods samples one phase of it and shows a constant, and a reference sampled at the same instants "
                 f"agrees with it){also}; record at most every {resolving:.3g} s to sample it "
                 f"{RESOLVING_SAMPLES_PER_PERIOD:g} times a period (step_size, and output_interval)")
+
+
+@dataclass
+class ModeSampling:
+    """A note, not a check: a machine component's fastest natural mode (``analysis.scenario_modes``: linearised at
+    rest, the top of the range it spans over the input angle) against the record's step, where the record's
+    extremes of its ringing may fall short of its peaks by more than ``steady.PEAK_SHORTFALL`` of its amplitude
+    (1 - cos(pi / n), n samples a period), or alias it. The mode rings only where something excites it (a load step,
+    a start, a torque limit), which the record's step does not see: the order check above covers the input speed's
+    orders alone. Peaks and the ranges a cycle count takes from the record fall short with it."""
+    component: str
+    omega: float   # the mode [rad/s]
+    interval: float   # the record's step [s]
+    passed: bool = True
+
+    @property
+    def samples(self) -> float:
+        return 2.0 * math.pi / (self.omega * self.interval)
+
+    def __str__(self):
+        within = sampling_interval(math.pi / math.acos(1.0 - PEAK_SHORTFALL), 1, self.omega)
+        what = (f"note sampling {self.component}: its fastest natural mode, {self.omega / (2.0 * math.pi):.4g} Hz "
+                f"({self.omega:.4g} rad/s, linearised at rest: `ujfmu modes`), is read {self.samples:.3g} times a "
+                f"period: where it rings (a load step, a start, a torque limit)")
+        if self.samples <= MIN_SAMPLES_PER_PERIOD:
+            return (f"{what}, the record aliases its ringing (the states at the communication points stay as "
+                    f"accurate as the step allows); record at most every {within:.3g} s to read its peaks within "
+                    f"{100.0 * PEAK_SHORTFALL:g}%")
+        shortfall = 1.0 - math.cos(math.pi / self.samples)
+        return (f"{what}, the record's extremes, and the ranges a cycle count takes from it, may fall short of its "
+                f"peaks by up to {100.0 * shortfall:.3g}% of the ringing's amplitude; record at most every "
+                f"{within:.3g} s to read them within {100.0 * PEAK_SHORTFALL:g}%")
+
+
+def mode_sampling(scenario: Scenario, interval: float) -> list:
+    """A :class:`ModeSampling` per machine component whose fastest mode the record's step of ``interval`` s reads
+    too few times a period for its peaks (``steady.PEAK_SHORTFALL``); none where the modes cannot be computed."""
+    from .analysis import scenario_modes
+    try:
+        modes = scenario_modes(scenario)
+    except Exception:   # a note only: a model the linearisation cannot take leaves it out
+        return []
+    fastest = {}
+    for mode in modes:
+        fastest[mode.component] = max(fastest.get(mode.component, 0.0), mode.high)
+    notes = [ModeSampling(name, omega, interval) for name, omega in fastest.items() if omega > 0.0]
+    return [n for n in notes if 1.0 - math.cos(math.pi / n.samples) > PEAK_SHORTFALL or n.samples <= 2.0]
 
 
 def sampled_components(scenario: Scenario) -> list:
@@ -394,7 +441,7 @@ class ScenarioResult:
     plot: Path = None
     extra_plots: list = field(default_factory=list)   # orbits and spectra, when the scenario asks for them
     operating_checks: list = field(default_factory=list)   # OperatingPointCheck per drive
-    sampling_checks: list = field(default_factory=list)   # SamplingCheck per drivetrain component
+    sampling_checks: list = field(default_factory=list)   # SamplingCheck per drivetrain component, ModeSampling notes
     steady_checks: list = field(default_factory=list)   # SteadyWindowCheck of output.steady_from, if any
     order_checks: list = field(default_factory=list)   # OrderCheck of [reference.orders], if any
     bonds: list = field(default_factory=list)   # ujfmu.master.BondEnergy per power bond (co-simulation only)
@@ -641,6 +688,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
             _write_partial(scenario, exc, Path(out_dir), plot)
         raise
     operating, sampling = check_operating_points(scenario, table), check_sampling(scenario, table)
+    if len(table) > 1:
+        sampling += mode_sampling(scenario, float(np.max(np.diff(table["time"]))))
     steady = check_steady_window(scenario, table, diagnostics.get("iterates", False))
     if extra:
         table = _without(table, extra)
