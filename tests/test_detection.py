@@ -700,3 +700,32 @@ def test_a_record_too_coarse_for_a_components_own_mode_is_noted(fmu_dir, tmp_pat
     code = main(["--fmu-dir", str(fmu_dir), "run", str(stiff.path), "--no-plot", "--quiet", "--out", str(tmp_path)])
     out = capsys.readouterr().out
     assert code == 0 and out.startswith("PASS") and "note sampling driveline: its fastest natural mode" in out
+
+
+def test_an_aligned_joint_has_no_order_to_alias(fmu_dir, tmp_path, capsys):
+    """The same joint at 0.02 s, one sample a period of a 2x it does not have: aligned (no bend, no error angles)
+    its speed ratio is 1, so the run passes the sampling check it failed bent, and the FMU does not warn of
+    aliasing. The models' excitation_order at other parameters: straight double Cardan joints none; a straight
+    twin rotor its unbalance's 1x (none without unbalance); an aligned ring coupling none."""
+    from ujfmu.scenario_run import sampled_components
+    path = tmp_path / "aligned.toml"
+    path.write_text(JOINT_AT_1500_RPM.format(step=0.02).replace(
+        "bend_angle = 0.3490658503988659,", "bend_angle = 0.0, error_angle_beta = 0.0, error_angle_gamma = 0.0,"))
+    code = main(["--fmu-dir", str(fmu_dir), "run", str(path), "--no-plot", "--out", str(tmp_path)])
+    captured = capsys.readouterr()
+    assert code == 0 and "sampling joint" not in captured.out and "alias" not in captured.out + captured.err
+    bent = tmp_path / "bent.toml"
+    bent.write_text(JOINT_AT_1500_RPM.format(step=0.02))
+    assert main(["--fmu-dir", str(fmu_dir), "run", str(bent), "--no-plot", "--out", str(tmp_path)]) == 1
+    assert "FAIL sampling joint" in capsys.readouterr().out
+    scenarios = Path(__file__).parent.parent / "scenarios"
+    brutti = Scenario(scenarios / "double_cardan_brutti_rigid.toml")
+    assert ("driveline", 2) in sampled_components(brutti)
+    assert sampled_components(brutti.with_parameters({"driveline.beta1": 0.0, "driveline.beta2": 0.0})) == []
+    twin = Scenario(scenarios / "twin_jeffcott_steady.toml")
+    assert ("rotor", 2) in sampled_components(twin)
+    straight = twin.with_parameters({"rotor.beta": 0.0})
+    assert ("rotor", 1) in sampled_components(straight)
+    assert not sampled_components(straight.with_parameters({"rotor.m_u1": 0.0, "rotor.m_u2": 0.0}))
+    ring = Scenario(scenarios / "ring_coupling_fig3.toml")
+    assert sampled_components(ring) and not sampled_components(ring.with_parameters({"coupling.e": 0.0}))

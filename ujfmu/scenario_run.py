@@ -338,11 +338,22 @@ def mode_sampling(scenario: Scenario, interval: float) -> list:
 
 
 def sampled_components(scenario: Scenario) -> list:
-    """(component, order) of the scenario's components whose model declares an ``EXCITATION_ORDER``."""
+    """(component, order) of the scenario's components whose model declares an ``EXCITATION_ORDER``, at its
+    parameters where the model says (``excitation_order(p)``: none for straight joints)."""
+    import dataclasses
+
     from .build import fmu_class
     pairs = []
     for name, (fmu, _) in scenario.components.items():
-        order = getattr(fmu_class(fmu).PHYSICS, "EXCITATION_ORDER", None)
+        cls = fmu_class(fmu)
+        order = getattr(cls.PHYSICS, "EXCITATION_ORDER", None)
+        if order and hasattr(cls.PHYSICS, "excitation_order"):
+            values = scenario.parameters_with_defaults(name)
+            try:
+                order = cls.PHYSICS.excitation_order(cls.MODEL.Parameters(**{
+                    f.name: values[f.name] for f in dataclasses.fields(cls.MODEL.Parameters) if f.init}))
+            except (KeyError, TypeError, ValueError, ArithmeticError):   # the FMU itself refuses such parameters
+                pass
         if order:
             pairs.append((name, order))
     return pairs

@@ -563,8 +563,10 @@ class ModelSlave(UjfmuSlave):
     STATE = {"_time": "float", "_started": "bool", "_aliasing_said": "bool",
              "_state_advice_said": "bool"}   # plus "_y", the model state
     #: h |omega_in| at and above which a host that reads the outputs every step h aliases the model's
-    #: ``EXCITATION_ORDER`` (at most MIN_SAMPLES_PER_PERIOD reads a period); inf: the model declares none
+    #: ``EXCITATION_ORDER`` (at most MIN_SAMPLES_PER_PERIOD reads a period), or its ``excitation_order(p)`` at these
+    #: parameters where it has one (:meth:`derive`); inf: none
     _aliasing_reach = math.inf
+    _excitation_order = None
     #: how the RK4 stages call the model (``rk4._KINDS``); ``_rk4``, set in __init_subclass__, integrates a step
     RK4_KIND = "held"
     #: the model's own ``integrate(p, t, h, y, u)`` where it has one (the protocol's optional whole-step integrator)
@@ -579,7 +581,8 @@ class ModelSlave(UjfmuSlave):
     #: the model's ``outputs(p, t, y, u)``, and its ``state_outputs(p, t, y)`` where it has them (the protocol's
     #: option: the outputs it names in ``STATE_OUTPUTS``)
     _outputs = _state_outputs = None
-    DERIVED = ("_p", "_output_free", "_kinematic", "_load_inputs", "_load_reads")
+    DERIVED = ("_p", "_output_free", "_kinematic", "_load_inputs", "_load_reads", "_excitation_order",
+               "_aliasing_reach")
     #: the inputs ``MODEL.load_outputs`` covers (the outputs that depend on them are all in it)
     LOAD_INPUTS = ("tau_load",)
 
@@ -597,9 +600,7 @@ class ModelSlave(UjfmuSlave):
             if hasattr(model, "state_advice"):
                 cls._state_advice = staticmethod(model.state_advice)
             cls._outputs = staticmethod(model.outputs)
-            order = getattr(cls.PHYSICS, "EXCITATION_ORDER", None)
-            if order:
-                cls._aliasing_reach = sampling_interval(MIN_SAMPLES_PER_PERIOD, order, 1.0)
+            cls._excitation_order = getattr(cls.PHYSICS, "EXCITATION_ORDER", None)
             if hasattr(model, "state_outputs"):
                 cls._state_outputs = staticmethod(model.state_outputs)
                 cls._state_output_names = tuple(model.STATE_OUTPUTS)
@@ -629,6 +630,11 @@ class ModelSlave(UjfmuSlave):
             vr_of = {var.name: vr for vr, var in enumerate(self.VARIABLES)}
             self._load_reads = frozenset(vr_of[name] for name in names(self._p))
         self._kinematic = bool(getattr(self.MODEL, "kinematic", _never)(self._p))
+        order = getattr(self.PHYSICS, "EXCITATION_ORDER", None)
+        if order and hasattr(self.PHYSICS, "excitation_order"):
+            order = self.PHYSICS.excitation_order(self._p)
+        self._excitation_order = order
+        self._aliasing_reach = sampling_interval(MIN_SAMPLES_PER_PERIOD, order, 1.0) if order else math.inf
 
     def initialize(self, start_time):
         self._time, self._started, self._aliasing_said, self._state_advice_said = start_time, False, False, False
@@ -717,7 +723,7 @@ class ModelSlave(UjfmuSlave):
         them at its communication points sees a false waveform (at a step of a whole number of the order's periods,
         one phase of it: a constant), though the state is integrated as accurately as at any step."""
         self._aliasing_said = True
-        order, omega = self.PHYSICS.EXCITATION_ORDER, abs(omega)
+        order, omega = self._excitation_order, abs(omega)
         reads = f"{samples_per_period(order, omega, h):.3g}"
         reads = "once" if reads == "1" else "twice" if reads == "2" else f"{reads} times"
         self.log(f"{self.modelName} '{self.instance_name}': at t = {self._time:g} s a communication step of {h:g} s "

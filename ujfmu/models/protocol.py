@@ -57,7 +57,8 @@ no input, e.g. a torque-driven variant's speeds, which its host reads before it 
 the same numbers as ``outputs`` gives for them: a read of only these computes only them; default all of
 ``outputs``), and ``EXCITATION_ORDER`` (a module constant: the highest order of the input speed the outputs carry at
 full size, e.g. a joint's 2x; a run whose record samples it at most twice a period fails, ``ujfmu.scenario_run``,
-and the FMU warns a host whose step does so, ``ujfmu.fmu.base``).
+and the FMU warns a host whose step does so, ``ujfmu.fmu.base``) with, optionally, ``excitation_order(p) -> int``
+(that order at these parameters, 0 for none: straight joints carry no 2x).
 
 The inputs ``u`` are the model's own NamedTuple ``Inputs``; a model whose input shaft follows a prescribed speed
 (``omega_in``) uses :class:`Drive`, which the base extrapolates over a step (angle quadratic, speed linear in time:

@@ -40,6 +40,11 @@ ERROR_ANGLE_EFFECT = 0.05
 EXCITATION_ORDER = 2
 
 
+def excitation_order(p: "Parameters") -> int:
+    """``EXCITATION_ORDER`` where the joint is misaligned at all (bend or error angles); an aligned one carries none."""
+    return EXCITATION_ORDER if (p.bend_angle or p.bend_plane_angle or p.error_angle_beta or p.error_angle_gamma) else 0
+
+
 def joint_frame(bend_angle: float, bend_plane_angle: float, error_angle_beta: float, error_angle_gamma: float) -> tuple:
     """Columns (a, b, K) of C = R_y(-gamma) R_x(-beta) R_y(delta) R_x(phi); K is the driving axis (Eq. 9).
 

@@ -47,6 +47,12 @@ HALF_PI = 0.5 * math.pi
 EXCITATION_ORDER = 2
 
 
+def excitation_order(p: "Parameters") -> int:
+    """``EXCITATION_ORDER`` where a joint is bent; straight joints (beta1 = beta2 = 0) carry none: the speed ratios
+    are 1, the inertias constant, the shaft's lateral coupling g zero."""
+    return EXCITATION_ORDER if p.beta1 or p.beta2 else 0
+
+
 def joint_error(x: float, b: float) -> float:
     """y - x for tan y = tan x / cos b: atan2((1 - c) sin 2x, (1 + c) - (1 - c) cos 2x), c = cos b (Omar Eq. 4)."""
     return _error(math.sin(x), math.cos(x), math.cos(b))

@@ -40,6 +40,11 @@ SMALL_PARAMETER_COEFFICIENT = MP_COEFFICIENT / 4.0   # 39.25
 EXCITATION_ORDER = 2
 
 
+def excitation_order(p: "Parameters") -> int:
+    """``EXCITATION_ORDER`` where the shafts are misaligned (e > 0); aligned, M_p = 0 and nothing turns at 2x."""
+    return EXCITATION_ORDER if p.e else 0
+
+
 def bending_stiffness(E: float, d: float) -> float:
     """EI of a round wire of diameter d [N.m^2]."""
     return E * math.pi * d ** 4 / 64.0

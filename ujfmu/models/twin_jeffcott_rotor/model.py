@@ -41,6 +41,14 @@ MAX_ANGLE = math.radians(89.0)
 #: record must sample it (``ujfmu.scenario_run``)
 EXCITATION_ORDER = 2
 
+
+def excitation_order(p: "Parameters") -> int:
+    """``EXCITATION_ORDER`` where the joint is bent (its 2x); straight, the discs' unbalance alone (m_u e) forces
+    the 1x; neither, none."""
+    if p.beta:
+        return EXCITATION_ORDER
+    return 1 if p.e and (p.m_u1 or p.m_u2) else 0
+
 #: The default rig (one place for every default; README.md). Steel: E, G = E / (2 (1 + 0.3)), density.
 RIG = dict(
     E=210.0e9, G=210.0e9 / 2.6, density=7850.0,   # Pa, Pa, kg/m^3 (structural steel handbook values)
