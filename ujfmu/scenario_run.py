@@ -785,9 +785,10 @@ def torque_driven_hint(scenario: Scenario, message: str) -> str:
                 and not ideal_speed_source(scenario, driver)):   # an ideal source's speed ignores the torque
             rotor = scenario.parameters_with_defaults(driver).get("J_rotor")
             return (f"hint: {comp} ({fmu}) follows the speed {driver} sets and returns, through {conn.source} -> "
-                    f"{conn.target}, the torque its driven side's inertia needs; with a driven side heavier than "
-                    f"{driver}'s rotor" + (f" (J_rotor = {rotor:g} kg.m2)" if rotor is not None else "")
-                    + f" or a stiff shaft, wire it torque-driven instead: {fmu}TorqueDriven driven by a "
+                    f"{conn.target}, the torque its driven side's inertia needs. If that driven side is heavier "
+                    f"than {driver}'s rotor" + (f" (J_rotor = {rotor:g} kg.m2)" if rotor is not None else "")
+                    + f" or its shaft stiff (else the step is too coarse for the loop), wire it torque-driven "
+                    f"instead: {fmu}TorqueDriven driven by a "
                     f"MotorController ({driver}.tau_motor -> {comp}.tau_in, {comp}.omega_in -> {driver}.omega, "
                     f"the rotor inertia as {comp}'s J_drive), as scenarios/{TORQUE_DRIVEN_EXAMPLES[fmu]}.toml does "
                     "(README, \"Choose the wiring for the host\")")
