@@ -217,3 +217,31 @@ def test_a_flexible_shaft_left_at_the_laboratory_rig_warns_under_a_trucks_torque
     assert abs(table["driveline.twist"]).max() > 5.0 and len(said) == 1 and "k_theta" in said[0]
     table, said = run(5.0)
     assert abs(table["driveline.twist"]).max() < 0.2 and said == []
+
+
+@pytest.mark.parametrize("ramp_time", [0.0, 0.02])
+def test_a_load_step_or_ramp_twists_a_straight_shaft_as_the_linear_oscillator_says(fmu_dir, ramp_time):
+    """Straight double Cardan joints, flexible shaft (Omar's 92.2 N.m/rad, c = 0.1844 N.m.s/rad, J_load =
+    0.0045 kg.m2), an ideal source at 50 rad/s, a Load of 0 N.m changed by 2 N.m at t = 0.05 s (at once, or over
+    20 ms): the twist obeys J theta'' + c theta' + k theta = T(t), a linear oscillator driven by a piecewise-linear
+    input, which scipy's lsim integrates exactly; the shaft torque k theta + c theta' follows it to 1e-6 of the
+    change. The Load's torque is T(t) at every communication point, and the driveline holds it over the step (the
+    load does not depend on the speed here): a step on the grid is exact, a ramp a staircase of its values."""
+    from scipy import signal
+    comps = [Component("motor", fmu_dir / "Motor.fmu", dict(ideal_speed_source=True, profile=0, omega_set=50.0)),
+             Component("driveline", fmu_dir / "DoubleCardanDriveline.fmu", dict(beta1=0.0, beta2=0.0)),
+             Component("load", fmu_dir / "Load.fmu", dict(T0=0.0, T_change=2.0, t_change=0.05,
+                                                          ramp_time=ramp_time, omega_smooth=1e-9))]
+    connections = [Connection("motor.omega", "driveline.omega_in"), Connection("driveline.tau_in", "motor.tau_load"),
+                   Connection("driveline.omega_out", "load.omega"), Connection("load.tau", "driveline.tau_load")]
+    table = cosimulate(comps, connections, 0.3, 1e-3, ["driveline.shaft_torque", "load.tau"])
+    k, c, j = 92.2, 0.002 * 92.2, 0.0045
+    t = np.linspace(0.0, 0.3, 3001)
+    def level(time):
+        return 2.0 * (np.clip((time - 0.05) / ramp_time, 0.0, 1.0) if ramp_time else (time >= 0.05 - 1e-12))
+    np.testing.assert_allclose(table["load.tau"], level(table["time"]), atol=1e-12)
+    held = level(np.floor(t / 1e-3 + 1e-9) * 1e-3)   # each communication point's value over its step
+    system = signal.StateSpace([[0.0, 1.0], [-k / j, -c / j]], [[0.0], [1.0 / j]], [[k, c]], [[0.0]])
+    _, exact, _ = signal.lsim(system, held, t, interp=False)
+    assert np.max(np.abs(table["driveline.shaft_torque"] - exact[::10])) < 2e-6
+    assert np.max(exact) > 2.3   # it overshoots: a ringing the check would see

@@ -858,7 +858,8 @@ class Scenario:
         """``LoadChatter`` of each Load fed from a component's ``omega_out`` whose model has an output inertia of
         its own (the protocol's ``free_output_inertia``): one step of the Load's constant torque T0 moves that
         inertia by T0 h / J, and where that exceeds omega_smooth, the band within which T0 reverses, a shaft near
-        rest sees the torque reverse at every step (README, "Port and sign conventions")."""
+        rest sees the torque reverse at every step (README, "Port and sign conventions"); T0 the larger of its
+        values before and after a change (T_change)."""
         found = []
         for conn in self.connections:
             load, _, port = conn.target.partition(".")
@@ -867,9 +868,10 @@ class Scenario:
                 continue
             inertia = self._ask_model(driven, "free_output_inertia")   # [] where the model has none
             law = self.parameters_with_defaults(load)
-            if isinstance(inertia, numbers.Real) and inertia > 0.0 and law["T0"] > 0.0:
-                reach = law["T0"] * self.step_size / inertia
-                found.append(LoadChatter(load, driven, inertia, float(law["T0"]), float(law["omega_smooth"]),
+            torque = max(law["T0"], law["T0"] + law.get("T_change", 0.0))
+            if isinstance(inertia, numbers.Real) and inertia > 0.0 and torque > 0.0:
+                reach = torque * self.step_size / inertia
+                found.append(LoadChatter(load, driven, inertia, float(torque), float(law["omega_smooth"]),
                                          self.step_size, reach / law["omega_smooth"]))
         return found
 

@@ -60,7 +60,8 @@ class ContinuousStates:
         return []
 
     def set_time(self, core, time: float) -> None:
-        pass
+        """The core's time (outputs may depend on it: the Load's T(t))."""
+        core._time = time
 
     def nominals(self) -> list:
         """The states' nominal magnitudes (NOMINALS by unit): a host's solver scales its absolute tolerance by
@@ -91,9 +92,6 @@ class ModelStates(ContinuousStates):
     def derivatives(self, core):
         u = core.model_inputs()
         return list(core.MODEL.derivatives(core._p, core._time, core.current_state(u), u))
-
-    def set_time(self, core, time):
-        core._time = time
 
     def indicators(self, core) -> list:
         """The model's event indicators (``MODEL.event_indicators``, none without) at the current state and inputs."""

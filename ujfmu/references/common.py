@@ -51,21 +51,43 @@ def feeds(scenario, source: str, target: str) -> bool:
     return any(cn.source == source and cn.target == target for cn in scenario.connections)
 
 
-def corners(p, t0, t1):
-    """Integration interval cut at the profile's corners (ramp start and end, step)."""
+def corners(p, t0, t1, loads=()):
+    """Integration interval cut at the speed profile's corners (ramp start and end, step) and at those of the
+    loads' T(t) (loads: their parameter dicts; :func:`load_corners`)."""
     if p["profile"] == 1:
         cuts = [0.0, p["omega_set"] / p["accel"]]
     elif p["profile"] == 2:
         cuts = [p["t_step"]]
     else:
         cuts = []
+    cuts = sorted(set(cuts + [c for load in loads if load for c in load_corners(load)]))
     return [t0] + [c for c in cuts if t0 < c < t1] + [t1]
 
 
-def load_torque(p, w):
-    """Load FMU torque law tau = T0 s(w) + c1 w + c2 w |w|_s."""
+def load_corners(p) -> list:
+    """The times where a Load's T(t) jumps or changes its slope (its change's start, and end if ramped)."""
+    if not p.get("T_change", 0.0):
+        return []
+    ramp = p.get("ramp_time", 0.0)
+    return [p["t_change"]] if ramp == 0.0 else [p["t_change"], p["t_change"] + ramp]
+
+
+def load_level(p, t):
+    """A Load's T(t): T0, changed by T_change from t_change on, at once or linearly over ramp_time (t a number or
+    an array)."""
+    change = p.get("T_change", 0.0)
+    if not change:
+        return p["T0"] + 0.0 * np.asarray(t, dtype=float)
+    ramp, start = p.get("ramp_time", 0.0), p["t_change"]
+    share = (np.asarray(t) >= start).astype(float) if ramp == 0.0 else np.clip((np.asarray(t) - start) / ramp, 0.0,
+                                                                                1.0)
+    return p["T0"] + change * share
+
+
+def load_torque(p, w, t):
+    """Load FMU torque law tau = T(t) s(w) + c1 w + c2 w |w|_s (:func:`load_level`) at time t."""
     mag = np.sqrt(w * w + p["omega_smooth"] ** 2)
-    return p["T0"] * w / mag + p["c1"] * w + p["c2"] * w * mag
+    return load_level(p, t) * w / mag + p["c1"] * w + p["c2"] * w * mag
 
 
 def pi_law(p, t, w, integral):
@@ -130,14 +152,15 @@ def _watched(rhs, lo, hi, motor_params):
     return f
 
 
-def solve_piecewise(rhs, y0, t, motor_params, rtol, atol):
-    """One DOP853 solve of rhs on the grid t, restarted at the speed profile's corners; returns y on t.
-    ReferenceStallError where it stops advancing (``_watched``)."""
+def solve_piecewise(rhs, y0, t, motor_params, rtol, atol, loads=()):
+    """One DOP853 solve of rhs on the grid t, restarted at the speed profile's corners and the loads' (their
+    parameter dicts: a load step or ramp); returns y on t. ReferenceStallError where it stops advancing
+    (``_watched``)."""
     if SolverOverride.rtol is not None:
         rtol, atol = SolverOverride.rtol, SolverOverride.atol
     started = time.perf_counter()
     pieces, y = [], y0
-    cuts = corners(motor_params, t[0], t[-1])
+    cuts = corners(motor_params, t[0], t[-1], loads)
     for lo, hi in zip(cuts[:-1], cuts[1:]):
         sel = (t >= lo) & (t <= hi) if hi == cuts[-1] else (t >= lo) & (t < hi)
         sol = solve_ivp(_watched(rhs, lo, hi, motor_params), (lo, hi), y, method="DOP853", rtol=rtol, atol=atol,

@@ -20,3 +20,19 @@ def test_odd_and_smooth_through_rest():
     assert load_torque(0.0, 0.3, 0.01, 0.02, 0.5) == 0.0
     d2 = np.diff(tau, 2)
     assert np.max(np.abs(np.diff(d2))) < 1e-6  # no kink: third differences stay small
+
+
+def test_a_load_step_or_ramp_changes_T0_at_its_corners():
+    """T(t): T0 before t_change, T0 + T_change after t_change (a step) or after t_change + ramp_time (linear
+    between); the corners are where it jumps or bends, announced as time events after t; no change, none."""
+    from ujfmu.models.load import model as load
+    step = load.Parameters(20.0, 0.0, 0.0, 0.1, T_change=30.0, t_change=5.0)
+    assert [load.level(step, t) for t in (0.0, 4.999, 5.0, 60.0)] == [20.0, 20.0, 50.0, 50.0]
+    ramp = load.Parameters(20.0, 0.0, 0.0, 0.1, T_change=-10.0, t_change=1.0, ramp_time=2.0)
+    assert [load.level(ramp, t) for t in (0.5, 1.0, 1.5, 2.0, 3.0, 9.0)] == [20.0, 20.0, 17.5, 15.0, 10.0, 10.0]
+    assert load.corners(step) == (5.0,) and load.corners(ramp) == (1.0, 3.0)
+    assert [load.next_time_event(ramp, t) for t in (0.0, 1.0, 2.0, 3.0)] == [1.0, 3.0, 3.0, None]
+    constant = load.Parameters(20.0, 0.0, 0.0, 0.1, T_change=0.0, t_change=5.0, ramp_time=1.0)
+    assert load.corners(constant) == () and load.level(constant, 9.0) == 20.0
+    out = load.outputs(step, 6.0, (), load.Inputs(200.0))["tau"]
+    assert out == pytest.approx(load_torque(200.0, 50.0, 0.0, 0.0, 0.1), rel=1e-15)

@@ -5,7 +5,8 @@ from ...fmu.base import SPEED_RANGE, ModelSlave, _new_inputs, input_, output, pa
 
 
 class Load(ModelSlave):
-    """Resisting torque tau = T0*s(omega) + c1*omega + c2*omega*|omega|_s (ujfmu.models.load.model).
+    """Resisting torque tau = T(t)*s(omega) + c1*omega + c2*omega*|omega|_s (ujfmu.models.load.model), T(t) = T0
+    changed by T_change from t_change on, at once or over ramp_time (a load step or ramp).
 
     s and |.|_s are a smooth sign and absolute value with regularisation speed omega_smooth, so the law is smooth
     and odd through omega = 0: constant (Coulomb-like) torque T0, viscous c1, fan/propeller c2 (Brutti et al.:
@@ -21,6 +22,11 @@ class Load(ModelSlave):
         parameter("c2", 0.0, "N.m.s2/rad2", "Quadratic (fan) coefficient", min=-1.0e6, max=1.0e6),
         parameter("omega_smooth", 0.1, "rad/s", "Regularisation speed of the smooth sign and absolute value",
                   min=1.0e-9, max=1.0e6),
+        parameter("T_change", 0.0, "N.m", "Change of T0 from t_change on (a load step or ramp; 0: none)",
+                  min=-1.0e6, max=1.0e6),
+        parameter("t_change", 0.0, "s", "Time the change of T0 starts", min=-1.0e9, max=1.0e9),
+        parameter("ramp_time", 0.0, "s", "Duration of the change of T0: 0 a step at t_change, else linear over it",
+                  min=0.0, max=1.0e9),
         input_("omega", 0.0, "rad/s", "Speed of the driven shaft", **SPEED_RANGE),
         output("tau", "N.m", "Resisting torque (positive opposes positive rotation)", ("omega",)),
     )

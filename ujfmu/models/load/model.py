@@ -1,4 +1,7 @@
-"""Driven load: resisting torque tau = T0*s(omega) + c1*omega + c2*omega*|omega|_s.
+"""Driven load: resisting torque tau = T(t)*s(omega) + c1*omega + c2*omega*|omega|_s.
+
+T(t) = T0, changed by T_change from t_change on: at once (ramp_time = 0, a load step) or linearly over ramp_time
+(:func:`level`).
 
 s(omega) = omega/sqrt(omega^2 + omega_s^2) is a smooth sign and |omega|_s = sqrt(omega^2 + omega_s^2) a smooth
 absolute value, so the law is infinitely differentiable through omega = 0 and odd in omega (the torque always
@@ -32,6 +35,35 @@ class Parameters:
     c1: float
     c2: float
     omega_smooth: float
+    T_change: float = 0.0
+    t_change: float = 0.0
+    ramp_time: float = 0.0
+
+
+def level(p: Parameters, t: float) -> float:
+    """T(t) [N.m]: T0 before t_change, T0 + T_change from t_change + ramp_time on, linear between (a step at
+    t_change where ramp_time = 0)."""
+    if not p.T_change or t < p.t_change:
+        return p.T0
+    if t < p.t_change + p.ramp_time:
+        return p.T0 + p.T_change * (t - p.t_change) / p.ramp_time
+    return p.T0 + p.T_change
+
+
+def corners(p: Parameters) -> tuple:
+    """The times where T(t) jumps or changes its slope (:func:`level`), in order; none without a change."""
+    if not p.T_change:
+        return ()
+    return (p.t_change,) if p.ramp_time == 0.0 else (p.t_change, p.t_change + p.ramp_time)
+
+
+def next_time_event(p: Parameters, t: float) -> float | None:
+    """The first corner of T(t) after t (:func:`corners`): a time event for a Model Exchange host, whose solver
+    stops there instead of stepping across the jump; None after the last."""
+    for corner in corners(p):
+        if corner > t:
+            return corner
+    return None
 
 
 State = NoState   # the torque follows the speed
@@ -47,8 +79,8 @@ kinematic, initial_state, derivatives, rate_bound = kinematic_always, no_state, 
 
 
 def outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
-    """The resisting torque at the input speed (:func:`load_torque`)."""
-    return {"tau": load_torque(u.omega, p.T0, p.c1, p.c2, p.omega_smooth)}
+    """The resisting torque at the input speed and time (:func:`load_torque` at T(t), :func:`level`)."""
+    return {"tau": load_torque(u.omega, level(p, t), p.c1, p.c2, p.omega_smooth)}
 
 
 def check(p: Parameters) -> list:

@@ -63,15 +63,15 @@ def generate(scenario):
         k = (_mp_amplitude(pr), pr["c_s"], pr["c_d"], pr["phi_out_start"] - pr["phi_in_start"])
         w2_0 = w_start if pr["start_at_input_speed"] else pr["omega_out_start"]
 
-        def tau_l(w2, pl=pl):
-            return load_torque(pl, w2) if pl else 0.0 * w2
+        def tau_l(w2, time, pl=pl):
+            return load_torque(pl, w2, time) if pl else 0.0 * w2
 
         if ideal:
             def rhs(time, y, pr=pr, k=k, tau_l=tau_l):
                 w, _, angle = profile(pm, time)
                 phi1 = pr["phi_in_start"] + float(angle) - ang0
-                return [y[1], (force2(phi1, y[0], float(w), y[1], *k) - tau_l(y[1])) / pr["I2"]]
-            ys = solve_piecewise(rhs, [pr["phi_out_start"], w2_0], t, pm, RTOL, ATOL)
+                return [y[1], (force2(phi1, y[0], float(w), y[1], *k) - tau_l(y[1], time)) / pr["I2"]]
+            ys = solve_piecewise(rhs, [pr["phi_out_start"], w2_0], t, pm, RTOL, ATOL, [pl])
             phi2, w2 = ys
             phi_m, w1, a1 = ang - ang0, w_m, a_m
         else:
@@ -80,8 +80,8 @@ def generate(scenario):
                 tau_m, di = pi_law(pm, time, w, integral)
                 phi1 = pr["phi_in_start"] + phi_m
                 a = (float(tau_m) - drive(phi1, phi2, w, w2, *k)) / (j_motor + pr["I1"])
-                return [w, a, float(di), w2, (force2(phi1, phi2, w, w2, *k) - tau_l(w2)) / pr["I2"]]
-            ys = solve_piecewise(rhs, [0.0, w_start, 0.0, pr["phi_out_start"], w2_0], t, pm, RTOL, ATOL)
+                return [w, a, float(di), w2, (force2(phi1, phi2, w, w2, *k) - tau_l(w2, time)) / pr["I2"]]
+            ys = solve_piecewise(rhs, [0.0, w_start, 0.0, pr["phi_out_start"], w2_0], t, pm, RTOL, ATOL, [pl])
             phi_m, w1, integral, phi2, w2 = ys
             tau_m, _ = pi_law(pm, t, w1, integral)
             phi1 = pr["phi_in_start"] + phi_m
@@ -97,7 +97,7 @@ def generate(scenario):
                      + potential(phi1, phi2, w1, w2, *k), f"{name}.phi_in": phi1,
                      f"{name}.alpha_in": a1 * np.ones_like(t)})
         if load:
-            cols[f"{load}.tau"] = tau_l(w2)
+            cols[f"{load}.tau"] = tau_l(w2, t)
         if ideal and feeds(scenario, f"{name}.tau_in", "motor.tau_load"):
             cols["motor.tau_motor"] = source_torque(j_motor, a1, tau_in)
     cols.update({"motor.omega": w1, "motor.phi": phi_m})
@@ -145,7 +145,8 @@ def generate_pendulum(scenario):
     for name, load in components_with_loads(scenario, "RingCoupling"):
         pr = scenario.parameters_with_defaults(name)
         pl = scenario.parameters_with_defaults(load) if load else {"T0": 0.0, "c1": 0.0, "c2": 0.0}
-        if pr["c_s"] != 0 or pr["c_d"] != 0 or pl["T0"] != 0 or pl["c1"] != 0 or pl["c2"] != 0:
+        if (pr["c_s"] != 0 or pr["c_d"] != 0 or pl["T0"] != 0 or pl.get("T_change", 0.0) != 0 or pl["c1"] != 0
+                or pl["c2"] != 0):
             raise WiringError(f"{scenario.path}: {name}: the pendulum closed form needs c_s = c_d = 0 and no load")
         amp = _mp_amplitude(pr)
         a_e = amp / pr["I2"]
