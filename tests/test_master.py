@@ -245,3 +245,29 @@ def test_a_load_step_or_ramp_twists_a_straight_shaft_as_the_linear_oscillator_sa
     _, exact, _ = signal.lsim(system, held, t, interp=False)
     assert np.max(np.abs(table["driveline.shaft_torque"] - exact[::10])) < 2e-6
     assert np.max(exact) > 2.3   # it overshoots: a ringing the check would see
+
+
+def test_ctrl_c_from_python_stops_at_the_next_communication_step(fmu_dir):
+    """A Ctrl-C while cosimulate steps from Python (Python's own SIGINT handler in place, as in a script or an
+    optimizer loop) had landed inside an FMU's code half the time, which reported it as the FMU's fatal error: a
+    caller's ``except CosimulationError`` took it for a failed run and went on, and the interpreter could crash at
+    exit. The master takes the signal (its handler only while it steps), raises KeyboardInterrupt between FMU
+    calls at the next communication step, and leaves Python's handler and a usable master behind."""
+    import signal
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        seen = []
+
+        def progress(done, total):
+            seen.append(signal.getsignal(signal.SIGINT))
+            if done >= 20:
+                signal.raise_signal(signal.SIGINT)
+        with pytest.raises(KeyboardInterrupt):
+            cosimulate(chain(fmu_dir), CONNECTIONS, 1.0, 1e-3, ["joint.omega_out"], progress=progress)
+        assert seen[0] is not signal.default_int_handler   # the master's, while it stepped
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        table = cosimulate(chain(fmu_dir), CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])   # a next run is whole
+        assert len(table) == 11
+    finally:
+        signal.signal(signal.SIGINT, previous)

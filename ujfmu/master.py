@@ -30,7 +30,9 @@ import difflib
 import math
 import numbers
 import shutil
+import signal
 import tempfile
+import threading
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -100,6 +102,17 @@ SPEED_UNIT, TORQUE_UNIT = "rad/s", "N.m"
 #: sweep took it for a failed point and went on); OPEN[0] counts the co-simulations open now (``ujfmu.cli``'s handler
 #: stops at once when none is)
 STOP, OPEN = [False], [0]
+
+
+def _stop_at_next_step(signum, frame) -> None:
+    """SIGINT while a co-simulation steps from Python (``Cosimulation.advance`` installs it where Python's own
+    handler is in place): ask the stepping loop to raise KeyboardInterrupt at its next communication step (STOP),
+    between FMU calls, so a caller's ``except CosimulationError`` does not take it for a failed step and no FMU
+    sees the interrupt in its own code; a second Ctrl-C raises at once."""
+    if OPEN[0] and not STOP[0]:
+        STOP[0] = True
+        return
+    raise KeyboardInterrupt
 
 
 class CosimulationError(RuntimeError):
@@ -689,7 +702,20 @@ class Cosimulation:
         """Take n_steps communication steps; when rows is given, record into it after every output_interval-th
         step and after the last (rows: ceil(n_steps / output_interval) x len(columns)). progress: optional
         callable(steps_done, n_steps) called now and then; returning False stops the run there (``RunStopped``).
-        ``rows_done``: the rows written so far."""
+        ``rows_done``: the rows written so far. A Ctrl-C raises KeyboardInterrupt at the next communication step
+        (:func:`_stop_at_next_step`, while Python's own SIGINT handler was the one in place)."""
+        previous = None
+        if (threading.current_thread() is threading.main_thread()
+                and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+            previous = signal.signal(signal.SIGINT, _stop_at_next_step)
+        try:
+            self._advance(n_steps, rows, progress, output_interval)
+        finally:
+            if previous is not None:
+                signal.signal(signal.SIGINT, previous)
+
+    def _advance(self, n_steps, rows, progress, output_interval):
+        """:meth:`advance` under whichever SIGINT handler is in place."""
         _check_interval(output_interval)
         implicit = self.iterates
         monitor = bool(self._watched or self._bonds)
@@ -707,6 +733,7 @@ class Cosimulation:
             scratch, scratch_size = addressof(self._scratch), sizeof(self._scratch)
         h, start = self.step_size, self.start_time
         if STOP[0]:   # asked while the FMUs were being set up
+            STOP[0] = False
             raise KeyboardInterrupt
         while k < n_steps:
             if not implicit:   # explicit steps up to the next progress report, in one tight loop
@@ -740,6 +767,7 @@ class Cosimulation:
                             or STOP[0]):
                         self._settle_pending()
                 if STOP[0]:
+                    STOP[0] = False
                     raise KeyboardInterrupt
             if progress is not None and k % every == 0 and progress(k, n_steps) is False and k < n_steps:
                 self._settle_pending()   # the steps taken first, as a failure would
@@ -825,6 +853,7 @@ class Cosimulation:
                 if stop[0]:
                     if pending:
                         settle(steps)
+                    stop[0] = False
                     raise KeyboardInterrupt
             if pending and k + count == n_steps:
                 settle(steps)
