@@ -243,3 +243,19 @@ def test_a_set_speed_past_1000_rad_s_asks_whether_rpm_was_meant():
                        "rad/s (the FMUs take SI units)")
     assert motor.Controller.advice(drive(3000.0)) == [message]
     assert len(motor.advice(drive(600.0, motor.STEP, -2000.0))) == 1 and motor.advice(drive(600.0)) == []
+
+
+def test_a_pi_loop_too_fast_for_its_steps_is_said_at_initialisation():
+    """Kp = 1.8e4 N.m.s/rad on a 1e-3 kg.m2 rotor (within the declared ranges) closes the loop at 1.8e7 1/s: where
+    the torque limit acts, a 1 ms step takes 9e4 RK4 substeps (0.2 s each: a 6 s run took 20 minutes unsaid).
+    advice names the gains, the rate and the substeps; the bundled start-up's gains (0.2, 10) and an ideal
+    speed source say nothing."""
+    fast = motor.Parameters(1.8e4, 10.0, 5.0, motor.RAMP, 150.0, 30.0, 0.0, 0.0, J_rotor=1e-3)
+    (message,) = motor.advice(fast)
+    pole = 1.8e4 / 1e-3 + math.sqrt(10.0 / 1e-3)
+    assert f"as fast as {pole:.3g} 1/s" in message and f"about {1e-3 * pole / motor.POLE_STEP:.3g} RK4" in message
+    assert rk4.substeps(motor.rate_bound(fast, (0.0, 0.0, 0.0), 0.0), 1e-3) > motor.SLOW_SUBSTEPS
+    assert motor.advice(motor.Parameters(0.2, 10.0, 5.0, motor.RAMP, 150.0, 30.0, 0.0, 0.0, J_rotor=1e-3)) == []
+    ideal = motor.Parameters(1.8e4, 10.0, 5.0, motor.RAMP, 150.0, 30.0, 0.0, 0.0, J_rotor=1e-3,
+                             ideal_speed_source=True)
+    assert motor.advice(ideal) == []

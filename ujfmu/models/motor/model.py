@@ -259,14 +259,31 @@ def load_outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
 LARGE_SPEED = 1000.0
 
 
+#: RK4 substeps a 1 ms step of the PI motor may take where its torque limit acts before :func:`advice` says that
+#: the run will be slow (each costs about a microsecond)
+SLOW_SUBSTEPS = 1000
+
+
 def advice(p: ControllerParameters) -> list:
-    """Warnings on valid parameters likely not meant: a set speed past ``LARGE_SPEED`` (rpm given as rad/s?)."""
+    """Warnings on valid parameters likely not meant: a set speed past ``LARGE_SPEED`` (rpm given as rad/s?); a
+    PI motor's closed loop so fast (Kp / J_rotor + sqrt(Ki / J_rotor), :func:`rate_bound`) that a 1 ms step takes
+    more than ``SLOW_SUBSTEPS`` substeps where the torque limit acts (there the exact linear step does not hold)."""
     messages = []
     for name in ("omega_set", "omega_initial") if p.profile == STEP else ("omega_set",):
         value = getattr(p, name)
         if abs(value) > LARGE_SPEED:
             messages.append(f"{name} = {value:.6g} rad/s is {value * 30.0 / math.pi:.6g} rpm; if the value was meant "
                             f"in rpm, {name} = {value * math.pi / 30.0:.6g} rad/s (the FMUs take SI units)")
+    if isinstance(p, Parameters) and not p.ideal_speed_source and p.J_rotor > 0.0:
+        pole = p.Kp / p.J_rotor + math.sqrt(p.Ki / p.J_rotor)
+        substeps = 1e-3 * pole / POLE_STEP
+        if substeps > SLOW_SUBSTEPS:
+            messages.append(f"Kp = {p.Kp:.6g} N.m.s/rad and Ki = {p.Ki:.6g} N.m/rad on J_rotor = {p.J_rotor:.6g} kg.m2 "
+                            f"make a closed loop as fast as {pole:.3g} 1/s (Kp / J_rotor + sqrt(Ki / J_rotor)): "
+                            f"wherever the torque limit tau_max acts, each 1 ms step takes about {substeps:.3g} RK4 "
+                            "substeps to follow it, so a run may take minutes; a PI tuned to the driveline "
+                            "(its bandwidth a few times below the first torsional mode) is far slower, and an ideal "
+                            "speed source (ideal_speed_source = true) costs nothing")
     return messages
 
 
