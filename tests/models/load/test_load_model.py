@@ -36,3 +36,16 @@ def test_a_load_step_or_ramp_changes_T0_at_its_corners():
     assert load.corners(constant) == () and load.level(constant, 9.0) == 20.0
     out = load.outputs(step, 6.0, (), load.Inputs(200.0))["tau"]
     assert out == pytest.approx(load_torque(200.0, 50.0, 0.0, 0.0, 0.1), rel=1e-15)
+
+
+def test_a_negative_coefficient_is_said_to_drive_the_shaft():
+    """T0, c1 or c2 below 0 (valid: the declared ranges allow an assisting load) turn the law into a driving
+    torque, c1 and c2 into negative damping: advice names each; a resisting load, none; a change to below 0 is
+    named as T0 + T_change."""
+    from ujfmu.models.load import model as load
+    assert load.advice(load.Parameters(0.3, 0.01, 0.002, 0.1)) == []
+    messages = load.advice(load.Parameters(-0.3, -0.01, 0.002, 0.1))
+    assert [m.split(" =")[0] for m in messages] == ["T0", "c1"] and "negative damping" in messages[1]
+    (change,) = load.advice(load.Parameters(0.3, 0.0, 0.0, 0.1, T_change=-0.5, t_change=1.0))
+    assert change.startswith("T0 + T_change = -0.2")
+    assert load.advice(load.Parameters(0.3, 0.0, 0.0, 0.1, T_change=-0.2, t_change=1.0)) == []

@@ -83,5 +83,20 @@ def outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
     return {"tau": load_torque(u.omega, level(p, t), p.c1, p.c2, p.omega_smooth)}
 
 
+def advice(p: Parameters) -> list:
+    """Warnings on valid parameters likely not meant: a negative coefficient turns its part of the law from a
+    resisting torque into a driving one (T0, or T0 + T_change, below 0: the load pushes the shaft on; c1 or c2 below
+    0: it feeds the motion energy in proportion to the speed, a negative damping that can run the driveline away)."""
+    messages = []
+    for name, value in (("T0", p.T0), ("T0 + T_change", p.T0 + p.T_change), ("c1", p.c1), ("c2", p.c2)):
+        if value < 0.0 and not (name == "T0 + T_change" and (not p.T_change or p.T0 < 0.0)):
+            messages.append(f"{name} = {value:.6g} is negative: that part of the load drives the shaft instead of "
+                            "resisting it (tau > 0 opposes positive rotation)"
+                            + (", a negative damping that feeds energy into the motion and can run it away"
+                               if name in ("c1", "c2") else "")
+                            + "; set it >= 0 for a resisting load")
+    return messages
+
+
 def check(p: Parameters) -> list:
     return []
