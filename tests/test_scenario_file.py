@@ -388,3 +388,16 @@ def test_experiment_times_that_do_not_fit_say_what_would(tmp_path, old, new, say
     with pytest.raises(ScenarioError) as err:
         Scenario(write(tmp_path, text))
     assert says in str(err.value)
+
+
+def test_an_experiment_changed_after_loading_is_checked_before_a_run(fmu_dir):
+    """A caller that sets step_size < 0 or stop_time = NaN on a loaded scenario (an optimizer's copy) had a reference
+    span message that contradicted itself, or a bare ValueError from int(): run_scenario names the field first."""
+    from ujfmu.scenario_run import run_scenario
+    for name, value, words in (("step_size", -1e-3, "step_size = -0.001 s must be > 0"),
+                               ("stop_time", float("nan"), "stop_time = nan must be a finite number"),
+                               ("stop_time", -1.0, "stop_time = -1.0 s after start_time = 0.0 s")):
+        scenario = Scenario(Path(__file__).parents[1] / "scenarios" / "cardan_startup.toml")
+        setattr(scenario, name, value)
+        with pytest.raises(ScenarioError, match=words):
+            run_scenario(scenario, fmu_dir, out_dir=None)

@@ -1538,6 +1538,11 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
     """
     if not (isinstance(step_size, numbers.Real) and step_size > 0.0 and math.isfinite(step_size)):
         raise CosimulationError(f"communication step size {step_size!r} must be finite and > 0")
+    for name, value in (("start_time", start_time), ("stop_time", stop_time)):
+        if not (isinstance(value, numbers.Real) and math.isfinite(value)):
+            raise CosimulationError(f"{name} = {value!r} s must be a finite number")
+    if not stop_time > start_time:
+        raise CosimulationError(f"stop_time = {stop_time!r} s must be after start_time = {start_time!r} s")
     n_steps = int(round((stop_time - start_time) / step_size))
     if n_steps < 1 or not math.isclose(start_time + n_steps * step_size, stop_time, rel_tol=1e-9, abs_tol=1e-12):
         raise CosimulationError(f"stop_time - start_time = {stop_time - start_time} is not a whole number of "

@@ -893,6 +893,17 @@ class Scenario:
         values.update(params)
         return values
 
+    def check_experiment(self) -> None:
+        """ScenarioError unless the experiment as it stands now (a caller may have set step_size, start_time or
+        stop_time after loading) has finite times, step_size > 0 and stop_time > start_time, as a file must."""
+        for name in ("start_time", "stop_time", "step_size"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+                raise ScenarioError(f"{self.path}: experiment {name} = {value!r} must be a finite number [s]")
+        if not self.step_size > 0 or not self.stop_time > self.start_time:
+            raise ScenarioError(f"{self.path}: experiment step_size = {self.step_size!r} s must be > 0 and stop_time "
+                                f"= {self.stop_time!r} s after start_time = {self.start_time!r} s")
+
     def time_grid(self):
         n = int(round((self.stop_time - self.start_time) / self.step_size))
         return self.start_time + self.step_size * np.arange(n + 1)

@@ -662,6 +662,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     """
     begun = time.perf_counter()
     scenario = path if isinstance(path, Scenario) else Scenario(path)
+    scenario.check_experiment()
     scenario.check_fmus(fmu_dir)
     reference, provenance = None, ""
     if scenario.reference_file is not None:   # a missing reference file is an error before anything runs
