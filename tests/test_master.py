@@ -251,7 +251,8 @@ def test_a_load_step_or_ramp_twists_a_straight_shaft_as_the_linear_oscillator_sa
     assert np.max(exact) > 2.3   # it overshoots: a ringing the check would see
 
 
-def test_ctrl_c_from_python_stops_at_the_next_communication_step(fmu_dir):
+@pytest.mark.parametrize("ideal", [True, False])   # explicit steps (an open loop), and implicit ones
+def test_ctrl_c_from_python_stops_at_the_next_communication_step(fmu_dir, ideal):
     """A Ctrl-C while cosimulate steps from Python (Python's own SIGINT handler in place, as in a script or an
     optimizer loop) had landed inside an FMU's code half the time, which reported it as the FMU's fatal error: a
     caller's ``except CosimulationError`` took it for a failed run and went on, and the interpreter could crash at
@@ -267,11 +268,28 @@ def test_ctrl_c_from_python_stops_at_the_next_communication_step(fmu_dir):
             seen.append(signal.getsignal(signal.SIGINT))
             if done >= 20:
                 signal.raise_signal(signal.SIGINT)
+        components = chain(fmu_dir)
+        components[0].parameters["ideal_speed_source"] = ideal
+        diagnostics = {}
         with pytest.raises(KeyboardInterrupt):
-            cosimulate(chain(fmu_dir), CONNECTIONS, 1.0, 1e-3, ["joint.omega_out"], progress=progress)
+            cosimulate(components, CONNECTIONS, 1.0, 1e-3, ["joint.omega_out"], progress=progress)
         assert seen[0] is not signal.default_int_handler   # the master's, while it stepped
         assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-        table = cosimulate(chain(fmu_dir), CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])   # a next run is whole
-        assert len(table) == 11
+        table = cosimulate(components, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"], diagnostics=diagnostics)
+        assert len(table) == 11 and diagnostics["iterates"] == (not ideal)   # a next run is whole
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+@pytest.mark.parametrize("at", [1.0, 1.04, 1.05])
+def test_a_change_meant_at_a_communication_point_happens_there(fmu_dir, at):
+    """The master's times are k h: 1.04 and 1.05 arrive as 1.0399999999999998 and 1.0499999999999998 at 1 ms, and
+    a Load step (T_change) and an ideal source's speed step (profile 2, t_step) meant there had come one step late
+    (0.3 rad/s of a PI motor's speed off its reference). Both happen at the communication point."""
+    comps = [Component("motor", fmu_dir / "Motor.fmu", dict(ideal_speed_source=True, profile=2, omega_initial=10.0,
+                                                            omega_set=20.0, t_step=at, tau_load=0.0)),
+             Component("load", fmu_dir / "Load.fmu", dict(T0=1.0, T_change=1.0, t_change=at, omega_smooth=1e-9))]
+    table = cosimulate(comps, [Connection("motor.omega", "load.omega")], 1.1, 1e-3, ["motor.omega", "load.tau"])
+    k = int(round(at / 1e-3))
+    assert list(table["load.tau"][k - 1:k + 2]) == pytest.approx([1.0, 2.0, 2.0], abs=1e-12)
+    assert list(table["motor.omega"][k - 1:k + 2]) == [10.0, 20.0, 20.0]

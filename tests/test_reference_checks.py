@@ -296,3 +296,19 @@ def test_a_load_step_is_in_the_monolithic_reference_and_the_run_follows_it(tmp_p
         assert table["load.tau"][after] - table["load.tau"][before] > 0.29
         result = run_scenario(scenario, fmu_dir, out_dir=None)
         assert result.passed and not result.failed, result.summary()
+
+
+def test_the_reference_solve_restarts_at_a_load_change_and_is_exact_across_it():
+    """solve_piecewise restarts at a Load's corners (a step at 0.5003 s, off the output grid, and a ramp's two
+    corners): each piece's right-hand side is then smooth, so even at a loose tolerance the integral of T(t) is
+    exact to round-off, where one solve across the jump (or the kinks) keeps only its tolerance."""
+    from ujfmu.references.common import load_level, solve_piecewise
+    motor = dict(profile=0)
+    t = np.linspace(0.0, 1.0, 101)
+    for law, exact in ((dict(T0=1.0, T_change=2.0, t_change=0.5003, ramp_time=0.0),
+                        t + 2.0 * np.maximum(t - 0.5003, 0.0)),
+                       (dict(T0=1.0, T_change=2.0, t_change=0.2003, ramp_time=0.3),
+                        t + 2.0 * np.where(t < 0.2003, 0.0, np.where(t < 0.5003, (t - 0.2003) ** 2 / 0.6,
+                                                                     0.15 + (t - 0.5003))))):
+        ys = solve_piecewise(lambda time, y: [float(load_level(law, time))], [0.0], t, motor, 1e-3, 1e-3, [law])
+        assert np.max(np.abs(ys[0] - exact)) < 1e-12

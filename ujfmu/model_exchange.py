@@ -22,6 +22,10 @@ from .fmi3_host import FmuInstance3
 from .master import CosimulationError, _feedthrough_order, extracted
 
 
+#: the spacing of floats at 1
+EPS = np.finfo(float).eps
+
+
 class ModelExchangeError(CosimulationError):
     """A Model Exchange run could not be set up, an FMU refused a call, or the solver failed."""
 
@@ -208,8 +212,13 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
         t = start_time
         for k in range(1, n_out + 1):
             t_next = start_time + k * output_interval
+            # an event a few ulps from the output time (0.35 against 35 * 0.01 = 0.35000000000000003) is taken at
+            # it: CVode refuses an interval that short ("tout too close to t0")
+            rounding = 8.0 * EPS * max(1.0, abs(t_next))
             while True:
-                t_stop = min([t_next, *(at for at in time_events.values() if at > t)])
+                t_stop = min([t_next, *(at for at in time_events.values() if at > t + rounding)])
+                if t_next - t_stop <= rounding:
+                    t_stop = t_next
                 try:
                     state_event, roots, t_reached = solver.step(t, t_stop)
                 except RuntimeError as exc:
@@ -217,7 +226,8 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
                                              + _failures(failure or [str(exc)])) from None
                 if failure:
                     raise ModelExchangeError(f"between t = {t!r} and {t_stop!r}: " + _failures(failure))
-                timed = [] if state_event else [name for name, at in time_events.items() if at == t_stop]
+                timed = [] if state_event else [name for name, at in time_events.items()
+                                                if abs(at - t_stop) <= rounding]
                 if state_event and t_reached < t_next or timed:
                     event(t_reached, roots if state_event else np.zeros(nz, bool), timed)
                     t = t_reached

@@ -114,6 +114,16 @@ def shaft_inertia_problems(names: str, inertia: float, shaft: str) -> list:
 #: then swings between 0.71 and 1.41 already)
 LARGE_JOINT_ANGLE = math.radians(45.0)
 
+#: a host's communication times (k h, t + h) miss an instant meant to be on its grid by the rounding of the
+#: arithmetic (1.05 arrives as 1.0499999999999998 at h = 1e-3): an instant within this fraction of the larger of
+#: 1 s and itself counts as reached (:func:`reached`), far below any step
+TIME_ROUNDING = 1e-9
+
+
+def reached(t: float, instant: float) -> bool:
+    """Whether the time t has reached instant, up to a host's rounding (``TIME_ROUNDING``)."""
+    return t >= instant - TIME_ROUNDING * max(1.0, abs(instant))
+
 
 def joint_angle_advice(name: str, angle: float) -> list:
     """A warning for a joint angle [rad] beyond ``LARGE_JOINT_ANGLE``, valid but far past a driveline's usual

@@ -16,7 +16,7 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from ..protocol import NoState, kinematic_always, no_derivatives, no_rate, no_state
+from ..protocol import NoState, kinematic_always, no_derivatives, no_rate, no_state, reached
 
 
 def load_torque(omega: float, t0: float, c1: float, c2: float, omega_smooth: float) -> float:
@@ -42,10 +42,11 @@ class Parameters:
 
 def level(p: Parameters, t: float) -> float:
     """T(t) [N.m]: T0 before t_change, T0 + T_change from t_change + ramp_time on, linear between (a step at
-    t_change where ramp_time = 0)."""
-    if not p.T_change or t < p.t_change:
+    t_change where ramp_time = 0); an instant counts as reached up to a host's rounding of its times
+    (``protocol.reached``: a step meant at a communication point happens there)."""
+    if not p.T_change or not reached(t, p.t_change):
         return p.T0
-    if t < p.t_change + p.ramp_time:
+    if not reached(t, p.t_change + p.ramp_time):
         return p.T0 + p.T_change * (t - p.t_change) / p.ramp_time
     return p.T0 + p.T_change
 

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from ...fmu import rk4, series
+from ..protocol import TIME_ROUNDING, reached
 
 CONSTANT, RAMP, STEP = 0, 1, 2
 
@@ -38,7 +39,7 @@ def speed_reference(t: float, profile: int, omega_set: float,
             return accel * t, accel, 0.5 * accel * t * t
         return omega_set, 0.0, 0.5 * accel * t_end * t_end + omega_set * (t - t_end)
     if profile == STEP:
-        if t < t_step:
+        if not reached(t, t_step):   # a step meant at a communication point happens there
             return omega_initial, 0.0, omega_initial * t
         return omega_set, 0.0, omega_initial * t_step + omega_set * (t - t_step)
     return omega_set, 0.0, omega_set * t
@@ -147,9 +148,12 @@ def profile_corners(p: ControllerParameters) -> tuple:
 
 
 def corner_inside(p: ControllerParameters, t: float, h: float) -> bool:
-    """True if a corner of the profile (:func:`profile_corners`) lies inside (t, t + h)."""
+    """True if a corner of the profile (:func:`profile_corners`) lies inside (t, t + h), farther than a host's
+    rounding of its times from either end (``protocol.reached``: a corner meant at a communication point is at
+    the step's end, not inside it)."""
     for corner in p.corners:
-        if t < corner < t + h:
+        rounding = TIME_ROUNDING * max(1.0, abs(corner))
+        if t + rounding < corner < t + h - rounding:
             return True
     return False
 
