@@ -414,6 +414,7 @@ class Cosimulation:
         OPEN[0] += 1
         self._open = True
         self._warned = 0             # log entries already raised as FmuWarning
+        self._warned_texts = set()   # the texts raised
         try:
             self._setup(components, connections, record)
         except CosimulationError:
@@ -425,10 +426,14 @@ class Cosimulation:
         self._warn_fmu_warnings()
 
     def _warn_fmu_warnings(self):
-        """An ``FmuWarning`` for each warning the FMUs logged since the last call."""
+        """An ``FmuWarning`` for each warning the FMUs logged since the last call, each text once per run (an FMU
+        says a warning once, but the implicit scheme's rollback restores its state from before it, and the retried
+        step says it again)."""
         new, self._warned = self.log[self._warned:], len(self.log)
+        said = self._warned_texts
         for entry in new:
-            if entry.startswith("[warning]"):
+            if entry.startswith("[warning]") and entry not in said:
+                said.add(entry)
                 warnings.warn(entry, FmuWarning, stacklevel=3)
 
     def _setup(self, components, connections, record):
