@@ -12,6 +12,7 @@ not provide). The FMUs' event indicators are the solver's root functions (``simu
 
 import math
 import re
+import warnings
 from ctypes import c_double
 
 import numpy as np
@@ -19,7 +20,7 @@ from fmpy.fmi3 import FMU3Model
 
 from .build3 import ME_TOLERANCE
 from .fmi3_host import FmuInstance3
-from .master import CosimulationError, _feedthrough_order, extracted
+from .master import CosimulationError, FmuWarning, _feedthrough_order, extracted
 
 
 #: the spacing of floats at 1
@@ -70,7 +71,8 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
     mode and the solver restarts there, so no step straddles a switch of the right-hand side. So does every time
     event an FMU announces (fmi3UpdateDiscreteStates' nextEventTime: the MotorController's profile corner). Each
     event is appended to ``events`` (if given) as (time, 'comp.indicator') or (time, 'comp.time event');
-    ``event_indicators=False`` leaves the switches to the solver's error control."""
+    ``event_indicators=False`` leaves the switches to the solver's error control. What the FMUs warned of comes as
+    one ``FmuWarning`` per distinct text, as from ``master.cosimulate``."""
     from fmpy.sundials import CVodeSolver
 
     n_out = int(round((stop_time - start_time) / output_interval))
@@ -248,6 +250,8 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
     finally:
         for inst in instances.values():
             inst.free()
+        for entry in dict.fromkeys(line for line in log if line.startswith("[warning]")):   # as cosimulate does
+            warnings.warn(entry, FmuWarning, stacklevel=2)
     time = start_time + output_interval * np.arange(n_out + 1)
     dtype = np.dtype([("time", np.float64)] + [(c, np.float64) for c in record])
     return np.rec.fromarrays([time] + list(values.T), dtype=dtype)

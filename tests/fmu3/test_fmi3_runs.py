@@ -442,3 +442,21 @@ def test_a_load_step_is_a_time_event(fmu3_dir, at):
     np.testing.assert_allclose(table["load.tau"], np.where(t < at - 1e-12, 1.0, 2.0), atol=1e-9)
     closed = 10.0 + 20.0 * t - 10.0 * np.maximum(t - at, 0.0)   # (3 - 1) / 0.1, then (3 - 2) / 0.1 rad/s^2
     assert np.max(np.abs(table["joint.omega_in"] - closed)) < 1e-6
+
+
+def test_model_exchange_says_a_twist_no_real_shaft_takes(fmu3_dir):
+    """The FMI 3.0 Model Exchange torque-driven double Cardan driven hard (100 N.m) into a linear load twists its
+    default (laboratory) shaft past 0.5 rad: it says so once, as the Co-Simulation FMUs do from their steps, and
+    simulate_me passes it on as an FmuWarning (its runs had passed on no warning at all)."""
+    import warnings
+
+    from ujfmu.master import FmuWarning
+    components = [Component("driveline", fmu3_dir / "DoubleCardanDrivelineTorqueDriven.fmu",
+                            dict(J_drive=0.1, tau_in=100.0, omega_in_start=100.0)),
+                  Component("load", fmu3_dir / "Load.fmu", dict(T0=0.0, c1=1.0))]
+    connections = [Connection("driveline.omega_out", "load.omega"), Connection("load.tau", "driveline.tau_load")]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FmuWarning)
+        table = simulate_me(components, connections, 0.05, 1e-3, ["driveline.twist"])
+    said = [str(w.message) for w in caught if "twisted" in str(w.message)]
+    assert np.max(np.abs(table["driveline.twist"])) > 0.5 and len(said) == 1 and "k_theta" in said[0]
