@@ -277,6 +277,13 @@ def test_ctrl_c_from_python_stops_at_the_next_communication_step(fmu_dir, ideal)
         assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
         table = cosimulate(components, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"], diagnostics=diagnostics)
         assert len(table) == 11 and diagnostics["iterates"] == (not ideal)   # a next run is whole
+
+        def last(done, total):   # a Ctrl-C after the last step's check is this run's, not the next run's
+            if done == total:
+                signal.raise_signal(signal.SIGINT)
+        with pytest.raises(KeyboardInterrupt):
+            cosimulate(components, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"], progress=last)
+        assert len(cosimulate(components, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])) == 11
     finally:
         signal.signal(signal.SIGINT, previous)
 

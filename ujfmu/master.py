@@ -718,6 +718,9 @@ class Cosimulation:
         finally:
             if previous is not None:
                 signal.signal(signal.SIGINT, previous)
+            asked, STOP[0] = STOP[0], False   # a Ctrl-C after the last step's check: this run's, not the next's
+        if asked:
+            raise KeyboardInterrupt
 
     def _advance(self, n_steps, rows, progress, output_interval):
         """:meth:`advance` under whichever SIGINT handler is in place."""
