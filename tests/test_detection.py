@@ -729,3 +729,25 @@ def test_an_aligned_joint_has_no_order_to_alias(fmu_dir, tmp_path, capsys):
     assert not sampled_components(straight.with_parameters({"rotor.m_u1": 0.0, "rotor.m_u2": 0.0}))
     ring = Scenario(scenarios / "ring_coupling_fig3.toml")
     assert sampled_components(ring) and not sampled_components(ring.with_parameters({"coupling.e": 0.0}))
+
+
+def test_a_joint_bent_by_round_off_has_no_order_to_sample():
+    """excitation_order counts a bend only where its speed-ratio swing (about b^2 / 2) passes 1e-9: a bend of 1e-9
+    rad (a 2x of 5e-19) had failed the sampling check at a coarse step; 1e-4 rad (5e-9) still counts."""
+    from ujfmu.models.cardan_joint import model as cardan
+    from ujfmu.models.double_cardan_driveline import model as dc
+    from ujfmu.models.ring_coupling import model as ring
+    from ujfmu.models.twin_jeffcott_rotor import model as twin
+    from ujfmu.models.protocol import NEGLIGIBLE_SWING
+    assert NEGLIGIBLE_SWING == 1e-9
+
+    class P:   # the fields excitation_order reads
+        def __init__(self, **values):
+            self.__dict__.update(dict(bend_angle=0.0, bend_plane_angle=0.0, error_angle_beta=0.0,
+                                      error_angle_gamma=0.0, beta1=0.0, beta2=0.0, beta=0.0, e=0.0, R=0.1, m_u1=0.0,
+                                      m_u2=0.0), **values)
+    tiny, real = 1e-9, 1e-4
+    assert cardan.excitation_order(P(error_angle_gamma=tiny)) == 0 and cardan.excitation_order(P(bend_angle=real)) == 2
+    assert dc.excitation_order(P(beta2=tiny)) == 0 and dc.excitation_order(P(beta1=real)) == 2
+    assert twin.excitation_order(P(beta=tiny)) == 0 and twin.excitation_order(P(beta=real)) == 2
+    assert ring.excitation_order(P(e=tiny * 0.1)) == 0 and ring.excitation_order(P(e=real * 0.1)) == 2

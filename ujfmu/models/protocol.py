@@ -114,6 +114,10 @@ def shaft_inertia_problems(names: str, inertia: float, shaft: str) -> list:
 #: then swings between 0.71 and 1.41 already)
 LARGE_JOINT_ANGLE = math.radians(45.0)
 
+#: the relative size of a speed-ratio swing (a joint at angle b: about b^2 / 2) below which the order it makes is
+#: not there for a record to sample (``excitation_order``: 1e-9, as the order checks' significance floor)
+NEGLIGIBLE_SWING = 1e-9
+
 #: a host's communication times (k h, t + h) miss an instant meant to be on its grid by the rounding of the
 #: arithmetic (1.05 arrives as 1.0499999999999998 at h = 1e-3): an instant within this fraction of the larger of
 #: 1 s and itself counts as reached (:func:`reached`), far below any step

@@ -259,3 +259,6 @@ def test_a_pi_loop_too_fast_for_its_steps_is_said_at_initialisation():
     ideal = motor.Parameters(1.8e4, 10.0, 5.0, motor.RAMP, 150.0, 30.0, 0.0, 0.0, J_rotor=1e-3,
                              ideal_speed_source=True)
     assert motor.advice(ideal) == []
+    (refused,) = motor.advice(motor.Parameters(1e4, 10.0, 5.0, motor.RAMP, 150.0, 30.0, 0.0, 0.0, J_rotor=1e-4))
+    assert "more than the 100000 a step may take, so such a step is refused" in refused
+    assert "so a run may take minutes" in message

@@ -26,8 +26,8 @@ import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
-from ..protocol import (Drive, NoState, Torques, joint_angle_advice, kinematic_always, no_derivatives, no_rate,
-                        no_state, shaft_inertia_problems)
+from ..protocol import (NEGLIGIBLE_SWING, Drive, NoState, Torques, joint_angle_advice, kinematic_always,
+                        no_derivatives, no_rate, no_state, shaft_inertia_problems)
 
 #: Largest admissible magnitude of each misalignment angle and of the total shaft angle acos(K_z) [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -41,8 +41,10 @@ EXCITATION_ORDER = 2
 
 
 def excitation_order(p: "Parameters") -> int:
-    """``EXCITATION_ORDER`` where the joint is misaligned at all (bend or error angles); an aligned one carries none."""
-    return EXCITATION_ORDER if (p.bend_angle or p.bend_plane_angle or p.error_angle_beta or p.error_angle_gamma) else 0
+    """``EXCITATION_ORDER`` where the joint is misaligned (bend and error angles); an aligned one carries none, nor
+    one whose speed-ratio swing, about half the sum of their squares, is below ``protocol.NEGLIGIBLE_SWING``."""
+    swing = 0.5 * (p.bend_angle ** 2 + p.bend_plane_angle ** 2 + p.error_angle_beta ** 2 + p.error_angle_gamma ** 2)
+    return EXCITATION_ORDER if swing > NEGLIGIBLE_SWING else 0
 
 
 def joint_frame(bend_angle: float, bend_plane_angle: float, error_angle_beta: float, error_angle_gamma: float) -> tuple:

@@ -36,8 +36,8 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ...fmu import rk4, series
-from ..protocol import (Drive, Torques, joint_angle_advice, phase_angle_advice, shaft_inertia_problems,
-                        torque_driven_outputs)
+from ..protocol import (NEGLIGIBLE_SWING, Drive, Torques, joint_angle_advice, phase_angle_advice,
+                        shaft_inertia_problems, torque_driven_outputs)
 
 #: Largest admissible magnitude of a joint angle (static plus dynamic) [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -48,9 +48,10 @@ EXCITATION_ORDER = 2
 
 
 def excitation_order(p: "Parameters") -> int:
-    """``EXCITATION_ORDER`` where a joint is bent; straight joints (beta1 = beta2 = 0) carry none: the speed ratios
-    are 1, the inertias constant, the shaft's lateral coupling g zero."""
-    return EXCITATION_ORDER if p.beta1 or p.beta2 else 0
+    """``EXCITATION_ORDER`` where a joint is bent; straight joints carry none (the speed ratios are 1, the inertias
+    constant, the shaft's lateral coupling g zero), nor joints whose speed-ratio swing, about beta^2 / 2, is below
+    ``protocol.NEGLIGIBLE_SWING``."""
+    return EXCITATION_ORDER if 0.5 * max(p.beta1 * p.beta1, p.beta2 * p.beta2) > NEGLIGIBLE_SWING else 0
 
 
 def joint_error(x: float, b: float) -> float:

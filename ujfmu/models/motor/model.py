@@ -282,10 +282,12 @@ def advice(p: ControllerParameters) -> list:
         pole = p.Kp / p.J_rotor + math.sqrt(p.Ki / p.J_rotor)
         substeps = 1e-3 * pole / POLE_STEP
         if substeps > SLOW_SUBSTEPS:
+            outcome = ("so a run may take minutes" if substeps <= rk4.MAX_SUBSTEPS else
+                       f"more than the {rk4.MAX_SUBSTEPS} a step may take, so such a step is refused")
             messages.append(f"Kp = {p.Kp:.6g} N.m.s/rad and Ki = {p.Ki:.6g} N.m/rad on J_rotor = {p.J_rotor:.6g} kg.m2 "
                             f"make a closed loop as fast as {pole:.3g} 1/s (Kp / J_rotor + sqrt(Ki / J_rotor)): "
                             f"wherever the torque limit tau_max acts, each 1 ms step takes about {substeps:.3g} RK4 "
-                            "substeps to follow it, so a run may take minutes; a PI tuned to the driveline "
+                            f"substeps to follow it, {outcome}; a PI tuned to the driveline "
                             "(its bandwidth a few times below the first torsional mode) is far slower, and an ideal "
                             "speed source (ideal_speed_source = true) costs nothing")
     return messages

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from ...fmu import rk4, series
-from ..protocol import Drive, Torques, shaft_inertia_problems
+from ..protocol import NEGLIGIBLE_SWING, Drive, Torques, shaft_inertia_problems
 
 #: Eq. (5)/(7): M_p = MP_COEFFICIENT (EI/R^3) e^2 cos(phi1 + phi2)
 MP_COEFFICIENT = 157.0
@@ -41,8 +41,9 @@ EXCITATION_ORDER = 2
 
 
 def excitation_order(p: "Parameters") -> int:
-    """``EXCITATION_ORDER`` where the shafts are misaligned (e > 0); aligned, M_p = 0 and nothing turns at 2x."""
-    return EXCITATION_ORDER if p.e else 0
+    """``EXCITATION_ORDER`` where the shafts are misaligned; aligned (or (e / R)^2 below
+    ``protocol.NEGLIGIBLE_SWING``: M_p goes with e^2), nothing turns at 2x."""
+    return EXCITATION_ORDER if (p.e / p.R) ** 2 > NEGLIGIBLE_SWING else 0
 
 
 def bending_stiffness(E: float, d: float) -> float:

@@ -33,7 +33,8 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from ...fmu import rk4, series
-from ..protocol import Drive, Torques, joint_angle_advice, shaft_inertia_problems, torque_driven_outputs
+from ..protocol import (NEGLIGIBLE_SWING, Drive, Torques, joint_angle_advice, shaft_inertia_problems,
+                        torque_driven_outputs)
 
 #: Largest admissible joint angle magnitude [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -43,9 +44,10 @@ EXCITATION_ORDER = 2
 
 
 def excitation_order(p: "Parameters") -> int:
-    """``EXCITATION_ORDER`` where the joint is bent (its 2x); straight, the discs' unbalance alone (m_u e) forces
-    the 1x; neither, none."""
-    if p.beta:
+    """``EXCITATION_ORDER`` where the joint is bent (its 2x; a speed-ratio swing beta^2 / 2 below
+    ``protocol.NEGLIGIBLE_SWING`` is none); straight, the discs' unbalance alone (m_u e) forces the 1x; neither,
+    none."""
+    if 0.5 * p.beta * p.beta > NEGLIGIBLE_SWING:
         return EXCITATION_ORDER
     return 1 if p.e and (p.m_u1 or p.m_u2) else 0
 
