@@ -341,6 +341,10 @@ def test_a_load_that_chatters_from_rest_is_named_before_the_run(torque, warned):
         assert ("moves driveline's output inertia J = 0.0045 kg.m2 by T0 h / J = 44.4 rad/s, 44.4x "
                 "omega_smooth" in advice[0])
         assert "Widen omega_smooth to at least 44.4 rad/s, or take a step of at most 2.25e-05 s" in advice[0]
+    # a load raised later by T_change chatters with the torque it reaches, named as such
+    (raised,) = Scenario(OMAR_START).with_parameters({"load.T0": 0.2, "load.T_change": torque}).load_chatter()
+    assert raised.torque == 0.2 + torque and raised.text().startswith(f"load: its constant torque T0 + T_change = "
+                                                                       f"{0.2 + torque:g} N.m reverses")
 
 
 def test_every_problem_of_a_file_is_named_in_one_reading(tmp_path):

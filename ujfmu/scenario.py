@@ -126,12 +126,13 @@ class LoadChatter:
     smooth: float
     step: float
     ratio: float   # T0 h / (J omega_smooth)
+    name: str = "T0"   # what torque is meant: T0, or T0 + T_change where the change makes it larger
 
     def text(self) -> str:
         reach = self.torque * self.step / self.inertia
-        return (f"{self.load}: its constant torque T0 = {self.torque:g} N.m reverses within omega_smooth = "
+        return (f"{self.load}: its constant torque {self.name} = {self.torque:g} N.m reverses within omega_smooth = "
                 f"{self.smooth:g} rad/s of rest, and one step of it ({self.step:g} s) moves {self.driven}'s output "
-                f"inertia J = {self.inertia:g} kg.m2 by T0 h / J = {reach:.3g} rad/s, "
+                f"inertia J = {self.inertia:g} kg.m2 by {self.name} h / J = {reach:.3g} rad/s, "
                 f"{self.ratio:.3g}x omega_smooth: near rest (a start, a stall) the load's torque reverses at every "
                 f"step, and the run stops as a coupling instability or chatter. Widen omega_smooth to at least "
                 f"{reach:.3g} rad/s, or take a step of at most {self.inertia * self.smooth / self.torque:.3g} s")
@@ -868,11 +869,13 @@ class Scenario:
                 continue
             inertia = self._ask_model(driven, "free_output_inertia")   # [] where the model has none
             law = self.parameters_with_defaults(load)
-            torque = max(law["T0"], law["T0"] + law.get("T_change", 0.0))
+            changed = law.get("T_change", 0.0) > 0.0
+            torque = law["T0"] + law.get("T_change", 0.0) if changed else law["T0"]
             if isinstance(inertia, numbers.Real) and inertia > 0.0 and torque > 0.0:
                 reach = torque * self.step_size / inertia
                 found.append(LoadChatter(load, driven, inertia, float(torque), float(law["omega_smooth"]),
-                                         self.step_size, reach / law["omega_smooth"]))
+                                         self.step_size, reach / law["omega_smooth"],
+                                         "T0 + T_change" if changed else "T0"))
         return found
 
     def _ask_model(self, component, what) -> list:
