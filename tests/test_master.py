@@ -45,6 +45,8 @@ def test_missing_fmu_and_bad_step_are_clear_errors(fmu_dir, tmp_path):
         cosimulate(chain(fmu_dir), CONNECTIONS, float("nan"), 1e-3, [])   # had been a bare ValueError from int()
     with pytest.raises(CosimulationError, match=r"stop_time = 0.0 s must be after start_time = 0.5 s"):
         cosimulate(chain(fmu_dir), CONNECTIONS, 0.0, 1e-3, [], start_time=0.5)
+    with pytest.raises(CosimulationError, match=r"more than the 1e\+09 a run may take"):   # an OverflowError from int()
+        cosimulate(chain(fmu_dir), CONNECTIONS, 1.0, 1e-320, [])
     with pytest.raises(CosimulationError, match=r"no variable 'omega_ot' \(did you mean 'joint.omega_out'\?\)"):
         cosimulate(chain(fmu_dir), CONNECTIONS, 0.01, 1e-3, ["joint.omega_ot"])   # a record set from Python
 

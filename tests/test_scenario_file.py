@@ -400,7 +400,9 @@ def test_an_experiment_changed_after_loading_is_checked_before_a_run(fmu_dir):
     from ujfmu.scenario_run import run_scenario
     for name, value, words in (("step_size", -1e-3, "step_size = -0.001 s must be > 0"),
                                ("stop_time", float("nan"), "stop_time = nan must be a finite number"),
-                               ("stop_time", -1.0, "stop_time = -1.0 s after start_time = 0.0 s")):
+                               ("stop_time", -1.0, "stop_time = -1.0 s after start_time = 0.0 s"),
+                               ("stop_time", 6.0005, r"must be a whole number .* \(e.g. stop_time = 6 or 6.001 s"),
+                               ("step_size", 1e-320, "more than the 1e\\+09 a run may take")):
         scenario = Scenario(Path(__file__).parents[1] / "scenarios" / "cardan_startup.toml")
         setattr(scenario, name, value)
         with pytest.raises(ScenarioError, match=words):

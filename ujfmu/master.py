@@ -102,6 +102,8 @@ SPEED_UNIT, TORQUE_UNIT = "rad/s", "N.m"
 #: sweep took it for a failed point and went on); OPEN[0] counts the co-simulations open now (``ujfmu.cli``'s handler
 #: stops at once when none is)
 STOP, OPEN = [False], [0]
+#: communication steps a run may take at most (1e9 steps of 25 us are seven hours, and a record of them 8 GB a signal)
+MAX_STEPS = 1e9
 
 
 def _stop_at_next_step(signum, frame) -> None:
@@ -1551,6 +1553,10 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
             raise CosimulationError(f"{name} = {value!r} s must be a finite number")
     if not stop_time > start_time:
         raise CosimulationError(f"stop_time = {stop_time!r} s must be after start_time = {start_time!r} s")
+    if not (stop_time - start_time) / step_size <= MAX_STEPS:
+        raise CosimulationError(f"{stop_time - start_time!r} s at a step of {step_size!r} s is "
+                                f"{(stop_time - start_time) / step_size:.3g} steps, more than the {MAX_STEPS:.0e} a "
+                                "run may take (its record alone would not fit in memory)")
     n_steps = int(round((stop_time - start_time) / step_size))
     if n_steps < 1 or not math.isclose(start_time + n_steps * step_size, stop_time, rel_tol=1e-9, abs_tol=1e-12):
         raise CosimulationError(f"stop_time - start_time = {stop_time - start_time} is not a whole number of "

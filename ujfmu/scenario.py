@@ -50,7 +50,7 @@ import numpy as np
 
 from .build import DEFAULT_FMU_DIR, FMUS, PACKAGE_DIR, REPO_DIR, build_hint, fmu_class, source_hash
 from .fmu.base import model_stem
-from .master import COUPLINGS, DEFAULT_COUPLING, Component, Connection
+from .master import COUPLINGS, DEFAULT_COUPLING, MAX_STEPS, Component, Connection
 
 
 TOP_LEVEL_KEYS = {"title", "description", "experiment", "components", "connections", "output", "reference",
@@ -311,18 +311,7 @@ class Scenario:
                 or self.output_interval < 1:
             raise ScenarioError(f"{self.path}: experiment.output_interval = {self.output_interval!r} must be a whole "
                                 "number of communication steps >= 1 (1: record every step)")
-        steps = (self.stop_time - self.start_time) / self.step_size
-        if round(steps) < 1 or not math.isclose(round(steps), steps, rel_tol=1e-9, abs_tol=1e-9):
-            span = self.stop_time - self.start_time
-            hint = ""
-            if span > 0.0:
-                stops = dict.fromkeys(f"{self.start_time + n * self.step_size:.12g}"
-                                      for n in (math.floor(steps), math.ceil(steps)) if n >= 1)
-                hint = (f" (e.g. stop_time = {' or '.join(stops)} s, or a step_size that divides {span:g} s such as "
-                        f"{_round_step(span, self.step_size):g} s)")
-            raise ScenarioError(f"{self.path}: [experiment] stop_time - start_time = {span:g} s must be a whole "
-                                f"number (at least 1) of communication steps of step_size = {self.step_size:g} s"
-                                + hint)
+        self._check_steps()
 
     def _read_components(self, data, problems) -> set:
         """[components.*], each checked on its own: the names of those whose FMU is not known (their variables
@@ -898,7 +887,8 @@ class Scenario:
 
     def check_experiment(self) -> None:
         """ScenarioError unless the experiment as it stands now (a caller may have set step_size, start_time or
-        stop_time after loading) has finite times, step_size > 0 and stop_time > start_time, as a file must."""
+        stop_time after loading) has finite times, step_size > 0 and stop_time > start_time a whole number of steps
+        apart, as a file must."""
         for name in ("start_time", "stop_time", "step_size"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
@@ -906,6 +896,27 @@ class Scenario:
         if not self.step_size > 0 or not self.stop_time > self.start_time:
             raise ScenarioError(f"{self.path}: experiment step_size = {self.step_size!r} s must be > 0 and stop_time "
                                 f"= {self.stop_time!r} s after start_time = {self.start_time!r} s")
+        self._check_steps()
+
+    def _check_steps(self) -> None:
+        """ScenarioError unless stop_time - start_time is a finite whole number (1 to ``master.MAX_STEPS``) of
+        steps of step_size, with two stop times that would be and a round step where it is not."""
+        steps = (self.stop_time - self.start_time) / self.step_size
+        if not steps <= MAX_STEPS:
+            raise ScenarioError(f"{self.path}: [experiment] stop_time - start_time = "
+                                f"{self.stop_time - self.start_time:g} s at step_size = {self.step_size:g} s is "
+                                f"{steps:.3g} steps, more than the {MAX_STEPS:.0e} a run may take")
+        if round(steps) < 1 or not math.isclose(round(steps), steps, rel_tol=1e-9, abs_tol=1e-9):
+            span = self.stop_time - self.start_time
+            hint = ""
+            if span > 0.0:
+                stops = dict.fromkeys(f"{self.start_time + n * self.step_size:.12g}"
+                                      for n in (math.floor(steps), math.ceil(steps)) if n >= 1)
+                hint = (f" (e.g. stop_time = {' or '.join(stops)} s, or a step_size that divides {span:g} s such as "
+                        f"{_round_step(span, self.step_size):g} s)")
+            raise ScenarioError(f"{self.path}: [experiment] stop_time - start_time = {span:g} s must be a whole "
+                                f"number (at least 1) of communication steps of step_size = {self.step_size:g} s"
+                                + hint)
 
     def time_grid(self):
         n = int(round((self.stop_time - self.start_time) / self.step_size))
