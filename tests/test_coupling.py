@@ -269,7 +269,8 @@ def test_step_auto_stops_where_halving_does_not_shrink_the_error(monkeypatch):
         return estimate
     scenario = type("S", (), {"step_size": 1e-3})()
     monkeypatch.setattr(stepsize, "estimate", fake(lambda h: 0.081))
-    with pytest.raises(CosimulationError, match=r"0.001 s to 0.0005 s did not shrink .* joint.tau_in 8.1% -> 8.1%"):
+    with pytest.raises(CosimulationError, match=r"0.001 s to 0.0005 s did not shrink .* joint.tau_in 8.1% of range -> "
+                                                r"8.1% of range"):
         stepsize.choose(scenario, None)
     monkeypatch.setattr(stepsize, "estimate", fake(lambda h: 0.081 * (1.0 - 0.2 * (h < 1e-3))))   # 0.8x: stalled
     with pytest.raises(CosimulationError, match="did not shrink"):
@@ -277,3 +278,11 @@ def test_step_auto_stops_where_halving_does_not_shrink_the_error(monkeypatch):
     monkeypatch.setattr(stepsize, "estimate", fake(lambda h: 0.081 * h / 1e-3))   # first order
     step, tried = stepsize.choose(scenario, None)
     assert step == 1.25e-4 and len(tried) == 4
+    # a signal within its allowance before the halving (the other one, first order, needs it) that then rises a
+    # little past it (the implicit iteration's noise) is no stall
+    def two(step, _scenario=None, _fmu_dir=None):
+        errors = {"joint.tau_in": 0.081 * step / 1e-3, "motor.omega": {1e-3: 0.019, 5e-4: 0.021, 2.5e-4: 0.01,
+                                                                       1.25e-4: 0.01}[step]}
+        return stepsize.StepEstimate(step, errors, dict.fromkeys(errors, 0.02))
+    monkeypatch.setattr(stepsize, "estimate", lambda scenario, step, fmu_dir: two(step))
+    assert stepsize.choose(scenario, None)[0] == 1.25e-4

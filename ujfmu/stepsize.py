@@ -116,11 +116,21 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     return StepEstimate(run.step_size, errors, allowed, absolute=absolute, sampling=sampling, extrapolated=banded)
 
 
+def _measure(est: StepEstimate, name: str) -> tuple:
+    """(the estimate of a signal as it is judged, its text): absolute for the signals judged so, else the fraction
+    of the range."""
+    if name in est.absolute:
+        return est.absolute[name][0], f"{est.absolute[name][0]:.3g}"
+    return est.errors[name], f"{100 * est.errors[name]:.3g}% of range"
+
+
 def stalled(est: StepEstimate, previous: StepEstimate) -> list[str]:
-    """The signals over their allowance at est whose estimate the halving from previous left above ``STALLED`` of
-    itself: an error that does not shrink with the step."""
-    return [n for n in est.errors if not est.within(n) and n in previous.errors
-            and est.errors[n] > STALLED * previous.errors[n]]
+    """The signals over their allowance at est and at previous (the step before the halving) whose estimate, as
+    each is judged (:func:`_measure`), the halving left above ``STALLED`` of itself: an error that does not shrink
+    with the step."""
+    return [n for n in est.errors if not est.within(n) and n in previous.errors and not previous.within(n)
+            and (n in est.absolute) == (n in previous.absolute)
+            and _measure(est, n)[0] > STALLED * _measure(previous, n)[0]]
 
 
 def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, list[StepEstimate]]:
@@ -140,10 +150,10 @@ def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, lis
         stuck = stalled(est, tried[-2]) if len(tried) > 1 and not est.failure else []
         if stuck:
             before, after = tried[-2], est
-            figures = ", ".join(f"{n} {100 * before.errors[n]:.3g}% -> {100 * after.errors[n]:.3g}%" for n in stuck)
+            figures = ", ".join(f"{n} {_measure(before, n)[1]} -> {_measure(after, n)[1]}" for n in stuck)
             raise CosimulationError(
                 f"--step auto: halving the step from {before.step:g} s to {after.step:g} s did not shrink the "
-                f"estimated coupling error of {figures} of range (a first-order error halves): an error of a fixed "
+                f"estimated coupling error of {figures} (a first-order error halves): an error of a fixed "
                 "size over a few steps, which no smaller step removes (e.g. a speed-driven model's torque, whose "
                 "inertia term estimates the input acceleration from the held speeds, for two steps after a jump of "
                 "that acceleration: a load step, a drive's torque limit). `ujfmu run --check-step` shows where it "
