@@ -262,3 +262,19 @@ def test_a_pi_loop_too_fast_for_its_steps_is_said_at_initialisation():
     (refused,) = motor.advice(motor.Parameters(1e4, 10.0, 5.0, motor.RAMP, 150.0, 30.0, 0.0, 0.0, J_rotor=1e-4))
     assert "more than the 100000 a step may take, so such a step is refused" in refused
     assert "so a run may take minutes" in message
+
+
+@pytest.mark.parametrize("at", [1.04, 1.05, 0.3])
+def test_a_corner_a_step_misses_by_rounding_is_taken_at_the_step(at):
+    """A ramp's end meant at a communication point (omega_set / accel = 1.05 s) arrives as 1.0499999999999998 at
+    1 ms: the step that starts there must follow the profile's next piece (the speed held), not the ramp for a
+    whole step (0.1 rad/s of reference speed too much, 100 rad/s^2 x 1 ms). The run ends where one whose ramp ends
+    1e-10 s later does (the corner inside a step, RK4 substeps: a continuous change of the parameter)."""
+    def run(omega_set):
+        p = motor.Parameters(2.0, 50.0, 1e9, motor.RAMP, omega_set, 100.0, 0.0, 0.0, J_rotor=0.02)
+        y = motor.initial_state(p, 0.0, motor.Inputs(0.5))
+        for k in range(int(round((at + 0.2) / 1e-3))):
+            y = motor.integrate(p, k * 1e-3, 1e-3, y, motor.Inputs(0.5))
+        return y
+    on_grid, just_after = run(100.0 * at), run(100.0 * (at + 1e-10))
+    assert abs(on_grid[1] - just_after[1]) < 1e-6 and abs(on_grid[2] - just_after[2]) < 1e-8

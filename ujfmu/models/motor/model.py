@@ -32,10 +32,10 @@ def speed_reference(t: float, profile: int, omega_set: float,
         accel: float, t_step: float, omega_initial: float) -> tuple:
     """(omega_ref, alpha_ref, phi_ref): reference speed, its derivative and its integral from t = 0."""
     if profile == RAMP:
-        if t < 0.0:   # at rest until the ramp starts (a run may start before t = 0)
+        if not reached(t, 0.0):   # at rest until the ramp starts (a run may start before t = 0)
             return 0.0, 0.0, 0.0
         t_end = omega_set / accel
-        if t < t_end:
+        if not reached(t, t_end):   # the corners as corner_inside places them (a host's rounding of its times)
             return accel * t, accel, 0.5 * accel * t * t
         return omega_set, 0.0, 0.5 * accel * t_end * t_end + omega_set * (t - t_end)
     if profile == STEP:
