@@ -333,7 +333,7 @@ def mode_sampling(scenario: Scenario, interval: float) -> list:
     fastest = {}
     for mode in modes:
         fastest[mode.component] = max(fastest.get(mode.component, 0.0), mode.high)
-    notes = [ModeSampling(name, omega, interval) for name, omega in fastest.items() if omega > 0.0]
+    notes = [ModeSampling(name, omega, interval) for name, omega in fastest.items() if 0.0 < omega < math.inf]
     return [n for n in notes if 1.0 - math.cos(math.pi / n.samples) > PEAK_SHORTFALL or n.samples <= 2.0]
 
 
