@@ -834,3 +834,24 @@ def test_a_gate_in_a_checkout_whose_code_differs_from_the_installed_one_refuses(
         err = capsys.readouterr().err
         assert f"{checkout} is a ujfmu checkout whose sources differ" in err and f"pip install -e {checkout}" in err
     assert "refused: " in junit.read_text() and "sources differ" in junit.read_text()
+
+
+def test_run_set_changes_a_parameter_for_that_run_only(fmu_dir, tmp_path, capsys):
+    """`ujfmu run --set` (as `modes --set`): Brutti's rigid driveline, whose in-phase equal joints keep the output
+    speed constant, with its second yoke 90 deg out of phase swings at 2x, in a run named <scenario>_changed whose
+    title says what changed, written beside the original's CSV, not compared with the file's reference; a range is
+    refused."""
+    scenario = Path(__file__).parent.parent / "scenarios" / "double_cardan_brutti_rigid.toml"
+    code = main(["--fmu-dir", str(fmu_dir), "run", str(scenario), "--no-plot", "--out", str(tmp_path), "--set",
+                 "driveline.yoke_phase=90deg"])
+    out = capsys.readouterr().out
+    assert code == 0 and out.startswith("NOT CHECKED double_cardan_brutti_rigid_changed")
+    assert "changed: driveline.yoke_phase = 1.5708 rad (90 deg)" in out and "--check-step on the same command" in out
+    changed = np.genfromtxt(tmp_path / "double_cardan_brutti_rigid_changed.csv", delimiter=",", names=True)
+    assert main(["--fmu-dir", str(fmu_dir), "run", str(scenario), "--no-plot", "--out", str(tmp_path)]) == 0
+    capsys.readouterr()
+    original = np.genfromtxt(tmp_path / "double_cardan_brutti_rigid.csv", delimiter=",", names=True)
+    w_in = original["motoromega"][-1]
+    assert np.ptp(original["drivelineomega_out"][100:]) < 1e-9 * w_in < np.ptp(changed["drivelineomega_out"][100:])
+    assert main(["--fmu-dir", str(fmu_dir), "run", str(scenario), "--set", "motor.omega_set=1:2:1"]) == 2
+    assert "--set 'motor.omega_set=1:2:1': one value" in capsys.readouterr().err

@@ -295,7 +295,7 @@ def cmd_run(args):
     from . import stepsize
     from .scenario import Scenario
     _own_checkout([args.scenario])
-    scenario = Scenario(args.scenario)
+    scenario = _with_set(Scenario(args.scenario), args.set)
     if args.model_exchange and (args.step == "auto" or args.check_step):
         raise UsageError("--step auto and --check-step estimate a co-simulation's coupling error; a Model Exchange "
                          "run (--model-exchange) has none: its accuracy is the solver's (rtol 1e-8)")
@@ -539,21 +539,26 @@ def _status_summary(counts, total, steady_checked=True):
     return f"{total} point{'' if total == 1 else 's'}: " + ", ".join(parts)
 
 
-def cmd_modes(args):
-    from .analysis import NEAR_CRITICAL, drive_speeds, held_input_modes, scenario_modes
-    from .scenario import Scenario, ScenarioError
-    from .steady import speed_text
+def _with_set(scenario, texts):
+    """The scenario with the --set values COMP.PAR=VALUE[rpm|deg] (``Scenario.with_parameters``: a copy named
+    <scenario>_changed, without the reference), or itself without any."""
+    from .scenario import ScenarioError
     from .sweep import parse_axis
-    scenario = Scenario(args.scenario)
     changes = {}
-    for text in args.set or []:
+    for text in texts or []:
         axis = parse_axis(text, scenario, "--set")
         if len(axis.values) != 1:
             raise ScenarioError(f"--set {text!r}: one value (COMP.PAR=VALUE[rpm|deg]), not {len(axis.values)} "
                                 "(`ujfmu sweep --param` takes ranges)")
         changes.update({name: axis.values[0] for name in axis.names})
-    if changes:
-        scenario = scenario.with_parameters(changes)
+    return scenario.with_parameters(changes) if changes else scenario
+
+
+def cmd_modes(args):
+    from .analysis import NEAR_CRITICAL, drive_speeds, held_input_modes, scenario_modes
+    from .scenario import Scenario
+    from .steady import speed_text
+    scenario = _with_set(Scenario(args.scenario), args.set)
     modes = scenario_modes(scenario)
     print(f"{scenario.name}: natural frequencies omega_n of its machine components, each linearised at rest (no "
           "load; the input shaft held where an ideal speed source drives it: the mean over the input angle, and the "
@@ -799,6 +804,10 @@ def _main(raw: list):
             p.add_argument("--check-step", action="store_true",
                            help="rerun at half the step and report the estimated coupling error per signal "
                                 "(exit status 1 if above the tolerance)")
+            p.add_argument("--set", action="append", metavar="COMP.PAR=VALUE[rpm|deg]",
+                           help="a parameter instead of the scenario's (several --set for several), e.g. "
+                                "driveline.yoke_phase=30deg: the run is <scenario>_changed, its title says what "
+                                "changed, and it is not compared with the file's reference, made for the file's setup")
         else:
             p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")

@@ -508,7 +508,8 @@ class ScenarioResult:
         (``ujfmu run --check-step``), so it is named instead of suggested."""
         if self.scenario.reference_file is None:
             estimate = ("the step-halving estimate of the coupling error at this step follows" if step_check_follows
-                        else "ujfmu.stepsize.estimate(scenario, fmu_dir=...).lines() estimates the coupling error "
+                        else "--check-step on the same command line (`ujfmu run ... --set ...`), or "
+                        "ujfmu.stepsize.estimate(scenario, fmu_dir=...).lines(), estimates the coupling error "
                         "at this step" if self.scenario.name != self.scenario.path.stem
                         else f"ujfmu run {self.scenario.path} --check-step{self._fmu_dir_option()} estimates the "
                         "coupling error at this step")
