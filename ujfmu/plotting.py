@@ -302,6 +302,10 @@ def plot_sweep(sweep, out_dir):
                              ls=GROUP_STYLES[g], ms=3, color=f"C{i % 10}")
         if scale > 0.0:
             ax1.set_ylim(bottom=0.5 * floor)
+            if clipped:   # the floor shaded and named, so that a track on it does not read as a small order
+                ax1.axhspan(0.5 * floor, floor * 1.05, color="0.88", zorder=0)
+                ax1.text(0.01, floor * 1.15, f"floor: {ORDER_TRACK_FLOOR:g} of the largest", fontsize=7,
+                         color="0.35", transform=ax1.get_yaxis_transform())
         ax1.set_xlabel(xlabel)
         ax1.set_ylabel(f"order amplitude, zero-to-peak [{unit}]")
         # orders by colour; with several values of the other axes, those by line style in a second legend
