@@ -866,3 +866,88 @@ def test_the_sweep_summary_says_where_the_fmus_warned(tmp_path, fmu_dir, capsys)
     assert "e = 0.05 m is 0.5 of the ring radius" in out
     code, out = sweep("0.003", "quiet")
     assert code == 0 and "warned" not in out
+
+
+def test_a_sweep_of_the_same_name_running_now_is_refused(brutti, tmp_path, fmu_dir):
+    """Two sweeps of one name into one folder at once had both run: two grids mixed in one journal (every later run
+    refused) or every point computed twice, and the CSV the last finisher's. While one holds the lock (here this
+    test, as another process would), a second is refused with the remedy, before it writes anything; once the lock
+    is free it runs."""
+    import fcntl
+
+    from ujfmu.sweep import SweepBusy
+    sweep = brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=1000rpm")
+    with open(tmp_path / "double_cardan_brutti_rigid_sweep.lock", "a") as held:
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        with pytest.raises(SweepBusy, match=r"another process is running a sweep into .* now.*--name"):
+            sweep.run(workers=0)
+        assert not sweep.journal.exists() and not sweep.csv.exists()
+        fcntl.flock(held, fcntl.LOCK_UN)
+    sweep.run(workers=0)
+    assert [row["status"] for row in sweep.table()] == ["ok"]
+
+
+def test_a_table_that_cannot_be_written_leaves_the_last_one_whole(brutti, tmp_path, fmu_dir, monkeypatch):
+    """A full disk while the CSV is rewritten had left a truncated table whose last number still read (5.1e-0 for
+    5.1e-06) and a traceback: the table is written beside it and moved over it, so the last whole table stays; the
+    error names the file and the system's reason, and the journal keeps the points for a rerun."""
+    import errno
+
+    import ujfmu.sweep as sweep_module
+    from ujfmu.sweep import SweepWriteError
+    sweep = brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=1000:2000:1000rpm")
+    sweep.run(workers=0)
+    before = sweep.csv.read_bytes()
+    real = csv.writer
+
+    class Full:
+        def __init__(self, f):
+            self.inner, self.rows = real(f), 0
+
+        def writerow(self, row):
+            self.rows += 1
+            if self.rows == 2:
+                raise OSError(errno.ENOSPC, "No space left on device")
+            self.inner.writerow(row)
+
+        def writerows(self, rows):
+            for row in rows:
+                self.writerow(row)
+    monkeypatch.setattr(sweep_module.csv, "writer", Full)
+    with pytest.raises(SweepWriteError, match=r"cannot write the table .*_sweep.csv: No space left on device"):
+        sweep.write_csv()
+    assert sweep.csv.read_bytes() == before and not list(tmp_path.glob("*.partial"))
+
+
+def test_a_dask_sweep_whose_workers_are_all_gone_stops_with_the_reason(brutti, tmp_path, fmu_dir, monkeypatch):
+    """Workers killed faster than they came back (kill -9 in a loop, an out-of-memory killer) had left a sweep
+    waiting all night with no worker and no word: after NO_WORKERS_TIMEOUT without any worker it stops, naming the
+    points left and the rerun that reuses the finished ones; while workers are there it waits on."""
+    import distributed
+
+    import ujfmu.sweep as sweep_module
+    from ujfmu.sweep import SweepWorkersLost
+    sweep = brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=1000:2000:1000rpm")
+
+    class Client:   # a client whose workers are gone after `workers_for` checks
+        def __init__(self, workers_for):
+            self.checks, self.workers_for = 0, workers_for
+
+        def register_plugin(self, plugin):
+            pass
+
+        def submit(self, *args, **kwargs):
+            return object()
+
+        def scheduler_info(self):
+            self.checks += 1
+            return {"workers": {"w": {}} if self.checks <= self.workers_for else {}}
+
+    def never(pending, timeout, return_when):
+        raise TimeoutError
+    monkeypatch.setattr(distributed, "wait", never)
+    monkeypatch.setattr(sweep_module, "NO_WORKERS_TIMEOUT", 0.0)
+    client = Client(workers_for=3)
+    with pytest.raises(SweepWorkersLost, match=r"no dask worker has been left .* with 2 of 2 points to run"):
+        sweep._run_dask(sweep.points, lambda record: None, 2, None, client)
+    assert client.checks == 5   # three with workers, then the first without, then the one past the timeout

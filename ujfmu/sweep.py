@@ -508,6 +508,71 @@ class SweepGridConflict(ScenarioError):
     """The sweep's journal holds points of another grid; the message says how to keep both."""
 
 
+class SweepBusy(ScenarioError):
+    """Another process runs a sweep of the same name into the same folder now (its journal, CSV and figures)."""
+
+
+#: seconds a dask sweep waits for a point before it looks for workers, and seconds without any worker after which
+#: it stops (its workers died and none came back: they had kept the sweep waiting all night)
+WORKER_CHECK, NO_WORKERS_TIMEOUT = 10.0, 120.0
+
+
+class SweepWorkersLost(ScenarioError):
+    """Every dask worker of a sweep is gone and none came back; the finished points are in the journal."""
+
+
+class SweepWriteError(ScenarioError):
+    """A sweep's journal, table or figure could not be written (a full disk); what was written before is kept."""
+
+
+@contextlib.contextmanager
+def _writing(what: str, path: Path):
+    """SweepWriteError naming path and the system's reason where writing it fails (OSError: a full disk, no
+    permission), instead of a traceback."""
+    try:
+        yield
+    except OSError as exc:
+        raise SweepWriteError(f"cannot write {what} {path}: {exc.strerror or exc} (a full disk?); the points "
+                              "computed so far are in the journal: free the space and run the same sweep again, "
+                              "which reuses them") from exc
+
+
+def _replace_atomically(path: Path, write: Callable) -> None:
+    """write(file) into path's sibling path.partial, then move it over path: a failed write (a full disk) leaves
+    the previous file whole, never a truncated one that still reads."""
+    partial = path.with_name(path.name + ".partial")
+    try:
+        with open(partial, "w", newline="") as f:
+            write(f)
+        os.replace(partial, path)
+    finally:
+        if partial.exists():
+            partial.unlink()
+
+
+@contextlib.contextmanager
+def _sole_writer(lock_path: Path, journal: Path):
+    """Hold an exclusive lock on lock_path (``fcntl.flock``, released by the system when the process ends, even
+    killed) while the block runs; SweepBusy if another process holds it. Two sweeps of one name into one folder had
+    both run, mixing two grids in one journal (every later run refused) or computing every point twice, and the
+    CSV was the last finisher's. Without fcntl (Windows) nothing is locked."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    with open(lock_path, "a") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise SweepBusy(f"another process is running a sweep into {journal} now: wait for it to finish, or give "
+                            "this one another name (--name, or Sweep(..., name=...)) or folder (--out)") from None
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
 class Sweep:
     """A sweep of one scenario over a grid of axes; ``run()`` computes what the journal lacks, ``table()``."""
 
@@ -585,6 +650,11 @@ class Sweep:
             require("distributed", "sweep", "Sweep.run with dask workers (sweep.run(workers=0) runs in this process "
                     "without it)")
         self.out_dir.mkdir(parents=True, exist_ok=True)
+        with _sole_writer(self.out_dir / f"{self.name}.lock", self.journal):
+            return self._run(workers, scheduler, progress, client)
+
+    def _run(self, workers, scheduler, progress, client):
+        """:meth:`run` as the journal's sole writer."""
         self._check_grid()
         others = set()
         finished = {k for k, r in self.done(others).items() if r["status"] in FINAL}
@@ -613,8 +683,9 @@ class Sweep:
                     hint = torque_driven_hint(at, record["error"])
                     if hint:
                         record["error"] += " | " + hint
-                journal.write((json.dumps(record) + "\n").encode())
-                journal.flush()
+                with _writing("the journal", self.journal):
+                    journal.write((json.dumps(record) + "\n").encode())
+                    journal.flush()
                 count[0] += 1
                 if progress:
                     progress(count[0], len(self.points))
@@ -628,7 +699,7 @@ class Sweep:
         return self.csv
 
     def _run_dask(self, todo, keep, workers, scheduler, client=None):
-        from distributed import as_completed
+        from distributed import wait
         own = client is None
         if own:
             client = dask_client(workers, scheduler)
@@ -637,13 +708,30 @@ class Sweep:
             # and a long sweep make fragile); points then carry only their parameters
             client.register_plugin(fmu_installer(self.fmu_blobs, self.job.fmu_hashes))
             futures = {client.submit(run_point, self.job, point, pure=False): point for point in todo}
-            for future in as_completed(futures):
+            pending, alone_since = set(futures), None
+            while pending:
                 try:
-                    record = future.result()
-                except Exception as exc:   # the worker itself died
-                    record = {"point": futures[future], "status": ERROR, "wall_s": float("nan"),
-                              "error": f"worker failed: {type(exc).__name__}: {exc}"}
-                keep(record)
+                    done, pending = wait(pending, timeout=WORKER_CHECK, return_when="FIRST_COMPLETED")
+                except TimeoutError:   # nothing finished for a while: are there workers left to finish anything?
+                    if client.scheduler_info().get("workers"):
+                        alone_since = None
+                    elif alone_since is None:
+                        alone_since = time.monotonic()
+                    elif time.monotonic() - alone_since > NO_WORKERS_TIMEOUT:
+                        raise SweepWorkersLost(
+                            f"no dask worker has been left for {NO_WORKERS_TIMEOUT:g} s (they died: killed, out of "
+                            f"memory) with {len(pending)} of {len(futures)} points to run: the points finished are "
+                            "in the journal; run the same sweep again, which reuses them (--workers 0 runs the "
+                            "rest in this process)") from None
+                    continue
+                alone_since = None
+                for future in done:
+                    try:
+                        record = future.result()
+                    except Exception as exc:   # the worker itself died
+                        record = {"point": futures[future], "status": ERROR, "wall_s": float("nan"),
+                                  "error": f"worker failed: {type(exc).__name__}: {exc}"}
+                    keep(record)
         finally:
             if own:
                 close_client(client)
@@ -683,7 +771,8 @@ class Sweep:
         """The tidy CSV: one row a point; swept parameters in SI units, then the figures of every output."""
         param_cols = [n for ax in self.axes for n in ax.names]
         cols = ["speed_mean"] + self.settings.columns() + ["settled_s", "steady_change"]
-        with open(self.csv, "w", newline="") as f:
+
+        def write(f):
             writer = csv.writer(f)
             writer.writerow(param_cols + ["status"] + cols + ["wall_s", "error", "note", "warnings", "step_size",
                                                              "coupling"])
@@ -693,6 +782,8 @@ class Sweep:
                                 + [repr(record[c]) if c in record else "" for c in cols]
                                 + [f"{record.get('wall_s', float('nan')):.3f}", record["error"],
                                    record.get("note", ""), record.get("warnings", "")] + run)
+        with _writing("the table", self.csv):
+            _replace_atomically(self.csv, write)
         self.write_columns()
         return self.csv
 
@@ -727,10 +818,13 @@ class Sweep:
         """``<name>.columns.csv`` beside the table: column, unit, meaning, one row per column of the CSV, so a
         spreadsheet or a script reads the units with the numbers; returns its path."""
         path = self.csv.with_suffix(".columns.csv")
-        with open(path, "w", newline="") as f:
+
+        def write(f):
             writer = csv.writer(f)
             writer.writerow(["column", "unit", "meaning"])
             writer.writerows([name, unit, meaning] for name, (unit, meaning) in self.column_units().items())
+        with _writing("the columns file", path):
+            _replace_atomically(path, write)
         return path
 
     def unresolved(self):
@@ -790,7 +884,8 @@ class Sweep:
         and the running-speed order amplitudes (order tracks and a Campbell-style diagram), written to out_dir
         (default: next to the CSV). Returns the paths."""
         from .plotting import plot_sweep
-        return plot_sweep(self, Path(out_dir or self.out_dir))
+        with _writing("the figures into", Path(out_dir or self.out_dir)):
+            return plot_sweep(self, Path(out_dir or self.out_dir))
 
 
 def dask_client(workers=None, scheduler=None):
