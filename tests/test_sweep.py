@@ -941,6 +941,8 @@ def test_a_dask_sweep_whose_workers_are_all_gone_stops_with_the_reason(brutti, t
 
         def scheduler_info(self):
             self.checks += 1
+            if self.checks > 100:   # a sweep that waits on (the bug) fails here instead of hanging the test
+                raise AssertionError("still waiting after 100 checks without workers")
             return {"workers": {"w": {}} if self.checks <= self.workers_for else {}}
 
     def never(pending, timeout, return_when):
