@@ -126,6 +126,7 @@ def test_damaged_and_forged_journal_lines_are_skipped(brutti_parts, tmp_path, fm
     lines = [json.dumps(b) for b in bad] + ['{"cut', json.dumps(good)]
     sweep.journal.write_bytes("\n".join(lines).encode() + b"\n\xff\xfe\x00garbage\n")
     assert list(sweep.done().values()) == [good]
+    assert sweep.damaged == 8   # every line that is no record, or one that cannot be read as a point (said)
     assert [r["status"] for r in sweep.table()] == ["ok", "missing"]
     sweep.write_csv()                                   # the table of the good line and the missing point
 

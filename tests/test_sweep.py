@@ -953,3 +953,22 @@ def test_a_dask_sweep_whose_workers_are_all_gone_stops_with_the_reason(brutti, t
     with pytest.raises(SweepWorkersLost, match=r"no dask worker has been left .* with 2 of 2 points to run"):
         sweep._run_dask(sweep.points, lambda record: None, 2, None, client)
     assert client.checks == 5   # three with workers, then the first without, then the one past the timeout
+
+
+def test_a_rerun_says_what_it_skipped_and_what_it_left(brutti, tmp_path, fmu_dir, capsys):
+    """A journal line cut by a full disk is skipped and said (its point run again), and a rerun with --no-plot names
+    the figures an earlier run left beside the new table (they had stood there unsaid)."""
+    scenario = SCENARIOS / "double_cardan_brutti_rigid.toml"
+    command = ["--fmu-dir", str(fmu_dir), "sweep", str(scenario), "--param", "motor.omega_set=1000:2000:1000rpm",
+               "--running-speed", "motor.omega", "--settle", "0.01", "--steady-tol", "0", "--out", str(tmp_path),
+               "--workers", "0", "--no-progress"]
+    assert main(command) == 0
+    figures = sorted(tmp_path.glob("*.png"))
+    assert figures
+    journal = tmp_path / "double_cardan_brutti_rigid_sweep.jsonl"
+    journal.write_text(journal.read_text().splitlines()[0][:40] + "\n" + journal.read_text().splitlines()[1] + "\n")
+    capsys.readouterr()
+    assert main(command + ["--no-plot"]) == 0
+    err = capsys.readouterr().err
+    assert "skipped 1 line of" in err and "no point record" in err
+    assert f"figures of an earlier run, not redrawn for this table: {figures[0]}" in err

@@ -482,10 +482,18 @@ def cmd_sweep(args):
     if sweep.superseded:
         print(f"  recomputed {sweep.superseded} points that {sweep.journal} holds from other settings, FMU builds "
               "or code (a journal's points serve only a rerun with the same)")
+    if getattr(sweep, "damaged", 0):
+        print(f"  skipped {sweep.damaged} line{'s' if sweep.damaged > 1 else ''} of {sweep.journal} that "
+              f"{'are' if sweep.damaged > 1 else 'is'} no point record (cut by an interruption or a full disk, or "
+              "written by something else); their points, if any, were run again", file=sys.stderr)
     _say(args, f"  table: {sweep.csv} (units: {sweep.csv.with_suffix('.columns.csv')})\n  journal: {sweep.journal}")
     if not args.no_plot and available("matplotlib"):
         for path in sweep.plot():
             _say(args, f"  plot:  {path}")
+    else:
+        stale = sorted(str(path) for path in sweep.out_dir.glob(f"{sweep.name}*.png"))
+        if stale:
+            print(f"  figures of an earlier run, not redrawn for this table: {', '.join(stale)}", file=sys.stderr)
     _plots_missing(args)
     failed = sweep.failed()
     for record in failed[:10]:

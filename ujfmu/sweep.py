@@ -625,10 +625,13 @@ class Sweep:
         a set that receives the keys of points the journal holds from another configuration (settings, FMU
         builds, code or scenario setup)."""
         records = {}
+        self.damaged = 0
         if self.journal.is_file():
             for line in self.journal.read_text(errors="replace").splitlines():
                 try:
                     record = json.loads(line)
+                    if not isinstance(record, dict):
+                        raise TypeError("not a record")
                     if (record.get("config") == self.config and record["status"] in STATUSES
                             and isinstance(record["error"], str) and isinstance(record.get("wall_s", 0.0), float)):
                         records[self.key(record["point"])] = record
@@ -636,7 +639,7 @@ class Sweep:
                           and isinstance(record.get("point"), dict)):
                         others.add(self.key(record["point"]))
                 except (ValueError, TypeError, KeyError, AttributeError):   # a line cut by an interruption
-                    continue                                                # or not a point record: skipped
+                    self.damaged += line.strip() != ""                      # or not a point record: skipped
         return records
 
     def run(self, workers=None, scheduler=None, progress: Callable[[int, int], None] | None = None,
