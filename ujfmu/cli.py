@@ -482,7 +482,7 @@ def cmd_sweep(args):
     if sweep.superseded:
         print(f"  recomputed {sweep.superseded} points that {sweep.journal} holds from other settings, FMU builds "
               "or code (a journal's points serve only a rerun with the same)")
-    if getattr(sweep, "damaged", 0):
+    if sweep.damaged:
         print(f"  skipped {sweep.damaged} line{'s' if sweep.damaged > 1 else ''} of {sweep.journal} that "
               f"{'are' if sweep.damaged > 1 else 'is'} no point record (cut by an interruption or a full disk, or "
               "written by something else); their points, if any, were run again", file=sys.stderr)

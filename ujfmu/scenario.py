@@ -871,12 +871,17 @@ class Scenario:
         model = getattr(fmu_class(self.components[component][0]), "MODEL", None)
         if model is None or not hasattr(model, what):
             return []
-        values = self.parameters_with_defaults(component)
-        names = [f.name for f in dataclasses.fields(model.Parameters) if f.init]
         try:
-            return getattr(model, what)(model.Parameters(**{name: values[name] for name in names}))
+            return getattr(model, what)(self.model_parameters(component))
         except (ArithmeticError, ValueError):   # parameters the model cannot even derive from: the FMU names them
             return []
+
+    def model_parameters(self, component):
+        """The component's model's Parameters at its values here (``parameters_with_defaults``); ArithmeticError
+        or ValueError where the model cannot derive from them (the FMU names them)."""
+        model = fmu_class(self.components[component][0]).MODEL
+        values = self.parameters_with_defaults(component)
+        return model.Parameters(**{f.name: values[f.name] for f in dataclasses.fields(model.Parameters) if f.init})
 
     def parameters_with_defaults(self, component):
         """All parameter values of a component: the FMU's declared defaults updated by the scenario."""

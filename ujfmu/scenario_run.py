@@ -340,19 +340,15 @@ def mode_sampling(scenario: Scenario, interval: float) -> list:
 def sampled_components(scenario: Scenario) -> list:
     """(component, order) of the scenario's components whose model declares an ``EXCITATION_ORDER``, at its
     parameters where the model says (``excitation_order(p)``: none for straight joints)."""
-    import dataclasses
-
     from .build import fmu_class
     pairs = []
     for name, (fmu, _) in scenario.components.items():
-        cls = fmu_class(fmu)
-        order = getattr(cls.PHYSICS, "EXCITATION_ORDER", None)
-        if order and hasattr(cls.PHYSICS, "excitation_order"):
-            values = scenario.parameters_with_defaults(name)
+        physics = fmu_class(fmu).PHYSICS
+        order = getattr(physics, "EXCITATION_ORDER", None)
+        if order and hasattr(physics, "excitation_order"):
             try:
-                order = cls.PHYSICS.excitation_order(cls.MODEL.Parameters(**{
-                    f.name: values[f.name] for f in dataclasses.fields(cls.MODEL.Parameters) if f.init}))
-            except (KeyError, TypeError, ValueError, ArithmeticError):   # the FMU itself refuses such parameters
+                order = physics.excitation_order(scenario.model_parameters(name))
+            except (ArithmeticError, ValueError):   # the FMU itself refuses such parameters
                 pass
         if order:
             pairs.append((name, order))

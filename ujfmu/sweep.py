@@ -590,6 +590,8 @@ class Sweep:
         self.fmu_dir = Path(fmu_dir)
         self.csv = self.out_dir / f"{self.name}.csv"
         self.journal = self.out_dir / f"{self.name}.jsonl"
+        #: the journal's lines the last reading (:meth:`done`) could not take as a point record
+        self.damaged = 0
         self.points = [dict(zip([n for ax in self.axes for n in ax.names],
                                 [v for v, ax in zip(combo, self.axes) for _ in ax.names]))
                        for combo in itertools.product(*(ax.values for ax in self.axes))]

@@ -710,12 +710,20 @@ class ModelSlave(UjfmuSlave):
             if problems:
                 raise ValueError("; ".join(problems))
         if self._state_advice is not None and not self._state_advice_said:
-            advice = self._state_advice(self._p, h, y, u)
-            if advice:
-                self._state_advice_said = True
-                self.log(f"{self.modelName} '{self.instance_name}': at t = {t + h:g} s " + "; ".join(advice)
-                         + " (Said once per instance.)", Fmi2Status.warning)
+            said = self.state_advice_text(t + h, h, y, u)
+            if said:
+                self.log(said, Fmi2Status.warning)
         self._y, self._started, self._time = y, True, t + h
+
+    def state_advice_text(self, t, h, y, u):
+        """The model's ``state_advice`` on the state y at time t (reached by a step of h under the inputs u) as
+        one message, the instance marked as having said it; None where it says nothing."""
+        advice = self._state_advice(self._p, h, y, u)
+        if not advice:
+            return None
+        self._state_advice_said = True
+        return (f"{self.modelName} '{self.instance_name}': at t = {t:g} s " + "; ".join(advice)
+                + " (Said once per instance.)")
 
     def say_aliasing(self, h, omega):
         """Log once, as a warning, that outputs read every step of h alias the model's ``EXCITATION_ORDER`` at the

@@ -391,11 +391,9 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
                                      "tau_load and J_drive)")
             if core._state_advice is not None and not core._state_advice_said:   # as a Co-Simulation step says it
                 u = core.model_inputs()
-                advice = core._state_advice(core._p, 0.0, core.current_state(u), u)
-                if advice:
-                    core._state_advice_said = True
-                    self.log(f"{core.modelName} '{self.instance_name}': at t = {self.time:g} s " + "; ".join(advice)
-                             + " (Said once per instance.)", Fmi3Status.warning)
+                said = core.state_advice_text(self.time, 0.0, core.current_state(u), u)
+                if said:
+                    self.log(said, Fmi3Status.warning)
             return rates
         except Exception as exc:
             self.log(f"{core.modelName} '{self.instance_name}': derivatives at t = {self.time!r} refused: {exc}",
