@@ -264,6 +264,37 @@ def test_a_progress_callback_that_returns_false_stops_the_run_and_keeps_its_resu
     assert len(written) == len(partial) and written["time"][-1] == pytest.approx(partial["time"][-1])
 
 
+def test_a_ctrl_c_keeps_a_runs_results_up_to_the_step_it_stopped_at(fmu_dir, tmp_path):
+    """A Ctrl-C (or the command's SIGTERM: a batch job over its time) had stopped a run with nothing written: the
+    KeyboardInterrupt now carries the rows up to the communication step it stopped at, written to the CSV as a
+    failed run's, and is still a KeyboardInterrupt (a caller's ``except CosimulationError`` does not take it)."""
+    import signal
+
+    from ujfmu.master import Interrupted
+    path = SCENARIOS / "cardan_startup.toml"
+
+    def progress(done, total):
+        if done >= total // 3:
+            signal.raise_signal(signal.SIGINT)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        try:
+            ujfmu.run_scenario(path, fmu_dir=fmu_dir, out_dir=tmp_path, plot=False, progress=progress)
+        except Interrupted as exc:
+            stopped = exc
+        except KeyboardInterrupt:
+            pytest.fail("a KeyboardInterrupt without the results")
+        else:
+            pytest.fail("the run was not stopped")
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    partial, text = stopped.partial, str(stopped)
+    assert f"after {len(partial) - 1} steps" in text and f"results up to t = {float(partial['time'][-1])!r}" in text
+    written = np.genfromtxt(tmp_path / "cardan_startup.csv", delimiter=",", names=True)
+    assert len(written) == len(partial) > 2 and len(written.dtype.names) == len(partial.dtype.names)
+    assert np.allclose(written["time"], partial["time"])
+
+
 def test_a_long_run_says_its_pace_and_what_sets_it_once_unless_quiet(fmu_dir, tmp_path, capsys, monkeypatch):
     """With the thresholds at zero every run counts as long: one note (not one per report) on stderr, in seconds
     per simulated second and minutes to go, naming what sets the substeps and where the rule is; --quiet: none."""

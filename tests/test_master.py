@@ -259,7 +259,8 @@ def test_ctrl_c_from_python_stops_at_the_next_communication_step(fmu_dir, ideal)
     optimizer loop) had landed inside an FMU's code half the time, which reported it as the FMU's fatal error: a
     caller's ``except CosimulationError`` took it for a failed run and went on, and the interpreter could crash at
     exit. The master takes the signal (its handler only while it steps), raises KeyboardInterrupt between FMU
-    calls at the next communication step, and leaves Python's handler and a usable master behind."""
+    calls at the next communication step, with the results up to there, and leaves Python's handler and a usable
+    master behind."""
     import signal
 
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
@@ -273,15 +274,19 @@ def test_ctrl_c_from_python_stops_at_the_next_communication_step(fmu_dir, ideal)
         components = chain(fmu_dir)
         components[0].parameters["ideal_speed_source"] = ideal
         diagnostics = {}
-        with pytest.raises(KeyboardInterrupt):
+        with pytest.raises(KeyboardInterrupt) as info:
             cosimulate(components, CONNECTIONS, 1.0, 1e-3, ["joint.omega_out"], progress=progress)
         assert seen[0] is not signal.default_int_handler   # the master's, while it stepped
+        partial = info.value.partial   # the results up to the step it stopped at: the start of an uninterrupted run
+        assert 20 <= len(partial) - 1 <= 30 and f"after {len(partial) - 1} steps" in str(info.value)
         assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
         try:   # a next run is whole (a KeyboardInterrupt escaping a test would stop the whole session)
             table = cosimulate(components, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"], diagnostics=diagnostics)
         except KeyboardInterrupt:
             pytest.fail("the Ctrl-C stopped the next run too")
         assert len(table) == 11 and diagnostics["iterates"] == (not ideal)
+        assert np.array_equal(partial[:11]["joint.omega_out"], table["joint.omega_out"])
+        assert np.array_equal(partial[:11]["time"], table["time"])
 
         def last(done, total):   # a Ctrl-C after the last step's check is this run's, not the next run's
             if done == total:

@@ -676,12 +676,13 @@ def test_a_motor_controller_is_checked_at_its_operating_point_by_default():
     assert settings.operating_point == (("motor.omega", "motor.omega_ref"),)
 
 
-def test_ctrl_c_stops_an_in_process_sweep_with_its_points_kept(fmu_dir, tmp_path):
+@pytest.mark.parametrize("signum, status, said", [(2, 130, "interrupted"), (15, 143, "terminated (SIGTERM)")])
+def test_ctrl_c_or_sigterm_stops_an_in_process_sweep_with_its_points_kept(fmu_dir, tmp_path, signum, status, said):
     """Ctrl-C during `ujfmu sweep --workers 0`: the interrupt had been raised inside the FMU's Python code, which
     reported it as its fatal error, so the point was journalled as failed and the sweep went on to its end. Now it
     stops at the next communication step with one line naming the journal, exit status 130, and the journal holds
-    only finished points (none failed)."""
-    import signal
+    only finished points (none failed). A batch scheduler's SIGTERM (a job over its time) had killed the process
+    without the table; it now stops the same way, with exit status 143 (128 + 15, as a shell reports it)."""
     import subprocess
     out = tmp_path / "out"
     journal = out / "interrupted.jsonl"
@@ -698,12 +699,12 @@ def test_ctrl_c_stops_an_in_process_sweep_with_its_points_kept(fmu_dir, tmp_path
             break
         except subprocess.TimeoutExpired:
             pass
-    process.send_signal(signal.SIGINT)
+    process.send_signal(signum)
     stdout, stderr = process.communicate(timeout=120)
-    assert process.returncode == 130, (stdout, stderr)
+    assert process.returncode == status, (stdout, stderr)
     records = [json.loads(line) for line in journal.read_text().splitlines()]
     assert 2 <= len(records) < 61 and all(r["status"] == "ok" for r in records), records
-    assert f"interrupted; {len(records)} of 61 points are in {journal} and in {out / 'interrupted.csv'}" in stderr
+    assert f"{said}; {len(records)} of 61 points are in {journal} and in {out / 'interrupted.csv'}" in stderr
     assert "Traceback" not in stderr
     with open(out / "interrupted.csv") as f:   # the table so far, the points not run marked
         statuses = [row["status"] for row in csv.DictReader(f)]

@@ -474,9 +474,9 @@ def cmd_sweep(args):
             table = f" and in {sweep.write_csv()} (the others with status missing)"
         except OSError:   # interrupted before its folder was made
             table = ""
-        print(f"\n{sweep.name}: interrupted; {kept} of {len(sweep.points)} points are in {sweep.journal}{table}: run "
-              "the same command again to compute only the others", file=sys.stderr)
-        return 130
+        print(f"\n{sweep.name}: {_stopped_text()}; {kept} of {len(sweep.points)} points are in {sweep.journal}"
+              f"{table}: run the same command again to compute only the others", file=sys.stderr)
+        return stopped_status()
     if sweep.reused:
         print(f"  reused {sweep.reused} of {len(sweep.points)} points from {sweep.journal}")
     if sweep.superseded:
@@ -938,9 +938,9 @@ def _main(raw: list):
         with warnings.catch_warnings():   # the commands print what the FMUs warn of in their own terms
             warnings.simplefilter("ignore", FmuWarning)
             return args.func(args)
-    except KeyboardInterrupt:
-        print(f"\nujfmu {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:   # master.Interrupted says where, and the results it kept
+        print(f"\nujfmu {args.command}: {_stopped_text()}" + (f": {exc}" if str(exc) else ""), file=sys.stderr)
+        return stopped_status()
     except Exception as exc:  # a clear message, not a traceback, for user errors
         from .master import CosimulationError
         from .scenario import ScenarioError
@@ -974,6 +974,7 @@ def entry() -> None:
     """The ``ujfmu`` command: :func:`main` through :func:`run_and_exit`, Ctrl-C handled by :func:`_interrupt`, the
     output to a reader that may stop reading (:class:`_ClosedPipeTolerant`)."""
     signal.signal(signal.SIGINT, _interrupt)
+    signal.signal(signal.SIGTERM, _interrupt)
     sys.stdout = _ClosedPipeTolerant(sys.stdout)
     run_and_exit(main)
 
@@ -1007,16 +1008,34 @@ class _ClosedPipeTolerant:
         return getattr(self._stream, name)
 
 
+#: the signal that stopped the command (SIGINT or SIGTERM), None while none has
+STOPPED_BY = [None]
+
+
 def _interrupt(signum, frame) -> None:
-    """Ctrl-C: while a co-simulation is open, ask it to stop at its next communication step (``master.STOP``: an
-    interrupt raised inside an FMU's code would be caught there as the FMU's fatal error); else, and at a second
-    Ctrl-C, KeyboardInterrupt at once. The commands report an interruption in a line (``main``)."""
+    """Ctrl-C (SIGINT) or a batch scheduler's or ``kill``'s SIGTERM: while a co-simulation is open, ask it to stop
+    at its next communication step (``master.STOP``: an interrupt raised inside an FMU's code would be caught there
+    as the FMU's fatal error); else, and at a second signal, KeyboardInterrupt at once. The commands report an
+    interruption in a line and exit with 128 + the signal's number (``main``, :func:`stopped_status`)."""
     from . import master
+    STOPPED_BY[0] = signum
     if master.OPEN[0] and not master.STOP[0]:
         master.STOP[0] = True
-        print("\ninterrupting at the next communication step (Ctrl-C again to stop at once)", file=sys.stderr)
+        what = "Ctrl-C" if signum == signal.SIGINT else "SIGTERM"
+        print(f"\n{what}: stopping at the next communication step ({what} again to stop at once)", file=sys.stderr)
         return
     raise KeyboardInterrupt
+
+
+def _stopped_text() -> str:
+    """'interrupted' (Ctrl-C, or a KeyboardInterrupt of no signal) or 'terminated (SIGTERM)'."""
+    return "terminated (SIGTERM)" if STOPPED_BY[0] == signal.SIGTERM else "interrupted"
+
+
+def stopped_status() -> int:
+    """The exit status of a command stopped by a signal: 128 + its number (130 for Ctrl-C, 143 for SIGTERM), as a
+    shell reports a process the signal killed, so a batch script tells it from a failure."""
+    return 128 + (STOPPED_BY[0] or signal.SIGINT)
 
 
 #: the exit status of an unexpected exception (a bug), apart from 1 (a check failed) and 2 (could not run)

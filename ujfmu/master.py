@@ -125,6 +125,14 @@ class CosimulationError(RuntimeError):
     partial = None
 
 
+class Interrupted(KeyboardInterrupt):
+    """A Ctrl-C (or the ``ujfmu`` command's SIGTERM) stopped a run at a communication step: a KeyboardInterrupt,
+    so that ``except CosimulationError`` does not take it for a failure, with the results recorded up to that step
+    in ``partial`` once ``Cosimulation.run`` has them (None where it was raised before any)."""
+
+    partial = None
+
+
 class RunStopped(CosimulationError):
     """The progress callback returned False (as fmpy's ``step_finished`` can): the run stopped there, its results
     up to that step in ``partial``."""
@@ -722,7 +730,7 @@ class Cosimulation:
                 signal.signal(signal.SIGINT, previous)
             asked, STOP[0] = STOP[0], False   # a Ctrl-C after the last step's check: this run's, not the next's
         if asked:
-            raise KeyboardInterrupt
+            raise Interrupted(f"stopped at t = {self.time!r} after {self.steps_done} steps")
 
     def _advance(self, n_steps, rows, progress, output_interval):
         """:meth:`advance` under whichever SIGINT handler is in place."""
@@ -744,7 +752,7 @@ class Cosimulation:
         h, start = self.step_size, self.start_time
         if STOP[0]:   # asked while the FMUs were being set up
             STOP[0] = False
-            raise KeyboardInterrupt
+            raise Interrupted(f"stopped at t = {self.time!r} before the first step")
         while k < n_steps:
             if not implicit:   # explicit steps up to the next progress report, in one tight loop
                 count = min(n_steps - k, every - k % every) if progress is not None else n_steps - k
@@ -778,7 +786,7 @@ class Cosimulation:
                         self._settle_pending()
                 if STOP[0]:
                     STOP[0] = False
-                    raise KeyboardInterrupt
+                    raise Interrupted(f"stopped at t = {self.time!r} after {self.steps_done} steps")
             if progress is not None and k % every == 0 and progress(k, n_steps) is False and k < n_steps:
                 self._settle_pending()   # the steps taken first, as a failure would
                 raise RunStopped(f"t = {self.time!r}: stopped by the progress callback after {k} of {n_steps} steps "
@@ -864,7 +872,7 @@ class Cosimulation:
                     if pending:
                         settle(steps)
                     stop[0] = False
-                    raise KeyboardInterrupt
+                    raise Interrupted(f"stopped at t = {self.time!r} after {self.steps_done} steps")
             if pending and k + count == n_steps:
                 settle(steps)
         finally:
@@ -1176,7 +1184,7 @@ class Cosimulation:
         self.read(values[0])
         try:
             self.advance(n_steps, values[1:], progress, output_interval)
-        except CosimulationError as exc:   # keep what was recorded up to the last completed step
+        except (CosimulationError, Interrupted) as exc:   # keep what was recorded up to the last completed step
             exc.partial = self._table(t0, values[:self.rows_done + 1], steps)
             raise
         finally:

@@ -21,7 +21,8 @@ from .build import DEFAULT_FMU_DIR
 from .build3 import DEFAULT_FMU3_DIR
 from .extras import available, preload
 from .fmu.base import MIN_SAMPLES_PER_PERIOD, RESOLVING_SAMPLES_PER_PERIOD, samples_per_period, sampling_interval
-from .master import CosimulationError, CouplingInstabilityError, RunStopped, cosimulate, is_ideal_speed_source
+from .master import (CosimulationError, CouplingInstabilityError, Interrupted, RunStopped, cosimulate,
+                     is_ideal_speed_source)
 from .scenario import Scenario, ScenarioError, description_attribute
 from .steady import PEAK_SHORTFALL, speed_text
 
@@ -691,6 +692,12 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
             hint = "\n".join(h for h in (oscillating, stalled, hint) if h)
         if hint:
             exc.args = (f"{exc.args[0]}\n{hint}",) + exc.args[1:]
+        if exc.partial is not None and extra:
+            exc.partial = _without(exc.partial, extra)
+        if exc.partial is not None and out_dir is not None:
+            _write_partial(scenario, exc, Path(out_dir), plot)
+        raise
+    except Interrupted as exc:   # a Ctrl-C or SIGTERM: the results up to there, as a failed run's
         if exc.partial is not None and extra:
             exc.partial = _without(exc.partial, extra)
         if exc.partial is not None and out_dir is not None:
