@@ -886,3 +886,9 @@ def test_run_set_changes_a_parameter_for_that_run_only(fmu_dir, tmp_path, capsys
     assert np.ptp(original["drivelineomega_out"][100:]) < 1e-9 * w_in < np.ptp(changed["drivelineomega_out"][100:])
     assert main(["--fmu-dir", str(fmu_dir), "run", str(scenario), "--set", "motor.omega_set=1:2:1"]) == 2
     assert "--set 'motor.omega_set=1:2:1': one value" in capsys.readouterr().err
+    # a Boolean parameter takes true or false (it had taken only numbers, which a Boolean refuses)
+    from ujfmu.cli import _with_set
+    from ujfmu.scenario import Scenario
+    for text, value in (("true", True), ("False", False), ("1", True)):
+        changed = _with_set(Scenario(scenario), [f"driveline.rigid_intermediate_shaft={text}"])
+        assert changed.start_values("driveline")["rigid_intermediate_shaft"] is value

@@ -53,6 +53,56 @@ def test_axis_ranges_are_inclusive_and_units_convert_to_si(brutti):
     assert "ends at" not in parse_axis("driveline.beta1=0:9:3deg", brutti).describe(brutti)
 
 
+def test_a_negated_name_sets_minus_the_axis_value_and_a_boolean_axis_takes_true_false(tmp_path, fmu_dir):
+    """`driveline.beta1,-driveline.beta2=10deg` (Omar's flexible driveline, whose suspended intermediate shaft
+    tells the W layout beta2 = -beta1 from the Z layout beta2 = beta1) computes what two one-value axes beta1 = 10,
+    beta2 = -10 deg compute, not the Z layout's figures; the CSV holds each parameter's own value. A Boolean axis
+    (`rigid_intermediate_shaft=true,false`): the rigid shaft does not twist, the elastic one twists by the load
+    torque over k_theta on average."""
+    omar = Scenario(SCENARIOS / "double_cardan_omar_lateral.toml")
+    settings = SweepSettings.from_scenario(omar, outputs=["driveline.dynamic_misalignment", "driveline.twist"],
+                                           running_speed="motor.omega", settle_time=0.6, revolutions=2,
+                                           steady_tol=0.0)
+
+    def figures(name, *specs):
+        sweep = Sweep(omar, [parse_axis(spec, omar) for spec in specs], settings, out_dir=tmp_path, name=name,
+                      fmu_dir=fmu_dir)
+        sweep.run(workers=0, progress=False)
+        return sweep.table()
+
+    (w,) = figures("w", "driveline.beta1,-driveline.beta2=10deg")
+    (apart,) = figures("apart", "driveline.beta1=10deg", "driveline.beta2=-10deg")
+    (z,) = figures("z", "driveline.beta1,driveline.beta2=10deg")
+    assert w["driveline.beta1"] == -w["driveline.beta2"] == pytest.approx(math.radians(10))
+    for column in ("driveline.dynamic_misalignment.p2p", "driveline.twist.h2", "driveline.twist.mean"):
+        assert w[column] == apart[column], column
+    assert abs(w["driveline.dynamic_misalignment.p2p"] - z["driveline.dynamic_misalignment.p2p"]) > 0.1 * abs(
+        z["driveline.dynamic_misalignment.p2p"])
+    with open(tmp_path / "w.csv") as f:
+        row = next(csv.DictReader(f))
+    assert float(row["driveline.beta2"]) == -float(row["driveline.beta1"])
+    rigid, elastic = figures("rigid", "driveline.rigid_intermediate_shaft=true,false")
+    assert rigid["driveline.rigid_intermediate_shaft"] == 1.0 and elastic["driveline.rigid_intermediate_shaft"] == 0.0
+    assert rigid["driveline.twist.max"] == rigid["driveline.twist.min"] == 0.0
+    # the intermediate shaft carries the 5 N.m load on average (Omar's k_theta = 92.2 N.m/rad, the default)
+    assert elastic["driveline.twist.mean"] == pytest.approx(5.0 / 92.2, rel=0.03)
+
+
+@pytest.mark.parametrize("spec, words", [
+    ("-driveline.beta1,driveline.beta2=10deg", "the first name (-driveline.beta1) is the axis's own value"),
+    ("driveline.beta1,-driveline.beta1=10deg", "driveline.beta1 named more than once in one axis"),
+    ("driveline.beta1,-driveline.beta2=0,95deg", "driveline.beta2 = -95 deg (-1.65806 rad) is outside its allowed "
+                                                  "range [-89, 89] deg"),
+    ("driveline.rigid_intermediate_shaft=yes", "driveline.rigid_intermediate_shaft takes true or false (or 1, 0)"),
+    ("driveline.rigid_intermediate_shaft=0:1:1", "write COMP.PAR=true,false (no range, no unit"),
+    ("driveline.rigid_intermediate_shaft,driveline.beta1=1", "a Boolean parameter and a number cannot share"),
+])
+def test_bad_negated_or_boolean_axes_are_named(brutti, spec, words):
+    with pytest.raises(ScenarioError, match="--param") as err:
+        parse_axis(spec, brutti)
+    assert words in str(err.value)
+
+
 @pytest.mark.parametrize("spec, words", [
     ("nope.omega_set=1:2:1", "no component 'nope'"),
     ("motor.speed=1:2:1", "Motor has no parameter 'speed'"),

@@ -558,7 +558,7 @@ def _with_set(scenario, texts):
         if len(axis.values) != 1:
             raise ScenarioError(f"--set {text!r}: one value (COMP.PAR=VALUE[rpm|deg]), not {len(axis.values)} "
                                 "(`ujfmu sweep --param` takes ranges)")
-        changes.update({name: axis.values[0] for name in axis.names})
+        changes.update(axis.assignments(axis.values[0]))
     return scenario.with_parameters(changes) if changes else scenario
 
 

@@ -208,6 +208,11 @@ GROUP_STYLES = ("-", "--", ":", "-.")
 ORDER_FIGURE_GROUPS = len(GROUP_STYLES)
 
 
+def _boolean_axis(axis) -> bool:
+    """Whether a sweep axis sets Boolean parameters (its values true and false)."""
+    return any(isinstance(v, bool) for v in axis.values)
+
+
 def plot_sweep(sweep, out_dir):
     """Sweep figures against the first axis (in the unit it was given in): results/<name>.png with max and min of
     every output, one curve per combination of the other axes; results/<name>_orders.png with, per output, its
@@ -217,7 +222,10 @@ def plot_sweep(sweep, out_dir):
     crosses one) for the first ``ORDER_FIGURE_OUTPUTS`` outputs: the tracks of the first ``ORDER_FIGURE_GROUPS``
     combinations of the other axes (a line style each), the Campbell diagram of the first. Returns the paths."""
     scenario = sweep.scenario
-    first, others = sweep.axes[0], sweep.axes[1:]
+    # a Boolean axis (two values) keys the curves, not the abscissa, unless it is the only axis
+    ordered = sorted(sweep.axes, key=_boolean_axis)
+    first, others = ordered[0], ordered[1:]
+    on_off = _boolean_axis(first)
     records = [r for r in sweep.records() if r["status"] == "ok"]
     groups = {}
     for r in records:
@@ -231,12 +239,16 @@ def plot_sweep(sweep, out_dir):
     def axis_value(ax, value):
         return ax.display(value) if ax.unit else display(scenario.unit(ax.names[0]))[1] * value
 
-    def label(key):
-        return ", ".join(f"{ax.label} = {axis_value(ax, v):.4g} {axis_unit(ax)}" for ax, v in zip(others, key)) or None
+    def value_text(ax, v):
+        return str(v).lower() if isinstance(v, bool) else f"{axis_value(ax, v):.4g} {axis_unit(ax)}"
 
-    xlabel = f"{first.label} [{axis_unit(first)}]"
+    def label(key):
+        return ", ".join(f"{ax.label} = {value_text(ax, v)}" for ax, v in zip(others, key)) or None
+
+    xlabel = first.label if on_off else f"{first.label} [{axis_unit(first)}]"
     # the scenario's title may name the value swept here ("30 deg joint"): the figures name the sweep instead
-    swept = "; ".join(f"{ax.label} {axis_value(ax, min(ax.values)):.4g}..{axis_value(ax, max(ax.values)):.4g} "
+    swept = "; ".join(f"{ax.label} {', '.join(str(v).lower() for v in ax.values)}" if _boolean_axis(ax) else
+                      f"{ax.label} {axis_value(ax, min(ax.values)):.4g}..{axis_value(ax, max(ax.values)):.4g} "
                       f"{axis_unit(ax)}" for ax in sweep.axes)
     heading = f"{sweep.name}: {swept}, the rest as in scenario {scenario.name}"
 
@@ -251,11 +263,14 @@ def plot_sweep(sweep, out_dir):
         for i, (key, rows) in enumerate(sorted(groups.items())):
             rows = sorted(rows, key=lambda r: r["point"][first.names[0]])
             color = f"C{i % 10}"
-            ax.plot(xs(rows), [k * r[f"{out}.max"] for r in rows], ".-", color=color, ms=3, label=label(key))
-            ax.plot(xs(rows), [k * r[f"{out}.min"] for r in rows], ".--", color=color, ms=3)
+            line, size = ("o", 5) if on_off else (".-", 3)   # false and true: points, not a line between them
+            ax.plot(xs(rows), [k * r[f"{out}.max"] for r in rows], line, color=color, ms=size, label=label(key))
+            ax.plot(xs(rows), [k * r[f"{out}.min"] for r in rows], line if on_off else ".--", color=color, ms=size,
+                    mfc="none" if on_off else None)
         flagged = _plot_points_not_ok(ax, sweep, xs, out, k)
         ax.set_ylabel(f"[{unit}]", fontsize=8)
-        ax.set_title(f"{out}: max (solid), min (dashed) in steady state over the measured revolutions" + (
+        extremes = "max (filled), min (open)" if on_off else "max (solid), min (dashed)"
+        ax.set_title(f"{out}: {extremes} in steady state over the measured revolutions" + (
             "\npoints not ok marked (legend)" if flagged else ""), fontsize=9, loc="left")
         ax.grid(alpha=0.3)
         if flagged and not others:
@@ -263,6 +278,9 @@ def plot_sweep(sweep, out_dir):
     if others:
         axes[0, 0].legend(fontsize=7)
     axes[-1, 0].set_xlabel(xlabel)
+    if on_off:
+        axes[-1, 0].set_xticks([0, 1], ["false", "true"])
+        axes[-1, 0].set_xlim(-0.5, 1.5)
     _title(fig, heading, 9)
     main = out_dir / f"{sweep.name}.png"
     fig.savefig(main, dpi=110)
@@ -307,6 +325,9 @@ def plot_sweep(sweep, out_dir):
                 ax1.text(0.01, floor * 1.15, f"floor: {ORDER_TRACK_FLOOR:g} of the largest", fontsize=7,
                          color="0.35", transform=ax1.get_yaxis_transform())
         ax1.set_xlabel(xlabel)
+        if on_off:
+            ax1.set_xticks([0, 1], ["false", "true"])
+            ax1.set_xlim(-0.5, 1.5)
         ax1.set_ylabel(f"order amplitude, zero-to-peak [{unit}]")
         # orders by colour; with several values of the other axes, those by line style in a second legend
         ax1.add_artist(ax1.legend([Line2D([], [], color=f"C{i % 10}") for i in range(len(orders))],

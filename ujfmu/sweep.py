@@ -89,16 +89,30 @@ class Axis:
     values: list
     unit: str = ""      # the human unit the values were given in ("rpm", "deg" or "")
     short_of: float = math.nan   # a span's STOP (in unit) when its steps end before it
+    negated: tuple = ()   # the names after the first set to minus the axis's value (written -comp.par)
 
     @classmethod
     def of(cls, names, values, unit: str = "") -> "Axis":
         """An axis over the given values in unit ("rpm", "deg" or "" for SI); names: one ``component.parameter``
-        or several set together (a sequence, or one string joined by commas as on the command line)."""
-        names = tuple(n.strip() for n in names.split(",")) if isinstance(names, str) else tuple(names)
+        or several set together (a sequence, or one string joined by commas as on the command line), any after the
+        first written ``-component.parameter`` to set it to minus the value (beta2 = -beta1)."""
+        names, negated = _signed(names)
         unit = unit.lower()
         if unit not in UNITS:
             raise ValueError(f"unknown unit {unit!r}: use 'rpm' (rad/s parameters), 'deg' (rad parameters) or '' (SI)")
-        return cls(names, [float(v) * UNITS[unit] for v in values], unit)
+        return cls(names, [v if isinstance(v, bool) else float(v) * UNITS[unit] for v in values], unit,
+                   negated=negated)
+
+    def assignments(self, value: float | bool) -> dict:
+        """{component.parameter: its value} at the axis's value (minus it for the negated names; for a Boolean axis
+        the opposite)."""
+        other = (not value) if isinstance(value, bool) else -value
+        return {name: other if name in self.negated else value for name in self.names}
+
+    @property
+    def signed_names(self) -> tuple:
+        """The names as given: the negated ones with their '-'."""
+        return tuple("-" + name if name in self.negated else name for name in self.names)
 
     @classmethod
     def span(cls, names, start: float, stop: float, step: float, unit: str = "") -> "Axis":
@@ -113,7 +127,7 @@ class Axis:
 
     @property
     def label(self):
-        return ",".join(self.names)
+        return ",".join(self.signed_names)
 
     def display(self, value):
         """value in the unit it was given in."""
@@ -124,6 +138,8 @@ class Axis:
         speed or angle was given without one (a plain number is taken as rad/s or rad)."""
         comp, _, par = self.names[0].partition(".")
         declared = {v.name: v for v in fmu_class(scenario.components[comp][0]).VARIABLES}
+        if any(isinstance(v, bool) for v in self.values):
+            return f"{len(self.values)} {self.label} {', '.join(str(v).lower() for v in self.values)}"
         si = declared[par].unit if par in declared and declared[par].unit != "1" else ""
         text = f"{len(self.values)} {self.label} {min(self.values):.4g}..{max(self.values):.4g} {si}".rstrip()
         if self.unit:
@@ -138,6 +154,8 @@ class Axis:
 
     def value_text(self, scenario, value: float) -> str:
         """One of the axis's values with its SI unit, and in the unit it was given in."""
+        if isinstance(value, bool):
+            return str(value).lower()
         comp, _, par = self.names[0].partition(".")
         declared = {v.name: v for v in fmu_class(scenario.components[comp][0]).VARIABLES}
         si = declared[par].unit if par in declared and declared[par].unit != "1" else ""
@@ -168,13 +186,15 @@ class Axis:
                 found.append(f"{what}: {comp}.{par}: {problem}")
                 continue
             var = declared[par]
-            bad = [(v, p) for v, p in ((v, var.check(var.type(v))) for v in self.values) if p]
+            sign = -1.0 if name in self.negated else 1.0
+            bad = [(v, p) for v, p in ((v, var.check(var.type(sign * v))) for v in self.values) if p]
             if bad:
                 more = f" (and {len(bad) - 1} more of its {len(self.values)} values)" if len(bad) > 1 else ""
                 value, problem = bad[0]
                 if self.unit and math.isfinite(value):   # in the unit the values were given in, not a slip's hint
-                    lo, hi = (sign + "inf" if x is None else f"{self.display(x):.6g}"
-                              for sign, x in (("-", var.min), ("+", var.max)))
+                    value *= sign
+                    lo, hi = (infinity + "inf" if x is None else f"{self.display(x):.6g}"
+                              for infinity, x in (("-", var.min), ("+", var.max)))
                     problem = (f"{par} = {self.display(value):.6g} {self.unit} ({value:.6g} {var.unit}) is outside "
                                f"its allowed range [{lo}, {hi}] {self.unit} ({var.range_text()})")
                 found.append(f"{what}: {comp}.{problem}{more}")
@@ -201,9 +221,42 @@ class SweepSettingsError(ScenarioError):
                              + "\n  - ".join(self.problems))
 
 
+def _signed(names) -> tuple:
+    """(names, negated) of an axis's names (a sequence, or one string joined by commas): each stripped, those after
+    the first written ``-comp.par`` also in negated, without the '-'. ValueError for a negated first name (the first
+    name's value is the axis's, in its table and plots) or a name given twice."""
+    names = tuple(n.strip() for n in names.split(",")) if isinstance(names, str) else tuple(n.strip() for n in names)
+    if names and names[0].startswith("-"):
+        raise ValueError(f"the first name ({names[0]}) is the axis's own value and cannot be negated: put "
+                         f"{names[0][1:]} after a name that takes the value as given, or negate the values")
+    plain = tuple(n[1:].strip() if n.startswith("-") else n for n in names)
+    twice = sorted({n for n in plain if plain.count(n) > 1})
+    if twice:
+        raise ValueError(f"{', '.join(twice)} named more than once in one axis")
+    return plain, tuple(p for n, p in zip(names, plain) if n.startswith("-"))
+
+
+#: the values a Boolean parameter's axis takes (``parse_axis``)
+_BOOLEANS = {"true": True, "false": False, "1": True, "0": False}
+
+
+def _declared_type(scenario, name: str):
+    """The type (float, int, bool) of the parameter ``component.parameter`` of scenario; None where it has none
+    (:meth:`Axis.problems` says why)."""
+    comp, _, par = name.partition(".")
+    if comp not in scenario.components:
+        return None
+    for var in fmu_class(scenario.components[comp][0]).VARIABLES:
+        if var.name == par and var.causality == "parameter":
+            return var.type
+    return None
+
+
 def parse_axis(text: str, scenario, option: str = "--param") -> Axis:
     """``comp.par[,comp.par...]=START:STOP:STEP[unit]`` (inclusive) or ``=V1,V2,...[unit]``; unit rpm (for a
-    parameter in rad/s) or deg (for one in rad), in any letter case.
+    parameter in rad/s) or deg (for one in rad), in any letter case. A name after the first written ``-comp.par``
+    takes minus the value (``driveline.beta1,-driveline.beta2=10:30:5deg``: beta2 = -beta1). A Boolean parameter
+    takes ``=true,false`` (or 1, 0; a negated one the opposite).
 
     scenario: a Scenario or the path of a scenario file. Values are checked against the parameters' declared
     ranges; a ScenarioError names the argument (as ``option``) otherwise.
@@ -215,6 +268,24 @@ def parse_axis(text: str, scenario, option: str = "--param") -> Axis:
     match = re.fullmatch(r"\s*(.*?)\s*(rpm|deg)?\s*", values_text, re.IGNORECASE)
     body, unit = match.group(1), (match.group(2) or "").lower()
     names = tuple(n.strip() for n in names_text.split(","))
+    try:
+        plain = _signed(names)[0]
+    except ValueError as exc:
+        raise ScenarioError(f"{option} {text!r}: {exc}") from None
+    boolean = [name for name in plain if _declared_type(scenario, name) is bool]
+    if boolean:
+        if len(boolean) < len(plain) or unit or ":" in body:
+            raise ScenarioError(f"{option} {text!r}: {', '.join(boolean)} take{'s' if len(boolean) == 1 else ''} "
+                                "true or false: write COMP.PAR=true,false (no range, no unit; a Boolean parameter "
+                                "and a number cannot share an axis)")
+        try:
+            values = [_BOOLEANS[x.strip().lower()] for x in body.split(",")]
+        except KeyError:
+            raise ScenarioError(f"{option} {text!r}: bad values {values_text!r}: {', '.join(boolean)} take"
+                                f"{'s' if len(boolean) == 1 else ''} true or false (or 1, 0)") from None
+        axis = Axis.of(names, values)
+        axis.check(scenario, f"{option} {text!r}")
+        return axis
     try:
         if ":" in body:
             start, stop, step = (float(x) for x in body.split(":"))
@@ -592,8 +663,7 @@ class Sweep:
         self.journal = self.out_dir / f"{self.name}.jsonl"
         #: the journal's lines the last reading (:meth:`done`) could not take as a point record
         self.damaged = 0
-        self.points = [dict(zip([n for ax in self.axes for n in ax.names],
-                                [v for v, ax in zip(combo, self.axes) for _ in ax.names]))
+        self.points = [{name: value for v, ax in zip(combo, self.axes) for name, value in ax.assignments(v).items()}
                        for combo in itertools.product(*(ax.values for ax in self.axes))]
         fmus = sorted({fmu for fmu, _ in self.scenario.components.values()})
         missing = [f for f in fmus if not (self.fmu_dir / f"{f}.fmu").is_file()]
@@ -609,7 +679,7 @@ class Sweep:
                             settings, hashes, self.scenario.coupling)
         # the grid whatever the order of its axes (the points are the same; the table and plots follow the order
         # given), and as journals before that recorded it (the axes in order)
-        axes = [json.dumps([ax.names, ax.values]) for ax in self.axes]
+        axes = [json.dumps([ax.signed_names, ax.values]) for ax in self.axes]
         self.grid = hashlib.sha256(json.dumps(sorted(axes)).encode()).hexdigest()[:16]
         self._ordered_grid = hashlib.sha256(json.dumps([json.loads(a) for a in axes]).encode()).hexdigest()[:16]
         # results are only reused for the same FMU builds, code, scenario setup and settings
@@ -803,8 +873,10 @@ class Sweep:
         in the output's unit (an order's amplitude zero-to-peak), the bookkeeping columns in theirs ("" for none)."""
         columns = {}
         for axis in self.axes:
+            boolean = any(isinstance(v, bool) for v in axis.values)
             for name in axis.names:
-                columns[name] = (self.scenario.unit(name), "swept parameter (SI)")
+                columns[name] = ("", "swept parameter (1 true, 0 false)") if boolean else (
+                    self.scenario.unit(name), "swept parameter (SI)")
         columns["status"] = ("", "ok, not_steady, off_target, error or missing")
         columns["speed_mean"] = ("rad/s", f"mean running speed ({self.settings.running_speed})")
         for column in self.settings.columns():   # <output>.<figure>, <output>.h<k>
@@ -858,7 +930,7 @@ class Sweep:
         peak = max(ok, key=lambda r: max((r[c] for c in first if not math.isnan(r[c])), default=-math.inf))
         half = copy.copy(self.scenario)
         half.step_size = self.scenario.step_size / 2.0
-        axes = [Axis.of(axis.names, [peak["point"][axis.names[0]]]) for axis in self.axes]
+        axes = [Axis.of(axis.signed_names, [peak["point"][axis.names[0]]]) for axis in self.axes]
         fine = Sweep(half, axes, self.settings, out_dir=self.out_dir, name=f"{self.name}_step_check",
                      fmu_dir=self.fmu_dir)
         fine.run(workers=0)
