@@ -407,3 +407,22 @@ def test_an_experiment_changed_after_loading_is_checked_before_a_run(fmu_dir):
         setattr(scenario, name, value)
         with pytest.raises(ScenarioError, match=words):
             run_scenario(scenario, fmu_dir, out_dir=None)
+
+
+def test_numpy_numbers_from_a_sampling_loop_are_taken_as_the_numbers_they_hold():
+    """A Monte Carlo loop hands over numpy scalars (np.int64, np.float32, np.bool_, 0-d arrays): they had been
+    refused as "must be a number"; they are taken as the Python int, float or bool they hold, and still checked
+    (a numpy number outside its range, or a float for a Boolean, is refused as a Python one is)."""
+    import numpy as np
+    scenario = Scenario(OMAR_START)
+    changed = scenario.with_parameters({"driveline.k_theta": np.int64(90), "driveline.beta1": np.float32(0.2),
+                                        "driveline.rigid_intermediate_shaft": np.bool_(False),
+                                        "motor.omega_set": np.array(50.0)})
+    values = changed.start_values("driveline")
+    assert values["k_theta"] == 90 and type(values["k_theta"]) is int
+    assert type(values["beta1"]) is float and values["rigid_intermediate_shaft"] is False
+    assert changed.start_values("motor")["omega_set"] == 50.0
+    with pytest.raises(ScenarioError, match="outside its allowed range"):
+        scenario.with_parameters({"driveline.beta1": np.float64(2.0)})
+    with pytest.raises(ScenarioError, match="rigid_intermediate_shaft"):
+        scenario.with_parameters({"driveline.rigid_intermediate_shaft": np.float64(1.0)})

@@ -450,7 +450,7 @@ def cmd_sweep(args):
     from .scenario import Scenario
     from .steady import grows
     from .sweep import Sweep, sweep_setup
-    scenario = Scenario(args.scenario)
+    scenario = _with_set(Scenario(args.scenario), args.set)
     if args.step is not None:
         scenario.step_size = _step_size(args.step)
     axes, settings = sweep_setup(scenario, args.param or scenario.sweep.get("params", []), outputs=args.output,
@@ -740,9 +740,14 @@ def _out(parser, default, helptext):
 
 
 class _Parser(argparse.ArgumentParser):
-    """An argument parser that keeps its last usage error's message (:func:`_usage_error_report`)."""
+    """An argument parser that keeps its last usage error's message (:func:`_usage_error_report`) and takes no
+    abbreviated options (``sweep --set`` had been read as ``--settle``)."""
 
     refused = None
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message):
         _Parser.refused = message
@@ -839,6 +844,9 @@ def _main(raw: list):
     p.add_argument("--param", action="append", metavar="COMP.PAR[,COMP.PAR]=START:STOP:STEP[rpm|deg]",
                    help="an axis (inclusive range, or V1,V2,... values; several --param make a grid; "
                         "default: the scenario's [sweep] params)")
+    p.add_argument("--set", action="append", metavar="COMP.PAR=VALUE[rpm|deg]",
+                   help="a parameter instead of the scenario's at every point (several --set for several), e.g. "
+                        "driveline.k_theta=1e6: the sweep is <scenario>_changed_sweep")
     p.add_argument("--output", action="append", help="signal to reduce per point (default: [sweep] outputs)")
     p.add_argument("--running-speed", help="speed signal whose revolutions are measured [rad/s]")
     p.add_argument("--settle", type=float, help="settle time before measuring [s]")

@@ -70,6 +70,15 @@ _OTHER_CAUSALITY = {"input": "an input: connect it, or set it under inputs",
                     "output": "an output, which the FMU computes"}
 
 
+def _plain(value):
+    """A numpy scalar or 0-d array as the Python number it holds (np.int64 an int, np.float32 a float, np.bool_ a
+    bool: what a numpy or scipy loop hands over); anything else as it is."""
+    item = getattr(value, "item", None)
+    if callable(item) and getattr(value, "shape", None) == ():
+        return item()
+    return value
+
+
 def _expected(var):
     """What a TOML value of var must be, in words (scenario values are SI: no unit strings)."""
     if var.type is bool:
@@ -525,6 +534,7 @@ class Scenario:
         are; named ``name`` (default ``<name>_changed``: its CSV and figures do not overwrite this scenario's), its
         title saying what changed, and without the reference: a reference is made for the file's setup, so the copy
         runs unchecked (give it a scenario file and `ujfmu references` to check it)."""
+        changes = {key: _plain(value) for key, value in changes.items()}
         problems = _Problems(self.path)
         if name is not None and (not isinstance(name, str) or not name or name.startswith(".")
                                  or any(c in name for c in "/\\\0")):
@@ -549,7 +559,8 @@ class Scenario:
                 raise ScenarioError(f"{self.path}: with_parameters: components.{comp}.parameters: "
                                     f"{'; '.join(problems)}")
         out.name = name or f"{self.name}_changed"
-        out.title = f"{self.title} (changed: " + ", ".join(self._change_text(k, v) for k, v in changes.items()) + ")"
+        if changes:
+            out.title = f"{self.title} (changed: " + ", ".join(self._change_text(k, v) for k, v in changes.items()) + ")"
         out.reference_file, out.tolerances, out.extrapolated_tolerances = None, {}, {}
         out.order_tolerances = {}
         return out
@@ -559,7 +570,7 @@ class Scenario:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             return f"{key} = {value}"
         unit = self.unit(key)
-        text = f"{key} = {value:g}" + (f" {unit}" if unit else "")
+        text = f"{key} = {value:g}" + (f" {unit}" if unit and unit != "1" else "")
         if unit == "rad":
             text += f" ({math.degrees(value):.6g} deg)"
         elif unit == "rad/s":

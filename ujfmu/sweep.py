@@ -296,6 +296,12 @@ def parse_axis(text: str, scenario, option: str = "--param") -> Axis:
         raise ScenarioError(f"{option} {text!r}: bad values {values_text!r} ({exc}); expected numbers "
                             "START:STOP:STEP or V1,V2,..., optionally followed by rpm (rad/s parameters) or deg "
                             "(rad parameters), in any case: 1000RPM is 1000rpm") from None
+    if all(_declared_type(scenario, name) is int for name in plain):   # whole numbers, as the FMU declares them
+        fractional = [v for v in axis.values if not float(v).is_integer()]
+        if fractional:
+            raise ScenarioError(f"{option} {text!r}: {', '.join(plain)} take{'s' if len(plain) == 1 else ''} whole "
+                                f"numbers, not {fractional[0]:g}")
+        axis.values = [int(v) for v in axis.values]
     axis.check(scenario, f"{option} {text!r}")
     return axis
 
