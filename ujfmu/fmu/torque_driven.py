@@ -34,7 +34,7 @@ def driven_ports(speed_driven: type) -> tuple:
     return tuple(v for v in declared if v.causality == "parameter") + (
         parameter("J_drive", 1.0e-3, "kg.m2",
                   "Driver's rotor inertia lumped on the input shaft (e.g. the motor's J_rotor); tau_in acts on it",
-                  min=0.0, max=1.0e3),
+                  min=0.0, max=1.0e6),
         parameter("omega_in_start", 0.0, "rad/s", "Input shaft speed at the start time", **SPEED_RANGE),
         input_("tau_in", 0.0, "N.m",
                "Driving torque on the input shaft and the lumped rotor J_drive (e.g. the motor's air-gap torque)",

@@ -7,7 +7,7 @@ from ...fmu.base import SPEED_RANGE, TORQUE_RANGE, PrescribedInputSlave, input_,
 from ...fmu.torque_driven import TorqueDrivenSlave, driven_ports
 
 _ANGLE = dict(min=-cardan.MAX_ANGLE, max=cardan.MAX_ANGLE)
-_INERTIA = dict(min=0.0, max=1.0e3)
+_INERTIA = dict(min=0.0, max=1.0e6)
 
 
 class CardanJoint(PrescribedInputSlave):

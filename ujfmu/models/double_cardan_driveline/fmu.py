@@ -8,7 +8,7 @@ from ...fmu.torque_driven import TorqueDrivenSlave, driven_ports
 
 _ANGLE = dict(min=-dc.MAX_ANGLE, max=dc.MAX_ANGLE)
 _PHASE = dict(min=-2.0 * math.pi, max=2.0 * math.pi)
-_INERTIA = dict(min=0.0, max=1.0e3)
+_INERTIA = dict(min=0.0, max=1.0e6)
 
 
 class DoubleCardanDriveline(PrescribedInputSlave):

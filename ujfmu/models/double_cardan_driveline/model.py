@@ -880,7 +880,7 @@ def check(p: Parameters) -> list:
                         "cross has I_normal <= I_pin + I_pin)")
     if not p.rigid_intermediate_shaft and not p.J_load > 0.0:
         problems.append(f"J_load = {p.J_load!r} kg.m2 must be > 0 with a flexible intermediate shaft "
-                        "(allowed range (0, 1000] kg.m2; 0 only with rigid_intermediate_shaft = true)")
+                        "(allowed range (0, 1000000] kg.m2; 0 only with rigid_intermediate_shaft = true)")
     return problems
 
 

@@ -24,7 +24,7 @@ class Motor(ModelSlave):
 
     MODEL = motor
     VARIABLES = (
-        parameter("J_rotor", 1.0e-3, "kg.m2", "Rotor moment of inertia", min=1.0e-9, max=1.0e3),
+        parameter("J_rotor", 1.0e-3, "kg.m2", "Rotor moment of inertia", min=1.0e-9, max=1.0e6),
         parameter("Kp", 0.2, "N.m.s/rad", "PI speed controller proportional gain", min=0.0, max=1.0e6),
         parameter("Ki", 10.0, "N.m/rad", "PI speed controller integral gain", min=0.0, max=1.0e8),
         parameter("tau_max", 5.0, "N.m", "Torque limit of the drive (symmetric)", min=0.0, max=1.0e6),

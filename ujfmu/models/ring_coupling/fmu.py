@@ -31,9 +31,9 @@ class RingCoupling(PrescribedInputSlave):
         parameter("e", 0.003, "m", "Radial misalignment of the shafts, < R (paper e; Fig. 3: 3 mm)",
                   min=0.0, max=10.0),
         parameter("I1", 0.0, "kg.m2", "Moment of inertia of shaft 1 (the input shaft) with its half-coupling",
-                  min=0.0, max=1.0e3),
+                  min=0.0, max=1.0e6),
         parameter("I2", 0.05, "kg.m2", "Moment of inertia of shaft 2 with its half-coupling (paper I2)",
-                  min=1.0e-9, max=1.0e3),
+                  min=1.0e-9, max=1.0e6),
         parameter("c_s", rc.rotational_stiffness(_E, _D, _R), "N.m/rad",
                   "Rotational stiffness of the coupling (default 87 EI/R of the default ring; 0: the paper's "
                   "pendulum, Eq. 9)", min=0.0, max=1.0e9),

@@ -8,7 +8,7 @@ from ...fmu.torque_driven import TorqueDrivenSlave, driven_ports
 
 _RIG = tj.rig_parameters()
 _MASS = dict(min=1.0e-6, max=1.0e6)
-_INERTIA = dict(min=1.0e-9, max=1.0e3)
+_INERTIA = dict(min=1.0e-9, max=1.0e6)
 _STIFFNESS = dict(min=1.0e-6, max=1.0e12)
 _DAMPING = dict(min=0.0, max=1.0e9)
 _PHASE = dict(min=-2.0 * math.pi, max=2.0 * math.pi)
@@ -67,7 +67,7 @@ class TwinJeffcottRotor(PrescribedInputSlave):
         parameter("e", _RIG["e"], "m", "Radius of both unbalance masses from the disc centre (paper e)",
                   min=0.0, max=10.0),
         parameter("J_gb", _RIG["J_gb"], "kg.m2", "Gearbox output inertia, turning with the input (paper J_gb1)",
-                  min=0.0, max=1.0e3),
+                  min=0.0, max=1.0e6),
         parameter("phi_in_start", 0.0, "rad", "Input angle at the start time (0: driving pin normal to the plane "
                   "of the shafts)", min=-1.0e6, max=1.0e6),
         input_("omega_in", 0.0, "rad/s", "Input (gearbox output) angular speed", **SPEED_RANGE),
