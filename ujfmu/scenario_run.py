@@ -673,6 +673,9 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     extra = [x for pair in operating_pairs(scenario) for x in pair if x not in scenario.record]
     extra += [f"{name}.omega_in" for name, _ in sampled_components(scenario)
               if f"{name}.omega_in" not in scenario.record + extra]
+    # and the speeds a Load that may chatter near rest acts on, to tell whether a failure came near rest
+    chatter = [c for c in scenario.load_chatter() if c.ratio > 1.0]
+    extra += [f"{c.driven}.omega_out" for c in chatter if f"{c.driven}.omega_out" not in scenario.record + extra]
     try:
         if model_exchange:
             from .model_exchange import simulate_scenario_me
@@ -683,11 +686,14 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                                progress=progress or None, coupling=scenario.coupling,
                                output_interval=scenario.output_interval, diagnostics=diagnostics)
     except CosimulationError as exc:
-        chatter = [c for c in scenario.load_chatter() if c.ratio > 1.0]   # the likelier cause, with its remedy
+        if exc.partial is not None:   # a Load that chatters near rest is the likelier cause, where it came near rest
+            chatter = [c for c in chatter if came_near_rest(c, exc.partial)]
         hint = "" if isinstance(exc, RunStopped) else "\n".join(f"hint: {c.text()}" for c in chatter) or (
             torque_driven_hint(scenario, str(exc.args[0]) if exc.args else ""))
         if exc.partial is not None and not isinstance(exc, RunStopped):
             oscillating = "" if isinstance(exc, CouplingInstabilityError) else oscillation_hint(scenario, exc.partial)
+            if oscillating and not model_exchange:   # the coupling's, or the model's own: the step tells them apart
+                oscillating = step_dependence_hint(scenario, fmu_dir, float(exc.partial["time"][-1]), oscillating)
             stalled = "" if oscillating else stalled_drive_hint(scenario, exc.partial)
             hint = "\n".join(h for h in (oscillating, stalled, hint) if h)
         if hint:
@@ -805,6 +811,17 @@ def torque_driven_hint(scenario: Scenario, message: str) -> str:
 OSCILLATION_WINDOW, OSCILLATION_GROWTH, OSCILLATION_REVERSALS = 24, 10.0, 2
 
 
+def came_near_rest(chatter, partial: np.ndarray) -> bool:
+    """Whether the speed a chattering Load acts on (``Scenario.load_chatter``) came within twice the speed one step
+    of its torque moves the inertia, or of its omega_smooth, of rest in the results up to a failure (True where they
+    do not hold that speed)."""
+    speed = f"{chatter.driven}.omega_out"
+    if speed not in partial.dtype.names or len(partial) == 0:
+        return True
+    band = 2.0 * max(chatter.torque * chatter.step / chatter.inertia, chatter.smooth)
+    return bool(np.nanmin(np.abs(np.asarray(partial[speed], dtype=float))) <= band)
+
+
 def oscillation_hint(scenario: Scenario, partial: np.ndarray) -> str:
     """'' unless a connected signal of the partial results (recorded at every step) oscillated over the steps
     before a failure with a step-to-step change that grew ``OSCILLATION_GROWTH``-fold, reversing at least
@@ -836,6 +853,45 @@ def oscillation_hint(scenario: Scenario, partial: np.ndarray) -> str:
             + ("" if scenario.coupling == "implicit" else ", the implicit coupling (the default)")
             + ", or, for a driven side heavier than its driver or a stiff shaft, the torque-driven wiring (README, "
             "\"Choose the wiring for the host\")")
+
+
+#: half-step steps :func:`step_dependence_hint` takes at most to tell a coupling's instability from the model's own
+STEP_DEPENDENCE_STEPS = 50_000
+
+
+def step_dependence_hint(scenario: Scenario, fmu_dir, failed_at: float, hint: str) -> str:
+    """An :func:`oscillation_hint` (hint) checked by a rerun at half the step up to 1.5x the failure time
+    (``STEP_DEPENDENCE_STEPS`` at most): a coupling's instability grows by a factor per step, so at half the step it
+    fails at about half the time, later or not at all; a motion of the model's own that grows (a support too soft
+    for the torque it carries, say) fails at the same time whatever the step. hint where the rerun is too long or
+    does not fail near the same time (with what it found); else what the same failure at half the step means."""
+    span = failed_at - scenario.start_time
+    half = scenario.step_size / 2.0
+    steps = math.ceil(1.5 * span / half)
+    if not 0 < steps <= STEP_DEPENDENCE_STEPS:
+        return hint
+    rerun = scenario.with_values({})
+    rerun.step_size, rerun.stop_time = half, min(scenario.stop_time, scenario.start_time + steps * half)
+    try:
+        rerun._check_steps()
+        cosimulate(rerun.master_components(fmu_dir), rerun.connections, rerun.stop_time, half, rerun.record[:1],
+                   rerun.start_time, coupling=rerun.coupling)
+    except CosimulationError as again:
+        if again.partial is None or len(again.partial) == 0:
+            return hint
+        there = float(again.partial["time"][-1])
+    except ScenarioError:
+        return hint
+    else:
+        return hint + f" (at half the step, {half:g} s, it ran to t = {rerun.stop_time:g} s without failing)"
+    if there - scenario.start_time < 0.75 * span:
+        return hint + f" (at half the step, {half:g} s, it failed too, at t = {there:g} s)"
+    return (f"hint: at half the step ({half:g} s) it fails the same way at t = {there:g} s ({failed_at:g} s at "
+            f"{scenario.step_size:g} s): a growth that does not depend on the step is the model's own motion, not "
+            "the coupling's (a coupling's instability grows by a factor per step: at half the step it fails at about "
+            "half the time, or not at all). A smaller step or another wiring will not help: check the parameters "
+            "of the component that refused the step against what it carries (a support or shaft too soft or too "
+            "lightly damped for its torque or speed, a joint angle near its limit)")
 
 
 def stalled_drive_hint(scenario: Scenario, partial: np.ndarray) -> str:
