@@ -1,6 +1,7 @@
 """ujfmu.scenario_run.compare and SignalCheck: the pass rule max |result - reference| <= rel_range * range + abs,
 at its boundary, with the reference interpolated to the result's times."""
 
+import math
 import re
 import shutil
 from pathlib import Path
@@ -224,3 +225,20 @@ def test_orders_that_cannot_be_fitted_name_the_window_not_a_traceback(steady_fro
                                path=Path("s.toml"))
     with pytest.raises(ScenarioError, match=rf"\[reference.orders\].*{re.escape(says)}.*move steady_from earlier"):
         check_orders(scenario, table, table)
+
+
+def test_a_set_point_that_stops_moving_inside_the_check_window_is_said_with_when():
+    """A ramp to 300 rpm ending at 30 s of a 32 s run (a marine run-up): the check window, the last 10%, starts at
+    28.8 s inside the ramp, so nothing is checked, but the message had said the run ends before the profile does.
+    It now says when the set point reaches its final value and the remedy; a ramp still moving at the end keeps
+    its message."""
+    from ujfmu.scenario_run import check_operating_points
+    from ujfmu.scenario import Scenario
+    scenario = Scenario(Path(__file__).parent.parent / "scenarios" / "cardan_startup.toml")
+    t = np.linspace(0.0, 32.0, 3201)
+    ramp = np.minimum(t, 30.0) * (31.4159 / 30.0)
+    (check,) = check_operating_points(scenario, table(t, motor__omega=ramp, motor__omega_ref=ramp))
+    assert not check.checked and check.passed and check.since == pytest.approx(28.8)
+    assert check.holds_from == pytest.approx(30.0) and "reaches its final value only at t = 30 s" in str(check)
+    (moving,) = check_operating_points(scenario, table(t, motor__omega=t, motor__omega_ref=t))
+    assert "the run ends before the profile does" in str(moving) and math.isnan(moving.holds_from)

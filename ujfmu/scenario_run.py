@@ -81,6 +81,8 @@ class OperatingPointCheck:
     value: float
     target: float
     since: float
+    #: where the set point moves in the window: the time from which it holds its last value (nan: it moves to the end)
+    holds_from: float = math.nan
 
     @property
     def checked(self) -> bool:
@@ -91,6 +93,10 @@ class OperatingPointCheck:
         return not self.checked or abs(self.value - self.target) <= OPERATING_TOL * abs(self.target)
 
     def __str__(self):
+        if not self.checked and not math.isnan(self.holds_from):
+            return (f"not checked {self.signal}: its set point {self.set_point} reaches its final value only at t = "
+                    f"{self.holds_from:g} s, inside the window the check averages over (from t = {self.since:g} s): "
+                    "lengthen stop_time, or set [output] steady_from, to leave the drive a settling time after it")
         if not self.checked:
             return (f"not checked {self.signal}: its set point {self.set_point} still moves after t = "
                     f"{self.since:g} s (the run ends before the profile does)")
@@ -409,8 +415,13 @@ def check_operating_points(scenario: Scenario, table: np.ndarray) -> list:
             continue
         ref = table[set_point][window]
         moving = float(np.ptp(ref)) > 1e-9 * max(1.0, float(np.max(np.abs(ref))))
+        holds_from = math.nan
+        if moving:   # the time from which it holds its last value, where that is before the end
+            off = np.flatnonzero(np.abs(ref - ref[-1]) > 1e-9 * max(1.0, float(np.max(np.abs(ref)))))
+            if off[-1] < len(ref) - 2:
+                holds_from = float(t[window][off[-1] + 1])
         checks.append(OperatingPointCheck(signal, set_point, float(np.mean(table[signal][window])),
-                                          math.nan if moving else float(ref[-1]), float(t[window][0])))
+                                          math.nan if moving else float(ref[-1]), float(t[window][0]), holds_from))
     return checks
 
 
