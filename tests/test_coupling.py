@@ -110,9 +110,10 @@ def test_check_step_judges_an_untoleranced_constant_signal_by_its_magnitude(monk
     from ujfmu import scenario_run
     s = Scenario(LIGHT)
     s.tolerances, s.record = {}, ["a.x", "a.y", "a.z"]
-    coarse = {"a.x": np.array([5.0, 5.0 + 1e-9, 5.0]), "a.y": np.array([0.0, 1.0, 2.0]),
+    time = np.array([0.0, 0.5, 1.0])
+    coarse = {"time": time, "a.x": np.array([5.0, 5.0 + 1e-9, 5.0]), "a.y": np.array([0.0, 1.0, 2.0]),
               "a.z": np.array([300.0, 300.0 + 2.3e-13, 300.0])}
-    extrapolated = {"a.x": np.full(3, 5.0), "a.y": np.array([0.0, 1.01, 2.0]),
+    extrapolated = {"time": time, "a.x": np.full(3, 5.0), "a.y": np.array([0.0, 1.01, 2.0]),
                     "a.z": np.array([300.0, 300.0 + 1.2e-10, 300.0])}
     monkeypatch.setattr(scenario_run, "extrapolate_step", lambda run, fmu_dir, table: extrapolated)
     est = stepsize.estimate(s, coarse=coarse)
@@ -123,6 +124,33 @@ def test_check_step_judges_an_untoleranced_constant_signal_by_its_magnitude(monk
     assert est.absolute["a.z"][1] == pytest.approx(6.0) and "%" not in next(l for l in est.lines() if "a.z" in l)
     extrapolated["a.x"] = np.full(3, 5.2)                # 0.2 off: over 2% of 5.2
     assert not stepsize.estimate(s, coarse=coarse).passed
+
+
+def test_check_step_judges_an_untoleranced_vibration_over_its_steady_part(monkeypatch):
+    """A speed run up from rest to 50 rad/s that then swings 0.2 rad/s peak to peak (a PI-driven driveline coupled
+    explicitly, a Monte Carlo trial): an error of 0.02 rad/s on the swing is 0.04% of the run's range, which had
+    passed, and 10% of the swing. Without a tolerance the signal is now also judged over its steady part (from
+    steady_from, else the last quarter) against that part's range; a swing read within 1% passes, a running angle
+    (growing in any steady state) and a signal that is the same over the whole run are not judged there."""
+    from ujfmu import scenario_run
+    s = Scenario(LIGHT)
+    s.tolerances, s.record, s.steady_from = {}, ["a.w", "a.phi_out"], 0.0
+    time = np.linspace(0.0, 4.0, 4001)
+    swing = 0.1 * np.sin(2.0 * np.pi * 5.0 * time)
+    speed = np.minimum(time, 2.0) * 25.0 + np.where(time >= 2.0, swing, 0.0)
+    coarse = {"time": time, "a.w": speed + np.where(time >= 2.0, 0.01 * np.sin(2.0 * np.pi * 5.0 * time), 0.0),
+              "a.phi_out": np.cumsum(speed) * 1e-3}
+    extrapolated = {"time": time, "a.w": speed, "a.phi_out": np.cumsum(speed) * 1e-3 * (1.0 + 1e-4)}
+    monkeypatch.setattr(scenario_run, "extrapolate_step", lambda run, fmu_dir, table: extrapolated)
+    est = stepsize.estimate(s, coarse=coarse)
+    assert est.errors["a.w"] == pytest.approx(0.01 / 50.1, rel=1e-3) and est.steady_from == pytest.approx(3.0)
+    assert est.steady["a.w"] == pytest.approx(0.01 / 0.2, rel=1e-2) and not est.within("a.w") and not est.passed
+    assert "a.phi_out" not in est.steady and est.within("a.phi_out")
+    assert "5% of its range from t = 3 s" in next(line for line in est.lines() if "a.w" in line)
+    s.steady_from = 2.5   # the scenario's own steady part
+    assert stepsize.estimate(s, coarse=coarse).steady_from == pytest.approx(2.5)
+    coarse["a.w"] = speed + np.where(time >= 2.0, 0.001 * np.sin(2.0 * np.pi * 5.0 * time), 0.0)
+    assert stepsize.estimate(s, coarse=coarse).passed
 
 
 @pytest.mark.parametrize("scenario", ["battery/battery_04", "cardan_constant_speed"])
