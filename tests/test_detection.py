@@ -229,7 +229,7 @@ def test_a_record_that_aliases_the_joints_2x_order_fails(fmu_dir, tmp_path, caps
         text = junit.read_text()
         assert 'failures="1"' in text and 'skipped="0"' in text and "record aliases" in text
     else:
-        assert code == 0 and out.startswith("NOT CHECKED") and line.strip().startswith("ok")
+        assert code == 0 and out.startswith("NOT CHECKED") and line.strip().startswith("note")   # not a FAIL
         assert np.ptp(table["jointomega_out"]) > 0.1 * 157.08 * (1 / math.cos(0.349) - math.cos(0.349))
         # 4 samples a period may read the peaks 1 - cos(pi / 4) = 29% of the amplitude short; 20, 1.2%: both said,
         # with the step that reads them within 1% (pi / acos(0.99) = 22.2 samples a period of 0.02 s)

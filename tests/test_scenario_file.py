@@ -300,7 +300,7 @@ def test_a_scenario_path_without_toml_names_the_file_that_exists(tmp_path, capsy
 
 
 @pytest.mark.parametrize("old, new, says", [
-    ('fmu = "Load"', 'fmu = "Load"\nparameters = { T_0 = 1.0 }', "has no parameter 'T_0' (did you mean T0?)"),
+    ('fmu = "Load"', 'fmu = "Load"\nparameters = { T_0 = 1.0 }', "has no parameter 'T_0' (did you mean T0 or T_h?)"),
     ('fmu = "Load"', 'fmu = "Load"\nparameters = { tau = 1.0 }', "(it is an output, which the FMU computes)"),
     ("inputs = { omega_in = 10.0, tau_load = 0.1 }", "inputs = { omega_in = 10.0, tau_load = 0.1, J2 = 1e-5 }",
      "has no input 'J2' (it is a parameter: set it under parameters)"),

@@ -47,7 +47,7 @@ TERMINALS = {
     "Motor": (("flange_b", "b", "Rotor shaft end",
                (("phi", "phi", "signal"), ("w", "omega", "signal"), ("tau", "tau_load", "outflow"))),),
     "Load": (("flange_a", "a", "Shaft end of the driven machine",
-              (("w", "omega", "signal"), ("tau", "tau", "inflow"))),),
+              (("phi", "phi", "signal"), ("w", "omega", "signal"), ("tau", "tau", "inflow"))),),
     "MotorController": (("flange_b", "b", "Drive torque on the rotor of the torque-driven joint it drives",
                          (("w", "omega", "signal"), ("tau", "tau_motor", "outflow"))),),
 }

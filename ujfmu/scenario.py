@@ -384,7 +384,8 @@ class Scenario:
             complete = complete and connection.ok
         unfed = [f"{cname}.{v.name}" for cname, (fmu, _) in self.components.items()
                  for v in fmu_class(fmu).VARIABLES
-                 if v.causality == "input" and f"{cname}.{v.name}" not in fed and v.name not in self.inputs[cname]]
+                 if v.causality == "input" and f"{cname}.{v.name}" not in fed and v.name not in self.inputs[cname]
+                 and (v.used_if is None or self.parameters_with_defaults(cname).get(v.used_if))]
         if unfed and complete:   # an input a connection with a problem was meant to feed is not named again
             first = unfed[0].split(".", 1)
             problems.add(
@@ -591,8 +592,18 @@ class Scenario:
         return declared[var].unit or ""
 
     def start_values(self, component):
-        """What the scenario sets in a component before it runs: its parameters and its explicitly set inputs."""
-        return {**self.components[component][1], **self.inputs.get(component, {})}
+        """What the scenario sets in a component before it runs: its parameters, its explicitly set inputs, and
+        the inputs its parameters leave unread (``used_if``), unconnected, at their start values (held
+        deliberately, not by omission)."""
+        fmu, params = self.components[component]
+        fed = {c.target for c in getattr(self, "connections", ())}
+        unread = {}
+        if any(v.causality == "input" and v.used_if for v in fmu_class(fmu).VARIABLES):
+            values = self.parameters_with_defaults(component)
+            unread = {v.name: v.start for v in fmu_class(fmu).VARIABLES
+                      if v.causality == "input" and v.used_if and not values.get(v.used_if)
+                      and f"{component}.{v.name}" not in fed}
+        return {**unread, **params, **self.inputs.get(component, {})}
 
     def _check_generator(self):
         """A named reference generator must be one of ujfmu.references.GENERATORS; a former name is refused with

@@ -23,7 +23,7 @@ OMEGA = 20.0 * math.pi            # 600 rpm: 10 turns per second
 H, CHUNK, CHUNKS = 1e-3, 100_000, 10
 TURNS_PER_CHUNK = OMEGA * CHUNK * H / (2.0 * math.pi)   # 1000
 EPS = 2.0 ** -52
-INPUTS = {"omega_in": OMEGA, "omega": OMEGA, "tau_load": 0.2}
+INPUTS = {"omega_in": OMEGA, "omega": OMEGA, "tau_load": 0.2, "phi": 0.0}
 #: parameters for a steady periodic state: the motor holds 600 rpm, the ring coupling is damped (10%)
 PARAMETERS = {"Motor": {"omega_set": OMEGA, "tau_max": 50.0},
               "RingCoupling": {"c_d": 0.2 * math.sqrt(726.4294875418636 * 0.1)}}

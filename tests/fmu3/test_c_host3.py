@@ -16,6 +16,7 @@ INPUTS = {
     "tau_load": lambda t: 0.2 + 0.1 * t,
     "omega": lambda t: 40.0 + 30.0 * t,
     "tau_in": lambda t: 0.5 + 0.2 * t,
+    "phi": lambda t: 40.0 * t + 15.0 * t * t,   # the Load's shaft angle (its periodic torque's)
 }
 
 

@@ -22,6 +22,7 @@ INPUTS = {
     "tau_load": lambda t: 0.2 + 0.1 * math.cos(11.0 * t),
     "omega": lambda t: 40.0 + 30.0 * t,
     "tau_in": lambda t: 0.5 + 0.2 * math.sin(13.0 * t),
+    "phi": lambda t: 40.0 * t + 15.0 * t * t,   # the Load's shaft angle (its periodic torque's)
 }
 H = 1e-3
 

@@ -72,13 +72,15 @@ class Var:
     """One FMU variable: the single declaration of its name, causality, variability, unit, range and start."""
 
     __slots__ = ("name", "causality", "variability", "unit", "description", "start", "min", "max",
-                 "depends_on", "type")
+                 "depends_on", "type", "used_if")
 
     def __init__(self, name, causality, unit, description, start=None, min=None, max=None,
-                 variability=None, depends_on=(), type=float):
+                 variability=None, depends_on=(), type=float, used_if=None):
         self.name, self.causality, self.unit, self.description = name, causality, unit, description
         self.start, self.min, self.max, self.type = start, min, max, type
         self.depends_on = tuple(depends_on)
+        #: an input the model reads only where this parameter is not 0 (a scenario need not feed it otherwise)
+        self.used_if = used_if
         if variability is None:
             variability = {"parameter": "fixed"}.get(causality, "continuous" if type is float else "discrete")
         self.variability = variability
@@ -160,8 +162,9 @@ def sampling_interval(samples: float, order: int, omega: float) -> float:
     return 2.0 * math.pi / rate if rate > 0.0 else math.inf
 
 
-def input_(name, start, unit, description, min=None, max=None):
-    return Var(name, "input", unit, description, start, min, max)
+def input_(name, start, unit, description, min=None, max=None, used_if=None):
+    """An input; used_if names the parameter without which (at 0) the model does not read it."""
+    return Var(name, "input", unit, description, start, min, max, used_if=used_if)
 
 
 def output(name, unit, description, depends_on=()):

@@ -84,10 +84,26 @@ def load_level(p, t):
     return p["T0"] + change * share
 
 
-def load_torque(p, w, t):
-    """Load FMU torque law tau = T(t) s(w) + c1 w + c2 w |w|_s (:func:`load_level`) at time t."""
+def load_torque(p, w, t, phi=None):
+    """Load FMU torque law tau = T(t) s(w) + c1 w + c2 w |w|_s + T_h cos(order_h phi + phase_h) (:func:`load_level`)
+    at time t and the driven shaft's angle phi (needed where T_h is not 0: ValueError without it)."""
     mag = np.sqrt(w * w + p["omega_smooth"] ** 2)
-    return load_level(p, t) * w / mag + p["c1"] * w + p["c2"] * w * mag
+    tau = load_level(p, t) * w / mag + p["c1"] * w + p["c2"] * w * mag
+    amplitude = p.get("T_h", 0.0)
+    if not amplitude:
+        return tau
+    if phi is None:
+        raise ValueError("a Load with T_h != 0 needs the driven shaft's angle")
+    return tau + amplitude * np.cos(p.get("order_h", 1.0) * phi + p.get("phase_h", 0.0))
+
+
+def check_load_angle(scenario, load: str, machine: str) -> None:
+    """WiringError unless a Load with a periodic torque (T_h != 0) takes its angle from machine's phi_out, the angle
+    the reference integrates (its other Loads use none)."""
+    if load and scenario.parameters_with_defaults(load).get("T_h", 0.0) and not feeds(
+            scenario, f"{machine}.phi_out", f"{load}.phi"):
+        raise WiringError(f"{scenario.path}: {load} has a periodic torque (T_h != 0) but its angle input {load}.phi "
+                          f"is not fed from {machine}.phi_out: connect it (the reference takes that angle)")
 
 
 def pi_law(p, t, w, integral):
@@ -251,7 +267,9 @@ def check_chain_wiring(scenario, generator: str, machine: str, fmu: str, torque_
                   machine: (variant,) if torque_driven else (fmu, variant) if variant else (fmu,),
                   "load": ("Load",)}
     connections = [(a.format(m=machine), b.format(m=machine)) for a, b in CHAIN_CONNECTIONS[torque_driven]]
-    check_wiring(scenario, generator, chain_topology(machine, fmu), components, connections)
+    check_wiring(scenario, generator, chain_topology(machine, fmu), components, connections,
+                 optional=[(f"{machine}.phi_out", "load.phi")])
+    check_load_angle(scenario, "load", machine)
 
 
 def check_fan_out_wiring(scenario, generator: str, fmu: str, load_optional: bool) -> None:
@@ -271,6 +289,7 @@ def check_fan_out_wiring(scenario, generator: str, fmu: str, load_optional: bool
         if load:
             components[load] = ("Load",)
             connections += [(f"{name}.omega_out", f"{load}.omega"), (f"{load}.tau", f"{name}.tau_load")]
+            optional.append((f"{name}.phi_out", f"{load}.phi"))
         elif not load_optional:
             problems.append(f"{name} has no Load fed from {name}.omega_out")
         elif scenario.inputs.get(name, {}).get("tau_load", 0.0) != 0.0:
@@ -283,8 +302,11 @@ def check_fan_out_wiring(scenario, generator: str, fmu: str, load_optional: bool
     expects = (f"a Motor named 'motor' driving {fmu} components (any names), {load}: connections motor.omega -> "
                f"X.omega_in, X.omega_out -> L.omega, L.tau -> X.tau_load for each {fmu} X and its Load L; an ideal "
                "speed source drives any number of them (X.tau_in -> motor.tau_load optional, for one), a PI motor "
-               "exactly one, with X.tau_in -> motor.tau_load")
+               "exactly one, with X.tau_in -> motor.tau_load (X.phi_out -> L.phi optional, needed for a Load's "
+               "periodic torque)")
     check_wiring(scenario, generator, expects, components, connections, optional, problems)
+    for name, load in machines:
+        check_load_angle(scenario, load, name)
 
 
 def machines_and_loads(scenario, generator: str, machine: str, fmu: str, load_optional: bool) -> list:

@@ -99,7 +99,7 @@ def generate(scenario):
             th1 = y[0] + pj["phi_in_start"]
             r, dr = kin.ratio(th1)
             tau_m, di = pi_law(pm, time, w, integral)
-            a = (tau_m - j2 * r * dr * w * w - r * load_torque(pl, r * w, time)) / (jm + j1 + j2 * r * r)
+            a = (tau_m - j2 * r * dr * w * w - r * load_torque(pl, r * w, time, y[3])) / (jm + j1 + j2 * r * r)
             return [w, a, di, r * w]
 
         y = [0.0, w0, 0.0, theta20]
@@ -108,13 +108,13 @@ def generate(scenario):
         theta1 = pj["phi_in_start"] + phi_motor
         r, dr = kin.ratio(theta1)
         tau_m, _ = pi_law(pm, t, w1, integral)
-        a1 = (tau_m - j2 * r * dr * w1 * w1 - r * load_torque(pl, r * w1, t)) / (jm + j1 + j2 * r * r)
+        a1 = (tau_m - j2 * r * dr * w1 * w1 - r * load_torque(pl, r * w1, t, theta2)) / (jm + j1 + j2 * r * r)
         how = (f"monolithic ODE of motor+joint+load (Lagrange, sympy kinematics), scipy DOP853 "
                f"rtol={RTOL:g} atol={ATOL:g}")
 
     r, dr = kin.ratio(theta1)
     w2 = r * w1
-    tau_load = load_torque(pl, w2, t)
+    tau_load = load_torque(pl, w2, t, theta2)
     a2 = r * a1 + dr * w1 * w1
     m_z = j2 * a2 + tau_load
     tau_in = j1 * a1 + r * m_z

@@ -164,7 +164,7 @@ def generate(scenario):
         phi1 = phi1_0 + phi_m
         rg = ref.rigid(phi1)
         w4 = rg["rho"] * w1
-        tau_l = load_torque(pl, w4, t)
+        tau_l = load_torque(pl, w4, t, rg["phi4"])
         tau_in = rg["j_eq"] * a1 + 0.5 * rg["dj_eq"] * w1 ** 2 + rg["rho"] * tau_l
         cols.update({
             "driveline.phi_out": rg["phi4"], "driveline.omega_out": w4, "driveline.tau_in": tau_in,
@@ -186,7 +186,8 @@ def generate(scenario):
                 w1, a1, ang = profile(pm, time)
                 q = (phi1_0 + ang - ang0, y[0], y[2])
                 qd = (float(w1), y[1], y[3])
-                acc, _ = ref.accelerations(q, qd, known_alpha1=float(a1), tau_load=load_torque(pl, y[1], time))
+                acc, _ = ref.accelerations(q, qd, known_alpha1=float(a1),
+                                           tau_load=load_torque(pl, y[1], time, y[0]))
                 return [y[1], acc[1], y[3], acc[2]]
             ang0 = source_start_angle(pm, t)
         else:
@@ -196,7 +197,7 @@ def generate(scenario):
                 q, qd = (phi1_0 + y[0], y[3], y[5]), (y[1], y[4], y[6])
                 tau_m, di = pi_law(pm, time, y[1], y[2])
                 acc, _ = ref.accelerations(q, qd, tau_drive=float(tau_m), extra_inertia=jm,
-                                           tau_load=load_torque(pl, y[4], time))
+                                           tau_load=load_torque(pl, y[4], time, y[3]))
                 return [y[1], acc[0], float(di), y[4], acc[1], y[6], acc[2]]
 
         ys = solve_piecewise(rhs, y, t, pm, RTOL, ATOL, [pl])
@@ -207,7 +208,7 @@ def generate(scenario):
             phi_m, w1, integral, phi4, w4, f, v = ys
             tau_m, _ = pi_law(pm, t, w1, integral)
         phi1 = phi1_0 + phi_m
-        tau_l = load_torque(pl, w4, t)
+        tau_l = load_torque(pl, w4, t, phi4)
         tau_in, a4 = np.empty_like(t), np.empty_like(t)
         if not ideal:
             a1 = np.empty_like(t)

@@ -1,7 +1,9 @@
-"""Driven load: resisting torque tau = T(t)*s(omega) + c1*omega + c2*omega*|omega|_s.
+"""Driven load: resisting torque tau = T(t)*s(omega) + c1*omega + c2*omega*|omega|_s + T_h*cos(order_h*phi + phase_h).
 
 T(t) = T0, changed by T_change from t_change on: at once (ramp_time = 0, a load step) or linearly over ramp_time
-(:func:`level`).
+(:func:`level`). The last term is a torque periodic in the driven shaft's angle phi (an input: its phi_out), order_h
+times a revolution: a propeller's blade rate (order_h the number of blades), an engine's firing order, an implement's
+strokes (:func:`harmonic`).
 
 s(omega) = omega/sqrt(omega^2 + omega_s^2) is a smooth sign and |omega|_s = sqrt(omega^2 + omega_s^2) a smooth
 absolute value, so the law is infinitely differentiable through omega = 0 and odd in omega (the torque always
@@ -38,6 +40,15 @@ class Parameters:
     T_change: float = 0.0
     t_change: float = 0.0
     ramp_time: float = 0.0
+    T_h: float = 0.0
+    order_h: float = 1.0
+    phase_h: float = 0.0
+
+
+def harmonic(p: Parameters, phi: float) -> float:
+    """The torque periodic in the driven shaft's angle phi [rad]: T_h cos(order_h phi + phase_h) [N.m], zero mean
+    over a revolution for a whole order_h >= 1."""
+    return p.T_h * math.cos(p.order_h * phi + p.phase_h) if p.T_h else 0.0
 
 
 def level(p: Parameters, t: float) -> float:
@@ -71,17 +82,19 @@ State = NoState   # the torque follows the speed
 
 
 class Inputs(NamedTuple):
-    """Speed of the driven shaft [rad/s]."""
+    """Speed [rad/s] and angle [rad] of the driven shaft."""
 
     omega: float
+    phi: float = 0.0
 
 
 kinematic, initial_state, derivatives, rate_bound = kinematic_always, no_state, no_derivatives, no_rate
 
 
 def outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
-    """The resisting torque at the input speed and time (:func:`load_torque` at T(t), :func:`level`)."""
-    return {"tau": load_torque(u.omega, level(p, t), p.c1, p.c2, p.omega_smooth)}
+    """The resisting torque at the input speed, angle and time (:func:`load_torque` at T(t), :func:`level`, plus
+    :func:`harmonic`)."""
+    return {"tau": load_torque(u.omega, level(p, t), p.c1, p.c2, p.omega_smooth) + harmonic(p, u.phi)}
 
 
 def advice(p: Parameters) -> list:

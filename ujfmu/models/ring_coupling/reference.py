@@ -63,14 +63,14 @@ def generate(scenario):
         k = (_mp_amplitude(pr), pr["c_s"], pr["c_d"], pr["phi_out_start"] - pr["phi_in_start"])
         w2_0 = w_start if pr["start_at_input_speed"] else pr["omega_out_start"]
 
-        def tau_l(w2, time, pl=pl):
-            return load_torque(pl, w2, time) if pl else 0.0 * w2
+        def tau_l(w2, time, phi2, pl=pl):
+            return load_torque(pl, w2, time, phi2) if pl else 0.0 * w2
 
         if ideal:
             def rhs(time, y, pr=pr, k=k, tau_l=tau_l):
                 w, _, angle = profile(pm, time)
                 phi1 = pr["phi_in_start"] + float(angle) - ang0
-                return [y[1], (force2(phi1, y[0], float(w), y[1], *k) - tau_l(y[1], time)) / pr["I2"]]
+                return [y[1], (force2(phi1, y[0], float(w), y[1], *k) - tau_l(y[1], time, y[0])) / pr["I2"]]
             ys = solve_piecewise(rhs, [pr["phi_out_start"], w2_0], t, pm, RTOL, ATOL, [pl])
             phi2, w2 = ys
             phi_m, w1, a1 = ang - ang0, w_m, a_m
@@ -80,7 +80,7 @@ def generate(scenario):
                 tau_m, di = pi_law(pm, time, w, integral)
                 phi1 = pr["phi_in_start"] + phi_m
                 a = (float(tau_m) - drive(phi1, phi2, w, w2, *k)) / (j_motor + pr["I1"])
-                return [w, a, float(di), w2, (force2(phi1, phi2, w, w2, *k) - tau_l(w2, time)) / pr["I2"]]
+                return [w, a, float(di), w2, (force2(phi1, phi2, w, w2, *k) - tau_l(w2, time, phi2)) / pr["I2"]]
             ys = solve_piecewise(rhs, [0.0, w_start, 0.0, pr["phi_out_start"], w2_0], t, pm, RTOL, ATOL, [pl])
             phi_m, w1, integral, phi2, w2 = ys
             tau_m, _ = pi_law(pm, t, w1, integral)
@@ -97,7 +97,7 @@ def generate(scenario):
                      + potential(phi1, phi2, w1, w2, *k), f"{name}.phi_in": phi1,
                      f"{name}.alpha_in": a1 * np.ones_like(t)})
         if load:
-            cols[f"{load}.tau"] = tau_l(w2, t)
+            cols[f"{load}.tau"] = tau_l(w2, t, phi2)
         if ideal and feeds(scenario, f"{name}.tau_in", "motor.tau_load"):
             cols["motor.tau_motor"] = source_torque(j_motor, a1, tau_in)
     cols.update({"motor.omega": w1, "motor.phi": phi_m})

@@ -221,14 +221,14 @@ def generate(scenario):
             def rhs(time, y, ref=ref, pl=pl, phi0=phi0):
                 w, a, angle = profile(pm, time)
                 return _rotor_rhs(ref, y, phi0 + float(angle) - ang0, float(w), float(a),
-                                  float(load_torque(pl, y[9], time)))
+                                  float(load_torque(pl, y[9], time, y[3])))
             ys = solve_piecewise(rhs, y0, t, pm, RTOL, ATOL, [pl])
             phi_m, w_in, a_in = ang - ang0, w_m, a_m
         else:
             def rhs(time, y, ref=ref, pl=pl, phi0=phi0):
                 phi_m, w, integral = y[14:].tolist()
                 tau_m, di = pi_law(pm, time, w, integral)
-                rates = ref.rates(y[:12].tolist(), phi0 + phi_m, w, float(load_torque(pl, y[9], time)))
+                rates = ref.rates(y[:12].tolist(), phi0 + phi_m, w, float(load_torque(pl, y[9], time, y[3])))
                 a = (float(tau_m) - rates[1]) / (j_motor + ref.pr["J_gb"])
                 rot = _rotor_rhs(ref, y[:14], phi0 + phi_m, w, a, None, rates)
                 return np.concatenate([rot, [w, a, float(di)]])
@@ -242,7 +242,7 @@ def generate(scenario):
             a_in = (tau_m - shaft1) / (j_motor + pr["J_gb"])
             cols["motor.tau_motor"] = tau_m
         tau_in = pr["J_gb"] * a_in + shaft1
-        tau_l = load_torque(pl, qd[3], t)
+        tau_l = load_torque(pl, qd[3], t, q[3])
         cols.update({f"{name}.{k}": v for k, v in dict(
             phi_disc1=q[0], X1=q[1], Y1=q[2], phi_out=q[3], X2=q[4], Y2=q[5], omega_disc1=qd[0], omega_out=qd[3],
             tau_in=tau_in, primary_shaft_torque=shaft1, secondary_shaft_torque=shaft2,
