@@ -1037,3 +1037,31 @@ def test_sweep_set_fixes_a_parameter_at_every_point(fmu_dir, tmp_path, capsys):
         rows = list(csv.DictReader(f))
     assert len(rows) == 2 and all(float(r["driveline.twist.mean"]) == pytest.approx(5.0 / 1000.0, rel=0.03)
                                   for r in rows)
+
+
+def test_sampled_rows_run_as_points_not_a_grid(brutti, tmp_path, fmu_dir):
+    """A Monte Carlo sample of (beta1, beta2) as rows (Axis.rows: each row a point, a value per name; a tuple of
+    values had been a TypeError): three rows run three points, each with its own pair, and the rigid driveline's
+    output speed carries the 2x of the two joints' difference, 2 omega |q1 - q2|, q = tan^2(beta / 2) (to first
+    order in q, README); with a grid axis of two speeds they make six points. Rows of the wrong length are
+    refused."""
+    from ujfmu.sweep import Axis
+    rows = [(18.0, 22.0), (20.0, 20.0), (25.0, 15.0)]
+    sample = Axis.rows("driveline.beta1,driveline.beta2", rows, "deg")
+    assert sample.sampled and sample.describe(brutti) == "3 sampled points of (driveline.beta1,driveline.beta2)"
+    settings = SweepSettings.from_scenario(brutti, outputs=["driveline.omega_out"], running_speed="motor.omega",
+                                           settle_time=0.01, revolutions=2, steady_tol=0.0)
+    sweep = Sweep(brutti, [sample], settings, out_dir=tmp_path, name="rows", fmu_dir=fmu_dir)
+    sweep.run(workers=0, progress=False)
+    table = sweep.table()
+    assert len(table) == 3 and all(r["status"] == "ok" for r in table)
+    for row, (b1, b2) in zip(table, rows):
+        assert (row["driveline.beta1"], row["driveline.beta2"]) == pytest.approx((math.radians(b1), math.radians(b2)))
+        q1, q2 = math.tan(math.radians(b1) / 2) ** 2, math.tan(math.radians(b2) / 2) ** 2
+        expected = 2.0 * row["speed_mean"] * abs(q1 - q2)
+        assert row["driveline.omega_out.h2"] == pytest.approx(expected, rel=0.05, abs=1e-9 * row["speed_mean"])
+    grid = Sweep(brutti, [sample, parse_axis("motor.omega_set=1000,2000rpm", brutti)], settings, out_dir=tmp_path,
+                 name="rows_grid", fmu_dir=fmu_dir)
+    assert len(grid.points) == 6
+    with pytest.raises(ValueError, match="a value in every row"):
+        Axis.rows("driveline.beta1,driveline.beta2", [(18.0,), (20.0, 20.0)], "deg")

@@ -223,7 +223,7 @@ def plot_sweep(sweep, out_dir):
     combinations of the other axes (a line style each), the Campbell diagram of the first. Returns the paths."""
     scenario = sweep.scenario
     # a Boolean axis (two values) keys the curves, not the abscissa, unless it is the only axis
-    ordered = sorted(sweep.axes, key=_boolean_axis)
+    ordered = sorted(sweep.axes, key=lambda axis: (_boolean_axis(axis), not axis.sampled))   # samples on x
     first, others = ordered[0], ordered[1:]
     on_off = _boolean_axis(first)
     records = [r for r in sweep.records() if r["status"] == "ok"]
@@ -245,9 +245,11 @@ def plot_sweep(sweep, out_dir):
     def label(key):
         return ", ".join(f"{ax.label} = {value_text(ax, v)}" for ax, v in zip(others, key)) or None
 
-    xlabel = first.label if on_off else f"{first.label} [{axis_unit(first)}]"
+    xlabel = (first.label if on_off else f"{first.names[0]} [{axis_unit(first)}] (of each sampled point)"
+              if first.sampled else f"{first.label} [{axis_unit(first)}]")
     # the scenario's title may name the value swept here ("30 deg joint"): the figures name the sweep instead
     swept = "; ".join(f"{ax.label} {', '.join(str(v).lower() for v in ax.values)}" if _boolean_axis(ax) else
+                      f"{len(ax.values)} sampled points of ({ax.label})" if ax.sampled else
                       f"{ax.label} {axis_value(ax, min(ax.values)):.4g}..{axis_value(ax, max(ax.values)):.4g} "
                       f"{axis_unit(ax)}" for ax in sweep.axes)
     heading = f"{sweep.name}: {swept}, the rest as in scenario {scenario.name}"
@@ -263,13 +265,15 @@ def plot_sweep(sweep, out_dir):
         for i, (key, rows) in enumerate(sorted(groups.items())):
             rows = sorted(rows, key=lambda r: r["point"][first.names[0]])
             color = f"C{i % 10}"
-            line, size = ("o", 5) if on_off else (".-", 3)   # false and true: points, not a line between them
+            # false and true, or sampled points: markers, not a line between them
+            points = on_off or first.sampled
+            line, size = ("o", 5 if on_off else 3) if points else (".-", 3)
             ax.plot(xs(rows), [k * r[f"{out}.max"] for r in rows], line, color=color, ms=size, label=label(key))
-            ax.plot(xs(rows), [k * r[f"{out}.min"] for r in rows], line if on_off else ".--", color=color, ms=size,
-                    mfc="none" if on_off else None)
+            ax.plot(xs(rows), [k * r[f"{out}.min"] for r in rows], line if points else ".--", color=color, ms=size,
+                    mfc="none" if points else None)
         flagged = _plot_points_not_ok(ax, sweep, xs, out, k)
         ax.set_ylabel(f"[{unit}]", fontsize=8)
-        extremes = "max (filled), min (open)" if on_off else "max (solid), min (dashed)"
+        extremes = "max (filled), min (open)" if on_off or first.sampled else "max (solid), min (dashed)"
         ax.set_title(f"{out}: {extremes} in steady state over the measured revolutions" + (
             "\npoints not ok marked (legend)" if flagged else ""), fontsize=9, loc="left")
         ax.grid(alpha=0.3)

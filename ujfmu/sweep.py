@@ -100,14 +100,38 @@ class Axis:
         unit = unit.lower()
         if unit not in UNITS:
             raise ValueError(f"unknown unit {unit!r}: use 'rpm' (rad/s parameters), 'deg' (rad parameters) or '' (SI)")
+        values = list(values)
+        rows = [isinstance(v, (tuple, list)) or getattr(v, "ndim", 0) == 1 for v in values]
+        if any(rows):   # one row of values a point, a value per name: sampled points, not a grid
+            if not all(rows) or negated or any(len(v) != len(names) for v in values):
+                raise ValueError(f"an axis of rows gives each of its {len(names)} names a value in every row "
+                                 f"(rows of {len(names)} numbers, no negated name)")
+            return cls(names, [tuple(float(x) * UNITS[unit] for x in v) for v in values], unit)
         return cls(names, [v if isinstance(v, bool) else float(v) * UNITS[unit] for v in values], unit,
                    negated=negated)
 
-    def assignments(self, value: float | bool) -> dict:
+    @classmethod
+    def rows(cls, names, rows, unit: str = "") -> "Axis":
+        """An axis of sampled points: each row sets every name to its own value (a Monte Carlo sample of several
+        parameters; :meth:`of` with rows); a sweep over it runs the rows, not their grid."""
+        return cls.of(names, [tuple(row) for row in rows], unit)
+
+    @property
+    def sampled(self) -> bool:
+        """Whether the axis's values are rows, a value per name (:meth:`rows`)."""
+        return bool(self.values) and isinstance(self.values[0], tuple)
+
+    def assignments(self, value) -> dict:
         """{component.parameter: its value} at the axis's value (minus it for the negated names; for a Boolean axis
-        the opposite)."""
+        the opposite; a row's own value per name)."""
+        if isinstance(value, tuple):
+            return dict(zip(self.names, value))
         other = (not value) if isinstance(value, bool) else -value
         return {name: other if name in self.negated else value for name in self.names}
+
+    def value_of(self, point: dict):
+        """The axis's value at a point of its sweep (the inverse of :meth:`assignments`)."""
+        return tuple(point[name] for name in self.names) if self.sampled else point[self.names[0]]
 
     @property
     def signed_names(self) -> tuple:
@@ -140,6 +164,8 @@ class Axis:
         declared = {v.name: v for v in fmu_class(scenario.components[comp][0]).VARIABLES}
         if any(isinstance(v, bool) for v in self.values):
             return f"{len(self.values)} {self.label} {', '.join(str(v).lower() for v in self.values)}"
+        if self.sampled:
+            return f"{len(self.values)} sampled points of ({self.label})"
         si = declared[par].unit if par in declared and declared[par].unit != "1" else ""
         text = f"{len(self.values)} {self.label} {min(self.values):.4g}..{max(self.values):.4g} {si}".rstrip()
         if self.unit:
@@ -187,9 +213,11 @@ class Axis:
                 continue
             var = declared[par]
             sign = -1.0 if name in self.negated else 1.0
-            bad = [(v, p) for v, p in ((v, var.check(var.type(sign * v))) for v in self.values) if p]
+            column = self.names.index(name)
+            values = [v[column] for v in self.values] if self.sampled else self.values
+            bad = [(v, p) for v, p in ((v, var.check(var.type(sign * v))) for v in values) if p]
             if bad:
-                more = f" (and {len(bad) - 1} more of its {len(self.values)} values)" if len(bad) > 1 else ""
+                more = f" (and {len(bad) - 1} more of its {len(values)} values)" if len(bad) > 1 else ""
                 value, problem = bad[0]
                 if self.unit and math.isfinite(value):   # in the unit the values were given in, not a slip's hint
                     value *= sign
@@ -936,7 +964,7 @@ class Sweep:
         peak = max(ok, key=lambda r: max((r[c] for c in first if not math.isnan(r[c])), default=-math.inf))
         half = copy.copy(self.scenario)
         half.step_size = self.scenario.step_size / 2.0
-        axes = [Axis.of(axis.signed_names, [peak["point"][axis.names[0]]]) for axis in self.axes]
+        axes = [Axis.of(axis.signed_names, [axis.value_of(peak["point"])]) for axis in self.axes]
         fine = Sweep(half, axes, self.settings, out_dir=self.out_dir, name=f"{self.name}_step_check",
                      fmu_dir=self.fmu_dir)
         fine.run(workers=0)
