@@ -242,3 +242,25 @@ def test_a_set_point_that_stops_moving_inside_the_check_window_is_said_with_when
     assert check.holds_from == pytest.approx(30.0) and "reaches its final value only at t = 30 s" in str(check)
     (moving,) = check_operating_points(scenario, table(t, motor__omega=t, motor__omega_ref=t))
     assert "the run ends before the profile does" in str(moving) and math.isnan(moving.holds_from)
+
+
+def test_a_run_without_a_reference_gives_each_signals_figures(fmu_dir):
+    """A run without a reference had printed no figure of its signals (a designer parsed the CSV for every answer):
+    its summary lists each recorded signal's min, max, mean and RMS. Brutti's rigid driveline with its second yoke
+    90 deg out of phase at 2000 rpm: the output speed swings between omega cos^2(beta) and omega / cos^2(beta)
+    (read at the 1 ms instants, within 1% of them), the ideal source's speed is constant; the output angle, which
+    grows, by its last value."""
+    from ujfmu.scenario import Scenario
+    from ujfmu.scenario_run import run_scenario
+    brutti = Scenario(Path(__file__).parent.parent / "scenarios" / "double_cardan_brutti_rigid.toml")
+    changed = brutti.with_parameters({"driveline.yoke_phase": math.pi / 2})
+    assert "driveline.phi_out" in changed.record
+    text = run_scenario(changed, fmu_dir=fmu_dir, out_dir=None, plot=False).summary()
+    assert "recorded signals over the run (min, max, mean, RMS" in text
+    line = next(line for line in text.splitlines() if line.strip().startswith("driveline.omega_out "))
+    low, high = (float(x) for x in re.findall(r"(\S+) \.\. (\S+),", line)[0])
+    omega, c2 = 2000.0 * math.pi / 30.0, math.cos(math.radians(10.0)) ** 2
+    assert low == pytest.approx(omega * c2, rel=1e-2) and high == pytest.approx(omega / c2, rel=1e-2)
+    speed = next(line for line in text.splitlines() if line.strip().startswith("motor.omega "))
+    assert f"{omega:.6g} .. {omega:.6g}, mean {omega:.6g}" in speed
+    assert re.search(r"driveline\.phi_out +last \S+ rad$", text, re.MULTILINE)

@@ -526,6 +526,29 @@ class ScenarioResult:
                     f"({estimate})")
         return "the scenario's [reference.tolerance] names no signal: nothing was compared"
 
+    def _signal_figures(self) -> list:
+        """Lines of each recorded signal's min, max, mean and RMS (SI units) over the steady window (from
+        steady_from) or the whole run, the figures a run without a reference answers with; a signal that grows in
+        any steady state (an angle, an energy integral) by its last value."""
+        from .steady import grows
+        t = self.table["time"]
+        steady = self.scenario.steady_from > self.scenario.start_time
+        window = t >= self.scenario.steady_from - 1e-9 * max(1.0, abs(self.scenario.steady_from)) if steady else \
+            np.ones(len(t), dtype=bool)
+        lines = [f"  recorded signals {f'from t = {self.scenario.steady_from:g} s' if steady else 'over the run'} "
+                 "(min, max, mean, RMS; at the recorded instants):"]
+        width = max(len(name) for name in self.table.dtype.names[1:])
+        for name in self.table.dtype.names[1:]:
+            values = np.asarray(self.table[name][window], dtype=float)
+            unit = self.scenario.unit(name)
+            unit = f" {unit}" if unit and unit != "1" else ""
+            if grows(name):
+                lines.append(f"    {name:{width}s}  last {float(self.table[name][-1]):.6g}{unit}")
+                continue
+            lines.append(f"    {name:{width}s}  {np.min(values):.6g} .. {np.max(values):.6g}, mean "
+                         f"{np.mean(values):.6g}, RMS {np.sqrt(np.mean(values * values)):.6g}{unit}")
+        return lines
+
     def summary(self, step_check_follows: bool = False) -> str:
         """The verdict and every check, one per line; step_check_follows as in :meth:`not_checked_reason`."""
         span = self.scenario.stop_time - self.scenario.start_time
@@ -571,6 +594,8 @@ class ScenarioResult:
             lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the coupling's "
                          f"({estimate}, --step auto picks a step); if it does not, it is the FMUs' own integration, "
                          f"or the model or its parameters differ from what the reference solves. {figures}")
+        if not self.checks and len(self.table) > 1:
+            lines += self._signal_figures()
         if not self.checked:
             lines.append(f"  {self.not_checked_reason(step_check_follows)}")
         elif math.isnan(self.fmpy_outlier_fraction):
