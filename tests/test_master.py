@@ -332,3 +332,18 @@ def test_a_warning_an_fmu_says_once_reaches_the_caller_once_under_the_implicit_s
             cosimulate(comps, connections, 0.05, 1e-3, ["driveline.twist"], coupling=coupling)
         said = [w for w in caught if "twisted" in str(w.message)]
         assert len(said) == 1, (coupling, [str(w.message)[:80] for w in said])
+
+
+def test_a_refused_parameter_is_named_without_the_wrappers_noise(fmu_dir):
+    """A CardanJoint at 1.6 rad refuses its parameters at initialization with a message naming bend_angle and its
+    range; pythonfmu's C++ layer had added "[fatal] ... Fatal py exception encountered ... unknown error" after it,
+    which names nothing: the error keeps the cause and drops that line. A fatal line of its own is kept."""
+    from ujfmu.master import without_wrapper_noise
+    with pytest.raises(CosimulationError) as info:
+        cosimulate([Component("j", fmu_dir / "CardanJoint.fmu", {"bend_angle": 1.6})], [], 0.01, 1e-3,
+                   ["j.omega_out"])
+    text = str(info.value)
+    assert "bend_angle = 1.6 is outside its allowed range" in text and "Fatal py exception" not in text
+    noise = "[fatal] j: Fatal py exception encountered: [doStep] PyObject_CallMethod\nunknown error"
+    assert without_wrapper_noise(["[error] j: refused", noise]) == ["[error] j: refused"]
+    assert without_wrapper_noise([noise]) == [noise]   # no cause said before it: kept

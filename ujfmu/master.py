@@ -685,7 +685,8 @@ class Cosimulation:
         self._held = None   # implicit coupling: the torn inputs' values held over the last step
 
     def _log_text(self):
-        return ("\nFMU log:\n" + "\n".join(self.log)) if self.log else ""
+        lines = without_wrapper_noise(self.log)
+        return ("\nFMU log:\n" + "\n".join(lines)) if lines else ""
 
     def _communicate(self):
         """Transfer every connection, in feedthrough order, at the current communication point."""
@@ -1447,6 +1448,25 @@ def check_wiring(connections: list, instances: dict) -> None:
                                     f"set ({target.parameters[inp.name]!r}): the connection would override it; drop "
                                     "one of the two")
         fed[conn.target] = i
+
+
+#: what pythonfmu's C++ layer logs, as a fatal error, after our Python code refused a call with its own message
+_WRAPPER_NOISE = "Fatal py exception encountered"
+
+
+def without_wrapper_noise(log: list) -> list:
+    """The FMU log without pythonfmu's own "Fatal py exception encountered ... unknown error" after an error the
+    same instance logged first (which names the cause; the wrapper's line names none)."""
+    erred, kept = set(), []
+    for line in log:
+        status, _, rest = line.partition("] ")
+        instance = rest.partition(":")[0]
+        if status == "[error":
+            erred.add(instance)
+        elif status == "[fatal" and _WRAPPER_NOISE in rest and instance in erred:
+            continue
+        kept.append(line)
+    return kept
 
 
 def held_inputs(instances: dict, connections: list, parameters: dict) -> list:

@@ -259,8 +259,9 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
 
 def _log_text(log):
     """The FMU log's distinct messages (the same words with other numbers once), the last 20 of them."""
+    from .master import without_wrapper_noise
     seen, kept = set(), []
-    for line in log:
+    for line in without_wrapper_noise(log):
         key = re.sub(r"\d[\d.e+-]*", "#", line)
         if key not in seen:
             seen.add(key)
