@@ -1024,11 +1024,12 @@ class Cosimulation:
                 f"{abs(state[1]):.4g} in the last step, its largest value {state[4]:.4g}; t = {self.time!r}, "
                 f"{self.coupling} coupling, h = {self.step_size!r}): an "
                 "oscillation at the step rate, which the models cannot have at this step, so the results are the "
-                "coupling's, not the system's. A component switches faster than one step resolves (e.g. a Load's "
-                "torque reversing within omega_smooth of zero speed while one step moves the speed further), or "
-                "the coupled loop is at its stability limit. Remedy: reduce step_size until it is gone (check with "
-                "`ujfmu run --check-step`), or make the switching smoother (a Load's omega_smooth). Results up to "
-                "here are kept")
+                "coupling's, not the system's. Either the coupled loop is at its stability limit (a stiff shaft, or a "
+                "driven side heavier than its driver), or a component switches faster than one step resolves (e.g. "
+                "a Load's torque reversing within omega_smooth of zero speed while one step moves the speed "
+                "further). Remedy: reduce step_size until it is gone (check with `ujfmu run --check-step`), wire a "
+                "stiff or heavy driveline torque-driven (README, \"Choose the wiring for the host\"), or make the "
+                "switching smoother (a Load's omega_smooth). Results up to here are kept")
 
     def _growth_report(self, tripped=None):
         """Words on the growing alternation of the torn connection the watch tripped on (tripped: its index among
