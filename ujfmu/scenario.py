@@ -119,10 +119,11 @@ def not_found_hint(path: Path) -> str:
 
 
 #: a Load whose constant torque, in one step, moves the inertia it acts on by more than this many omega_smooth is
-#: named before a run that starts from rest (``Scenario.model_advice``): it chatters even where the shaft only
-#: passes through rest; from 1 on it chatters where the shaft stays near rest (a stall), which a failure's hint
-#: names (Omar's driveline at a constant speed runs at 1111 with his 1e-3 rad/s, his start-up at 1.1)
-LOAD_CHATTER_ADVICE = 10.0
+#: named before a run that starts from rest (``Scenario.model_advice``): a start from rest lingers near it; from 1
+#: on it chatters where the shaft stays near rest (a stall), which a failure's hint names (Omar's driveline at a
+#: constant speed runs at 1111 with his 1e-3 rad/s; his start-up runs at 1.1 and 1.8, 5 and 8 N.m, and stops as a
+#: coupling instability or chatter from 2.2 on, 10 N.m)
+LOAD_CHATTER_ADVICE = 2.0
 
 
 @dataclass

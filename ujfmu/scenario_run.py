@@ -594,7 +594,7 @@ class ScenarioResult:
             lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the coupling's "
                          f"({estimate}, --step auto picks a step); if it does not, it is the FMUs' own integration, "
                          f"or the model or its parameters differ from what the reference solves. {figures}")
-        if not self.checks and len(self.table) > 1:
+        if not self.checks and self.table is not None and len(self.table) > 1:
             lines += self._signal_figures()
         if not self.checked:
             lines.append(f"  {self.not_checked_reason(step_check_follows)}")
