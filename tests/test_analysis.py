@@ -163,3 +163,26 @@ def test_a_pi_driven_components_modes_come_with_the_held_input_bound():
     c_s, i2 = ring.parameters_with_defaults("coupling")["c_s"], ring.parameters_with_defaults("coupling")["I2"]
     (held,) = held_input_modes(ring)
     assert held.omega == pytest.approx(math.sqrt(c_s / i2), rel=1e-3) and held.omega < scenario_modes(ring)[0].omega
+
+
+def test_modes_list_the_crossings_of_a_loads_periodic_torque(tmp_path, capsys):
+    """A Load with a 3x periodic torque on Omar's output shaft (phi fed from driveline.phi_out): `ujfmu modes` lists
+    its crossings with each mode at omega_n / 3 beside the joints' 1x and 2x, and counts them among those from rest;
+    without the connection or with T_h = 0 there are none."""
+    from ujfmu.analysis import load_orders, scenario_modes
+    from ujfmu.cli import main
+    from ujfmu.scenario import Scenario
+    text = (SCENARIOS / "double_cardan_omar_torsional.toml").read_text()
+    text = text.replace("parameters = { T0 = 5.0", "parameters = { T_h = 1.0, order_h = 3.0, T0 = 5.0").replace(
+        '[[connections]]\nfrom = "load.tau"',
+        '[[connections]]\nfrom = "driveline.phi_out"\nto = "load.phi"\n\n[[connections]]\nfrom = "load.tau"')
+    path = tmp_path / "blade.toml"
+    path.write_text(text)
+    scenario = Scenario(path)
+    assert load_orders(scenario) == {"driveline": [("load", 3.0)]}
+    assert main(["modes", str(path)]) == 0
+    out = capsys.readouterr().out
+    for mode in scenario_modes(scenario):
+        assert f"3x (load's periodic torque) at {mode.omega / 3:.6g} rad/s" in out
+    assert "from rest to it the speed crosses 4" in out
+    assert load_orders(Scenario(SCENARIOS / "double_cardan_omar_torsional.toml")) == {}

@@ -230,6 +230,21 @@ def _modes(scenario, point: dict | None, held: bool) -> list[Mode]:
     return modes
 
 
+def load_orders(scenario) -> dict:
+    """{machine component: [(Load component, order_h), ...]} of the Loads with a torque periodic in the angle of a
+    machine's output shaft (T_h != 0, phi fed from its phi_out): an excitation at order_h times that shaft's speed,
+    which a machine with a mean speed ratio 1 turns at the input speed."""
+    found = {}
+    for conn in scenario.connections:
+        machine, _, out = conn.source.partition(".")
+        load, _, port = conn.target.partition(".")
+        if out == "phi_out" and port == "phi" and scenario.components.get(load, ("",))[0] == "Load":
+            values = scenario.parameters_with_defaults(load)
+            if values.get("T_h") and values.get("order_h", 0.0) > 0.0:
+                found.setdefault(machine, []).append((load, float(values["order_h"])))
+    return found
+
+
 def drive_speeds(scenario) -> dict:
     """{"component.omega_set": speed [rad/s]} of the scenario's drives (Motor, MotorController): the speed each
     profile settles at; a step profile's omega_initial too."""

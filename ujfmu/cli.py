@@ -563,7 +563,7 @@ def _with_set(scenario, texts):
 
 
 def cmd_modes(args):
-    from .analysis import NEAR_CRITICAL, drive_speeds, held_input_modes, scenario_modes
+    from .analysis import NEAR_CRITICAL, drive_speeds, held_input_modes, load_orders, scenario_modes
     from .scenario import Scenario
     from .steady import speed_text
     scenario = _with_set(Scenario(args.scenario), args.set)
@@ -577,11 +577,18 @@ def cmd_modes(args):
     if not modes:
         print("  no component with modes of its own (rigid or kinematic models)")
         return 0
+    loads = load_orders(scenario)
+
+    def orders(m):
+        """(order, what excites it) of a mode: the machine's own orders, then its Loads' periodic torques'."""
+        return ([(k, "") for k in range(1, m.orders + 1)]
+                + [(k, f" ({load}'s periodic torque)") for load, k in loads.get(m.component, [])])
+
     def show(modes):
         for m in modes:
             spread = f", {m.low:.5g}-{m.high:.5g} over the input angle" if m.high > 1.005 * m.low else ""
             merged = f", {m.count} modes" if m.count > 1 else ""
-            crossings = "; ".join(f"{k}x at {speed_text(m.critical_speed(k))}" for k in range(1, m.orders + 1))
+            crossings = "; ".join(f"{k:g}x{by} at {speed_text(m.critical_speed(k))}" for k, by in orders(m))
             print(f"  {m.component}: {m.omega:.5g} rad/s ({m.omega / (2 * math.pi):.5g} Hz{merged}{spread}): "
                   f"{crossings}")
     show(modes)
@@ -596,16 +603,16 @@ def cmd_modes(args):
             continue
         crossings = sorted(((abs(speed) / m.critical_speed(k) - 1.0, m, k, bound)
                             for m, bound in [(m, "") for m in modes] + [(m, " (input held)") for m in held]
-                            for k in range(1, m.orders + 1)), key=lambda item: abs(item[0]))
+                            for k, _ in orders(m)), key=lambda item: abs(item[0]))
         margin, m, k, bound = crossings[0]
         near = abs(margin) < NEAR_CRITICAL
-        print(f"  {name} = {speed_text(abs(speed))}: the nearest crossing is the {k}x order's with {m.component}'s "
+        print(f"  {name} = {speed_text(abs(speed))}: the nearest crossing is the {k:g}x order's with {m.component}'s "
               f"{m.omega:.5g} rad/s mode{bound}, at {m.critical_speed(k):.5g} rad/s: {100 * abs(margin):.1f}% "
               f"{'above' if margin > 0 else 'below'} it" + (f" (within {100 * NEAR_CRITICAL:g}%)" if near else ""))
-        below = [(m, k) for m in modes for k in range(1, m.orders + 1) if m.critical_speed(k) < abs(speed)]
+        below = [(m, k) for m in modes for k, _ in orders(m) if m.critical_speed(k) < abs(speed)]
         if below:
             print(f"    from rest to it the speed crosses {len(below)}: "
-                  + ", ".join(f"{k}x with {m.omega:.5g} rad/s at {m.critical_speed(k):.5g} rad/s"
+                  + ", ".join(f"{k:g}x with {m.omega:.5g} rad/s at {m.critical_speed(k):.5g} rad/s"
                               for m, k in sorted(below, key=lambda mk: mk[0].critical_speed(mk[1]))))
     print("  A crossing resonates where the order's forcing acts on the mode's shape (an unbalance drives lateral "
           "modes at 1x; a Cardan joint's 2x drives twist and, through its secondary couple, lateral motion), and "
