@@ -217,7 +217,7 @@ def test_default_folders_are_the_current_directorys(tmp_path, monkeypatch, capsy
     assert main(["check"]) == 2   # finds ./scenarios/mine.toml, looks for ./fmus
     err = "".join(capsys.readouterr())
     assert "mine.toml" in err and str(tmp_path / "fmus" / "Motor.fmu") in err and "run `ujfmu build` first" in err
-    assert "or give --fmu-dir DIR where they were built" in err
+    assert "or give --fmu-dir DIR (from Python: fmu_dir=DIR) where they were built" in err
 
 
 def test_progress_is_a_callback_and_the_cli_draws_no_bar_off_a_terminal(fmu_dir, tmp_path, capsys, monkeypatch):

@@ -153,6 +153,18 @@ def test_check_step_judges_an_untoleranced_vibration_over_its_steady_part(monkey
     assert stepsize.estimate(s, coarse=coarse).passed
 
 
+def test_step_auto_judges_shrinking_by_the_figure_that_fails():
+    """--step auto stops where a halving leaves an estimate above 3/4 of itself. A signal failing on its steady part
+    (9% of that part's range, then 4.5%) whose whole-run figure stays at 0.5% (a two-step transient, within its
+    2%) had been judged by the whole-run figure: "did not shrink". It is judged by the figure that fails."""
+    from ujfmu.stepsize import StepEstimate, stalled
+    before = StepEstimate(1e-3, {"a.w": 0.005}, {"a.w": 0.02}, steady={"a.w": 0.09}, steady_from=3.0)
+    halved = StepEstimate(5e-4, {"a.w": 0.005}, {"a.w": 0.02}, steady={"a.w": 0.045}, steady_from=3.0)
+    stuck = StepEstimate(5e-4, {"a.w": 0.005}, {"a.w": 0.02}, steady={"a.w": 0.085}, steady_from=3.0)
+    assert not before.within("a.w") and not halved.within("a.w")
+    assert stalled(halved, before) == [] and stalled(stuck, before) == ["a.w"]
+
+
 @pytest.mark.parametrize("scenario", ["battery/battery_04", "cardan_constant_speed"])
 def test_a_run_split_into_advance_calls_is_the_same_run(fmu_dir, scenario):
     """The implicit scheme's state (interface Jacobian, extrapolation history, instability watch, open loop)

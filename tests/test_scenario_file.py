@@ -406,11 +406,15 @@ def test_an_experiment_changed_after_loading_is_checked_before_a_run(fmu_dir):
                                ("stop_time", float("nan"), "stop_time = nan must be a finite number"),
                                ("stop_time", -1.0, "stop_time = -1.0 s after start_time = 0.0 s"),
                                ("stop_time", 6.0005, r"must be a whole number .* \(e.g. stop_time = 6 or 6.001 s"),
-                               ("step_size", 1e-320, "more than the 1e\\+09 a run may take")):
+                               ("step_size", 1e-320, "more than the 1e\\+09 a run may take"),
+                               ("steady_from", "2 s", "steady_from = '2 s' must be a finite number")):
         scenario = Scenario(Path(__file__).parents[1] / "scenarios" / "cardan_startup.toml")
         setattr(scenario, name, value)
         with pytest.raises(ScenarioError, match=words):
             run_scenario(scenario, fmu_dir, out_dir=None)
+    scenario = Scenario(Path(__file__).parents[1] / "scenarios" / "cardan_startup.toml")
+    scenario.steady_from = None   # unset, as 0: it had crashed after the run, comparing None with a time
+    assert run_scenario(scenario, fmu_dir, out_dir=None, plot=False).passed
 
 
 def test_numpy_numbers_from_a_sampling_loop_are_taken_as_the_numbers_they_hold():

@@ -96,6 +96,7 @@ def test_a_negated_name_sets_minus_the_axis_value_and_a_boolean_axis_takes_true_
     ("driveline.rigid_intermediate_shaft=yes", "driveline.rigid_intermediate_shaft takes true or false (or 1, 0)"),
     ("driveline.rigid_intermediate_shaft=0:1:1", "write COMP.PAR=true,false (no range, no unit"),
     ("driveline.rigid_intermediate_shaft,driveline.beta1=1", "a Boolean parameter and a number cannot share"),
+    ("load.T_h=0,2", "load.T_h != 0 reads load.phi, which"),   # its periodic torque needs the shaft's angle
 ])
 def test_bad_negated_or_boolean_axes_are_named(brutti, spec, words):
     with pytest.raises(ScenarioError, match="--param") as err:
@@ -1065,3 +1066,20 @@ def test_sampled_rows_run_as_points_not_a_grid(brutti, tmp_path, fmu_dir):
     assert len(grid.points) == 6
     with pytest.raises(ValueError, match="a value in every row"):
         Axis.rows("driveline.beta1,driveline.beta2", [(18.0,), (20.0, 20.0)], "deg")
+
+
+def test_an_axis_is_the_same_grid_whatever_the_number_types_its_values_came_as(tmp_path, fmu_dir):
+    """An Integer parameter's axis from the command line holds whole numbers, and one from Python numpy numbers:
+    the grid's identity (what a journal is matched by) takes them as the floats they were, so an earlier journal
+    of `motor.profile=0,1` is still this grid's; numpy Booleans are Booleans (a negated one the opposite)."""
+    import numpy as np
+    from ujfmu.sweep import Axis
+    omar = Scenario(SCENARIOS / "double_cardan_omar_torsional.toml")
+    settings = SweepSettings.from_scenario(omar, outputs=["driveline.twist"], running_speed="motor.omega",
+                                           settle_time=0.1)
+    grids = {Sweep(omar, [axis], settings, out_dir=tmp_path, fmu_dir=fmu_dir).grid
+             for axis in (parse_axis("motor.profile=0,1", omar), Axis.of("motor.profile", [0.0, 1.0]),
+                          Axis.of("motor.profile", np.array([0, 1])))}
+    assert len(grids) == 1
+    flags = Axis.of("driveline.rigid_intermediate_shaft", np.array([True, False]))
+    assert flags.values == [True, False] and all(type(v) is bool for v in flags.values)

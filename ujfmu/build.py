@@ -74,10 +74,11 @@ def build_hint(fmu_dir) -> str:
     if Path(fmu_dir).absolute() == DEFAULT_FMU_DIR.absolute():
         there = (f"; this checkout's are in {built}: --fmu-dir {built}" if (built / "Motor.fmu").is_file()
                  and built.resolve() != DEFAULT_FMU_DIR.resolve() else "")
-        return ("run `ujfmu build` first, or give --fmu-dir DIR where they were built: fmus/ is the current "
-                f"directory's{there}")
+        return ("run `ujfmu build` first, or give --fmu-dir DIR (from Python: fmu_dir=DIR) where they were built: "
+                f"fmus/ is the current directory's{there}")
     if Path(fmu_dir).absolute() == (DEFAULT_FMU_DIR / "fmi3").absolute():
-        return "run `ujfmu build --fmi 3` first, or give --fmu-dir DIR where they were built"
+        return ("run `ujfmu build --fmi 3` first, or give --fmu-dir DIR (from Python: fmu_dir=DIR) where they were "
+                "built")
     return f"run `ujfmu build --fmu-dir {fmu_dir}` first"
 
 

@@ -246,6 +246,10 @@ def _run_one(args, path, scenario=None):
         scenario.output_interval = args.output_interval
     for message in scenario.model_advice():
         print(f"  warning {message}", file=sys.stderr)
+    if not args.model_exchange:   # a periodic load torque the step holds too coarsely, said before the run
+        from .scenario_run import load_order_holds
+        for hold in load_order_holds(scenario):
+            print(f"  warning {str(hold).split(' ', 1)[1]}", file=sys.stderr)
     with _progress(args, Path(path).stem, "step") as progress:
         result = run_scenario(scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=plot,
                               progress=_paced(args, scenario.step_size, progress),

@@ -383,15 +383,37 @@ class Scenario:
                 fed[dst] = i
                 self.connections.append(Connection(src, dst))
             complete = complete and connection.ok
-        unfed = [f"{cname}.{v.name}" for cname, (fmu, _) in self.components.items()
-                 for v in fmu_class(fmu).VARIABLES
-                 if v.causality == "input" and f"{cname}.{v.name}" not in fed and v.name not in self.inputs[cname]
-                 and (v.used_if is None or self.parameters_with_defaults(cname).get(v.used_if))]
+        unfed = self.unfed_inputs()
         if unfed and complete:   # an input a connection with a problem was meant to feed is not named again
-            first = unfed[0].split(".", 1)
-            problems.add(
-                f"{self.path}: input(s) {', '.join(unfed)} not connected: connect each ([[connections]] to = ...) "
+            problems.add(self._unfed_text(unfed))
+
+    def unfed_inputs(self) -> list:
+        """The inputs ("component.input") no connection feeds and the scenario does not set, but for those the
+        component's parameters leave unread (``used_if`` at 0); one its parameters read (a Load's phi for its T_h)
+        must be connected, not set."""
+        fed = {c.target for c in self.connections}
+        return [f"{cname}.{v.name}" for cname, (fmu, _) in self.components.items()
+                for v in fmu_class(fmu).VARIABLES
+                if v.causality == "input" and f"{cname}.{v.name}" not in fed
+                and (v.name not in self.inputs[cname] if v.used_if is None
+                     else self.parameters_with_defaults(cname).get(v.used_if))]
+
+    def _unfed_text(self, unfed: list) -> str:
+        read = [name for name in unfed if self._used_if(name)]
+        if read:
+            name = read[0]
+            return (f"{self.path}: input(s) {', '.join(read)} not connected: {name.partition('.')[0]}'s "
+                    f"{self._used_if(name)} != 0 reads it over the run (a Load's periodic torque reads its shaft's "
+                    f"angle): connect it, e.g. from = \"<machine>.phi_out\", to = \"{name}\" (a value held there "
+                    "would make the torque a constant)")
+        first = unfed[0].split(".", 1)
+        return (f"{self.path}: input(s) {', '.join(unfed)} not connected: connect each ([[connections]] to = ...) "
                 f"or set it explicitly, held constant, e.g. [components.{first[0]}] inputs = {{ {first[1]} = 0.0 }}")
+
+    def _used_if(self, name: str) -> str | None:
+        """The parameter that makes the model read the input "component.input" (``used_if``), None for another."""
+        comp, _, port = name.partition(".")
+        return next((v.used_if for v in fmu_class(self.components[comp][0]).VARIABLES if v.name == port), None)
 
     def _read_output(self, out, problems, broken, timed):
         """[output]: recorded signals (each checked on its own, those of a component with a problem not), the ones
@@ -560,6 +582,10 @@ class Scenario:
             if problems:
                 raise ScenarioError(f"{self.path}: with_parameters: components.{comp}.parameters: "
                                     f"{'; '.join(problems)}")
+        unfed = [name for name in out.unfed_inputs() if name not in self.unfed_inputs()]
+        if unfed:   # an input the changed parameters make the model read (a Load's phi for its T_h)
+            raise ScenarioError(f"{self.path}: with_parameters: {', '.join(changes)}: "
+                                + self._unfed_text(unfed).partition(": ")[2])
         out.name = name or f"{self.name}_changed"
         if changes:
             out.title = f"{self.title} (changed: " + ", ".join(self._change_text(k, v) for k, v in changes.items()) + ")"
@@ -916,11 +942,17 @@ class Scenario:
     def check_experiment(self) -> None:
         """ScenarioError unless the experiment as it stands now (a caller may have set step_size, start_time or
         stop_time after loading) has finite times, step_size > 0 and stop_time > start_time a whole number of steps
-        apart, as a file must."""
+        apart, as a file must, and steady_from is a finite number (None: unset, taken as 0)."""
         for name in ("start_time", "stop_time", "step_size"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
                 raise ScenarioError(f"{self.path}: experiment {name} = {value!r} must be a finite number [s]")
+        if self.steady_from is None:   # unset, as 0 is (a caller's None)
+            self.steady_from = 0.0
+        if (isinstance(self.steady_from, bool) or not isinstance(self.steady_from, numbers.Real)
+                or not math.isfinite(self.steady_from)):
+            raise ScenarioError(f"{self.path}: output steady_from = {self.steady_from!r} must be a finite number [s] "
+                                "(0 or None: no steady window)")
         if not self.step_size > 0 or not self.stop_time > self.start_time:
             raise ScenarioError(f"{self.path}: experiment step_size = {self.step_size!r} s must be > 0 and stop_time "
                                 f"= {self.stop_time!r} s after start_time = {self.start_time!r} s")

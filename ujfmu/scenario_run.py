@@ -8,6 +8,7 @@ was not checked never counts as passed: the JUnit report marks it skipped.
 
 import math
 import os
+import re
 import time
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
@@ -345,6 +346,72 @@ def mode_sampling(scenario: Scenario, interval: float) -> list:
     return [n for n in notes if 1.0 - math.cos(math.pi / n.samples) > PEAK_SHORTFALL or n.samples <= 2.0]
 
 
+#: a held sinusoid's fundamental keeps sin(x) / x of its amplitude and lags by x, half its phase advance over a
+#: step: the lag [rad] past which a periodic load torque's hold is noted (0.05 rad: 2.9 deg, 0.04% of amplitude;
+#: near a resonance the lag moves the response more than the amplitude: 3.6% of Omar's twist at 0.11 rad)
+HOLD_LAG = 0.05
+
+
+@dataclass
+class LoadOrderHold:
+    """A Load's torque periodic in its shaft's angle (T_h, order_h) against the communication step over which the
+    co-simulation holds it: a held sinusoid of order k at speed omega drives the machine with sinc(x) of its
+    amplitude, x = k omega h / 2 rad late; past ``HOLD_LAG`` a note, at 2 steps a period or fewer a failure (the
+    step cannot carry it at all: it aliases)."""
+    load: str
+    order: float
+    omega: float   # the largest speed of the shaft it acts on [rad/s]
+    step: float
+
+    @property
+    def steps(self) -> float:
+        """Communication steps a period of the order."""
+        return 2.0 * math.pi / (self.order * self.omega * self.step)
+
+    @property
+    def lag(self) -> float:
+        """x = k omega h / 2 [rad]: the held torque's lag, in the order's own phase."""
+        return 0.5 * self.order * self.omega * self.step
+
+    @property
+    def kept(self) -> float:
+        return math.sin(self.lag) / self.lag if self.lag else 1.0
+
+    @property
+    def passed(self) -> bool:
+        return self.steps > MIN_SAMPLES_PER_PERIOD
+
+    def __str__(self):
+        within = 2.0 * HOLD_LAG / (self.order * self.omega)
+        what = (f"{self.load}'s periodic torque: its {self.order:g}x order at up to {speed_text(self.omega)} is held "
+                f"over steps of {self.step:g} s, {self.steps:.3g} a period")
+        if not self.passed:
+            return (f"FAIL {what}: the step cannot carry it (it aliases, and the coupling may chatter on it); take a "
+                    f"step of at most {within:.3g} s")
+        return (f"note {what}: it drives the machine with at most {100.0 * self.kept:.4g}% of its amplitude (the "
+                f"hold's images take more at few steps a period), {self.lag:.3g} rad "
+                f"({math.degrees(self.lag):.3g} deg) of its phase late (half a step), which near a resonance moves "
+                f"the response by more; a step of at most {within:.3g} s keeps the lag within {HOLD_LAG:g} rad "
+                "(--check-step estimates the error)")
+
+
+def load_order_holds(scenario: Scenario, table: np.ndarray | None = None) -> list:
+    """A :class:`LoadOrderHold` per Load with a periodic torque whose hold over the scenario's step lags by more than
+    ``HOLD_LAG``, at the largest speed of the shaft it acts on in table (its machine's omega_out; before a run, table
+    None: the drives' set speeds)."""
+    from .analysis import drive_speeds, load_orders
+    holds = []
+    for machine, loads in load_orders(scenario).items():
+        speed = f"{machine}.omega_out"
+        omega = (float(np.max(np.abs(table[speed]))) if table is not None and speed in table.dtype.names
+                 else max((abs(w) for w in drive_speeds(scenario).values()), default=0.0))
+        for load, order in loads:
+            hold = LoadOrderHold(load, order, omega, scenario.step_size)
+            if omega > 0.0 and (hold.lag > HOLD_LAG or not hold.passed):
+                holds.append(hold)
+    return holds
+
+
 def sampled_components(scenario: Scenario) -> list:
     """(component, order) of the scenario's components whose model declares an ``EXCITATION_ORDER``, at its
     parameters where the model says (``excitation_order(p)``: none for straight joints)."""
@@ -419,7 +486,7 @@ def check_operating_points(scenario: Scenario, table: np.ndarray) -> list:
         holds_from = math.nan
         if moving:   # the time from which it holds its last value, where that is before the end
             off = np.flatnonzero(np.abs(ref - ref[-1]) > 1e-9 * max(1.0, float(np.max(np.abs(ref)))))
-            if off[-1] < len(ref) - 2:
+            if off.size and off[-1] < len(ref) - 2:
                 holds_from = float(t[window][off[-1] + 1])
         checks.append(OperatingPointCheck(signal, set_point, float(np.mean(table[signal][window])),
                                           math.nan if moving else float(ref[-1]), float(t[window][0]), holds_from))
@@ -713,6 +780,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     # and the speeds a Load that may chatter near rest acts on, to tell whether a failure came near rest
     chatter = [c for c in scenario.load_chatter() if c.ratio > 1.0]
     extra += [f"{c.driven}.omega_out" for c in chatter if f"{c.driven}.omega_out" not in scenario.record + extra]
+    from .analysis import load_orders   # and the speeds a Load's periodic torque turns with
+    extra += [f"{m}.omega_out" for m in load_orders(scenario) if f"{m}.omega_out" not in scenario.record + extra]
     try:
         if model_exchange:
             from .model_exchange import simulate_scenario_me
@@ -730,7 +799,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         if exc.partial is not None and not isinstance(exc, RunStopped):
             oscillating = "" if isinstance(exc, CouplingInstabilityError) else oscillation_hint(scenario, exc.partial)
             if oscillating and not model_exchange:   # the coupling's, or the model's own: the step tells them apart
-                oscillating = step_dependence_hint(scenario, fmu_dir, float(exc.partial["time"][-1]), oscillating)
+                oscillating = step_dependence_hint(scenario, fmu_dir, float(exc.partial["time"][-1]), oscillating,
+                                                   str(exc))
             stalled = "" if oscillating else stalled_drive_hint(scenario, exc.partial)
             hint = "\n".join(h for h in (oscillating, stalled, hint) if h)
         if hint:
@@ -749,6 +819,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     operating, sampling = check_operating_points(scenario, table), check_sampling(scenario, table)
     if len(table) > 1:
         sampling += mode_sampling(scenario, float(np.max(np.diff(table["time"]))))
+        sampling += load_order_holds(scenario, table)
     steady = check_steady_window(scenario, table, diagnostics.get("iterates", False))
     if extra:
         table = _without(table, extra)
@@ -894,14 +965,24 @@ def oscillation_hint(scenario: Scenario, partial: np.ndarray) -> str:
 
 #: half-step steps :func:`step_dependence_hint` takes at most to tell a coupling's instability from the model's own
 STEP_DEPENDENCE_STEPS = 50_000
+#: a failure at half the step within this share of the time to the first one of it is "at the same time"
+SAME_TIME = 0.2
 
 
-def step_dependence_hint(scenario: Scenario, fmu_dir, failed_at: float, hint: str) -> str:
+def _refusing(message: str) -> str | None:
+    """The component a failure's message says refused a step (None for another failure)."""
+    found = re.match(r"component '([^']+)' refused the step", message)
+    return found.group(1) if found else None
+
+
+def step_dependence_hint(scenario: Scenario, fmu_dir, failed_at: float, hint: str, failure: str = "") -> str:
     """An :func:`oscillation_hint` (hint) checked by a rerun at half the step up to 1.5x the failure time
     (``STEP_DEPENDENCE_STEPS`` at most): a coupling's instability grows by a factor per step, so at half the step it
     fails at about half the time, later or not at all; a motion of the model's own that grows (a support too soft
-    for the torque it carries, say) fails at the same time whatever the step. hint where the rerun is too long or
-    does not fail near the same time (with what it found); else what the same failure at half the step means."""
+    for the torque it carries, say) fails at the same time whatever the step. hint (with what the rerun found)
+    unless the rerun's failure is the same component's refusal (failure: the first one's message) within
+    ``SAME_TIME`` of the time to the first; then what that means. A Ctrl-C or SIGTERM during the rerun ends it,
+    leaving the first failure to be reported (and its results written)."""
     span = failed_at - scenario.start_time
     half = scenario.step_size / 2.0
     steps = math.ceil(1.5 * span / half)
@@ -913,22 +994,26 @@ def step_dependence_hint(scenario: Scenario, fmu_dir, failed_at: float, hint: st
         rerun._check_steps()
         cosimulate(rerun.master_components(fmu_dir), rerun.connections, rerun.stop_time, half, rerun.record[:1],
                    rerun.start_time, coupling=rerun.coupling)
+    except CouplingInstabilityError as again:
+        return hint + f" (at half the step, {half:g} s, the coupling went unstable: {str(again).splitlines()[0]})"
     except CosimulationError as again:
         if again.partial is None or len(again.partial) == 0:
             return hint
-        there = float(again.partial["time"][-1])
+        there, same = float(again.partial["time"][-1]), _refusing(str(again)) == _refusing(failure)
     except ScenarioError:
         return hint
+    except KeyboardInterrupt:
+        return hint + " (the check at half the step was interrupted)"
     else:
         return hint + f" (at half the step, {half:g} s, it ran to t = {rerun.stop_time:g} s without failing)"
-    if there - scenario.start_time < 0.75 * span:
+    if not same or abs(there - failed_at) > SAME_TIME * span:
         return hint + f" (at half the step, {half:g} s, it failed too, at t = {there:g} s)"
     return (f"hint: at half the step ({half:g} s) it fails the same way at t = {there:g} s ({failed_at:g} s at "
             f"{scenario.step_size:g} s): a growth that does not depend on the step is the model's own motion, not "
             "the coupling's (a coupling's instability grows by a factor per step: at half the step it fails at about "
-            "half the time, or not at all). A smaller step or another wiring will not help: check the parameters "
-            "of the component that refused the step against what it carries (a support or shaft too soft or too "
-            "lightly damped for its torque or speed, a joint angle near its limit)")
+            "half the time, later, or not at all). A smaller step or another wiring will not help: check the "
+            "parameters of the component that refused the step against what it carries (a support or shaft too "
+            "soft or too lightly damped for its torque or speed, a joint angle near its limit)")
 
 
 def stalled_drive_hint(scenario: Scenario, partial: np.ndarray) -> str:

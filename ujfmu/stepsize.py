@@ -139,11 +139,20 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
 
 
 def _measure(est: StepEstimate, name: str) -> tuple:
-    """(the estimate of a signal as it is judged, its text): absolute for the signals judged so, else the fraction
-    of the range."""
+    """(the estimate of a signal as it is judged, its text): over its steady part where that part's figure is over
+    the allowance, else absolute for the signals judged so, else the fraction of the range."""
+    if name in est.steady and not est.steady[name] <= est.allowed[name]:
+        return est.steady[name], f"{100 * est.steady[name]:.3g}% of its range from t = {est.steady_from:g} s"
     if name in est.absolute:
         return est.absolute[name][0], f"{est.absolute[name][0]:.3g}"
     return est.errors[name], f"{100 * est.errors[name]:.3g}% of range"
+
+
+def _kind(est: StepEstimate, name: str) -> str:
+    """Which figure :func:`_measure` judges a signal by: 'steady', 'absolute' or 'range'."""
+    if name in est.steady and not est.steady[name] <= est.allowed[name]:
+        return "steady"
+    return "absolute" if name in est.absolute else "range"
 
 
 def stalled(est: StepEstimate, previous: StepEstimate) -> list[str]:
@@ -151,7 +160,7 @@ def stalled(est: StepEstimate, previous: StepEstimate) -> list[str]:
     each is judged (:func:`_measure`), the halving left above ``STALLED`` of itself: an error that does not shrink
     with the step."""
     return [n for n in est.errors if not est.within(n) and n in previous.errors and not previous.within(n)
-            and (n in est.absolute) == (n in previous.absolute)
+            and _kind(est, n) == _kind(previous, n)
             and _measure(est, n)[0] > STALLED * _measure(previous, n)[0]]
 
 

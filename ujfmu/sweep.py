@@ -100,7 +100,8 @@ class Axis:
         unit = unit.lower()
         if unit not in UNITS:
             raise ValueError(f"unknown unit {unit!r}: use 'rpm' (rad/s parameters), 'deg' (rad parameters) or '' (SI)")
-        values = list(values)
+        from .scenario import _plain
+        values = [_plain(v) for v in values]   # numpy numbers and bools as the Python ones they hold
         rows = [isinstance(v, (tuple, list)) or getattr(v, "ndim", 0) == 1 for v in values]
         if any(rows):   # one row of values a point, a value per name: sampled points, not a grid
             if not all(rows) or negated or any(len(v) != len(names) for v in values):
@@ -215,6 +216,12 @@ class Axis:
             sign = -1.0 if name in self.negated else 1.0
             column = self.names.index(name)
             values = [v[column] for v in self.values] if self.sampled else self.values
+            fed = {c.target for c in scenario.connections}
+            reads = [f"{comp}.{v.name}" for v in fmu_class(fmu).VARIABLES
+                     if v.causality == "input" and v.used_if == par and f"{comp}.{v.name}" not in fed]
+            if reads and any(values):   # a Load's T_h reads its phi, which must then be connected
+                found.append(f"{what}: {comp}.{par} != 0 reads {', '.join(reads)}, which {scenario.path} does not "
+                             f"connect: connect it (e.g. from the machine's phi_out) in the scenario first")
             bad = [(v, p) for v, p in ((v, var.check(var.type(sign * v))) for v in values) if p]
             if bad:
                 more = f" (and {len(bad) - 1} more of its {len(values)} values)" if len(bad) > 1 else ""
@@ -262,6 +269,13 @@ def _signed(names) -> tuple:
     if twice:
         raise ValueError(f"{', '.join(twice)} named more than once in one axis")
     return plain, tuple(p for n, p in zip(names, plain) if n.startswith("-"))
+
+
+def _grid_values(values: list) -> list:
+    """An axis's values as its grid's identity takes them: numbers as floats (an Integer axis's 1 is the 1.0 it
+    was before), Booleans as they are, a sampled row as its list of floats."""
+    return [v if isinstance(v, bool) else [float(x) for x in v] if isinstance(v, tuple) else float(v)
+            for v in values]
 
 
 #: the values a Boolean parameter's axis takes (``parse_axis``)
@@ -713,7 +727,7 @@ class Sweep:
                             settings, hashes, self.scenario.coupling)
         # the grid whatever the order of its axes (the points are the same; the table and plots follow the order
         # given), and as journals before that recorded it (the axes in order)
-        axes = [json.dumps([ax.signed_names, ax.values]) for ax in self.axes]
+        axes = [json.dumps([ax.signed_names, _grid_values(ax.values)]) for ax in self.axes]
         self.grid = hashlib.sha256(json.dumps(sorted(axes)).encode()).hexdigest()[:16]
         self._ordered_grid = hashlib.sha256(json.dumps([json.loads(a) for a in axes]).encode()).hexdigest()[:16]
         # results are only reused for the same FMU builds, code, scenario setup and settings

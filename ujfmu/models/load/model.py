@@ -109,7 +109,22 @@ def advice(p: Parameters) -> list:
                             + (", a negative damping that feeds energy into the motion and can run it away"
                                if name in ("c1", "c2") else "")
                             + "; set it >= 0 for a resisting load")
+    if p.T_h and p.order_h != int(p.order_h):
+        messages.append(f"order_h = {p.order_h:g} is not a whole number: the periodic torque repeats over "
+                        f"{_revolutions(p.order_h)} revolutions (a four-stroke engine's half orders), which the "
+                        "running-speed order analysis of sweeps, steady windows and [reference.orders] does not "
+                        "resolve (it fits whole orders of one revolution and reports such a response as not steady); "
+                        "the time response is right")
     return messages
+
+
+def _revolutions(order: float) -> str:
+    """The revolutions over which a torque of this order repeats: the least n with n * order whole (up to 1000),
+    else 'many'."""
+    for n in range(1, 1001):
+        if abs(n * order - round(n * order)) < 1e-9 * max(1.0, n * order):
+            return str(n)
+    return "many"
 
 
 def check(p: Parameters) -> list:
