@@ -104,7 +104,7 @@ def test_a_held_periodic_torque_drives_with_sinc_of_its_amplitude_and_is_noted(f
     amplitude, x = 6 w h / 2: 96.7% at 0.5 ms (x = 0.45), which the run matches within 1%; at 1 ms (x = 0.9) the
     hold's images add to the loss, 18% against sinc's 13%, which an NVH trial found missing in silence. The run's
     summary notes the hold with its figure, as at least that, and the step that keeps the lag within 0.05 rad; at
-    0.1 ms the twist is within 1% of exact. At 12x and 2 ms (1.5 steps a period) it is a failure: the step cannot
+    0.1 ms the twist is within 1% of exact. At 12x and 1 ms (1.75 steps a period) it is a failure: the step cannot
     carry the order."""
     from ujfmu.analysis import order_amplitudes
     from ujfmu.scenario_run import LoadOrderHold, run_scenario
@@ -128,5 +128,6 @@ def test_a_held_periodic_torque_drives_with_sinc_of_its_amplitude_and_is_noted(f
     assert ratio[5e-4] == pytest.approx(math.sin(0.45) / 0.45, rel=0.01)
     assert ratio[1e-3] < math.sin(0.9) / 0.9
     assert ratio[1e-4] == pytest.approx(1.0, rel=0.01)
-    aliased = LoadOrderHold("load", 12.0, 300.0, 2e-3)
-    assert aliased.steps < 2.0 and not aliased.passed and str(aliased).startswith("FAIL")
+    aliased = LoadOrderHold("load", 12.0, 300.0, 1e-3)   # 573 Hz at 1 ms: read 1.75 times a period
+    assert aliased.steps == pytest.approx(1.745, rel=1e-3) and not aliased.passed
+    assert str(aliased).startswith("FAIL") and "take a step of at most 2.78e-05 s" in str(aliased)
