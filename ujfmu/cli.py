@@ -452,6 +452,7 @@ def cmd_sweep(args):
     if args.workers != 0 or args.scheduler:
         require("distributed", "sweep", "ujfmu sweep (--workers 0 runs in this process without it)")
     from .scenario import Scenario
+    from .scenario_run import load_order_holds
     from .steady import grows
     from .sweep import Sweep, sweep_setup
     scenario = _with_set(Scenario(args.scenario), args.set)
@@ -465,6 +466,11 @@ def cmd_sweep(args):
     grid = " x ".join(a.describe(scenario) for a in axes)
     print(f"{sweep.name}: {len(sweep.points)} point{'' if len(sweep.points) == 1 else 's'} ({grid}), "
           f"settle {settings.settle_time:g} s, {settings.revolutions:g} revolutions measured")
+    holds = [hold for point in sweep.points for hold in load_order_holds(scenario.with_values(point))]
+    if holds:   # a periodic load torque the step holds too coarsely at some point: said for the worst
+        worst = max(holds, key=lambda hold: hold.lag)
+        print(f"  warning {str(worst).split(' ', 1)[1]} (the fastest of {len(holds)} such points: their order "
+              "amplitudes carry it)", file=sys.stderr)
     for name in filter(grows, settings.outputs):
         print(f"  note: {name} grows with time in any steady state (a running angle or an energy integral): its "
               "max, min, mean and order amplitudes over a window describe its ramp, not a vibration (the "

@@ -1079,7 +1079,7 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
                                     ("operating point not reached", any(not c.passed for c in r.operating_checks)),
                                     ("running-speed order amplitude outside [reference.orders]",
                                      any(not c.passed for c in r.order_checks)),
-                                    ("record aliases a model's excitation order",
+                                    ("record aliases a model's excitation order, or the step a Load's periodic torque",
                                      any(not c.passed for c in r.sampling_checks)),
                                     ("not steady from output.steady_from",
                                      any(not c.passed for c in r.steady_checks)))

@@ -131,3 +131,25 @@ def test_a_held_periodic_torque_drives_with_sinc_of_its_amplitude_and_is_noted(f
     aliased = LoadOrderHold("load", 12.0, 300.0, 1e-3)   # 573 Hz at 1 ms: read 1.75 times a period
     assert aliased.steps == pytest.approx(1.745, rel=1e-3) and not aliased.passed
     assert str(aliased).startswith("FAIL") and "take a step of at most 2.78e-05 s" in str(aliased)
+
+
+def test_a_sweep_says_where_the_step_holds_a_periodic_torque_too_coarsely(fmu_dir, tmp_path, capsys):
+    """`ujfmu sweep` over the speed of a driveline with a 6x load torque: before any point runs it warns of the
+    fastest point's hold (its lag and the step that keeps it within 0.05 rad), as `ujfmu run` does, since a
+    point's order amplitudes carry the hold's loss."""
+    from ujfmu.cli import main
+    text = (SCENARIOS / "double_cardan_omar_torsional.toml").read_text()
+    text = text.replace("parameters = { T0 = 5.0", "parameters = { T_h = 1.0, order_h = 6.0, T0 = 5.0").replace(
+        '[[connections]]\nfrom = "load.tau"',
+        '[[connections]]\nfrom = "driveline.phi_out"\nto = "load.phi"\n\n[[connections]]\nfrom = "load.tau"')
+    path = tmp_path / "blade.toml"
+    path.write_text(text.split("[reference]")[0])
+    args = ["--fmu-dir", str(fmu_dir), "sweep", str(path), "--param", "motor.omega_set=600,900rpm", "--running-speed",
+            "motor.omega", "--output",
+            "driveline.twist", "--settle", "0.2", "--steady-tol", "0", "--workers", "0", "--out", str(tmp_path),
+            "--no-plot", "-q"]
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    lag = 6.0 * 900.0 * math.pi / 30.0 * 1e-3 / 2.0
+    assert f"its 6x order at up to {94.2478:.6g} rad/s (900 rpm)" in err and f"{lag:.3g} rad" in err
+    assert "(the fastest of 2 such points: their order amplitudes carry it)" in err
