@@ -352,6 +352,11 @@ def mode_sampling(scenario: Scenario, interval: float) -> list:
 HOLD_LAG = 0.05
 
 
+#: steps a period of a Load's periodic torque below which a failed run names it first (the coupling's chatter or
+#: growth on the load's torque then follows from the hold)
+HOLD_FAILING_STEPS = 4.0
+
+
 @dataclass
 class LoadOrderHold:
     """A Load's torque periodic in its shaft's angle (T_h, order_h) against the communication step over which the
@@ -594,16 +599,25 @@ class ScenarioResult:
         return "the scenario's [reference.tolerance] names no signal: nothing was compared"
 
     def _signal_figures(self) -> list:
-        """Lines of each recorded signal's min, max, mean and RMS (SI units) over the steady window (from
-        steady_from) or the whole run, the figures a run without a reference answers with; a signal that grows in
-        any steady state (an angle, an energy integral) by its last value."""
+        """Lines of each recorded signal's min, max (at the recorded instants), mean and RMS (time averages,
+        trapezoidal: whole periods give a periodic signal's own) in SI units over the steady window (from steady_from)
+        or the whole run, the figures a run without a reference answers with; a signal that grows in any steady state
+        (an angle, an energy integral) by its last value."""
         from .steady import grows
         t = self.table["time"]
         steady = self.scenario.steady_from > self.scenario.start_time
         window = t >= self.scenario.steady_from - 1e-9 * max(1.0, abs(self.scenario.steady_from)) if steady else \
             np.ones(len(t), dtype=bool)
         lines = [f"  recorded signals {f'from t = {self.scenario.steady_from:g} s' if steady else 'over the run'} "
-                 "(min, max, mean, RMS; at the recorded instants):"]
+                 "(min, max at the recorded instants; mean, RMS over time, trapezoidal):"]
+        times = np.asarray(t[window], dtype=float)
+        span = float(times[-1] - times[0]) if len(times) > 1 else 0.0
+
+        def average(values):
+            """The time average of values over the window (trapezoidal; the one value of a single instant)."""
+            if not span > 0.0:
+                return float(np.mean(values))
+            return float(np.sum(0.5 * (values[1:] + values[:-1]) * np.diff(times)) / span)
         width = max(len(name) for name in self.table.dtype.names[1:])
         for name in self.table.dtype.names[1:]:
             values = np.asarray(self.table[name][window], dtype=float)
@@ -613,7 +627,7 @@ class ScenarioResult:
                 lines.append(f"    {name:{width}s}  last {float(self.table[name][-1]):.6g}{unit}")
                 continue
             lines.append(f"    {name:{width}s}  {np.min(values):.6g} .. {np.max(values):.6g}, mean "
-                         f"{np.mean(values):.6g}, RMS {np.sqrt(np.mean(values * values)):.6g}{unit}")
+                         f"{average(values):.6g}, RMS {math.sqrt(average(values * values)):.6g}{unit}")
         return lines
 
     def summary(self, step_check_follows: bool = False) -> str:
@@ -802,7 +816,10 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                 oscillating = step_dependence_hint(scenario, fmu_dir, float(exc.partial["time"][-1]), oscillating,
                                                    str(exc))
             stalled = "" if oscillating else stalled_drive_hint(scenario, exc.partial)
-            hint = "\n".join(h for h in (oscillating, stalled, hint) if h)
+            coarse = [h for h in load_order_holds(scenario, exc.partial) if h.steps < HOLD_FAILING_STEPS]
+            held = "\n".join(f"hint: {str(h).split(' ', 1)[1]}: a periodic torque the step can hardly carry makes "
+                             "the coupling chatter or grow on its own; take the smaller step first" for h in coarse)
+            hint = "\n".join(h for h in (held, oscillating, stalled, hint) if h)
         if hint:
             exc.args = (f"{exc.args[0]}\n{hint}",) + exc.args[1:]
         if exc.partial is not None and extra:

@@ -346,7 +346,8 @@ def peak_note(window: Window, fits: dict, orders, speed: float) -> str:
     for out, amps in fits.items():
         if grows(out):
             continue
-        if not len(amps) or not amps.max() > 0.0:
+        size = float(np.max(np.abs(window.table[out]))) if out in window.table.dtype.names else 0.0
+        if not len(amps) or not amps.max() > 1e-9 * size:   # nothing, or a constant's round-off
             continue
         k = max(j for j, a in zip(fitted, amps) if a >= SHAPING_ORDER * amps.max())
         n = steps / k   # reads a period

@@ -38,6 +38,7 @@ import io
 import itertools
 import json
 import math
+import numbers
 import os
 import re
 import shutil
@@ -102,6 +103,8 @@ class Axis:
             raise ValueError(f"unknown unit {unit!r}: use 'rpm' (rad/s parameters), 'deg' (rad parameters) or '' (SI)")
         from .scenario import _plain
         values = [_plain(v) for v in values]   # numpy numbers and bools as the Python ones they hold
+        if not values:
+            raise ValueError(f"the axis of {', '.join(names)} has no values: give at least one")
         rows = [isinstance(v, (tuple, list)) or getattr(v, "ndim", 0) == 1 for v in values]
         if any(rows):   # one row of values a point, a value per name: sampled points, not a grid
             if not all(rows) or negated or any(len(v) != len(names) for v in values):
@@ -115,6 +118,14 @@ class Axis:
     def rows(cls, names, rows, unit: str = "") -> "Axis":
         """An axis of sampled points: each row sets every name to its own value (a Monte Carlo sample of several
         parameters; :meth:`of` with rows); a sweep over it runs the rows, not their grid."""
+        names = _signed(names)[0]
+        rows = [row.tolist() if hasattr(row, "tolist") else row for row in rows]
+        if len(names) == 1:   # one name: a row may be its bare value
+            rows = [row if isinstance(row, (list, tuple)) else [row] for row in rows]
+        if not all(isinstance(row, (list, tuple)) and all(isinstance(x, numbers.Real) for x in row)
+                   for row in rows):
+            raise ValueError(f"rows of {len(names)} numbers, one per name ({', '.join(names)}), e.g. an N x "
+                             f"{len(names)} array")
         return cls.of(names, [tuple(row) for row in rows], unit)
 
     @property
@@ -269,6 +280,11 @@ def _signed(names) -> tuple:
     if twice:
         raise ValueError(f"{', '.join(twice)} named more than once in one axis")
     return plain, tuple(p for n, p in zip(names, plain) if n.startswith("-"))
+
+
+#: an output whose order amplitudes are all below this share of its size is constant up to round-off (an ideal
+#: speed source's speed): the step check leaves its orders out
+ROUND_OFF_ORDERS = 1e-9
 
 
 def _grid_values(values: list) -> list:
@@ -988,9 +1004,11 @@ class Sweep:
             for output in self.settings.outputs:
                 columns = [f"{output}.h{k}" for k in self.settings.orders]
                 largest = max((abs(row[c]) for c in columns if not math.isnan(row[c])), default=0.0)
+                size = max(abs(row[f"{output}.max"]), abs(row[f"{output}.min"]))
+                if not largest > ROUND_OFF_ORDERS * size:   # a constant signal's orders are round-off
+                    continue
                 figures += [(c, peak[c], row[c]) for c in columns
-                            if not (math.isnan(row[c]) or math.isnan(peak[c])) and largest > 0.0
-                            and abs(row[c]) >= 0.01 * largest]
+                            if not (math.isnan(row[c]) or math.isnan(peak[c])) and abs(row[c]) >= 0.01 * largest]
         return StepCheck(peak["point"], self.scenario.step_size, figures, rel_tol, row["status"], row["error"])
 
     def failed(self):

@@ -153,3 +153,22 @@ def test_a_sweep_says_where_the_step_holds_a_periodic_torque_too_coarsely(fmu_di
     lag = 6.0 * 900.0 * math.pi / 30.0 * 1e-3 / 2.0
     assert f"its 6x order at up to {94.2478:.6g} rad/s (900 rpm)" in err and f"{lag:.3g} rad" in err
     assert "(the fastest of 2 such points: their order amplitudes carry it)" in err
+
+
+def test_a_failure_on_a_periodic_torque_the_step_cannot_carry_names_it_first(fmu_dir):
+    """A 45x load torque behind a 30 deg joint at 600 rpm: its shaft turns at up to 72.3 rad/s, where 1 ms steps
+    read the order 1.93 times a period; the held torque makes the coupling chatter, which the error had blamed on
+    a stiff shaft, a heavy driven side or the load's omega_smooth. The first hint is now the periodic torque and
+    the step that carries it."""
+    from ujfmu.master import CosimulationError
+    from ujfmu.scenario_run import run_scenario
+    scenario = Scenario(SCENARIOS / "cardan_constant_speed.toml")
+    scenario.connections.append(Connection("joint.phi_out", "load.phi"))
+    scenario = scenario.with_parameters({"load.T_h": 0.1, "load.order_h": 45.0, "load.phase_h": 0.5})
+    with pytest.raises(CosimulationError) as info:
+        run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, plot=False)
+    hints = [line for line in str(info.value).splitlines() if line.startswith("hint:")]
+    omega = 600.0 * math.pi / 30.0 / math.cos(math.radians(30.0))   # the output's fastest: 1/cos(30 deg) times
+    assert hints and hints[0].startswith("hint: load's periodic torque: its 45x order at up to")
+    fastest = float(hints[0].split("at up to ")[1].split(" rad/s")[0])   # read at the communication points
+    assert fastest == pytest.approx(omega, rel=0.01) and "the step cannot carry it" in hints[0]
