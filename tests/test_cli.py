@@ -888,7 +888,16 @@ def test_run_set_changes_a_parameter_for_that_run_only(fmu_dir, tmp_path, capsys
     assert "--set 'motor.omega_set=1:2:1': one value" in capsys.readouterr().err
     # a Boolean parameter takes true or false (it had taken only numbers, which a Boolean refuses)
     from ujfmu.cli import _with_set
-    from ujfmu.scenario import Scenario
+    from ujfmu.scenario import Scenario, ScenarioError
     for text, value in (("true", True), ("False", False), ("1", True)):
         changed = _with_set(Scenario(scenario), [f"driveline.rigid_intermediate_shaft={text}"])
         assert changed.start_values("driveline")["rigid_intermediate_shaft"] is value
+    # one parameter's problems as themselves (not "problems with the sweep's axes"); a parameter set twice refused
+    for texts, words in ((["motor.omega_set=1e9"], "--set 'motor.omega_set=1e9': motor.omega_set = 1000000000.0 is outside"),
+                         (["motor.omega_set=x"], "expected a number, optionally followed by rpm"),
+                         (["load.T0=1", "load.T0=2"], "load.T0 is set by an earlier --set too")):
+        with pytest.raises(ScenarioError) as info:
+            _with_set(Scenario(scenario), texts)
+        assert words in str(info.value) and "sweep's axes" not in str(info.value), str(info.value)
+    # a whole number written as a float, as an optimizer hands it over, for an Integer parameter
+    assert Scenario(scenario).with_parameters({"motor.profile": 0.0}).start_values("motor")["profile"] == 0

@@ -97,6 +97,9 @@ def test_a_negated_name_sets_minus_the_axis_value_and_a_boolean_axis_takes_true_
     ("driveline.rigid_intermediate_shaft=0:1:1", "write COMP.PAR=true,false (no range, no unit"),
     ("driveline.rigid_intermediate_shaft,driveline.beta1=1", "a Boolean parameter and a number cannot share"),
     ("load.T_h=0,2", "load.T_h != 0 reads load.phi, which"),   # its periodic torque needs the shaft's angle
+    ("motor.omega_set,-load.T0=5", "their units differ (motor.omega_set [rad/s], load.T0 [N.m])"),
+    ("driveline.rigid_intermediate_shaft=true,true", "a value repeats"),
+    ("load.omega=3", "Load has no parameter 'omega' (it is an input: a connection feeds it"),
 ])
 def test_bad_negated_or_boolean_axes_are_named(brutti, spec, words):
     with pytest.raises(ScenarioError, match="--param") as err:

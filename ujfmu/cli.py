@@ -561,13 +561,20 @@ def _with_set(scenario, texts):
     """The scenario with the --set values COMP.PAR=VALUE[rpm|deg] (``Scenario.with_parameters``: a copy named
     <scenario>_changed, without the reference), or itself without any."""
     from .scenario import ScenarioError
-    from .sweep import parse_axis
+    from .sweep import SweepSettingsError, parse_axis
     changes = {}
     for text in texts or []:
-        axis = parse_axis(text, scenario, "--set")
+        try:
+            axis = parse_axis(text, scenario, "--set")
+        except SweepSettingsError as exc:   # one value of one parameter: its problems, not a sweep's
+            raise ScenarioError("; ".join(exc.problems)) from None
         if len(axis.values) != 1:
             raise ScenarioError(f"--set {text!r}: one value (COMP.PAR=VALUE[rpm|deg]), not {len(axis.values)} "
                                 "(`ujfmu sweep --param` takes ranges)")
+        twice = [name for name in axis.names if name in changes]
+        if twice:
+            raise ScenarioError(f"--set {text!r}: {', '.join(twice)} is set by an earlier --set too: give each "
+                                "parameter once")
         changes.update(axis.assignments(axis.values[0]))
     return scenario.with_parameters(changes) if changes else scenario
 

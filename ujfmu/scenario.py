@@ -574,6 +574,9 @@ class Scenario:
                                         + f" (it has {', '.join(self.components)})")
                 fmu = self.components[comp][0]
                 declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
+                if (par in declared and declared[par].type is int and isinstance(value, float)
+                        and value.is_integer()):   # a whole number written 1.0 (an optimizer's), as --set takes it
+                    value = changes[key] = int(value)
                 self._check_value(fmu, declared, "parameter", f"components.{comp}.parameters.{par}", par, value)
         problems.raise_any()
         out = self.with_values(changes)

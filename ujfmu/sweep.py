@@ -215,9 +215,12 @@ class Axis:
             fmu = scenario.components[comp][0]
             declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
             if par not in declared:
-                close = difflib.get_close_matches(par, declared, n=1)
+                other = next((v.causality for v in fmu_class(fmu).VARIABLES if v.name == par), None)
+                close = [] if other else difflib.get_close_matches(par, declared, n=1)
                 found.append(f"{what}: {fmu} has no parameter '{par}'"
-                             f"{f' (did you mean {comp}.{close[0]}?)' if close else ''} (it has {', '.join(declared)})")
+                             + (f" (it is an {other}: a connection feeds it, or the scenario's inputs set it)"
+                                if other == "input" else f" (it is an {other})" if other else "")
+                             + f"{f' (did you mean {comp}.{close[0]}?)' if close else ''} (it has {', '.join(declared)})")
                 continue
             problem = unit_problem(self.unit, declared[par].unit)
             if problem:
@@ -244,6 +247,13 @@ class Axis:
                     problem = (f"{par} = {self.display(value):.6g} {self.unit} ({value:.6g} {var.unit}) is outside "
                                f"its allowed range [{lo}, {hi}] {self.unit} ({var.range_text()})")
                 found.append(f"{what}: {comp}.{problem}{more}")
+        units = {name: scenario.unit(name) for name in self.names if not found}
+        if len(set(units.values())) > 1:   # one value set into quantities of different units
+            found.append(f"{what}: names set together take one value, but their units differ ("
+                         + ", ".join(f"{name} [{unit or '1'}]" for name, unit in units.items())
+                         + "): give each its own axis")
+        if not self.sampled and len(set(_grid_values(self.values))) < len(self.values):
+            found.append(f"{what}: a value repeats (each would run the same point again)")
         return found
 
     def check(self, scenario, what: str = "") -> None:
@@ -285,6 +295,13 @@ def _signed(names) -> tuple:
 #: an output whose order amplitudes are all below this share of its size is constant up to round-off (an ideal
 #: speed source's speed): the step check leaves its orders out
 ROUND_OFF_ORDERS = 1e-9
+
+
+def _csv_number(value) -> str:
+    """A swept parameter's value in the CSV: a Boolean 1 or 0, a whole number as itself, a real number in full."""
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    return str(value) if isinstance(value, int) else repr(float(value))
 
 
 def _grid_values(values: list) -> list:
@@ -351,9 +368,12 @@ def parse_axis(text: str, scenario, option: str = "--param") -> Axis:
         else:
             axis = Axis.of(names, [float(x) for x in body.split(",")], unit)
     except ValueError as exc:
-        raise ScenarioError(f"{option} {text!r}: bad values {values_text!r} ({exc}); expected numbers "
-                            "START:STOP:STEP or V1,V2,..., optionally followed by rpm (rad/s parameters) or deg "
-                            "(rad parameters), in any case: 1000RPM is 1000rpm") from None
+        expected = ("a number, optionally followed by rpm (rad/s parameters) or deg (rad parameters)"
+                    if option == "--set" else
+                    "numbers START:STOP:STEP or V1,V2,..., optionally followed by rpm (rad/s parameters) or deg "
+                    "(rad parameters)")
+        raise ScenarioError(f"{option} {text!r}: bad values {values_text!r} ({exc}); expected {expected}, in any "
+                            "case: 1000RPM is 1000rpm") from None
     if all(_declared_type(scenario, name) is int for name in plain):   # whole numbers, as the FMU declares them
         fractional = [v for v in axis.values if not float(v).is_integer()]
         if fractional:
@@ -917,7 +937,7 @@ class Sweep:
                                                              "coupling"])
             run = [repr(float(self.job.step_size)), self.job.coupling]
             for record in self.records():
-                writer.writerow([repr(float(record["point"][n])) for n in param_cols] + [record["status"]]
+                writer.writerow([_csv_number(record["point"][n]) for n in param_cols] + [record["status"]]
                                 + [repr(record[c]) if c in record else "" for c in cols]
                                 + [f"{record.get('wall_s', float('nan')):.3f}", record["error"],
                                    record.get("note", ""), record.get("warnings", "")] + run)
