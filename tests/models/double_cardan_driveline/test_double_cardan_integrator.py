@@ -466,3 +466,21 @@ def test_extrapolation_weights_are_the_lagrange_ones():
     nodes = [-float(j) for j in range(dc.HISTORY_POINTS)]
     weights = [sum(c) for c in series.lagrange_coefficients(nodes)]
     assert weights == pytest.approx((6.0, -15.0, 20.0, -15.0, 6.0, -1.0), rel=1e-12)
+
+
+@pytest.mark.parametrize("k_phi", [1e9, 1e10])
+def test_an_undamped_stiff_support_is_resolved_not_grown(k_phi, against_fine):
+    """An undamped support 1e9 N/m stiff (a trial's way to leave the lateral motion out): its mode, 15600 rad/s on
+    Omar's 4.09 kg, is exact in L, but N reads the tilt, so N rang at that frequency and 1 ms steps of the Adams
+    method grew it until the joint angle left its range (18 rad). The substeps now resolve an underdamped mode of L
+    (``ringing_rate``), and the run follows 16 Dormand-Prince steps a step; an overdamped one (Omar's xi_phi at this
+    stiffness) sets none."""
+    p = _speed_driven(**W_LAYOUT, k_phi=k_phi, xi_phi=0.0)
+    assert p.ringing_rate == pytest.approx(math.sqrt(k_phi / 4.09))
+    assert dc.adams_substeps(p, 1e-3, 90.0) >= p.ringing_rate * 1e-3 / 0.5
+    assert _speed_driven(**W_LAYOUT, k_phi=k_phi).ringing_rate < p.ringing_rate   # damped: its torsion only
+    def finer(p, h, phi, w, alpha, y, tau):   # the oracle's substeps resolving the mode too: h w <= 0.4
+        return dc._dp5_drive_4(dc._flexible_rates, p, y, h, math.ceil(p.ringing_rate * h / 0.4), phi, w, alpha, tau)
+    y0 = (dc.rigid_output_angle(p, 0.1), 60.0, 0.0, 0.0)
+    error = against_fine(Multistep(), finer, p, y0, 0.1, 60.0, 1e-3, 0.05, lambda t: (300.0, 5.0), SCALE)
+    assert error < 1e-3, error

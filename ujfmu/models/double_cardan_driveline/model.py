@@ -150,6 +150,7 @@ class Parameters:
     linear: tuple = field(init=False, repr=False)
     linear_rows: tuple = field(init=False, repr=False)
     remainder_rate: float = field(init=False, repr=False)
+    ringing_rate: float = field(init=False, repr=False)
     twist_slack: float = field(init=False, repr=False)
     outputs_memo: tuple | None = field(default=None, init=False, repr=False, compare=False)
     adams_memo: tuple | None = field(default=None, init=False, repr=False, compare=False)
@@ -171,6 +172,7 @@ class Parameters:
         self.linear = linear_part(self) if flexible else ()
         self.linear_rows = (*self.linear[0][1], *self.linear[1][1]) if flexible else ()
         self.remainder_rate = remainder_rate_bound(self) if flexible else 0.0
+        self.ringing_rate = ringing_rate(self) if flexible else 0.0
         self.twist_slack = (_joint_error_bound(abs(self.beta1) + _TWIST_GATE_PHI)
                             + _joint_error_bound(abs(self.beta2) + _TWIST_GATE_PHI))
 
@@ -586,11 +588,26 @@ def remainder_rate_bound(p: Parameters) -> float:
             + max(0.0, damping + torsion[1][1] + lateral[1][1]))
 
 
+def ringing_rate(p: Parameters) -> float:
+    """The natural frequency [rad/s] of the fastest underdamped block of L (damping ratio below 1), 0 without one.
+    L's part is exact at any step, but N reads the states L moves (the support's tilt enters the joint angles, the
+    twist the shaft torque): an underdamped fast mode makes N ring at its frequency, which the Adams polynomial
+    through N's history must resolve (an undamped support at k_phi = 1e9 N/m rang at 15600 rad/s, and 1 ms steps
+    grew it to 18 rad); an overdamped one dies within a step and leaves N smooth."""
+    fastest = 0.0
+    for block in p.linear:
+        stiffness, damping = -block[1][0], -block[1][1]   # k / m, c / m
+        if stiffness > 0.0 and damping * damping < 4.0 * stiffness:
+            fastest = max(fastest, math.sqrt(stiffness))
+    return fastest
+
+
 def adams_substeps(p: Parameters, t_span: float, w_max: float) -> int:
-    """Substeps of :func:`multistep_step`: each resolves N's own rates (:func:`remainder_rate_bound`) and the 2x and
-    4x excitation of the joints' kinematics, 4 |omega1| (``rk4.substeps``: h rate <= RATE_STEP = 0.5). L's part is
-    exact at any h (:func:`_phi_block`): a stiff shaft's own modes set no substep."""
-    return rk4.substeps(p.remainder_rate + 4.0 * w_max, t_span)
+    """Substeps of :func:`multistep_step`: each resolves N's own rates (:func:`remainder_rate_bound`), an
+    underdamped mode of L that N rings with (:func:`ringing_rate`) and the 2x and 4x excitation of the joints'
+    kinematics, 4 |omega1| (``rk4.substeps``: h rate <= RATE_STEP = 0.5). L's part is exact at any h
+    (:func:`_phi_block`): a stiff shaft's overdamped modes set no substep."""
+    return rk4.substeps(max(p.remainder_rate + 4.0 * w_max, p.ringing_rate), t_span)
 
 
 def start_steps(p: Parameters, h: float, w_max: float) -> int:
@@ -650,7 +667,8 @@ def multistep_step(p: Parameters, t: float, t_span: float, phi1: float, w1: floa
     time or of the inputs: ``INPUT_JUMP``) a substep is taken by :func:`dormand_prince` steps (fifth order,
     :func:`start_steps`: one on Omar's driveline), its N_n added to the history until it holds six points."""
     w_max = max(abs(w1), abs(w1 + alpha1 * t_span))
-    n = 1 if (p.remainder_rate + 4.0 * w_max) * t_span <= rk4.RATE_STEP else adams_substeps(p, t_span, w_max)
+    n = (1 if max(p.remainder_rate + 4.0 * w_max, p.ringing_rate) * t_span <= rk4.RATE_STEP
+         else adams_substeps(p, t_span, w_max))
     h = rk4.kept_substep(t_span / n, history[0], t, n)
     count = history[2]
     if count and (history[0] != h or abs(history[1] - t) > 1e-6 * h
