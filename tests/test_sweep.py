@@ -1103,3 +1103,19 @@ def test_a_constant_signals_round_off_orders_are_neither_step_checked_nor_noted(
     check = sweep.step_check()
     names = [name for name, _, _ in check.figures]
     assert names and all(name.startswith("driveline.twist.") for name in names) and check.passed
+
+
+def test_a_parameter_swept_twice_or_swept_and_fixed_is_refused(fmu_dir, tmp_path, capsys):
+    """`--param load.T0=4,5 --set load.T0=3` had run at 4 and 5 with the --set value dropped in silence, and two
+    axes of one parameter had kept only the later one's values (the CSV's two columns alike): both are refused,
+    naming the parameter. An axis's unit clash is listed beside its range problem, not after it is fixed."""
+    base = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_omar_torsional.toml"), "--workers",
+            "0", "--out", str(tmp_path), "-q"]
+    assert main(base + ["--param", "load.T0=4,5", "--set", "load.T0=3"]) == 2
+    assert "load.T0 both swept (--param) and fixed (--set)" in capsys.readouterr().err
+    assert main(base + ["--param", "load.T0=4,5", "--param", "load.T0=6,7"]) == 2
+    assert "load.T0 on more than one axis (--param)" in capsys.readouterr().err
+    assert main(base + ["--param=driveline.beta1,driveline.k_theta=1:2:1"]) == 2
+    err = capsys.readouterr().err
+    assert "2 problems" in err and "outside its allowed range" in err and "their units differ" in err
+    assert not list(tmp_path.glob("*.jsonl"))   # nothing ran

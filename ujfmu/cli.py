@@ -451,7 +451,7 @@ def cmd_references(args):
 def cmd_sweep(args):
     if args.workers != 0 or args.scheduler:
         require("distributed", "sweep", "ujfmu sweep (--workers 0 runs in this process without it)")
-    from .scenario import Scenario
+    from .scenario import Scenario, ScenarioError
     from .scenario_run import load_order_holds
     from .steady import grows
     from .sweep import Sweep, sweep_setup
@@ -462,6 +462,10 @@ def cmd_sweep(args):
                                  running_speed=args.running_speed, settle_time=args.settle,
                                  revolutions=args.revolutions, orders=args.orders, steady_tol=args.steady_tol,
                                  max_settle_time=args.max_settle)
+    fixed = {text.partition("=")[0].strip().lstrip("-") for text in args.set or []}
+    clash = sorted(fixed & {name for axis in axes for name in axis.names})
+    if clash:   # the axis's values would replace the --set one at every point
+        raise ScenarioError(f"{', '.join(clash)} both swept (--param) and fixed (--set): give it one of the two")
     sweep = Sweep(scenario, axes, settings, out_dir=args.out, name=args.name, fmu_dir=args.fmu_dir)
     grid = " x ".join(a.describe(scenario) for a in axes)
     print(f"{sweep.name}: {len(sweep.points)} point{'' if len(sweep.points) == 1 else 's'} ({grid}), "

@@ -247,7 +247,11 @@ class Axis:
                     problem = (f"{par} = {self.display(value):.6g} {self.unit} ({value:.6g} {var.unit}) is outside "
                                f"its allowed range [{lo}, {hi}] {self.unit} ({var.range_text()})")
                 found.append(f"{what}: {comp}.{problem}{more}")
-        units = {name: scenario.unit(name) for name in self.names if not found}
+        units = {}
+        for name in self.names:   # every declared parameter's, whatever else is wrong with the axis
+            comp, _, par = name.partition(".")
+            if comp in scenario.components and _declared_type(scenario, name) is not None:
+                units[name] = scenario.unit(name)
         if len(set(units.values())) > 1:   # one value set into quantities of different units
             found.append(f"{what}: names set together take one value, but their units differ ("
                          + ", ".join(f"{name} [{unit or '1'}]" for name, unit in units.items())
@@ -400,6 +404,10 @@ def sweep_setup(scenario, specs, **overrides) -> tuple:
             problems += exc.problems
         except ScenarioError as exc:
             problems.append(str(exc))
+    names = [name for axis in axes for name in axis.names]
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:   # a later axis would overwrite an earlier one's values at every point
+        problems.append(f"{', '.join(twice)} on more than one axis (--param): sweep each parameter on one")
     try:
         settings = SweepSettings.from_scenario(scenario, **overrides)
     except SweepSettingsError as exc:

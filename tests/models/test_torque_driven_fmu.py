@@ -207,3 +207,21 @@ def test_a_read_of_the_speeds_alone_is_never_stale(open_fmu, fmu, params):
     first.slave.setFMUState(saved)
     assert first.get(*speeds) == read == [dict(zip(names, second.get(*names)))[s] for s in speeds]
     first.slave.freeFMUState(saved)
+
+
+@pytest.mark.parametrize("name, names", [("CardanJointTorqueDriven", "J_drive + J1"),
+                                         ("DoubleCardanDrivelineTorqueDriven", "J_drive + I_input"),
+                                         ("TwinJeffcottRotorTorqueDriven", "J_drive + J_gb"),
+                                         ("RingCouplingTorqueDriven", "J_drive + I1")])
+def test_a_denormal_driver_inertia_is_refused_by_name(fmu_dir, name, names):
+    """J_drive = 2.2e-311 kg.m2 (a denormal, within J_drive's declared range [0, 1e6], with the default shaft
+    inertia 0 beside it): the ring coupling's setup had divided by it and died on a bare "float division by zero"
+    (hypothesis found it). Every torque-driven FMU refuses it at initialization, naming the sum and its least
+    value."""
+    from ujfmu.master import Component, CosimulationError, cosimulate
+    zero = {"CardanJointTorqueDriven": "J1", "DoubleCardanDrivelineTorqueDriven": "I_input",
+            "TwinJeffcottRotorTorqueDriven": "J_gb", "RingCouplingTorqueDriven": "I1"}[name]
+    with pytest.raises(CosimulationError) as info:
+        cosimulate([Component("m", fmu_dir / f"{name}.fmu", {"J_drive": 2.2e-311, zero: 0.0})], [], 0.01, 1e-3,
+                   ["m.omega_in"])
+    assert f"{names} = 2.2e-311 kg.m2 must be at least 1e-09" in str(info.value), str(info.value)

@@ -101,13 +101,18 @@ def torque_driven_outputs(speed_driven: dict, y: tuple, alpha: float) -> dict:
     return out
 
 
+#: the least inertia [kg.m2] on a torque-driven model's free input shaft (as the FMUs' smallest inertias): its
+#: equation of motion divides by it, and a denormal's reciprocal overflows
+MIN_SHAFT_INERTIA = 1e-9
+
+
 def shaft_inertia_problems(names: str, inertia: float, shaft: str) -> list:
     """The message of a torque-driven model's check when the inertia [kg.m2] on its free input shaft (the sum
-    ``names``) is not > 0: the shaft's equation of motion divides by it."""
-    if inertia > 0.0:
+    ``names``) is below ``MIN_SHAFT_INERTIA``: the shaft's equation of motion divides by it."""
+    if inertia >= MIN_SHAFT_INERTIA:
         return []
-    return [f"{names} = {inertia!r} kg.m2 must be > 0 (allowed range (0, 2000] kg.m2): the {shaft} needs an inertia "
-            "to integrate"]
+    return [f"{names} = {inertia!r} kg.m2 must be at least {MIN_SHAFT_INERTIA:g} (allowed range "
+            f"[{MIN_SHAFT_INERTIA:g}, 2e+06] kg.m2): the {shaft} needs an inertia to integrate"]
 
 
 #: a Hooke joint angle [rad] beyond which a model's advice asks whether degrees were meant (45 deg: the speed ratio

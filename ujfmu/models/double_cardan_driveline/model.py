@@ -36,8 +36,8 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ...fmu import rk4, series
-from ..protocol import (NEGLIGIBLE_SWING, Drive, Torques, joint_angle_advice, phase_angle_advice,
-                        shaft_inertia_problems, torque_driven_outputs)
+from ..protocol import (MIN_SHAFT_INERTIA, NEGLIGIBLE_SWING, Drive, Torques, joint_angle_advice,
+                        phase_angle_advice, shaft_inertia_problems, torque_driven_outputs)
 
 #: Largest admissible magnitude of a joint angle (static plus dynamic) [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -971,7 +971,7 @@ class TorqueDrivenParameters(Parameters):
     def __post_init__(self):
         Parameters.__post_init__(self)
         j_in = self.J_drive + self.I_input
-        flexible = not self.rigid_intermediate_shaft and self.J_load > 0.0 and j_in > 0.0
+        flexible = not self.rigid_intermediate_shaft and self.J_load > 0.0 and j_in >= MIN_SHAFT_INERTIA
         self.natural_rate = natural_rate_bound(self, j_in) if flexible else 0.0
         self.mode_rate = mode_rate_bound(self, j_in) if flexible else 0.0
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from ...fmu import rk4, series
-from ..protocol import NEGLIGIBLE_SWING, Drive, Torques, shaft_inertia_problems
+from ..protocol import MIN_SHAFT_INERTIA, NEGLIGIBLE_SWING, Drive, Torques, shaft_inertia_problems
 
 #: Eq. (5)/(7): M_p = MP_COEFFICIENT (EI/R^3) e^2 cos(phi1 + phi2)
 MP_COEFFICIENT = 157.0
@@ -353,7 +353,7 @@ class TorqueDrivenParameters(Parameters):
     def __post_init__(self):
         Parameters.__post_init__(self)
         j_in = self.J_drive + self.I1
-        if j_in > 0.0:
+        if j_in >= MIN_SHAFT_INERTIA:   # else refused by the check
             mobility = 1.0 / self.I2 + 1.0 / j_in
             self.natural_rate = math.sqrt((self.c_s + self.mp_amplitude) * mobility) + self.c_d * mobility
             # the exponential integrator's (torque_exponential_steps): the rigid rotation and the twist oscillator

@@ -33,8 +33,8 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from ...fmu import rk4, series
-from ..protocol import (NEGLIGIBLE_SWING, Drive, Torques, joint_angle_advice, shaft_inertia_problems,
-                        torque_driven_outputs)
+from ..protocol import (MIN_SHAFT_INERTIA, NEGLIGIBLE_SWING, Drive, Torques, joint_angle_advice,
+                        shaft_inertia_problems, torque_driven_outputs)
 
 #: Largest admissible joint angle magnitude [rad].
 MAX_ANGLE = math.radians(89.0)
@@ -948,8 +948,8 @@ class TorqueDrivenParameters(Parameters):
     def __post_init__(self):
         Parameters.__post_init__(self)
         j_in = self.J_drive + self.J_gb
-        self.inverse_j_in = 1.0 / j_in if j_in > 0.0 else 0.0
-        if j_in > 0.0:
+        self.inverse_j_in = 1.0 / j_in if j_in >= MIN_SHAFT_INERTIA else 0.0   # else refused by the check
+        if j_in >= MIN_SHAFT_INERTIA:
             self.natural_rate += math.sqrt(self.K1T / j_in) + self.C1T / j_in
         self.torque_linear = torque_linear_part(self)
         t, *lateral = self.torque_linear   # L's disc speed rows and lateral speed rows, flat for _flange_remainder
