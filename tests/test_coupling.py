@@ -149,6 +149,9 @@ def test_check_step_judges_an_untoleranced_vibration_over_its_steady_part(monkey
     assert "5% of its range from t = 3 s" in next(line for line in est.lines() if "a.w" in line)
     s.steady_from = 2.5   # the scenario's own steady part
     assert stepsize.estimate(s, coarse=coarse).steady_from == pytest.approx(2.5)
+    s.steady_from = None   # unset, as 0: the last quarter
+    assert stepsize.estimate(s, coarse=coarse).steady_from == pytest.approx(3.0)
+    s.steady_from = 2.5
     coarse["a.w"] = speed + np.where(time >= 2.0, 0.001 * np.sin(2.0 * np.pi * 5.0 * time), 0.0)
     assert stepsize.estimate(s, coarse=coarse).passed
 

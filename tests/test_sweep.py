@@ -1069,6 +1069,11 @@ def test_sampled_rows_run_as_points_not_a_grid(brutti, tmp_path, fmu_dir):
     assert len(grid.points) == 6
     with pytest.raises(ValueError, match="a value in every row"):
         Axis.rows("driveline.beta1,driveline.beta2", [(18.0,), (20.0, 20.0)], "deg")
+    with pytest.raises(ValueError, match="give it with its sign in the rows"):   # not dropped in silence
+        Axis.rows("driveline.beta1,-driveline.beta2", rows, "deg")
+    # each name its own value: names of different units sample together (a grid axis of them is refused)
+    mixed = Axis.rows("driveline.beta1,driveline.k_theta", [(0.3, 80.0), (0.35, 95.0)])
+    assert mixed.problems(brutti) == []
 
 
 def test_an_axis_is_the_same_grid_whatever_the_number_types_its_values_came_as(tmp_path, fmu_dir):
@@ -1113,6 +1118,8 @@ def test_a_parameter_swept_twice_or_swept_and_fixed_is_refused(fmu_dir, tmp_path
             "0", "--out", str(tmp_path), "-q"]
     assert main(base + ["--param", "load.T0=4,5", "--set", "load.T0=3"]) == 2
     assert "load.T0 both swept (--param) and fixed (--set)" in capsys.readouterr().err
+    assert main(base + ["--param", "driveline.beta2=10,15deg", "--set", "driveline.beta1,driveline.beta2=20deg"]) == 2
+    assert "driveline.beta2 both swept (--param) and fixed (--set)" in capsys.readouterr().err
     assert main(base + ["--param", "load.T0=4,5", "--param", "load.T0=6,7"]) == 2
     assert "load.T0 on more than one axis (--param)" in capsys.readouterr().err
     assert main(base + ["--param=driveline.beta1,driveline.k_theta=1:2:1"]) == 2

@@ -462,7 +462,8 @@ def cmd_sweep(args):
                                  running_speed=args.running_speed, settle_time=args.settle,
                                  revolutions=args.revolutions, orders=args.orders, steady_tol=args.steady_tol,
                                  max_settle_time=args.max_settle)
-    fixed = {text.partition("=")[0].strip().lstrip("-") for text in args.set or []}
+    fixed = {name.strip().lstrip("-").strip() for text in args.set or []
+             for name in text.partition("=")[0].split(",")}
     clash = sorted(fixed & {name for axis in axes for name in axis.names})
     if clash:   # the axis's values would replace the --set one at every point
         raise ScenarioError(f"{', '.join(clash)} both swept (--param) and fixed (--set): give it one of the two")

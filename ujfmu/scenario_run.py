@@ -816,7 +816,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                 oscillating = step_dependence_hint(scenario, fmu_dir, float(exc.partial["time"][-1]), oscillating,
                                                    str(exc))
             stalled = "" if oscillating else stalled_drive_hint(scenario, exc.partial)
-            coarse = [h for h in load_order_holds(scenario, exc.partial) if h.steps < HOLD_FAILING_STEPS]
+            coarse = [] if model_exchange else [h for h in load_order_holds(scenario, exc.partial)
+                                                if h.steps < HOLD_FAILING_STEPS]   # Model Exchange holds nothing
             held = "\n".join(f"hint: {str(h).split(' ', 1)[1]}: a periodic torque the step can hardly carry makes "
                              "the coupling chatter or grow on its own; take the smaller step first" for h in coarse)
             hint = "\n".join(h for h in (held, oscillating, stalled, hint) if h)
@@ -836,7 +837,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     operating, sampling = check_operating_points(scenario, table), check_sampling(scenario, table)
     if len(table) > 1:
         sampling += mode_sampling(scenario, float(np.max(np.diff(table["time"]))))
-        sampling += load_order_holds(scenario, table)
+        if not model_exchange:   # a host's solver holds no input over a step
+            sampling += load_order_holds(scenario, table)
     steady = check_steady_window(scenario, table, diagnostics.get("iterates", False))
     if extra:
         table = _without(table, extra)

@@ -110,7 +110,8 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
         return StepEstimate(run.step_size, {}, {}, str(exc).splitlines()[0])
     errors, allowed, absolute, steady = {}, {}, {}, {}
     time = np.asarray(extrapolated["time"], dtype=float)
-    since = (scenario.steady_from if scenario.steady_from > scenario.start_time
+    steady_from = scenario.steady_from or 0.0   # None: unset, as 0
+    since = (steady_from if steady_from > scenario.start_time
              else float(time[-1] - STEADY_SHARE * (time[-1] - time[0])))
     window = time >= since - 1e-9 * max(1.0, abs(since))
     for name in names:

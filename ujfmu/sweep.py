@@ -118,7 +118,10 @@ class Axis:
     def rows(cls, names, rows, unit: str = "") -> "Axis":
         """An axis of sampled points: each row sets every name to its own value (a Monte Carlo sample of several
         parameters; :meth:`of` with rows); a sweep over it runs the rows, not their grid."""
-        names = _signed(names)[0]
+        names, negated = _signed(names)
+        if negated:   # a row gives each name its own value, signs included
+            raise ValueError(f"a sampled row sets {', '.join(negated)} to its own value: give it with its sign in the "
+                             "rows, not a negated name")
         rows = [row.tolist() if hasattr(row, "tolist") else row for row in rows]
         if len(names) == 1:   # one name: a row may be its bare value
             rows = [row if isinstance(row, (list, tuple)) else [row] for row in rows]
@@ -252,7 +255,7 @@ class Axis:
             comp, _, par = name.partition(".")
             if comp in scenario.components and _declared_type(scenario, name) is not None:
                 units[name] = scenario.unit(name)
-        if len(set(units.values())) > 1:   # one value set into quantities of different units
+        if not self.sampled and len(set(units.values())) > 1:   # one value set into quantities of different units
             found.append(f"{what}: names set together take one value, but their units differ ("
                          + ", ".join(f"{name} [{unit or '1'}]" for name, unit in units.items())
                          + "): give each its own axis")
