@@ -1081,7 +1081,10 @@ def test_an_axis_is_the_same_grid_whatever_the_number_types_its_values_came_as(t
     grids = {Sweep(omar, [axis], settings, out_dir=tmp_path, fmu_dir=fmu_dir).grid
              for axis in (parse_axis("motor.profile=0,1", omar), Axis.of("motor.profile", [0.0, 1.0]),
                           Axis.of("motor.profile", np.array([0, 1])))}
-    assert len(grids) == 1
+    # the identity an earlier release gave this axis (parse_axis then held floats): json of [names, values], sorted
+    import hashlib
+    earlier = hashlib.sha256(json.dumps(sorted([json.dumps([["motor.profile"], [0.0, 1.0]])])).encode())
+    assert grids == {earlier.hexdigest()[:16]}
     flags = Axis.of("driveline.rigid_intermediate_shaft", np.array([True, False]))
     assert flags.values == [True, False] and all(type(v) is bool for v in flags.values)
 

@@ -249,7 +249,7 @@ def _run_one(args, path, scenario=None):
     if not args.model_exchange:   # a periodic load torque the step holds too coarsely, said before the run
         from .scenario_run import load_order_holds
         for hold in load_order_holds(scenario):
-            print(f"  warning {str(hold).split(' ', 1)[1]}", file=sys.stderr)
+            print(f"  warning {hold.text()}", file=sys.stderr)
     with _progress(args, Path(path).stem, "step") as progress:
         result = run_scenario(scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=plot,
                               progress=_paced(args, scenario.step_size, progress),
@@ -455,16 +455,17 @@ def cmd_sweep(args):
     from .scenario_run import load_order_holds
     from .steady import grows
     from .sweep import Sweep, sweep_setup
-    scenario = _with_set(Scenario(args.scenario), args.set)
+    scenario = Scenario(args.scenario)
+    fixed = _set_changes(scenario, args.set)
+    if fixed:
+        scenario = scenario.with_parameters(fixed)
     if args.step is not None:
         scenario.step_size = _step_size(args.step)
     axes, settings = sweep_setup(scenario, args.param or scenario.sweep.get("params", []), outputs=args.output,
                                  running_speed=args.running_speed, settle_time=args.settle,
                                  revolutions=args.revolutions, orders=args.orders, steady_tol=args.steady_tol,
                                  max_settle_time=args.max_settle)
-    fixed = {name.strip().lstrip("-").strip() for text in args.set or []
-             for name in text.partition("=")[0].split(",")}
-    clash = sorted(fixed & {name for axis in axes for name in axis.names})
+    clash = sorted(set(fixed) & {name for axis in axes for name in axis.names})
     if clash:   # the axis's values would replace the --set one at every point
         raise ScenarioError(f"{', '.join(clash)} both swept (--param) and fixed (--set): give it one of the two")
     sweep = Sweep(scenario, axes, settings, out_dir=args.out, name=args.name, fmu_dir=args.fmu_dir)
@@ -474,7 +475,7 @@ def cmd_sweep(args):
     holds = [hold for point in sweep.points for hold in load_order_holds(scenario.with_values(point))]
     if holds:   # a periodic load torque the step holds too coarsely at some point: said for the worst
         worst = max(holds, key=lambda hold: hold.lag)
-        print(f"  warning {str(worst).split(' ', 1)[1]} (the fastest of {len(holds)} such points: their order "
+        print(f"  warning {worst.text()} (the fastest of {len(holds)} such points: their order "
               "amplitudes carry it)", file=sys.stderr)
     for name in filter(grows, settings.outputs):
         print(f"  note: {name} grows with time in any steady state (a running angle or an energy integral): its "
@@ -565,6 +566,13 @@ def _status_summary(counts, total, steady_checked=True):
 def _with_set(scenario, texts):
     """The scenario with the --set values COMP.PAR=VALUE[rpm|deg] (``Scenario.with_parameters``: a copy named
     <scenario>_changed, without the reference), or itself without any."""
+    changes = _set_changes(scenario, texts)
+    return scenario.with_parameters(changes) if changes else scenario
+
+
+def _set_changes(scenario, texts) -> dict:
+    """{component.parameter: value} of the --set texts COMP.PAR=VALUE[rpm|deg] (``parse_axis``: one value each),
+    each parameter once."""
     from .scenario import ScenarioError
     from .sweep import SweepSettingsError, parse_axis
     changes = {}
@@ -581,7 +589,7 @@ def _with_set(scenario, texts):
             raise ScenarioError(f"--set {text!r}: {', '.join(twice)} is set by an earlier --set too: give each "
                                 "parameter once")
         changes.update(axis.assignments(axis.values[0]))
-    return scenario.with_parameters(changes) if changes else scenario
+    return changes
 
 
 def cmd_modes(args):

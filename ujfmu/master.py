@@ -731,7 +731,11 @@ class Cosimulation:
                 signal.signal(signal.SIGINT, previous)
             asked, STOP[0] = STOP[0], False   # a Ctrl-C after the last step's check: this run's, not the next's
         if asked:
-            raise Interrupted(f"stopped at t = {self.time:.10g} s after {self.steps_done} steps")
+            raise self._interrupted()
+
+    def _interrupted(self) -> Interrupted:
+        """The Interrupted a Ctrl-C or SIGTERM raises at the current communication step."""
+        return Interrupted(f"stopped at t = {self.time:.10g} s after {self.steps_done} steps")
 
     def _advance(self, n_steps, rows, progress, output_interval):
         """:meth:`advance` under whichever SIGINT handler is in place."""
@@ -753,7 +757,7 @@ class Cosimulation:
         h, start = self.step_size, self.start_time
         if STOP[0]:   # asked while the FMUs were being set up
             STOP[0] = False
-            raise Interrupted(f"stopped at t = {self.time:.10g} s before the first step")
+            raise self._interrupted()
         while k < n_steps:
             if not implicit:   # explicit steps up to the next progress report, in one tight loop
                 count = min(n_steps - k, every - k % every) if progress is not None else n_steps - k
@@ -787,7 +791,7 @@ class Cosimulation:
                         self._settle_pending()
                 if STOP[0]:
                     STOP[0] = False
-                    raise Interrupted(f"stopped at t = {self.time:.10g} s after {self.steps_done} steps")
+                    raise self._interrupted()
             if progress is not None and k % every == 0 and progress(k, n_steps) is False and k < n_steps:
                 self._settle_pending()   # the steps taken first, as a failure would
                 raise RunStopped(f"t = {self.time!r}: stopped by the progress callback after {k} of {n_steps} steps "
@@ -873,7 +877,7 @@ class Cosimulation:
                     if pending:
                         settle(steps)
                     stop[0] = False
-                    raise Interrupted(f"stopped at t = {self.time:.10g} s after {self.steps_done} steps")
+                    raise self._interrupted()
             if pending and k + count == n_steps:
                 settle(steps)
         finally:

@@ -70,7 +70,7 @@ _OTHER_CAUSALITY = {"input": "an input: connect it, or set it under inputs",
                     "output": "an output, which the FMU computes"}
 
 
-def _plain(value):
+def plain_number(value):
     """A numpy scalar or 0-d array as the Python number it holds (np.int64 an int, np.float32 a float, np.bool_ a
     bool: what a numpy or scipy loop hands over); anything else as it is."""
     item = getattr(value, "item", None)
@@ -385,7 +385,7 @@ class Scenario:
             complete = complete and connection.ok
         unfed = self.unfed_inputs()
         if unfed and complete:   # an input a connection with a problem was meant to feed is not named again
-            problems.add(self._unfed_text(unfed))
+            problems.add(f"{self.path}: {self._unfed_text(unfed)}")
 
     def unfed_inputs(self) -> list:
         """The inputs ("component.input") no connection feeds and the scenario does not set, but for those the
@@ -399,15 +399,16 @@ class Scenario:
                      else self.parameters_with_defaults(cname).get(v.used_if))]
 
     def _unfed_text(self, unfed: list) -> str:
+        """Why the inputs unfed (:meth:`unfed_inputs`) must be connected, and how."""
         read = [name for name in unfed if self._used_if(name)]
         if read:
             name = read[0]
-            return (f"{self.path}: input(s) {', '.join(read)} not connected: {name.partition('.')[0]}'s "
+            return (f"input(s) {', '.join(read)} not connected: {name.partition('.')[0]}'s "
                     f"{self._used_if(name)} != 0 reads it over the run (a Load's periodic torque reads its shaft's "
                     f"angle): connect it, e.g. from = \"<machine>.phi_out\", to = \"{name}\" (a value held there "
                     "would make the torque a constant)")
         first = unfed[0].split(".", 1)
-        return (f"{self.path}: input(s) {', '.join(unfed)} not connected: connect each ([[connections]] to = ...) "
+        return (f"input(s) {', '.join(unfed)} not connected: connect each ([[connections]] to = ...) "
                 f"or set it explicitly, held constant, e.g. [components.{first[0]}] inputs = {{ {first[1]} = 0.0 }}")
 
     def _used_if(self, name: str) -> str | None:
@@ -558,7 +559,7 @@ class Scenario:
         are; named ``name`` (default ``<name>_changed``: its CSV and figures do not overwrite this scenario's), its
         title saying what changed, and without the reference: a reference is made for the file's setup, so the copy
         runs unchecked (give it a scenario file and `ujfmu references` to check it)."""
-        changes = {key: _plain(value) for key, value in changes.items()}
+        changes = {key: plain_number(value) for key, value in changes.items()}
         problems = _Problems(self.path)
         if name is not None and (not isinstance(name, str) or not name or name.startswith(".")
                                  or any(c in name for c in "/\\\0")):
@@ -587,8 +588,7 @@ class Scenario:
                                     f"{'; '.join(problems)}")
         unfed = [name for name in out.unfed_inputs() if name not in self.unfed_inputs()]
         if unfed:   # an input the changed parameters make the model read (a Load's phi for its T_h)
-            raise ScenarioError(f"{self.path}: with_parameters: {', '.join(changes)}: "
-                                + self._unfed_text(unfed).partition(": ")[2])
+            raise ScenarioError(f"{self.path}: with_parameters: {', '.join(changes)}: {self._unfed_text(unfed)}")
         out.name = name or f"{self.name}_changed"
         if changes:
             out.title = f"{self.title} (changed: " + ", ".join(self._change_text(k, v) for k, v in changes.items()) + ")"
@@ -627,12 +627,9 @@ class Scenario:
         deliberately, not by omission)."""
         fmu, params = self.components[component]
         fed = {c.target for c in getattr(self, "connections", ())}
-        unread = {}
-        if any(v.causality == "input" and v.used_if for v in fmu_class(fmu).VARIABLES):
-            values = self.parameters_with_defaults(component)
-            unread = {v.name: v.start for v in fmu_class(fmu).VARIABLES
-                      if v.causality == "input" and v.used_if and not values.get(v.used_if)
-                      and f"{component}.{v.name}" not in fed}
+        unread = {v.name: v.start for v in fmu_class(fmu).VARIABLES
+                  if v.causality == "input" and v.used_if and f"{component}.{v.name}" not in fed
+                  and not self.parameters_with_defaults(component).get(v.used_if)}
         return {**unread, **params, **self.inputs.get(component, {})}
 
     def _check_generator(self):

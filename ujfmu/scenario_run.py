@@ -387,17 +387,21 @@ class LoadOrderHold:
         return self.steps > MIN_SAMPLES_PER_PERIOD
 
     def __str__(self):
+        return f"{'note' if self.passed else 'FAIL'} {self.text()}"
+
+    def text(self) -> str:
+        """What the hold does and the step that keeps it within ``HOLD_LAG``, without the line's note/FAIL head (a
+        warning before a run, a hint after a failure)."""
         within = 2.0 * HOLD_LAG / (self.order * self.omega)
         what = (f"{self.load}'s periodic torque: its {self.order:g}x order at up to {speed_text(self.omega)} is held "
                 f"over steps of {self.step:g} s, {self.steps:.3g} a period")
         if not self.passed:
-            return (f"FAIL {what}: the step cannot carry it (it aliases, and the coupling may chatter on it); take a "
-                    f"step of at most {within:.3g} s")
-        return (f"note {what}: it drives the machine with at most {100.0 * self.kept:.4g}% of its amplitude (the "
-                f"hold's images take more at few steps a period), {self.lag:.3g} rad "
-                f"({math.degrees(self.lag):.3g} deg) of its phase late (half a step), which near a resonance moves "
-                f"the response by more; a step of at most {within:.3g} s keeps the lag within {HOLD_LAG:g} rad "
-                "(--check-step estimates the error)")
+            return (f"{what}: the step cannot carry it (it aliases, and the coupling may chatter on it); take a step "
+                    f"of at most {within:.3g} s")
+        return (f"{what}: it drives the machine with at most {100.0 * self.kept:.4g}% of its amplitude (the hold's "
+                f"images take more at few steps a period), {self.lag:.3g} rad ({math.degrees(self.lag):.3g} deg) of "
+                f"its phase late (half a step), which near a resonance moves the response by more; a step of at most "
+                f"{within:.3g} s keeps the lag within {HOLD_LAG:g} rad (--check-step estimates the error)")
 
 
 def load_order_holds(scenario: Scenario, table: np.ndarray | None = None) -> list:
@@ -476,12 +480,17 @@ def operating_pairs(scenario: Scenario) -> list:
     return pairs
 
 
+def window_from(t: np.ndarray, since: float) -> np.ndarray:
+    """The instants of t from since on (a host's rounding of since forgiven: 1e-9 of it)."""
+    return t >= since - 1e-9 * max(1.0, abs(since))
+
+
 def check_operating_points(scenario: Scenario, table: np.ndarray) -> list:
     """An OperatingPointCheck per drive whose speed and set point are in table."""
     t = table["time"]
     since = scenario.steady_from if scenario.steady_from > scenario.start_time else \
         float(t[-1] - END_WINDOW * (t[-1] - t[0]))
-    window = t >= since - 1e-9 * max(1.0, abs(since))
+    window = window_from(t, since)
     checks = []
     for signal, set_point in operating_pairs(scenario):
         if signal not in table.dtype.names or set_point not in table.dtype.names or not window.any():
@@ -606,8 +615,7 @@ class ScenarioResult:
         from .steady import grows
         t = self.table["time"]
         steady = self.scenario.steady_from > self.scenario.start_time
-        window = t >= self.scenario.steady_from - 1e-9 * max(1.0, abs(self.scenario.steady_from)) if steady else \
-            np.ones(len(t), dtype=bool)
+        window = window_from(t, self.scenario.steady_from) if steady else np.ones(len(t), dtype=bool)
         lines = [f"  recorded signals {f'from t = {self.scenario.steady_from:g} s' if steady else 'over the run'} "
                  "(min, max at the recorded instants; mean, RMS over time, trapezoidal):"]
         times = np.asarray(t[window], dtype=float)
@@ -818,21 +826,15 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
             stalled = "" if oscillating else stalled_drive_hint(scenario, exc.partial)
             coarse = [] if model_exchange else [h for h in load_order_holds(scenario, exc.partial)
                                                 if h.steps < HOLD_FAILING_STEPS]   # Model Exchange holds nothing
-            held = "\n".join(f"hint: {str(h).split(' ', 1)[1]}: a periodic torque the step can hardly carry makes "
-                             "the coupling chatter or grow on its own; take the smaller step first" for h in coarse)
+            held = "\n".join(f"hint: {h.text()}: a periodic torque the step can hardly carry makes the coupling "
+                             "chatter or grow on its own; take the smaller step first" for h in coarse)
             hint = "\n".join(h for h in (held, oscillating, stalled, hint) if h)
         if hint:
             exc.args = (f"{exc.args[0]}\n{hint}",) + exc.args[1:]
-        if exc.partial is not None and extra:
-            exc.partial = _without(exc.partial, extra)
-        if exc.partial is not None and out_dir is not None:
-            _write_partial(scenario, exc, Path(out_dir), plot)
+        _keep_partial(scenario, exc, extra, out_dir, plot)
         raise
     except Interrupted as exc:   # a Ctrl-C or SIGTERM: the results up to there, as a failed run's
-        if exc.partial is not None and extra:
-            exc.partial = _without(exc.partial, extra)
-        if exc.partial is not None and out_dir is not None:
-            _write_partial(scenario, exc, Path(out_dir), plot)
+        _keep_partial(scenario, exc, extra, out_dir, plot)
         raise
     operating, sampling = check_operating_points(scenario, table), check_sampling(scenario, table)
     if len(table) > 1:
@@ -1057,6 +1059,15 @@ def stalled_drive_hint(scenario: Scenario, partial: np.ndarray) -> str:
                     "load, and a load's torque reversing about zero speed chatters; if so, give the drive more "
                     "torque (tau_max) or lower the load")
     return ""
+
+
+def _keep_partial(scenario, exc, extra, out_dir, plot):
+    """A stopped run's results up to there (``exc.partial``) without the ride-along columns extra, written into
+    out_dir (None: not written) as a failed run's and named in the exception's message."""
+    if exc.partial is not None and extra:
+        exc.partial = _without(exc.partial, extra)
+    if exc.partial is not None and out_dir is not None:
+        _write_partial(scenario, exc, Path(out_dir), plot)
 
 
 def _write_partial(scenario, exc, out_dir, plot):

@@ -92,7 +92,7 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     the run's own check); else the run records the drivetrain components' input speeds too, for
     ``scenario_run.check_sampling``. With a reference file and [reference.extrapolated] bands, at most the
     scenario's declared step (the bands hold the remainder there), the extrapolation compared within them."""
-    from .scenario_run import check_sampling, compare, extrapolate_step, sampled_components
+    from .scenario_run import check_sampling, compare, extrapolate_step, sampled_components, window_from
     run = copy.copy(scenario)
     run.step_size = scenario.step_size if step is None else step
     names = list(scenario.tolerances) or list(scenario.record)
@@ -113,7 +113,7 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     steady_from = scenario.steady_from or 0.0   # None: unset, as 0
     since = (steady_from if steady_from > scenario.start_time
              else float(time[-1] - STEADY_SHARE * (time[-1] - time[0])))
-    window = time >= since - 1e-9 * max(1.0, abs(since))
+    window = window_from(time, since)
     for name in names:
         span = float(np.ptp(extrapolated[name]))
         diff = float(np.max(np.abs(extrapolated[name] - coarse[name])))

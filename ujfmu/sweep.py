@@ -56,7 +56,7 @@ from pathlib import Path
 from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
 from .extras import require
 from .master import Component, Connection, Cosimulation, FmuWarning
-from .scenario import SWEEP_KEYS, Scenario, ScenarioError
+from .scenario import SWEEP_KEYS, Scenario, ScenarioError, plain_number
 from .steady import ERROR, FIGURES, FINAL, OK, STATUSES, grows, settle_and_measure
 
 #: human units accepted after a --param range, and their factor to SI
@@ -101,8 +101,7 @@ class Axis:
         unit = unit.lower()
         if unit not in UNITS:
             raise ValueError(f"unknown unit {unit!r}: use 'rpm' (rad/s parameters), 'deg' (rad parameters) or '' (SI)")
-        from .scenario import _plain
-        values = [_plain(v) for v in values]   # numpy numbers and bools as the Python ones they hold
+        values = [plain_number(v) for v in values]   # numpy numbers and bools as the Python ones they hold
         if not values:
             raise ValueError(f"the axis of {', '.join(names)} has no values: give at least one")
         rows = [isinstance(v, (tuple, list)) or getattr(v, "ndim", 0) == 1 for v in values]
