@@ -116,7 +116,7 @@ def test_scenario_modes_are_the_jeffcott_frequencies_and_their_order_crossings()
     scenario = Scenario(Path(__file__).parent.parent / "scenarios" / "twin_jeffcott_steady.toml")
     rig = tj.rig_parameters()
     modes = scenario_modes(scenario)
-    assert {m.component for m in modes} == {"rotor"} and all(m.orders == 2 for m in modes)
+    assert {m.component for m in modes} == {"rotor"} and all(m.orders == (1, 2) for m in modes)
     for i in (1, 2):
         jeffcott = math.sqrt(rig[f"K{i}X"] / (rig[f"M{i}"] + rig[f"m_u{i}"]))
         match = [m for m in modes if abs(m.omega / jeffcott - 1.0) < 2e-3]
@@ -186,3 +186,39 @@ def test_modes_list_the_crossings_of_a_loads_periodic_torque(tmp_path, capsys):
         assert f"3x (load's periodic torque) at {mode.omega / 3:.6g} rad/s" in out
     assert "from rest to it the speed crosses 4" in out
     assert load_orders(Scenario(SCENARIOS / "double_cardan_omar_torsional.toml")) == {}
+
+
+@pytest.mark.parametrize("scenario, point, orders", [
+    ("double_cardan_omar_torsional.toml", {}, (2,)),
+    ("double_cardan_omar_torsional.toml", {"driveline.beta1": 0.0, "driveline.beta2": 0.0}, ()),
+    ("cardan_startup.toml", {}, (2,)),
+    ("ring_coupling_startup.toml", {}, (2,)),
+    ("twin_jeffcott_steady.toml", {"rotor.m_u1": 0.0, "rotor.m_u2": 0.0}, (2,)),
+    ("twin_jeffcott_steady.toml", {"rotor.beta": 0.0}, (1,)),
+])
+def test_a_modes_orders_are_those_the_machine_excites(scenario, point, orders):
+    """A Cardan joint's kinematics repeat every half turn (theta1 -> theta1 + pi turns the cross end for end), and
+    a ring coupling's M_p goes with cos(phi1 + phi2): their modes meet the 2x, never a 1x; straight joints excite
+    none; a twin rotor's discs add the unbalance's 1x, its bent joint the 2x. The Cardan joint itself has no mode of
+    its own: its orders are checked on the model."""
+    from ujfmu.analysis import carried_orders, scenario_modes
+    from ujfmu.build import fmu_class
+    from ujfmu.scenario import Scenario
+    s = Scenario(Path(__file__).parent.parent / "scenarios" / scenario)
+    modes = scenario_modes(s, point)
+    if scenario.startswith("cardan"):
+        assert modes == []
+        physics = fmu_class("CardanJoint").PHYSICS
+        assert carried_orders(physics, s.model_parameters("joint")) == orders
+        return
+    assert modes and all(m.orders == orders for m in modes), modes
+
+
+def test_the_cardan_joints_speed_ratio_has_no_odd_order():
+    """The oracle behind a joint's 2x-only orders: over a turn its speed ratio (bent, with bend-plane and error
+    angles) has no 1x or 3x above round-off, and a 2x of its swing's size."""
+    from ujfmu.models.cardan_joint import model as cj
+    frame = cj.joint_frame(0.3, 0.1, 0.005, 0.005)
+    theta = np.linspace(0.0, 2.0 * math.pi, 256, endpoint=False)
+    spectrum = np.abs(np.fft.rfft([cj.velocity_ratio(frame, t) for t in theta])) / 128
+    assert spectrum[1] < 1e-12 and spectrum[3] < 1e-12 and spectrum[2] > 0.04

@@ -2,6 +2,7 @@
 models' natural frequencies (linearisation) and the speeds at which the orders cross them."""
 
 import math
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -154,14 +155,14 @@ NEAR_CRITICAL = 0.1
 class Mode:
     """A natural frequency of a machine component of a scenario (``scenario_modes``): its mean over the input
     angle omega [rad/s], the number of modes merged into it (within 0.5%: the X and Y modes of a round shaft),
-    the range low-high the linearisation spans over the input angle, and the highest order of the input speed
-    the component's outputs carry (its model's ``EXCITATION_ORDER``: a joint's 2x)."""
+    the range low-high the linearisation spans over the input angle, and the orders of the input speed the
+    component's outputs carry at its parameters (:func:`carried_orders`: a joint's 2x)."""
     component: str
     omega: float
     count: int
     low: float
     high: float
-    orders: int
+    orders: tuple
 
     def critical_speed(self, order: int) -> float:
         """The input speed [rad/s] whose order-th harmonic is at this frequency (a Campbell diagram's crossing):
@@ -218,7 +219,8 @@ def _modes(scenario, point: dict | None, held: bool) -> list[Mode]:
         elif not held and name in rotors and fmu + "TorqueDriven" in FMUS:
             model = fmu_class(fmu + "TorqueDriven").MODEL
             parameters.update(J_drive=rotors[name], omega_in_start=0.0)
-        orders = getattr(cls.PHYSICS, "EXCITATION_ORDER", 1)
+        orders = carried_orders(cls.PHYSICS, cls.MODEL.Parameters(
+            **{f.name: parameters[f.name] for f in dataclasses.fields(cls.MODEL.Parameters) if f.init}))
         merged = []
         for omega, low, high in zip(*model_natural_frequency_range(model, parameters)):
             if merged and omega <= merged[-1].omega * 1.005:
@@ -228,6 +230,17 @@ def _modes(scenario, point: dict | None, held: bool) -> list[Mode]:
                 merged.append(Mode(name, float(omega), 1, float(low), float(high), orders))
         modes += merged
     return modes
+
+
+def carried_orders(physics, p) -> tuple:
+    """The orders of the input speed a model's outputs carry at full size at its parameters p: its
+    ``excited_orders(p)``, else 1 to its ``excitation_order(p)`` (or ``EXCITATION_ORDER``; 1 without one)."""
+    if hasattr(physics, "excited_orders"):
+        return tuple(physics.excited_orders(p))
+    highest = getattr(physics, "EXCITATION_ORDER", 1)
+    if hasattr(physics, "excitation_order"):
+        highest = physics.excitation_order(p)
+    return tuple(range(1, highest + 1))
 
 
 def load_orders(scenario) -> dict:

@@ -611,14 +611,15 @@ def cmd_modes(args):
 
     def orders(m):
         """(order, what excites it) of a mode: the machine's own orders, then its Loads' periodic torques'."""
-        return ([(k, "") for k in range(1, m.orders + 1)]
+        return ([(k, "") for k in m.orders]
                 + [(k, f" ({load}'s periodic torque)") for load, k in loads.get(m.component, [])])
 
     def show(modes):
         for m in modes:
             spread = f", {m.low:.5g}-{m.high:.5g} over the input angle" if m.high > 1.005 * m.low else ""
             merged = f", {m.count} modes" if m.count > 1 else ""
-            crossings = "; ".join(f"{k:g}x{by} at {speed_text(m.critical_speed(k))}" for k, by in orders(m))
+            crossings = ("; ".join(f"{k:g}x{by} at {speed_text(m.critical_speed(k))}" for k, by in orders(m))
+                         or "no order of the input speed excites it at these parameters")
             print(f"  {m.component}: {m.omega:.5g} rad/s ({m.omega / (2 * math.pi):.5g} Hz{merged}{spread}): "
                   f"{crossings}")
     show(modes)
@@ -634,6 +635,9 @@ def cmd_modes(args):
         crossings = sorted(((abs(speed) / m.critical_speed(k) - 1.0, m, k, bound)
                             for m, bound in [(m, "") for m in modes] + [(m, " (input held)") for m in held]
                             for k, _ in orders(m)), key=lambda item: abs(item[0]))
+        if not crossings:
+            print(f"  {name} = {speed_text(abs(speed))}: no order of the input speed excites a mode")
+            continue
         margin, m, k, bound = crossings[0]
         near = abs(margin) < NEAR_CRITICAL
         print(f"  {name} = {speed_text(abs(speed))}: the nearest crossing is the {k:g}x order's with {m.component}'s "

@@ -47,6 +47,11 @@ def excitation_order(p: "Parameters") -> int:
     return EXCITATION_ORDER if swing > NEGLIGIBLE_SWING else 0
 
 
+def excited_orders(p: "Parameters") -> tuple:
+    """The orders of the input speed the outputs carry at full size at p: the joint's 2x alone (its kinematics repeat every half turn, error angles included: no odd order), or none (:func:`excitation_order`)."""
+    return (EXCITATION_ORDER,) if excitation_order(p) else ()
+
+
 def joint_frame(bend_angle: float, bend_plane_angle: float, error_angle_beta: float, error_angle_gamma: float) -> tuple:
     """Columns (a, b, K) of C = R_y(-gamma) R_x(-beta) R_y(delta) R_x(phi); K is the driving axis (Eq. 9).
 

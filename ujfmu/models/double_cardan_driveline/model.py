@@ -54,6 +54,11 @@ def excitation_order(p: "Parameters") -> int:
     return EXCITATION_ORDER if 0.5 * max(p.beta1 * p.beta1, p.beta2 * p.beta2) > NEGLIGIBLE_SWING else 0
 
 
+def excited_orders(p: "Parameters") -> tuple:
+    """The orders of the input speed the outputs carry at full size at p: the joints' 2x alone (their kinematics repeat every half turn: no odd order), or none (:func:`excitation_order`)."""
+    return (EXCITATION_ORDER,) if excitation_order(p) else ()
+
+
 def joint_error(x: float, b: float) -> float:
     """y - x for tan y = tan x / cos b: atan2((1 - c) sin 2x, (1 + c) - (1 - c) cos 2x), c = cos b (Omar Eq. 4)."""
     return _error(math.sin(x), math.cos(x), math.cos(b))

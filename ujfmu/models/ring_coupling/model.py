@@ -46,6 +46,11 @@ def excitation_order(p: "Parameters") -> int:
     return EXCITATION_ORDER if (p.e / p.R) ** 2 > NEGLIGIBLE_SWING else 0
 
 
+def excited_orders(p: "Parameters") -> tuple:
+    """The orders of the input speed the outputs carry at full size at p: M_p's 2x alone (cos(phi1 + phi2): no odd order), or none (:func:`excitation_order`)."""
+    return (EXCITATION_ORDER,) if excitation_order(p) else ()
+
+
 def bending_stiffness(E: float, d: float) -> float:
     """EI of a round wire of diameter d [N.m^2]."""
     return E * math.pi * d ** 4 / 64.0

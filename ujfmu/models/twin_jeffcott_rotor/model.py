@@ -51,6 +51,13 @@ def excitation_order(p: "Parameters") -> int:
         return EXCITATION_ORDER
     return 1 if p.e and (p.m_u1 or p.m_u2) else 0
 
+
+def excited_orders(p: "Parameters") -> tuple:
+    """The orders of the input speed the outputs carry at full size at p: the discs' unbalance's 1x where there is
+    one (m_u e), the joint's 2x where it is bent (:func:`excitation_order`)."""
+    return tuple(k for k, present in ((1, p.e and (p.m_u1 or p.m_u2)), (EXCITATION_ORDER, excitation_order(p) == 2))
+                 if present)
+
 #: The default rig (one place for every default; README.md). Steel: E, G = E / (2 (1 + 0.3)), density.
 RIG = dict(
     E=210.0e9, G=210.0e9 / 2.6, density=7850.0,   # Pa, Pa, kg/m^3 (structural steel handbook values)
