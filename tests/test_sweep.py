@@ -1025,7 +1025,8 @@ def test_a_rerun_says_what_it_skipped_and_what_it_left(brutti, tmp_path, fmu_dir
 def test_sweep_set_fixes_a_parameter_at_every_point(fmu_dir, tmp_path, capsys):
     """`ujfmu sweep --set driveline.k_theta=1000` (it had been read as an abbreviated --settle and refused): every
     point runs with the stiffer shaft, whose twist under the 5 N.m load is 5 / 1000 rad on average (92.2 N.m/rad
-    in the file), in a sweep named <scenario>_changed_sweep."""
+    in the file), in a sweep named <scenario>_changed_sweep. The CSV records the fixed value on every row, and its
+    columns file says what it is, so the table says how it was made."""
     args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_omar_torsional.toml"), "--set",
             "driveline.k_theta=1000", "--param", "motor.omega_set=600,700rpm", "--output", "driveline.twist",
             "--settle", "0.5", "--steady-tol", "0", "--workers", "0", "--out", str(tmp_path), "--no-plot", "-q"]
@@ -1034,6 +1035,11 @@ def test_sweep_set_fixes_a_parameter_at_every_point(fmu_dir, tmp_path, capsys):
         rows = list(csv.DictReader(f))
     assert len(rows) == 2 and all(float(r["driveline.twist.mean"]) == pytest.approx(5.0 / 1000.0, rel=0.03)
                                   for r in rows)
+    assert list(rows[0])[:3] == ["motor.omega_set", "driveline.k_theta", "status"]
+    assert [r["driveline.k_theta"] for r in rows] == ["1000.0", "1000.0"]
+    with open(tmp_path / "double_cardan_omar_torsional_changed_sweep.columns.csv") as f:
+        columns = {r["column"]: r for r in csv.DictReader(f)}
+    assert columns["driveline.k_theta"]["unit"] == "N.m/rad" and "fixed" in columns["driveline.k_theta"]["meaning"]
 
 
 def test_sampled_rows_run_as_points_not_a_grid(brutti, tmp_path, fmu_dir):

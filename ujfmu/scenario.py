@@ -258,7 +258,8 @@ class Scenario:
     ``start_time``, ``stop_time``, ``step_size``, ``output_interval``, ``coupling`` ("implicit" or "explicit"),
     ``components`` ({name: (FMU name, {parameter: value})}), ``inputs``, ``connections`` (``master.Connection``),
     ``record`` ("component.variable" names), ``tolerances`` ({signal: Tolerance}), ``running_speed``,
-    ``steady_from``, ``sweep`` (its [sweep] table); ``reference_file`` is None on a changed copy."""
+    ``steady_from``, ``sweep`` (its [sweep] table); ``reference_file`` is None on a changed copy, whose ``changes``
+    ({"component.parameter": value}, {} as read) say what ``with_parameters`` changed from the file."""
 
     def __init__(self, path):
         self.path = Path(path)
@@ -272,6 +273,7 @@ class Scenario:
         except tomllib.TOMLDecodeError as exc:
             raise ScenarioError(f"{self.path}: {exc}") from None
         self.name = self.path.stem
+        self.changes = {}
         problems = _Problems(self.path)
         with problems.kept():
             self._read_header(data)
@@ -590,6 +592,7 @@ class Scenario:
         if unfed:   # an input the changed parameters make the model read (a Load's phi for its T_h)
             raise ScenarioError(f"{self.path}: with_parameters: {', '.join(changes)}: {self._unfed_text(unfed)}")
         out.name = name or f"{self.name}_changed"
+        out.changes = {**self.changes, **changes}
         if changes:
             out.title = f"{self.title} (changed: " + ", ".join(self._change_text(k, v) for k, v in changes.items()) + ")"
         out.reference_file, out.tolerances, out.extrapolated_tolerances = None, {}, {}

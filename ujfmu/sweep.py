@@ -926,28 +926,38 @@ class Sweep:
         return [done.get(self.key(p), {"point": p, "status": "missing", "error": ""}) for p in self.points]
 
     def table(self) -> list:
-        """One flat dict a point, in grid order, as the CSV: the swept parameters by name (SI), status, the
+        """One flat dict a point, in grid order, as the CSV: the swept and fixed parameters by name (SI), status, the
         figures of every output (NaN for a point without them: failed or not run), speed_mean, settled_s,
         steady_change, wall_s, error, note, warnings, and the run's communication step_size and coupling (the
         record's "point" is kept as well)."""
         blank = dict.fromkeys(["speed_mean"] + self.settings.columns() + ["settled_s", "steady_change", "wall_s"],
                               math.nan)
         run = {"step_size": self.job.step_size, "coupling": self.job.coupling}
-        return [{**r["point"], **blank, "note": "", "warnings": "",
+        return [{**r["point"], **self.fixed_parameters(), **blank, "note": "", "warnings": "",
                  **{k: v for k, v in r.items() if k not in ("config", "grid")}, **run} for r in self.records()]
 
+    def fixed_parameters(self) -> dict:
+        """{"component.parameter": value} of the parameters the scenario's copy changed from its file
+        (``Scenario.changes``: ``--set``, ``with_parameters``) and no axis sweeps: every point's."""
+        swept = {n for ax in self.axes for n in ax.names}
+        return {k: v for k, v in self.scenario.changes.items() if k not in swept}
+
     def write_csv(self):
-        """The tidy CSV: one row a point; swept parameters in SI units, then the figures of every output."""
+        """The tidy CSV: one row a point; swept parameters in SI units, the fixed ones changed from the scenario
+        file (:meth:`fixed_parameters`, the same on every row), then the figures of every output."""
+        fixed = self.fixed_parameters()
         param_cols = [n for ax in self.axes for n in ax.names]
         cols = ["speed_mean"] + self.settings.columns() + ["settled_s", "steady_change"]
 
         def write(f):
             writer = csv.writer(f)
-            writer.writerow(param_cols + ["status"] + cols + ["wall_s", "error", "note", "warnings", "step_size",
-                                                             "coupling"])
+            writer.writerow(param_cols + list(fixed) + ["status"] + cols
+                            + ["wall_s", "error", "note", "warnings", "step_size", "coupling"])
             run = [repr(float(self.job.step_size)), self.job.coupling]
+            fixed_values = [_csv_number(v) for v in fixed.values()]
             for record in self.records():
-                writer.writerow([_csv_number(record["point"][n]) for n in param_cols] + [record["status"]]
+                writer.writerow([_csv_number(record["point"][n]) for n in param_cols] + fixed_values
+                                + [record["status"]]
                                 + [repr(record[c]) if c in record else "" for c in cols]
                                 + [f"{record.get('wall_s', float('nan')):.3f}", record["error"],
                                    record.get("note", ""), record.get("warnings", "")] + run)
@@ -971,6 +981,10 @@ class Sweep:
             for name in axis.names:
                 columns[name] = ("", "swept parameter (1 true, 0 false)") if boolean else (
                     self.scenario.unit(name), "swept parameter (SI)")
+        for name, value in self.fixed_parameters().items():
+            columns[name] = (("", "fixed parameter changed from the scenario file (--set; 1 true, 0 false)")
+                             if isinstance(value, bool) else
+                             (self.scenario.unit(name), "fixed parameter changed from the scenario file (--set; SI)"))
         columns["status"] = ("", "ok, not_steady, off_target, error or missing")
         columns["speed_mean"] = ("rad/s", f"mean running speed ({self.settings.running_speed})")
         for column in self.settings.columns():   # <output>.<figure>, <output>.h<k>
