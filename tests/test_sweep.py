@@ -920,7 +920,7 @@ def test_a_sweep_of_the_same_name_running_now_is_refused(brutti, tmp_path, fmu_d
     """Two sweeps of one name into one folder at once had both run: two grids mixed in one journal (every later run
     refused) or every point computed twice, and the CSV the last finisher's. While one holds the lock (here this
     test, as another process would), a second is refused with the remedy, before it writes anything; once the lock
-    is free it runs."""
+    is free it runs, and removes its lock file when it ends (they had stayed beside every table)."""
     import fcntl
 
     from ujfmu.sweep import SweepBusy
@@ -933,6 +933,7 @@ def test_a_sweep_of_the_same_name_running_now_is_refused(brutti, tmp_path, fmu_d
         fcntl.flock(held, fcntl.LOCK_UN)
     sweep.run(workers=0)
     assert [row["status"] for row in sweep.table()] == ["ok"]
+    assert not (tmp_path / "double_cardan_brutti_rigid_sweep.lock").exists()
 
 
 def test_a_table_that_cannot_be_written_leaves_the_last_one_whole(brutti, tmp_path, fmu_dir, monkeypatch):

@@ -720,22 +720,35 @@ def _sole_writer(lock_path: Path, journal: Path):
     """Hold an exclusive lock on lock_path (``fcntl.flock``, released by the system when the process ends, even
     killed) while the block runs; SweepBusy if another process holds it. Two sweeps of one name into one folder had
     both run, mixing two grids in one journal (every later run refused) or computing every point twice, and the
-    CSV was the last finisher's. Without fcntl (Windows) nothing is locked."""
+    CSV was the last finisher's. The lock file is removed when the block ends, while still locked; a process that
+    locked a file removed since (it opened it before the removal) takes the lock again on the new one. Without fcntl
+    (Windows) nothing is locked."""
     try:
         import fcntl
     except ImportError:
         yield
         return
-    with open(lock_path, "a") as handle:
+    while True:
+        handle = open(lock_path, "a")
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
+            handle.close()
             raise SweepBusy(f"another process is running a sweep into {journal} now: wait for it to finish, or give "
                             "this one another name (--name, or Sweep(..., name=...)) or folder (--out)") from None
         try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
+            same = os.stat(lock_path).st_ino == os.fstat(handle.fileno()).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        handle.close()   # the lock of a file its holder removed: lock the one at lock_path now
+    try:
+        yield
+    finally:
+        with contextlib.suppress(OSError):
+            lock_path.unlink()
+        handle.close()   # releases the lock
 
 
 class Sweep:
