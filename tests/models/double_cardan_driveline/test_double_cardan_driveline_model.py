@@ -391,3 +391,13 @@ def test_a_twist_no_real_shaft_takes_is_said_wherever_it_is_reached():
     assert 300 < said < 1700   # both sides of the bound are sampled
     rigid = dc.Parameters(0.2, 0.2, 0.0, 0.0, **OMAR, rigid_intermediate_shaft=True)
     assert dc.state_advice(rigid, 1e-3, (5.0, 0.0, 0.0, 0.0), dc.Drive(0.0, 0.0, 0.0, 0.0)) == []
+
+
+@pytest.mark.parametrize("beta2, warnings", [(50.0, 1), (-50.0, 1), (48.0, 2), (10.0, 1)])
+def test_steep_joints_of_one_angle_are_one_warning(beta2, warnings):
+    """A constant-velocity pair of steep joints (Z: beta2 = beta1, W: beta2 = -beta1) is named in one warning, not
+    one a joint; joints of other angles each get their own, and a joint within the usual range none."""
+    advice = dc.advice(driveline(50.0 * DEG, beta2 * DEG))
+    assert len(advice) == warnings, advice
+    assert ("beta1 = beta2 = " in advice[0]) == (beta2 == 50.0)
+    assert ("beta1 = -beta2 = " in advice[0]) == (beta2 == -50.0)

@@ -888,8 +888,13 @@ def free_output_inertia(p: Parameters) -> float | None:
 
 def advice(p: Parameters) -> list:
     """Warnings on valid parameters likely not meant: a joint angle past ``protocol.LARGE_JOINT_ANGLE``, a phase
-    that is a whole number of radians (``protocol.phase_angle_advice``): degrees given as radians?"""
-    return (joint_angle_advice("beta1", p.beta1) + joint_angle_advice("beta2", p.beta2)
+    that is a whole number of radians (``protocol.phase_angle_advice``): degrees given as radians? Joints of one
+    angle (a Z or W layout) are named in one warning."""
+    if p.beta1 == p.beta2 or p.beta1 == -p.beta2:
+        joints = joint_angle_advice("beta1 = beta2" if p.beta1 == p.beta2 else "beta1 = -beta2", p.beta1)
+    else:
+        joints = joint_angle_advice("beta1", p.beta1) + joint_angle_advice("beta2", p.beta2)
+    return (joints
             + phase_angle_advice("yoke_phase", p.yoke_phase)
             + phase_angle_advice("joint_plane_angle", p.joint_plane_angle))
 
