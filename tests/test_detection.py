@@ -342,6 +342,22 @@ def test_a_failure_after_the_drive_stalled_names_the_stall(fmu_dir):
         str(info.value)
 
 
+def test_a_run_away_under_a_negative_load_damping_names_the_load(fmu_dir):
+    """Omar's driveline against a load with c1 = -0.5 N.m.s/rad: a negative damping ratio of
+    0.5 / (2 sqrt(92.2 N.m/rad 0.0045 kg.m2)) = 0.39 on its torsional mode, which grows at any step until the load's
+    speed leaves its range. The failure named only the coupling and a smaller step; it now names the load's negative
+    coefficient first, and a resisting load (c1 = 0.5) runs through."""
+    from ujfmu.scenario_run import run_scenario
+    omar = Scenario(Path(__file__).parent.parent / "scenarios" / "double_cardan_omar_torsional.toml")
+    with pytest.raises(CosimulationError) as info:
+        run_scenario(omar.with_parameters({"load.c1": -0.5}), fmu_dir=fmu_dir, out_dir=None)
+    hints = [line for line in str(info.value).splitlines() if line.startswith("hint: ")]
+    assert hints[0].startswith("hint: load's c1 = -0.5 N.m.s/rad is a negative damping"), hints
+    resisting = omar.with_parameters({"load.c1": 0.5})
+    resisting.stop_time = 0.3
+    run_scenario(resisting, fmu_dir=fmu_dir, out_dir=None)
+
+
 def test_a_stiff_rotor_s_torque_into_an_ideal_source_is_not_torn_nor_an_instability(fmu_dir):
     """Twin rotors with torsionally stiff shafts (K1T = K2T = 1e9 N.m/rad) on an ideal speed source: their input
     torque, read at 1 ms, alternates between about -0.7 and 3.5 N.m (a torsional mode far above the step rate,

@@ -828,7 +828,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                                                 if h.steps < HOLD_FAILING_STEPS]   # Model Exchange holds nothing
             held = "\n".join(f"hint: {h.text()}: a periodic torque the step can hardly carry makes the coupling "
                              "chatter or grow on its own; take the smaller step first" for h in coarse)
-            hint = "\n".join(h for h in (held, oscillating, stalled, hint) if h)
+            hint = "\n".join(h for h in (driving_load_hint(scenario), held, oscillating, stalled, hint) if h)
         if hint:
             exc.args = (f"{exc.args[0]}\n{hint}",) + exc.args[1:]
         _keep_partial(scenario, exc, extra, out_dir, plot)
@@ -1035,6 +1035,23 @@ def step_dependence_hint(scenario: Scenario, fmu_dir, failed_at: float, hint: st
             "half the time, later, or not at all). A smaller step or another wiring will not help: check the "
             "parameters of the component that refused the step against what it carries (a support or shaft too "
             "soft or too lightly damped for its torque or speed, a joint angle near its limit)")
+
+
+def driving_load_hint(scenario: Scenario) -> str:
+    """'' unless a Load of the scenario has a negative damping coefficient (c1 or c2 < 0, its own warning at
+    initialization): then that a run away under it is the load's physics, whatever the coupling."""
+    lines = []
+    for name, (fmu, _) in scenario.components.items():
+        if fmu == "Load":
+            values = scenario.parameters_with_defaults(name)
+            negative = [f"{k} = {values[k]:g} {unit}" for k, unit in (("c1", "N.m.s/rad"), ("c2", "N.m.s2/rad2"))
+                        if values[k] < 0.0]
+            if negative:
+                lines.append(f"hint: {name}'s {' and '.join(negative)} is a negative damping: the load feeds energy "
+                             "into the motion it should resist, and a machine it drives faster and faster runs away "
+                             "at any step, which is the load's physics, not the coupling's; set it >= 0 for a "
+                             "resisting load")
+    return "\n".join(lines)
 
 
 def stalled_drive_hint(scenario: Scenario, partial: np.ndarray) -> str:
