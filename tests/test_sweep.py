@@ -13,7 +13,7 @@ import pytest
 from ujfmu.cli import main
 from ujfmu.references import read_reference
 from ujfmu.scenario import Scenario, ScenarioError
-from ujfmu.sweep import Sweep, SweepSettings, parse_axis
+from ujfmu.sweep import Sweep, SweepSettings, SweepSettingsError, parse_axis
 
 SCENARIOS = Path(__file__).parents[1] / "scenarios"
 RPM = math.pi / 30.0
@@ -1129,3 +1129,25 @@ def test_a_parameter_swept_twice_or_swept_and_fixed_is_refused(fmu_dir, tmp_path
     err = capsys.readouterr().err
     assert "2 problems" in err and "outside its allowed range" in err and "their units differ" in err
     assert not list(tmp_path.glob("*.jsonl"))   # nothing ran
+
+
+def test_a_periodic_load_torques_order_is_among_the_default_orders(brutti, tmp_path, fmu_dir):
+    """A Load torque T_h cos(3 phi) on Brutti's constant-velocity pair (its output angle is its input's): the
+    default orders take its 3x beside 1, 2 and 4 (it had been left out: a sweep reported no figure of the forcing),
+    and the load torque's 3x is T_h. A given order list is kept as given; a fraction in it is refused, not cut to a
+    whole number."""
+    from ujfmu.master import Connection
+    forced = brutti.with_values({"load.T_h": 2.0, "load.order_h": 3.0})
+    forced.connections.append(Connection("driveline.phi_out", "load.phi"))
+    settings = SweepSettings.from_scenario(forced, outputs=["load.tau"], running_speed="motor.omega",
+                                           settle_time=0.01, revolutions=2, steady_tol=0.0)
+    assert settings.orders == (1, 2, 3, 4)
+    given = dict(running_speed="motor.omega", settle_time=0.01)
+    assert SweepSettings.from_scenario(forced, orders=(2,), **given).orders == (2,)
+    with pytest.raises(SweepSettingsError, match=r"orders \(--orders\) = \(1, 2.5\) must be positive whole"):
+        SweepSettings.from_scenario(forced, orders=(1, 2.5), **given)
+    sweep = Sweep(forced, [parse_axis("motor.omega_set=1000rpm", forced)], settings, out_dir=tmp_path,
+                  fmu_dir=fmu_dir)
+    sweep.run(workers=0, progress=False)
+    (row,) = sweep.table()
+    assert row["status"] == "ok" and row["load.tau.h3"] == pytest.approx(2.0, rel=1e-3)

@@ -442,8 +442,9 @@ class SweepSettings:
         """Settings from the scenario's [sweep] table (optional), overridden by keyword arguments of the same
         names: outputs (default: the compared, else the recorded signals, but for those that grow in any steady
         state, ``steady.grows``: running angles, energy integrals), running_speed (default: [output]
-        running_speed), settle_time [s] (needed), revolutions (default 4), orders (default (1, 2, 4)).
-        scenario: a Scenario or the path of a scenario file."""
+        running_speed), settle_time [s] (needed), revolutions (default 4), orders (default (1, 2, 4) and the whole
+        orders of the Loads' periodic torques, ``analysis.load_orders``). scenario: a Scenario or the path of a
+        scenario file."""
         scenario = scenario if isinstance(scenario, Scenario) else Scenario(scenario)
         known = SWEEP_KEYS - {"params"}
         unknown = []
@@ -498,9 +499,12 @@ class SweepSettings:
         tol = number("steady_tol", 1e-3, lambda x: x >= 0, " >= 0 (0: no steady-state check)")
         cap = number("max_settle_time", None, lambda x: settle is None or x >= settle,
                      f" >= settle_time ({settle:g} s)" if settle is not None else " a time [s]")
+        from .analysis import load_orders
+        forced = sorted({int(k) for loads in load_orders(scenario).values() for _, k in loads if k == int(k)})
         try:
-            orders = tuple(int(k) for k in table.get("orders", (1, 2, 4)))
-            if not orders or any(k <= 0 for k in orders):
+            given = table.get("orders", tuple(sorted({1, 2, 4, *forced})))
+            orders = tuple(int(k) for k in given)
+            if not orders or any(k <= 0 for k in orders) or any(isinstance(k, bool) or k != int(k) for k in given):
                 raise ValueError
         except (TypeError, ValueError):
             problems.append(f"{where} orders (--orders) = {table.get('orders')!r} must be positive whole numbers, "
