@@ -289,6 +289,40 @@ def test_a_failing_point_is_recorded_and_the_sweep_goes_on(tmp_path, fmu_dir):
     assert sweep.failed() == [bad]
 
 
+def test_a_failed_point_is_not_rerun_by_the_same_sweep_but_a_transient_failure_is(tmp_path, fmu_dir, capsys,
+                                                                                     monkeypatch):
+    """The ring coupling's e = R fails at initialization, and the same FMUs, code and settings fail it again: a rerun
+    reuses the failure (it had run it again on every rerun) and says so; a failure the machine caused (a full disk
+    extracting the FMUs) is run again. Through the command line: the reuse line counts the failures."""
+    import errno
+
+    import ujfmu.sweep as sweep_module
+    from ujfmu.sweep import repeatable
+    assert repeatable(ValueError("e >= R")) and not repeatable(OSError(errno.ENOSPC, "No space left on device"))
+    wrapped = RuntimeError("setup failed")
+    wrapped.__cause__ = MemoryError()
+    assert not repeatable(wrapped)
+    args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "ring_coupling_fig3.toml"), "--param",
+            "coupling.e=0.001,0.1", "--output", "coupling.x_e", "--running-speed", "motor.omega", "--settle", "0",
+            "--revolutions", "1", "--steady-tol", "0", "--workers", "0", "--out", str(tmp_path), "--no-plot", "-q"]
+    assert main(args) == 1
+    ran = []
+    real = sweep_module.run_point
+    monkeypatch.setattr(sweep_module, "run_point", lambda job, point, blobs=None: ran.append(point) or real(
+        job, point, blobs))
+    assert main(args) == 1
+    out = capsys.readouterr().out
+    assert ran == [] and "reused 2 of 2 points" in out and "1 of them failed (the same FMUs" in out
+    journal = tmp_path / "ring_coupling_fig3_sweep.jsonl"
+    records = [json.loads(line) for line in journal.read_text().splitlines()]
+    for record in records:   # as a full disk would have left the failed one
+        if record["status"] == "error":
+            record["repeatable"] = False
+    journal.write_text("".join(json.dumps(r) + "\n" for r in records))
+    assert main(args) == 1
+    assert [p["coupling.e"] for p in ran] == [0.1]
+
+
 def test_a_point_whose_coupling_diverges_names_the_torque_driven_wiring(tmp_path, fmu_dir):
     """A CardanJoint whose driven side is 20x the PI motor's rotor, coupled explicitly, diverges: the point's error
     gives the remedy `ujfmu run` gives, the torque-driven wiring (it had said only to reduce the step)."""

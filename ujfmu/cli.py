@@ -494,7 +494,9 @@ def cmd_sweep(args):
               f"{table}: run the same command again to compute only the others", file=sys.stderr)
         return stopped_status()
     if sweep.reused:
-        print(f"  reused {sweep.reused} of {len(sweep.points)} points from {sweep.journal}")
+        failed = (f", {sweep.reused_failures} of them failed (the same FMUs, code and settings fail the same way: "
+                  "change one, or delete the journal, to run them again)") if sweep.reused_failures else ""
+        print(f"  reused {sweep.reused} of {len(sweep.points)} points from {sweep.journal}{failed}")
     if sweep.superseded:
         print(f"  recomputed {sweep.superseded} points that {sweep.journal} holds from other settings, FMU builds "
               "or code (a journal's points serve only a rerun with the same)")

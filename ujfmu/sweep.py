@@ -55,7 +55,7 @@ from pathlib import Path
 
 from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
 from .extras import require
-from .master import Component, Connection, Cosimulation, FmuWarning
+from .master import Component, Connection, Cosimulation, FmuWarning, RunStopped
 from .scenario import SWEEP_KEYS, Scenario, ScenarioError, plain_number
 from .steady import ERROR, FIGURES, FINAL, OK, STATUSES, grows, settle_and_measure
 
@@ -559,7 +559,8 @@ def run_point(job, point, fmu_blobs=None):
                               signals, coupling=job.coupling) as cosim:
                 record.update(settle_and_measure(cosim, s))
     except Exception as exc:  # a failing point is data, not the end of the sweep
-        record.update(status=ERROR, error=f"{type(exc).__name__}: {exc}".replace("\n", " | ")[:2000])
+        record.update(status=ERROR, error=f"{type(exc).__name__}: {exc}".replace("\n", " | ")[:2000],
+                      repeatable=repeatable(exc))
     fmu = [str(w.message) for w in logged if issubclass(w.category, FmuWarning)]
     if fmu:
         record["warnings"] = " | ".join(dict.fromkeys(fmu))[:2000]
@@ -568,6 +569,14 @@ def run_point(job, point, fmu_blobs=None):
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     record["wall_s"] = time.perf_counter() - started
     return record
+
+
+def repeatable(exc: BaseException) -> bool:
+    """True for a point's failure that its configuration gives again (an FMU's refusal, a coupling going unstable, a
+    figure that cannot be formed: the co-simulation is deterministic); False for what the machine caused (a full
+    disk, memory), directly or as the cause of the error raised."""
+    transient = (OSError, MemoryError, RunStopped)
+    return not isinstance(exc, transient) and not isinstance(exc.__cause__, transient)
 
 
 _WORKER_DIRS = {}
@@ -843,9 +852,13 @@ class Sweep:
         """:meth:`run` as the journal's sole writer."""
         self._check_grid()
         others = set()
-        finished = {k for k, r in self.done(others).items() if r["status"] in FINAL}
+        done = self.done(others)
+        finished = {k for k, r in done.items() if r["status"] in FINAL or r.get("repeatable")}
         todo = [p for p in self.points if self.key(p) not in finished]
         self.reused = len(self.points) - len(todo)
+        #: of those, the failed points whose failure the same configuration gives again (not rerun)
+        self.reused_failures = sum(done[self.key(p)]["status"] == ERROR for p in self.points
+                                   if self.key(p) in finished)
         #: points to run that the journal holds from another configuration only (recomputed, not reused)
         self.superseded = sum(self.key(p) in others for p in todo)
         count = [self.reused]
@@ -951,7 +964,8 @@ class Sweep:
                               math.nan)
         run = {"step_size": self.job.step_size, "coupling": self.job.coupling}
         return [{**r["point"], **self.fixed_parameters(), **blank, "note": "", "warnings": "",
-                 **{k: v for k, v in r.items() if k not in ("config", "grid")}, **run} for r in self.records()]
+                 **{k: v for k, v in r.items() if k not in ("config", "grid", "repeatable")}, **run}
+                for r in self.records()]
 
     def fixed_parameters(self) -> dict:
         """{"component.parameter": value} of the parameters the scenario's copy changed from its file
