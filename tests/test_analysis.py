@@ -184,7 +184,7 @@ def test_modes_list_the_crossings_of_a_loads_periodic_torque(tmp_path, capsys):
     out = capsys.readouterr().out
     for mode in scenario_modes(scenario):
         assert f"3x (load's periodic torque) at {mode.omega / 3:.6g} rad/s" in out
-    assert "from rest to it the speed crosses 4" in out
+    assert "below it lie 4 crossings" in out
     assert load_orders(Scenario(SCENARIOS / "double_cardan_omar_torsional.toml")) == {}
 
 
@@ -222,3 +222,22 @@ def test_the_cardan_joints_speed_ratio_has_no_odd_order():
     theta = np.linspace(0.0, 2.0 * math.pi, 256, endpoint=False)
     spectrum = np.abs(np.fft.rfft([cj.velocity_ratio(frame, t) for t in theta])) / 128
     assert spectrum[1] < 1e-12 and spectrum[3] < 1e-12 and spectrum[2] > 0.04
+
+
+def test_the_spectrums_bins_are_multiples_of_the_records_frequency_resolution():
+    """64 samples 1 ms apart: the bins are k / (64 ms), 15.625 Hz apart, and a sinusoid on bin 5 peaks at exactly
+    78.125 Hz (a record's span taken as n steps instead of n - 1 had moved every peak 1/63 high)."""
+    t = np.arange(64) * 1e-3
+    freq, amp = amplitude_spectrum(t, np.cos(2.0 * math.pi * 78.125 * t))
+    assert freq[1] == pytest.approx(15.625, rel=1e-12) and freq[int(np.argmax(amp))] == pytest.approx(78.125, rel=1e-12)
+
+
+@pytest.mark.parametrize("profile, speeds", [(1, {"motor.omega_set": 150.0}),
+                                             (2, {"motor.omega_set": 150.0, "motor.omega_initial": 30.0})])
+def test_drive_speeds_are_the_set_points_a_profile_holds(profile, speeds):
+    """A ramp settles at omega_set; a step holds omega_initial first, then omega_set: both are speeds the machine
+    runs at (``ujfmu modes`` looks for crossings at each)."""
+    from ujfmu.analysis import drive_speeds
+    from ujfmu.scenario import Scenario
+    startup = Scenario(Path(__file__).parent.parent / "scenarios" / "cardan_startup.toml")
+    assert drive_speeds(startup.with_values({"motor.profile": profile, "motor.omega_initial": 30.0})) == speeds

@@ -767,6 +767,17 @@ def test_a_record_too_coarse_for_a_components_own_mode_is_noted(fmu_dir, tmp_pat
     assert code == 0 and out.startswith("PASS") and "note sampling driveline: its fastest natural mode" in out
 
 
+def test_a_mode_that_moves_with_the_input_angle_is_noted_at_its_top():
+    """Omar's bent joints move the torsional mode over the input angle (138.3-148.2 rad/s, mean 143.1): the record's
+    reads a period are counted at the top of that range, where they are fewest, not at the mean (3.5% more)."""
+    from ujfmu.analysis import scenario_modes
+    from ujfmu.scenario_run import mode_sampling
+    omar = Scenario(Path(__file__).parent.parent / "scenarios" / "double_cardan_omar_torsional.toml")
+    top = max(m.high for m in scenario_modes(omar))
+    (note,) = mode_sampling(omar, 5e-3)
+    assert note.omega == pytest.approx(top, rel=1e-12) and top > 1.03 * max(m.omega for m in scenario_modes(omar))
+
+
 def test_an_aligned_joint_has_no_order_to_alias(fmu_dir, tmp_path, capsys):
     """The same joint at 0.02 s, one sample a period of a 2x it does not have: aligned (no bend, no error angles)
     its speed ratio is 1, so the run passes the sampling check it failed bent, and the FMU does not warn of

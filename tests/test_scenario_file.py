@@ -102,7 +102,7 @@ def test_good_file_loads(tmp_path):
     ('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x"]' + REF, "output.record: j.M_x neither compared"),
     # the provisional band it suggests: relative for a signal, absolute for a running angle (its range grows)
     ('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x", "j.phi_out"]' + REF,
-     '"j.M_x" = { rel_range = 0.05 }; "j.phi_out" = { abs = 1e-3 } (it grows along the run: an absolute band)'),
+     '"j.M_x" = { rel_range = 0.05 }; "j.phi_out" = { abs = 0.05 } (it grows along the run: an absolute band, in its unit)'),
     ('record = ["j.tau_in"]', 'record = ["j.tau_in", "j.M_x"]' + REF + '\n[reference.not_compared]\n"j.M_x" = " "',
      "reference.not_compared.j.M_x"),
     ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF + '\n[reference.not_compared]\n"j.M_y" = "why"',

@@ -647,7 +647,8 @@ def cmd_modes(args):
               f"{'above' if margin > 0 else 'below'} it" + (f" (within {100 * NEAR_CRITICAL:g}%)" if near else ""))
         below = [(m, k) for m in modes for k, _ in orders(m) if m.critical_speed(k) < abs(speed)]
         if below:
-            print(f"    from rest to it the speed crosses {len(below)}: "
+            print(f"    below it lie {len(below)} crossing{'' if len(below) == 1 else 's'} (a run-up from rest passes "
+                  "them): "
                   + ", ".join(f"{k:g}x with {m.omega:.5g} rad/s at {m.critical_speed(k):.5g} rad/s"
                               for m, k in sorted(below, key=lambda mk: mk[0].critical_speed(mk[1]))))
     print("  A crossing resonates where the order's forcing acts on the mode's shape (an unbalance drives lateral "

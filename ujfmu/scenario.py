@@ -487,7 +487,8 @@ class Scenario:
             missing = [n for n in self.record if n not in self.tolerances and n not in self.not_compared]
             if missing:
                 from .steady import grows
-                bands = [f"\"{n}\" = {{ abs = 1e-3 }} (it grows along the run: an absolute band)" if grows(n)
+                bands = [f"\"{n}\" = {{ abs = 0.05 }} (it grows along the run: an absolute band, in its unit)"
+                         if grows(n)
                          else f"\"{n}\" = {{ rel_range = 0.05 }}" for n in missing[:2]]
                 raise ScenarioError(f"{self.path}: output.record: {', '.join(missing)} neither compared "
                                     "([reference.tolerance]) nor listed in reference.not_compared with the reason; "

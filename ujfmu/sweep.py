@@ -218,7 +218,8 @@ class Axis:
             declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
             if par not in declared:
                 other = next((v.causality for v in fmu_class(fmu).VARIABLES if v.name == par), None)
-                close = [] if other else difflib.get_close_matches(par, declared, n=1)
+                close = [] if other else ([n for n in declared if n.lower() == par.lower()]
+                                          or difflib.get_close_matches(par, declared, n=1))
                 found.append(f"{what}: {fmu} has no parameter '{par}'"
                              + (f" (it is an {other}: a connection feeds it, or the scenario's inputs set it)"
                                 if other == "input" else f" (it is an {other})" if other else "")

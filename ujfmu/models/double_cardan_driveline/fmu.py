@@ -81,7 +81,8 @@ class DoubleCardanDriveline(PrescribedInputSlave):
                "beta2 + phi cos(joint_plane_angle) (Omar Eq. 3)"),
         output("omega_intermediate", "rad/s", "Intermediate shaft angular speed at its joint-1 end, dphi2/dt",
                ("omega_in",)),
-        output("shaft_torque", "N.m", "Torque carried by the intermediate shaft, k_theta*twist + c_theta*dtwist/dt",
+        output("shaft_torque", "N.m", "Torque carried by the intermediate shaft: k_theta*twist + c_theta*dtwist/dt "
+               "(flexible); rigid, the torque at its middle, (tau_in - J_in alpha1 - J_in' w1^2/2) / (dphi2/dphi1)",
                ("omega_in", "tau_load")),
         output("phi_in", "rad", "Input shaft angle phi1, continuous over revolutions"),
         output("alpha_in", "rad/s2", "Input shaft angular acceleration estimated from omega_in", ("omega_in",)),

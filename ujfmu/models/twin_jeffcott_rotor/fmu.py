@@ -20,8 +20,8 @@ def _disc_parameters(i, shaft):
         parameter(f"J_M{i}", _RIG[f"J_M{i}"], "kg.m2", f"Polar moment of inertia of disc {i} (paper J_M{i})",
                   **_INERTIA),
         parameter(f"m_u{i}", _RIG[f"m_u{i}"], "kg", f"Unbalance mass on disc {i} (paper m_u{i})", min=0.0, max=1.0e3),
-        parameter(f"phase_u{i}", 0.0, "rad", f"Angle of disc {i}'s unbalance from its reference (theta{i} = 0) "
-                  "direction", **_PHASE),
+        parameter(f"phase_u{i}", 0.0, "rad", f"Angle of disc {i}'s unbalance at theta{i} = 0 from the X axis (in "
+                  "the plane of the two shafts), positive in the direction of rotation", **_PHASE),
         parameter(f"K{i}X", _RIG[f"K{i}X"], "N/m", f"Lateral stiffness of the {shaft} shaft at disc {i}, X "
                   "(paper K{i}X{i}X; default 48 E I / L^3)", **_STIFFNESS),
         parameter(f"K{i}Y", _RIG[f"K{i}Y"], "N/m", f"Lateral stiffness of the {shaft} shaft at disc {i}, Y",
