@@ -1,5 +1,8 @@
 """RingCoupling physics: the ring's potential, units of c_s, and the paper's coefficients."""
 
+import math
+
+import numpy as np
 import pytest
 import sympy as sp
 
@@ -214,3 +217,20 @@ def test_a_misalignment_large_against_the_ring_is_named():
     assert "e = 0.099 m is 0.99 of the ring radius R = 0.1 m" in message and "e = 9.9e-05 m" in message
     assert rc.advice(ring(0.003)) == [] and rc.advice(ring(0.01, 0.2)) == []
     assert len(rc.advice(ring(0.0101))) == 1
+
+
+@pytest.mark.parametrize("y0, v0", [(0.5, 1.0), (0.5, -1.0), (-0.3, 0.4), (1.0, 5.0), (1.0, -5.0)])
+def test_the_pendulum_closed_form_starts_where_it_is_told_and_solves_its_equation(y0, v0):
+    """The reference's elliptic-function pendulum (Turla, Iljin Eqs. 13-16), y'' + a_e sin y = 0: at t = 0 it is at
+    y0 with speed v0 in both regimes (oscillating, k^2 < 1: the first three; rotating: the last two) and both
+    directions, and it follows a DOP853 solve of the equation itself; its y' is dy/dt."""
+    from scipy.integrate import solve_ivp
+
+    from ujfmu.models.ring_coupling.reference import pendulum_angle
+    a_e, t = 4.0, np.linspace(0.0, 3.0, 301)
+    y, v = pendulum_angle(a_e, y0, v0, t)
+    assert (y[0], v[0]) == pytest.approx((y0, v0), abs=1e-9)
+    solved = solve_ivp(lambda _, s: (s[1], -a_e * math.sin(s[0])), (0.0, 3.0), (y0, v0), method="DOP853",
+                       t_eval=t, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(y, solved.y[0], atol=1e-7)
+    np.testing.assert_allclose(v, solved.y[1], atol=1e-6)
