@@ -85,10 +85,11 @@ def load_level(p, t):
 
 
 def load_torque(p, w, t, phi=None):
-    """Load FMU torque law tau = T(t) s(w) + c1 w + c2 w |w|_s + T_h cos(order_h phi + phase_h) (:func:`load_level`)
+    """Load FMU torque law tau = T(t) s(w) + c1 w + c2 w |w|_s + T_active + T_h cos(order_h phi + phase_h)
+    (:func:`load_level`)
     at time t and the driven shaft's angle phi (needed where T_h is not 0: ValueError without it)."""
     mag = np.sqrt(w * w + p["omega_smooth"] ** 2)
-    tau = load_level(p, t) * w / mag + p["c1"] * w + p["c2"] * w * mag
+    tau = load_level(p, t) * w / mag + p["c1"] * w + p["c2"] * w * mag + p.get("T_active", 0.0)
     amplitude = p.get("T_h", 0.0)
     if not amplitude:
         return tau

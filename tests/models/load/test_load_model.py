@@ -49,3 +49,47 @@ def test_a_negative_coefficient_is_said_to_drive_the_shaft():
     (change,) = load.advice(load.Parameters(0.3, 0.0, 0.0, 0.1, T_change=-0.5, t_change=1.0))
     assert change.startswith("T0 + T_change = -0.2")
     assert load.advice(load.Parameters(0.3, 0.0, 0.0, 0.1, T_change=-0.2, t_change=1.0)) == []
+
+
+def test_an_active_torque_keeps_its_sign_whatever_the_direction():
+    """T_active (a gradient, a hoisted weight) is the same torque at any speed and either direction, where T0
+    reverses with the speed (a negative T0 pushes whichever way the shaft turns: said, naming T_active); it adds to
+    the rest of the law, and the references' law (``references.common.load_torque``) is the FMU's."""
+    from ujfmu.models.load import model as load
+    from ujfmu.references.common import load_torque as reference_law
+    gradient = load.Parameters(0.0, 0.0, 0.0, 0.1, T_active=-40.0)
+    assert [load.outputs(gradient, 0.0, (), load.Inputs(w))["tau"] for w in (-20.0, 0.0, 20.0)] == [-40.0] * 3
+    friction = load.Parameters(-40.0, 0.0, 0.0, 0.1)
+    torques = [load.outputs(friction, 0.0, (), load.Inputs(w))["tau"] for w in (-20.0, 20.0)]
+    assert torques == pytest.approx([40.0, -40.0], rel=1e-4) and "T_active" in load.advice(friction)[0]
+    mixed = dict(T0=3.0, c1=0.2, c2=0.01, omega_smooth=0.1, T_active=-40.0)
+    for w in (-20.0, 0.5, 20.0):
+        fmu = load.outputs(load.Parameters(**mixed), 0.0, (), load.Inputs(w))["tau"]
+        assert fmu == pytest.approx(load_torque(w, 3.0, 0.2, 0.01, 0.1) - 40.0, rel=1e-14)
+        assert float(reference_law(mixed, w, 0.0)) == pytest.approx(fmu, rel=1e-14)
+
+
+def test_an_active_torque_is_what_the_drive_holds_at_constant_speed(fmu_dir):
+    """Feng's start-up against T_active = 0.4 N.m alone: once the PI motor holds its set speed, its mean torque over
+    whole revolutions is the load's (power balance through a joint whose mean speed ratio is 1); the reference,
+    solving the same law independently, agrees with the co-simulation."""
+    from pathlib import Path
+
+    from ujfmu.master import cosimulate
+    from ujfmu.references import generate
+    from ujfmu.scenario import Scenario
+    startup = Scenario(Path(__file__).parents[3] / "scenarios" / "cardan_startup.toml")
+    gradient = startup.with_parameters({"load.T0": 0.0, "load.c1": 0.0, "load.c2": 0.0, "load.T_active": 0.4,
+                                        "motor.accel": 300.0})
+    gradient.stop_time = 1.5
+    run = cosimulate(gradient.master_components(fmu_dir), gradient.connections, gradient.stop_time,
+                     gradient.step_size, ["motor.tau_motor", "motor.phi", "load.tau"], coupling=gradient.coupling)
+    steady = run["time"] >= 1.0
+    phi = run["motor.phi"][steady]
+    whole = phi - phi[0] <= 2.0 * np.pi * np.floor((phi[-1] - phi[0]) / (2.0 * np.pi))
+    assert np.all(run["load.tau"] == 0.4)
+    assert np.trapezoid(run["motor.tau_motor"][steady][whole], phi[whole]) / (phi[whole][-1] - phi[0]) == \
+        pytest.approx(0.4, rel=2e-3)
+    reference, _ = generate(gradient)
+    assert np.max(np.abs(run["motor.tau_motor"] - np.interp(run["time"], reference["time"],
+                                                             reference["motor.tau_motor"]))) < 0.02

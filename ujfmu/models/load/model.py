@@ -1,9 +1,12 @@
-"""Driven load: resisting torque tau = T(t)*s(omega) + c1*omega + c2*omega*|omega|_s + T_h*cos(order_h*phi + phase_h).
+"""Driven load: resisting torque tau = T(t)*s(omega) + c1*omega + c2*omega*|omega|_s + T_active
++ T_h*cos(order_h*phi + phase_h).
 
 T(t) = T0, changed by T_change from t_change on: at once (ramp_time = 0, a load step) or linearly over ramp_time
 (:func:`level`). The last term is a torque periodic in the driven shaft's angle phi (an input: its phi_out), order_h
 times a revolution: a propeller's blade rate (order_h the number of blades), an engine's firing order, an implement's
-strokes (:func:`harmonic`).
+strokes (:func:`harmonic`). T_active is a torque that keeps its sign whatever the direction of rotation (a
+gradient, a hoisted weight): it resists one direction and drives the other, and turns a shaft that nothing holds
+backwards from rest.
 
 s(omega) = omega/sqrt(omega^2 + omega_s^2) is a smooth sign and |omega|_s = sqrt(omega^2 + omega_s^2) a smooth
 absolute value, so the law is infinitely differentiable through omega = 0 and odd in omega (the torque always
@@ -43,6 +46,7 @@ class Parameters:
     T_h: float = 0.0
     order_h: float = 1.0
     phase_h: float = 0.0
+    T_active: float = 0.0
 
 
 def harmonic(p: Parameters, phi: float) -> float:
@@ -94,7 +98,7 @@ kinematic, initial_state, derivatives, rate_bound = kinematic_always, no_state, 
 def outputs(p: Parameters, t: float, y: State, u: Inputs) -> dict:
     """The resisting torque at the input speed, angle and time (:func:`load_torque` at T(t), :func:`level`, plus
     :func:`harmonic`)."""
-    return {"tau": load_torque(u.omega, level(p, t), p.c1, p.c2, p.omega_smooth) + harmonic(p, u.phi)}
+    return {"tau": load_torque(u.omega, level(p, t), p.c1, p.c2, p.omega_smooth) + p.T_active + harmonic(p, u.phi)}
 
 
 def advice(p: Parameters) -> list:
@@ -107,7 +111,9 @@ def advice(p: Parameters) -> list:
             messages.append(f"{name} = {value:.6g} is negative: that part of the load drives the shaft instead of "
                             "resisting it (tau > 0 opposes positive rotation)"
                             + (", a negative damping that feeds energy into the motion and can run it away"
-                               if name in ("c1", "c2") else "")
+                               if name in ("c1", "c2") else ", in whichever direction it turns (a negative friction, "
+                               "reversing with the speed; a torque of one sign in either direction, a gradient's or a "
+                               "weight's, is T_active)")
                             + "; set it >= 0 for a resisting load")
     if p.T_h and p.order_h != int(p.order_h):
         messages.append(f"order_h = {p.order_h:g} is not a whole number: the periodic torque repeats over "

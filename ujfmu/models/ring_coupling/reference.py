@@ -145,8 +145,8 @@ def generate_pendulum(scenario):
     for name, load in components_with_loads(scenario, "RingCoupling"):
         pr = scenario.parameters_with_defaults(name)
         pl = scenario.parameters_with_defaults(load) if load else {"T0": 0.0, "c1": 0.0, "c2": 0.0}
-        if (pr["c_s"] != 0 or pr["c_d"] != 0 or pl["T0"] != 0 or pl.get("T_change", 0.0) != 0 or pl["c1"] != 0
-                or pl["c2"] != 0):
+        if (pr["c_s"] != 0 or pr["c_d"] != 0 or any(pl.get(k, 0.0) != 0 for k in
+                                                      ("T0", "T_change", "c1", "c2", "T_active", "T_h"))):
             raise WiringError(f"{scenario.path}: {name}: the pendulum closed form needs c_s = c_d = 0 and no load")
         amp = _mp_amplitude(pr)
         a_e = amp / pr["I2"]
