@@ -902,3 +902,25 @@ def test_run_set_changes_a_parameter_for_that_run_only(fmu_dir, tmp_path, capsys
         assert words in str(info.value) and "sweep's axes" not in str(info.value), str(info.value)
     # a whole number written as a float, as an optimizer hands it over, for an Integer parameter
     assert Scenario(scenario).with_parameters({"motor.profile": 0.0}).start_values("motor")["profile"] == 0
+
+
+def test_run_stop_time_runs_a_changed_copy_and_says_why_it_is_not_compared(fmu_dir, tmp_path, capsys):
+    """`ujfmu run --stop-time 0.5` runs the scenario to 0.5 s as a changed copy (it had taken Python or a copied
+    file): its results end there, its title says so, and the summary says the file's reference, made for the file's
+    span, is left out (it had said the scenario had none). A time that is not a whole number of steps is refused."""
+    scenario = SCENARIOS / "twin_jeffcott_runup.toml"
+    base = ["--fmu-dir", str(fmu_dir), "run", str(scenario), "--no-plot", "--out", str(tmp_path)]
+    assert main(base + ["--stop-time", "0.5"]) == 0
+    out = capsys.readouterr().out
+    assert "(stop_time = 0.5 s)" in out and "not compared with the scenario file's [reference]" in out
+    with open(tmp_path / "twin_jeffcott_runup_changed.csv") as f:
+        times = [float(line.split(",")[0]) for line in f if line[0].isdigit()]
+    assert times[-1] == pytest.approx(0.5) and len(times) == 501
+    assert main(base + ["--stop-time", "0.5005"]) == 2
+    assert "whole number (at least 1) of communication steps" in capsys.readouterr().err
+
+
+def test_a_parameter_named_in_the_wrong_case_is_suggested(capsys):
+    """`--set rotor.k2x=5e4`: the parameter is K2X, which the error suggests (it had listed every name)."""
+    assert main(["modes", str(SCENARIOS / "twin_jeffcott_steady.toml"), "--set", "rotor.k2x=5e4"]) == 2
+    assert "(did you mean rotor.K2X?)" in capsys.readouterr().err

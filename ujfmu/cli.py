@@ -300,6 +300,8 @@ def cmd_run(args):
     from .scenario import Scenario
     _own_checkout([args.scenario])
     scenario = _with_set(Scenario(args.scenario), args.set)
+    if args.stop_time is not None:
+        scenario = _with_stop_time(scenario, args.stop_time)
     if args.model_exchange and (args.step == "auto" or args.check_step):
         raise UsageError("--step auto and --check-step estimate a co-simulation's coupling error; a Model Exchange "
                          "run (--model-exchange) has none: its accuracy is the solver's (rtol 1e-8)")
@@ -570,6 +572,19 @@ def _with_set(scenario, texts):
     <scenario>_changed, without the reference), or itself without any."""
     changes = _set_changes(scenario, texts)
     return scenario.with_parameters(changes) if changes else scenario
+
+
+def _with_stop_time(scenario, stop_time: float):
+    """The scenario run until stop_time [s] (--stop-time): a copy as ``--set`` makes (<scenario>_changed, without
+    the file's reference, made for its span), its title saying so; ScenarioError unless the time is a whole number
+    of steps after the start."""
+    if stop_time == scenario.stop_time:
+        return scenario
+    out = scenario.with_parameters({}) if scenario.name == scenario.path.stem else scenario
+    out.stop_time = stop_time
+    out.title = f"{out.title} (stop_time = {stop_time:g} s)"
+    out.check_experiment()
+    return out
 
 
 def _set_changes(scenario, texts) -> dict:
@@ -865,6 +880,10 @@ def _main(raw: list):
                            help="a parameter instead of the scenario's (several --set for several), e.g. "
                                 "driveline.yoke_phase=30deg: the run is <scenario>_changed, its title says what "
                                 "changed, and it is not compared with the file's reference, made for the file's setup")
+            p.add_argument("--stop-time", type=float, metavar="SECONDS",
+                           help="run until this time instead of the scenario's stop_time (a whole number of steps "
+                                "after its start): a changed copy, as --set makes, not compared with the file's "
+                                "reference")
         else:
             p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")

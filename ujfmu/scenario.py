@@ -289,6 +289,8 @@ class Scenario:
         with problems.kept():
             self._read_sweep(data.get("sweep", {}))
         problems.raise_any()
+        #: the file's reference, kept on a changed copy that runs without it (``with_parameters``)
+        self.file_reference = self.reference_file
 
     def _read_header(self, data):
         """The top-level fields: only known ones; title and description strings."""

@@ -603,8 +603,10 @@ class ScenarioResult:
                         "at this step" if self.scenario.name != self.scenario.path.stem
                         else f"ujfmu run {self.scenario.path} --check-step{self._fmu_dir_option()} estimates the "
                         "coupling error at this step")
-            return (f"the scenario has no [reference]: nothing was compared, and the result's accuracy is unknown "
-                    f"({estimate})")
+            what = ("the run is not compared with the scenario file's [reference], made for the file's setup (a "
+                    "changed copy runs without it)" if getattr(self.scenario, "file_reference", None) is not None
+                    else "the scenario has no [reference]")
+            return f"{what}: nothing was compared, and the result's accuracy is unknown ({estimate})"
         return "the scenario's [reference.tolerance] names no signal: nothing was compared"
 
     def _signal_figures(self) -> list:

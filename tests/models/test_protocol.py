@@ -193,3 +193,17 @@ def test_a_phase_of_whole_radians_asks_whether_degrees_were_meant(name, angle):
     assert "171.9 deg" in message and f"{angle} = 0.0523599 rad" in message
     for value in (0.0, math.pi / 6, math.pi / 2, -1.5):
         assert not [m for m in cls.MODEL.advice(p_of(value)) if m.startswith(f"{angle} = ")], value
+
+
+def test_a_steep_joint_angle_is_said_and_a_typed_one_also_read_as_degrees():
+    """A joint angle past 45 deg is valid but steep: said with its speed ratio's swing, cos(beta) to 1/cos(beta).
+    A number of a few decimals (1.4) may be degrees typed as radians: it also says what 1.4 deg is; one converted
+    from degrees (80deg on the command line: 1.3962634... rad) is not taken for that."""
+    from ujfmu.models.protocol import joint_angle_advice
+    import math
+    (typed,) = joint_angle_advice("beta", 1.4)
+    assert f"between {math.cos(1.4):.3g} and {1.0 / math.cos(1.4):.3g}" in typed
+    assert f"if the value was meant in degrees, beta = {math.radians(1.4):.6g} rad" in typed
+    (converted,) = joint_angle_advice("beta", math.radians(80.0))
+    assert "80 deg" in converted and "meant in degrees" not in converted
+    assert joint_angle_advice("beta", math.radians(44.0)) == []

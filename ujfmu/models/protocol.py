@@ -137,13 +137,15 @@ def reached(t: float, instant: float) -> bool:
 
 def joint_angle_advice(name: str, angle: float) -> list:
     """A warning for a joint angle [rad] beyond ``LARGE_JOINT_ANGLE``, valid but far past a driveline's usual
-    few to 30 degrees, and what it is if the number was meant in degrees."""
+    few to 30 degrees, and, for a number of at most four decimals (one typed, not converted from degrees: 80 deg is
+    1.396263... rad), what it is if it was meant in degrees."""
     if abs(angle) <= LARGE_JOINT_ANGLE:
         return []
+    typed = abs(angle * 1e4 - round(angle * 1e4)) < 1e-6 * max(1.0, abs(angle * 1e4))   # a few decimals: typed
     return [f"{name} = {angle:.6g} rad is {math.degrees(angle):.4g} deg, past the {math.degrees(LARGE_JOINT_ANGLE):g} "
             f"deg of an unusually steep joint (its speed ratio swings between {math.cos(angle):.3g} and "
-            f"{1.0 / math.cos(angle):.3g}); if the value was meant in degrees, {name} = {math.radians(angle):.6g} rad "
-            "(the FMUs take SI units)"]
+            f"{1.0 / math.cos(angle):.3g})" + (f"; if the value was meant in degrees, {name} = "
+                                               f"{math.radians(angle):.6g} rad (the FMUs take SI units)" if typed else "")]
 
 
 def phase_angle_advice(name: str, angle: float) -> list:
