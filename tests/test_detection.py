@@ -827,3 +827,22 @@ def test_a_joint_bent_by_round_off_has_no_order_to_sample():
     assert dc.excitation_order(P(beta2=tiny)) == 0 and dc.excitation_order(P(beta1=real)) == 2
     assert twin.excitation_order(P(beta=tiny)) == 0 and twin.excitation_order(P(beta=real)) == 2
     assert ring.excitation_order(P(e=tiny * 0.1)) == 0 and ring.excitation_order(P(e=real * 0.1)) == 2
+
+
+def test_a_drive_at_its_torque_limit_is_noted_with_how_far_it_fell_behind(fmu_dir):
+    """The twin rotor's run-up asked for 1000 rad/s^2 from a 30 N.m motor (about 400 rad/s^2 on its inertia): the
+    motor sits at its limit until it reaches 125 rad/s, its set point there since 0.125 s, so it falls up to tens of
+    rad/s behind it; the summary notes the limit, its time and that lag (a run-up's pace through a resonance is the
+    limit's), as a note that does not fail the run. At the file's 25 rad/s^2 nothing is noted."""
+    from ujfmu.scenario_run import TorqueLimitNote, run_scenario
+    runup = Scenario(Path(__file__).parent.parent / "scenarios" / "twin_jeffcott_runup.toml")
+    fast = runup.with_parameters({"motor.accel": 1000.0})
+    fast.stop_time = 1.0
+    result = run_scenario(fast, fmu_dir=fmu_dir, out_dir=None, progress=False)
+    (note,) = [c for c in result.operating_checks if isinstance(c, TorqueLimitNote)]
+    assert note.tau_max == 30.0 and note.first < 0.02 and 0.2 < note.last < 0.5 and note.lag > 50.0
+    assert str(note).startswith("note drive motor: at its torque limit tau_max = 30 N.m") and not result.failed
+    slow = runup.with_parameters({})
+    slow.stop_time = 1.0
+    assert not any(isinstance(c, TorqueLimitNote)
+                   for c in run_scenario(slow, fmu_dir=fmu_dir, out_dir=None, progress=False).operating_checks)

@@ -116,6 +116,50 @@ class OperatingPointCheck:
         return text
 
 
+@dataclass
+class TorqueLimitNote:
+    """A drive that ran at its torque limit (|tau_motor| within ``AT_LIMIT`` of tau_max) for part of the run: where
+    it did, its speed followed the limit, not its profile (a run-up's acceleration, hence the speed at which it
+    passes a resonance, is then the limit's). A note, never a failure."""
+    drive: str
+    tau_max: float
+    first: float   # the first and last instants at the limit [s]
+    last: float
+    duration: float   # the time at the limit [s]
+    lag: float   # the largest |set point - speed| while at the limit [rad/s]
+    passed = True
+
+    def __str__(self):
+        return (f"note drive {self.drive}: at its torque limit tau_max = {self.tau_max:g} N.m for {self.duration:.3g} s "
+                f"between t = {self.first:g} and {self.last:g} s, up to {speed_text(self.lag)} behind its set point "
+                "there: its speed followed the limit, not the profile (a run-up's pace through a resonance is the "
+                "limit's); raise tau_max, or ease the profile (accel), where the profile was meant")
+
+
+#: the fraction of tau_max within which a drive's torque counts as at its limit (``TorqueLimitNote``)
+AT_LIMIT = 1e-6
+
+
+def torque_limit_notes(scenario: Scenario, table: np.ndarray) -> list:
+    """A :class:`TorqueLimitNote` per drive of ``operating_pairs`` whose tau_motor (in table) reached its tau_max."""
+    notes = []
+    t = table["time"]
+    for speed, set_point in operating_pairs(scenario):
+        drive = speed.partition(".")[0]
+        torque = f"{drive}.tau_motor"
+        if len(t) < 2 or not {speed, set_point, torque} <= set(table.dtype.names):
+            continue
+        tau_max = float(scenario.parameters_with_defaults(drive)["tau_max"])
+        at = np.abs(table[torque]) >= (1.0 - AT_LIMIT) * tau_max
+        if not at.any():
+            continue
+        dt = np.diff(t)
+        duration = float(np.sum(dt[at[:-1]]))
+        notes.append(TorqueLimitNote(drive, tau_max, float(t[at][0]), float(t[at][-1]), duration,
+                                     float(np.max(np.abs(table[set_point][at] - table[speed][at])))))
+    return notes
+
+
 #: a steady window's figures may differ between its two halves by this fraction of themselves (as a sweep's
 #: default steady_tol, ``ujfmu.steady``)
 STEADY_WINDOW_TOL = 1e-3
@@ -799,6 +843,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     # the drives' speeds and set points ride along for the operating-point check, the drivetrain components' input
     # speeds for the sampling check, then leave the table
     extra = [x for pair in operating_pairs(scenario) for x in pair if x not in scenario.record]
+    extra += [f"{s.partition('.')[0]}.tau_motor" for s, _ in operating_pairs(scenario)
+              if f"{s.partition('.')[0]}.tau_motor" not in scenario.record + extra]
     extra += [f"{name}.omega_in" for name, _ in sampled_components(scenario)
               if f"{name}.omega_in" not in scenario.record + extra]
     # and the speeds a Load that may chatter near rest acts on, to tell whether a failure came near rest
@@ -839,6 +885,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         _keep_partial(scenario, exc, extra, out_dir, plot)
         raise
     operating, sampling = check_operating_points(scenario, table), check_sampling(scenario, table)
+    operating += torque_limit_notes(scenario, table)
     if len(table) > 1:
         sampling += mode_sampling(scenario, float(np.max(np.diff(table["time"]))))
         if not model_exchange:   # a host's solver holds no input over a step
