@@ -81,7 +81,7 @@ def test_good_file_loads(tmp_path):
      'fmu = "Load"\n[components.m]\nfmu = "Motor"\nparameters = { profile = 1, omega_set = -150.0 }\n'
      'inputs = { tau_load = 0.0 }',
      "components.m.parameters: omega_set = -150.0 rad/s is outside its allowed range [0, 1e+04] rad/s for the ramp "
-     "profile (profile = 1), which runs up from rest; to run in reverse, use the step profile"),
+     "profile (profile = 1), which runs up from rest; to run in reverse, use the ramp between two speeds"),
     ('fmu = "Load"', 'fmu = "Lood"', "components.l.fmu = 'Lood' is not one of"),
     ('fmu = "CardanJoint"', 'fmu = "CardanJiont"', "(did you mean 'CardanJoint'?)"),
     ('stop_time = 1.0', 'stop_time = 1e-4', "must be a whole number (at least 1) of communication steps"),

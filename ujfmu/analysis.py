@@ -266,6 +266,6 @@ def drive_speeds(scenario) -> dict:
         if fmu in ("Motor", "MotorController"):
             values = scenario.parameters_with_defaults(name)
             speeds[f"{name}.omega_set"] = float(values["omega_set"])
-            if int(values.get("profile", 0)) == 2:
+            if int(values.get("profile", 0)) in (2, 3):
                 speeds[f"{name}.omega_initial"] = float(values["omega_initial"])
     return speeds

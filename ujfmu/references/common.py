@@ -21,6 +21,11 @@ def profile(p, t):
         before = t < t_step
         return (np.where(before, w0, w_set), np.zeros_like(t),
                 np.where(before, w0 * t, w0 * t_step + w_set * (t - t_step)))
+    if prof == 3:   # from w0 towards w_set at acc from t_step: the speed clipped between the two
+        rate = np.copysign(acc, w_set - w0)
+        s = np.clip(t - t_step, 0.0, abs(w_set - w0) / acc)   # time spent ramping so far
+        return (w0 + rate * s, np.where((t >= t_step) & (s < abs(w_set - w0) / acc), rate, 0.0),
+                w0 * t + rate * s * (t - t_step - 0.5 * s))
     return np.full_like(t, w_set), np.zeros_like(t), w_set * t
 
 
@@ -58,6 +63,8 @@ def corners(p, t0, t1, loads=()):
         cuts = [0.0, p["omega_set"] / p["accel"]]
     elif p["profile"] == 2:
         cuts = [p["t_step"]]
+    elif p["profile"] == 3:
+        cuts = [p["t_step"], p["t_step"] + abs(p["omega_set"] - p["omega_initial"]) / p["accel"]]
     else:
         cuts = []
     cuts = sorted(set(cuts + [c for load in loads if load for c in load_corners(load)]))

@@ -116,3 +116,30 @@ def test_outputs_follow_every_input_set_between_reads(open_fmu, fmu, params):
     first.set(tau_load=-0.4)
     second.set(tau_load=-0.4)
     assert first.get(*names) == second.get(*names)
+
+
+def test_a_pi_motor_braking_down_a_slew_agrees_with_the_reference(fmu_dir):
+    """Feng's joint turned at 150 rad/s, then braked to 50 rad/s at 100 rad/s^2 from 0.3 s (profile 3): the PI
+    motor's speed follows the ramp down (its set point at 0.8 s is 100 rad/s, at 1.3 s 50 rad/s), and the motor's
+    speed and torque and the joint's input torque agree with the monolithic reference, which writes the profile and
+    the PI law again (``references.common``), after the start's first 0.1 s."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from ujfmu.master import cosimulate
+    from ujfmu.references import generate
+    from ujfmu.scenario import Scenario
+    startup = Scenario(Path(__file__).parents[3] / "scenarios" / "cardan_startup.toml")
+    braking = startup.with_parameters({"motor.profile": 3, "motor.omega_initial": 150.0, "motor.omega_set": 50.0,
+                                       "motor.accel": 100.0, "motor.t_step": 0.3})
+    braking.stop_time = 1.6
+    names = ["motor.omega", "motor.tau_motor", "joint.tau_in"]
+    run = cosimulate(braking.master_components(fmu_dir), braking.connections, braking.stop_time,
+                     braking.step_size, names + ["motor.omega_ref"], coupling=braking.coupling)
+    assert list(run["motor.omega_ref"][[0, 300, 800, 1300, 1600]]) == pytest.approx([150.0, 150.0, 100.0, 50.0, 50.0])
+    reference, _ = generate(braking)
+    late = run["time"] > 0.1
+    for name, rel in zip(names, (1e-4, 5e-3, 1e-3)):
+        expected = np.interp(run["time"], reference["time"], reference[name])
+        assert np.max(np.abs(run[name] - expected)[late]) < rel * np.ptp(expected), name

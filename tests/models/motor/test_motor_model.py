@@ -306,3 +306,29 @@ def test_a_corner_a_step_misses_by_rounding_is_taken_at_the_step(at):
         return y
     on_grid, just_after = run(100.0 * at), run(100.0 * (at + 1e-10))
     assert abs(on_grid[1] - just_after[1]) < 1e-6 and abs(on_grid[2] - just_after[2]) < 1e-8
+
+
+@pytest.mark.parametrize("w0, w1", [(40.0, 10.0), (-5.0, 25.0), (12.0, 12.0)])
+def test_a_slew_goes_from_one_speed_to_the_other_at_its_rate(w0, w1):
+    """Profile 3 (SLEW): omega_initial before t_step, then a straight line at +-accel (towards omega_set, up or
+    down) until it gets there, omega_set after; the angle is the speed's integral (trapezoidal sums of a fine grid),
+    alpha its slope, and the references' own writing of the profile (``references.common.profile``) agrees."""
+    import numpy as np
+
+    from ujfmu.references.common import profile
+    accel, t_step = 100.0, 0.5
+    p = motor.Parameters(1.0, 10.0, 5.0, motor.SLEW, w1, accel, t_step, w0, J_rotor=1e-3)
+    t = np.linspace(0.0, 1.2, 24001)
+    w, a, phi = np.array([motor.reference(p, x) for x in t]).T
+    end = t_step + abs(w1 - w0) / accel
+    expected = np.where(t < t_step, w0, np.where(t < end, w0 + np.sign(w1 - w0) * accel * (t - t_step), w1))
+    np.testing.assert_allclose(w, expected, atol=1e-12 * accel)
+    np.testing.assert_allclose(phi, np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(t))]),
+                               atol=1e-9)
+    far = (np.abs(t - t_step) > 1e-6) & (np.abs(t - end) > 1e-6)   # from the corners, which rounding may move
+    inside = far & (t > t_step) & (t < end)
+    assert np.all(a[inside] == np.sign(w1 - w0) * accel) and np.all(a[far & ~inside] == 0.0)
+    assert motor.profile_corners(p) == pytest.approx((t_step, end))
+    theirs = profile(dict(profile=3, omega_set=w1, accel=accel, t_step=t_step, omega_initial=w0), t)
+    for mine, ours in zip(theirs, (w, a, phi)):
+        np.testing.assert_allclose(mine[far], ours[far], atol=1e-9)

@@ -18,7 +18,8 @@ class Motor(ModelSlave):
     tau_motor = J_rotor*alpha_ref + tau_load is the torque a perfect drive would deliver (a step has no impulse).
 
     Profiles: 0 constant omega_set; 1 ramp from rest at t = 0 s at accel up to omega_set (Feng's start-up: 30 rad/s^2);
-    2 step from omega_initial to omega_set at t_step.
+    2 step from omega_initial to omega_set at t_step; 3 from omega_initial to omega_set at accel (up or down) from
+    t_step (a braking or a speed change at a finite rate).
     Signs: omega, phi, tau_motor > 0 in the sense of positive rotation; tau_load > 0 opposes positive rotation.
     """
 
@@ -29,11 +30,14 @@ class Motor(ModelSlave):
         parameter("Ki", 10.0, "N.m/rad", "PI speed controller integral gain", min=0.0, max=1.0e8),
         parameter("tau_max", 5.0, "N.m", "Torque limit of the drive (symmetric)", min=0.0, max=1.0e6),
         parameter("profile", 1, "1", "Speed profile: 0 constant, 1 ramp from rest at t = 0 s (the time axis, not "
-                  "the start time), 2 step at t_step", min=0, max=2, type=int),
+                  "the start time), 2 step at t_step, 3 ramp from omega_initial to omega_set at accel from t_step "
+                  "(up or down)", min=0, max=3, type=int),
         parameter("omega_set", 150.0, "rad/s", "Final (constant, ramp end, step target) speed", **_SPEED),
-        parameter("accel", 30.0, "rad/s2", "Ramp acceleration (Feng et al.: 30 rad/s^2)", min=1.0e-6, max=1.0e7),
-        parameter("t_step", 0.0, "s", "Time of the speed step", min=-1.0e9, max=1.0e9),
-        parameter("omega_initial", 0.0, "rad/s", "Speed before the step", **_SPEED),
+        parameter("accel", 30.0, "rad/s2", "Ramp acceleration, magnitude (Feng et al.: 30 rad/s^2)", min=1.0e-6,
+                  max=1.0e7),
+        parameter("t_step", 0.0, "s", "Time of the speed step (profile 2), or of the ramp's start (profile 3)",
+                  min=-1.0e9, max=1.0e9),
+        parameter("omega_initial", 0.0, "rad/s", "Speed before the step or ramp (profiles 2 and 3)", **_SPEED),
         parameter("ideal_speed_source", False, None, "True: follow the profile exactly (ideal speed source)",
                   type=bool),
         input_("tau_load", 0.0, "N.m", "Reaction torque of the driven machine (positive opposes positive rotation)",

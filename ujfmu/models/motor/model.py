@@ -9,6 +9,8 @@ Speed profiles omega_ref(t) (Feng et al. accelerate the driving shaft at alpha =
     CONSTANT: omega_ref = omega_set
     RAMP:     omega_ref = min(accel * t, omega_set) from t = 0, at rest before
     STEP:     omega_ref = omega_initial before t_step, omega_set from t_step on
+    SLEW:     omega_ref = omega_initial before t_step, then towards omega_set at accel (up or down), omega_set once
+              reached (a braking or a speed change at a finite rate)
 Numerics (PI mode, :func:`integrate`): exact to round-off while the loop is linear over the step (the torque
 within its limit all along, :func:`pi_torque_bound`; no profile corner inside), else classical RK4 (order 4). The
 MotorController (:meth:`Controller.integrate`, the measured speed held): its integral in closed form while the law
@@ -25,7 +27,7 @@ from typing import NamedTuple
 from ...fmu import rk4, series
 from ..protocol import TIME_ROUNDING, reached
 
-CONSTANT, RAMP, STEP = 0, 1, 2
+CONSTANT, RAMP, STEP, SLEW = 0, 1, 2, 3
 
 
 def speed_reference(t: float, profile: int, omega_set: float,
@@ -42,6 +44,16 @@ def speed_reference(t: float, profile: int, omega_set: float,
         if not reached(t, t_step):   # a step meant at a communication point happens there
             return omega_initial, 0.0, omega_initial * t
         return omega_set, 0.0, omega_initial * t_step + omega_set * (t - t_step)
+    if profile == SLEW:
+        if not reached(t, t_step):
+            return omega_initial, 0.0, omega_initial * t
+        rate = accel if omega_set >= omega_initial else -accel
+        span = abs(omega_set - omega_initial) / accel
+        if not reached(t, t_step + span):
+            s = t - t_step
+            return omega_initial + rate * s, rate, omega_initial * t + 0.5 * rate * s * s
+        return (omega_set, 0.0,
+                omega_initial * (t_step + span) + 0.5 * rate * span * span + omega_set * (t - t_step - span))
     return omega_set, 0.0, omega_set * t
 
 
@@ -138,12 +150,14 @@ def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
 
 def profile_corners(p: ControllerParameters) -> tuple:
     """The times where omega_ref(t) leaves one linear piece for the next, in order (the ramp's start 0 and end
-    omega_set/accel, the step time t_step; none for the constant profile): between corners
-    omega_ref(t) = omega_ref(t0) + alpha_ref (t - t0)."""
+    omega_set/accel, the step time t_step, the slew's start t_step and end; none for the constant profile): between
+    corners omega_ref(t) = omega_ref(t0) + alpha_ref (t - t0)."""
     if p.profile == RAMP:
         return 0.0, p.omega_set / p.accel
     if p.profile == STEP:
         return (p.t_step,)
+    if p.profile == SLEW:
+        return p.t_step, p.t_step + abs(p.omega_set - p.omega_initial) / p.accel
     return ()
 
 
@@ -273,7 +287,7 @@ def advice(p: ControllerParameters) -> list:
     PI motor's closed loop so fast (Kp / J_rotor + sqrt(Ki / J_rotor), :func:`rate_bound`) that a 1 ms step takes
     more than ``SLOW_SUBSTEPS`` substeps where the torque limit acts (there the exact linear step does not hold)."""
     messages = []
-    for name in ("omega_set", "omega_initial") if p.profile == STEP else ("omega_set",):
+    for name in ("omega_set", "omega_initial") if p.profile in (STEP, SLEW) else ("omega_set",):
         value = getattr(p, name)
         if abs(value) > LARGE_SPEED:
             messages.append(f"{name} = {value:.6g} rad/s is {value * 30.0 / math.pi:.6g} rpm; if the value was meant "
@@ -297,8 +311,8 @@ def check(p: Parameters) -> list:
     """The ramp runs from rest up to omega_set >= 0."""
     if p.profile == RAMP and p.omega_set < 0.0:
         return [f"omega_set = {p.omega_set!r} rad/s is outside its allowed range [0, 1e+04] rad/s for the "
-                "ramp profile (profile = 1), which runs up from rest; to run in reverse, use the step profile "
-                "(profile = 2, omega_initial = 0, omega_set < 0)"]
+                "ramp profile (profile = 1), which runs up from rest; to run in reverse, use the ramp between two speeds "
+                "(profile = 3, omega_initial = 0, omega_set < 0) or the step profile (profile = 2)"]
     return []
 
 
