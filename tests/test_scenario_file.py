@@ -71,8 +71,8 @@ def test_good_file_loads(tmp_path):
     # messages that say what to write instead
     ('fmu = "Load"',
      'fmu = "Load"\n[components.m]\nfmu = "Motor"\nparameters = { profile = 1.5 }\ninputs = { tau_load = 0.0 }',
-     "must be an integer in [0, 2] (Speed profile: 0 constant, 1 ramp from rest at t = 0 s (the time axis, not the "
-     "start time), 2 step at t_step)"),
+     "must be an integer in [0, 3] (Speed profile: 0 constant, 1 ramp from rest at t = 0 s (the time axis, not the "
+     "start time), 2 step at t_step, 3 ramp from omega_initial to omega_set at accel from t_step (up or down))"),
     ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { bend_angle = "20deg" }',
      "must be a number in rad (TOML values are SI, so angles in rad and speeds in rad/s; `ujfmu sweep --param` "
      "accepts deg and rpm suffixes)"),
