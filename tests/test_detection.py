@@ -728,6 +728,18 @@ def test_a_run_stopped_by_its_loads_chatter_names_the_load_and_its_remedies(fmu_
     assert "Widen omega_smooth to at least 44.4 rad/s" in message and "torque-driven" not in message
 
 
+def test_a_setup_error_is_not_blamed_on_the_loads_chatter(fmu_dir):
+    """The same start-up with a signal recorded twice fails before its first step, naming the signal; the load's
+    chatter hint had been added to it (no partial results, so nothing had filtered it)."""
+    from ujfmu.scenario_run import run_scenario
+    scenario = Scenario(Path(__file__).parent.parent / "scenarios" / "double_cardan_omar_startup.toml")
+    scenario = scenario.with_parameters({"load.T0": 200.0})
+    scenario.record.append(scenario.record[0])
+    with pytest.raises(CosimulationError) as info:
+        run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, progress=False)
+    assert "more than once" in str(info.value) and "hint" not in str(info.value)
+
+
 def test_a_failure_far_from_rest_is_not_blamed_on_the_loads_chatter(fmu_dir):
     """Omar's driveline at 80 deg joints on an ideal source at 40 rad/s: the FMU refuses a step (the support's
     motion takes the joint past its range) with the output far from rest. Its load (5 N.m over omega_smooth 1e-3

@@ -862,8 +862,9 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                                progress=progress or None, coupling=scenario.coupling,
                                output_interval=scenario.output_interval, diagnostics=diagnostics)
     except CosimulationError as exc:
-        if exc.partial is not None:   # a Load that chatters near rest is the likelier cause, where it came near rest
-            chatter = [c for c in chatter if came_near_rest(c, exc.partial)]
+        # a Load that chatters near rest is the likelier cause, where it came near rest (a run that never stepped,
+        # failing at its setup, has nothing to do with it)
+        chatter = [c for c in chatter if exc.partial is not None and came_near_rest(c, exc.partial)]
         hint = "" if isinstance(exc, RunStopped) else "\n".join(f"hint: {c.text()}" for c in chatter) or (
             torque_driven_hint(scenario, str(exc.args[0]) if exc.args else ""))
         if exc.partial is not None and not isinstance(exc, RunStopped):
