@@ -252,14 +252,20 @@ def test_step_auto_passes_over_the_steps_whose_record_aliases(fmu_dir, tmp_path,
 
 def test_a_bond_from_an_ideal_speed_source_is_marked_no_coupling_error(fmu_dir, tmp_path, capsys):
     """The ideal source's speed ignores the torque: its bond's residual (12.6% of the transmitted energy here, the
-    joint's torque swinging at 2x within the steps) is marked as no coupling error; the joint-load bond, whose load
-    acts on the joint, and a PI motor's bond (SCENARIO) are not marked."""
+    joint's torque swinging at 2x within the steps) is marked as no coupling error; so is the joint-load bond of a
+    constant 20 N.m load, whose torque held over a step is the one it gives away from rest; a fan load's (c2 > 0),
+    which depends on the speed, and a PI motor's bond (SCENARIO) are not marked."""
     path = tmp_path / "joint.toml"
     path.write_text(JOINT_AT_1500_RPM.format(step=0.001))
     main(["--fmu-dir", str(fmu_dir), "run", str(path), "--no-plot", "--out", str(tmp_path)])
     lines = [x for x in capsys.readouterr().out.splitlines() if "coupling energy" in x]
     assert len(lines) == 2
     assert "motor <-> joint" in lines[0] and "(no coupling error: motor is an ideal speed source" in lines[0]
+    assert "joint <-> load" in lines[1] and "(no coupling error away from rest: load's torque does not depend" in \
+        lines[1]
+    path.write_text(JOINT_AT_1500_RPM.format(step=0.001).replace("c2 = 0.0", "c2 = 1e-4"))
+    main(["--fmu-dir", str(fmu_dir), "run", str(path), "--no-plot", "--out", str(tmp_path)])
+    lines = [x for x in capsys.readouterr().out.splitlines() if "coupling energy" in x]
     assert "joint <-> load" in lines[1] and "no coupling error" not in lines[1]
     path.write_text(SCENARIO.format(tau_max=5.0))
     main(["--fmu-dir", str(fmu_dir), "run", str(path), "--no-plot", "--out", str(tmp_path)])

@@ -503,13 +503,26 @@ def ideal_speed_source(scenario: Scenario, name: str) -> bool:
 def annotate_bonds(scenario: Scenario, bonds: list) -> list:
     """The bonds (``ujfmu.master.BondEnergy``), each whose speed comes from an ideal speed source noted: its speed
     ignores the torque, so the held torque moves no energy in any model, and the residual sums only how much the
-    torque changes within the steps (its size says nothing about the coupling's accuracy)."""
+    torque changes within the steps (its size says nothing about the coupling's accuracy); and each whose torque
+    comes from a Load that does not depend on the speed (:func:`speed_free_load`), whose held torque is exact away
+    from rest."""
     for bond in bonds:
-        source = bond.components[0]
+        source, sink = bond.components
         if ideal_speed_source(scenario, source):
             bond.note = (f"no coupling error: {source} is an ideal speed source, whose speed ignores the torque; the "
                          f"figure sums the torque's change within the steps")
+        elif scenario.components.get(sink, ("",))[0] == "Load" and speed_free_load(scenario, sink):
+            bond.note = (f"no coupling error away from rest: {sink}'s torque does not depend on the speed (c1 = c2 = 0, "
+                         "no periodic torque; T0 reverses only within omega_smooth of rest), so the torque held over a "
+                         "step is the one it gives; the figure sums the speed's change within the steps")
     return bonds
+
+
+def speed_free_load(scenario: Scenario, load: str) -> bool:
+    """True for a Load whose torque does not depend on its speed away from rest, nor on its angle: c1 = c2 = 0 and
+    T_h = 0 (T0 and T_active are constant there; a T_change steps it once)."""
+    values = scenario.parameters_with_defaults(load)
+    return values["c1"] == 0.0 and values["c2"] == 0.0 and not values.get("T_h", 0.0)
 
 
 def operating_pairs(scenario: Scenario) -> list:
