@@ -302,6 +302,8 @@ def cmd_run(args):
     scenario = _with_set(Scenario(args.scenario), args.set)
     if args.stop_time is not None:
         scenario = _with_stop_time(scenario, args.stop_time)
+    if args.coupling is not None:
+        scenario.coupling = args.coupling
     if args.model_exchange and (args.step == "auto" or args.check_step):
         raise UsageError("--step auto and --check-step estimate a co-simulation's coupling error; a Model Exchange "
                          "run (--model-exchange) has none: its accuracy is the solver's (rtol 1e-8)")
@@ -880,6 +882,9 @@ def _main(raw: list):
                            help="a parameter instead of the scenario's (several --set for several), e.g. "
                                 "driveline.yoke_phase=30deg: the run is <scenario>_changed, its title says what "
                                 "changed, and it is not compared with the file's reference, made for the file's setup")
+            p.add_argument("--coupling", choices=("implicit", "explicit"),
+                           help="coupling scheme instead of the scenario's [experiment] coupling (compared with the "
+                                "same reference, whose bands were chosen for the file's scheme)")
             p.add_argument("--stop-time", type=float, metavar="SECONDS",
                            help="run until this time instead of the scenario's stop_time (a whole number of steps "
                                 "after its start): a changed copy, as --set makes, not compared with the file's "

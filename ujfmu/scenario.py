@@ -289,8 +289,10 @@ class Scenario:
         with problems.kept():
             self._read_sweep(data.get("sweep", {}))
         problems.raise_any()
-        #: the file's reference, kept on a changed copy that runs without it (``with_parameters``)
+        #: the file's reference, kept on a changed copy that runs without it (``with_parameters``), and the step and
+        #: coupling its bands were chosen for
         self.file_reference = self.reference_file
+        self.file_step_size, self.file_coupling = getattr(self, "step_size", None), getattr(self, "coupling", None)
 
     def _read_header(self, data):
         """The top-level fields: only known ones; title and description strings."""

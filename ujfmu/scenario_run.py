@@ -726,6 +726,12 @@ class ScenarioResult:
         figures = ("[reference.tolerance] holds figures chosen for the scenario's own parameters (a few times the "
                    "error its run reaches there): a copy with other parameters needs figures of its own, the accuracy "
                    "its study needs")
+        own_step, own_coupling = (getattr(self.scenario, "file_step_size", self.scenario.step_size),
+                                  getattr(self.scenario, "file_coupling", self.scenario.coupling))
+        if (self.scenario.step_size, self.scenario.coupling) != (own_step, own_coupling):
+            figures += (f"; and for its own step and coupling ({own_step:g} s, {own_coupling}): at "
+                        f"{self.scenario.step_size:g} s, {self.scenario.coupling}, a FAIL holds this run to the file's "
+                        "accuracy, so judge the error figures (% of the range) against what your study needs")
         if any(not c.passed for c in self.order_checks) and not self.model_exchange:
             lines.append("  an order amplitude outside its tolerance: a vibration the coupling or the step distorts "
                          "shows here first (the bands above scale with each signal's whole range); the implicit "
