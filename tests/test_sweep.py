@@ -39,6 +39,10 @@ def test_axis_ranges_are_inclusive_and_units_convert_to_si(brutti):
     axis = parse_axis("motor.omega_set=100:1500:10rpm", brutti)
     assert len(axis.values) == 141 and axis.values[0] == pytest.approx(100 * RPM)
     assert axis.values[-1] == pytest.approx(1500 * RPM) and axis.display(axis.values[-1]) == pytest.approx(1500)
+    assert parse_axis("driveline.beta1=0.1,0.2rad", brutti).values == [0.1, 0.2]   # the SI units, named
+    assert parse_axis("motor.omega_set=70rad/s", brutti).values == [70.0]
+    with pytest.raises(ScenarioError, match=r"'rad' is rad, but the parameter's unit is N.m/rad"):
+        parse_axis("driveline.k_theta=5rad", brutti)
     linked = parse_axis("driveline.beta1,driveline.beta2=5,10deg", brutti)
     assert linked.names == ("driveline.beta1", "driveline.beta2")
     assert linked.values == pytest.approx([math.radians(5), math.radians(10)])
@@ -120,10 +124,10 @@ def test_bad_axes_are_rejected_before_anything_runs(brutti, spec, words):
     ("driveline.k_theta=1000:2000:500rpm", "driveline.k_theta: 'rpm' converts to rad/s, but the parameter's unit is "
                                            "N.m/rad; it takes SI values without a suffix"),
     ("driveline.beta1=10rpm", "driveline.beta1: 'rpm' converts to rad/s, but the parameter's unit is rad; it takes "
-                              "a suffix deg or none (SI)"),
+                              "a suffix deg or rad or none (SI)"),
     ("driveline.J_load=1deg", "driveline.J_load: 'deg' converts to rad, but the parameter's unit is kg.m2"),
     ("motor.omega_set=100deg", "motor.omega_set: 'deg' converts to rad, but the parameter's unit is rad/s; it takes "
-                               "a suffix rpm or none (SI)"),
+                               "a suffix rpm or rad/s or none (SI)"),
     ("motor.omega_set=100Hz", "optionally followed by rpm (rad/s parameters) or deg (rad parameters)"),
 ])
 def test_a_unit_suffix_must_match_the_parameters_unit(brutti, spec, words):

@@ -59,10 +59,10 @@ from .master import Component, Connection, Cosimulation, FmuWarning, RunStopped
 from .scenario import SWEEP_KEYS, Scenario, ScenarioError, plain_number
 from .steady import ERROR, FIGURES, FINAL, OK, STATUSES, grows, settle_and_measure
 
-#: human units accepted after a --param range, and their factor to SI
-UNITS = {"rpm": math.pi / 30.0, "deg": math.pi / 180.0, "": 1.0}
+#: human units accepted after a --param range, and their factor to SI (rad and rad/s: the SI units, named)
+UNITS = {"rpm": math.pi / 30.0, "deg": math.pi / 180.0, "rad": 1.0, "rad/s": 1.0, "": 1.0}
 #: the declared (SI) unit a parameter must have for each human unit
-UNIT_OF = {"rpm": "rad/s", "deg": "rad"}
+UNIT_OF = {"rpm": "rad/s", "deg": "rad", "rad": "rad", "rad/s": "rad/s"}
 
 
 def unit_problem(unit: str, declared: str | None) -> str:
@@ -72,8 +72,8 @@ def unit_problem(unit: str, declared: str | None) -> str:
         return ""
     accepted = [u for u, si in UNIT_OF.items() if si == declared]
     takes = f"a suffix {' or '.join(accepted)} or none (SI)" if accepted else "SI values without a suffix"
-    return (f"'{unit}' converts to {UNIT_OF[unit]}, but the parameter's unit is {declared or 'dimensionless'}; "
-            f"it takes {takes}")
+    what = f"'{unit}' is {UNIT_OF[unit]}" if UNITS[unit] == 1.0 else f"'{unit}' converts to {UNIT_OF[unit]}"
+    return f"{what}, but the parameter's unit is {declared or 'dimensionless'}; it takes {takes}"
 
 
 #: the human unit a sweep axis can be given in, by the parameter's SI unit
@@ -100,7 +100,8 @@ class Axis:
         names, negated = _signed(names)
         unit = unit.lower()
         if unit not in UNITS:
-            raise ValueError(f"unknown unit {unit!r}: use 'rpm' (rad/s parameters), 'deg' (rad parameters) or '' (SI)")
+            raise ValueError(f"unknown unit {unit!r}: use 'rpm' or 'rad/s' (rad/s parameters), 'deg' or 'rad' (rad "
+                             "parameters) or '' (SI)")
         values = [plain_number(v) for v in values]   # numpy numbers and bools as the Python ones they hold
         if not values:
             raise ValueError(f"the axis of {', '.join(names)} has no values: give at least one")
@@ -347,7 +348,7 @@ def parse_axis(text: str, scenario, option: str = "--param") -> Axis:
     names_text, sep, values_text = text.partition("=")
     if not sep:
         raise ScenarioError(f"{option} {text!r}: expected component.parameter=START:STOP:STEP")
-    match = re.fullmatch(r"\s*(.*?)\s*(rpm|deg)?\s*", values_text, re.IGNORECASE)
+    match = re.fullmatch(r"\s*(.*?)\s*(rpm|deg|rad/s|rad)?\s*", values_text, re.IGNORECASE)
     body, unit = match.group(1), (match.group(2) or "").lower()
     names = tuple(n.strip() for n in names_text.split(","))
     try:
