@@ -74,8 +74,8 @@ def test_good_file_loads(tmp_path):
      "must be an integer in [0, 3] (Speed profile: 0 constant, 1 ramp from rest at t = 0 s (the time axis, not the "
      "start time), 2 step at t_step, 3 ramp from omega_initial to omega_set at accel from t_step (up or down))"),
     ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { bend_angle = "20deg" }',
-     "must be a number in rad (TOML values are SI, so angles in rad and speeds in rad/s; `ujfmu sweep --param` "
-     "accepts deg and rpm suffixes)"),
+     "must be a number in rad (scenario values, in a file or from Python, are SI numbers: angles in rad, speeds in "
+     "rad/s; `ujfmu run --set` and `ujfmu sweep --param` take deg and rpm suffixes"),
     # what the model refuses in its parameters together, before anything runs, with the remedy
     ('fmu = "Load"',
      'fmu = "Load"\n[components.m]\nfmu = "Motor"\nparameters = { profile = 1, omega_set = -150.0 }\n'

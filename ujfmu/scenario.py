@@ -88,8 +88,9 @@ def _expected(var):
     unit = f" in {var.unit}" if var.unit not in (None, "1") else ""
     hint = ""
     if var.unit in ("rad", "rad/s"):
-        hint = (" (TOML values are SI, so angles in rad and speeds in rad/s; `ujfmu sweep --param` accepts deg and "
-                "rpm suffixes)")
+        hint = (" (scenario values, in a file or from Python, are SI numbers: angles in rad, speeds in rad/s; "
+                "`ujfmu run --set` and `ujfmu sweep --param` take deg and rpm suffixes, and Python converts with "
+                "math.radians or a factor pi/30)")
     return f"a number{unit}{hint}"
 
 
