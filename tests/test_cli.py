@@ -943,3 +943,20 @@ def test_run_coupling_and_step_say_the_bands_are_the_files(fmu_dir, tmp_path, ca
                  "5e-3", "--no-plot", "--out", str(tmp_path)]) == 1
     assert ("and for its own step and coupling (0.001 s, implicit): at 0.005 s, implicit, a FAIL holds this run to "
             "the file's accuracy") in capsys.readouterr().out
+
+
+def test_a_runs_table_has_its_units_beside_it(fmu_dir, tmp_path):
+    """`ujfmu run` writes `<scenario>.columns.csv` beside its CSV: every column of the table with its declared unit
+    and its FMU's description, the time with the communication step and coupling it ran with (a student's table had
+    carried neither)."""
+    import csv as csv_module
+    assert main(["--fmu-dir", str(fmu_dir), "run", str(SCENARIOS / "cardan_constant_speed.toml"), "--no-plot", "-q",
+                 "--step", "5e-4", "--out", str(tmp_path)]) in (0, 1)
+    with open(tmp_path / "cardan_constant_speed.csv") as f:
+        header = next(line for line in f if not line.startswith("#")).strip().replace('"', "").split(",")
+    with open(tmp_path / "cardan_constant_speed.columns.csv") as f:
+        rows = {r["column"]: r for r in csv_module.DictReader(f)}
+    assert list(rows) == header
+    assert rows["joint.tau_in"]["unit"] == "N.m" and rows["joint.omega_out"]["unit"] == "rad/s"
+    assert "communication step 0.0005 s, implicit coupling" in rows["time"]["meaning"]
+    assert "(joint, CardanJoint)" in rows["joint.tau_in"]["meaning"]

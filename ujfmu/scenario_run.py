@@ -948,6 +948,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         out_dir.mkdir(parents=True, exist_ok=True)
         result.csv = out_dir / f"{scenario.name}.csv"
         write_csv(result.csv, table)
+        write_columns(scenario, result.csv, table.dtype.names, model_exchange)
         if plot:
             from .plotting import plot_orbits, plot_scenario, plot_spectra
             result.plot = plot_scenario(result, reference, out_dir / f"{scenario.name}.png")
@@ -1156,11 +1157,38 @@ def _keep_partial(scenario, exc, extra, out_dir, plot):
         _write_partial(scenario, exc, Path(out_dir), plot)
 
 
+def write_columns(scenario: Scenario, csv_path: Path, names, model_exchange: bool = False) -> Path:
+    """``<name>.columns.csv`` beside a run's CSV: column, unit, meaning (the FMU's description of the variable, the
+    time's communication step and coupling, or the Model Exchange solve's), so a spreadsheet or a script reads the
+    units with the numbers."""
+    import csv
+    from .build import fmu_class
+    path = Path(csv_path).with_suffix(".columns.csv")
+    every = scenario.step_size * (scenario.output_interval or 1)
+    rows = []
+    for name in names:
+        if name == "time":
+            how = ("Model Exchange FMUs under CVode" if model_exchange else
+                   f"communication step {scenario.step_size:g} s, {scenario.coupling} coupling")
+            rows.append(["time", "s", f"simulation time, a row every {every:g} s ({how})"])
+            continue
+        comp, _, var = name.partition(".")
+        fmu = scenario.components[comp][0]
+        description = next((v.description for v in fmu_class(fmu).VARIABLES if v.name == var), "")
+        rows.append([name, scenario.unit(name), f"{description} ({comp}, {fmu})"])
+    with open(path, "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["column", "unit", "meaning"])
+        writer.writerows(rows)
+    return path
+
+
 def _write_partial(scenario, exc, out_dir, plot):
     """Write the results up to a failure (CSV, plot) and name them in the error's message."""
     out_dir.mkdir(parents=True, exist_ok=True)
     csv = out_dir / f"{scenario.name}.csv"
     write_csv(csv, exc.partial)
+    write_columns(scenario, csv, exc.partial.dtype.names)
     written = [f"results up to t = {float(exc.partial['time'][-1])!r}: {csv}"]
     if plot and len(exc.partial) > 1:
         from .plotting import plot_scenario
