@@ -233,10 +233,11 @@ def test_the_spectrums_bins_are_multiples_of_the_records_frequency_resolution():
 
 
 @pytest.mark.parametrize("profile, speeds", [(1, {"motor.omega_set": 150.0}),
-                                             (2, {"motor.omega_set": 150.0, "motor.omega_initial": 30.0})])
+                                             (2, {"motor.omega_set": 150.0, "motor.omega_initial": 30.0}),
+                                             (3, {"motor.omega_set": 150.0, "motor.omega_initial": 30.0})])
 def test_drive_speeds_are_the_set_points_a_profile_holds(profile, speeds):
-    """A ramp settles at omega_set; a step holds omega_initial first, then omega_set: both are speeds the machine
-    runs at (``ujfmu modes`` looks for crossings at each)."""
+    """A ramp settles at omega_set; a step, or a ramp between two speeds, holds omega_initial first, then omega_set:
+    both are speeds the machine runs at (``ujfmu modes`` looks for crossings at each)."""
     from ujfmu.analysis import drive_speeds
     from ujfmu.scenario import Scenario
     startup = Scenario(Path(__file__).parent.parent / "scenarios" / "cardan_startup.toml")
