@@ -130,8 +130,8 @@ class TorqueLimitNote:
     passed = True
 
     def __str__(self):
-        return (f"note drive {self.drive}: at its torque limit tau_max = {self.tau_max:g} N.m for {self.duration:.3g} s "
-                f"between t = {self.first:g} and {self.last:g} s, up to {speed_text(self.lag)} behind its set point "
+        return (f"note drive {self.drive}: at its torque limit tau_max = {self.tau_max:g} N.m for "
+                f"{self.duration:.3g} s between t = {self.first:g} and {self.last:g} s, up to {speed_text(self.lag)} behind its set point "
                 "there: its speed followed the limit, not the profile (a run-up's pace through a resonance is the "
                 "limit's); raise tau_max, or ease the profile (accel), where the profile was meant")
 
@@ -512,9 +512,9 @@ def annotate_bonds(scenario: Scenario, bonds: list) -> list:
             bond.note = (f"no coupling error: {source} is an ideal speed source, whose speed ignores the torque; the "
                          f"figure sums the torque's change within the steps")
         elif scenario.components.get(sink, ("",))[0] == "Load" and speed_free_load(scenario, sink):
-            bond.note = (f"no coupling error away from rest: {sink}'s torque does not depend on the speed (c1 = c2 = 0, "
-                         "no periodic torque; T0 reverses only within omega_smooth of rest), so the torque held over a "
-                         "step is the one it gives; the figure sums the speed's change within the steps")
+            bond.note = (f"no coupling error away from rest: {sink}'s torque does not depend on the speed (c1 = c2 = "
+                         "0, no periodic torque; T0 reverses only within omega_smooth of rest), so the torque held over "
+                         "a step is the one it gives; the figure sums the speed's change within the steps")
     return bonds
 
 

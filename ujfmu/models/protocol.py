@@ -144,8 +144,9 @@ def joint_angle_advice(name: str, angle: float) -> list:
     typed = abs(angle * 1e4 - round(angle * 1e4)) < 1e-6 * max(1.0, abs(angle * 1e4))   # a few decimals: typed
     return [f"{name} = {angle:.6g} rad is {math.degrees(angle):.4g} deg, past the {math.degrees(LARGE_JOINT_ANGLE):g} "
             f"deg of an unusually steep joint (its speed ratio swings between {math.cos(angle):.3g} and "
-            f"{1.0 / math.cos(angle):.3g})" + (f"; if the value was meant in degrees, {name} = "
-                                               f"{math.radians(angle):.6g} rad (the FMUs take SI units)" if typed else "")]
+            f"{1.0 / math.cos(angle):.3g})"
+            + (f"; if the value was meant in degrees, {name} = {math.radians(angle):.6g} rad (the FMUs take SI units)"
+               if typed else "")]
 
 
 def phase_angle_advice(name: str, angle: float) -> list:

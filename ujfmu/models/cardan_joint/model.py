@@ -48,7 +48,8 @@ def excitation_order(p: "Parameters") -> int:
 
 
 def excited_orders(p: "Parameters") -> tuple:
-    """The orders of the input speed the outputs carry at full size at p: the joint's 2x alone (its kinematics repeat every half turn, error angles included: no odd order), or none (:func:`excitation_order`)."""
+    """The orders of the input speed the outputs carry at full size at p: the joint's 2x alone (its kinematics
+    repeat every half turn, error angles included: no odd order), or none (:func:`excitation_order`)."""
     return (EXCITATION_ORDER,) if excitation_order(p) else ()
 
 

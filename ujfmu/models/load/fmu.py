@@ -6,13 +6,14 @@ from ...fmu.base import SPEED_RANGE, ModelSlave, _new_inputs, input_, output, pa
 
 class Load(ModelSlave):
     """Resisting torque tau = T(t)*s(omega) + c1*omega + c2*omega*|omega|_s + T_active
-    + T_h*cos(order_h*phi + phase_h) (ujfmu.models.load.model), T(t) = T0 changed by T_change from t_change on, at once or over ramp_time (a load step
-    or ramp); phi the driven shaft's angle (an input: connect its phi_out), for a periodic torque (blade rate,
-    firing order).
+    + T_h*cos(order_h*phi + phase_h) (ujfmu.models.load.model), T(t) = T0 changed by T_change from t_change on, at
+    once or over ramp_time (a load step or ramp); phi the driven shaft's angle (an input: connect its phi_out), for
+    a periodic torque (blade rate, firing order).
 
     s and |.|_s are a smooth sign and absolute value with regularisation speed omega_smooth, so the law is smooth
     and odd through omega = 0: constant (Coulomb-like) torque T0, viscous c1, fan/propeller c2 (Brutti et al.:
-    M_u = c*omega^2, c = 0.017 N.m.s^2); T_active keeps its sign in either direction (a gradient, a weight). Stateless: tau follows omega and phi directly (direct feedthrough).
+    M_u = c*omega^2, c = 0.017 N.m.s^2); T_active keeps its sign in either direction (a gradient, a weight).
+    Stateless: tau follows omega and phi directly (direct feedthrough).
     Signs: tau > 0 opposes positive rotation; connect it to the tau_load input of the machine that drives it.
     """
 

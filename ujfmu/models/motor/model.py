@@ -311,8 +311,8 @@ def check(p: Parameters) -> list:
     """The ramp runs from rest up to omega_set >= 0."""
     if p.profile == RAMP and p.omega_set < 0.0:
         return [f"omega_set = {p.omega_set!r} rad/s is outside its allowed range [0, 1e+04] rad/s for the "
-                "ramp profile (profile = 1), which runs up from rest; to run in reverse, use the ramp between two speeds "
-                "(profile = 3, omega_initial = 0, omega_set < 0) or the step profile (profile = 2)"]
+                "ramp profile (profile = 1), which runs up from rest; to run in reverse, use the ramp between two "
+                "speeds (profile = 3, omega_initial = 0, omega_set < 0) or the step profile (profile = 2)"]
     return []
 
 

@@ -47,7 +47,8 @@ def excitation_order(p: "Parameters") -> int:
 
 
 def excited_orders(p: "Parameters") -> tuple:
-    """The orders of the input speed the outputs carry at full size at p: M_p's 2x alone (cos(phi1 + phi2): no odd order), or none (:func:`excitation_order`)."""
+    """The orders of the input speed the outputs carry at full size at p: M_p's 2x alone (cos(phi1 + phi2): no odd
+    order), or none (:func:`excitation_order`)."""
     return (EXCITATION_ORDER,) if excitation_order(p) else ()
 
 
