@@ -918,6 +918,15 @@ def test_run_stop_time_runs_a_changed_copy_and_says_why_it_is_not_compared(fmu_d
     assert times[-1] == pytest.approx(0.5) and len(times) == 501
     assert main(base + ["--stop-time", "0.5005"]) == 2
     assert "whole number (at least 1) of communication steps" in capsys.readouterr().err
+    steady = ["--fmu-dir", str(fmu_dir), "run", str(SCENARIOS / "twin_jeffcott_steady.toml"), "--no-plot", "--out",
+              str(tmp_path), "--stop-time", "0.5"]   # its steady window starts at 16 s: left out, and said
+    assert main(steady) == 0 and "(no steady window: the file's steady_from = 16 s is after it)" in \
+        capsys.readouterr().out
+    from ujfmu.scenario import Scenario, ScenarioError
+    short = Scenario(SCENARIOS / "twin_jeffcott_steady.toml")
+    short.stop_time = 0.5   # from Python: an error naming both times (it had been an internal error)
+    with pytest.raises(ScenarioError, match=r"steady_from = 16.0 s is not before stop_time = 0.5 s"):
+        short.check_experiment()
 
 
 def test_a_parameter_named_in_the_wrong_case_is_suggested(capsys):

@@ -1,8 +1,8 @@
 """Signal analysis of results (numpy): running-speed harmonics (order amplitudes), amplitude spectra, orbits; the
 models' natural frequencies (linearisation) and the speeds at which the orders cross them."""
 
-import math
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np

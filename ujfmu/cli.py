@@ -585,6 +585,9 @@ def _with_stop_time(scenario, stop_time: float):
     out = scenario.with_parameters({}) if scenario.name == scenario.path.stem else scenario
     out.stop_time = stop_time
     out.title = f"{out.title} (stop_time = {stop_time:g} s)"
+    if out.steady_from is not None and out.steady_from >= stop_time:   # the file's window lies beyond the run
+        out.title += f" (no steady window: the file's steady_from = {out.steady_from:g} s is after it)"
+        out.steady_from = 0.0
     out.check_experiment()
     return out
 

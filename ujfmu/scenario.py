@@ -951,7 +951,7 @@ class Scenario:
     def check_experiment(self) -> None:
         """ScenarioError unless the experiment as it stands now (a caller may have set step_size, start_time or
         stop_time after loading) has finite times, step_size > 0 and stop_time > start_time a whole number of steps
-        apart, as a file must, and steady_from is a finite number (None: unset, taken as 0)."""
+        apart, as a file must, and steady_from is a finite number (None: unset, taken as 0) before stop_time."""
         for name in ("start_time", "stop_time", "step_size"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
@@ -965,6 +965,10 @@ class Scenario:
         if not self.step_size > 0 or not self.stop_time > self.start_time:
             raise ScenarioError(f"{self.path}: experiment step_size = {self.step_size!r} s must be > 0 and stop_time "
                                 f"= {self.stop_time!r} s after start_time = {self.start_time!r} s")
+        if self.steady_from > self.start_time and not self.steady_from < self.stop_time:
+            raise ScenarioError(f"{self.path}: output steady_from = {self.steady_from!r} s is not before stop_time = "
+                                f"{self.stop_time!r} s: the steady window would be empty; set steady_from before it "
+                                "(0 or None: no steady window) or run longer")
         self._check_steps()
 
     def _check_steps(self) -> None:
