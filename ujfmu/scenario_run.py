@@ -512,17 +512,18 @@ def annotate_bonds(scenario: Scenario, bonds: list) -> list:
             bond.note = (f"no coupling error: {source} is an ideal speed source, whose speed ignores the torque; the "
                          f"figure sums the torque's change within the steps")
         elif scenario.components.get(sink, ("",))[0] == "Load" and speed_free_load(scenario, sink):
-            bond.note = (f"no coupling error away from rest: {sink}'s torque does not depend on the speed (c1 = c2 = "
-                         "0, no periodic torque; T0 reverses only within omega_smooth of rest), so the torque held over "
-                         "a step is the one it gives; the figure sums the speed's change within the steps")
+            bond.note = (f"no coupling error away from rest: {sink}'s torque is constant (c1 = c2 = 0, no periodic "
+                         "torque, no change of T0; T0 reverses only within omega_smooth of rest), so the torque held "
+                         "over a step is the one it gives; the figure sums the speed's change within the steps")
     return bonds
 
 
 def speed_free_load(scenario: Scenario, load: str) -> bool:
-    """True for a Load whose torque does not depend on its speed away from rest, nor on its angle: c1 = c2 = 0 and
-    T_h = 0 (T0 and T_active are constant there; a T_change steps it once)."""
+    """True for a Load whose torque is constant away from rest: c1 = c2 = 0, no periodic torque (T_h = 0) and no
+    change of T0 (T_change = 0: a step or ramp of it is held over a step too); T0 and T_active are constant there."""
     values = scenario.parameters_with_defaults(load)
-    return values["c1"] == 0.0 and values["c2"] == 0.0 and not values.get("T_h", 0.0)
+    return (values["c1"] == 0.0 and values["c2"] == 0.0 and not values.get("T_h", 0.0)
+            and not values.get("T_change", 0.0))
 
 
 def operating_pairs(scenario: Scenario) -> list:
