@@ -809,10 +809,10 @@ def _no_advice(p):
     return []
 
 
-#: ``PrescribedInputSlave.input_acceleration`` takes the speed's curvature for a corner (an acceleration that jumped)
-#: where the acceleration changed over the last step by more than KINK of |s1| + |s0| after a step over which it
-#: changed by less than CORNER of that change
-KINK, CORNER = 0.9, 0.1
+#: ``PrescribedInputSlave.input_acceleration`` takes the speed's curvature for a corner (an acceleration that jumped
+#: from flat) where the acceleration changed over the last step by more than KINK of |s1| + |s0| while the largest
+#: acceleration before it, each step's weighed by DECAY per step since, is below CORNER of that change
+KINK, CORNER, DECAY = 0.9, 0.1, 0.9
 
 
 class PrescribedInputSlave(ModelSlave):
@@ -831,8 +831,8 @@ class PrescribedInputSlave(ModelSlave):
     #: before the first step: the outputs at model_inputs() (``output_inputs``)
     _input_set, _alpha_step = True, 0.0
     STATE = {**ModelSlave.STATE, "_phi_in": "float", "_phi_in_carry": "float", "_omega_prev": "float|None",
-             "_h_prev": "float", "_omega_prev2": "float|None", "_h_prev2": "float", "_omega_prev3": "float|None",
-             "_h_prev3": "float", "_alpha_step": "float", "_input_set": "bool"}
+             "_h_prev": "float", "_omega_prev2": "float|None", "_h_prev2": "float", "_accel_peak": "float",
+             "_alpha_step": "float", "_input_set": "bool"}
     RK4_KIND = "drive"
     #: 1: alpha the backward difference of omega_in over the last step; 2: the second-order (BDF2) slope at t_k
     ACCELERATION_ORDER = 1
@@ -845,24 +845,25 @@ class PrescribedInputSlave(ModelSlave):
         self._phi_in, self._phi_in_carry = phi_start, 0.0
         self._omega_prev, self._h_prev = None, 0.0     # omega_in at the previous communication point
         self._omega_prev2, self._h_prev2 = None, 0.0   # and at the one before
-        self._omega_prev3, self._h_prev3 = None, 0.0   # and the one before that
+        self._accel_peak = -1.0   # the largest |slope| before the last one, decayed (-1: none yet, no corner)
         self._alpha_step, self._input_set = 0.0, True   # the last step's alpha; omega_in set since that step
 
     def input_acceleration(self):
         """alpha at t_k: the backward difference s1 = (w_k - w_k-1)/h (0 before the first step); with
         ACCELERATION_ORDER 2, from the third point on, the slope at t_k of the parabola through w_k, w_k-1, w_k-2
         (BDF2, (3 w_k - 4 w_k-1 + w_k-2) / 2h = s1 + (s1 - s0) / 2 for equal steps), where the speed's curvature
-        is smooth: from the fourth point on, the parabola's term is left out at a corner, where the acceleration
-        changed over the last step by more than ``KINK`` of |s1| + |s0| (from near zero to another value, or across
-        zero) after a step over which it changed by less than ``CORNER`` of that. There the acceleration jumped (a
-        drive reaching its torque limit, a speed step): the parabola through the corner had overshot the new
-        acceleration by half its jump, and a torque J alpha with it, at any step; s1 is exact on the constant
-        acceleration after a corner. A smooth speed sampled a dozen times a period or more does not meet both (its
-        acceleration's zeros are not its extremes); a growing step-rate oscillation, whose acceleration changes
-        alike every step, does not meet the second (its stability with BDF2 is unchanged: docs/cosimulation.md); nor
-        does a jump between two large accelerations of one sign (the overshoot stays, half that jump). An input
-        unchanged since the last point (a constant speed, a host that holds it) gives 0 either way; outputs read
-        before the host sets it after a step are at the step's own alpha (``output_inputs``)."""
+        is smooth: the parabola's term is left out at a corner from flat, where the acceleration changed over the
+        last step by more than ``KINK`` of |s1| + |s0| while every acceleration before, weighed by ``DECAY`` per step
+        since (``_accel_peak``), is below ``CORNER`` of that change. There the acceleration jumped at the last
+        communication point (a set-point step, a drive braking at its limit from a steady speed): the parabola
+        through the corner had overshot the new acceleration by half its jump, and a torque J alpha with it, at
+        any step; s1 is exact on the constant acceleration after it. A smooth speed's acceleration has been as large
+        as its change within the last steps (one sampled a dozen times a period or more: 1 of 20000 random
+        ramp-plus-swing speeds meets both), and so has a growing step-rate oscillation's (its stability with BDF2 is
+        unchanged: docs/cosimulation.md). Not a corner: a jump inside a step (the next point still overshoots by up
+        to half of it), or between two large accelerations. An input unchanged since the last point (a constant
+        speed, a host that holds it) gives 0 either way; outputs read before the host sets it after a step are at
+        the step's own alpha (``output_inputs``)."""
         if self._omega_prev is None:
             return 0.0
         slope = (self.omega_in - self._omega_prev) / self._h_prev
@@ -870,9 +871,8 @@ class PrescribedInputSlave(ModelSlave):
             return slope
         h1, h2 = self._h_prev, self._h_prev2
         before = (self._omega_prev - self._omega_prev2) / h2
-        if (self._omega_prev3 is not None and abs(slope - before) > KINK * (abs(slope) + abs(before))
-                and abs(before - (self._omega_prev2 - self._omega_prev3) / self._h_prev3)
-                < CORNER * abs(slope - before)):
+        jump = abs(slope - before)
+        if jump > KINK * (abs(slope) + abs(before)) and 0.0 <= self._accel_peak < CORNER * jump:
             return slope
         return slope + h1 * (slope - before) / (h1 + h2)
 
@@ -949,7 +949,9 @@ class PrescribedInputSlave(ModelSlave):
         total = self._phi_in + increment
         self._phi_in_carry = (total - self._phi_in) - increment
         self._phi_in = total
-        self._omega_prev3, self._h_prev3 = self._omega_prev2, self._h_prev2
+        if self._omega_prev2 is not None:   # the slope before the last one joins the decayed peak
+            before = abs(self._omega_prev - self._omega_prev2) / self._h_prev2
+            self._accel_peak = max(before, DECAY * self._accel_peak)
         self._omega_prev2, self._h_prev2 = self._omega_prev, self._h_prev
         self._omega_prev, self._h_prev = omega, h
         self._alpha_step, self._input_set = alpha, False
