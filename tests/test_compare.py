@@ -104,6 +104,23 @@ def test_an_operating_point_missed_from_above_is_called_an_overshoot_not_unreach
     assert "not reached" in str(below) and "above" not in str(below)
 
 
+def test_a_drive_braking_to_rest_is_checked_against_its_top_speed(fmu_dir, tmp_path, capsys):
+    """A drive braked to rest (set point 0) had crashed the summary (a division by the set point) and could pass only
+    at exactly 0: its tolerance is 1% of the run's top set point, and the line says so. Through `ujfmu run`:
+    Feng's joint braked from 50 rad/s to rest at 100 rad/s^2 (profile 3) stops within it."""
+    from ujfmu.cli import main
+    from ujfmu.scenario_run import OperatingPointCheck
+    near = OperatingPointCheck("motor.omega", "motor.omega_ref", 0.3, 0.0, 1.0, top=50.0)
+    far = OperatingPointCheck("motor.omega", "motor.omega_ref", 0.8, 0.0, 1.0, top=50.0)
+    assert near.passed and not far.passed
+    assert "(+0.6% of the run's top set point 50 rad/s (477.465 rpm), allowed 1%)" in str(near)
+    scenario = Path(__file__).parent.parent / "scenarios" / "cardan_startup.toml"
+    assert main(["--fmu-dir", str(fmu_dir), "run", str(scenario), "--no-plot", "--out", str(tmp_path), "--set",
+                 "motor.profile=3", "--set", "motor.omega_initial=50", "--set", "motor.omega_set=0", "--set",
+                 "motor.t_step=0.2", "--set", "motor.accel=100", "--stop-time", "1.5"]) == 0
+    assert "ok   operating point motor.omega" in capsys.readouterr().out
+
+
 def test_order_amplitudes_are_checked_against_the_reference_as_fractions_of_themselves(tmp_path):
     """[reference.orders]: over the steady window, each running-speed order the reference carries at 1% or more
     of its largest is fitted in the run and the reference, and must agree within rel of the reference's. Here a

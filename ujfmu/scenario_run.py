@@ -75,8 +75,9 @@ END_WINDOW = 0.1
 @dataclass
 class OperatingPointCheck:
     """A drive's speed against its set point over the end of the run (from steady_from, else the last 10%):
-    mean |speed - set point| within OPERATING_TOL of the set point. ``target`` is nan when the set point still
-    moves in the window (a run that ends during its ramp): then nothing is checked."""
+    mean |speed - set point| within OPERATING_TOL of the set point, or of the largest set point of the run where
+    the drive is to stop (a braking to rest: 0 allows nothing). ``target`` is nan when the set point still moves in
+    the window (a run that ends during its ramp): then nothing is checked."""
     signal: str
     set_point: str
     value: float
@@ -84,14 +85,21 @@ class OperatingPointCheck:
     since: float
     #: where the set point moves in the window: the time from which it holds its last value (nan: it moves to the end)
     holds_from: float = math.nan
+    #: the largest |set point| over the run [rad/s], the scale of a stop's tolerance
+    top: float = 0.0
 
     @property
     def checked(self) -> bool:
         return not math.isnan(self.target)
 
     @property
+    def scale(self) -> float:
+        """What the tolerance is a share of: |target|, or the run's largest set point where the target is 0."""
+        return abs(self.target) or self.top or 1.0
+
+    @property
     def passed(self) -> bool:
-        return not self.checked or abs(self.value - self.target) <= OPERATING_TOL * abs(self.target)
+        return not self.checked or abs(self.value - self.target) <= OPERATING_TOL * self.scale
 
     def __str__(self):
         if not self.checked and not math.isnan(self.holds_from):
@@ -104,8 +112,9 @@ class OperatingPointCheck:
         head = "ok  " if self.passed else "FAIL"
         text = (f"{head} operating point {self.signal}: mean {speed_text(self.value)} from t = {self.since:g} s "
                 f"against its set point {self.set_point} = {speed_text(self.target)} "
-                f"({100.0 * (self.value - self.target) / abs(self.target):+.3g}%, allowed "
-                f"{100.0 * OPERATING_TOL:g}%)")
+                f"({100.0 * (self.value - self.target) / self.scale:+.3g}%"
+                + (f" of the run's top set point {speed_text(self.scale)}" if not self.target else "")
+                + f", allowed {100.0 * OPERATING_TOL:g}%)")
         if not self.passed and abs(self.value) > abs(self.target):
             text += (": the drive runs above its set point at the end (an overshoot still settling, or a loop "
                      "oscillating about it); lengthen stop_time, or check the controller's gains against the "
@@ -561,7 +570,8 @@ def check_operating_points(scenario: Scenario, table: np.ndarray) -> list:
             if off.size and off[-1] < len(ref) - 2:
                 holds_from = float(t[window][off[-1] + 1])
         checks.append(OperatingPointCheck(signal, set_point, float(np.mean(table[signal][window])),
-                                          math.nan if moving else float(ref[-1]), float(t[window][0]), holds_from))
+                                          math.nan if moving else float(ref[-1]), float(t[window][0]), holds_from,
+                                          float(np.max(np.abs(table[set_point])))))
     return checks
 
 
