@@ -944,6 +944,7 @@ def test_run_coupling_and_step_say_the_bands_are_the_files(fmu_dir, tmp_path, ca
     base = ["--fmu-dir", str(fmu_dir), "run", str(SCENARIOS / "cardan_startup.toml"), "--no-plot", "-q"]
     assert main(base + ["--out", str(tmp_path / "implicit")]) == 0
     assert main(base + ["--coupling", "explicit", "--out", str(tmp_path / "explicit")]) == 0
+    assert "(coupling = explicit)" in capsys.readouterr().out   # the run says it is not the file's scheme
     implicit, explicit = (np.genfromtxt(tmp_path / kind / "cardan_startup.csv", delimiter=",", names=True,
                                         comments="#") for kind in ("implicit", "explicit"))
     assert np.max(np.abs(implicit["motoromega"] - explicit["motoromega"])) > 1e-4

@@ -112,6 +112,7 @@ def test_the_step_estimate_leaves_out_the_start_without_a_speed_history(fmu_dir)
         errors.append(est.errors["joint.tau_in"])
     assert errors[0] / errors[1] > 3.0, errors
     assert f"per signal from t = {7.5e-4:g} s (the first 3 steps" in est.lines()[0]
+    assert not stepsize.speed_driven(Scenario(CONSTANT_SPEED.parent / "cardan_heavy_torque_driven.toml"))
 
 
 def test_check_step_reports_every_signal(fmu_dir, tmp_path, capsys):

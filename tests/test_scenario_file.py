@@ -326,6 +326,17 @@ def test_no_bundled_scenario_sets_parameters_its_models_warn_of():
 OMAR_START = Path(__file__).parent.parent / "scenarios" / "double_cardan_omar_startup.toml"
 
 
+@pytest.mark.parametrize("profile, start, end, warned", [(3, 0.0, 60.0, True), (3, 60.0, 0.0, True),
+                                                         (2, 60.0, 0.0, True), (3, 30.0, 60.0, False)])
+def test_a_load_that_chatters_is_named_where_a_ramp_or_step_passes_rest(profile, start, end, warned):
+    """The chatter advice where the drive passes rest: a ramp between two speeds from 0 (the Motor's own remedy for
+    running in reverse) had left it unsaid, and a braking to 0 passes rest too; a ramp between two speeds above
+    rest never does (Omar's start-up at 200 N.m, T0 h / J = 44 rad/s)."""
+    scenario = Scenario(OMAR_START).with_parameters({"load.T0": 200.0, "motor.profile": profile,
+                                                     "motor.omega_initial": start, "motor.omega_set": end})
+    assert any(a.startswith("load:") for a in scenario.model_advice()) == warned
+
+
 @pytest.mark.parametrize("torque, warned", [(5.0, False), (8.0, False), (10.0, True), (200.0, True)])
 def test_a_load_that_chatters_from_rest_is_named_before_the_run(torque, warned):
     """One 1 ms step of a Load's constant torque T0 moves Omar's 4.5 g.m2 output by T0 h / J: 1.1 rad/s at his 5

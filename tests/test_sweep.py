@@ -128,7 +128,7 @@ def test_bad_axes_are_rejected_before_anything_runs(brutti, spec, words):
     ("driveline.J_load=1deg", "driveline.J_load: 'deg' converts to rad, but the parameter's unit is kg.m2"),
     ("motor.omega_set=100deg", "motor.omega_set: 'deg' converts to rad, but the parameter's unit is rad/s; it takes "
                                "a suffix rpm or rad/s or none (SI)"),
-    ("motor.omega_set=100Hz", "optionally followed by rpm (rad/s parameters) or deg (rad parameters)"),
+    ("motor.omega_set=100Hz", "optionally followed by rpm or rad/s (rad/s parameters), deg or rad (rad parameters)"),
 ])
 def test_a_unit_suffix_must_match_the_parameters_unit(brutti, spec, words):
     with pytest.raises(ScenarioError, match="--param") as err:
@@ -301,11 +301,13 @@ def test_a_failed_point_is_not_rerun_by_the_same_sweep_but_a_transient_failure_i
     import errno
 
     import ujfmu.sweep as sweep_module
-    from ujfmu.sweep import repeatable
+    from ujfmu.sweep import WorkerSetupError, repeatable
     assert repeatable(ValueError("e >= R")) and not repeatable(OSError(errno.ENOSPC, "No space left on device"))
     wrapped = RuntimeError("setup failed")
     wrapped.__cause__ = MemoryError()
-    assert not repeatable(wrapped)
+    deeper = RuntimeError("fmi2DoStep failed")
+    deeper.__context__ = wrapped   # the cause two levels down
+    assert not repeatable(wrapped) and not repeatable(deeper) and not repeatable(WorkerSetupError("no FMUs"))
     args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "ring_coupling_fig3.toml"), "--param",
             "coupling.e=0.001,0.1", "--output", "coupling.x_e", "--running-speed", "motor.omega", "--settle", "0",
             "--revolutions", "1", "--steady-tol", "0", "--workers", "0", "--out", str(tmp_path), "--no-plot", "-q"]

@@ -302,8 +302,9 @@ def cmd_run(args):
     scenario = _with_set(Scenario(args.scenario), args.set)
     if args.stop_time is not None:
         scenario = _with_stop_time(scenario, args.stop_time)
-    if args.coupling is not None:
+    if args.coupling is not None and args.coupling != scenario.coupling:
         scenario.coupling = args.coupling
+        scenario.title = f"{scenario.title} (coupling = {args.coupling})"
     if args.model_exchange and (args.step == "auto" or args.check_step):
         raise UsageError("--step auto and --check-step estimate a co-simulation's coupling error; a Model Exchange "
                          "run (--model-exchange) has none: its accuracy is the solver's (rtol 1e-8)")
@@ -555,7 +556,7 @@ def cmd_sweep(args):
 
 #: what each sweep point status means, for the summary line
 STATUS_MEANING = {"ok": "steady at the operating point", "not_steady": "not steady by max_settle_time",
-                  "off_target": "operating point not reached", "error": "failed (rerun to retry)",
+                  "off_target": "operating point not reached", "error": "failed (a rerun reuses it; one the machine caused runs again)",
                   "missing": "not run"}
 
 

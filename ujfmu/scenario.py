@@ -892,10 +892,11 @@ class Scenario:
     def model_advice(self) -> list:
         """'component: warning' for valid parameters that are likely not what was meant (``MODEL.advice``, which
         the FMU logs at initialization: e.g. a ring coupling's c_s left at the default ring's), and, where a drive
-        starts from rest (a Motor's ramp, or its step from 0), a Load that chatters as its shaft passes through rest
-        (:meth:`load_chatter`, ``LOAD_CHATTER_ADVICE``)."""
+        starts from rest or stops (a Motor's ramp, its step or ramp between speeds from or to 0), a Load that
+        chatters as its shaft passes through rest (:meth:`load_chatter`, ``LOAD_CHATTER_ADVICE``)."""
         from_rest = any(fmu in ("Motor", "MotorController") and (
-            values["profile"] == 1 or values["profile"] == 2 and values["omega_initial"] == 0.0)
+            values["profile"] == 1 or values["profile"] in (2, 3) and 0.0 in (values["omega_initial"],
+                                                                                values["omega_set"]))
             for fmu, values in ((fmu, self.parameters_with_defaults(name)) for name, (fmu, _) in
                                 self.components.items()))
         return ([f"{name}: {message}" for name in self.components for message in self._ask_model(name, "advice")]

@@ -910,10 +910,10 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
             hint = "\n".join(h for h in (driving_load_hint(scenario), held, oscillating, stalled, hint) if h)
         if hint:
             exc.args = (f"{exc.args[0]}\n{hint}",) + exc.args[1:]
-        _keep_partial(scenario, exc, extra, out_dir, plot)
+        _keep_partial(scenario, exc, extra, out_dir, plot, model_exchange)
         raise
     except Interrupted as exc:   # a Ctrl-C or SIGTERM: the results up to there, as a failed run's
-        _keep_partial(scenario, exc, extra, out_dir, plot)
+        _keep_partial(scenario, exc, extra, out_dir, plot, model_exchange)
         raise
     operating, sampling = check_operating_points(scenario, table), check_sampling(scenario, table)
     operating += torque_limit_notes(scenario, table)
@@ -1159,13 +1159,13 @@ def stalled_drive_hint(scenario: Scenario, partial: np.ndarray) -> str:
     return ""
 
 
-def _keep_partial(scenario, exc, extra, out_dir, plot):
+def _keep_partial(scenario, exc, extra, out_dir, plot, model_exchange=False):
     """A stopped run's results up to there (``exc.partial``) without the ride-along columns extra, written into
     out_dir (None: not written) as a failed run's and named in the exception's message."""
     if exc.partial is not None and extra:
         exc.partial = _without(exc.partial, extra)
     if exc.partial is not None and out_dir is not None:
-        _write_partial(scenario, exc, Path(out_dir), plot)
+        _write_partial(scenario, exc, Path(out_dir), plot, model_exchange)
 
 
 def write_columns(scenario: Scenario, csv_path: Path, names, model_exchange: bool = False) -> Path:
@@ -1194,12 +1194,12 @@ def write_columns(scenario: Scenario, csv_path: Path, names, model_exchange: boo
     return path
 
 
-def _write_partial(scenario, exc, out_dir, plot):
+def _write_partial(scenario, exc, out_dir, plot, model_exchange=False):
     """Write the results up to a failure (CSV, plot) and name them in the error's message."""
     out_dir.mkdir(parents=True, exist_ok=True)
     csv = out_dir / f"{scenario.name}.csv"
     write_csv(csv, exc.partial)
-    write_columns(scenario, csv, exc.partial.dtype.names)
+    write_columns(scenario, csv, exc.partial.dtype.names, model_exchange)
     written = [f"results up to t = {float(exc.partial['time'][-1])!r}: {csv}"]
     if plot and len(exc.partial) > 1:
         from .plotting import plot_scenario

@@ -40,7 +40,8 @@ import numpy as np
 from .analysis import order_fit
 
 OK, NOT_STEADY, OFF_TARGET, ERROR = "ok", "not_steady", "off_target", "error"
-#: statuses whose figures are a result of the requested settings (rerunning gives the same); `error` is retried
+#: statuses whose figures are a result of the requested settings (rerunning gives the same); `error` is reused where
+#: the same configuration gives it again (``sweep.repeatable``), else retried
 FINAL = (OK, NOT_STEADY, OFF_TARGET)
 STATUSES = FINAL + (ERROR,)
 #: figures smaller than this fraction of their output's largest figure are compared in absolute terms

@@ -121,7 +121,7 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     errors, allowed, absolute, steady, at = {}, {}, {}, {}, {}
     time = np.asarray(extrapolated["time"], dtype=float)
     later = time >= scenario.start_time + (START_STEPS - 0.5) * run.step_size
-    if np.count_nonzero(later) < 2:   # a run of a few steps: all of it
+    if np.count_nonzero(later) < 2 or not speed_driven(scenario):   # a run of a few steps, or none starts blind
         later = np.ones_like(time, dtype=bool)
     steady_from = scenario.steady_from or 0.0   # None: unset, as 0
     since = (steady_from if steady_from > scenario.start_time
@@ -154,6 +154,14 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     return StepEstimate(run.step_size, errors, allowed, absolute=absolute, sampling=sampling, extrapolated=banded,
                         steady=steady, steady_from=float(time[window][0]) if window.any() else math.nan, at=at,
                         skipped=float(time[later][0]) if not later.all() else math.nan)
+
+
+def speed_driven(scenario) -> bool:
+    """True where a component follows a speed it is given (``fmu.base.PrescribedInputSlave``): it starts without a
+    speed history (``START_STEPS``)."""
+    from .build import fmu_class
+    from .fmu.base import PrescribedInputSlave
+    return any(issubclass(fmu_class(fmu), PrescribedInputSlave) for fmu, _ in scenario.components.values())
 
 
 def _measure(est: StepEstimate, name: str) -> tuple:

@@ -376,10 +376,9 @@ def parse_axis(text: str, scenario, option: str = "--param") -> Axis:
         else:
             axis = Axis.of(names, [float(x) for x in body.split(",")], unit)
     except ValueError as exc:
-        expected = ("a number, optionally followed by rpm (rad/s parameters) or deg (rad parameters)"
-                    if option == "--set" else
-                    "numbers START:STOP:STEP or V1,V2,..., optionally followed by rpm (rad/s parameters) or deg "
-                    "(rad parameters)")
+        suffixes = "rpm or rad/s (rad/s parameters), deg or rad (rad parameters)"
+        expected = (f"a number, optionally followed by {suffixes}" if option == "--set" else
+                    f"numbers START:STOP:STEP or V1,V2,..., optionally followed by {suffixes}")
         raise ScenarioError(f"{option} {text!r}: bad values {values_text!r} ({exc}); expected {expected}, in any "
                             "case: 1000RPM is 1000rpm") from None
     if all(_declared_type(scenario, name) is int for name in plain):   # whole numbers, as the FMU declares them
@@ -573,12 +572,22 @@ def run_point(job, point, fmu_blobs=None):
     return record
 
 
+class WorkerSetupError(RuntimeError):
+    """A worker process could not take a point: the sweep's FMUs are not there (the cluster's, not the point's)."""
+
+
 def repeatable(exc: BaseException) -> bool:
     """True for a point's failure that its configuration gives again (an FMU's refusal, a coupling going unstable, a
-    figure that cannot be formed: the co-simulation is deterministic); False for what the machine caused (a full
-    disk, memory), directly or as the cause of the error raised."""
-    transient = (OSError, MemoryError, RunStopped)
-    return not isinstance(exc, transient) and not isinstance(exc.__cause__, transient)
+    figure that cannot be formed: the co-simulation is deterministic); False for what the machine or the cluster
+    caused (a full disk, memory, a worker without the FMUs), anywhere in the chain of errors that raised it."""
+    transient = (OSError, MemoryError, RunStopped, WorkerSetupError)
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, transient):
+            return False
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return True
 
 
 _WORKER_DIRS = {}
@@ -590,7 +599,7 @@ def _worker_fmu_dir(hashes, fmu_blobs=None):
     key = json.dumps(hashes, sort_keys=True)
     if key not in _WORKER_DIRS:
         if fmu_blobs is None:
-            raise RuntimeError("this worker has not received the sweep's FMUs (FmuInstaller plugin missing)")
+            raise WorkerSetupError("this worker has not received the sweep's FMUs (FmuInstaller plugin missing)")
         if not _WORKER_DIRS:
             atexit.register(lambda: [shutil.rmtree(d, ignore_errors=True) for d in _WORKER_DIRS.values()])
         folder = Path(tempfile.mkdtemp(prefix="ujfmu_worker_fmus_"))

@@ -204,6 +204,7 @@ def test_a_steep_joint_angle_is_said_and_a_typed_one_also_read_as_degrees():
     (typed,) = joint_angle_advice("beta", 1.4)
     assert f"between {math.cos(1.4):.3g} and {1.0 / math.cos(1.4):.3g}" in typed
     assert f"if the value was meant in degrees, beta = {math.radians(1.4):.6g} rad" in typed
-    (converted,) = joint_angle_advice("beta", math.radians(80.0))
-    assert "80 deg" in converted and "meant in degrees" not in converted
+    for degrees in (80.0, 50.3, 80.3):   # 50.3 and 80.3 had passed a tolerance that grew with the angle
+        (converted,) = joint_angle_advice("beta", math.radians(degrees))
+        assert f"{degrees:g} deg" in converted and "meant in degrees" not in converted
     assert joint_angle_advice("beta", math.radians(44.0)) == []

@@ -141,7 +141,7 @@ def joint_angle_advice(name: str, angle: float) -> list:
     1.396263... rad), what it is if it was meant in degrees."""
     if abs(angle) <= LARGE_JOINT_ANGLE:
         return []
-    typed = abs(angle * 1e4 - round(angle * 1e4)) < 1e-6 * max(1.0, abs(angle * 1e4))   # a few decimals: typed
+    typed = abs(angle * 1e4 - round(angle * 1e4)) < 1e-6   # a few decimals: typed
     return [f"{name} = {angle:.6g} rad is {math.degrees(angle):.4g} deg, past the {math.degrees(LARGE_JOINT_ANGLE):g} "
             f"deg of an unusually steep joint (its speed ratio swings between {math.cos(angle):.3g} and "
             f"{1.0 / math.cos(angle):.3g})"
