@@ -375,7 +375,8 @@ def plot_sweep(sweep, out_dir):
             ax2.set_title(f"Campbell diagram of {out} (marker area ~ amplitude)"
                           + (f"\n{label(key0)}" if len(tracked) > 1 else ""), fontsize=9, loc="left")
             ax2.grid(alpha=0.3)
-            ax2.legend(fontsize=8)
+            # upper left: the order lines rise to the right, and the modes' labels stand at the right edge
+            ax2.legend(fontsize=8, loc="upper left")
     names = ", ".join(shown) + (f" (the first {len(shown)} of {len(outputs)} outputs; --output chooses)"
                                 if len(shown) < len(outputs) else "")
     left_out = [f"{len(groups) - len(tracked)} other value(s) of {', '.join(ax.label for ax in others)}"] \
