@@ -858,8 +858,8 @@ class PrescribedInputSlave(ModelSlave):
         communication point (a set-point step, a drive braking at its limit from a steady speed): the parabola
         through the corner had overshot the new acceleration by half its jump, and a torque J alpha with it, at
         any step; s1 is exact on the constant acceleration after it. A smooth speed's acceleration has been as large
-        as its change within the last steps (one sampled a dozen times a period or more: 1 of 20000 random
-        ramp-plus-swing speeds meets both), and so has a growing step-rate oscillation's (its stability with BDF2 is
+        as its change within the last steps (of 20000 random ramp-plus-swing speeds sampled 12-60 times a period, 2
+        meet both), and so has a growing step-rate oscillation's (its stability with BDF2 is
         unchanged: docs/cosimulation.md). Not a corner: a jump inside a step (the next point still overshoots by up
         to half of it), or between two large accelerations. An input unchanged since the last point (a constant
         speed, a host that holds it) gives 0 either way; outputs read before the host sets it after a step are at
