@@ -602,13 +602,14 @@ def test_modes_names_the_nearest_order_crossing_of_the_set_speed(capsys):
     out = capsys.readouterr().out
     assert "143.14 rad/s (22.781 Hz, 138.26-148.19 over the input angle)" in out   # 143.14 / 2 pi Hz
     assert "2x at 71.5697 rad/s (683.44 rpm)" in out
-    assert "nearest crossing is the 2x order's with driveline's 143.14 rad/s mode, at 71.57 rad/s: 0.1% above it " \
+    assert "nearest crossing is the 2x order's with driveline's 143.14 rad/s mode, at 71.57 rad/s; the set speed is " \
+           "0.1% above it " \
            "(within 10%)" in out
     assert main(["modes", str(scenarios / "double_cardan_omar_torsional.toml"), "--set",
                  "motor.omega_set=500rpm"]) == 0
     out = capsys.readouterr().out
     # 500 rpm against the 2x crossings at 383.10 and 683.44 rpm: 30.5% above the first, 26.8% below the second
-    assert "2x order's with driveline's 143.14 rad/s mode, at 71.57 rad/s: 26.8% below it\n" in out
+    assert "2x order's with driveline's 143.14 rad/s mode, at 71.57 rad/s; the set speed is 26.8% below it\n" in out
     assert "below it lie 1 crossing (a run-up from rest passes them): 2x with 80.237 rad/s at 40.118 rad/s" in out
     assert main(["modes", str(scenarios / "double_cardan_omar_torsional.toml"), "--set",
                  "motor.omega_set=1:2:1"]) == 2
@@ -936,8 +937,8 @@ def test_a_parameter_named_in_the_wrong_case_is_suggested(capsys):
 
 
 def test_run_coupling_and_step_say_the_bands_are_the_files(fmu_dir, tmp_path, capsys):
-    """`--coupling explicit` runs the scenario with the other scheme against the same reference (the explicit scheme
-    is first order: its result differs from the implicit one's); a run at another step or scheme that fails a band
+    """`--coupling explicit` runs the scenario with the other scheme against the same reference, its results beside
+    the file's scheme's (the explicit scheme is first order: its result differs from the implicit one's); a run at another step or scheme that fails a band
     says the bands were chosen for the file's step and scheme (Omar's driveline at 5 ms fails one at 1.2x its band,
     0.0001% of the range)."""
     import numpy as np
@@ -945,8 +946,9 @@ def test_run_coupling_and_step_say_the_bands_are_the_files(fmu_dir, tmp_path, ca
     assert main(base + ["--out", str(tmp_path / "implicit")]) == 0
     assert main(base + ["--coupling", "explicit", "--out", str(tmp_path / "explicit")]) == 0
     assert "(coupling = explicit)" in capsys.readouterr().out   # the run says it is not the file's scheme
-    implicit, explicit = (np.genfromtxt(tmp_path / kind / "cardan_startup.csv", delimiter=",", names=True,
-                                        comments="#") for kind in ("implicit", "explicit"))
+    implicit, explicit = (np.genfromtxt(tmp_path / kind / name, delimiter=",", names=True, comments="#")
+                          for kind, name in (("implicit", "cardan_startup.csv"),
+                                             ("explicit", "cardan_startup_explicit.csv")))
     assert np.max(np.abs(implicit["motoromega"] - explicit["motoromega"])) > 1e-4
     capsys.readouterr()
     assert main(["--fmu-dir", str(fmu_dir), "run", str(SCENARIOS / "double_cardan_omar_torsional.toml"), "--step",

@@ -305,6 +305,7 @@ def cmd_run(args):
     if args.coupling is not None and args.coupling != scenario.coupling:
         scenario.coupling = args.coupling
         scenario.title = f"{scenario.title} (coupling = {args.coupling})"
+        scenario.name = f"{scenario.name}_{args.coupling}"   # beside the file's scheme's results, not over them
     if args.model_exchange and (args.step == "auto" or args.check_step):
         raise UsageError("--step auto and --check-step estimate a co-simulation's coupling error; a Model Exchange "
                          "run (--model-exchange) has none: its accuracy is the solver's (rtol 1e-8)")
@@ -579,8 +580,9 @@ def _with_set(scenario, texts):
 
 def _with_stop_time(scenario, stop_time: float):
     """The scenario run until stop_time [s] (--stop-time): a copy as ``--set`` makes (<scenario>_changed, without
-    the file's reference, made for its span), its title saying so; ScenarioError unless the time is a whole number
-    of steps after the start."""
+    the file's reference, even where the run ends within it: the bands are shares of the range the file's whole run
+    reaches, which a shorter one need not), its title saying so; ScenarioError unless the time is a whole number of
+    steps after the start."""
     if stop_time == scenario.stop_time:
         return scenario
     out = scenario.with_parameters({}) if scenario.name == scenario.path.stem else scenario
@@ -664,7 +666,8 @@ def cmd_modes(args):
         margin, m, k, bound = crossings[0]
         near = abs(margin) < NEAR_CRITICAL
         print(f"  {name} = {speed_text(abs(speed))}: the nearest crossing is the {k:g}x order's with {m.component}'s "
-              f"{m.omega:.5g} rad/s mode{bound}, at {m.critical_speed(k):.5g} rad/s: {100 * abs(margin):.1f}% "
+              f"{m.omega:.5g} rad/s mode{bound}, at {m.critical_speed(k):.5g} rad/s; the set speed is "
+              f"{100 * abs(margin):.1f}% "
               f"{'above' if margin > 0 else 'below'} it" + (f" (within {100 * NEAR_CRITICAL:g}%)" if near else ""))
         below = [(m, k) for m in modes for k, _ in orders(m) if m.critical_speed(k) < abs(speed)]
         if below:
@@ -888,11 +891,12 @@ def _main(raw: list):
                                 "changed, and it is not compared with the file's reference, made for the file's setup")
             p.add_argument("--coupling", choices=("implicit", "explicit"),
                            help="coupling scheme instead of the scenario's [experiment] coupling (compared with the "
-                                "same reference, whose bands were chosen for the file's scheme)")
+                                "same reference, whose bands were chosen for the file's scheme; results as "
+                                "<scenario>_<scheme>)")
             p.add_argument("--stop-time", type=float, metavar="SECONDS",
                            help="run until this time instead of the scenario's stop_time (a whole number of steps "
                                 "after its start): a changed copy, as --set makes, not compared with the file's "
-                                "reference")
+                                "reference (its bands are shares of the range the file's whole run reaches)")
         else:
             p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")
