@@ -949,7 +949,7 @@ class PrescribedInputSlave(ModelSlave):
         total = self._phi_in + increment
         self._phi_in_carry = (total - self._phi_in) - increment
         self._phi_in = total
-        if self._omega_prev2 is not None:   # the slope before the last one joins the decayed peak
+        if self.ACCELERATION_ORDER == 2 and self._omega_prev2 is not None:   # the corner rule's decayed peak
             before = abs(self._omega_prev - self._omega_prev2) / self._h_prev2
             self._accel_peak = max(before, DECAY * self._accel_peak)
         self._omega_prev2, self._h_prev2 = self._omega_prev, self._h_prev
