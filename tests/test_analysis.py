@@ -62,6 +62,27 @@ def test_natural_frequencies_of_a_damped_oscillator_and_a_rigid_body():
     assert natural_frequencies(rhs, [0.0, 0.0, 0.0, 0.0]) == pytest.approx([w], rel=1e-6)
 
 
+def test_a_modes_share_in_chosen_states_is_its_participation_whatever_their_units():
+    """Two oscillators, x'' = -w1^2 x and z'' = -w2^2 z (w1 = 30, w2 = 70 rad/s): uncoupled, the first mode lies
+    wholly in (x, x'), the second wholly outside, and a unit change of x (x in mm: the states scaled by 1000) leaves
+    the shares alone. Two equal oscillators joined by a spring: each mode lies half in each."""
+    from ujfmu.analysis import natural_modes
+    w1, w2 = 30.0, 70.0
+
+    def rhs(y, scale=1.0, coupling=0.0, w2=w2):
+        x, v, z, u = y[0] / scale, y[1] / scale, y[2], y[3]
+        return [scale * v, scale * (-w1 * w1 * x - coupling * (x - z)), u, -w2 * w2 * z - coupling * (z - x)]
+
+    for scale in (1.0, 1e3):
+        w, share = natural_modes(lambda y: rhs(y, scale), [0.0] * 4, (0, 1))
+        assert w == pytest.approx([w1, w2], rel=1e-6) and share == pytest.approx([1.0, 0.0], abs=1e-6)
+    w, share = natural_modes(lambda y: rhs(y, coupling=400.0, w2=w1), [0.0] * 4, (0, 1))
+    assert w == pytest.approx([w1, math.sqrt(w1 * w1 + 800.0)], rel=1e-6)
+    assert share == pytest.approx([0.5, 0.5], abs=1e-6)
+    _, share = natural_modes(lambda y: rhs(y, coupling=400.0), [0.0] * 4, (0, 1))
+    assert 0.5 < share[0] < 1.0 and 0.0 < share[1] < 0.5   # detuned: each mode mostly in its own oscillator
+
+
 def test_a_coupled_rigid_body_motion_is_not_a_mode():
     """The ring coupling's two shafts turning together (a double eigenvalue 0 of its linearisation, which the
     finite differences split into a pair near 0) is not listed as a natural frequency, nor are its order crossings
@@ -120,13 +141,26 @@ def test_scenario_modes_are_the_jeffcott_frequencies_and_their_order_crossings()
     for i in (1, 2):
         jeffcott = math.sqrt(rig[f"K{i}X"] / (rig[f"M{i}"] + rig[f"m_u{i}"]))
         match = [m for m in modes if abs(m.omega / jeffcott - 1.0) < 2e-3]
-        assert len(match) == 1 and match[0].count == 2, (i, jeffcott, modes)
+        assert len(match) == 1 and match[0].count == 2 and match[0].kind == "lateral", (i, jeffcott, modes)
         assert match[0].critical_speed(1) == pytest.approx(jeffcott, rel=2e-3)
         assert match[0].critical_speed(2) == pytest.approx(jeffcott / 2, rel=2e-3)
+    twist = [m for m in modes if m.count == 1]   # the discs' angles against each other and the flange
+    assert len(twist) == 2 and all(m.kind == "torsional" for m in twist), modes
     stiffer = scenario_modes(scenario, {"rotor.K2X": 4.0 * rig["K2X"], "rotor.K2Y": 4.0 * rig["K2Y"]})
     disc2 = math.sqrt(rig["K2X"] / (rig["M2"] + rig["m_u2"]))
     assert any(abs(m.omega / (2.0 * disc2) - 1.0) < 2e-3 for m in stiffer)   # sqrt(4 K / m)
     assert drive_speeds(scenario) == {"motor.omega_set": 100.0}
+
+
+def test_omars_modes_are_named_by_their_shapes():
+    """Omar's double Cardan (section 2.3): the lateral mode sqrt(k_phi / m_s) = sqrt(26331 / 4.09) = 80.2 rad/s, in
+    the dynamic misalignment, and the torsional sqrt(k_theta / J_load) = sqrt(92.2 / 0.0045) = 143.1 rad/s, in the
+    output shaft's twist, are named so (`ujfmu modes` had left a reader to tell them apart)."""
+    from ujfmu.analysis import scenario_modes
+    from ujfmu.scenario import Scenario
+    lateral, torsional = scenario_modes(Scenario(SCENARIOS / "double_cardan_omar_torsional.toml"))
+    assert lateral.omega == pytest.approx(math.sqrt(26331 / 4.09), rel=1e-3) and lateral.kind == "lateral"
+    assert torsional.omega == pytest.approx(math.sqrt(92.2 / 0.0045), rel=2e-3) and torsional.kind == "torsional"
 
 
 @pytest.mark.parametrize("ideal", [True, False])

@@ -395,7 +395,11 @@ def test_output_interval_thins_the_written_rows_and_keeps_the_verdict(fmu_dir, t
     path = SCENARIOS / "cardan_constant_speed.toml"
     assert main(["run", str(path), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path), "--no-plot",
                  "--output-interval", "10"]) == 0
-    assert "PASS cardan_constant_speed" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "PASS cardan_constant_speed" in out
+    # each error in its signal's unit: the speeds in rad/s, the torques in N.m
+    assert re.search(r"joint\.omega_out +max\|err\| = \S+ rad/s  allowed \S+ rad/s  ", out), out
+    assert re.search(r"joint\.tau_in +max\|err\| = \S+ N\.m  allowed \S+ N\.m  ", out), out
     rows = (tmp_path / "cardan_constant_speed.csv").read_text().splitlines()[1:]
     assert [float(r.split(",")[0]) for r in rows] == pytest.approx([0.01 * k for k in range(51)], abs=1e-12)
     assert main(["run", str(path), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path), "--no-plot",
@@ -600,17 +604,20 @@ def test_modes_names_the_nearest_order_crossing_of_the_set_speed(capsys):
     scenarios = Path(__file__).parent.parent / "scenarios"
     assert main(["modes", str(scenarios / "double_cardan_omar_torsional.toml")]) == 0
     out = capsys.readouterr().out
-    assert "143.14 rad/s (22.781 Hz, 138.26-148.19 over the input angle)" in out   # 143.14 / 2 pi Hz
+    assert "143.14 rad/s (22.781 Hz, torsional, 138.26-148.19 over the input angle)" in out   # 143.14 / 2 pi Hz
     assert "2x at 71.5697 rad/s (683.44 rpm)" in out
-    assert "nearest crossing is the 2x order's with driveline's 143.14 rad/s mode, at 71.57 rad/s; the set speed is " \
+    assert "nearest crossing is the 2x order's with driveline's 143.14 rad/s torsional mode, at 71.57 rad/s; the set " \
+           "speed is " \
            "0.1% above it " \
            "(within 10%)" in out
     assert main(["modes", str(scenarios / "double_cardan_omar_torsional.toml"), "--set",
                  "motor.omega_set=500rpm"]) == 0
     out = capsys.readouterr().out
     # 500 rpm against the 2x crossings at 383.10 and 683.44 rpm: 30.5% above the first, 26.8% below the second
-    assert "2x order's with driveline's 143.14 rad/s mode, at 71.57 rad/s; the set speed is 26.8% below it\n" in out
-    assert "below it lie 1 crossing (a run-up from rest passes them): 2x with 80.237 rad/s at 40.118 rad/s" in out
+    assert "2x order's with driveline's 143.14 rad/s torsional mode, at 71.57 rad/s; the set speed is 26.8% below " \
+           "it\n" in out
+    assert "below it lies 1 crossing (a run-up from rest passes it): 2x with 80.237 rad/s (lateral) at 40.118 rad/s" \
+        in out
     assert main(["modes", str(scenarios / "double_cardan_omar_torsional.toml"), "--set",
                  "motor.omega_set=1:2:1"]) == 2
     assert "--set 'motor.omega_set=1:2:1': one value" in capsys.readouterr().err

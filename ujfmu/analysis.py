@@ -94,9 +94,22 @@ def natural_frequencies(rhs, y0, step=1e-7) -> np.ndarray:
     eigenvalues (rigid-body motion, integrators, overdamped modes) have none, and neither has a pair within 1e-6 of
     the largest |lambda| (a rigid-body motion through a coupling, whose double eigenvalue 0 the finite differences
     split into a pair near 0: the ring coupling's at 1.4e-6 rad/s)."""
-    lam = np.linalg.eigvals(jacobian(rhs, y0, step))
+    return natural_modes(rhs, y0, (), step)[0]
+
+
+def natural_modes(rhs, y0, selected, step=1e-7) -> tuple:
+    """(``natural_frequencies``, the share of each mode in the states whose indices are in selected): a mode's
+    participation factors |w_ki v_ki| (v its right eigenvector, w its left one, the rows of V^-1), summed over the
+    selected states k, over their sum over all states. Participation factors do not depend on the states' units (a
+    state scaled by s scales v_k by s and w_k by 1/s), so a share compares an angle with a displacement: a
+    one-degree-of-freedom oscillator in the selected states has share 1, one outside them 0."""
+    lam, right = np.linalg.eig(jacobian(rhs, y0, step))
     size = np.max(np.abs(lam), initial=0.0)
-    return np.sort(np.abs(lam[(lam.imag > 1e-9 * np.maximum(1.0, np.abs(lam))) & (np.abs(lam) > 1e-6 * size)]))
+    keep = np.flatnonzero((lam.imag > 1e-9 * np.maximum(1.0, np.abs(lam))) & (np.abs(lam) > 1e-6 * size))
+    keep = keep[np.argsort(np.abs(lam[keep]))]
+    participation = np.abs(right * np.linalg.inv(right).T)[:, keep]
+    mask = np.isin(np.arange(len(lam)), list(selected))
+    return np.abs(lam[keep]), participation[mask].sum(axis=0) / participation.sum(axis=0)
 
 
 #: input angles per period of a model's excitation order at which ``model_natural_frequency_range`` linearises
@@ -124,13 +137,21 @@ def model_natural_frequency_range(model, parameters: dict) -> tuple:
     mean 143.1 = sqrt(k/J) of the paper's 684 rpm critical speed; the linearisation at 0 deg alone is 3.5% high).
     A torque-driven model, its input angle a state, is linearised at 0 only. Empty arrays for a model without a
     state of its own or held kinematically."""
+    return model_modes(model, parameters)[:3]
+
+
+def model_modes(model, parameters: dict) -> tuple:
+    """``model_natural_frequency_range``'s (mean, lowest, highest) natural frequencies [rad/s], and each mode's
+    mean lateral share over the input angle: its participation (``natural_modes``) in the states the model declares
+    lateral (``LATERAL_STATES``: bending displacements and their rates; none, a model of rotations only)."""
     import dataclasses
     names = [f.name for f in dataclasses.fields(model.Parameters) if f.init]
     if any(name not in parameters for name in names):
         parameters = {**declared_parameters(model), **parameters}
     p = model.Parameters(**{name: parameters[name] for name in names})
     if not model.State._fields or (hasattr(model, "kinematic") and model.kinematic(p)):
-        return np.zeros(0), np.zeros(0), np.zeros(0)
+        return np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)
+    lateral = [i for i, name in enumerate(model.State._fields) if name in getattr(model, "LATERAL_STATES", ())]
     fields = model.Inputs._fields
     period = 2.0 * np.pi / getattr(model, "EXCITATION_ORDER", 1)
     angles = [k * period / ANGLE_SAMPLES for k in range(ANGLE_SAMPLES)] if "phi" in fields else [0.0]
@@ -138,31 +159,46 @@ def model_natural_frequency_range(model, parameters: dict) -> tuple:
     for angle in angles:
         u = model.Inputs(*[angle if name == "phi" else 0.0 for name in fields])
         y0 = np.asarray(model.initial_state(p, 0.0, u), float)
-        samples.append(natural_frequencies(lambda y, u=u: model.derivatives(p, 0.0, model.State(*y), u), y0))
-    if len({len(w) for w in samples}) != 1:   # a mode over-damped at some angles only: no pairing, keep 0 deg
+        samples.append(natural_modes(lambda y, u=u: model.derivatives(p, 0.0, model.State(*y), u), y0, lateral))
+    if len({len(w) for w, _ in samples}) != 1:   # a mode over-damped at some angles only: no pairing, keep 0 deg
         samples = [samples[0]]
-    frequencies = np.array(samples)
-    return frequencies.mean(axis=0), frequencies.min(axis=0), frequencies.max(axis=0)
+    frequencies = np.array([w for w, _ in samples])
+    return (frequencies.mean(axis=0), frequencies.min(axis=0), frequencies.max(axis=0),
+            np.array([share for _, share in samples]).mean(axis=0))
 
 
 #: FMUs whose eigenvalues are not modes of the driveline (the drive's speed loop, a load law)
 DRIVES_AND_LOADS = ("Motor", "MotorController", "Load")
 #: an order crossing within this fraction of a drive's set speed is reported as near it (``ujfmu modes``)
 NEAR_CRITICAL = 0.1
+#: the share of a mode's participation in twist (or bending) from which it is called torsional (or lateral)
+PURE_MODE = 0.9
 
 
 @dataclass
 class Mode:
     """A natural frequency of a machine component of a scenario (``scenario_modes``): its mean over the input
-    angle omega [rad/s], the number of modes merged into it (within 0.5%: the X and Y modes of a round shaft),
-    the range low-high the linearisation spans over the input angle, and the orders of the input speed the
-    component's outputs carry at its parameters (:func:`carried_orders`: a joint's 2x)."""
+    angle omega [rad/s], the number of modes merged into it (within 0.5% and of one kind: the X and Y modes of a
+    round shaft), the range low-high the linearisation spans over the input angle, the orders of the input speed
+    the component's outputs carry at its parameters (:func:`carried_orders`: a joint's 2x), and its lateral share
+    (``model_modes``: 0 a twist, 1 a bending)."""
     component: str
     omega: float
     count: int
     low: float
     high: float
     orders: tuple
+    lateral: float = 0.0
+
+    @property
+    def kind(self) -> str:
+        """"torsional" or "lateral" where at least ``PURE_MODE`` of the mode's participation is in twist or in
+        bending; else "lateral-torsional" with its lateral share."""
+        if self.lateral <= 1.0 - PURE_MODE:
+            return "torsional"
+        if self.lateral >= PURE_MODE:
+            return "lateral"
+        return f"lateral-torsional, {100 * self.lateral:.0f}% lateral"
 
     def critical_speed(self, order: int) -> float:
         """The input speed [rad/s] whose order-th harmonic is at this frequency (a Campbell diagram's crossing):
@@ -173,10 +209,10 @@ class Mode:
 def scenario_modes(scenario, point: dict | None = None) -> list[Mode]:
     """The natural frequencies of every machine component of scenario (drives and loads left out) at its
     parameters with point's {"component.parameter": value} applied: ``model_natural_frequency_range`` (the model's
-    own linearisation at rest, no load), frequencies within 0.5% of each other merged. A speed-driven component's
-    input shaft is held where an ideal speed source drives it; where a PI Motor does, it is free with the motor's
-    rotor inertia on it (the model's torque-driven variant with J_drive = J_rotor; the speed loop left out), as a
-    torque-driven component's is with its own J_drive."""
+    own linearisation at rest, no load), frequencies within 0.5% of each other and of one ``Mode.kind`` merged. A
+    speed-driven component's input shaft is held where an ideal speed source drives it; where a PI Motor does, it
+    is free with the motor's rotor inertia on it (the model's torque-driven variant with J_drive = J_rotor; the
+    speed loop left out), as a torque-driven component's is with its own J_drive."""
     return _modes(scenario, point, held=False)
 
 
@@ -222,12 +258,13 @@ def _modes(scenario, point: dict | None, held: bool) -> list[Mode]:
         orders = carried_orders(cls.PHYSICS, cls.MODEL.Parameters(
             **{f.name: parameters[f.name] for f in dataclasses.fields(cls.MODEL.Parameters) if f.init}))
         merged = []
-        for omega, low, high in zip(*model_natural_frequency_range(model, parameters)):
-            if merged and omega <= merged[-1].omega * 1.005:
+        for omega, low, high, lateral in zip(*model_modes(model, parameters)):
+            mode = Mode(name, float(omega), 1, float(low), float(high), orders, float(lateral))
+            if merged and omega <= merged[-1].omega * 1.005 and mode.kind == merged[-1].kind:
                 merged[-1].count += 1
                 merged[-1].low, merged[-1].high = min(merged[-1].low, float(low)), max(merged[-1].high, float(high))
             else:
-                merged.append(Mode(name, float(omega), 1, float(low), float(high), orders))
+                merged.append(mode)
         modes += merged
     return modes
 

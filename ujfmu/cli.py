@@ -477,7 +477,10 @@ def cmd_sweep(args):
     sweep = Sweep(scenario, axes, settings, out_dir=args.out, name=args.name, fmu_dir=args.fmu_dir)
     grid = " x ".join(a.describe(scenario) for a in axes)
     print(f"{sweep.name}: {len(sweep.points)} point{'' if len(sweep.points) == 1 else 's'} ({grid}), "
-          f"settle {settings.settle_time:g} s, {settings.revolutions:g} revolutions measured")
+          f"settle {settings.settle_time:g} s"
+          + (f" or four windows of {settings.revolutions:g} revolutions if longer, extended until steady (each "
+             "point's settled_s is the time used)" if settings.steady_tol else " (no steady-state check)")
+          + f", {settings.revolutions:g} revolutions measured")
     holds = [hold for point in sweep.points for hold in load_order_holds(scenario.with_values(point))]
     if holds:   # a periodic load torque the step holds too coarsely at some point: said for the worst
         worst = max(holds, key=lambda hold: hold.lag)
@@ -618,7 +621,7 @@ def _set_changes(scenario, texts) -> dict:
 
 
 def cmd_modes(args):
-    from .analysis import NEAR_CRITICAL, drive_speeds, held_input_modes, load_orders, scenario_modes
+    from .analysis import NEAR_CRITICAL, PURE_MODE, drive_speeds, held_input_modes, load_orders, scenario_modes
     from .scenario import Scenario
     from .steady import speed_text
     scenario = _with_set(Scenario(args.scenario), args.set)
@@ -628,7 +631,8 @@ def cmd_modes(args):
           "range it spans; free with the rotor inertia where a PI motor does, its speed loop left out: at input "
           "angle 0, which a joint's angle moves by a few percent), and the input speeds at which each order of the "
           "input speed that the component carries meets them (the crossings of a Campbell diagram: the k-th order at "
-          "omega_n / k)")
+          "omega_n / k). Each mode is torsional (twist), lateral (bending) or lateral-torsional by where "
+          f"{100 * PURE_MODE:g}% of its participation factors lie.")
     if not modes:
         print("  no component with modes of its own (rigid or kinematic models)")
         return 0
@@ -645,8 +649,8 @@ def cmd_modes(args):
             merged = f", {m.count} modes" if m.count > 1 else ""
             crossings = ("; ".join(f"{k:g}x{by} at {speed_text(m.critical_speed(k))}" for k, by in orders(m))
                          or "no order of the input speed excites it at these parameters")
-            print(f"  {m.component}: {m.omega:.5g} rad/s ({m.omega / (2 * math.pi):.5g} Hz{merged}{spread}): "
-                  f"{crossings}")
+            print(f"  {m.component}: {m.omega:.5g} rad/s ({m.omega / (2 * math.pi):.5g} Hz, {m.kind}{merged}"
+                  f"{spread}): {crossings}")
     show(modes)
     held = held_input_modes(scenario)
     if held:
@@ -666,14 +670,16 @@ def cmd_modes(args):
         margin, m, k, bound = crossings[0]
         near = abs(margin) < NEAR_CRITICAL
         print(f"  {name} = {speed_text(abs(speed))}: the nearest crossing is the {k:g}x order's with {m.component}'s "
-              f"{m.omega:.5g} rad/s mode{bound}, at {m.critical_speed(k):.5g} rad/s; the set speed is "
+              f"{m.omega:.5g} rad/s {m.kind.partition(',')[0]} mode{bound}, at {m.critical_speed(k):.5g} rad/s; the set speed is "
               f"{100 * abs(margin):.1f}% "
               f"{'above' if margin > 0 else 'below'} it" + (f" (within {100 * NEAR_CRITICAL:g}%)" if near else ""))
         below = [(m, k) for m in modes for k, _ in orders(m) if m.critical_speed(k) < abs(speed)]
         if below:
-            print(f"    below it lie {len(below)} crossing{'' if len(below) == 1 else 's'} (a run-up from rest passes "
-                  "them): "
-                  + ", ".join(f"{k:g}x with {m.omega:.5g} rad/s at {m.critical_speed(k):.5g} rad/s"
+            one = len(below) == 1
+            print(f"    below it {'lies 1 crossing' if one else f'lie {len(below)} crossings'} (a run-up from rest passes "
+                  f"{'it' if one else 'them'}): "
+                  + ", ".join(f"{k:g}x with {m.omega:.5g} rad/s ({m.kind.partition(',')[0]}) at "
+                              f"{m.critical_speed(k):.5g} rad/s"
                               for m, k in sorted(below, key=lambda mk: mk[0].critical_speed(mk[1]))))
     print("  A crossing resonates where the order's forcing acts on the mode's shape (an unbalance drives lateral "
           "modes at 1x; a Cardan joint's 2x drives twist and, through its secondary couple, lateral motion), and "

@@ -366,7 +366,7 @@ def plot_sweep(sweep, out_dir):
                     ax2.axhspan(low / (2 * np.pi), high / (2 * np.pi), color="0.5", alpha=0.15, lw=0,
                                 label=None if banded else "their range over the input angle")
                     banded = True
-                ax2.annotate(f"{component}: {f_n:.4g} Hz ({omega_n:.4g} rad/s)"
+                ax2.annotate(f"{component}: {f_n:.4g} Hz ({omega_n:.4g} rad/s, {mode.kind.partition(',')[0]})"
                              + (f", {count} modes" if count > 1 else ""),
                              xy=(0.99, f_n), xycoords=("axes fraction", "data"), ha="right",
                              va="top" if below[i] else "bottom", fontsize=6, color="0.25")

@@ -38,6 +38,7 @@ class SignalCheck:
     allowed: float
     reference_range: float
     note: str = ""   # what the figures mean, where the tolerance's form does not suit the reference
+    unit: str = ""   # of the signal, printed beside the errors
 
     @property
     def passed(self):
@@ -50,7 +51,8 @@ class SignalCheck:
 
     def __str__(self):
         verdict = "ok  " if self.passed else "FAIL"
-        text = (f"{verdict} {self.name:20s} max|err| = {self.max_error:.3e}  allowed {self.allowed:.3e}  "
+        unit = f" {self.unit}" if self.unit and self.unit != "1" else ""
+        text = (f"{verdict} {self.name:20s} max|err| = {self.max_error:.3e}{unit}  allowed {self.allowed:.3e}{unit}  "
                 f"({self.fraction_of_allowed:.3g} of allowed")
         # the error relative to the reference's range means something only when the reference varies
         if self.reference_range > RANGE_FLOOR * self.allowed:
@@ -787,9 +789,10 @@ def common_instants(t: np.ndarray, t_ref: np.ndarray, slack: float) -> tuple:
     return np.nonzero(hit)[0], nearest[hit]
 
 
-def compare(table, reference, tolerances):
+def compare(table, reference, tolerances, units: dict | None = None) -> list:
     """Check each toleranced signal: max |result - reference| <= rel_range*(range of reference) + abs; the range
     is the reference's over the result's time span (a reference longer than the run does not widen the band).
+    units: {signal: unit} printed beside its errors.
 
     The two are compared at the instants both grids hold (any step that divides the reference's, or a multiple of
     it): interpolating a sampled reference between its points would add its own error (a 2x-per-revolution ripple
@@ -809,7 +812,7 @@ def compare(table, reference, tolerances):
         else:
             err = float(np.max(np.abs(table[name] - np.interp(t, reference["time"], reference[name]))))
         span = float(np.ptp(reference[name][window])) if window.any() else 0.0
-        check = SignalCheck(name, err, tol.rel_range * span + tol.abs, span)
+        check = SignalCheck(name, err, tol.rel_range * span + tol.abs, span, unit=(units or {}).get(name, ""))
         magnitude = float(np.max(np.abs(reference[name][window]))) if window.any() else 0.0
         if tol.abs == 0.0 and 0.0 < magnitude and span <= CONSTANT_REFERENCE * magnitude:
             check.note = (f"the reference is constant ({magnitude:.6g}, range {span:.3g}), so rel_range allows next to "
@@ -930,7 +933,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                             bonds=annotate_bonds(scenario, diagnostics.get("bonds", [])),
                             model_exchange=model_exchange)
     if reference is not None and scenario.tolerances:
-        result.checks = compare(table, reference, scenario.tolerances)
+        units = {name: scenario.unit(name) for name in {**scenario.tolerances, **scenario.extrapolated_tolerances}}
+        result.checks = compare(table, reference, scenario.tolerances, units)
         from .references import method_of, setup_of
         if setup_of(provenance) is None and len(table) > 2 and all(c.max_error == 0.0 for c in result.checks):
             raise ScenarioError(f"{scenario.path}: [reference] file {scenario.reference_file} equals this run to the "
@@ -953,7 +957,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                                     f"{scenario.step_size:g} s is coarser ([reference.tolerance] checked)")
         elif scenario.extrapolated_tolerances:
             extrapolated = table if model_exchange else extrapolate_step(scenario, fmu_dir, table)
-            result.extrapolated_checks = compare(extrapolated, reference, scenario.extrapolated_tolerances)
+            result.extrapolated_checks = compare(extrapolated, reference, scenario.extrapolated_tolerances, units)
     if out_dir is not None:
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)

@@ -736,6 +736,9 @@ class State(NamedTuple):
 
 Inputs = Drive
 
+#: the lateral degree of freedom (the dynamic misalignment, Omar Eq. 3): the rest is twist
+LATERAL_STATES = ("phi", "dphi")
+
 
 def kinematic(p: Parameters) -> bool:
     """A rigid intermediate shaft: the output follows the joints' kinematics, nothing to integrate."""
@@ -998,6 +1001,7 @@ class TorqueDriven:
 
     Parameters = TorqueDrivenParameters
     Inputs = Torques
+    LATERAL_STATES = LATERAL_STATES
 
     class State(NamedTuple):
         """Input shaft angle and speed, then the speed-driven driveline's :class:`State`."""

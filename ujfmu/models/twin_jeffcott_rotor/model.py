@@ -844,6 +844,9 @@ class State(NamedTuple):
 
 Inputs = Drive
 
+#: the discs' lateral motion (the rest is twist, and the energy audit's integrals, which have no mode)
+LATERAL_STATES = ("X1", "dX1", "Y1", "dY1", "X2", "dX2", "Y2", "dY2")
+
 
 def initial_state(p: Parameters, t: float, u: Drive) -> State:
     """:func:`rest_state` at the input motion u."""
@@ -1364,6 +1367,7 @@ class TorqueDriven:
 
     Parameters = TorqueDrivenParameters
     Inputs = Torques
+    LATERAL_STATES = LATERAL_STATES
 
     #: gearbox flange angle and speed, then the speed-driven rotor's :class:`State`
     State = NamedTuple("State", [("phi_in", float), ("omega_in", float)] + list(State.__annotations__.items()))
