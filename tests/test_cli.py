@@ -618,6 +618,12 @@ def test_modes_names_the_nearest_order_crossing_of_the_set_speed(capsys):
            "it\n" in out
     assert "below it lies 1 crossing (a run-up from rest passes it): 2x with 80.237 rad/s (lateral) at 40.118 rad/s" \
         in out
+    # a reverse set speed keeps its sign (a steering trial's -2000 rad/s had read 2000), its margin by magnitude
+    assert main(["modes", str(scenarios / "double_cardan_omar_torsional.toml"), "--set",
+                 "motor.omega_set=-500rpm"]) == 0
+    assert "motor.omega_set = -52.3599 rad/s (-500 rpm): the nearest crossing is the 2x order's with driveline's " \
+           "143.14 rad/s torsional mode, at 71.57 rad/s; the set speed's magnitude is 26.8% below it\n" \
+           in capsys.readouterr().out
     assert main(["modes", str(scenarios / "double_cardan_omar_torsional.toml"), "--set",
                  "motor.omega_set=1:2:1"]) == 2
     assert "--set 'motor.omega_set=1:2:1': one value" in capsys.readouterr().err

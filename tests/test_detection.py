@@ -121,6 +121,23 @@ def test_unconnected_inputs_are_named_with_their_values(fmu_dir):
     np.testing.assert_allclose(table["joint.M_z"], 1.5)
 
 
+def test_an_input_the_parameters_leave_unread_is_not_named_as_held(fmu_dir):
+    """A Load's phi is read only for its periodic torque T_h: unconnected with T_h = 0 it is not among the held
+    inputs (a steering trial's cosimulate had warned of it), with T_h != 0 it is."""
+    def held(load):
+        comps = [Component("motor", fmu_dir / "Motor.fmu", dict(ideal_speed_source=True, profile=0, omega_set=5.0,
+                                                                 tau_load=0.0)),
+                 Component("load", fmu_dir / "Load.fmu", load)]
+        diagnostics = {}
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", HeldInputWarning)
+            cosimulate(comps, [Connection("motor.omega", "load.omega")], 0.01, 1e-3, ["load.tau"],
+                       diagnostics=diagnostics)
+        return [str(h) for h in diagnostics["held_inputs"]]
+    assert held({"T0": 1.0}) == ["motor.tau_load = 0 N.m"]
+    assert held({"T0": 1.0, "T_h": 0.5}) == ["motor.tau_load = 0 N.m", "load.phi = 0 rad"]
+
+
 SCENARIO = """title = "PI motor against a constant load, no reference"
 [experiment]
 stop_time = 1.0

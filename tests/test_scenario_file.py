@@ -1,6 +1,7 @@
 """Scenario files: errors name the file and the field."""
 
 import copy
+import math
 from pathlib import Path
 
 import pytest
@@ -327,14 +328,37 @@ OMAR_START = Path(__file__).parent.parent / "scenarios" / "double_cardan_omar_st
 
 
 @pytest.mark.parametrize("profile, start, end, warned", [(3, 0.0, 60.0, True), (3, 60.0, 0.0, True),
-                                                         (2, 60.0, 0.0, True), (3, 30.0, 60.0, False)])
+                                                         (2, 60.0, 0.0, True), (3, 30.0, 60.0, False),
+                                                         (3, 10.0, -10.0, True), (2, -5.0, 5.0, True),
+                                                         (0, 0.0, 0.0, True), (0, 0.0, 60.0, False),
+                                                         (3, -30.0, -60.0, False)])
 def test_a_load_that_chatters_is_named_where_a_ramp_or_step_passes_rest(profile, start, end, warned):
-    """The chatter advice where the drive passes rest: a ramp between two speeds from 0 (the Motor's own remedy for
-    running in reverse) had left it unsaid, and a braking to 0 passes rest too; a ramp between two speeds above
-    rest never does (Omar's start-up at 200 N.m, T0 h / J = 44 rad/s)."""
+    """The chatter advice where the drive reaches rest: a ramp between two speeds from 0 (the Motor's own remedy for
+    running in reverse) had left it unsaid, and a braking to 0 passes rest too, as does a reversal (a steering
+    wheel turned from 10 to -10 rad/s) and a shaft held at rest (a steering wheel held still, which chattered at
+    +-3.7 N.m); a ramp between two speeds above rest, or two below it, never does (Omar's start-up at 200 N.m,
+    T0 h / J = 44 rad/s)."""
     scenario = Scenario(OMAR_START).with_parameters({"load.T0": 200.0, "motor.profile": profile,
                                                      "motor.omega_initial": start, "motor.omega_set": end})
     assert any(a.startswith("load:") for a in scenario.model_advice()) == warned
+
+
+@pytest.mark.parametrize("speed, smooth, torque, share", [(0.2, 0.1, 5.0, 2 / math.sqrt(5)), (-0.3, 0.1, 5.0,
+                                                           3 / math.sqrt(10)), (1.0, 0.1, 5.0, None),
+                                                          (0.2, 0.1, 0.0, None), (0.0, 0.1, 5.0, None)])
+def test_a_friction_smoothed_at_the_running_speed_is_named(speed, smooth, torque, share):
+    """A Load's T0 reverses over omega_smooth: at a set speed of 2 omega_smooth its torque is T0 omega /
+    sqrt(omega^2 + omega_smooth^2) = 0.894 T0, which a steering engineer's sweep at 0.2 rad/s had taken for T0
+    (mean tau_in 4.47 N.m for 5). Named below 0.99 T0, whatever the direction; not at 10 omega_smooth (0.995), nor
+    without a T0, nor at rest (the chatter advice's case)."""
+    scenario = Scenario(OMAR_START).with_parameters({"motor.profile": 0, "motor.omega_set": speed,
+                                                     "load.omega_smooth": smooth, "load.T0": torque})
+    advice = scenario.smoothed_friction()
+    assert len(advice) == (share is not None), advice
+    if share is not None:
+        assert advice[0].startswith(f"load: its constant torque T0 = {torque:g} N.m reverses smoothly")
+        assert f"at motor.omega_set = {abs(speed):g} rad/s it gives {share:.3g} T0" in advice[0]
+        assert f"lower omega_smooth to at most {abs(speed) / 10:.3g} rad/s" in advice[0]
 
 
 @pytest.mark.parametrize("torque, warned", [(5.0, False), (8.0, False), (10.0, True), (200.0, True)])

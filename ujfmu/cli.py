@@ -476,16 +476,21 @@ def cmd_sweep(args):
         raise ScenarioError(f"{', '.join(clash)} both swept (--param) and fixed (--set): give it one of the two")
     sweep = Sweep(scenario, axes, settings, out_dir=args.out, name=args.name, fmu_dir=args.fmu_dir)
     grid = " x ".join(a.describe(scenario) for a in axes)
+    revolutions = f"{settings.revolutions:g} revolution{'' if settings.revolutions == 1 else 's'}"
     print(f"{sweep.name}: {len(sweep.points)} point{'' if len(sweep.points) == 1 else 's'} ({grid}), "
           f"settle {settings.settle_time:g} s"
-          + (f" or four windows of {settings.revolutions:g} revolutions if longer, extended until steady (each "
-             "point's settled_s is the time used)" if settings.steady_tol else " (no steady-state check)")
-          + f", {settings.revolutions:g} revolutions measured")
+          + (f" or four windows of {revolutions} if longer, extended until steady (each point's settled_s is the time "
+             "used)" if settings.steady_tol else " (no steady-state check)")
+          + f", {revolutions} measured")
     holds = [hold for point in sweep.points for hold in load_order_holds(scenario.with_values(point))]
     if holds:   # a periodic load torque the step holds too coarsely at some point: said for the worst
         worst = max(holds, key=lambda hold: hold.lag)
         print(f"  warning {worst.text()} (the fastest of {len(holds)} such points: their order "
               "amplitudes carry it)", file=sys.stderr)
+    smoothed = [text for point in sweep.points for text in scenario.with_values(point).smoothed_friction()]
+    if smoothed:   # a friction smoothed at the speed of some points: said for the first such point
+        print(f"  warning {smoothed[0]} (at {len(smoothed)} of {len(sweep.points)} points: their figures carry it)",
+              file=sys.stderr)
     for name in filter(grows, settings.outputs):
         print(f"  note: {name} grows with time in any steady state (a running angle or an energy integral): its "
               "max, min, mean and order amplitudes over a window describe its ramp, not a vibration (the "
@@ -632,7 +637,8 @@ def cmd_modes(args):
           "angle 0, which a joint's angle moves by a few percent), and the input speeds at which each order of the "
           "input speed that the component carries meets them (the crossings of a Campbell diagram: the k-th order at "
           "omega_n / k). Each mode is torsional (twist), lateral (bending) or lateral-torsional by where "
-          f"{100 * PURE_MODE:g}% of its participation factors lie.")
+          f"{100 * PURE_MODE:g}% of its participation factors lie. An overdamped mode (damping ratio 1 or more) has "
+          "no natural frequency and is not listed.")
     if not modes:
         print("  no component with modes of its own (rigid or kinematic models)")
         return 0
@@ -665,19 +671,20 @@ def cmd_modes(args):
                             for m, bound in [(m, "") for m in modes] + [(m, " (input held)") for m in held]
                             for k, _ in orders(m)), key=lambda item: abs(item[0]))
         if not crossings:
-            print(f"  {name} = {speed_text(abs(speed))}: no order of the input speed excites a mode")
+            print(f"  {name} = {speed_text(speed)}: no order of the input speed excites a mode")
             continue
         margin, m, k, bound = crossings[0]
         near = abs(margin) < NEAR_CRITICAL
-        print(f"  {name} = {speed_text(abs(speed))}: the nearest crossing is the {k:g}x order's with {m.component}'s "
-              f"{m.omega:.5g} rad/s {m.kind.partition(',')[0]} mode{bound}, at {m.critical_speed(k):.5g} rad/s; the set speed is "
-              f"{100 * abs(margin):.1f}% "
+        magnitude = "'s magnitude" if speed < 0 else ""
+        print(f"  {name} = {speed_text(speed)}: the nearest crossing is the {k:g}x order's with {m.component}'s "
+              f"{m.omega:.5g} rad/s {m.kind.partition(',')[0]} mode{bound}, at {m.critical_speed(k):.5g} rad/s; "
+              f"the set speed{magnitude} is {100 * abs(margin):.1f}% "
               f"{'above' if margin > 0 else 'below'} it" + (f" (within {100 * NEAR_CRITICAL:g}%)" if near else ""))
         below = [(m, k) for m in modes for k, _ in orders(m) if m.critical_speed(k) < abs(speed)]
         if below:
             one = len(below) == 1
-            print(f"    below it {'lies 1 crossing' if one else f'lie {len(below)} crossings'} (a run-up from rest passes "
-                  f"{'it' if one else 'them'}): "
+            print(f"    below it {'lies 1 crossing' if one else f'lie {len(below)} crossings'} (a run-up from rest "
+                  f"passes {'it' if one else 'them'}): "
                   + ", ".join(f"{k:g}x with {m.omega:.5g} rad/s ({m.kind.partition(',')[0]}) at "
                               f"{m.critical_speed(k):.5g} rad/s"
                               for m, k in sorted(below, key=lambda mk: mk[0].critical_speed(mk[1]))))

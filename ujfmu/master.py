@@ -1476,12 +1476,14 @@ def without_wrapper_noise(log: list) -> list:
 
 def held_inputs(instances: dict, connections: list, parameters: dict) -> list:
     """The inputs no connection feeds, as ``HeldInput``: the master holds each at its start value (or the value
-    the component's parameters give it) over the whole run."""
+    the component's parameters give it) over the whole run; but for an input of a ujfmu FMU that its parameters
+    leave unread (its ``used_if`` parameter at 0: a Load's phi without a periodic torque)."""
     fed = {c.target for c in connections}
     held = []
     for comp, inst in instances.items():
+        unread = _unread_inputs(inst.md, parameters.get(comp, {}))
         for var in inst.md.modelVariables:
-            if var.causality != "input" or f"{comp}.{var.name}" in fed:
+            if var.causality != "input" or f"{comp}.{var.name}" in fed or var.name in unread:
                 continue
             value = parameters.get(comp, {}).get(var.name, var.start)
             try:
@@ -1490,6 +1492,18 @@ def held_inputs(instances: dict, connections: list, parameters: dict) -> list:
                 value = math.nan
             held.append(HeldInput(comp, var.name, value, _unit(var)))
     return held
+
+
+def _unread_inputs(md, values: dict) -> set:
+    """Names of the inputs of a ujfmu FMU (by its model name and generation tool) whose ``used_if`` parameter is 0
+    at values over its declared starts; none for any other FMU."""
+    from .build import FMUS, fmu_class
+    if md.modelName not in FMUS or "ujfmu" not in (md.generationTool or ""):
+        return set()
+    declared = fmu_class(md.modelName).VARIABLES
+    starts = {v.name: v.start for v in declared if v.causality == "parameter"}
+    return {v.name for v in declared if v.causality == "input" and v.used_if is not None
+            and not {**starts, **values}.get(v.used_if)}
 
 
 #: the kind of value each FMI 2.0 and 3.0 variable type takes (``typed_value``)

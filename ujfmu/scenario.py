@@ -120,11 +120,14 @@ def not_found_hint(path: Path) -> str:
 
 
 #: a Load whose constant torque, in one step, moves the inertia it acts on by more than this many omega_smooth is
-#: named before a run that starts from rest (``Scenario.model_advice``): a start from rest lingers near it; from 1
+#: named before a run whose drive reaches rest (``Scenario.model_advice``): a start from rest lingers near it; from 1
 #: on it chatters where the shaft stays near rest (a stall), which a failure's hint names (Omar's driveline at a
 #: constant speed runs at 1111 with his 1e-3 rad/s; his start-up runs at 1.1 and 1.8, 5 and 8 N.m, and stops as a
 #: coupling instability or chatter from 2.2 on, 10 N.m)
 LOAD_CHATTER_ADVICE = 2.0
+#: a Load's smooth sign below this at a drive's settled speed is named before the run
+#: (``Scenario.smoothed_friction``): 10 omega_smooth gives 0.995
+SMOOTH_SIGN = 0.99
 
 
 @dataclass
@@ -891,17 +894,48 @@ class Scenario:
 
     def model_advice(self) -> list:
         """'component: warning' for valid parameters that are likely not what was meant (``MODEL.advice``, which
-        the FMU logs at initialization: e.g. a ring coupling's c_s left at the default ring's), and, where a drive
-        starts from rest or stops (a Motor's ramp, its step or ramp between speeds from or to 0), a Load that
-        chatters as its shaft passes through rest (:meth:`load_chatter`, ``LOAD_CHATTER_ADVICE``)."""
-        from_rest = any(fmu in ("Motor", "MotorController") and (
-            values["profile"] == 1 or values["profile"] in (2, 3) and 0.0 in (values["omega_initial"],
-                                                                                values["omega_set"]))
-            for fmu, values in ((fmu, self.parameters_with_defaults(name)) for name, (fmu, _) in
-                                self.components.items()))
+        the FMU logs at initialization: e.g. a ring coupling's c_s left at the default ring's), and, where a drive's
+        speed reaches rest (a Motor's ramp from 0, a set speed of 0, a step or ramp between speeds from, to or
+        through 0: a start, a hold at rest, a stop or a reversal), a Load that chatters as its shaft comes near rest
+        (:meth:`load_chatter`, ``LOAD_CHATTER_ADVICE``)."""
+        def reaches_rest(values):
+            speeds = [0.0 if values["profile"] == 1 else values["omega_initial"], values["omega_set"]] \
+                if values["profile"] in (1, 2, 3) else [values["omega_set"]]
+            return min(speeds) <= 0.0 <= max(speeds)
+        near_rest = any(fmu in ("Motor", "MotorController") and reaches_rest(self.parameters_with_defaults(name))
+                        for name, (fmu, _) in self.components.items())
         return ([f"{name}: {message}" for name in self.components for message in self._ask_model(name, "advice")]
                 + [chatter.text() for chatter in self.load_chatter()
-                   if from_rest and chatter.ratio > LOAD_CHATTER_ADVICE])
+                   if near_rest and chatter.ratio > LOAD_CHATTER_ADVICE]
+                + self.smoothed_friction())
+
+    def smoothed_friction(self) -> list:
+        """'load: warning' for each Load with a constant torque T0 whose smooth sign s = omega / sqrt(omega^2 +
+        omega_smooth^2) is below ``SMOOTH_SIGN`` at a speed a drive settles at (its set speed, or a step's first
+        speed; rest is :meth:`load_chatter`'s): the friction there is s T0, not T0."""
+        speeds = {}
+        for name, (fmu, _) in self.components.items():
+            if fmu in ("Motor", "MotorController"):
+                values = self.parameters_with_defaults(name)
+                speeds[f"{name}.omega_set"] = abs(float(values["omega_set"]))
+                if values["profile"] in (2, 3):
+                    speeds[f"{name}.omega_initial"] = abs(float(values["omega_initial"]))
+        speeds = {k: v for k, v in speeds.items() if v > 0.0}
+        found = []
+        for name, (fmu, _) in self.components.items():
+            law = self.parameters_with_defaults(name) if fmu == "Load" else {}
+            if not speeds or not law.get("T0") or not law["omega_smooth"] > 0.0:
+                continue
+            where, speed = min(speeds.items(), key=lambda item: item[1])
+            sign = speed / math.hypot(speed, law["omega_smooth"])
+            if sign < SMOOTH_SIGN:
+                found.append(f"{name}: its constant torque T0 = {law['T0']:g} N.m reverses smoothly within "
+                             f"omega_smooth = {law['omega_smooth']:g} rad/s of rest (s = omega / sqrt(omega^2 + "
+                             f"omega_smooth^2)): at {where} = {speed:g} rad/s it gives {sign:.3g} T0, not T0, and "
+                             "less where a joint slows the shaft within a revolution. For the full T0 there, lower "
+                             f"omega_smooth to at most {speed / 10:.3g} rad/s (0.995 T0; a shaft that stops then "
+                             "needs a smaller step, which `ujfmu run` names)")
+        return found
 
     def load_chatter(self) -> list:
         """``LoadChatter`` of each Load fed from a component's ``omega_out`` whose model has an output inertia of

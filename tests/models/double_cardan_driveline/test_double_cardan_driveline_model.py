@@ -129,6 +129,26 @@ def test_second_harmonic_of_output_error_is_q1_minus_q2_exp_2i_delta(b1_deg, b2_
     assert amplitude == pytest.approx(abs(q1 - q2 * np.exp(2j * delta)), abs=2 * max(q1, q2) ** 2)
 
 
+@pytest.mark.parametrize("phase_deg, plane_deg", [(30, 0), (0, -30), (70, 25)])
+def test_a_positive_yoke_phase_turns_joint_2_ahead_in_the_sense_of_rotation(phase_deg, plane_deg):
+    """The sense of delta = yoke_phase - joint_plane_angle (README, "Layout"), which the |q1 - q2 exp(2i delta)|
+    amplitude cannot tell from -delta: at unequal angles (20 and 35 deg, a steering column's) the output speed is
+    the product of the textbook ratios, joint 1's cos b1 / (1 - sin^2 b1 cos^2 phi1) and joint 2's
+    cos b2 / (1 - sin^2 b2 sin^2(psi2 + delta)), psi2 the intermediate shaft's angle (tan psi2 = tan phi1 / cos b1);
+    with -delta it differs by up to 41-49%."""
+    b1, b2, delta = 20 * DEG, 35 * DEG, (phase_deg - plane_deg) * DEG
+    p = driveline(b1, b2, phase_deg * DEG, plane_deg * DEG)
+    phi1 = np.linspace(0.01, 2 * math.pi, 97)
+    psi2 = np.unwrap(np.arctan2(np.sin(phi1), np.cos(phi1) * math.cos(b1)))
+
+    def textbook(d):
+        return (math.cos(b1) / (1 - math.sin(b1) ** 2 * np.cos(phi1) ** 2)
+                * math.cos(b2) / (1 - math.sin(b2) ** 2 * np.sin(psi2 + d) ** 2))
+    ratio = np.array([dc.rigid_state(p, x, 1.0, 0.0, 0.0)["omega4"] for x in phi1])
+    np.testing.assert_allclose(ratio, textbook(delta), rtol=1e-12)
+    assert np.max(np.abs(ratio / textbook(-delta) - 1.0)) > 0.05
+
+
 # --- acceptance 2: Brutti's rigid case ------------------------------------------------------------------------
 
 C_FAN = 0.017      # N.m.s^2, M_u = c omega5^2

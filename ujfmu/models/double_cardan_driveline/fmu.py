@@ -44,9 +44,11 @@ class DoubleCardanDriveline(PrescribedInputSlave):
                   "Static angle of joint 2 between intermediate and output shaft; same sign as beta1: Z layout, "
                   "opposite: W layout", **_ANGLE),
         parameter("yoke_phase", 0.0, "rad",
-                  "Angle of the intermediate shaft's joint-2 yoke from its joint-1 yoke (0: in phase)", **_PHASE),
+                  "Angle of the intermediate shaft's joint-2 yoke from its joint-1 yoke, positive in the shafts' "
+                  "positive sense of rotation (0: in phase)", **_PHASE),
         parameter("joint_plane_angle", 0.0, "rad",
-                  "Angle from joint 1's plane to joint 2's plane about the intermediate shaft (0: W or Z)", **_PHASE),
+                  "Angle from joint 1's plane to joint 2's plane about the intermediate shaft, positive in its "
+                  "positive sense of rotation (0: W or Z)", **_PHASE),
         parameter("I_input", 0.0, "kg.m2", "Input shaft moment of inertia (Brutti I_1x)", **_INERTIA),
         parameter("I_cross_pin", 0.0, "kg.m2", "Each cross's moment of inertia about a pin axis (Brutti I_2y, I_2z)",
                   **_INERTIA),
