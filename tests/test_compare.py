@@ -47,6 +47,16 @@ def test_the_reference_is_interpolated_to_the_result_times():
     assert not check.passed
 
 
+def test_the_rms_error_is_over_the_compared_samples_and_printed_in_the_unit():
+    """Errors 0, 1, 0, -3, 0 at the five shared instants: max 3, RMS sqrt(10 / 5); both in the signal's unit (a
+    bench engineer comparing with noisy measurements had only the max, which the noise sets)."""
+    result = table([0.0, 0.5, 1.0, 1.5, 2.0], a__y=[0.0, 3.0, 4.0, -1.0, 0.0])
+    reference = table([0.0, 0.5, 1.0, 1.5, 2.0], a__y=[0.0, 2.0, 4.0, 2.0, 0.0])
+    (check,) = compare(result, reference, {"a.y": Tolerance(abs=3.0)}, {"a.y": "N.m"})
+    assert check.max_error == 3.0 and check.rms_error == pytest.approx(math.sqrt(2.0), rel=1e-15)
+    assert "max|err| = 3.000e+00 N.m  allowed 3.000e+00 N.m  (1 of allowed, RMS 1.414e+00 N.m" in str(check)
+
+
 def test_every_toleranced_signal_is_checked_and_must_be_in_the_reference():
     result = table([0.0, 1.0, 2.0], a__y=[0.0, 4.0, 0.0], b__z=[1.0, 1.0, 1.0])
     reference = table([0.0, 1.0, 2.0], a__y=[0.0, 4.0, 0.0], b__z=[1.0, 1.0, 2.0])

@@ -145,14 +145,37 @@ def test_missing_fmu_is_named_before_anything_runs(tmp_path):
 
 @pytest.mark.parametrize("t0, t1", [(0.0, 0.5), (0.2, 1.0)])
 def test_a_reference_that_does_not_cover_the_run_is_an_error_before_anything_runs(tmp_path, fmu_dir, t0, t1):
-    """Beyond its ends a reference would be held at its end values: the run is refused, naming both spans."""
+    """Beyond its ends a reference would be held at its end values: the run is refused, naming both spans. A file
+    the scenario names no generator for (measured data) is to be extended, or the experiment shortened, not
+    regenerated (a bench engineer had been sent to `ujfmu references`, which refuses it); a row that is not a
+    finite solution is to be removed or filled."""
     from ujfmu.scenario_run import run_scenario
     (tmp_path / "r.csv").write_text(f'"time","j.tau_in"\n{t0},0.0\n{t1},1.0\n')
     path = write(tmp_path, GOOD + REF)
     with pytest.raises(ScenarioError) as err:
         run_scenario(path, fmu_dir=fmu_dir, out_dir=tmp_path / "out", progress=False)
-    assert f"covers t = {t0:g} to {t1:g} s" in str(err.value) and "ujfmu references" in str(err.value)
+    assert f"covers t = {t0:g} to {t1:g} s" in str(err.value) and "ujfmu references" not in str(err.value)
+    assert "set the scenario's [experiment] start_time and stop_time within the reference's span" in str(err.value)
+    assert "extend the file (it names no generator" in str(err.value)
     assert not (tmp_path / "out").exists()
+    (tmp_path / "r.csv").write_text(f'"time","j.tau_in"\n0,0.0\n0.5,nan\n1,1.0\n')
+    with pytest.raises(ScenarioError, match="has nan in column j.tau_in .*: remove that row, or fill it"):
+        run_scenario(path, fmu_dir=fmu_dir, out_dir=tmp_path / "out", progress=False)
+
+
+def test_a_fail_against_a_measured_reference_names_the_model_first(tmp_path, fmu_dir):
+    """A reference the scenario names no generator for (bench data): a FAIL's advice names the model and its
+    parameters first, and the noise, not the step (a bench engineer's wrong stiffness had been blamed on the step);
+    the RMS error stands beside the max."""
+    from ujfmu.scenario_run import run_scenario
+    # the run's tau_in is about 0.1 (the load's torque through Feng's joint, whose 0.3 deg errors swing it by 0.1%)
+    (tmp_path / "r.csv").write_text('"time","j.tau_in"\n0,0.5\n1,0.5\n')
+    result = run_scenario(write(tmp_path, GOOD + REF), fmu_dir=fmu_dir, out_dir=None, progress=False, plot=False)
+    summary = result.summary()
+    assert result.failed and "the model or its parameters likely differ from what the file holds" in summary
+    assert "if the error shrinks with the step it is the coupling's" not in summary
+    (check,) = result.checks
+    assert check.rms_error == pytest.approx(0.4, rel=3e-3) and f", RMS {check.rms_error:.3e} N.m" in str(check)
 
 
 def test_the_allowed_error_scales_with_the_reference_over_the_run_only():

@@ -129,6 +129,9 @@ def test_bad_axes_are_rejected_before_anything_runs(brutti, spec, words):
     ("motor.omega_set=100deg", "motor.omega_set: 'deg' converts to rad, but the parameter's unit is rad/s; it takes "
                                "a suffix rpm or rad/s or none (SI)"),
     ("motor.omega_set=100Hz", "optionally followed by rpm or rad/s (rad/s parameters), deg or rad (rad parameters)"),
+    # a unit of its own named whole, with the parameter's unit (a bench trial's message had cut it to '400N.m/')
+    ("driveline.k_theta=400N.m/rad", "bad values '400N.m/rad' (not a number: a unit other than those below? give SI "
+                                     "values without one, driveline.k_theta is in N.m/rad)"),
 ])
 def test_a_unit_suffix_must_match_the_parameters_unit(brutti, spec, words):
     with pytest.raises(ScenarioError, match="--param") as err:

@@ -456,7 +456,8 @@ class Scenario:
                              ("running_speed", [self.running_speed] if self.running_speed else [])):
             for name in names:
                 if name not in self.record:
-                    raise ScenarioError(f"{self.path}: output.{field}: {name!r} is not a recorded signal")
+                    raise ScenarioError(f"{self.path}: output.{field}: {name!r} is not a recorded signal: add it to "
+                                        "output.record (what the figures and checks read is recorded)")
         if timed:
             self.steady_from = self._number(out, "output.steady_from", self.start_time)
             if not self.start_time <= self.steady_from < self.stop_time:
@@ -743,8 +744,10 @@ class Scenario:
         problem = reference_problem(table, ["time", *self.tolerances, *self.extrapolated_tolerances])
         if problem:
             raise ScenarioError(f"{field}: {self.reference_file} {problem}: a reference must be a finite solution on "
-                                "increasing times; regenerate it"
-                                + (f" (`ujfmu references {self.path}`)" if self.reference_generator else ""))
+                                "increasing times; "
+                                + (f"regenerate it (`ujfmu references {self.path}`)" if self.reference_generator else
+                                   "the scenario names no generator (a measured or hand-made reference): remove that "
+                                   "row, or fill it, e.g. by interpolating its neighbours"))
         if made_for is None and self.reference_generator:
             raise ScenarioError(f"{field}: {self.reference_file} has no provenance line (the '#' line `ujfmu "
                                 f"references` writes: how it was made, for which setup), though the scenario names "

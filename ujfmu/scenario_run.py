@@ -39,6 +39,7 @@ class SignalCheck:
     reference_range: float
     note: str = ""   # what the figures mean, where the tolerance's form does not suit the reference
     unit: str = ""   # of the signal, printed beside the errors
+    rms_error: float = math.nan   # RMS of the error over the compared samples (shown, not judged)
 
     @property
     def passed(self):
@@ -52,8 +53,9 @@ class SignalCheck:
     def __str__(self):
         verdict = "ok  " if self.passed else "FAIL"
         unit = f" {self.unit}" if self.unit and self.unit != "1" else ""
+        rms = "" if math.isnan(self.rms_error) else f", RMS {self.rms_error:.3e}{unit}"
         text = (f"{verdict} {self.name:20s} max|err| = {self.max_error:.3e}{unit}  allowed {self.allowed:.3e}{unit}  "
-                f"({self.fraction_of_allowed:.3g} of allowed")
+                f"({self.fraction_of_allowed:.3g} of allowed{rms}")
         # the error relative to the reference's range means something only when the reference varies
         if self.reference_range > RANGE_FLOOR * self.allowed:
             text += f", {100 * self.max_error / self.reference_range:.3g}% of the reference's range"
@@ -754,6 +756,12 @@ class ScenarioResult:
                          "coupling error (the host's solver integrates the equations to its own tolerance), so the "
                          "model or its parameters differ from what the reference solves, or the solver's tolerance "
                          f"is too loose for the band. {figures}")
+        elif any(not c.passed for c in self.checks + self.extrapolated_checks) and not self.scenario.reference_generator:
+            lines.append("  a signal outside its tolerance against a reference the scenario names no generator for (a "
+                         "measured or hand-made file): the model or its parameters likely differ from what the file "
+                         "holds, or the file's noise exceeds the band (the RMS error beside the max shows the fit "
+                         "under noise); a coupling error is the other cause, if the error shrinks with the step "
+                         f"(ujfmu run {self.scenario.path} --check-step{self._fmu_dir_option()} estimates it)")
         elif any(not c.passed for c in self.checks + self.extrapolated_checks):
             estimate = ("the step-halving estimate below gives it per signal" if step_check_follows else
                         f"ujfmu run {self.scenario.path} --check-step{self._fmu_dir_option()} estimates it per "
@@ -769,7 +777,9 @@ class ScenarioResult:
             pass   # fmpy's band needs scipy; the command line says so once per run (SCIPY_NOTE)
         else:
             lines.append(f"  fmpy.util.validate_result: fraction of samples outside fmpy's band = "
-                         f"{self.fmpy_outlier_fraction:.4f}")
+                         f"{self.fmpy_outlier_fraction:.4f} (fmpy's own band about the reference, a share of each "
+                         "signal's range, widened where it moves fast: a second opinion; the verdict is the "
+                         "tolerances')")
         return "\n".join(lines)
 
 
@@ -808,11 +818,13 @@ def compare(table, reference, tolerances, units: dict | None = None) -> list:
         if name not in reference.dtype.names:
             raise KeyError(f"signal '{name}' has a tolerance but is not in the reference")
         if shared:
-            err = float(np.max(np.abs(table[name][mine] - reference[name][theirs])))
+            error = table[name][mine] - reference[name][theirs]
         else:
-            err = float(np.max(np.abs(table[name] - np.interp(t, reference["time"], reference[name]))))
+            error = table[name] - np.interp(t, reference["time"], reference[name])
+        err = float(np.max(np.abs(error)))
         span = float(np.ptp(reference[name][window])) if window.any() else 0.0
-        check = SignalCheck(name, err, tol.rel_range * span + tol.abs, span, unit=(units or {}).get(name, ""))
+        check = SignalCheck(name, err, tol.rel_range * span + tol.abs, span, unit=(units or {}).get(name, ""),
+                            rms_error=float(np.sqrt(np.mean(np.square(error)))))
         magnitude = float(np.max(np.abs(reference[name][window]))) if window.any() else 0.0
         if tol.abs == 0.0 and 0.0 < magnitude and span <= CONSTANT_REFERENCE * magnitude:
             check.note = (f"the reference is constant ({magnitude:.6g}, range {span:.3g}), so rel_range allows next to "
@@ -827,10 +839,13 @@ def check_reference_span(scenario: Scenario, reference: np.ndarray) -> None:
     t0, t1 = float(reference["time"][0]), float(reference["time"][-1])
     slack = 0.5 * scenario.step_size
     if t0 > scenario.start_time + slack or t1 < scenario.stop_time - slack:
+        remedy = (f"regenerate the reference (`ujfmu references {scenario.path}`)" if scenario.reference_generator
+                  else "extend the file (it names no generator: a measured or hand-made reference)")
         raise ScenarioError(f"{scenario.path}: the reference {scenario.reference_file_text} covers t = {t0:g} to "
                             f"{t1:g} s, the experiment runs from {scenario.start_time:g} to "
-                            f"{scenario.stop_time:g} s: run within the reference's span, or regenerate the "
-                            f"reference (`ujfmu references {scenario.path}`)")
+                            f"{scenario.stop_time:g} s: set the scenario's [experiment] start_time and stop_time "
+                            f"within the reference's span (a run's --stop-time is not checked against it), or "
+                            f"{remedy}")
 
 
 def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.ndarray | None = None) -> np.ndarray:

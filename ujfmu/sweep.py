@@ -323,6 +323,17 @@ def _grid_values(values: list) -> list:
 _BOOLEANS = {"true": True, "false": False, "1": True, "0": False}
 
 
+def _declared_unit(scenario, name: str) -> str | None:
+    """The declared unit of the parameter ``component.parameter`` of scenario; None where it has none."""
+    comp, _, par = name.partition(".")
+    if comp not in scenario.components:
+        return None
+    for var in fmu_class(scenario.components[comp][0]).VARIABLES:
+        if var.name == par and var.causality == "parameter":
+            return var.unit
+    return None
+
+
 def _declared_type(scenario, name: str):
     """The type (float, int, bool) of the parameter ``component.parameter`` of scenario; None where it has none
     (:meth:`Axis.problems` says why)."""
@@ -379,7 +390,12 @@ def parse_axis(text: str, scenario, option: str = "--param") -> Axis:
         suffixes = "rpm or rad/s (rad/s parameters), deg or rad (rad parameters)"
         expected = (f"a number, optionally followed by {suffixes}" if option == "--set" else
                     f"numbers START:STOP:STEP or V1,V2,..., optionally followed by {suffixes}")
-        raise ScenarioError(f"{option} {text!r}: bad values {values_text!r} ({exc}); expected {expected}, in any "
+        why = f"({exc})"
+        if re.search(r"[a-df-z]", body, re.IGNORECASE):   # a unit, or part of one (e: an exponent)
+            declared = _declared_unit(scenario, plain[0]) if plain else None
+            why = (f"(not a number: a unit other than those below? give SI values without one"
+                   + (f", {plain[0]} is in {declared}" if declared else "") + ")")
+        raise ScenarioError(f"{option} {text!r}: bad values {values_text!r} {why}; expected {expected}, in any "
                             "case: 1000RPM is 1000rpm") from None
     if all(_declared_type(scenario, name) is int for name in plain):   # whole numbers, as the FMU declares them
         fractional = [v for v in axis.values if not float(v).is_integer()]
