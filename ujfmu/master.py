@@ -414,7 +414,7 @@ class Cosimulation:
         self.iterations = 0          # implicit coupling: evaluations of the torn inputs' fixed point, in all
         self.jacobian_builds = 0     # implicit coupling: finite-difference interface Jacobians
         self.stalled_steps = 0       # implicit coupling: steps taken at their best iterate (see STALL_FACTOR)
-        self.open_loop = False       # implicit coupling found the torn values independent of the torn inputs
+        self.open_loop = False       # implicit coupling found no connection moving with the torn inputs
         self.step_size, self.time, self.steps_done = step_size, start_time, 0
         self.rows_done = 0           # rows recorded by the last advance
         self._watch_buffer, self._held_rows = None, []   # the steps not yet watched (``advance``)
@@ -1105,8 +1105,10 @@ class Cosimulation:
                         jacobian = self.theta * d_g - np.eye(len(u))
                         best = (_worst(r, tol), u, r)
                     self._inverse = np.linalg.inv(jacobian).tolist()
-                    # G independent of u (an ideal speed source): no loop to iterate; explicit from the next step on
-                    self.open_loop = bool(np.allclose(jacobian, -np.eye(len(u)), rtol=0.0, atol=1e-9))
+                    # no connection's value moves with u (an ideal speed source ignores its tau_load): no loop to
+                    # iterate; explicit from the next step on. Where only G ignores u within a step (a shaft's torque
+                    # set by its twist alone, an owner that does move with u), the blend still takes G at t + h
+                    self.open_loop = self._inert
                 inverse = self._inverse
                 for _ in range(MAX_ITERATIONS):
                     du = [-_dot(row, r) for row in inverse]
@@ -1159,15 +1161,19 @@ class Cosimulation:
         return [theta * v[0] + (1.0 - theta) * g0 - ui for v, g0, ui in zip(self._tear_values, self._g_start, u)]
 
     def _fd_jacobian(self, u, r, t, h, states, tol):
-        """dr/du by forward differences, one torn input at a time (n re-steps)."""
+        """dr/du by forward differences, one torn input at a time (n re-steps); ``_inert`` set to whether no
+        connection's value moved with any probe."""
         self.jacobian_builds += 1
         n = len(u)
         jac = np.empty((n, n))
+        values = [t_[4][0] for t_ in self._transfers]   # at u: the last evaluation's
+        self._inert = True
         for j in range(n):
             du = max(1e-6 * max(abs(u[j]), self._tear_scale[j]), 1e3 * COUPLING_ATOL)
             probe = list(u)
             probe[j] += du
             jac[:, j] = (np.array(self._evaluate(probe, t, h, states)) - r) / du
+            self._inert = self._inert and [t_[4][0] for t_ in self._transfers] == values
         if not np.all(np.isfinite(jac)) or abs(np.linalg.det(jac)) < 1e-12:
             raise CosimulationError(self._divergence_message(t, r, tol, "its interface Jacobian is singular"))
         return jac
