@@ -473,6 +473,23 @@ def test_a_growth_of_the_models_own_is_told_from_the_couplings_by_a_rerun_at_hal
     assert "not the model" not in text and "--step auto" not in text
 
 
+def test_a_drive_launching_at_its_torque_limit_is_not_called_stalled():
+    """A failure 9 ms into a launch at the torque limit: the speed is below a tenth of its set point but rising
+    (2 rad/s a step toward 100), so no hint says the drive had nearly stopped (a motorsport trial's divergence
+    had been blamed on a stall); the same speed held for the last ten steps is a stall."""
+    from ujfmu.scenario_run import stalled_drive_hint
+    scenario = Scenario(Path(__file__).parent.parent / "scenarios" / "cardan_startup.toml")
+    limit = scenario.parameters_with_defaults("motor")["tau_max"]
+
+    def partial(speeds):
+        return np.rec.fromarrays([np.asarray(speeds, float), np.full(len(speeds), 100.0),
+                                  np.full(len(speeds), limit)], names=["motor.omega", "motor.omega_ref",
+                                                                      "motor.tau_motor"])
+    assert stalled_drive_hint(scenario, partial(0.2 * np.arange(12))) == ""
+    assert stalled_drive_hint(scenario, partial(np.full(12, 2.2))).startswith(
+        "hint: when it failed, motor.omega = 2.2 rad/s")
+
+
 def test_a_drive_short_of_its_torque_limit_is_not_called_stalled(fmu_dir):
     """Omar's start-up, shaft 1000x stiffer and load inertia 10x the motor's rotor, explicit coupling: the coupling
     diverges 4 ms into the ramp, where the set point is 0.06 rad/s and the drive near rest, but its torque (at most

@@ -1157,13 +1157,15 @@ def driving_load_hint(scenario: Scenario) -> str:
 def stalled_drive_hint(scenario: Scenario, partial: np.ndarray) -> str:
     """'' unless a drive of the scenario had nearly stopped, below a tenth of its set speed, where a run failed (the
     last row of its partial results, the drives' speeds and set points among them), at its torque limit over the
-    last steps where its torque is recorded (a drive just starting a ramp, short of its limit, is not stalled):
-    then what that means."""
+    last steps where its torque is recorded (a drive just starting a ramp, short of its limit, is not stalled), and
+    not gaining on its set point over them by more than 1% of it (a launch at the limit is accelerating): then what
+    that means."""
     for speed, set_point in operating_pairs(scenario):
         if len(partial) < 2 or speed not in partial.dtype.names or set_point not in partial.dtype.names:
             continue
         value, target = float(partial[speed][-1]), float(partial[set_point][-1])
-        if abs(target) > 0.0 and abs(value) < STALLED * abs(target):
+        gained = (value - float(partial[speed][-10:][0])) * math.copysign(1.0, target) if target else 0.0
+        if abs(target) > 0.0 and abs(value) < STALLED * abs(target) and gained <= 0.01 * abs(target):
             drive = speed.partition(".")[0]
             limit = scenario.parameters_with_defaults(drive).get("tau_max")
             torque = f"{drive}.tau_motor"

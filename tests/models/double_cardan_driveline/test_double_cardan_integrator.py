@@ -91,11 +91,15 @@ def _driveline(**changes):
     dict(beta1=0.3, beta2=-0.2, joint_plane_angle=0.4, xi_theta=0.05, I_cross_pin=1e-4,     # overdamped torsion
          I_cross_normal=1e-4, I_intermediate=1e-3),
     dict(beta1=0.2, beta2=0.2, xi_phi=0.2, k_theta=500.0),                                  # overdamped support
+    dict(beta1=0.14, beta2=0.14, k_theta=8000.0, xi_theta=6e-4, J_load=7.0, J_drive=0.3,    # undamped stiff support
+         k_phi=1e8, xi_phi=0.0),                                                            # beside a damped shaft
 ])
 def test_mode_rate_bounds_the_linearised_equations_eigenvalues(changes):
     """max |lambda| of the torque-driven equations' Jacobian (central differences, at rest, untwisted, at 12 input
     angles) stays below mode_rate, which is at most natural_rate; a bound that dropped the damping's branch or the
-    free input shaft's side of the torsional mode would fail one of these."""
+    free input shaft's side of the torsional mode would fail one of these, and so would one that kept only the
+    overdamped branch where xi^2 Lambda > 4 while an undamped mode rings (a motorsport trial's stiff support,
+    xi_phi = 0 at k_phi = 1e8 N/m: 4945 rad/s bounded by 17, one fifth-order step per 1 ms, and the run diverged)."""
     np = pytest.importorskip("numpy")
     p = _driveline(**changes)
     u = dc.Torques(0.0, 0.0)

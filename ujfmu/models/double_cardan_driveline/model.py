@@ -378,14 +378,17 @@ def mode_rate_bound(p: Parameters, input_inertia: float = math.inf) -> float:
     <= xi K with xi = max(xi_theta, xi_phi), c <= xi k. Underdamped (c^2 < 4 m k): |s| = sqrt(k/m) <= sqrt(Lambda);
     overdamped: |s| <= (c + sqrt(c^2 - 4 m k)) / 2m, which grows with k/m, so |s| <= (xi Lambda + sqrt(xi^2 Lambda^2
     - 4 Lambda)) / 2, and <= c/m <= D. No mode can be overdamped while xi^2 Lambda <= 4; then |lambda| <=
-    sqrt(Lambda). (The sum sqrt(Lambda) + D of :func:`natural_rate_bound` adds the decay rate to the frequency
-    instead: 2.4x |lambda| on the stiff torque-driven driveline, whose torsional mode has damping ratio 0.66.)
+    sqrt(Lambda). Beyond, the other modes may still be underdamped (an undamped stiff support beside a damped shaft:
+    xi_phi = 0, k_phi = 1e8 N/m rings at 4945 rad/s), so the bound is the larger of the two. (The sum sqrt(Lambda) + D
+    of :func:`natural_rate_bound` adds the decay rate to the frequency instead: 2.4x |lambda| on the stiff
+    torque-driven driveline, whose torsional mode has damping ratio 0.66.)
     """
     stiffness, damping = _rate_terms(p, input_inertia)
     xi = max(p.xi_theta, p.xi_phi)
     if xi * xi * stiffness <= 4.0:
         return math.sqrt(stiffness)
-    return min(damping, 0.5 * (xi * stiffness + math.sqrt(xi * xi * stiffness * stiffness - 4.0 * stiffness)))
+    return max(math.sqrt(stiffness),
+               min(damping, 0.5 * (xi * stiffness + math.sqrt(xi * xi * stiffness * stiffness - 4.0 * stiffness))))
 
 
 def flexible_substeps(natural_rate: float, h: float, omega1_max: float) -> int:
