@@ -26,6 +26,7 @@ outcome of a watch after every step.
 """
 
 import atexit
+import dataclasses
 import difflib
 import math
 import numbers
@@ -68,6 +69,8 @@ AMPLIFICATION_BOUND = (1.0 - THETA) / THETA
 #: GROWTH_STEPS steps while growing GROWTH_FACTOR-fold, to at least GROWTH_FLOOR of its largest |value|; a step
 #: refused after 2 or more alternations growing 1.5-fold each is blamed on the coupling too
 GROWTH_STEPS, GROWTH_FACTOR, GROWTH_FLOOR = 3, 8.0, 1e-3
+#: a jump of an output (``_output_jumps``) at most this relative distance from a step's end is at its end
+JUMP_ROUNDING = 1e-9
 #: a change smaller than this, in the connection's SI unit (N.m, rad/s, rad, N, m), is round-off, never the start
 #: of a divergence: an unloaded constant-velocity driveline's tau_in is 1e-15 N.m of alternating noise about 0, and a
 #: real divergence passes this within a few steps
@@ -573,6 +576,9 @@ class Cosimulation:
         self._bond_columns = tuple(np.array([columns[bond[k]] for bond in self._bonds], dtype=np.intp)
                                    for k in (0, 1)) if self._bonds else ()
         self.held_inputs = held_inputs(self.instances, connections, {c.name: c.parameters for c in components})
+        # the times where a component's outputs jump: the implicit steps ending there hold the torn values
+        self._jumps = tuple(sorted({t for c in components for t in _output_jumps(self.instances[c.name].md,
+                                                                                 c.parameters)}))
         given = {(c.name, name) for c in components for name in c.parameters}
         unstated = [h for h in self.held_inputs if (h.component, h.name) not in given]
         if unstated:
@@ -1085,6 +1091,12 @@ class Cosimulation:
             else:
                 u = g_start
             self._g_past = (past + [g_start])[-2:]
+            end = t + h
+            if any(abs(end - jump) <= JUMP_ROUNDING * max(1.0, abs(jump)) for jump in self._jumps):
+                # an output jumps at the step's end: its value there is the jump's right side, which the blend
+                # would take into this step; held at its start as the explicit scheme does (first order, one step)
+                self._evaluate(g_start, t, h, states, restore=False)
+                return
             r = self._evaluate(u, t, h, states, restore=False)
             scale = self._tear_scale
             for j, g in enumerate(g_start):   # the running max |G|, NaN kept as np.maximum keeps it
@@ -1500,13 +1512,37 @@ def held_inputs(instances: dict, connections: list, parameters: dict) -> list:
     return held
 
 
+def _ujfmu_class(md):
+    """The FMU class of a ujfmu FMU (by its model name and generation tool); None for any other FMU."""
+    from .build import FMUS, fmu_class
+    if md.modelName not in FMUS or "ujfmu" not in (md.generationTool or ""):
+        return None
+    return fmu_class(md.modelName)
+
+
+def _output_jumps(md, values: dict) -> tuple:
+    """The times [s] where the outputs of a ujfmu FMU jump at values over its declared parameters (its model's
+    ``output_jumps``: a speed profile's step, a load step); none for any other FMU, or parameters its model cannot
+    take (the FMU's initialization names them)."""
+    cls = _ujfmu_class(md)
+    model = getattr(cls, "MODEL", None)
+    if model is None or not hasattr(model, "output_jumps"):
+        return ()
+    values = {**{v.name: v.start for v in cls.VARIABLES if v.causality == "parameter"}, **values}
+    try:
+        p = model.Parameters(**{f.name: values[f.name] for f in dataclasses.fields(model.Parameters) if f.init})
+        return tuple(float(t) for t in model.output_jumps(p))
+    except (ArithmeticError, ValueError, TypeError, KeyError):
+        return ()
+
+
 def _unread_inputs(md, values: dict) -> set:
     """Names of the inputs of a ujfmu FMU (by its model name and generation tool) whose ``used_if`` parameter is 0
     at values over its declared starts; none for any other FMU."""
-    from .build import FMUS, fmu_class
-    if md.modelName not in FMUS or "ujfmu" not in (md.generationTool or ""):
+    cls = _ujfmu_class(md)
+    if cls is None:
         return set()
-    declared = fmu_class(md.modelName).VARIABLES
+    declared = cls.VARIABLES
     starts = {v.name: v.start for v in declared if v.causality == "parameter"}
     return {v.name for v in declared if v.causality == "input" and v.used_if is not None
             and not {**starts, **values}.get(v.used_if)}

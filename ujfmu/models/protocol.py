@@ -60,8 +60,11 @@ full size, e.g. a joint's 2x; a run whose record samples it at most twice a peri
 and the FMU warns a host whose step does so, ``ujfmu.fmu.base``) with, optionally, ``excitation_order(p) -> int``
 (that order at these parameters, 0 for none: straight joints carry no 2x) and ``excited_orders(p) -> tuple`` (the
 orders themselves, e.g. a joint's 2x without a 1x; default 1 to that order: `ujfmu modes` lists their crossings),
-and ``LATERAL_STATES`` (names of ``State`` fields of bending motion, e.g. a disc's displacements and velocities:
-`ujfmu modes` calls a mode lateral, torsional or lateral-torsional by its participation in them; default none).
+``output_jumps(p) -> tuple`` (the times [s] at which the outputs jump, e.g. a speed profile's step or a load step:
+an iterating master holds its torn inputs at their start values over a step that ends at one, where its blend
+would take the jump into that step; default none), and ``LATERAL_STATES`` (names of ``State`` fields of bending
+motion, e.g. a disc's displacements and velocities: `ujfmu modes` calls a mode lateral, torsional or
+lateral-torsional by its participation in them; default none).
 
 The inputs ``u`` are the model's own NamedTuple ``Inputs``; a model whose input shaft follows a prescribed speed
 (``omega_in``) uses :class:`Drive`, which the base extrapolates over a step (angle quadratic, speed linear in time:

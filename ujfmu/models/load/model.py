@@ -73,6 +73,11 @@ def corners(p: Parameters) -> tuple:
     return (p.t_change,) if p.ramp_time == 0.0 else (p.t_change, p.t_change + p.ramp_time)
 
 
+def output_jumps(p: Parameters) -> tuple:
+    """The times where the torque jumps: a load step's t_change (ramp_time = 0); none for a ramp or no change."""
+    return (p.t_change,) if p.T_change and p.ramp_time == 0.0 else ()
+
+
 def next_time_event(p: Parameters, t: float) -> float | None:
     """The first corner of T(t) after t (:func:`corners`): a time event for a Model Exchange host, whose solver
     stops there instead of stepping across the jump; None after the last."""

@@ -161,6 +161,12 @@ def profile_corners(p: ControllerParameters) -> tuple:
     return ()
 
 
+def output_jumps(p: ControllerParameters) -> tuple:
+    """The times where the outputs jump: the step profile's t_step (omega_ref jumps, and the PI torque with it, or
+    an ideal source's speed); none for the others, whose reference is continuous."""
+    return (p.t_step,) if p.profile == STEP and p.omega_set != p.omega_initial else ()
+
+
 def corner_inside(p: ControllerParameters, t: float, h: float) -> bool:
     """True if a corner of the profile (:func:`profile_corners`) lies inside (t, t + h), farther than a host's
     rounding of its times from either end (``protocol.reached``: a corner meant at a communication point is at
@@ -342,6 +348,7 @@ class Controller:
     e = omega_ref(t) - omega."""
 
     Parameters = ControllerParameters
+    output_jumps = staticmethod(output_jumps)
 
     class State(NamedTuple):
         """Integral of the speed error [rad]."""
