@@ -253,6 +253,25 @@ def test_start_time_is_taken_from_the_first_step(fmu_dir, fmu3_dir, opened):
     assert np.array_equal(a[1:], b[1:])
 
 
+def test_a_state_saved_before_the_first_step_restores_the_start_time_rule(fmu_dir, fmu3_dir, opened):
+    """An iterating host saves the state before the first step, steps, restores it and steps again: the re-step
+    must again take its start time from the step (a restored state had been taken as stepped, the Motor re-stepping
+    from its t = 0 state: 5 rad/s at its torque limit instead of the ramp's 30, an FMI 3.0 user's trial)."""
+    fmi2 = _open(FmuInstance, fmu_dir, "Motor", [])
+    fmi3 = _open(FmuInstance3, fmu3_dir, "Motor", [])
+    opened += [fmi2, fmi3]
+    fmi2.initialize(start_time=1.0)
+    fmi3.initialize(start_time=1.0)
+    first = _record(fmi2, 3, t0=1.0)
+    saved = fmi3.slave.getFMUState()
+    _record(fmi3, 1, t0=1.0)
+    fmi3.slave.setFMUState(saved)
+    fmi3.slave.freeFMUState(saved)
+    again = _record(fmi3, 3, t0=1.0)
+    assert first[1, 3] == pytest.approx(30.0 * 1.001)   # omega_ref: the ramp at 30 rad/s2 from rest at t = 0
+    assert np.array_equal(first[1:], again[1:])
+
+
 def test_many_instances_interleaved_each_equal_to_a_lone_instance(fmu3_dir, opened):
     """Five instances of one FMI 3.0 FMU in one process, different parameters, stepped interleaved, each bitwise
     a lone instance with its parameters (pythonfmu3 imports the FMU's module once for all of them)."""

@@ -321,7 +321,8 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
 
     def _set_fmu_state(self, state):
         self._guarded(self._core._set_fmu_state)(state)
-        self._stepped = True
+        # a state saved before the first step is restored as one: the next step still sets the start time
+        self._stepped = bool(getattr(self._core, "_started", True))
         self.time = getattr(self._core, "_time", self.time)   # the independent variable the state was saved at
 
     @staticmethod
