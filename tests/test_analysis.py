@@ -82,6 +82,25 @@ def test_a_modes_share_in_chosen_states_is_its_participation_whatever_their_unit
     _, share = natural_modes(lambda y: rhs(y, coupling=400.0), [0.0] * 4, (0, 1))
     assert 0.5 < share[0] < 1.0 and 0.0 < share[1] < 0.5   # detuned: each mode mostly in its own oscillator
 
+    def damped(y):   # the same pair, each damped at zeta = 0.6
+        return [a + b for a, b in zip(rhs(y, coupling=400.0), [0.0, -2 * 0.6 * w1 * y[1], 0.0, -2 * 0.6 * w2 * y[3]])]
+    w, share = natural_modes(damped, [0.0] * 4, (0, 1))
+    _, rest = natural_modes(damped, [0.0] * 4, (2, 3))
+    assert len(w) == 2 and np.all((share > 0.5) == [True, False]) and share + rest == pytest.approx([1.0, 1.0])
+
+
+def test_a_defective_linearisation_still_has_its_frequencies():
+    """A triple eigenvalue 0 with one eigenvector (a Jordan block: position, speed and acceleration of a free body)
+    beside a 10 rad/s oscillator: no eigenvector basis to invert, yet the oscillator's frequency and its whole
+    participation are found."""
+    from ujfmu.analysis import natural_frequencies, natural_modes
+
+    def rhs(y):
+        return [y[1], y[2], 0.0, y[4], -100.0 * y[3]]
+    assert natural_frequencies(rhs, [0.0] * 5) == pytest.approx([10.0], rel=1e-6)
+    w, share = natural_modes(rhs, [0.0] * 5, (3, 4))
+    assert w == pytest.approx([10.0], rel=1e-6) and share == pytest.approx([1.0], abs=1e-6)
+
 
 def test_a_coupled_rigid_body_motion_is_not_a_mode():
     """The ring coupling's two shafts turning together (a double eigenvalue 0 of its linearisation, which the
@@ -150,6 +169,34 @@ def test_scenario_modes_are_the_jeffcott_frequencies_and_their_order_crossings()
     disc2 = math.sqrt(rig["K2X"] / (rig["M2"] + rig["m_u2"]))
     assert any(abs(m.omega / (2.0 * disc2) - 1.0) < 2e-3 for m in stiffer)   # sqrt(4 K / m)
     assert drive_speeds(scenario) == {"motor.omega_set": 100.0}
+
+
+def test_modes_crossing_over_the_input_angle_keep_their_shapes():
+    """Omar's support stiffened to k_phi = 83634 N/m puts the lateral mode at sqrt(83634 / 4.09) = 143.0 rad/s,
+    inside the torsional mode's 138.3-148.2 rad/s span over the input angle: the two cross. Followed by their shapes
+    from angle to angle, they stay one pure lateral mode at 143.0 and the torsional one with its span (paired by
+    rank, they had been blended into two "lateral-torsional" modes of 62% and 38%, a reviewer's find)."""
+    from ujfmu.analysis import scenario_modes
+    from ujfmu.scenario import Scenario
+    modes = scenario_modes(Scenario(SCENARIOS / "double_cardan_omar_torsional.toml"), {"driveline.k_phi": 83634.0})
+    lateral = [m for m in modes if m.kind == "lateral" and abs(m.omega - math.sqrt(83634 / 4.09)) < 0.1]
+    torsional = [m for m in modes if m.kind == "torsional" and m.low < 139.0 and m.high > 148.0]
+    assert len(lateral) == 1 and lateral[0].high - lateral[0].low < 0.01 and len(torsional) == 1, modes
+    assert torsional[0].omega == pytest.approx(143.14, abs=0.01)   # as with the default support
+
+
+def test_the_torque_driven_twin_rotors_jeffcott_modes_are_lateral():
+    """The torque-driven twin rotor (its flange free with the controller's side left out): each disc's Jeffcott
+    frequency sqrt(K / (M + m_u)) is a lateral mode, X and Y merged, as in the speed-driven rotor."""
+    from ujfmu.analysis import scenario_modes
+    from ujfmu.models.twin_jeffcott_rotor import model as tj
+    from ujfmu.scenario import Scenario
+    rig = tj.rig_parameters()
+    modes = scenario_modes(Scenario(SCENARIOS / "twin_jeffcott_torque_driven.toml"))
+    for i in (1, 2):
+        jeffcott = math.sqrt(rig[f"K{i}X"] / (rig[f"M{i}"] + rig[f"m_u{i}"]))
+        (match,) = [m for m in modes if abs(m.omega / jeffcott - 1.0) < 2e-3]
+        assert match.kind == "lateral" and match.count == 2, modes
 
 
 def test_omars_modes_are_named_by_their_shapes():

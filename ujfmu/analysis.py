@@ -94,22 +94,58 @@ def natural_frequencies(rhs, y0, step=1e-7) -> np.ndarray:
     eigenvalues (rigid-body motion, integrators, overdamped modes) have none, and neither has a pair within 1e-6 of
     the largest |lambda| (a rigid-body motion through a coupling, whose double eigenvalue 0 the finite differences
     split into a pair near 0: the ring coupling's at 1.4e-6 rad/s)."""
-    return natural_modes(rhs, y0, (), step)[0]
+    lam = np.linalg.eigvals(jacobian(rhs, y0, step))
+    return np.sort(np.abs(lam[_oscillating(lam)]))
+
+
+def _oscillating(lam: np.ndarray) -> np.ndarray:
+    """Indices of the eigenvalues lam of the upper half plane that are modes (``natural_frequencies``), by |lam|."""
+    size = np.max(np.abs(lam), initial=0.0)
+    keep = np.flatnonzero((lam.imag > 1e-9 * np.maximum(1.0, np.abs(lam))) & (np.abs(lam) > 1e-6 * size))
+    return keep[np.argsort(np.abs(lam[keep]), kind="stable")]
+
+
+def mode_participation(rhs, y0, step=1e-7) -> tuple:
+    """(``natural_frequencies``, their participation factors): column i holds mode i's |w_ki v_ki| over the states
+    k (v its right eigenvector, w its left one, the rows of V^-1), normalised to sum 1. Participation factors do not
+    depend on the states' units (a state scaled by s scales v_k by s and w_k by 1/s), so they compare an angle with a
+    displacement. A defective Jacobian (no eigenvector basis) takes V's pseudo-inverse."""
+    lam, right = np.linalg.eig(jacobian(rhs, y0, step))
+    keep = _oscillating(lam)
+    try:
+        left = np.linalg.inv(right)
+    except np.linalg.LinAlgError:
+        left = np.linalg.pinv(right)
+    participation = np.abs(right * left.T)[:, keep]
+    return np.abs(lam[keep]), participation / np.maximum(participation.sum(axis=0), 1e-300)
 
 
 def natural_modes(rhs, y0, selected, step=1e-7) -> tuple:
-    """(``natural_frequencies``, the share of each mode in the states whose indices are in selected): a mode's
-    participation factors |w_ki v_ki| (v its right eigenvector, w its left one, the rows of V^-1), summed over the
-    selected states k, over their sum over all states. Participation factors do not depend on the states' units (a
-    state scaled by s scales v_k by s and w_k by 1/s), so a share compares an angle with a displacement: a
-    one-degree-of-freedom oscillator in the selected states has share 1, one outside them 0."""
-    lam, right = np.linalg.eig(jacobian(rhs, y0, step))
-    size = np.max(np.abs(lam), initial=0.0)
-    keep = np.flatnonzero((lam.imag > 1e-9 * np.maximum(1.0, np.abs(lam))) & (np.abs(lam) > 1e-6 * size))
-    keep = keep[np.argsort(np.abs(lam[keep]))]
-    participation = np.abs(right * np.linalg.inv(right).T)[:, keep]
-    mask = np.isin(np.arange(len(lam)), list(selected))
-    return np.abs(lam[keep]), participation[mask].sum(axis=0) / participation.sum(axis=0)
+    """(``natural_frequencies``, the share of each mode in the states whose indices are in selected): its
+    participation factors (``mode_participation``) summed over them. A one-degree-of-freedom oscillator in the
+    selected states has share 1, one outside them 0."""
+    frequencies, participation = mode_participation(rhs, y0, step)
+    return frequencies, participation[list(selected)].sum(axis=0)
+
+
+#: most modes tracked across the input angle by their shapes (``_track``); more are paired by rank
+TRACKED_MODES = 7
+
+
+def _track(previous: np.ndarray, frequencies: np.ndarray, participation: np.ndarray) -> list:
+    """The order of this angle's modes that follows the previous angle's (participation columns ``previous``): the
+    permutation with the most similar participation (cosines of the columns), then the nearest frequencies; by
+    rank beyond ``TRACKED_MODES`` modes. Two modes whose frequencies cross between the angles keep their shapes
+    (Omar's lateral mode at 143 rad/s inside the torsional one's 138-148 rad/s span had been blended with it)."""
+    import itertools
+    n = len(frequencies)
+    if n > TRACKED_MODES:
+        return list(range(n))
+    unit = participation / np.maximum(np.linalg.norm(participation, axis=0), 1e-300)
+    before = previous / np.maximum(np.linalg.norm(previous, axis=0), 1e-300)
+    similarity = before.T @ unit   # [previous mode, this mode]
+    return list(max(itertools.permutations(range(n)),
+                    key=lambda order: round(sum(similarity[i, j] for i, j in enumerate(order)), 6)))
 
 
 #: input angles per period of a model's excitation order at which ``model_natural_frequency_range`` linearises
@@ -132,7 +168,7 @@ def model_natural_frequency_range(model, parameters: dict) -> tuple:
     the unbalances' phases beside a twin rotor's ``rig_parameters()``), linearised about its initial state at rest
     with its inputs zero (input shaft held, no load): ``natural_frequencies`` of ``derivatives``. A speed-driven
     model (an input angle phi) is linearised at ``ANGLE_SAMPLES`` input angles over one period of its
-    ``EXCITATION_ORDER``, the modes paired by rank: a joint's
+    ``EXCITATION_ORDER``, each mode followed by its shape from angle to angle (``_track``): a joint's
     speed ratio and its derivative vary with the angle (Omar's torsional mode spans 138-148 rad/s at beta0 = 15 deg,
     mean 143.1 = sqrt(k/J) of the paper's 684 rpm critical speed; the linearisation at 0 deg alone is 3.5% high).
     A torque-driven model, its input angle a state, is linearised at 0 only. Empty arrays for a model without a
@@ -159,12 +195,18 @@ def model_modes(model, parameters: dict) -> tuple:
     for angle in angles:
         u = model.Inputs(*[angle if name == "phi" else 0.0 for name in fields])
         y0 = np.asarray(model.initial_state(p, 0.0, u), float)
-        samples.append(natural_modes(lambda y, u=u: model.derivatives(p, 0.0, model.State(*y), u), y0, lateral))
+        samples.append(mode_participation(lambda y, u=u: model.derivatives(p, 0.0, model.State(*y), u), y0))
     if len({len(w) for w, _ in samples}) != 1:   # a mode over-damped at some angles only: no pairing, keep 0 deg
         samples = [samples[0]]
-    frequencies = np.array([w for w, _ in samples])
-    return (frequencies.mean(axis=0), frequencies.min(axis=0), frequencies.max(axis=0),
-            np.array([share for _, share in samples]).mean(axis=0))
+    tracked = [samples[0]]   # each angle's modes in the order of the first angle's, followed by their shapes
+    for frequencies, participation in samples[1:]:
+        order = _track(tracked[-1][1], frequencies, participation)
+        tracked.append((frequencies[order], participation[:, order]))
+    frequencies = np.array([w for w, _ in tracked])
+    shares = np.array([participation[lateral].sum(axis=0) for _, participation in tracked])
+    mean = frequencies.mean(axis=0)
+    order = np.argsort(mean, kind="stable")
+    return mean[order], frequencies.min(axis=0)[order], frequencies.max(axis=0)[order], shares.mean(axis=0)[order]
 
 
 #: FMUs whose eigenvalues are not modes of the driveline (the drive's speed loop, a load law)
@@ -260,7 +302,8 @@ def _modes(scenario, point: dict | None, held: bool) -> list[Mode]:
         merged = []
         for omega, low, high, lateral in zip(*model_modes(model, parameters)):
             mode = Mode(name, float(omega), 1, float(low), float(high), orders, float(lateral))
-            if merged and omega <= merged[-1].omega * 1.005 and mode.kind == merged[-1].kind:
+            if (merged and omega <= merged[-1].omega * 1.005
+                    and mode.kind.partition(",")[0] == merged[-1].kind.partition(",")[0]):
                 merged[-1].count += 1
                 merged[-1].low, merged[-1].high = min(merged[-1].low, float(low)), max(merged[-1].high, float(high))
             else:

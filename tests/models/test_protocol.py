@@ -20,6 +20,19 @@ def test_every_model_fmu_is_a_protocol_fmu():
 
 
 @pytest.mark.parametrize("name", MODEL_FMUS)
+def test_lateral_states_are_state_fields_and_every_variant_of_a_bending_model_declares_them(name):
+    """LATERAL_STATES names fields of the model's State (a misspelt one would silently make every mode torsional),
+    and a torque-driven variant declares the same as its speed-driven model (a variant without them had called the
+    twin rotor's Jeffcott modes torsional)."""
+    model = fmu_class(name).MODEL
+    lateral = getattr(model, "LATERAL_STATES", ())
+    assert set(lateral) <= set(model.State._fields)
+    speed_driven = name.removesuffix("TorqueDriven")
+    if speed_driven != name:
+        assert lateral == getattr(fmu_class(speed_driven).MODEL, "LATERAL_STATES", ())
+
+
+@pytest.mark.parametrize("name", MODEL_FMUS)
 def test_parameters_are_the_fmu_parameters_by_name(name):
     cls = fmu_class(name)
     fields = {f.name for f in dataclasses.fields(cls.MODEL.Parameters) if f.init}
