@@ -487,9 +487,11 @@ def cmd_sweep(args):
         worst = max(holds, key=lambda hold: hold.lag)
         print(f"  warning {worst.text()} (the fastest of {len(holds)} such points: their order "
               "amplitudes carry it)", file=sys.stderr)
-    smoothed = [text for point in sweep.points for text in scenario.with_values(point).smoothed_friction()]
+    smoothed = [(i, text) for i, point in enumerate(sweep.points)
+                for text in scenario.with_values(point).smoothed_friction()]
     if smoothed:   # a friction smoothed at the speed of some points: said for the first such point
-        print(f"  warning {smoothed[0]} (at {len(smoothed)} of {len(sweep.points)} points: their figures carry it)",
+        points = len({i for i, _ in smoothed})
+        print(f"  warning {smoothed[0][1]} (at {points} of {len(sweep.points)} points: their figures carry it)",
               file=sys.stderr)
     for name in filter(grows, settings.outputs):
         print(f"  note: {name} grows with time in any steady state (a running angle or an energy integral): its "

@@ -897,48 +897,106 @@ class Scenario:
 
     def model_advice(self) -> list:
         """'component: warning' for valid parameters that are likely not what was meant (``MODEL.advice``, which
-        the FMU logs at initialization: e.g. a ring coupling's c_s left at the default ring's), and, where a drive's
-        speed reaches rest (a Motor's ramp from 0, a set speed of 0, a step or ramp between speeds from, to or
-        through 0: a start, a hold at rest, a stop or a reversal), a Load that chatters as its shaft comes near rest
-        (:meth:`load_chatter`, ``LOAD_CHATTER_ADVICE``)."""
-        def reaches_rest(values):
-            speeds = [0.0 if values["profile"] == 1 else values["omega_initial"], values["omega_set"]] \
-                if values["profile"] in (1, 2, 3) else [values["omega_set"]]
-            return min(speeds) <= 0.0 <= max(speeds)
-        near_rest = any(fmu in ("Motor", "MotorController") and reaches_rest(self.parameters_with_defaults(name))
-                        for name, (fmu, _) in self.components.items())
+        the FMU logs at initialization: e.g. a ring coupling's c_s left at the default ring's); where the speed of a
+        Load's drive reaches rest within the run (a Motor's ramp from 0, a set speed of 0, a step or ramp between
+        speeds from, to or through 0: a start, a hold at rest, a stop or a reversal), a Load that chatters as its
+        shaft comes near rest (:meth:`load_chatter`, ``LOAD_CHATTER_ADVICE``); and a Load whose friction is smoothed
+        at its drive's running speed (:meth:`smoothed_friction`), with one remedy for both where both apply."""
+        smoothed = self._smoothed()
+        chatter = [c for c in self.load_chatter() if c.ratio > LOAD_CHATTER_ADVICE
+                   and any(lo <= 0.0 <= hi for lo, hi in (self._drive_speeds(d)[1] for d in self._load_drives(c.load)))]
+        both = {c.load: c for c in chatter if c.load in smoothed}
         return ([f"{name}: {message}" for name in self.components for message in self._ask_model(name, "advice")]
-                + [chatter.text() for chatter in self.load_chatter()
-                   if near_rest and chatter.ratio > LOAD_CHATTER_ADVICE]
-                + self.smoothed_friction())
+                + [c.text() for c in chatter if c.load not in both]
+                + [self._smoothed_text(load, *found, both.get(load)) for load, found in smoothed.items()])
 
     def smoothed_friction(self) -> list:
-        """'load: warning' for each Load with a constant torque T0 whose smooth sign s = omega / sqrt(omega^2 +
-        omega_smooth^2) is below ``SMOOTH_SIGN`` at a speed a drive settles at (its set speed, or a step's first
-        speed; rest is :meth:`load_chatter`'s): the friction there is s T0, not T0."""
-        speeds = {}
-        for name, (fmu, _) in self.components.items():
-            if fmu in ("Motor", "MotorController"):
-                values = self.parameters_with_defaults(name)
-                speeds[f"{name}.omega_set"] = abs(float(values["omega_set"]))
-                if values["profile"] in (2, 3):
-                    speeds[f"{name}.omega_initial"] = abs(float(values["omega_initial"]))
-        speeds = {k: v for k, v in speeds.items() if v > 0.0}
-        found = []
+        """'load: warning' for each Load with a constant torque (T0, or T0 + T_change where larger) whose smooth
+        sign s = omega / sqrt(omega^2 + omega_smooth^2) is below ``SMOOTH_SIGN`` at a speed its drive settles at
+        within the run (its set speed, or a step's first speed; rest is :meth:`load_chatter`'s): the friction there
+        is s T0, not T0."""
+        return [self._smoothed_text(load, *found) for load, found in self._smoothed().items()]
+
+    def _smoothed(self) -> dict:
+        """{load: (speed's name, speed, smooth sign, torque, torque's name)} of :meth:`smoothed_friction`."""
+        found = {}
         for name, (fmu, _) in self.components.items():
             law = self.parameters_with_defaults(name) if fmu == "Load" else {}
-            if not speeds or not law.get("T0") or not law["omega_smooth"] > 0.0:
+            if not law or not law["omega_smooth"] > 0.0:
                 continue
-            where, speed = min(speeds.items(), key=lambda item: item[1])
+            changed = law.get("T_change", 0.0) and abs(law["T0"] + law["T_change"]) > abs(law["T0"])
+            torque = law["T0"] + law["T_change"] if changed else law["T0"]
+            speeds = [(f"{drive}.{label}", abs(speed)) for drive in self._load_drives(name)
+                      for label, speed in self._drive_speeds(drive)[0] if speed]
+            if not torque or not speeds:
+                continue
+            where, speed = min(speeds, key=lambda item: item[1])
             sign = speed / math.hypot(speed, law["omega_smooth"])
             if sign < SMOOTH_SIGN:
-                found.append(f"{name}: its constant torque T0 = {law['T0']:g} N.m reverses smoothly within "
-                             f"omega_smooth = {law['omega_smooth']:g} rad/s of rest (s = omega / sqrt(omega^2 + "
-                             f"omega_smooth^2)): at {where} = {speed:g} rad/s it gives {sign:.3g} T0, not T0, and "
-                             "less where a joint slows the shaft within a revolution. For the full T0 there, lower "
-                             f"omega_smooth to at most {speed / 10:.3g} rad/s (0.995 T0; a shaft that stops then "
-                             "needs a smaller step, which `ujfmu run` names)")
+                found[name] = (where, speed, sign, torque, "T0 + T_change" if changed else "T0")
         return found
+
+    def _smoothed_text(self, load: str, where: str, speed: float, sign: float, torque: float, named: str,
+                       chatter: "LoadChatter | None" = None) -> str:
+        """The advice of :meth:`smoothed_friction` for one Load; with its chatter near rest (:meth:`load_chatter`),
+        one remedy for both (a wider omega_smooth would cure the chatter and smooth the friction more)."""
+        smooth = self.parameters_with_defaults(load)["omega_smooth"]
+        text = (f"{load}: its constant torque {named} = {torque:g} N.m reverses smoothly within omega_smooth = "
+                f"{smooth:g} rad/s of rest (s = omega / sqrt(omega^2 + omega_smooth^2)): at {where} = {speed:g} rad/s "
+                f"it gives {sign:.3g} {named}, not {named}, and less where a joint slows the shaft within a "
+                f"revolution. For the full torque there, lower omega_smooth to at most {speed / 10:.3g} rad/s "
+                "(0.995 of it)")
+        if chatter is None:
+            return text + "; a shaft that stops then needs a smaller step, which `ujfmu run` names"
+        return text + (f", with a step of at most {chatter.inertia * speed / 10 / abs(torque):.3g} s: where its "
+                       f"drive passes rest, one step of it moves {chatter.driven}'s output inertia J = "
+                       f"{chatter.inertia:g} kg.m2 by {named} h / J, which must stay below omega_smooth, or the "
+                       "torque reverses at every step (chatter)")
+
+    def _load_drives(self, load: str) -> list:
+        """The drives (Motor, MotorController) whose speed the Load's shaft follows: the one feeding its omega, or
+        the input of the component whose omega_out does (by omega_in, or by tau_in from a MotorController's
+        tau_motor); every drive of the scenario where the wiring is another."""
+        drives = [name for name, (fmu, _) in self.components.items() if fmu in ("Motor", "MotorController")]
+        feeds = {c.target: c.source for c in self.connections}
+        source = feeds.get(f"{load}.omega", "")
+        component, _, port = source.partition(".")
+        if component in drives:
+            return [component]
+        if port == "omega_out":
+            for inp, out in (("omega_in", "omega"), ("tau_in", "tau_motor")):
+                driver, _, port = feeds.get(f"{component}.{inp}", "").partition(".")
+                if driver in drives and port == out:
+                    return [driver]
+        return drives
+
+    def _drive_speeds(self, drive: str) -> tuple:
+        """([(parameter, speed)] the drive's profile settles at within [start_time, stop_time], (lowest, highest)
+        speed it takes there): a step's or slew's omega_initial where t_step is after the start, its omega_set where
+        t_step is before the stop, a ramp's speed at the stop where it has not reached omega_set."""
+        v = self.parameters_with_defaults(drive)
+        profile, target = v["profile"], float(v["omega_set"])
+        start, stop = self.start_time, self.stop_time
+        if profile == 1:   # a ramp from rest at t = 0
+            reached = min(abs(target), float(v["accel"]) * max(stop, 0.0))
+            return [("omega_set", math.copysign(reached, target))], (min(0.0, target), max(0.0, target)) \
+                if reached else (0.0, 0.0)
+        if profile not in (2, 3):
+            return [("omega_set", target)], (target, target)
+        initial, t_step = float(v["omega_initial"]), float(v["t_step"])
+        settled = ([("omega_initial", initial)] if t_step > start else []) + \
+                  ([("omega_set", target)] if t_step < stop else [])
+        if profile == 3:   # the slew from omega_initial at accel from t_step: where it is at the start and stop
+
+            def at(t):
+                moved = min(abs(target - initial), float(v["accel"]) * max(0.0, t - t_step))
+                return initial + math.copysign(moved, target - initial)
+            if at(stop) != target:
+                settled = [item for item in settled if item[0] != "omega_set"]
+            taken = [at(start), at(stop)]
+        else:
+            taken = [speed for _, speed in settled]
+        return settled, (min(taken), max(taken))
 
     def load_chatter(self) -> list:
         """``LoadChatter`` of each Load fed from a component's ``omega_out`` whose model has an output inertia of
