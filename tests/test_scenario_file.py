@@ -158,9 +158,13 @@ def test_a_reference_that_does_not_cover_the_run_is_an_error_before_anything_run
     assert "set the scenario's [experiment] start_time and stop_time within the reference's span" in str(err.value)
     assert "extend the file (it names no generator" in str(err.value)
     assert not (tmp_path / "out").exists()
-    (tmp_path / "r.csv").write_text(f'"time","j.tau_in"\n0,0.0\n0.5,nan\n1,1.0\n')
-    with pytest.raises(ScenarioError, match="has nan in column j.tau_in .*: remove that row, or fill it"):
-        run_scenario(path, fmu_dir=fmu_dir, out_dir=tmp_path / "out", progress=False)
+    for rows, words in (("0,0.0\n0.5,nan\n1,1.0", r"has nan in column j.tau_in .*: remove that row, or fill it"),
+                        ("0,0.0\n0.5,1.0\n0.5,1.0\n1,1.0", r"data row 3: 0.5 after 0.5\).*: sort its rows by time "
+                                                          "and keep one row per time"),
+                        ("0,0.0", "has 1 row of data.*: give it a row at least at the run's start and stop times")):
+        (tmp_path / "r.csv").write_text(f'"time","j.tau_in"\n{rows}\n')
+        with pytest.raises(ScenarioError, match=words):
+            run_scenario(path, fmu_dir=fmu_dir, out_dir=tmp_path / "out", progress=False)
 
 
 def test_a_fail_against_a_measured_reference_names_the_model_first(tmp_path, fmu_dir):

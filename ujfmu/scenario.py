@@ -219,22 +219,25 @@ def description_attribute(path: Path, attribute: str) -> str | None:
 _BUILD_ENTRY = re.compile(r"resources/ujfmu(3?)_\w+_([0-9a-f]{10})_entry\.py")
 
 
-def reference_problem(table: np.ndarray, columns: list) -> str:
-    """'' if the reference's columns are finite and its times increase, else what is wrong (the first row):
-    a NaN or infinite value compares as nothing (an infinite band passes any error), and times out of order make
-    the comparison's interpolation meaningless (fmpy's validate_result does not return)."""
+def reference_problem(table: np.ndarray, columns: list) -> tuple:
+    """('', '') if the reference has two rows or more, its columns are finite and its times increase, else (what is
+    wrong, at the first such row; how to mend a file made by hand): a NaN or infinite value compares as nothing (an
+    infinite band passes any error), and times out of order make the comparison's interpolation meaningless
+    (fmpy's validate_result does not return)."""
     if len(table) < 2:
-        return f"has {len(table)} row{'s' * (len(table) != 1)} of data"
+        return (f"has {len(table)} row{'s' * (len(table) != 1)} of data",
+                "give it a row at least at the run's start and stop times")
     for name in dict.fromkeys(columns):
         bad = np.flatnonzero(~np.isfinite(table[name]))
         if len(bad):
-            return f"has {table[name][bad[0]]} in column {name} (data row {bad[0] + 1})"
+            return (f"has {table[name][bad[0]]} in column {name} (data row {bad[0] + 1})",
+                    "remove that row, or fill it, e.g. by interpolating its neighbours")
     steps = np.diff(table["time"])
     if not np.all(steps > 0.0):
         row = int(np.flatnonzero(~(steps > 0.0))[0]) + 2
-        return (f"has times that do not increase (data row {row}: {table['time'][row - 1]!r} after "
-                f"{table['time'][row - 2]!r})")
-    return ""
+        return (f"has times that do not increase (data row {row}: {float(table['time'][row - 1]):g} after "
+                f"{float(table['time'][row - 2]):g})", "sort its rows by time and keep one row per time")
+    return "", ""
 
 
 def stale_build(path: Path, fmu: str) -> tuple:
@@ -741,13 +744,12 @@ class Scenario:
                                      if n not in table.dtype.names))
         if missing:
             raise ScenarioError(f"{field}: no column {', '.join(missing)} in {self.reference_file}")
-        problem = reference_problem(table, ["time", *self.tolerances, *self.extrapolated_tolerances])
+        problem, mend = reference_problem(table, ["time", *self.tolerances, *self.extrapolated_tolerances])
         if problem:
             raise ScenarioError(f"{field}: {self.reference_file} {problem}: a reference must be a finite solution on "
                                 "increasing times; "
                                 + (f"regenerate it (`ujfmu references {self.path}`)" if self.reference_generator else
-                                   "the scenario names no generator (a measured or hand-made reference): remove that "
-                                   "row, or fill it, e.g. by interpolating its neighbours"))
+                                   f"the scenario names no generator (a measured or hand-made reference): {mend}"))
         if made_for is None and self.reference_generator:
             raise ScenarioError(f"{field}: {self.reference_file} has no provenance line (the '#' line `ujfmu "
                                 f"references` writes: how it was made, for which setup), though the scenario names "

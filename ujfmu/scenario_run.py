@@ -756,19 +756,21 @@ class ScenarioResult:
                          "coupling error (the host's solver integrates the equations to its own tolerance), so the "
                          "model or its parameters differ from what the reference solves, or the solver's tolerance "
                          f"is too loose for the band. {figures}")
-        elif any(not c.passed for c in self.checks + self.extrapolated_checks) and not self.scenario.reference_generator:
-            lines.append("  a signal outside its tolerance against a reference the scenario names no generator for (a "
-                         "measured or hand-made file): the model or its parameters likely differ from what the file "
-                         "holds, or the file's noise exceeds the band (the RMS error beside the max shows the fit "
-                         "under noise); a coupling error is the other cause, if the error shrinks with the step "
-                         f"(ujfmu run {self.scenario.path} --check-step{self._fmu_dir_option()} estimates it)")
         elif any(not c.passed for c in self.checks + self.extrapolated_checks):
             estimate = ("the step-halving estimate below gives it per signal" if step_check_follows else
                         f"ujfmu run {self.scenario.path} --check-step{self._fmu_dir_option()} estimates it per "
                         "signal")
-            lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the coupling's "
-                         f"({estimate}, --step auto picks a step); if it does not, it is the FMUs' own integration, "
-                         f"or the model or its parameters differ from what the reference solves. {figures}")
+            if not self.scenario.reference_generator:
+                lines.append("  a signal outside its tolerance against a reference the scenario names no generator "
+                             "for (a measured or hand-made file): the model or its parameters likely differ from what "
+                             "the file holds, or the file's noise exceeds the band (the RMS error beside the max shows "
+                             "the fit under noise); a coupling error is the other cause, if the error shrinks with the "
+                             f"step ({estimate})")
+            else:
+                lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the "
+                             f"coupling's ({estimate}, --step auto picks a step); if it does not, it is the FMUs' own "
+                             "integration, or the model or its parameters differ from what the reference solves. "
+                             f"{figures}")
         if not self.checks and self.table is not None and len(self.table) > 1:
             lines += self._signal_figures()
         if not self.checked:
@@ -844,8 +846,8 @@ def check_reference_span(scenario: Scenario, reference: np.ndarray) -> None:
         raise ScenarioError(f"{scenario.path}: the reference {scenario.reference_file_text} covers t = {t0:g} to "
                             f"{t1:g} s, the experiment runs from {scenario.start_time:g} to "
                             f"{scenario.stop_time:g} s: set the scenario's [experiment] start_time and stop_time "
-                            f"within the reference's span (a run's --stop-time is not checked against it), or "
-                            f"{remedy}")
+                            f"within the reference's span (a run with --stop-time is a changed copy, not compared), "
+                            f"or {remedy}")
 
 
 def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.ndarray | None = None) -> np.ndarray:
@@ -963,7 +965,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         # fmpy's band scales with each signal's range: a signal constant to within its absolute tolerance (say the
         # output speed of a constant-velocity layout) is checked by compare() alone
         compared = ["time"] + [c.name for c in result.checks if c.reference_range > scenario.tolerances[c.name].abs]
-        if available("scipy"):   # fmpy's band filter needs scipy (an extra); the verdict comes from compare()
+        if available("scipy") and len(compared) > 1:   # fmpy's band filter needs scipy (an extra) and a signal that
+            # varies beyond its abs band; the verdict comes from compare()
             result.fmpy_outlier_fraction = fmpy_outlier_fraction(table[compared], reference[compared])
         coarser = not model_exchange and not scenario.bands_hold_at(scenario.step_size)
         if scenario.extrapolated_tolerances and coarser:

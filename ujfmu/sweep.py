@@ -393,8 +393,9 @@ def parse_axis(text: str, scenario, option: str = "--param") -> Axis:
         why = f"({exc})"
         if re.search(r"[a-df-z]", body, re.IGNORECASE):   # a unit, or part of one (e: an exponent)
             declared = _declared_unit(scenario, plain[0]) if plain else None
-            why = (f"(not a number: a unit other than those below? give SI values without one"
-                   + (f", {plain[0]} is in {declared}" if declared else "") + ")")
+            unit = f", {plain[0]} is " + (f"in {declared}" if declared and declared != "1" else "dimensionless") \
+                if plain else ""
+            why = f"(not a number: a unit other than those below? give SI values without one{unit})"
         raise ScenarioError(f"{option} {text!r}: bad values {values_text!r} {why}; expected {expected}, in any "
                             "case: 1000RPM is 1000rpm") from None
     if all(_declared_type(scenario, name) is int for name in plain):   # whole numbers, as the FMU declares them
