@@ -294,6 +294,25 @@ def test_a_drives_torque_step_at_a_communication_point_starts_there(fmu_dir, cou
     assert np.max(np.abs(table["driveline.shaft_torque"] - closed)) < 1e-3 * np.ptp(closed)
 
 
+@pytest.mark.parametrize("coupling", ["implicit", "explicit"])
+def test_a_load_step_at_a_communication_point_starts_there(fmu_dir, coupling):
+    """A straight torque-driven joint coasting at 100 rad/s (no drive torque) meets a 10 N.m load step at 50 ms:
+    omega = 100 - 10 (t - 0.05) / (J_drive + J1 + J2) from then on, exactly. The implicit blend would take the
+    step half a step early (0.024 rad/s off); the Load announces it (``output_jumps``) and the step ending there
+    holds it."""
+    s = Scenario(SCENARIOS / "cardan_heavy_torque_driven.toml").with_parameters({
+        "motor.Kp": 1e-9, "motor.Ki": 0.0, "joint.bend_angle": 0.0, "joint.error_angle_beta": 0.0,
+        "joint.error_angle_gamma": 0.0, "joint.omega_in_start": 100.0, "load.T0": 0.0, "load.c1": 0.0,
+        "load.c2": 0.0, "load.T_change": 10.0, "load.t_change": 0.05, "load.omega_smooth": 1e-3})
+    with Cosimulation(s.master_components(fmu_dir), s.connections, 1e-3, ["joint.omega_in"], coupling=coupling) as c:
+        table = c.run(100)
+    joint = s.parameters_with_defaults("joint")
+    inertia = joint["J_drive"] + joint["J1"] + joint["J2"]
+    t = table["time"]
+    closed = np.where(t > 0.05, 100.0 - 10.0 * (t - 0.05) / inertia, 100.0)
+    assert np.max(np.abs(table["joint.omega_in"] - closed)) < 1e-6   # the drive's 1e-7 N.m of P-torque aside
+
+
 def test_battery_command_tabulates_each_scheme(fmu_dir, monkeypatch, capsys):
     monkeypatch.setattr(battery, "paths", lambda *where: [LIGHT, HEAVY])
     code = main(["--fmu-dir", str(fmu_dir), "battery"])
