@@ -1536,6 +1536,22 @@ def _output_jumps(md, values: dict) -> tuple:
         return ()
 
 
+def depends_on_time(md, values: dict) -> bool:
+    """True where the outputs of a ujfmu FMU depend on time at values over its declared parameters (its model's
+    ``depends_on_time``: a moving speed profile, a load change); False for any other FMU, or parameters its model
+    cannot take."""
+    cls = _ujfmu_class(md)
+    model = getattr(cls, "MODEL", None)
+    if model is None or not hasattr(model, "depends_on_time"):
+        return False
+    values = {**{v.name: v.start for v in cls.VARIABLES if v.causality == "parameter"}, **values}
+    try:
+        return bool(model.depends_on_time(
+            model.Parameters(**{f.name: values[f.name] for f in dataclasses.fields(model.Parameters) if f.init})))
+    except (ArithmeticError, ValueError, TypeError, KeyError):
+        return False
+
+
 def _unread_inputs(md, values: dict) -> set:
     """Names of the inputs of a ujfmu FMU (by its model name and generation tool) whose ``used_if`` parameter is 0
     at values over its declared starts; none for any other FMU."""

@@ -91,6 +91,9 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
             instances[comp.name] = MeInstance(comp, unzip_dir, md, log)
         for comp in components:
             instances[comp.name].initialize(comp.parameters, start_time)
+        for inst in instances.values():   # the FMUs cannot see fmi3EnterInitializationMode's startTime (pythonfmu3)
+            inst.slave.setTime(start_time)
+            inst.time = start_time
         ordered = _feedthrough_order(connections, instances)
         transfers = []
         for conn in ordered:

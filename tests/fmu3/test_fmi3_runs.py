@@ -106,6 +106,17 @@ def test_model_exchange_under_cvode_agrees_with_the_monolithic_reference(fmu3_di
             <= 1e-4 * span, name
 
 
+def test_model_exchange_from_a_later_start_reads_its_first_row_there(fmu3_dir):
+    """The heavy torque-driven joint from t = 1 s: its PI drive's ramp asks for 30 rad/s there against a shaft at
+    rest, Kp 30 = 264 N.m, so its torque starts at the 100 N.m limit. The first row had been read before the FMUs
+    were given the time (pythonfmu3 drops fmi3EnterInitializationMode's startTime): tau_motor 0 and M_z 0."""
+    sc = Scenario("scenarios/cardan_heavy_torque_driven.toml")
+    sc.start_time, sc.stop_time, sc.reference_file = 1.0, 1.01, None
+    table = simulate_scenario_me(sc, fmu3_dir)
+    assert table["time"][0] == 1.0 and table["motor.tau_motor"][0] == 100.0
+    assert table["joint.M_z"][0] == pytest.approx(table["joint.M_z"][1], rel=0.01)   # no jump after the first row
+
+
 def test_model_exchange_refuses_a_speed_driven_component(fmu3_dir):
     with pytest.raises(ModelExchangeError, match="CardanJoint has no Model Exchange interface.*torque-driven"):
         simulate_me([Component("joint", fmu3_dir / "CardanJoint.fmu")], [], 0.01, 1e-3, ["joint.tau_in"])
@@ -240,6 +251,26 @@ def test_state_get_set_and_serialize_round_trip_bitwise(fmu3_dir, opened, name):
     assert np.all(np.isfinite(_record(inst, 5, 60 * H)))      # the instance stays usable
 
 
+def _initialize_directly(inst, start_time):
+    """fmi3EnterInitializationMode at start_time and fmi3ExitInitializationMode, past the host's refusal."""
+    inst.slave.enterInitializationMode(startTime=start_time)
+    inst.slave.exitInitializationMode()
+
+
+def test_a_time_dependent_fmu_is_refused_a_start_other_than_0(fmu3_dir, opened):
+    """A Motor ramping (its outputs depend on time) cannot see a start time of 1 s before its first step, so the
+    host's first exchange would hand on its t = 0 values (an FMI 3.0 user's joint started 30 rad/s behind): the
+    host refuses, naming the remedies; at a constant profile, or from 0, it starts."""
+    from ujfmu.master import CosimulationError
+    ramp = _open(FmuInstance3, fmu3_dir, "Motor", [])
+    opened.append(ramp)
+    with pytest.raises(CosimulationError, match="cannot start at t = 1 s: its outputs depend on time.*FMI 2.0"):
+        ramp.initialize(start_time=1.0)
+    constant = _open(FmuInstance3, fmu3_dir, "Motor", [], "constant")
+    opened.append(constant)
+    constant.initialize({"profile": 0}, start_time=1.0)
+
+
 def test_start_time_is_taken_from_the_first_step(fmu_dir, fmu3_dir, opened):
     """pythonfmu3 does not pass fmi3EnterInitializationMode's startTime on: the FMU re-starts at the first step's
     time, so from the first step on a Motor ramping from t0 = 1 s gives the FMI 2.0 numbers bitwise."""
@@ -247,7 +278,7 @@ def test_start_time_is_taken_from_the_first_step(fmu_dir, fmu3_dir, opened):
     fmi3 = _open(FmuInstance3, fmu3_dir, "Motor", [])
     opened += [fmi2, fmi3]
     fmi2.initialize(start_time=1.0)
-    fmi3.initialize(start_time=1.0)
+    _initialize_directly(fmi3, 1.0)   # the host refuses this start (below): the FMU's own rule, met directly
     a, b = _record(fmi2, 50, t0=1.0), _record(fmi3, 50, t0=1.0)
     assert a[1, 3] == pytest.approx(30.0 * 1.001)   # omega_ref: the ramp at 30 rad/s2 from rest at t = 0
     assert np.array_equal(a[1:], b[1:])
@@ -261,7 +292,7 @@ def test_a_state_saved_before_the_first_step_restores_the_start_time_rule(fmu_di
     fmi3 = _open(FmuInstance3, fmu3_dir, "Motor", [])
     opened += [fmi2, fmi3]
     fmi2.initialize(start_time=1.0)
-    fmi3.initialize(start_time=1.0)
+    _initialize_directly(fmi3, 1.0)
     first = _record(fmi2, 3, t0=1.0)
     saved = fmi3.slave.getFMUState()
     _record(fmi3, 1, t0=1.0)

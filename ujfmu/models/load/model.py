@@ -73,6 +73,11 @@ def corners(p: Parameters) -> tuple:
     return (p.t_change,) if p.ramp_time == 0.0 else (p.t_change, p.t_change + p.ramp_time)
 
 
+def depends_on_time(p: Parameters) -> bool:
+    """The torque depends on time: a change T_change."""
+    return bool(p.T_change)
+
+
 def output_jumps(p: Parameters) -> tuple:
     """The times where the torque jumps: a load step's t_change (ramp_time = 0); none for a ramp or no change."""
     return (p.t_change,) if p.T_change and p.ramp_time == 0.0 else ()

@@ -161,6 +161,11 @@ def profile_corners(p: ControllerParameters) -> tuple:
     return ()
 
 
+def depends_on_time(p: ControllerParameters) -> bool:
+    """The outputs depend on time: every profile but the constant one."""
+    return p.profile != CONSTANT
+
+
 def output_jumps(p: ControllerParameters) -> tuple:
     """The times where the outputs jump: the step profile's t_step (omega_ref jumps, and the PI torque with it, or
     an ideal source's speed); none for the others, whose reference is continuous."""
@@ -349,6 +354,7 @@ class Controller:
 
     Parameters = ControllerParameters
     output_jumps = staticmethod(output_jumps)
+    depends_on_time = staticmethod(depends_on_time)
 
     class State(NamedTuple):
         """Integral of the speed error [rad]."""
