@@ -41,7 +41,7 @@ class MeInstance(FmuInstance3):
         if not model_description.fmiVersion.startswith("3"):
             raise ModelExchangeError(f"component '{component.name}': {model_description.modelName} is an FMI "
                                      f"{model_description.fmiVersion} FMU; Model Exchange runs take the FMI 3.0 "
-                                     "FMUs (ujfmu build --fmi 3)")
+                                     "FMUs (ujfmu build --fmi 3, into fmus/fmi3/; from Python fmu_dir=\"fmus/fmi3\")")
         if model_description.modelExchange is None:
             raise ModelExchangeError(f"component '{component.name}': {model_description.modelName} has no Model "
                                      "Exchange interface (speed-driven joints need the driver's acceleration; use "

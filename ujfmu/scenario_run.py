@@ -878,9 +878,12 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     Returns a ScenarioResult whose .table is the result (structured array, 'time' + 'comp.var' columns).
     model_exchange=True runs the FMI 3.0 Model Exchange FMUs of fmu_dir together under CVode
     (``ujfmu.model_exchange``) instead of co-simulating, output at the scenario's step; with no step error to
-    remove, the [reference.extrapolated] bands then apply to that run itself.
+    remove, the [reference.extrapolated] bands then apply to that run itself; the FMUs then come from fmus/fmi3/
+    where fmu_dir is left at fmus/ (as ``--model-exchange``).
     """
     begun = time.perf_counter()
+    if model_exchange and Path(fmu_dir) == Path(DEFAULT_FMU_DIR):
+        fmu_dir = Path(DEFAULT_FMU_DIR) / "fmi3"
     scenario = path if isinstance(path, Scenario) else Scenario(path)
     scenario.check_experiment()
     scenario.check_fmus(fmu_dir)

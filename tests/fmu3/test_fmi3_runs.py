@@ -117,6 +117,18 @@ def test_model_exchange_from_a_later_start_reads_its_first_row_there(fmu3_dir):
     assert table["joint.M_z"][0] == pytest.approx(table["joint.M_z"][1], rel=0.01)   # no jump after the first row
 
 
+def test_run_scenario_takes_the_fmi3_folder_for_model_exchange_by_default(fmu3_dir, tmp_path, monkeypatch):
+    """ujfmu.run_scenario(..., model_exchange=True) with fmu_dir left at fmus/ takes fmus/fmi3/, as the command
+    line's --model-exchange does (it had refused the FMI 2.0 FMUs of fmus/, an FMI 3.0 user's trial)."""
+    from pathlib import Path
+    from ujfmu.scenario_run import run_scenario
+    scenario = Path("scenarios/cardan_heavy_torque_driven.toml").resolve()
+    (tmp_path / "fmus").mkdir()
+    (tmp_path / "fmus" / "fmi3").symlink_to(fmu3_dir)
+    monkeypatch.chdir(tmp_path)
+    assert run_scenario(scenario, model_exchange=True, out_dir=None, plot=False).passed
+
+
 def test_model_exchange_refuses_a_speed_driven_component(fmu3_dir):
     with pytest.raises(ModelExchangeError, match="CardanJoint has no Model Exchange interface.*torque-driven"):
         simulate_me([Component("joint", fmu3_dir / "CardanJoint.fmu")], [], 0.01, 1e-3, ["joint.tau_in"])
