@@ -429,6 +429,18 @@ def test_a_failed_signal_names_the_step_check_as_a_remedy():
     assert passing.startswith("PASS") and "--check-step" not in passing
 
 
+def test_an_unchecked_model_exchange_run_is_not_sent_to_the_step_check():
+    """A Model Exchange run without a reference has no communication step: its summary does not suggest
+    --check-step (which refuses such a run; a motorsport trial was sent there), and says what would check it."""
+    from ujfmu.scenario import Scenario
+    from ujfmu.scenario_run import ScenarioResult
+    scenario = Scenario(SCENARIOS / "cardan_heavy_torque_driven.toml")
+    scenario.reference_file = None
+    summary = ScenarioResult(scenario, None, model_exchange=True).summary()
+    assert "--check-step" not in summary and "a Model Exchange run has no communication step" in summary
+    assert "--check-step" in ScenarioResult(scenario, None).summary()
+
+
 def test_the_reference_method_is_read_from_the_provenance_line(tmp_path):
     """The method between the generator's name and 'Regenerate:' (or the setup tag, or the line's end); None for a
     file without a provenance line, or none at all."""

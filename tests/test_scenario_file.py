@@ -424,6 +424,19 @@ record = ["load_slow.tau"]
     assert f"at slow.omega_set = 0.2 rad/s it gives {0.2 / math.hypot(0.2, 1.0):.3g} T0 + T_change" in advice
 
 
+@pytest.mark.parametrize("t_step, warned", [(0.0, True), (0.01, False)])
+def test_a_motors_step_at_the_start_is_named(t_step, warned):
+    """A Motor's step profile at t_step = 0 starts its rotor at omega_set (the profile's speed at the start), the
+    driveline turning with it: no launch, where a motorsport trial had meant one (its MotorController twin launched
+    from rest). Named; a step after the start is not."""
+    scenario = Scenario(OMAR_START).with_parameters({"motor.profile": 2, "motor.omega_initial": 0.0,
+                                                     "motor.omega_set": 60.0, "motor.t_step": t_step})
+    advice = [a for a in scenario.model_advice() if a.startswith("motor: its step profile steps at")]
+    assert bool(advice) == warned
+    if warned:
+        assert "the Motor starts at omega_set = 60 rad/s" in advice[0]
+
+
 def test_a_load_both_smoothed_and_chattering_gets_one_remedy():
     """Omar's start-up slewing from rest to 0.5 rad/s against 20 N.m with omega_smooth = 0.1 rad/s: the friction is
     smoothed at the set speed (0.98 T0) and the load chatters near rest (T0 h / J = 4.4 rad/s, 44x omega_smooth).

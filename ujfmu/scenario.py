@@ -909,8 +909,23 @@ class Scenario:
                    and any(lo <= 0.0 <= hi for lo, hi in (self._drive_speeds(d)[1] for d in self._load_drives(c.load)))]
         both = {c.load: c for c in chatter if c.load in smoothed}
         return ([f"{name}: {message}" for name in self.components for message in self._ask_model(name, "advice")]
+                + self._stepped_at_start()
                 + [c.text() for c in chatter if c.load not in both]
                 + [self._smoothed_text(load, *found, both.get(load)) for load, found in smoothed.items()])
+
+    def _stepped_at_start(self) -> list:
+        """'motor: warning' for a Motor whose step or slew begins at or before the start: its rotor starts at the
+        profile's speed there (``initial_state``), omega_set for a step, so what it drives starts turning with it:
+        no launch (a MotorController's torque-driven shaft starts from its own omega_in_start instead)."""
+        found = []
+        for name, (fmu, _) in self.components.items():
+            v = self.parameters_with_defaults(name) if fmu == "Motor" else {}
+            if v and v["profile"] == 2 and v["t_step"] <= self.start_time and v["omega_set"] != v["omega_initial"]:
+                found.append(f"{name}: its step profile steps at t_step = {v['t_step']:g} s, not after the start "
+                             f"({self.start_time:g} s): the Motor starts at omega_set = {v['omega_set']:g} rad/s, what "
+                             "it drives already turning with it (no step, no launch); for a step during the run, set "
+                             "t_step after the start")
+        return found
 
     def smoothed_friction(self) -> list:
         """'load: warning' for each Load with a constant torque (T0, or T0 + T_change where larger) whose smooth

@@ -669,7 +669,10 @@ class ScenarioResult:
         """Why nothing was compared; step_check_follows: the step-halving estimate is printed after the summary
         (``ujfmu run --check-step``), so it is named instead of suggested."""
         if self.scenario.reference_file is None:
-            estimate = ("the step-halving estimate of the coupling error at this step follows" if step_check_follows
+            estimate = ("a Model Exchange run has no communication step, so no coupling error to estimate; a "
+                        "reference (`ujfmu references` for a scenario of a bundled wiring) checks the solver's "
+                        "tolerance and the model" if self.model_exchange else
+                        "the step-halving estimate of the coupling error at this step follows" if step_check_follows
                         else "--check-step on the same command line (`ujfmu run ... --set ...`), or "
                         "ujfmu.stepsize.estimate(scenario, fmu_dir=...).lines(), estimates the coupling error "
                         "at this step" if self.scenario.name != self.scenario.path.stem
