@@ -192,9 +192,16 @@ def test_model_exchange_bad_input_gives_nan_derivatives_with_a_message(fmu3_dir,
     inst.slave.getContinuousStateDerivatives(inst.buffer, inst.nx)
     assert all(math.isnan(x) for x in inst.buffer)
     assert any("derivatives at t = 0.0 refused: tau_in = inf is not a finite number" in m for m in log), log
+    for _ in range(20):   # a solver's retries: three in full, one line that the rest are not logged, then none
+        inst.slave.getContinuousStateDerivatives(inst.buffer, inst.nx)
+    refused = [m for m in log if "refused" in m]
+    assert len(refused) == 4 and "the next refusals are not logged" in refused[-1], refused
     inst.set(tau_in=1.0)
     inst.slave.getContinuousStateDerivatives(inst.buffer, inst.nx)
     assert inst.buffer[1] > 0.0
+    inst.set(tau_in=float("inf"))   # a new run of refusals after a success is logged again
+    inst.slave.getContinuousStateDerivatives(inst.buffer, inst.nx)
+    assert len([m for m in log if "refused" in m]) == 5
 
 
 def test_model_exchange_run_stops_with_the_fmu_message(fmu3_dir):
