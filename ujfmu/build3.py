@@ -230,6 +230,30 @@ def terminals_and_icons(name: str, model) -> bytes:
     return _xml(root)
 
 
+def errors_html3(name: str, model_exchange: bool) -> str:
+    """The FMI 3.0 page's "Errors and logging": pythonfmu3 passes messages on with logging off too, reports an
+    exception as fmi3Fatal, and Model Exchange refuses by NaN derivatives (``ujfmu.fmu3.base``)."""
+    text = ("<h2>Errors and logging</h2><p>The FMU's messages reach the host's logger whether or not logging was "
+            "asked for at instantiation. An invalid parameter makes fmi3ExitInitializationMode fail with a message "
+            "naming the parameter and its allowed range (pythonfmu3 reports the failure as fmi3Fatal and adds a line "
+            "of its own). In Co-Simulation a non-finite or out-of-range input, a step size that is not finite and "
+            "positive, or a step the model cannot take refuses the step (fmi3DoStep returns fmi3Discard) with a "
+            "logged error naming the cause; the instance stays usable. A start time other than 0 reaches the FMU "
+            "with its first fmi3DoStep only (pythonfmu3 does not pass fmi3EnterInitializationMode's startTime on): "
+            "outputs read before it are those of a start at 0.")
+    if model_exchange:
+        text += (" In Model Exchange a refused evaluation gives NaN derivatives, with the reason logged (three "
+                 "times in full in a row, then once), on which the host's solver stops; the time follows "
+                 "fmi3SetTime.")
+        if name == "MotorController":
+            text += (" Its event indicators mark the torque limit's switches, and fmi3UpdateDiscreteStates "
+                     "announces the speed profile's next corner as a time event.")
+    if name == "Load":
+        text += (" Its torque's change (T_change at t_change, over ramp_time) is announced as time events by "
+                 "fmi3UpdateDiscreteStates in Model Exchange.")
+    return text + "</p>"
+
+
 def documentation_html3(name: str, model, model_exchange: bool) -> str:
     """documentation/index.html of the FMI 3.0 FMU: the FMI 2.0 page's content, with the FMI 3.0 kinds, the
     Model Exchange states and the terminals."""
@@ -239,6 +263,9 @@ def documentation_html3(name: str, model, model_exchange: bool) -> str:
     kinds = "Co-Simulation and Model Exchange" if model_exchange else "Co-Simulation"
     page = page.replace("FMI 2.0 Co-Simulation FMU built with pythonfmu.",
                         f"FMI 3.0 {kinds} FMU built with pythonfmu3.")
+    start = page.index("<h2>Errors and logging</h2>")
+    end = page.index("</p>", start) + len("</p>")
+    page = page[:start] + errors_html3(name, model_exchange) + page[end:]
     extra = []
     if model_exchange:
         rows = "".join(f"<tr><td><code>x.{n}</code></td><td>{html.escape(u)}</td><td>{html.escape(d)}</td></tr>"
