@@ -175,9 +175,11 @@ class Connection:
 @dataclass
 class BondEnergy:
     """The energy account of one power bond: a speed connection and a torque connection between the same two
-    components in opposite directions. ``residual`` is the net energy the coupling created (> 0) or destroyed
-    over the run, ``residual_abs`` the sum of its magnitudes per step, ``transmitted`` the sum of the magnitudes of
-    the energy the speed's side exchanged through the bond [J] (docs/cosimulation.md)."""
+    components in opposite directions. ``residual`` is the net of the energy residual (ECCO's: what two sides
+    holding their inputs over each step would disagree on) over the run, ``residual_abs`` the sum of its magnitudes
+    per step, ``transmitted`` the sum of the magnitudes of the energy the speed's side exchanged through the bond
+    [J]. A quality figure of the step and scheme; not the energy the coupling created, as our FMUs do not hold
+    their inputs so (docs/cosimulation.md, "Energy on the power bonds")."""
 
     speed: Connection
     torque: Connection
