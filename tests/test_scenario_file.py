@@ -437,6 +437,90 @@ def test_a_motors_step_at_the_start_is_named(t_step, warned):
         assert "the Motor starts at omega_set = 60 rad/s" in advice[0]
 
 
+@pytest.mark.parametrize("changes, times, settled, span", [
+    # a slew from 1.0 to 0.2 rad/s settles at 0.2 (a float equality had dropped it: 1 - 0.8 != 0.2)
+    ({"motor.profile": 3, "motor.omega_initial": 1.0, "motor.omega_set": 0.2, "motor.t_step": 0.5}, (0.0, 7.0),
+     [("omega_initial", 1.0), ("omega_set", 0.2)], (0.2, 1.0)),
+    # Omar's ramp (15 rad/s2 to 80) seen from 10 s on: at 80 throughout, never near rest
+    ({}, (10.0, 10.5), [("omega_set", 80.0)], (80.0, 80.0)),
+    # the ramp cut at 0.1 s: 1.5 rad/s reached, omega_set not (no settled speed, whose label it had taken)
+    ({}, (0.0, 0.1), [], (0.0, 1.5)),
+    # a step after the stop: only omega_initial
+    ({"motor.profile": 2, "motor.omega_initial": 5.0, "motor.omega_set": 0.0, "motor.t_step": 100.0}, (0.0, 7.0),
+     [("omega_initial", 5.0)], (5.0, 5.0)),
+])
+def test_a_drives_speeds_are_those_of_its_profile_within_the_run(changes, times, settled, span):
+    """The speeds a drive settles at and the range it spans between the start and the stop, from its profile
+    (a reviewer's cases)."""
+    scenario = Scenario(OMAR_START).with_parameters(changes)
+    scenario.start_time, scenario.stop_time = times
+    found, (lo, hi) = scenario._drive_speeds("motor")
+    assert [(name, pytest.approx(speed)) for name, speed in found] == settled
+    assert (lo, hi) == (pytest.approx(span[0]), pytest.approx(span[1]))
+
+
+def test_a_loads_drive_is_found_through_a_chain_and_not_guessed(tmp_path):
+    """A Load behind a ring coupling and a joint in series is driven by the motor at their head (a reviewer's chain
+    had been given a second, slow motor's speed); a Load fed from elsewhere has no drive, and no speed advice."""
+    text = """
+[experiment]
+stop_time = 1.0
+step_size = 1e-3
+[components.motor]
+fmu = "Motor"
+parameters = { ideal_speed_source = true, profile = 0, omega_set = 100.0 }
+inputs = { tau_load = 0.0 }
+[components.slow]
+fmu = "Motor"
+parameters = { ideal_speed_source = true, profile = 0, omega_set = 0.5 }
+[components.ring]
+fmu = "RingCoupling"
+[components.joint]
+fmu = "CardanJoint"
+[components.load]
+fmu = "Load"
+parameters = { T0 = 5.0, omega_smooth = 1.0 }
+[components.load_slow]
+fmu = "Load"
+parameters = { T0 = 5.0, omega_smooth = 1.0 }
+[[connections]]
+from = "motor.omega"
+to = "ring.omega_in"
+[[connections]]
+from = "ring.omega_out"
+to = "joint.omega_in"
+[[connections]]
+from = "joint.omega_out"
+to = "load.omega"
+[[connections]]
+from = "load.tau"
+to = "joint.tau_load"
+[[connections]]
+from = "joint.tau_in"
+to = "ring.tau_load"
+[[connections]]
+from = "slow.omega"
+to = "load_slow.omega"
+[[connections]]
+from = "load_slow.tau"
+to = "slow.tau_load"
+[output]
+record = ["load.tau"]
+"""
+    scenario = Scenario(write(tmp_path, text))
+    assert scenario._load_drives("load") == ["motor"] and scenario._load_drives("load_slow") == ["slow"]
+    assert [a.partition(":")[0] for a in scenario.smoothed_friction()] == ["load_slow"]
+
+
+def test_a_load_change_after_the_run_is_not_its_torque():
+    """T0 = 0 and a change to 5 N.m at 100 s, after Omar's 7 s start-up: the Load gives 0 over the run, so no
+    smoothed-friction advice names 5 N.m (a reviewer's case); a change within the run is named."""
+    base = {"motor.profile": 0, "motor.omega_set": 0.2, "load.T0": 0.0, "load.T_change": 5.0}
+    assert Scenario(OMAR_START).with_parameters({**base, "load.t_change": 100.0}).smoothed_friction() == []
+    (advice,) = Scenario(OMAR_START).with_parameters({**base, "load.t_change": 1.0}).smoothed_friction()
+    assert "T0 + T_change = 5 N.m" in advice
+
+
 def test_a_load_both_smoothed_and_chattering_gets_one_remedy():
     """Omar's start-up slewing from rest to 0.5 rad/s against 20 N.m with omega_smooth = 0.1 rad/s: the friction is
     smoothed at the set speed (0.98 T0) and the load chatters near rest (T0 h / J = 4.4 rad/s, 44x omega_smooth).

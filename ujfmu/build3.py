@@ -242,8 +242,8 @@ def errors_html3(name: str, model_exchange: bool) -> str:
             "with its first fmi3DoStep only (pythonfmu3 does not pass fmi3EnterInitializationMode's startTime on): "
             "outputs read before it are those of a start at 0.")
     if model_exchange:
-        text += (" In Model Exchange a refused evaluation gives NaN derivatives, with the reason logged (three "
-                 "times in full in a row, then once), on which the host's solver stops; the time follows "
+        text += (" In Model Exchange a refused evaluation gives NaN derivatives, with the reason logged (each "
+                 "reason three times in full, then once), on which the host's solver stops; the time follows "
                  "fmi3SetTime.")
         if name == "MotorController":
             text += (" Its event indicators mark the torque limit's switches, and fmi3UpdateDiscreteStates "

@@ -11,7 +11,7 @@ from ctypes import byref
 
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
-from .master import _STATUS, CosimulationError, FmuInstance, depends_on_time, typed_value
+from .master import _STATUS, CosimulationError, FmuInstance, changes_by, typed_value
 
 
 class FmuInstance3(FmuInstance):
@@ -88,11 +88,13 @@ class FmuInstance3(FmuInstance):
         return self.slave.getFloat64([self.vr(n) for n in names])
 
     def initialize(self, parameters=None, start_time=0.0):
-        if start_time != 0.0 and self.INTERFACE == "coSimulation" and depends_on_time(self.md, parameters or {}):
+        if start_time != 0.0 and self.INTERFACE == "coSimulation" and changes_by(self.md, parameters or {},
+                                                                                  start_time):
             raise CosimulationError(
                 f"component '{self.name}' ({self.md.modelName}, FMI 3.0 Co-Simulation) cannot start at t = "
-                f"{start_time:g} s: its outputs depend on time, and pythonfmu3 does not pass the start time to the "
-                "FMU before its first step, so the values a host reads at the start would be those of t = 0 (a "
+                f"{start_time:g} s: its outputs there differ from those at t = 0 (its profile or load moved), and "
+                "pythonfmu3 does not pass the start time to the FMU before its first step, so the values a host "
+                "reads at the start would be those of t = 0 (a "
                 "joint fed from them starts out of phase for good); run it with the FMI 2.0 FMUs (without --fmi 3), "
                 "from start_time = 0, or, in a torque-driven wiring, as Model Exchange (--model-exchange)")
         self.slave.enterInitializationMode(startTime=start_time)

@@ -1538,18 +1538,18 @@ def _output_jumps(md, values: dict) -> tuple:
         return ()
 
 
-def depends_on_time(md, values: dict) -> bool:
-    """True where the outputs of a ujfmu FMU depend on time at values over its declared parameters (its model's
-    ``depends_on_time``: a moving speed profile, a load change); False for any other FMU, or parameters its model
-    cannot take."""
+def changes_by(md, values: dict, t: float) -> bool:
+    """True where the outputs of a ujfmu FMU at time t differ from those at 0 at values over its declared
+    parameters (its model's ``changes_by``: a speed profile that moved, a load changed); False for any other FMU,
+    or parameters its model cannot take."""
     cls = _ujfmu_class(md)
     model = getattr(cls, "MODEL", None)
-    if model is None or not hasattr(model, "depends_on_time"):
+    if model is None or not hasattr(model, "changes_by"):
         return False
     values = {**{v.name: v.start for v in cls.VARIABLES if v.causality == "parameter"}, **values}
     try:
-        return bool(model.depends_on_time(
-            model.Parameters(**{f.name: values[f.name] for f in dataclasses.fields(model.Parameters) if f.init})))
+        return bool(model.changes_by(
+            model.Parameters(**{f.name: values[f.name] for f in dataclasses.fields(model.Parameters) if f.init}), t))
     except (ArithmeticError, ValueError, TypeError, KeyError):
         return False
 

@@ -914,9 +914,9 @@ class Scenario:
                 + [self._smoothed_text(load, *found, both.get(load)) for load, found in smoothed.items()])
 
     def _stepped_at_start(self) -> list:
-        """'motor: warning' for a Motor whose step or slew begins at or before the start: its rotor starts at the
-        profile's speed there (``initial_state``), omega_set for a step, so what it drives starts turning with it:
-        no launch (a MotorController's torque-driven shaft starts from its own omega_in_start instead)."""
+        """'motor: warning' for a Motor whose step is at or before the start: its rotor starts at the profile's
+        speed there (``initial_state``), omega_set, so what it drives starts turning with it: no launch (a
+        MotorController's torque-driven shaft starts from its own omega_in_start instead)."""
         found = []
         for name, (fmu, _) in self.components.items():
             v = self.parameters_with_defaults(name) if fmu == "Motor" else {}
@@ -941,8 +941,11 @@ class Scenario:
             law = self.parameters_with_defaults(name) if fmu == "Load" else {}
             if not law or not law["omega_smooth"] > 0.0:
                 continue
-            changed = law.get("T_change", 0.0) and abs(law["T0"] + law["T_change"]) > abs(law["T0"])
-            torque = law["T0"] + law["T_change"] if changed else law["T0"]
+            # the torques the run meets: T0 before the change, T0 + T_change from it (a change within the run)
+            met = ([(law["T0"], "T0")] if not law.get("T_change") or law["t_change"] > self.start_time else []) + \
+                  ([(law["T0"] + law["T_change"], "T0 + T_change")] if law.get("T_change") and
+                   law["t_change"] < self.stop_time else [])
+            torque, named = max(met, key=lambda item: abs(item[0])) if met else (0.0, "T0")
             speeds = [(f"{drive}.{label}", abs(speed)) for drive in self._load_drives(name)
                       for label, speed in self._drive_speeds(drive)[0] if speed]
             if not torque or not speeds:
@@ -950,7 +953,7 @@ class Scenario:
             where, speed = min(speeds, key=lambda item: item[1])
             sign = speed / math.hypot(speed, law["omega_smooth"])
             if sign < SMOOTH_SIGN:
-                found[name] = (where, speed, sign, torque, "T0 + T_change" if changed else "T0")
+                found[name] = (where, speed, sign, torque, named)
         return found
 
     def _smoothed_text(self, load: str, where: str, speed: float, sign: float, torque: float, named: str,
@@ -971,49 +974,50 @@ class Scenario:
                        "torque reverses at every step (chatter)")
 
     def _load_drives(self, load: str) -> list:
-        """The drives (Motor, MotorController) whose speed the Load's shaft follows: the one feeding its omega, or
-        the input of the component whose omega_out does (by omega_in, or by tau_in from a MotorController's
-        tau_motor); every drive of the scenario where the wiring is another."""
-        drives = [name for name, (fmu, _) in self.components.items() if fmu in ("Motor", "MotorController")]
+        """The drive (Motor, MotorController) whose speed the Load's shaft follows, as a list: the one feeding its
+        omega, or, through each machine whose omega_out feeds it, the one upstream (by the machine's omega_in, or by
+        its tau_in from a MotorController's tau_motor); none where the wiring leads elsewhere."""
+        drives = {name for name, (fmu, _) in self.components.items() if fmu in ("Motor", "MotorController")}
         feeds = {c.target: c.source for c in self.connections}
-        source = feeds.get(f"{load}.omega", "")
-        component, _, port = source.partition(".")
-        if component in drives:
-            return [component]
-        if port == "omega_out":
-            for inp, out in (("omega_in", "omega"), ("tau_in", "tau_motor")):
-                driver, _, port = feeds.get(f"{component}.{inp}", "").partition(".")
-                if driver in drives and port == out:
-                    return [driver]
-        return drives
+        source, seen = feeds.get(f"{load}.omega", ""), set()
+        while source and source not in seen:
+            seen.add(source)
+            component, _, port = source.partition(".")
+            if component in drives and port == "omega":
+                return [component]
+            if port != "omega_out":
+                return []
+            driver, _, out = feeds.get(f"{component}.tau_in", "").partition(".")
+            if driver in drives and out == "tau_motor":
+                return [driver]
+            source = feeds.get(f"{component}.omega_in", "")
+        return []
 
     def _drive_speeds(self, drive: str) -> tuple:
         """([(parameter, speed)] the drive's profile settles at within [start_time, stop_time], (lowest, highest)
-        speed it takes there): a step's or slew's omega_initial where t_step is after the start, its omega_set where
-        t_step is before the stop, a ramp's speed at the stop where it has not reached omega_set."""
+        speed it takes there): a step's or slew's omega_initial where t_step is after the start, the omega_set a
+        profile reaches by the stop (a ramp or slew that has not reached it settles at no speed), and the range from
+        the speed at the start to the speed at the stop."""
         v = self.parameters_with_defaults(drive)
         profile, target = v["profile"], float(v["omega_set"])
         start, stop = self.start_time, self.stop_time
-        if profile == 1:   # a ramp from rest at t = 0
-            reached = min(abs(target), float(v["accel"]) * max(stop, 0.0))
-            return [("omega_set", math.copysign(reached, target))], (min(0.0, target), max(0.0, target)) \
-                if reached else (0.0, 0.0)
-        if profile not in (2, 3):
+        if profile == 0:
             return [("omega_set", target)], (target, target)
-        initial, t_step = float(v["omega_initial"]), float(v["t_step"])
-        settled = ([("omega_initial", initial)] if t_step > start else []) + \
-                  ([("omega_set", target)] if t_step < stop else [])
-        if profile == 3:   # the slew from omega_initial at accel from t_step: where it is at the start and stop
+        if profile == 2:
+            t_step, initial = float(v["t_step"]), float(v["omega_initial"])
+            taken = ([("omega_initial", initial)] if t_step > start else []) + \
+                    ([("omega_set", target)] if t_step < stop else [])
+            speeds = [speed for _, speed in taken] or [target]
+            return taken, (min(speeds), max(speeds))
+        # a ramp from rest at t = 0, or a slew from omega_initial at t_step: piecewise linear at accel
+        t0, initial = (0.0, 0.0) if profile == 1 else (float(v["t_step"]), float(v["omega_initial"]))
+        change, accel = target - initial, float(v["accel"])
 
-            def at(t):
-                moved = min(abs(target - initial), float(v["accel"]) * max(0.0, t - t_step))
-                return initial + math.copysign(moved, target - initial)
-            if at(stop) != target:
-                settled = [item for item in settled if item[0] != "omega_set"]
-            taken = [at(start), at(stop)]
-        else:
-            taken = [speed for _, speed in settled]
-        return settled, (min(taken), max(taken))
+        def at(t):
+            return initial + math.copysign(min(abs(change), accel * max(0.0, t - t0)), change)
+        settled = ([("omega_initial", initial)] if profile == 3 and t0 > start else []) + \
+                  ([("omega_set", target)] if accel * max(0.0, stop - t0) >= abs(change) else [])
+        return settled, (min(at(start), at(stop)), max(at(start), at(stop)))
 
     def load_chatter(self) -> list:
         """``LoadChatter`` of each Load fed from a component's ``omega_out`` whose model has an output inertia of

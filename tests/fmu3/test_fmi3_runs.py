@@ -192,16 +192,17 @@ def test_model_exchange_bad_input_gives_nan_derivatives_with_a_message(fmu3_dir,
     inst.slave.getContinuousStateDerivatives(inst.buffer, inst.nx)
     assert all(math.isnan(x) for x in inst.buffer)
     assert any("derivatives at t = 0.0 refused: tau_in = inf is not a finite number" in m for m in log), log
-    for _ in range(20):   # a solver's retries: three in full, one line that the rest are not logged, then none
+    for k in range(20):   # a solver's retries, successes between them: a reason three times in full, then once
+        inst.set(tau_in=float("inf") if k % 2 else 1.0)
         inst.slave.getContinuousStateDerivatives(inst.buffer, inst.nx)
     refused = [m for m in log if "refused" in m]
-    assert len(refused) == 4 and "the next refusals are not logged" in refused[-1], refused
+    assert len(refused) == 4 and "for a reason logged above; it is not logged again" in refused[-1], refused
+    inst.set(tau_in=1e30)   # another reason (out of range) is logged
+    inst.slave.getContinuousStateDerivatives(inst.buffer, inst.nx)
+    assert len([m for m in log if "refused" in m]) == 5 and "1e+30" in log[-1], log[-1]
     inst.set(tau_in=1.0)
     inst.slave.getContinuousStateDerivatives(inst.buffer, inst.nx)
     assert inst.buffer[1] > 0.0
-    inst.set(tau_in=float("inf"))   # a new run of refusals after a success is logged again
-    inst.slave.getContinuousStateDerivatives(inst.buffer, inst.nx)
-    assert len([m for m in log if "refused" in m]) == 5
 
 
 def test_model_exchange_run_stops_with_the_fmu_message(fmu3_dir):
@@ -277,17 +278,24 @@ def _initialize_directly(inst, start_time):
 
 
 def test_a_time_dependent_fmu_is_refused_a_start_other_than_0(fmu3_dir, opened):
-    """A Motor ramping (its outputs depend on time) cannot see a start time of 1 s before its first step, so the
-    host's first exchange would hand on its t = 0 values (an FMI 3.0 user's joint started 30 rad/s behind): the
-    host refuses, naming the remedies; at a constant profile, or from 0, it starts."""
+    """A Motor ramping cannot see a start time of 1 s before its first step, so the host's first exchange would
+    hand on its t = 0 values (an FMI 3.0 user's joint started 30 rad/s behind): the host refuses, naming the
+    remedies. Where the outputs at the start are those at 0 it starts: a constant profile, a step still to come (a
+    reviewer's step at 2 s had been refused at a start of 1 s)."""
     from ujfmu.master import CosimulationError
     ramp = _open(FmuInstance3, fmu3_dir, "Motor", [])
     opened.append(ramp)
-    with pytest.raises(CosimulationError, match="cannot start at t = 1 s: its outputs depend on time.*FMI 2.0"):
+    with pytest.raises(CosimulationError, match="cannot start at t = 1 s: its outputs there differ from those at "
+                                                "t = 0.*FMI 2.0"):
         ramp.initialize(start_time=1.0)
-    constant = _open(FmuInstance3, fmu3_dir, "Motor", [], "constant")
-    opened.append(constant)
-    constant.initialize({"profile": 0}, start_time=1.0)
+    for name, values in (("constant", {"profile": 0}), ("later", {"profile": 2, "t_step": 2.0, "omega_set": 50.0})):
+        inst = _open(FmuInstance3, fmu3_dir, "Motor", [], name)
+        opened.append(inst)
+        inst.initialize(values, start_time=1.0)
+    taken = _open(FmuInstance3, fmu3_dir, "Motor", [], "taken")
+    opened.append(taken)
+    with pytest.raises(CosimulationError, match="cannot start at t = 1 s"):
+        taken.initialize({"profile": 2, "t_step": 0.5, "omega_set": 50.0}, start_time=1.0)
 
 
 def test_start_time_is_taken_from_the_first_step(fmu_dir, fmu3_dir, opened):

@@ -69,7 +69,7 @@ class ContinuousStates:
         return [NOMINALS.get(unit, 1.0) for _, unit, _ in self.names]
 
 
-#: refusals of the derivatives logged in full in a row (``get_continuous_state_derivatives``)
+#: refusals of the derivatives logged in full for each reason (``get_continuous_state_derivatives``)
 REFUSALS_LOGGED = 3
 #: nominal magnitude of a continuous state by unit (1 for the others): a disc-centre displacement of a Jeffcott
 #: rotor is of the order of 1e-4 m and its velocity of 1e-2 m/s (fmi3GetNominalsOfContinuousStates, and the
@@ -397,19 +397,19 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
                 said = core.state_advice_text(self.time, 0.0, core.current_state(u), u)
                 if said:
                     self.log(said, Fmi3Status.warning)
-            self._refusals = 0
             return rates
         except Exception as exc:
-            # a solver retries a refused evaluation many times (54 to 170 lines had buried the first): the first
-            # REFUSALS_LOGGED of a run of refusals in full, then one line, then none until an evaluation succeeds
-            self._refusals = getattr(self, "_refusals", 0) + 1
-            if self._refusals <= REFUSALS_LOGGED:
+            # a solver retries a refused evaluation many times, between successes (54 to 170 lines had buried the
+            # first): each reason (its words, numbers aside) REFUSALS_LOGGED times in full, then once that it recurs
+            reason = re.sub(r"[-+]?[0-9][0-9.e+-]*|nan|inf", "#", str(exc))
+            refusals = self.__dict__.setdefault("_refusals", {})
+            refusals[reason] = refusals.get(reason, 0) + 1
+            if refusals[reason] <= REFUSALS_LOGGED:
                 self.log(f"{core.modelName} '{self.instance_name}': derivatives at t = {self.time!r} refused: {exc}",
                          Fmi3Status.error)
-            elif self._refusals == REFUSALS_LOGGED + 1:
-                self.log(f"{core.modelName} '{self.instance_name}': derivatives at t = {self.time!r} refused again; "
-                         "the next refusals are not logged until an evaluation succeeds (the lines above say why)",
-                         Fmi3Status.error)
+            elif refusals[reason] == REFUSALS_LOGGED + 1:
+                self.log(f"{core.modelName} '{self.instance_name}': derivatives at t = {self.time!r} refused again "
+                         "for a reason logged above; it is not logged again", Fmi3Status.error)
             return [math.nan] * len(self._states.names)
 
     def set_time(self, time):

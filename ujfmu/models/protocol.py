@@ -62,9 +62,10 @@ and the FMU warns a host whose step does so, ``ujfmu.fmu.base``) with, optionall
 orders themselves, e.g. a joint's 2x without a 1x; default 1 to that order: `ujfmu modes` lists their crossings),
 ``output_jumps(p) -> tuple`` (the times [s] at which the outputs jump, e.g. a speed profile's step or a load step:
 an iterating master holds its torn inputs at their start values over a step that ends at one, where its blend
-would take the jump into that step; default none), ``depends_on_time(p) -> bool`` (the outputs depend on time at
-these parameters, e.g. a speed profile that moves: the FMI 3.0 FMUs cannot see a start time other than 0 before
-their first step, so a Co-Simulation run from another start is refused; default False), and ``LATERAL_STATES`` (names of ``State`` fields of bending
+would take the jump into that step; default none), ``changes_by(p, t) -> bool`` (the outputs at time t differ
+from those at 0 at the same state and inputs, e.g. a speed profile that moved: the FMI 3.0 FMUs cannot see a start
+time other than 0 before their first step, so a Co-Simulation run from a start where this holds is refused;
+default False), and ``LATERAL_STATES`` (names of ``State`` fields of bending
 motion, e.g. a disc's displacements and velocities: `ujfmu modes` calls a mode lateral, torsional or
 lateral-torsional by its participation in them; default none).
 

@@ -73,9 +73,9 @@ def corners(p: Parameters) -> tuple:
     return (p.t_change,) if p.ramp_time == 0.0 else (p.t_change, p.t_change + p.ramp_time)
 
 
-def depends_on_time(p: Parameters) -> bool:
-    """The torque depends on time: a change T_change."""
-    return bool(p.T_change)
+def changes_by(p: Parameters, t: float) -> bool:
+    """The torque at time t differs from that at 0 at the same speed: T(t) != T(0)."""
+    return level(p, t) != level(p, 0.0)
 
 
 def output_jumps(p: Parameters) -> tuple:

@@ -161,9 +161,11 @@ def profile_corners(p: ControllerParameters) -> tuple:
     return ()
 
 
-def depends_on_time(p: ControllerParameters) -> bool:
-    """The outputs depend on time: every profile but the constant one."""
-    return p.profile != CONSTANT
+def changes_by(p: ControllerParameters, t: float) -> bool:
+    """The outputs at time t differ from those at 0 at the same state and inputs: the reference speed or its
+    slope moved (an ideal source's angle is the reference's integral less its value at the start)."""
+    return speed_reference(0.0, p.profile, p.omega_set, p.accel, p.t_step, p.omega_initial)[:2] != \
+        speed_reference(t, p.profile, p.omega_set, p.accel, p.t_step, p.omega_initial)[:2]
 
 
 def output_jumps(p: ControllerParameters) -> tuple:
@@ -354,7 +356,7 @@ class Controller:
 
     Parameters = ControllerParameters
     output_jumps = staticmethod(output_jumps)
-    depends_on_time = staticmethod(depends_on_time)
+    changes_by = staticmethod(changes_by)
 
     class State(NamedTuple):
         """Integral of the speed error [rad]."""
