@@ -429,6 +429,22 @@ def test_a_failed_signal_names_the_step_check_as_a_remedy():
     assert passing.startswith("PASS") and "--check-step" not in passing
 
 
+def test_record_adds_a_signal_and_keeps_the_run_checked(fmu_dir, tmp_path, capsys):
+    """--record driveline.tau_out: the CSV gains the column (an energy auditor had to edit the file for a signal),
+    it is listed as not compared, and the run is still compared with the file's reference (PASS); a misspelt name
+    is an error naming the close one."""
+    path = SCENARIOS / "double_cardan_omar_torsional.toml"
+    argv = ["run", str(path), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path), "--no-plot"]
+    assert main(argv + ["--record", "driveline.tau_out"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("PASS double_cardan_omar_torsional:")
+    assert "not compared: driveline.tau_out: recorded with --record" in out
+    header = (tmp_path / "double_cardan_omar_torsional.csv").read_text().splitlines()[0]
+    assert '"driveline.tau_out"' in header
+    assert main(argv + ["--record", "driveline.stored_enrgy"]) == 2
+    assert "did you mean driveline.stored_energy?" in capsys.readouterr().err
+
+
 def test_an_unchecked_model_exchange_run_is_not_sent_to_the_step_check():
     """A Model Exchange run without a reference has no communication step: its summary does not suggest
     --check-step (which refuses such a run; a motorsport trial was sent there), and says what would check it."""

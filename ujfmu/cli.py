@@ -302,6 +302,11 @@ def cmd_run(args):
     scenario = _with_set(Scenario(args.scenario), args.set)
     if args.stop_time is not None:
         scenario = _with_stop_time(scenario, args.stop_time)
+    for name in args.record or []:   # ride along: the setup, and so the reference, stay the file's
+        scenario._check_signal(name, "--record")
+        if name not in scenario.record:
+            scenario.record.append(name)
+            scenario.not_compared.setdefault(name, "recorded with --record")
     if args.coupling is not None and args.coupling != scenario.coupling:
         scenario.coupling = args.coupling
         scenario.title = f"{scenario.title} (coupling = {args.coupling})"
@@ -908,6 +913,10 @@ def _main(raw: list):
                            help="coupling scheme instead of the scenario's [experiment] coupling (compared with the "
                                 "same reference, whose bands were chosen for the file's scheme; results as "
                                 "<scenario>_<scheme>)")
+            p.add_argument("--record", action="append", metavar="COMP.VAR",
+                           help="record this signal too (several --record for several), e.g. "
+                                "driveline.stored_energy: written and summarised, not compared (the run stays "
+                                "checked against the file's reference)")
             p.add_argument("--stop-time", type=float, metavar="SECONDS",
                            help="run until this time instead of the scenario's stop_time (a whole number of steps "
                                 "after its start): a changed copy, as --set makes, not compared with the file's "
