@@ -134,6 +134,17 @@ def test_not_compared_signals_are_listed_with_their_reason(tmp_path):
     assert "not compared: j.M_x: no reference for it" in ScenarioResult(scenario, None).summary()
 
 
+def test_a_signal_recorded_from_python_is_checked_before_anything_runs(tmp_path, fmu_dir):
+    """A record name appended to a read Scenario from Python (an energy auditor's joint.stored_energy, which the
+    CardanJoint has not) is a ScenarioError naming it before the run, as a file's is, not a co-simulation error."""
+    from ujfmu.scenario_run import run_scenario
+    scenario = Scenario(write(tmp_path, GOOD))
+    scenario.record.append("j.stored_energy")
+    with pytest.raises(ScenarioError, match=r"record\[1\] = 'j.stored_energy': CardanJoint has no variable"):
+        run_scenario(scenario, fmu_dir=fmu_dir, out_dir=tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()
+
+
 def test_missing_fmu_is_named_before_anything_runs(tmp_path):
     from ujfmu.scenario_run import run_scenario
     path = write(tmp_path, GOOD)

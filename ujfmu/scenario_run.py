@@ -889,6 +889,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         fmu_dir = Path(DEFAULT_FMU_DIR) / "fmi3"
     scenario = path if isinstance(path, Scenario) else Scenario(path)
     scenario.check_experiment()
+    for i, name in enumerate(scenario.record):   # a name a caller added after reading: refused before anything runs
+        scenario._check_signal(name, f"record[{i}]")
     scenario.check_fmus(fmu_dir)
     reference, provenance = None, ""
     if scenario.reference_file is not None:   # a missing reference file is an error before anything runs
