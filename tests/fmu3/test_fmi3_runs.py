@@ -239,6 +239,33 @@ def test_model_exchange_derivatives_are_the_equations_of_motion(fmu3_dir, opened
     assert inst.buffer[1] == pytest.approx(1.5 / 0.042, rel=1e-12)
 
 
+@pytest.mark.parametrize("name, params, output, before, after", [
+    ("MotorController", {"profile": 2, "t_step": 0.3, "omega_set": 2.0, "omega_initial": 0.0}, "omega_ref", 0.0, 2.0),
+    ("Load", {"T0": 1.0, "T_change": 0.3, "t_change": 0.3, "omega_smooth": 1e-6}, "tau", 1.0, 1.3),
+])
+def test_model_exchange_gives_the_left_limit_at_a_time_event_until_it_is_taken(fmu3_dir, opened, name, params,
+                                                                            output, before, after):
+    """FMI 3.0's convention: at a time event's instant in Continuous-Time Mode the outputs are the left limit;
+    fmi3UpdateDiscreteStates in event mode takes the event, and they are the right limit from then on (an FMI 3.0
+    user had the step's value at fmi3SetTime(0.3) already: a solver's last stage there took the new torque)."""
+    inst = _open(MeInstance, fmu3_dir, name, [])
+    opened.append(inst)
+    inst.initialize(params)
+    inst.set(**{v: 5.0 for v in ("omega",) if v in inst.variables})
+    inst.slave.updateDiscreteStates()
+    inst.slave.enterContinuousTimeMode()
+    inst.slave.setTime(0.2)
+    assert inst.get(output)[0] == pytest.approx(before)
+    inst.slave.setTime(0.3)
+    assert inst.get(output)[0] == pytest.approx(before)   # at the event, not yet taken: the left limit
+    inst.slave.enterEventMode()
+    inst.slave.updateDiscreteStates()
+    assert inst.get(output)[0] == pytest.approx(after)    # taken: the right limit
+    inst.slave.enterContinuousTimeMode()
+    inst.slave.setTime(0.31)
+    assert inst.get(output)[0] == pytest.approx(after)
+
+
 @pytest.mark.parametrize("name", ["CardanJointTorqueDriven", "TwinJeffcottRotor"])
 def test_state_get_set_and_serialize_round_trip_bitwise(fmu3_dir, opened, name):
     log = []

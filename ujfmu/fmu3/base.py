@@ -37,6 +37,7 @@ from pythonfmu3.cosimulation import CoSimulation
 from pythonfmu3.modelexchange import Fmi3UpdateDiscreteStatesResult, ModelExchange
 
 from ..fmu import base as fmu_base
+from ..models.protocol import TIME_ROUNDING
 
 _TYPES = {float: Float64, int: Int32, bool: Boolean}
 #: objects pythonfmu3 releases twice after a Python exception; references held here keep them valid
@@ -417,8 +418,22 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
             self._raise_to_host(f"{self._core.modelName} '{self.instance_name}': fmi3SetTime({time!r}) refused: "
                                 f"the time must be finite; the time stays at {self.time!r}")
         self.time = time
-        self._states.set_time(self._core, time)
+        self._states.set_time(self._core, self._evaluation_time(time))
         self._core._stale, self._core._partial = True, False
+
+    def _evaluation_time(self, time: float) -> float:
+        """time, or just before it where a time event of the model (``MODEL.next_time_event``) falls at it and
+        fmi3UpdateDiscreteStates has not yet been called there: FMI 3.0's left limit in Continuous-Time Mode (a
+        profile's step or a load step had been taken at fmi3SetTime, before the host's event mode)."""
+        function = getattr(self.MODEL.MODEL, "next_time_event", None)
+        if function is None:
+            return time
+        rounding = 2.0 * TIME_ROUNDING * max(1.0, abs(time))
+        handled = self.__dict__.get("_handled")
+        if handled is not None and abs(handled - time) <= rounding:
+            return time
+        at = self._continuous(lambda core: function(core._p, time - rounding))
+        return at - rounding if at is not None and at <= time + rounding else time
 
     def get_number_of_event_indicators(self):
         return len(getattr(self.MODEL.MODEL, "EVENT_INDICATORS", ())) if self.MODEL.__name__ in STATES else 0
@@ -447,6 +462,9 @@ class ModelExchangeFmu(Fmi3Model, ModelExchange):
         (``MODEL.next_time_event(p, t)``: the MotorController's profile corner), so a host's solver stops there
         instead of stepping across a jump of the right-hand side."""
         result = Fmi3UpdateDiscreteStatesResult()
+        self._handled = self.time   # the events at this time are taken: the outputs are their right limits now
+        self._states.set_time(self._core, self.time)
+        self._core._stale, self._core._partial = True, False
         function = getattr(self.MODEL.MODEL, "next_time_event", None)
         if function is not None:
             at = self._continuous(lambda core: function(core._p, self.time))
