@@ -506,6 +506,30 @@ def test_a_columns_file_gives_every_column_its_unit(brutti, tmp_path, fmu_dir):
     assert sweep.table()[0]["step_size"] == brutti.step_size
 
 
+def test_order_phases_refer_to_the_running_shafts_own_angle(tmp_path, fmu_dir):
+    """An ideal 30 deg joint behind an ideal source: omega_out(phi) = omega cos b / (1 - sin^2 b cos^2 phi) is even
+    in the joint's input angle phi with its largest value at phi = 0, so its 2x and 4x orders have phase 0 against
+    phi. Started at phi_in_start = 0.3 rad, phi = motor.phi + 0.3, and against the motor's angle (the running
+    angle of motor.omega) the phases are -2 (0.3) and -4 (0.3): a Bode or polar plot needs them referred to the
+    shaft, not to where the window happened to start (an NVH trial had amplitudes only). In rad, in the columns
+    file."""
+    scenario = Scenario(SCENARIOS / "cardan_constant_speed.toml").with_parameters(
+        {"joint.bend_angle": math.radians(30.0), "joint.error_angle_beta": 0.0, "joint.error_angle_gamma": 0.0})
+    settings = SweepSettings.from_scenario(scenario, outputs=["joint.omega_out"], running_speed="motor.omega",
+                                           settle_time=0.2)
+    assert settings.running_angle == "motor.phi"
+    sweep = Sweep(scenario, [parse_axis("joint.phi_in_start=0,0.3", scenario)], settings, out_dir=tmp_path,
+                  name="phases", fmu_dir=fmu_dir)
+    sweep.run(workers=0)
+    for row in sweep.table():
+        start = row["point"]["joint.phi_in_start"]
+        for k in (2, 4):
+            assert row[f"joint.omega_out.ph{k}"] == pytest.approx(math.remainder(-k * start, 2 * math.pi), abs=1e-5)
+    with open(tmp_path / "phases.columns.csv") as f:
+        units = {r["column"]: r["unit"] for r in csv.DictReader(f)}
+    assert units["joint.omega_out.ph2"] == "rad"
+
+
 def ring_sweep(tmp_path, fmu_dir, specs, name, **settings):
     scenario = Scenario(SCENARIOS / "ring_coupling_fig3.toml")
     settings = SweepSettings.from_scenario(scenario, outputs=["coupling.x_e"], running_speed="motor.omega",

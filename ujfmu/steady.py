@@ -53,14 +53,18 @@ GROWTH = 1.5
 
 @dataclass
 class Window:
-    """One measured window: the running angle and the recorded signals over whole revolutions."""
+    """One measured window: the running angle and the recorded signals over whole revolutions, and the running
+    shaft's own angle at its start (NaN where unknown): what the orders' phases refer to."""
     start: float
     angle: np.ndarray
     table: np.ndarray
+    offset: float = math.nan
 
 
-def record_window(cosim, running_speed: str, revolutions: float) -> Window:
-    """Record ``revolutions`` revolutions of the running speed read at the current point (at least 8 steps)."""
+def record_window(cosim, running_speed: str, revolutions: float, angle_signal: str = "") -> Window:
+    """Record ``revolutions`` revolutions of the running speed read at the current point (at least 8 steps); with
+    angle_signal, the running shaft's angle, the window's offset: the mean of that angle less the window's running
+    angle (its ripple averages out over whole revolutions)."""
     now = np.empty(len(cosim.columns))
     cosim.read(now)
     speed = now[cosim.columns.index(running_speed)]
@@ -70,7 +74,9 @@ def record_window(cosim, running_speed: str, revolutions: float) -> Window:
     h = cosim.step_size
     start = cosim.time
     table = cosim.run(max(8, int(math.ceil(revolutions * 2.0 * math.pi / abs(speed) / h))))
-    return Window(start, running_angle(table["time"], table[running_speed]), table)
+    angle = running_angle(table["time"], table[running_speed])
+    offset = float(np.mean(table[angle_signal] - angle)) if angle_signal else math.nan
+    return Window(start, angle, table, offset)
 
 
 #: orders of the smooth running angle's own ripple fitted with it (:func:`running_angle`), at most
@@ -138,14 +144,15 @@ def _amplitudes(amps, orders, unresolved: tuple) -> list:
     return [math.nan if k in unresolved else float(amps[k - 1]) for k in orders]
 
 
-def figures(window: Window, outputs, orders, fits: dict | None = None) -> dict:
+def figures(window: Window, outputs, orders, fits: dict | None = None, phases_wanted: bool = False) -> dict:
     """{"out.max", "out.min", "out.p2p", "out.mean", "out.rms", "out.h<k>"} of a window: extremes of the samples;
     mean and order amplitudes from the fit of ``fitted_orders`` (exact for a periodic signal, wherever the
     window's ends fall); RMS, mean included, of the fit by Parseval, sqrt(c0^2 + sum_k a_k^2 / 2), with the mean
     square of what the fit leaves (so rms >= |mean|, and rms^2 - mean^2 is the vibration's, wherever the window's
     ends fall: the samples' own RMS over a window of a whole number of steps, not of revolutions, is not); NaN for
     the ``unresolved_orders``. fits, when given, receives each output's fitted amplitudes (orders
-    ``fitted_orders``)."""
+    ``fitted_orders``). phases_wanted: also "out.ph<k>", the phase [rad] of order k against the running shaft's own
+    angle (the window's offset added: signal ~ mean + sum h_k cos(k angle - ph_k)), in (-pi, pi]."""
     result = {}
     fitted, unresolved = fitted_orders(window, orders), unresolved_orders(window, orders)
     for out in outputs:
@@ -157,6 +164,9 @@ def figures(window: Window, outputs, orders, fits: dict | None = None) -> dict:
             fits[out] = amps
         values = dict(max=y.max(), min=y.min(), p2p=np.ptp(y), mean=c0, rms=rms)
         values.update({f"h{k}": a for k, a in zip(orders, _amplitudes(amps, orders, unresolved))})
+        if phases_wanted:   # against the shaft's own angle: k angle - p = k (offset + angle) - (p + k offset)
+            absolute = [math.remainder(p + k * window.offset, 2.0 * math.pi) for k, p in zip(fitted, phases)]
+            values.update({f"ph{k}": a for k, a in zip(orders, _amplitudes(np.array(absolute), orders, unresolved))})
         result.update({f"{out}.{k}": float(v) for k, v in values.items()})
     return result
 
@@ -260,7 +270,7 @@ def settle_and_measure(cosim, settings) -> dict:
     record = {}
     if not s.steady_tol:   # no steady-state check asked for (a measurement during a transient)
         cosim.advance(int(round(s.settle_time / h)))
-        window = record_window(cosim, s.running_speed, s.revolutions)
+        window = record_window(cosim, s.running_speed, s.revolutions, s.running_angle)
         record.update(_measured(window, s), settled_s=window.start - cosim.start_time, steady_change=math.nan)
         return _check_operating_point(window, s, record)
     signals = [x for x in dict.fromkeys(s.outputs + [s.running_speed]) if not grows(x)]
@@ -269,7 +279,7 @@ def settle_and_measure(cosim, settings) -> dict:
     settle, cap = s.settle_time, None
     while True:
         cosim.advance(max(0, int(round((start + 0.75 * settle - cosim.time) / h))))
-        window = record_window(cosim, s.running_speed, s.revolutions)
+        window = record_window(cosim, s.running_speed, s.revolutions, s.running_angle)
         first = window.start - start
         if cap is None:   # the first window fixes the shortest settle time and the default cap
             length = window.table["time"][-1] - window.table["time"][0]
@@ -277,7 +287,7 @@ def settle_and_measure(cosim, settings) -> dict:
             cap = s.max_settle_time if s.max_settle_time is not None else 8.0 * settle
         earlier = [periodic_figures(window, signals, s.orders)]
         while True:   # back-to-back windows until one starts at T or later
-            window = record_window(cosim, s.running_speed, s.revolutions)
+            window = record_window(cosim, s.running_speed, s.revolutions, s.running_angle)
             earlier.append(periodic_figures(window, signals, s.orders))
             if window.start >= start + settle - 0.5 * h:
                 break
@@ -322,7 +332,7 @@ def not_steady_message(settled: float, earlier_start: float, cap: float, length:
 
 def _measured(window, s):
     fits = {}
-    out = figures(window, s.outputs, s.orders, fits)
+    out = figures(window, s.outputs, s.orders, fits, phases_wanted=bool(getattr(s, "running_angle", "")))
     speed = window.table[s.running_speed]
     out["speed_mean"] = float(order_fit(window.angle, speed, fitted_orders(window, s.orders))[0])
     out["note"] = "; ".join(n for n in (unresolved_note(window, s.orders, out["speed_mean"]),

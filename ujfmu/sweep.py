@@ -454,6 +454,7 @@ class SweepSettings:
     max_settle_time: float = None       # s; default 8x the first settle time
     operating_point: tuple = ()         # (signal, set point signal) pairs; default every Motor's and MotorController's omega, omega_ref
     operating_tol: float = 0.01         # relative to the set point
+    running_angle: str = ""             # the running shaft's angle the orders' phases refer to ("": no phases)
 
     @classmethod
     def from_scenario(cls, scenario, **overrides) -> "SweepSettings":
@@ -532,12 +533,26 @@ class SweepSettings:
             raise SweepSettingsError(problems)
         settings = cls(outputs, running_speed, settle, revolutions, orders)
         settings.steady_tol, settings.max_settle_time = tol, cap
+        settings.running_angle = running_angle_of(scenario, running_speed)
         settings.operating_point = tuple((f"{name}.omega", f"{name}.omega_ref") for name, (fmu, _) in
                                          scenario.components.items() if fmu in ("Motor", "MotorController"))
         return settings
 
     def columns(self):
-        return [f"{out}.{fig}" for out in self.outputs for fig in FIGURES + tuple(f"h{k}" for k in self.orders)]
+        phases = tuple(f"ph{k}" for k in self.orders) if self.running_angle else ()
+        return [f"{out}.{fig}" for out in self.outputs
+                for fig in FIGURES + tuple(f"h{k}" for k in self.orders) + phases]
+
+
+def running_angle_of(scenario, running_speed: str) -> str:
+    """The angle output of the shaft whose speed is running_speed (a Motor's phi for its omega, a machine's phi_in
+    or phi_out for its omega_in or omega_out), "" where its component has none."""
+    comp, _, var = (running_speed or "").partition(".")
+    if comp not in scenario.components or not var.startswith("omega"):
+        return ""
+    angle = "phi" + var[len("omega"):]
+    declared = {v.name: v for v in fmu_class(scenario.components[comp][0]).VARIABLES}
+    return f"{comp}.{angle}" if angle in declared and declared[angle].causality == "output" else ""
 
 
 @dataclass
@@ -570,7 +585,8 @@ def run_point(job, point, fmu_blobs=None):
         components = [Component(name, fmu_dir / f"{fmu}.fmu", {**parameters, **params.get(name, {})})
                       for name, fmu, parameters in job.components]
         s = job.settings
-        signals = list(dict.fromkeys(s.outputs + [s.running_speed] + [x for pair in s.operating_point for x in pair]))
+        signals = list(dict.fromkeys(s.outputs + [s.running_speed] + [x for pair in s.operating_point for x in pair]
+                                     + ([s.running_angle] if s.running_angle else [])))
         with warnings.catch_warnings(record=True) as logged:   # the FMUs' warnings go into the record
             warnings.simplefilter("always", FmuWarning)
             with Cosimulation(components, [Connection(a, b) for a, b in job.connections], job.step_size,
@@ -1046,8 +1062,13 @@ class Sweep:
                              (self.scenario.unit(name), "fixed parameter changed from the scenario file (--set; SI)"))
         columns["status"] = ("", "ok, not_steady, off_target, error or missing")
         columns["speed_mean"] = ("rad/s", f"mean running speed ({self.settings.running_speed})")
-        for column in self.settings.columns():   # <output>.<figure>, <output>.h<k>
+        for column in self.settings.columns():   # <output>.<figure>, <output>.h<k>, <output>.ph<k>
             output, figure = column.rsplit(".", 1)
+            if figure.startswith("ph"):
+                columns[column] = ("rad", f"phase of the {figure[2:]}x running-speed order against the running "
+                                          f"angle {self.settings.running_angle}: the signal ~ mean + sum_k h_k "
+                                          "cos(k angle - ph_k), in (-pi, pi]")
+                continue
             columns[column] = (self.scenario.unit(output), self.FIGURE_MEANINGS.get(figure) or
                                f"amplitude (zero to peak) of the {figure[1:]}x running-speed order")
         columns.update(settled_s=("s", "settle time used"),
