@@ -814,6 +814,10 @@ def test_a_record_too_coarse_for_a_components_own_mode_is_noted(fmu_dir, tmp_pat
     assert f"record at most every {2.0 * math.acos(0.99) / exact:.3g} s" in text
     assert mode_sampling(straight, 1e-4) == []
     assert "the record aliases its ringing" in str(mode_sampling(straight, 5e-3)[0])
+    # a stiff support (k_phi = 1e8 N/m: a 4945 rad/s lateral mode) that straight joints never bend is left out,
+    # and the note stays the torsional mode's (a motorsport trial had been told of the lateral one)
+    (stiff_support,) = mode_sampling(straight.with_parameters({"driveline.k_phi": 1e8}), 1e-3)
+    assert stiff_support.omega == pytest.approx(exact, rel=1e-6)
     code = main(["--fmu-dir", str(fmu_dir), "run", str(stiff.path), "--no-plot", "--quiet", "--out", str(tmp_path)])
     out = capsys.readouterr().out
     assert code == 0 and out.startswith("PASS") and "note sampling driveline: its fastest natural mode" in out

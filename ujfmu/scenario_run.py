@@ -390,7 +390,9 @@ class ModeSampling:
 
 def mode_sampling(scenario: Scenario, interval: float) -> list:
     """A :class:`ModeSampling` per machine component whose fastest mode the record's step of ``interval`` s reads
-    too few times a period for its peaks (``steady.PEAK_SHORTFALL``); none where the modes cannot be computed."""
+    too few times a period for its peaks (``steady.PEAK_SHORTFALL``); none where the modes cannot be computed. A
+    lateral mode of a component that carries no order (a double Cardan with straight joints, whose shaft torque
+    does not bend it) is left out: nothing excites it."""
     from .analysis import scenario_modes
     try:
         modes = scenario_modes(scenario)
@@ -398,6 +400,8 @@ def mode_sampling(scenario: Scenario, interval: float) -> list:
         return []
     fastest = {}
     for mode in modes:
+        if mode.kind == "lateral" and not mode.orders:   # straight joints: no torque bends the shaft, it never rings
+            continue
         fastest[mode.component] = max(fastest.get(mode.component, 0.0), mode.high)
     notes = [ModeSampling(name, omega, interval) for name, omega in fastest.items() if 0.0 < omega < math.inf]
     return [n for n in notes if 1.0 - math.cos(math.pi / n.samples) > PEAK_SHORTFALL or n.samples <= 2.0]
