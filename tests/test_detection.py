@@ -796,6 +796,38 @@ def test_a_failure_far_from_rest_is_not_blamed_on_the_loads_chatter(fmu_dir):
     assert "left its allowed range" in message and "omega_smooth" not in message
 
 
+@pytest.mark.parametrize("ratio, stable", [(1.9, True), (2.05, False)])
+def test_a_decaying_alternation_of_a_sampled_controller_is_not_chatter(fmu_dir, ratio, stable):
+    """A MotorController (explicit coupling: a PI sampled at the 1 ms step) on a straight joint with 0.1 kg.m2 on
+    its input: its speed error obeys e_k+1 = (1 - Kp h / J) e_k - (Ki h^2 / J) sum e, a discrete pole at -0.9 for
+    Kp h / J = 1.9. That alternation dies out, so it is the sampled loop's own motion, not chatter: the run follows
+    the recursion (a control engineer's stable loop had been stopped as "coupling chatter"). At 2.05 the pole lies
+    beyond -1 and the loop grows: stopped."""
+    inertia, h, kp, ki = 0.1, 1e-3, ratio * 0.1 / 1e-3, 1.0
+    comps = [Component("motor", fmu_dir / "MotorController.fmu",
+                       dict(Kp=kp, Ki=ki, tau_max=1e4, profile=2, omega_set=60.0, omega_initial=50.0, t_step=0.1)),
+             Component("joint", fmu_dir / "CardanJointTorqueDriven.fmu",
+                       dict(bend_angle=0.0, error_angle_beta=0.0, error_angle_gamma=0.0, J1=0.0, J2=0.05,
+                            J_drive=0.05, omega_in_start=50.0, tau_load=0.0))]
+    links = [Connection("joint.omega_in", "motor.omega"), Connection("motor.tau_motor", "joint.tau_in")]
+    if not stable:
+        with pytest.raises(CouplingInstabilityError):
+            cosimulate(comps, links, 0.3, h, ["joint.omega_in"], coupling="explicit")
+        return
+    table = cosimulate(comps, links, 0.3, h, ["joint.omega_in"], coupling="explicit")
+    omega, integral, expected = 50.0, 0.0, []
+    for k in range(300):   # the sampled PI on the rigid shaft, torque held over each step
+        expected.append(omega)
+        reference = 60.0 if k * h >= 0.1 - 1e-12 else 50.0
+        error = reference - omega
+        torque = kp * error + ki * integral
+        integral += error * h
+        omega += h * torque / inertia
+    expected.append(omega)
+    np.testing.assert_allclose(table["joint.omega_in"], expected, atol=1e-6)
+    assert abs(table["joint.omega_in"][-1] - 60.0) < 1e-3
+
+
 def test_a_record_too_coarse_for_a_components_own_mode_is_noted(fmu_dir, tmp_path, capsys):
     """The stiff double Cardan with straight joints: its torsional mode is the two-mass one, sqrt(k_theta (1/J_drive +
     1/J_load)) = 663.3 rad/s (105.6 Hz), which a load step or a torque limit rings and the input speed's orders do

@@ -87,6 +87,10 @@ WATCH_BLOCK = 1024
 #: Load's chatter reverses at 9 steps in 10, or holds its saturated torque every third step: +1.5 in 3 steps);
 #: a sampled oscillation of 4 or more samples a period loses at least 1 a period
 CHATTER_STEPS, CHATTER_SHARE, CHATTER_BREAK, CHATTER_FADE = 20, 0.1, 3, 0.5
+#: a reversal counts toward chatter only where it is at least this share of the last large change: one that dies
+#: out faster than 5% a step is a stable alternation (a sampled PI at Kp h / J = 1.9, its pole at -0.9), which the
+#: models can have at this step, not a chatter
+CHATTER_SUSTAIN = 0.95
 #: implicit coupling: the iterated torn values carry step-to-step noise of a few coupling tolerances; growth of an
 #: alternating change is measured from at least this many tolerances (not from a change that happens to be ~0
 #: where a torque ripple turns)
@@ -1303,10 +1307,12 @@ def watch_step(states: list, values: list, torn: int, noise: float):
             if (state[2] >= GROWTH_STEPS and size > GROWTH_FACTOR * state[3]
                     and size > GROWTH_FLOOR * top):
                 return k, "growth"
-        if size >= share * top and size > floor:   # chatter: the score of large reversals
-            if d * state[9] < 0.0:
+        if size >= share * top and size > floor:   # chatter: the score of large reversals that do not die out
+            if d * state[9] < 0.0 and size >= CHATTER_SUSTAIN * abs(state[9]):
                 state[6] += 1
                 state[8] += 1
+            elif d * state[9] < 0.0:   # a reversal smaller than the last: a decaying alternation, no chatter
+                state[6] = max(0, state[6] - CHATTER_FADE)
             else:
                 state[6] = max(0, state[6] - CHATTER_BREAK)
             state[9] = d
