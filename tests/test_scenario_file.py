@@ -362,6 +362,7 @@ def test_no_bundled_scenario_sets_parameters_its_models_warn_of():
         assert Scenario(path).model_advice() == [], path
 
 
+SCENARIOS = Path(__file__).parent.parent / "scenarios"
 OMAR_START = Path(__file__).parent.parent / "scenarios" / "double_cardan_omar_startup.toml"
 
 
@@ -433,6 +434,19 @@ record = ["load_slow.tau"]
     (advice,) = Scenario(write(tmp_path, text)).smoothed_friction()
     assert advice.startswith("load_slow: its constant torque T0 + T_change = 5 N.m reverses smoothly")
     assert f"at slow.omega_set = 0.2 rad/s it gives {0.2 / math.hypot(0.2, 1.0):.3g} T0 + T_change" in advice
+
+
+@pytest.mark.parametrize("kp, warned", [(80.0, False), (150.0, True)])
+def test_a_sampled_pi_too_fast_for_its_step_is_named(kp, warned):
+    """The stiff torque-driven double Cardan: its MotorController's torque accelerates J_drive = 0.05 kg.m2 at once
+    (the shaft's compliance behind it), so the PI sampled at 1 ms has its pole at 1 - Kp h / J: beyond -1 from
+    Kp = 100 (a control engineer's run diverged explicitly, and the implicit scheme had hidden it). Named at Kp =
+    150 (ratio 3) with the Kp and the step that would do; not at 80 (1.6)."""
+    scenario = Scenario(SCENARIOS / "double_cardan_stiff_torque_driven.toml").with_parameters({"motor.Kp": kp})
+    advice = [a for a in scenario.model_advice() if a.startswith("motor: its PI reads the speed once a step")]
+    assert bool(advice) == warned
+    if warned:
+        assert "Kp h / J = 150 x 0.001 / 0.05 = 3," in advice[0] and "Lower Kp below 100 or the step below" in advice[0]
 
 
 @pytest.mark.parametrize("t_step, warned", [(0.0, True), (0.01, False)])

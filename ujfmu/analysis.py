@@ -261,9 +261,8 @@ def scenario_modes(scenario, point: dict | None = None) -> list[Mode]:
 def held_input_modes(scenario, point: dict | None = None) -> list[Mode]:
     """The other bound of the modes of the components a PI Motor or a MotorController drives (``scenario_modes`` has
     them with the input free, the speed loop left out): their input shaft held, as a speed loop far stiffer than the
-    mode holds it. The
-    PI loop's gains place each real mode between the two (a stiff loop, Kp = 840 N.m.s/rad on 2.5 kg.m^2, shows the
-    held-input mode's resonance, none at the free-input one)."""
+    mode holds it (a stiff loop, Kp = 840 N.m.s/rad on 2.5 kg.m^2, shows the held-input mode's resonance, none at the
+    free-input one). A proportional loop's mode lies between the two; the integral action can move it outside."""
     return _modes(scenario, point, held=True)
 
 

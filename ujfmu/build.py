@@ -290,10 +290,18 @@ reflected through <code>tau_in</code> is smaller than the driver's own inertia (
 step{half}: give the driver the larger inertia, use an iterating master, or use the torque-driven variant (driving
 torque <code>tau_in</code> in, <code>omega_in</code> out). A stiff spring between two FMUs needs h well below
 2/omega_n of that spring."""
-    elif "tau_motor" in ports:   # Motor, MotorController
-        coupling = """Its speed controller sees the speed at the start of each communication step: with a PI loop
-closed through another FMU, the torque it commands is a step late, which holds while Kp h / J (J the inertia the
-loop turns) is below about 2 with ordered transfers and 1 in a master that transfers after all steps."""
+    elif "omega" in ports and "tau_motor" in ports and "J_rotor" not in ports:   # MotorController
+        coupling = """Its speed controller sees the speed at the start of each communication step (a PI sampled at
+the host's step): closed through a torque-driven FMU, the torque it commands is a step late, which holds while
+Kp h / J is below about 2 with ordered transfers and 1 in a master that transfers after all steps, J the inertia
+on the motor's side of the driveline's first compliance (the torque-driven FMU's J_drive and its own input
+inertia), not the whole driveline's. An iterating master smooths the sampling away and runs a loop that a digital
+PI at this rate could not."""
+    elif "tau_motor" in ports:   # Motor
+        coupling = """Its rotor and PI speed controller are integrated together inside each step (the controller
+sees the rotor's own speed continuously), against the load torque <code>tau_load</code> held over the step: the
+loop's own gains do not limit the step. What does is the coupling of <code>tau_load</code> with the FMU it drives
+(see its documentation: a speed-driven FMU reflects its inertias into <code>tau_in</code>)."""
     else:   # Load
         coupling = """Its torque follows the speed it reads at each communication point: where the law's slope
 d(tau)/d(omega) is large against J/h (J the inertia it acts on), or where its constant torque T0 moves that inertia

@@ -669,7 +669,9 @@ def cmd_modes(args):
     if held:
         print(f"  where a PI speed loop drives {', '.join(dict.fromkeys(m.component for m in held))}, the modes above "
               "have its input free (the speed loop left out); a loop much stiffer than a mode holds the input "
-              "instead, and the PI gains place each real mode between the two. With the input held:")
+              "instead. A proportional loop puts each mode between the two; the integral action moves it too, "
+              "outside them where it is strong (run or sweep the scenario for the closed loop's modes). With the "
+              "input held:")
         show(held)
     for name, speed in drive_speeds(scenario).items():
         if speed == 0.0:

@@ -125,6 +125,8 @@ def not_found_hint(path: Path) -> str:
 #: constant speed runs at 1111 with his 1e-3 rad/s; his start-up runs at 1.1 and 1.8, 5 and 8 N.m, and stops as a
 #: coupling instability or chatter from 2.2 on, 10 N.m)
 LOAD_CHATTER_ADVICE = 2.0
+#: Kp h / J at or above which a MotorController's PI, sampled at the step, is unstable (its pole 1 - Kp h / J at -1)
+SAMPLED_LOOP_LIMIT = 2.0
 #: a Load's smooth sign below this at a drive's settled speed is named before the run
 #: (``Scenario.smoothed_friction``): 10 omega_smooth gives 0.995
 SMOOTH_SIGN = 0.99
@@ -909,9 +911,43 @@ class Scenario:
                    and any(lo <= 0.0 <= hi for lo, hi in (self._drive_speeds(d)[1] for d in self._load_drives(c.load)))]
         both = {c.load: c for c in chatter if c.load in smoothed}
         return ([f"{name}: {message}" for name in self.components for message in self._ask_model(name, "advice")]
-                + self._stepped_at_start()
+                + self._stepped_at_start() + self._sampled_loops()
                 + [c.text() for c in chatter if c.load not in both]
                 + [self._smoothed_text(load, *found, both.get(load)) for load, found in smoothed.items()])
+
+    def _sampled_loops(self) -> list:
+        """'controller: warning' for a MotorController whose PI, sampled at the step, cannot hold its loop:
+        Kp h / J >= SAMPLED_LOOP_LIMIT, J the inertia its torque accelerates at once (the driven FMU's
+        input shaft up to its first compliance, J_drive included: 1 / d(alpha_in)/d(tau_in) of its model at the
+        start), the sampled loop's pole 1 - Kp h / J then at or beyond -1."""
+        from .models.protocol import Torques
+        found = []
+        feeds = {c.source: c.target for c in self.connections}
+        for name, (fmu, _) in self.components.items():
+            driven, _, port = feeds.get(f"{name}.tau_motor", "").partition(".") if fmu == "MotorController" \
+                else ("", "", "")
+            if port != "tau_in" or driven not in self.components:
+                continue
+            try:
+                model, p = fmu_class(self.components[driven][0]).MODEL, self.model_parameters(driven)
+                y = model.initial_state(p, self.start_time, Torques(0.0, 0.0))
+                accelerations = [model.derivatives(p, self.start_time, y, Torques(torque, 0.0))[1]
+                                 for torque in (1.0, -1.0)]
+                inertia = 2.0 / (accelerations[0] - accelerations[1])
+            except (ArithmeticError, ValueError, TypeError, IndexError):
+                continue
+            kp = float(self.parameters_with_defaults(name)["Kp"])
+            ratio = kp * self.step_size / inertia
+            if ratio >= SAMPLED_LOOP_LIMIT:
+                found.append(f"{name}: its PI reads the speed once a step (a sampled controller): Kp h / J = "
+                             f"{kp:g} x {self.step_size:g} / {inertia:.4g} = {ratio:.3g}, at or above "
+                             f"{SAMPLED_LOOP_LIMIT:g}, where the sampled loop is unstable (J the inertia its torque "
+                             f"accelerates at once: {driven}'s J_drive and input shaft, up to its first compliance). "
+                             "Explicitly coupled the run grows, as a digital PI at this rate would; the implicit "
+                             "scheme iterates the loop to a smoother one no such controller is. Lower Kp below "
+                             f"{SAMPLED_LOOP_LIMIT * inertia / self.step_size:.4g} or the step below "
+                             f"{SAMPLED_LOOP_LIMIT * inertia / kp:.3g} s")
+        return found
 
     def _stepped_at_start(self) -> list:
         """'motor: warning' for a Motor whose step is at or before the start: its rotor starts at the profile's
