@@ -187,6 +187,18 @@ def test_run_without_reference_checks_the_set_point(fmu_dir, tmp_path, capsys, t
         assert out.startswith("NOT CHECKED")
 
 
+def test_a_proportional_drive_short_of_its_set_point_is_told_its_offset(fmu_dir, tmp_path, capsys):
+    """Ki = 0 against the 1 N.m load: the loop settles at 50 - T0 / Kp = 50 - 1 / 0.6 = 48.33 rad/s for good, so
+    the FAIL says that no integral action leaves that offset (a control engineer had been told to lengthen the run
+    or raise the torque limit)."""
+    path = tmp_path / "proportional.toml"
+    path.write_text(SCENARIO.format(tau_max=5.0).replace("Ki = 9.0", "Ki = 0.0"))
+    assert main(["--fmu-dir", str(fmu_dir), "run", str(path), "--no-plot", "--out", str(tmp_path)]) == 1
+    line = next(x for x in capsys.readouterr().out.splitlines() if "operating point motor.omega" in x)
+    assert float(line.split("mean ")[1].split()[0]) == pytest.approx(50.0 - 1.0 / 0.6, abs=1e-3)
+    assert "no integral action (Ki = 0)" in line and "lengthen stop_time" not in line
+
+
 JOINT_AT_1500_RPM = """title = "Cardan joint at 20 deg behind an ideal speed source at 1500 rpm, no reference"
 [experiment]
 stop_time = 0.2

@@ -91,6 +91,8 @@ class OperatingPointCheck:
     holds_from: float = math.nan
     #: the largest |set point| over the run [rad/s], the scale of a stop's tolerance
     top: float = 0.0
+    #: the drive's PI has no integral action (Ki = 0): a load leaves a steady offset T / Kp
+    proportional: bool = False
 
     @property
     def checked(self) -> bool:
@@ -123,6 +125,9 @@ class OperatingPointCheck:
             text += (": the drive runs above its set point at the end (an overshoot still settling, or a loop "
                      "oscillating about it); lengthen stop_time, or check the controller's gains against the "
                      "inertia it drives")
+        elif not self.passed and self.proportional:
+            text += (": the drive's PI has no integral action (Ki = 0), so a load leaves it short of its set point by "
+                     "load / Kp for good; give it an integral gain Ki, or a larger Kp for a smaller offset")
         elif not self.passed:
             text += (": the set point is not reached by the end; lengthen stop_time, or give the drive more torque "
                      "(tau_max) or gain, or lower the load")
@@ -577,9 +582,10 @@ def check_operating_points(scenario: Scenario, table: np.ndarray) -> list:
             off = np.flatnonzero(np.abs(ref - ref[-1]) > 1e-9 * max(1.0, float(np.max(np.abs(ref)))))
             if off.size and off[-1] < len(ref) - 2:
                 holds_from = float(t[window][off[-1] + 1])
+        drive = scenario.parameters_with_defaults(signal.partition(".")[0])
         checks.append(OperatingPointCheck(signal, set_point, float(np.mean(table[signal][window])),
                                           math.nan if moving else float(ref[-1]), float(t[window][0]), holds_from,
-                                          float(np.max(np.abs(table[set_point])))))
+                                          float(np.max(np.abs(table[set_point]))), drive.get("Ki", 1.0) == 0.0))
     return checks
 
 
