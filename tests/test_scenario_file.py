@@ -400,37 +400,12 @@ def test_the_friction_advice_takes_each_loads_own_drive(tmp_path):
     omega_smooth = 1 rad/s): only the slow drive's Load is smoothed at its speed, 0.2 / sqrt(0.2^2 + 1) = 0.196 T0;
     the fast one's torque is 0.99995 T0 (a reviewer's scenario had both named at the slow drive's speed). A load
     raised by T_change is named with the torque it reaches."""
-    text = """
-[experiment]
-stop_time = 1.0
-step_size = 1e-3
-[components.slow]
-fmu = "Motor"
-parameters = { ideal_speed_source = true, profile = 0, omega_set = 0.2 }
-[components.fast]
-fmu = "Motor"
-parameters = { ideal_speed_source = true, profile = 0, omega_set = 100.0 }
-[components.load_slow]
-fmu = "Load"
-parameters = { T0 = 0.0, T_change = 5.0, t_change = 0.5, omega_smooth = 1.0 }
-[components.load_fast]
-fmu = "Load"
-parameters = { T0 = 5.0, omega_smooth = 1.0 }
-[[connections]]
-from = "slow.omega"
-to = "load_slow.omega"
-[[connections]]
-from = "load_slow.tau"
-to = "slow.tau_load"
-[[connections]]
-from = "fast.omega"
-to = "load_fast.omega"
-[[connections]]
-from = "load_fast.tau"
-to = "fast.tau_load"
-[output]
-record = ["load_slow.tau"]
-"""
+    text = (EXPERIMENT + drive("slow", 0.2) + drive("fast", 100.0)
+            + component("load_slow", "Load", "T0 = 0.0, T_change = 5.0, t_change = 0.5, omega_smooth = 1.0")
+            + component("load_fast", "Load", "T0 = 5.0, omega_smooth = 1.0")
+            + wires(("slow.omega", "load_slow.omega"), ("load_slow.tau", "slow.tau_load"), ("fast.omega",
+                    "load_fast.omega"), ("load_fast.tau", "fast.tau_load"))
+            + '[output]\nrecord = ["load_slow.tau"]\n')
     (advice,) = Scenario(write(tmp_path, text)).smoothed_friction()
     assert advice.startswith("load_slow: its constant torque T0 + T_change = 5 N.m reverses smoothly")
     assert f"at slow.omega_set = 0.2 rad/s it gives {0.2 / math.hypot(0.2, 1.0):.3g} T0 + T_change" in advice
@@ -487,51 +462,14 @@ def test_a_drives_speeds_are_those_of_its_profile_within_the_run(changes, times,
 def test_a_loads_drive_is_found_through_a_chain_and_not_guessed(tmp_path):
     """A Load behind a ring coupling and a joint in series is driven by the motor at their head (a reviewer's chain
     had been given a second, slow motor's speed); a Load fed from elsewhere has no drive, and no speed advice."""
-    text = """
-[experiment]
-stop_time = 1.0
-step_size = 1e-3
-[components.motor]
-fmu = "Motor"
-parameters = { ideal_speed_source = true, profile = 0, omega_set = 100.0 }
-inputs = { tau_load = 0.0 }
-[components.slow]
-fmu = "Motor"
-parameters = { ideal_speed_source = true, profile = 0, omega_set = 0.5 }
-[components.ring]
-fmu = "RingCoupling"
-[components.joint]
-fmu = "CardanJoint"
-[components.load]
-fmu = "Load"
-parameters = { T0 = 5.0, omega_smooth = 1.0 }
-[components.load_slow]
-fmu = "Load"
-parameters = { T0 = 5.0, omega_smooth = 1.0 }
-[[connections]]
-from = "motor.omega"
-to = "ring.omega_in"
-[[connections]]
-from = "ring.omega_out"
-to = "joint.omega_in"
-[[connections]]
-from = "joint.omega_out"
-to = "load.omega"
-[[connections]]
-from = "load.tau"
-to = "joint.tau_load"
-[[connections]]
-from = "joint.tau_in"
-to = "ring.tau_load"
-[[connections]]
-from = "slow.omega"
-to = "load_slow.omega"
-[[connections]]
-from = "load_slow.tau"
-to = "slow.tau_load"
-[output]
-record = ["load.tau"]
-"""
+    text = (EXPERIMENT + drive("motor", 100.0) + drive("slow", 0.5) + component("ring", "RingCoupling")
+            + component("joint", "CardanJoint") + component("load", "Load", "T0 = 5.0, omega_smooth = 1.0")
+            + component("load_slow", "Load", "T0 = 5.0, omega_smooth = 1.0")
+            + wires(("motor.omega", "ring.omega_in"), ("ring.omega_out", "joint.omega_in"),
+                    ("joint.omega_out", "load.omega"), ("load.tau", "joint.tau_load"), ("joint.tau_in", "ring.tau_load"),
+                    ("ring.tau_in", "motor.tau_load"), ("slow.omega", "load_slow.omega"),
+                    ("load_slow.tau", "slow.tau_load"))
+            + '[output]\nrecord = ["load.tau"]\n')
     scenario = Scenario(write(tmp_path, text))
     assert scenario._load_drives("load") == ["motor"] and scenario._load_drives("load_slow") == ["slow"]
     assert [a.partition(":")[0] for a in scenario.smoothed_friction()] == ["load_slow"]
@@ -556,6 +494,24 @@ def test_a_load_both_smoothed_and_chattering_gets_one_remedy():
     (advice,) = [a for a in scenario.model_advice() if a.startswith("load:")]
     assert "lower omega_smooth to at most 0.05 rad/s" in advice and "with a step of at most 1.12e-05 s" in advice
     assert "Widen omega_smooth" not in advice
+
+
+EXPERIMENT = "[experiment]\nstop_time = 1.0\nstep_size = 1e-3\n"
+
+
+def component(name, fmu, parameters=""):
+    """A [components.<name>] table of a scenario text."""
+    return f'[components.{name}]\nfmu = "{fmu}"\n' + (f"parameters = {{ {parameters} }}\n" if parameters else "")
+
+
+def drive(name, speed):
+    """An ideal speed source at a constant speed [rad/s]."""
+    return component(name, "Motor", f"ideal_speed_source = true, profile = 0, omega_set = {speed}")
+
+
+def wires(*pairs):
+    """[[connections]] of a scenario text, (from, to) each."""
+    return "".join(f'[[connections]]\nfrom = "{a}"\nto = "{b}"\n' for a, b in pairs)
 
 
 @pytest.mark.parametrize("speed, smooth, torque, share", [(0.2, 0.1, 5.0, 2 / math.sqrt(5)), (-0.3, 0.1, 5.0,

@@ -323,27 +323,26 @@ def _grid_values(values: list) -> list:
 _BOOLEANS = {"true": True, "false": False, "1": True, "0": False}
 
 
-def _declared_unit(scenario, name: str) -> str | None:
-    """The declared unit of the parameter ``component.parameter`` of scenario; None where it has none."""
-    comp, _, par = name.partition(".")
-    if comp not in scenario.components:
-        return None
-    for var in fmu_class(scenario.components[comp][0]).VARIABLES:
-        if var.name == par and var.causality == "parameter":
-            return var.unit
-    return None
-
-
-def _declared_type(scenario, name: str):
-    """The type (float, int, bool) of the parameter ``component.parameter`` of scenario; None where it has none
+def _declared(scenario, name: str):
+    """The declaration (``Var``) of the parameter ``component.parameter`` of scenario; None where it has none
     (:meth:`Axis.problems` says why)."""
     comp, _, par = name.partition(".")
     if comp not in scenario.components:
         return None
-    for var in fmu_class(scenario.components[comp][0]).VARIABLES:
-        if var.name == par and var.causality == "parameter":
-            return var.type
-    return None
+    return next((var for var in fmu_class(scenario.components[comp][0]).VARIABLES
+                 if var.name == par and var.causality == "parameter"), None)
+
+
+def _declared_unit(scenario, name: str) -> str | None:
+    """The declared unit of the parameter ``component.parameter`` of scenario; None where it has none."""
+    var = _declared(scenario, name)
+    return None if var is None else var.unit
+
+
+def _declared_type(scenario, name: str):
+    """The type (float, int, bool) of the parameter ``component.parameter`` of scenario; None where it has none."""
+    var = _declared(scenario, name)
+    return None if var is None else var.type
 
 
 def parse_axis(text: str, scenario, option: str = "--param") -> Axis:
