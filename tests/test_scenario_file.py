@@ -368,7 +368,8 @@ OMAR_START = Path(__file__).parent.parent / "scenarios" / "double_cardan_omar_st
 
 @pytest.mark.parametrize("profile, start, end, warned", [(3, 0.0, 60.0, True), (3, 60.0, 0.0, True),
                                                          (2, 60.0, 0.0, True), (3, 30.0, 60.0, False),
-                                                         (3, 10.0, -10.0, True), (3, -5.0, 5.0, True), (2, -5.0, 5.0, False),
+                                                         (3, 10.0, -10.0, True), (3, -5.0, 5.0, True),
+                                                         (2, -5.0, 5.0, False),
                                                          (0, 0.0, 0.0, True), (0, 0.0, 60.0, False),
                                                          (3, -30.0, -60.0, False)])
 def test_a_load_that_chatters_is_named_where_a_ramp_or_step_passes_rest(profile, start, end, warned):
@@ -466,8 +467,8 @@ def test_a_loads_drive_is_found_through_a_chain_and_not_guessed(tmp_path):
             + component("joint", "CardanJoint") + component("load", "Load", "T0 = 5.0, omega_smooth = 1.0")
             + component("load_slow", "Load", "T0 = 5.0, omega_smooth = 1.0")
             + wires(("motor.omega", "ring.omega_in"), ("ring.omega_out", "joint.omega_in"),
-                    ("joint.omega_out", "load.omega"), ("load.tau", "joint.tau_load"), ("joint.tau_in", "ring.tau_load"),
-                    ("ring.tau_in", "motor.tau_load"), ("slow.omega", "load_slow.omega"),
+                    ("joint.omega_out", "load.omega"), ("load.tau", "joint.tau_load"),
+                    ("joint.tau_in", "ring.tau_load"), ("ring.tau_in", "motor.tau_load"), ("slow.omega", "load_slow.omega"),
                     ("load_slow.tau", "slow.tau_load"))
             + '[output]\nrecord = ["load.tau"]\n')
     scenario = Scenario(write(tmp_path, text))
