@@ -445,6 +445,26 @@ def test_record_adds_a_signal_and_keeps_the_run_checked(fmu_dir, tmp_path, capsy
     assert "did you mean driveline.stored_energy?" in capsys.readouterr().err
 
 
+def test_a_stop_in_the_step_halving_rerun_keeps_the_whole_run(fmu_dir, tmp_path):
+    """cardan_startup's [reference.extrapolated] bands rerun it at h/2 after the run itself: that rerun reports its
+    own progress now (it had reported none, 70% of the call unseen), a False from the callback stops it, and the
+    complete run at the scenario's step is written, not lost (a notebook user's interrupt there had kept only the
+    rerun's rows)."""
+    from ujfmu.master import RunStopped
+    from ujfmu.scenario_run import run_scenario
+    totals = []
+
+    def progress(done, total):
+        totals.append(total)
+        return total == totals[0]   # the run's own steps go on; the rerun's first report stops it
+    with pytest.raises(RunStopped) as info:
+        run_scenario(SCENARIOS / "cardan_startup.toml", fmu_dir=fmu_dir, out_dir=tmp_path, plot=False,
+                     progress=progress)
+    assert set(totals) == {totals[0], 2 * totals[0]} and "step-halving rerun" in str(info.value)
+    rows = (tmp_path / "cardan_startup.csv").read_text().splitlines()
+    assert len(rows) - 1 == totals[0] + 1 == len(info.value.partial)
+
+
 def test_an_unchecked_model_exchange_run_is_not_sent_to_the_step_check():
     """A Model Exchange run without a reference has no communication step: its summary does not suggest
     --check-step (which refuses such a run; a motorsport trial was sent there), and says what would check it."""

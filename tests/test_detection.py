@@ -19,7 +19,7 @@ from ujfmu.master import (COUPLING_RTOL, IMPLICIT_NOISE_TOLERANCES, Component, C
                           CosimulationError, CouplingInstabilityError, HeldInputWarning, cosimulate, energy_block, watch_block,
                           watch_step)
 from ujfmu.references import read_reference
-from ujfmu.scenario import Scenario
+from ujfmu.scenario import Scenario, ScenarioError
 from ujfmu.wiring import with_changes
 
 HEAVY = battery.BATTERY_DIR / "battery_00.toml"   # CardanJoint, J2 30x the motor's rotor
@@ -102,6 +102,33 @@ def test_bond_energy_ranks_the_schemes_as_their_errors_do(fmu_dir):
         (bond,) = [b for b in diagnostics["bonds"] if b.speed.source == "motor.omega"]
         relative[coupling] = bond.relative
     assert relative["explicit"] > 3 * relative["implicit"] and relative["implicit"] < 0.03, relative
+
+
+def test_a_ctrl_c_while_the_fmus_are_set_up_stops_the_run_at_its_first_step(fmu_dir, monkeypatch):
+    """A SIGINT while the FMUs load (a notebook's Interrupt kernel) waits for the end of the setup and stops the
+    run at its first step (Interrupted), instead of raising inside an FMU's code: that had left fmpy's chdir into an
+    extraction folder in place, an FMU's fatal error, and a crash at the next garbage collection. The process is
+    whole afterwards: the same run then runs, in the same working directory."""
+    import os
+    import signal
+    comps = [Component("motor", fmu_dir / "Motor.fmu", dict(ideal_speed_source=True, profile=0, omega_set=50.0,
+                                                             tau_load=0.0)),
+             Component("joint", fmu_dir / "CardanJoint.fmu", dict(tau_load=0.0))]
+    link = [Connection("motor.omega", "joint.omega_in")]
+    original, pressed = master.FmuInstance.__init__, []
+
+    def pressed_while_loading(self, *args, **kwargs):
+        if not pressed:
+            pressed.append(True)
+            signal.raise_signal(signal.SIGINT)
+        original(self, *args, **kwargs)
+    monkeypatch.setattr(master.FmuInstance, "__init__", pressed_while_loading)
+    here = os.getcwd()
+    with pytest.raises(master.Interrupted, match="after 0 steps"):
+        cosimulate(comps, link, 0.01, 1e-3, ["joint.omega_out"])
+    monkeypatch.undo()
+    assert pressed and os.getcwd() == here and not master.STOP[0]
+    assert len(cosimulate(comps, link, 0.01, 1e-3, ["joint.omega_out"])) == 11
 
 
 def test_unconnected_inputs_are_named_with_their_values(fmu_dir):
@@ -781,13 +808,14 @@ def test_a_run_stopped_by_its_loads_chatter_names_the_load_and_its_remedies(fmu_
 
 
 def test_a_setup_error_is_not_blamed_on_the_loads_chatter(fmu_dir):
-    """The same start-up with a signal recorded twice fails before its first step, naming the signal; the load's
+    """The same start-up with a signal recorded twice fails before anything runs, naming the signal, as a setup
+    error (a ScenarioError, as a file's would be: a notebook user's had come as a CosimulationError); the load's
     chatter hint had been added to it (no partial results, so nothing had filtered it)."""
     from ujfmu.scenario_run import run_scenario
     scenario = Scenario(Path(__file__).parent.parent / "scenarios" / "double_cardan_omar_startup.toml")
     scenario = scenario.with_parameters({"load.T0": 200.0})
     scenario.record.append(scenario.record[0])
-    with pytest.raises(CosimulationError) as info:
+    with pytest.raises(ScenarioError) as info:
         run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, progress=False)
     assert "more than once" in str(info.value) and "hint" not in str(info.value)
 

@@ -26,6 +26,7 @@ outcome of a watch after every step.
 """
 
 import atexit
+import contextlib
 import dataclasses
 import difflib
 import math
@@ -122,6 +123,31 @@ def _stop_at_next_step(signum, frame) -> None:
         STOP[0] = True
         return
     raise KeyboardInterrupt
+
+
+def _defer_interrupt(signum, frame) -> None:
+    """SIGINT while FMUs are loaded, set up, freed or integrated (``deferred_interrupt``): ask the code around to
+    stop where it can (STOP); a second Ctrl-C raises at once."""
+    if not STOP[0]:
+        STOP[0] = True
+        return
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def deferred_interrupt():
+    """While in place (in the main thread, where Python's own SIGINT handler is), a Ctrl-C sets STOP instead of
+    raising inside an FMU's code, which had left a process broken: a chdir of fmpy's loader not undone, an FMU's
+    fatal Python error, a crash at the next garbage collection (a notebook user's Interrupt kernel)."""
+    previous = None
+    if (threading.current_thread() is threading.main_thread()
+            and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+        previous = signal.signal(signal.SIGINT, _defer_interrupt)
+    try:
+        yield
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
 
 
 class CosimulationError(RuntimeError):
@@ -435,7 +461,8 @@ class Cosimulation:
         self._warned = 0             # log entries already raised as FmuWarning
         self._warned_texts = set()   # the texts raised
         try:
-            self._setup(components, connections, record)
+            with deferred_interrupt():   # a Ctrl-C meanwhile stops the run at its first step (``advance``)
+                self._setup(components, connections, record)
         except CosimulationError:
             self.close()
             raise
@@ -1227,12 +1254,18 @@ class Cosimulation:
         return np.rec.fromarrays([time] + list(values.T), dtype=dtype)
 
     def close(self):
-        for inst in self.instances.values():
-            inst.free()
-        self.instances = {}
-        if getattr(self, "_open", False):
-            self._open = False
-            OPEN[0] -= 1
+        """Free the FMUs; a Ctrl-C meanwhile waits for the end of it (``deferred_interrupt``), then raises."""
+        asked = STOP[0]
+        with deferred_interrupt():
+            for inst in self.instances.values():
+                inst.free()
+            self.instances = {}
+            if getattr(self, "_open", False):
+                self._open = False
+                OPEN[0] -= 1
+        if STOP[0] and not asked:   # pressed while the FMUs were freed
+            STOP[0] = False
+            raise KeyboardInterrupt
 
     def __enter__(self):
         return self

@@ -10,6 +10,7 @@ instability; the accuracy is the solver's. Components must offer Model Exchange:
 not provide). The FMUs' event indicators are the solver's root functions (``simulate_me``).
 """
 
+import contextlib
 import math
 import re
 import warnings
@@ -20,7 +21,8 @@ from fmpy.fmi3 import FMU3Model
 
 from .build3 import ME_TOLERANCE
 from .fmi3_host import FmuInstance3
-from .master import CosimulationError, FmuWarning, _feedthrough_order, extracted
+from .master import (STOP, CosimulationError, FmuWarning, Interrupted, _feedthrough_order,
+                     deferred_interrupt, extracted)
 
 
 #: the spacing of floats at 1
@@ -85,6 +87,15 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
     def failed(what, exc):
         failure.append(f"{what}: {exc}")
 
+    def table(rows):
+        """The first rows of the output as a structured array."""
+        time = start_time + output_interval * np.arange(rows)
+        dtype = np.dtype([("time", np.float64)] + [(c, np.float64) for c in record])
+        return np.rec.fromarrays([time] + list(values[:rows].T), dtype=dtype)
+
+    values = np.empty((n_out + 1, len(record)))
+    interrupts = contextlib.ExitStack()   # a Ctrl-C waits for the next output point (not inside CVode's callbacks)
+    interrupts.enter_context(deferred_interrupt())
     try:
         for comp in components:
             unzip_dir, md = extracted(comp.fmu)
@@ -207,7 +218,6 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
         solver = CVodeSolver(nx=nx, nz=nz, get_x=get_x, set_x=set_x, get_dx=get_dx, get_z=get_z,
                              get_nominals=get_nominals, set_time=set_time, input=_NoInput(), startTime=start_time,
                              relativeTolerance=relative_tolerance, maxNumSteps=100_000)
-        values = np.empty((n_out + 1, len(record)))
 
         def read(row):
             transfer()
@@ -244,6 +254,11 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
             read(values[k])
             for inst in instances.values():
                 inst.slave.completedIntegratorStep()
+            if STOP[0]:   # a Ctrl-C: stopped here, the rows so far kept
+                STOP[0] = False
+                stopped = Interrupted(f"stopped at t = {t:.10g} s ({k} of {n_out} output points)")
+                stopped.partial = table(k + 1)
+                raise stopped
         del solver
     except ModelExchangeError as exc:
         exc.args = (exc.args[0] + _log_text(log),)
@@ -253,11 +268,15 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
     finally:
         for inst in instances.values():
             inst.free()
+        interrupts.close()
         for entry in dict.fromkeys(line for line in log if line.startswith("[warning]")):   # as cosimulate does
             warnings.warn(entry, FmuWarning, stacklevel=2)
-    time = start_time + output_interval * np.arange(n_out + 1)
-    dtype = np.dtype([("time", np.float64)] + [(c, np.float64) for c in record])
-    return np.rec.fromarrays([time] + list(values.T), dtype=dtype)
+    if STOP[0]:   # pressed during the last interval or while freeing
+        STOP[0] = False
+        stopped = Interrupted(f"stopped at t = {stop_time:.10g} s, the run's end")
+        stopped.partial = table(n_out + 1)
+        raise stopped
+    return table(n_out + 1)
 
 
 def _log_text(log):

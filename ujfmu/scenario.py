@@ -571,6 +571,29 @@ class Scenario:
             out.components[comp][1][par] = value
         return out
 
+    def check_setup(self) -> None:
+        """ScenarioError unless what a caller may change on a read Scenario still holds as a file's must: its name a
+        plain file name (it names the files a run writes), every parameter of its type and range, every recorded
+        signal a variable of a component, named once. ``run_scenario`` calls it before anything runs."""
+        problems = _Problems(self.path)
+        if not isinstance(self.name, str) or not self.name or self.name.startswith(".") or any(
+                c in self.name for c in "/\\\0"):
+            problems.add(f"{self.path}: name = {self.name!r} must be a plain file name (no path separators, not "
+                         "starting with '.'): it names the files a run writes")
+        for comp, (fmu, params) in self.components.items():
+            declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
+            for par, value in params.items():
+                with problems.kept():
+                    self._check_value(fmu, declared, "parameter", f"components.{comp}.parameters.{par}", par,
+                                      plain_number(value))
+        for i, name in enumerate(self.record):
+            with problems.kept():
+                self._check_signal(name, f"record[{i}]")
+        twice = sorted({name for name in self.record if self.record.count(name) > 1})
+        if twice:
+            problems.add(f"{self.path}: record names {', '.join(twice)} more than once: record each signal once")
+        problems.raise_any()
+
     def with_parameters(self, changes: dict, name: str | None = None) -> "Scenario":
         """A copy with parameters changed, {"component.parameter": value} (SI units), each checked as the file's
         are; named ``name`` (default ``<name>_changed``: its CSV and figures do not overwrite this scenario's), its

@@ -863,18 +863,20 @@ def check_reference_span(scenario: Scenario, reference: np.ndarray) -> None:
                             f"or {remedy}")
 
 
-def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.ndarray | None = None) -> np.ndarray:
+def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.ndarray | None = None,
+                     progress: Callable[[int, int], None] | None = None) -> np.ndarray:
     """Richardson extrapolation 2 y(h/2) - y(h) of the recorded signals on the scenario's grid (step h).
 
     It cancels a coupling error c*h + O(h^2) (inputs held over each step), leaving O(h^2). coarse: the run at h
-    when it is already at hand.
+    when it is already at hand. progress: as ``cosimulate``'s, for the run at h/2 (its own steps).
     """
     h, every = scenario.step_size, scenario.output_interval
     if coarse is None:
         coarse = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time, h,
                             scenario.record, scenario.start_time, coupling=scenario.coupling, output_interval=every)
     fine = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time, h / 2,
-                      scenario.record, scenario.start_time, coupling=scenario.coupling, output_interval=2 * every)
+                      scenario.record, scenario.start_time, coupling=scenario.coupling, output_interval=2 * every,
+                      progress=progress)
     out = coarse.copy()
     for name in scenario.record:
         out[name] = 2.0 * fine[name] - coarse[name]
@@ -899,8 +901,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         fmu_dir = Path(DEFAULT_FMU_DIR) / "fmi3"
     scenario = path if isinstance(path, Scenario) else Scenario(path)
     scenario.check_experiment()
-    for i, name in enumerate(scenario.record):   # a name a caller added after reading: refused before anything runs
-        scenario._check_signal(name, f"record[{i}]")
+    scenario.check_setup()   # what a caller changed after reading: refused before anything runs, as a file's
     scenario.check_fmus(fmu_dir)
     reference, provenance = None, ""
     if scenario.reference_file is not None:   # a missing reference file is an error before anything runs
@@ -992,7 +993,15 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                                     f"at the scenario's step {scenario.declared_step:g} s, and this run's "
                                     f"{scenario.step_size:g} s is coarser ([reference.tolerance] checked)")
         elif scenario.extrapolated_tolerances:
-            extrapolated = table if model_exchange else extrapolate_step(scenario, fmu_dir, table)
+            try:
+                extrapolated = table if model_exchange else extrapolate_step(scenario, fmu_dir, table,
+                                                                             progress=progress or None)
+            except (Interrupted, RunStopped) as exc:   # the run itself is whole: kept, as a stopped run's
+                exc.args = (f"{exc.args[0] if exc.args else 'stopped'} in the step-halving rerun at h/2 "
+                            "([reference.extrapolated]); the run at the scenario's step is complete and kept",)
+                exc.partial = table
+                _keep_partial(scenario, exc, [], out_dir, plot, model_exchange)
+                raise
             result.extrapolated_checks = compare(extrapolated, reference, scenario.extrapolated_tolerances, units)
     if out_dir is not None:
         out_dir = Path(out_dir)

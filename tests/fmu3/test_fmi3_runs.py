@@ -129,6 +129,26 @@ def test_run_scenario_takes_the_fmi3_folder_for_model_exchange_by_default(fmu3_d
     assert run_scenario(scenario, model_exchange=True, out_dir=None, plot=False).passed
 
 
+def test_a_ctrl_c_in_a_model_exchange_run_stops_it_at_an_output_point(fmu3_dir, monkeypatch):
+    """A SIGINT during a Model Exchange run waits for the next output point (not raised inside CVode's callbacks,
+    where it had been reported as the model's fatal error or lost) and stops the run there: Interrupted, with the
+    rows so far."""
+    import signal
+    from ujfmu import master
+    original, pressed = MeInstance.initialize, []
+
+    def pressed_while_starting(self, *args, **kwargs):
+        if not pressed:
+            pressed.append(True)
+            signal.raise_signal(signal.SIGINT)
+        return original(self, *args, **kwargs)
+    monkeypatch.setattr(MeInstance, "initialize", pressed_while_starting)
+    with pytest.raises(master.Interrupted) as info:
+        simulate_scenario_me(Scenario("scenarios/cardan_heavy_torque_driven.toml"), fmu3_dir)
+    assert len(info.value.partial) == 2 and info.value.partial["time"][-1] == pytest.approx(1e-3)
+    assert not master.STOP[0]
+
+
 def test_model_exchange_refuses_a_speed_driven_component(fmu3_dir):
     with pytest.raises(ModelExchangeError, match="CardanJoint has no Model Exchange interface.*torque-driven"):
         simulate_me([Component("joint", fmu3_dir / "CardanJoint.fmu")], [], 0.01, 1e-3, ["joint.tau_in"])
