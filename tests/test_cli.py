@@ -425,8 +425,12 @@ def test_a_failed_signal_names_the_step_check_as_a_remedy():
         step_check_follows=True)   # ujfmu run --check-step prints the estimate next
     assert "--check-step" not in after_estimate and "the step-halving estimate below gives it per signal" \
         in after_estimate
-    passing = ScenarioResult(scenario, None, checks=[SignalCheck("joint.tau_in", 1e-5, 1e-3, 0.1)]).summary()
+    result = ScenarioResult(scenario, None, checks=[SignalCheck("joint.tau_in", 1e-5, 1e-3, 0.1)])
+    passing = result.summary()
     assert passing.startswith("PASS") and "--check-step" not in passing
+    # a compared run has no reason for not being compared, and its repr is a line, not its table
+    assert result.not_checked_reason() == ""
+    assert repr(result) == "<ScenarioResult cardan_constant_speed: PASS, 0 rows, csv=None>"
 
 
 def test_record_adds_a_signal_and_keeps_the_run_checked(fmu_dir, tmp_path, capsys):

@@ -613,6 +613,11 @@ def fmpy_outlier_fraction(table: np.ndarray, reference: np.ndarray) -> float:
 
 @dataclass
 class ScenarioResult:
+    """What ``run_scenario`` returns: the run's ``table`` (a structured array: time and one column per recorded
+    ``component.variable``) and its checks against the reference (``checks``, per signal), the operating point,
+    sampling and steady-window checks, the power bonds' energy figures, and the files written (``csv``, ``plot``).
+    ``verdict`` is PASS, FAIL or NOT CHECKED; ``passed`` and ``failed`` say the same as booleans (a run that
+    compared nothing is neither); ``summary()`` is the text the command line prints."""
     scenario: Scenario
     table: np.ndarray
     checks: list = field(default_factory=list)
@@ -632,6 +637,10 @@ class ScenarioResult:
     skipped_bands: str = ""   # why the [reference.extrapolated] bands were not checked, if they were not
     fmu_dir: Path = None   # where the run's FMUs came from (named in a suggested command when not the default)
     reference_method: str | None = None   # how the reference compared against was made (its provenance line)
+
+    def __repr__(self) -> str:   # the dataclass's would print the whole table
+        rows = 0 if self.table is None else len(self.table)
+        return f"<ScenarioResult {self.scenario.name}: {self.verdict}, {rows} rows, csv={self.csv}>"
 
     @property
     def checked(self) -> bool:
@@ -676,8 +685,10 @@ class ScenarioResult:
         return (" --fmi 3" if fmi3 else "") + (f" --fmu-dir {self.fmu_dir}" if elsewhere else "")
 
     def not_checked_reason(self, step_check_follows: bool = False) -> str:
-        """Why nothing was compared; step_check_follows: the step-halving estimate is printed after the summary
-        (``ujfmu run --check-step``), so it is named instead of suggested."""
+        """Why nothing was compared ("" where something was); step_check_follows: the step-halving estimate is
+        printed after the summary (``ujfmu run --check-step``), so it is named instead of suggested."""
+        if self.checked:
+            return ""
         if self.scenario.reference_file is None:
             estimate = ("a Model Exchange run has no communication step, so no coupling error to estimate; a "
                         "reference (`ujfmu references` for a scenario of a bundled wiring) checks the solver's "
@@ -864,7 +875,7 @@ def check_reference_span(scenario: Scenario, reference: np.ndarray) -> None:
 
 
 def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.ndarray | None = None,
-                     progress: Callable[[int, int], None] | None = None) -> np.ndarray:
+                     progress: Callable[[int, int], bool | None] | None = None) -> np.ndarray:
     """Richardson extrapolation 2 y(h/2) - y(h) of the recorded signals on the scenario's grid (step h).
 
     It cancels a coupling error c*h + O(h^2) (inputs held over each step), leaving O(h^2). coarse: the run at h
@@ -885,7 +896,8 @@ def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.nda
 
 def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike = DEFAULT_FMU_DIR,
                  out_dir: str | os.PathLike | None = DEFAULT_OUT_DIR, plot: bool = True,
-                 progress: Callable[[int, int], None] | None = None, model_exchange: bool = False) -> ScenarioResult:
+                 progress: Callable[[int, int], bool | None] | None = None,
+                 model_exchange: bool = False) -> ScenarioResult:
     """Co-simulate a scenario, compare with its reference; write CSV (and PNG) into out_dir (None: write nothing).
 
     fmu_dir and out_dir default to fmus/ and results/ of the current directory. progress: optional
