@@ -982,8 +982,9 @@ def test_the_step_check_flags_order_amplitudes_that_depend_on_the_step(tmp_path,
     assert check.point == {"motor.omega_set": pytest.approx(820 * math.pi / 30)}
     assert [f[0] for f in check.figures] == ["driveline.omega_out.h2", "driveline.shaft_torque.h2"]
     assert check.passed is passed
-    report = "\n".join(check.lines(scenario))
+    report = "\n".join(check.lines())   # no scenario needed, as stepsize.estimate's lines()
     assert ("HIGH driveline.omega_out.h2" in report) is not passed
+    assert "motor.omega_set = 85.8702 rad/s (820 rpm)" in report   # the point in its unit, and in the one given
     assert (tmp_path / "pi_sweep_step_check.jsonl").is_file()
 
 

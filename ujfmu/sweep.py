@@ -695,6 +695,7 @@ class StepCheck:
     rel_tol: float
     status: str = OK
     error: str = ""
+    units: dict = field(default_factory=dict)   # of the point's parameters and the figures' outputs, by name
 
     @staticmethod
     def estimate(coarse: float, fine: float) -> float:
@@ -704,9 +705,20 @@ class StepCheck:
     def passed(self) -> bool:
         return self.status == OK and all(self.estimate(c, f) <= self.rel_tol * abs(f) for _, c, f in self.figures)
 
-    def lines(self, scenario) -> list:
-        """The report: the point, then one line a figure, flagged HIGH where the estimate passes rel_tol."""
-        where = ", ".join(f"{name} = {value:.6g}" for name, value in self.point.items())
+    def lines(self, scenario=None) -> list:
+        """The report: the point (its angles in deg too, its speeds in rpm), then one line a figure, flagged HIGH
+        where the estimate passes rel_tol. scenario: where ``units`` lacks a name's unit."""
+        def unit(name):
+            return self.units.get(name) or (scenario.unit(name) if scenario is not None else "")
+
+        def value_text(name, value):
+            text = f"{value:.6g}" + (f" {unit(name)}" if unit(name) not in ("", "1") else "")
+            if unit(name) == "rad" and not isinstance(value, bool):
+                text += f" ({math.degrees(value):.6g} deg)"
+            elif unit(name) == "rad/s" and not isinstance(value, bool):
+                text += f" ({value * 30.0 / math.pi:.6g} rpm)"
+            return text
+        where = ", ".join(f"{name} = {value_text(name, value)}" for name, value in self.point.items())
         head = (f"step check at the peak ({where}): order amplitudes at {self.step:g} s against "
                 f"{self.step / 2:g} s, error estimated as 2 |a(h) - a(h/2)| (allowed {100 * self.rel_tol:g}% of "
                 "the amplitude)")
@@ -717,7 +729,7 @@ class StepCheck:
             error = self.estimate(coarse, fine)
             flag = "ok  " if error <= self.rel_tol * abs(fine) else "HIGH"
             lines.append(f"  {flag} {column:30s} {coarse:.5g} at h, {fine:.5g} at h/2: error about "
-                         f"{100 * error / abs(fine):.3g}% ({error:.3g} {scenario.unit(column.rsplit('.', 1)[0])})")
+                         f"{100 * error / abs(fine):.3g}% ({error:.3g} {unit(column.rsplit('.', 1)[0])})")
         if not self.passed:
             lines.append("  the order amplitudes depend on the step: sweep at a smaller step (--step), or, where the "
                          "coupling is explicit, with the implicit scheme (the estimate is of the coupling's error as "
@@ -1132,7 +1144,9 @@ class Sweep:
                     continue
                 figures += [(c, peak[c], row[c]) for c in columns
                             if not (math.isnan(row[c]) or math.isnan(peak[c])) and abs(row[c]) >= 0.01 * largest]
-        return StepCheck(peak["point"], self.scenario.step_size, figures, rel_tol, row["status"], row["error"])
+        units = {name: self.scenario.unit(name) for name in [*peak["point"], *self.settings.outputs]}
+        return StepCheck(peak["point"], self.scenario.step_size, figures, rel_tol, row["status"], row["error"],
+                         units)
 
     def failed(self):
         """Records of the points that are not ok (failed, not steady, operating point missed or not run)."""
