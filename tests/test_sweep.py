@@ -513,8 +513,10 @@ def test_order_phases_refer_to_the_running_shafts_own_angle(tmp_path, fmu_dir):
     angle of motor.omega) the phases are -2 (0.3) and -4 (0.3): a Bode or polar plot needs them referred to the
     shaft, not to where the window happened to start (an NVH trial had amplitudes only). In rad, in the columns
     file."""
+    # at 50 rad/s the window starts at a motor angle no whole turn of any order (600 rpm's 4 pi had hidden a sign)
     scenario = Scenario(SCENARIOS / "cardan_constant_speed.toml").with_parameters(
-        {"joint.bend_angle": math.radians(30.0), "joint.error_angle_beta": 0.0, "joint.error_angle_gamma": 0.0})
+        {"joint.bend_angle": math.radians(30.0), "joint.error_angle_beta": 0.0, "joint.error_angle_gamma": 0.0,
+         "motor.omega_set": 50.0})
     settings = SweepSettings.from_scenario(scenario, outputs=["joint.omega_out"], running_speed="motor.omega",
                                            settle_time=0.2)
     assert settings.running_angle == "motor.phi"
