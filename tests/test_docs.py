@@ -58,14 +58,16 @@ def test_fmu_documentation_carries_sources_bibliography_and_guidance(fmu_dir, na
     assert "../shared" not in page and "paper 00" not in page
 
 
-@pytest.mark.parametrize("name, words", [("Motor", "Its speed controller sees the speed"),
+@pytest.mark.parametrize("name, words", [("Motor", "Its rotor and PI speed controller are integrated together"),
                                          ("MotorController", "Its speed controller sees the speed"),
                                          ("Load", "T0 h / J above omega_smooth"),
                                          ("CardanJoint", "smaller than half of it for this FMU"),
                                          ("RingCoupling", "A drivetrain FMU driven by the speed")])
 def test_each_fmus_stability_guidance_is_about_its_own_ports(fmu_dir, name, words):
     """The Motor's and Load's pages had carried the drivetrain FMUs' guidance on omega_in and tau_in, ports they
-    do not have (a first-day trial); each page's guidance is its own kind's."""
+    do not have (a first-day trial); each page's guidance is its own kind's: the Motor's PI, integrated with its
+    rotor inside each step, is not the MotorController's sampled one (a control engineer had read the latter's
+    Kp h / J limit on the Motor's page)."""
     with zipfile.ZipFile(fmu_dir / f"{name}.fmu") as zf:
         page = zf.read("documentation/index.html").decode()
     guidance = page.split("<h2>Step size and stability</h2>")[1].split("<h2>")[0]

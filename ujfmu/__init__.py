@@ -5,21 +5,21 @@ Heavy imports (numpy, fmpy) live in the tooling modules, not here: ujfmu.fmu and
 
 from __future__ import annotations
 
-import os as _os
-from collections.abc import Callable as _Callable
-from typing import TYPE_CHECKING as _TYPE_CHECKING
+import os
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-if _TYPE_CHECKING:
+if TYPE_CHECKING:
     from .scenario import Scenario
     from .scenario_run import ScenarioResult
 
 __version__ = "0.1.0"
-__all__ = ["run_scenario", "__version__"]
+__all__ = ["run_scenario", "__version__"]   # what the package offers (os, Callable: its annotations')
 
 
-def run_scenario(path: str | _os.PathLike | Scenario, *, fmu_dir: str | _os.PathLike = "fmus",
-                 out_dir: str | _os.PathLike | None = "results", plot: bool = True,
-                 progress: _Callable[[int, int], bool | None] | None = None,
+def run_scenario(path: str | os.PathLike | Scenario, *, fmu_dir: str | os.PathLike = "fmus",
+                 out_dir: str | os.PathLike | None = "results", plot: bool = True,
+                 progress: Callable[[int, int], bool | None] | None = None,
                  model_exchange: bool = False) -> ScenarioResult:
     """Co-simulate a scenario (a file or a ujfmu.scenario.Scenario) and compare it with its reference.
 
