@@ -1561,36 +1561,35 @@ def _ujfmu_class(md):
     return fmu_class(md.modelName)
 
 
-def _output_jumps(md, values: dict) -> tuple:
-    """The times [s] where the outputs of a ujfmu FMU jump at values over its declared parameters (its model's
-    ``output_jumps``: a speed profile's step, a load step); none for any other FMU, or parameters its model cannot
-    take (the FMU's initialization names them)."""
+def _model_and_parameters(md, values: dict, what: str) -> tuple:
+    """(model, its Parameters at values over the declared parameters) of a ujfmu FMU whose model has ``what``;
+    (None, None) for any other FMU, a model without it, or parameters its model cannot take (the FMU's
+    initialization names them)."""
     cls = _ujfmu_class(md)
     model = getattr(cls, "MODEL", None)
-    if model is None or not hasattr(model, "output_jumps"):
-        return ()
+    if model is None or not hasattr(model, what):
+        return None, None
     values = {**{v.name: v.start for v in cls.VARIABLES if v.causality == "parameter"}, **values}
     try:
-        p = model.Parameters(**{f.name: values[f.name] for f in dataclasses.fields(model.Parameters) if f.init})
-        return tuple(float(t) for t in model.output_jumps(p))
+        return model, model.Parameters(**{f.name: values[f.name] for f in dataclasses.fields(model.Parameters)
+                                          if f.init})
     except (ArithmeticError, ValueError, TypeError, KeyError):
-        return ()
+        return None, None
+
+
+def _output_jumps(md, values: dict) -> tuple:
+    """The times [s] where the outputs of a ujfmu FMU jump at values over its declared parameters (its model's
+    ``output_jumps``: a speed profile's step, a load step); none for any other FMU."""
+    model, p = _model_and_parameters(md, values, "output_jumps")
+    return () if model is None else tuple(float(t) for t in model.output_jumps(p))
 
 
 def changes_by(md, values: dict, t: float) -> bool:
     """True where the outputs of a ujfmu FMU at time t differ from those at 0 at values over its declared
-    parameters (its model's ``changes_by``: a speed profile that moved, a load changed); False for any other FMU,
-    or parameters its model cannot take."""
-    cls = _ujfmu_class(md)
-    model = getattr(cls, "MODEL", None)
-    if model is None or not hasattr(model, "changes_by"):
-        return False
-    values = {**{v.name: v.start for v in cls.VARIABLES if v.causality == "parameter"}, **values}
-    try:
-        return bool(model.changes_by(
-            model.Parameters(**{f.name: values[f.name] for f in dataclasses.fields(model.Parameters) if f.init}), t))
-    except (ArithmeticError, ValueError, TypeError, KeyError):
-        return False
+    parameters (its model's ``changes_by``: a speed profile that moved, a load changed); False for any other
+    FMU."""
+    model, p = _model_and_parameters(md, values, "changes_by")
+    return model is not None and bool(model.changes_by(p, t))
 
 
 def _unread_inputs(md, values: dict) -> set:
