@@ -468,8 +468,8 @@ def test_a_loads_drive_is_found_through_a_chain_and_not_guessed(tmp_path):
             + component("load_slow", "Load", "T0 = 5.0, omega_smooth = 1.0")
             + wires(("motor.omega", "ring.omega_in"), ("ring.omega_out", "joint.omega_in"),
                     ("joint.omega_out", "load.omega"), ("load.tau", "joint.tau_load"),
-                    ("joint.tau_in", "ring.tau_load"), ("ring.tau_in", "motor.tau_load"), ("slow.omega", "load_slow.omega"),
-                    ("load_slow.tau", "slow.tau_load"))
+                    ("joint.tau_in", "ring.tau_load"), ("ring.tau_in", "motor.tau_load"),
+                    ("slow.omega", "load_slow.omega"), ("load_slow.tau", "slow.tau_load"))
             + '[output]\nrecord = ["load.tau"]\n')
     scenario = Scenario(write(tmp_path, text))
     assert scenario._load_drives("load") == ["motor"] and scenario._load_drives("load_slow") == ["slow"]

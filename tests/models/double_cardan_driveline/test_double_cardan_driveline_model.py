@@ -133,9 +133,9 @@ def test_second_harmonic_of_output_error_is_q1_minus_q2_exp_2i_delta(b1_deg, b2_
 def test_a_positive_yoke_phase_turns_joint_2_ahead_in_the_sense_of_rotation(phase_deg, plane_deg):
     """The sense of delta = yoke_phase - joint_plane_angle (README, "Layout"), which the |q1 - q2 exp(2i delta)|
     amplitude cannot tell from -delta (it sets the ripple's phase against the input angle): at 20 and 35 deg (a
-    steering column's) the output speed is the product of the textbook ratios, joint 1's cos b1 / (1 - sin^2 b1 cos^2 phi1) and joint 2's
-    cos b2 / (1 - sin^2 b2 sin^2(psi2 + delta)), psi2 the intermediate shaft's angle (tan psi2 = tan phi1 / cos b1);
-    with -delta it differs by up to 41-49%."""
+    steering column's) the output speed is the product of the textbook ratios, joint 1's
+    cos b1 / (1 - sin^2 b1 cos^2 phi1) and joint 2's cos b2 / (1 - sin^2 b2 sin^2(psi2 + delta)), psi2 the
+    intermediate shaft's angle (tan psi2 = tan phi1 / cos b1); with -delta it differs by up to 41-49%."""
     b1, b2, delta = 20 * DEG, 35 * DEG, (phase_deg - plane_deg) * DEG
     p = driveline(b1, b2, phase_deg * DEG, plane_deg * DEG)
     phi1 = np.linspace(0.01, 2 * math.pi, 97)
