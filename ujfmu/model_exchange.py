@@ -269,10 +269,10 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
         for inst in instances.values():
             inst.free()
         interrupts.close()
+        asked, STOP[0] = STOP[0], False   # this run's, not the next's
         for entry in dict.fromkeys(line for line in log if line.startswith("[warning]")):   # as cosimulate does
             warnings.warn(entry, FmuWarning, stacklevel=2)
-    if STOP[0]:   # pressed during the last interval or while freeing
-        STOP[0] = False
+    if asked:   # pressed during the last interval or while freeing
         stopped = Interrupted(f"stopped at t = {stop_time:.10g} s, the run's end")
         stopped.partial = table(n_out + 1)
         raise stopped
