@@ -126,9 +126,26 @@ def test_a_ctrl_c_while_the_fmus_are_set_up_stops_the_run_at_its_first_step(fmu_
     here = os.getcwd()
     with pytest.raises(master.Interrupted, match="after 0 steps"):
         cosimulate(comps, link, 0.01, 1e-3, ["joint.omega_out"])
-    monkeypatch.undo()
     assert pressed and os.getcwd() == here and not master.STOP[0]
+    # pressed during a setup that then fails: the failure is raised, and the next run is not stopped by it
+    pressed.clear()
+    with pytest.raises(CosimulationError, match="no_such_input"):
+        cosimulate(comps, link + [Connection("motor.omega", "joint.no_such_input")], 0.01, 1e-3, ["joint.omega_out"])
+    assert pressed and not master.STOP[0]
+    monkeypatch.undo()
     assert len(cosimulate(comps, link, 0.01, 1e-3, ["joint.omega_out"])) == 11
+    # pressed while the FMUs are freed after a complete run: Interrupted, with the whole run
+    original_free, freed = master.FmuInstance.free, []
+
+    def pressed_while_freeing(self):
+        if not freed:
+            freed.append(True)
+            signal.raise_signal(signal.SIGINT)
+        original_free(self)
+    monkeypatch.setattr(master.FmuInstance, "free", pressed_while_freeing)
+    with pytest.raises(master.Interrupted, match="while its FMUs were freed") as info:
+        cosimulate(comps, link, 0.01, 1e-3, ["joint.omega_out"])
+    assert len(info.value.partial) == 11 and not master.STOP[0]
 
 
 def test_unconnected_inputs_are_named_with_their_values(fmu_dir):

@@ -460,14 +460,18 @@ class Cosimulation:
         self._open = True
         self._warned = 0             # log entries already raised as FmuWarning
         self._warned_texts = set()   # the texts raised
+        asked = STOP[0]
+        self.interrupted_while_closing = False   # a Ctrl-C while the FMUs were freed (``close``)
         try:
             with deferred_interrupt():   # a Ctrl-C meanwhile stops the run at its first step (``advance``)
                 self._setup(components, connections, record)
         except CosimulationError:
             self.close()
+            STOP[0] = STOP[0] and asked   # a Ctrl-C during a setup that failed: this setup's, not the next run's
             raise
         except Exception as exc:
             self.close()
+            STOP[0] = STOP[0] and asked
             raise CosimulationError(f"{exc}" + self._log_text()) from exc
         self._warn_fmu_warnings()
 
@@ -1254,7 +1258,8 @@ class Cosimulation:
         return np.rec.fromarrays([time] + list(values.T), dtype=dtype)
 
     def close(self):
-        """Free the FMUs; a Ctrl-C meanwhile waits for the end of it (``deferred_interrupt``), then raises."""
+        """Free the FMUs; a Ctrl-C meanwhile waits for the end of it (``deferred_interrupt``) and is kept in
+        ``interrupted_while_closing`` (``cosimulate`` then raises Interrupted with the complete results)."""
         asked = STOP[0]
         with deferred_interrupt():
             for inst in self.instances.values():
@@ -1263,9 +1268,9 @@ class Cosimulation:
             if getattr(self, "_open", False):
                 self._open = False
                 OPEN[0] -= 1
-        if STOP[0] and not asked:   # pressed while the FMUs were freed
+        if STOP[0] and not asked:   # pressed while the FMUs were freed: the run's, not the next one's
             STOP[0] = False
-            raise KeyboardInterrupt
+            self.interrupted_while_closing = True
 
     def __enter__(self):
         return self
@@ -1712,4 +1717,8 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
         table = cosim.run(n_steps, progress, output_interval)
         if diagnostics is not None:
             diagnostics["iterates"] = cosim.iterates
-        return table
+    if cosim.interrupted_while_closing:   # the run is complete: stopped with it
+        stopped = Interrupted(f"stopped at t = {stop_time:.10g} s, the run's end, while its FMUs were freed")
+        stopped.partial = table
+        raise stopped
+    return table

@@ -21,7 +21,7 @@ from fmpy.fmi3 import FMU3Model
 
 from .build3 import ME_TOLERANCE
 from .fmi3_host import FmuInstance3
-from .master import (STOP, CosimulationError, FmuWarning, Interrupted, _feedthrough_order,
+from .master import (OPEN, STOP, CosimulationError, FmuWarning, Interrupted, _feedthrough_order,
                      deferred_interrupt, extracted)
 
 
@@ -96,6 +96,7 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
     values = np.empty((n_out + 1, len(record)))
     interrupts = contextlib.ExitStack()   # a Ctrl-C waits for the next output point (not inside CVode's callbacks)
     interrupts.enter_context(deferred_interrupt())
+    OPEN[0] += 1   # open, as a co-simulation: the ``ujfmu`` command's handler then defers a Ctrl-C too
     try:
         for comp in components:
             unzip_dir, md = extracted(comp.fmu)
@@ -268,6 +269,7 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
     finally:
         for inst in instances.values():
             inst.free()
+        OPEN[0] -= 1
         interrupts.close()
         asked, STOP[0] = STOP[0], False   # this run's, not the next's
         for entry in dict.fromkeys(line for line in log if line.startswith("[warning]")):   # as cosimulate does

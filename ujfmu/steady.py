@@ -47,6 +47,8 @@ STATUSES = FINAL + (ERROR,)
 #: figures smaller than this fraction of their output's largest figure are compared in absolute terms
 FLOOR = 1e-2
 FIGURES = ("max", "min", "p2p", "mean", "rms")
+#: an order below this share of its signal's size has no phase (NaN): round-off's phase is noise
+PHASE_FLOOR = 1e-6
 #: factor by which the settle time grows while a point is not steady
 GROWTH = 1.5
 
@@ -63,8 +65,9 @@ class Window:
 
 def record_window(cosim, running_speed: str, revolutions: float, angle_signal: str = "") -> Window:
     """Record ``revolutions`` revolutions of the running speed read at the current point (at least 8 steps); with
-    angle_signal, the running shaft's angle, the window's offset: the mean of that angle less the window's running
-    angle (its ripple averages out over whole revolutions)."""
+    angle_signal, the running shaft's angle, the window's offset: that angle less the window's running angle, its
+    mean from the fit of the orders (a joint's output angle ripples at 2x, and a window is no whole number of its
+    revolutions: a plain mean had biased a phase by up to 0.03 rad)."""
     now = np.empty(len(cosim.columns))
     cosim.read(now)
     speed = now[cosim.columns.index(running_speed)]
@@ -74,9 +77,11 @@ def record_window(cosim, running_speed: str, revolutions: float, angle_signal: s
     h = cosim.step_size
     start = cosim.time
     table = cosim.run(max(8, int(math.ceil(revolutions * 2.0 * math.pi / abs(speed) / h))))
-    angle = running_angle(table["time"], table[running_speed])
-    offset = float(np.mean(table[angle_signal] - angle)) if angle_signal else math.nan
-    return Window(start, angle, table, offset)
+    window = Window(start, running_angle(table["time"], table[running_speed]), table)
+    if angle_signal:   # the angle's own ripple fitted out (the window is no whole number of its revolutions)
+        window.offset = float(order_fit(window.angle, table[angle_signal] - window.angle,
+                                        fitted_orders(window, (1,)))[0])
+    return window
 
 
 #: orders of the smooth running angle's own ripple fitted with it (:func:`running_angle`), at most
@@ -164,8 +169,11 @@ def figures(window: Window, outputs, orders, fits: dict | None = None, phases_wa
             fits[out] = amps
         values = dict(max=y.max(), min=y.min(), p2p=np.ptp(y), mean=c0, rms=rms)
         values.update({f"h{k}": a for k, a in zip(orders, _amplitudes(amps, orders, unresolved))})
-        if phases_wanted:   # against the shaft's own angle: k angle - p = k (offset + angle) - (p + k offset)
-            absolute = [math.remainder(p + k * window.offset, 2.0 * math.pi) for k, p in zip(fitted, phases)]
+        if phases_wanted:   # against the shaft's own angle: k angle - p = k (offset + angle) - (p + k offset);
+            # none for an order of round-off size (its phase is noise)
+            size = max(float(np.max(amps, initial=0.0)), abs(c0), 0.5 * float(np.ptp(y)))
+            absolute = [math.remainder(p + k * window.offset, 2.0 * math.pi) if a > PHASE_FLOOR * size else math.nan
+                        for k, a, p in zip(fitted, amps, phases)]
             values.update({f"ph{k}": a for k, a in zip(orders, _amplitudes(np.array(absolute), orders, unresolved))})
         result.update({f"{out}.{k}": float(v) for k, v in values.items()})
     return result
