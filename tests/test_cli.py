@@ -450,23 +450,25 @@ def test_record_adds_a_signal_and_keeps_the_run_checked(fmu_dir, tmp_path, capsy
 
 
 def test_a_stop_in_the_step_halving_rerun_keeps_the_whole_run(fmu_dir, tmp_path):
-    """cardan_startup's [reference.extrapolated] bands rerun it at h/2 after the run itself: that rerun reports its
-    own progress now (it had reported none, 70% of the call unseen), a False from the callback stops it, and the
-    complete run at the scenario's step is written, not lost (a notebook user's interrupt there had kept only the
-    rerun's rows)."""
+    """cardan_startup's [reference.extrapolated] bands rerun it at h/2 after the run itself: that rerun asks the
+    callback too (at the run's full count, so a bar stays full; it had asked nothing, 70% of the call unseen), a
+    False stops it, and the complete run at the scenario's step is written, not lost (a notebook user's interrupt
+    there had kept only the rerun's rows)."""
     from ujfmu.master import RunStopped
     from ujfmu.scenario_run import run_scenario
-    totals = []
+    reports = []
 
     def progress(done, total):
-        totals.append(total)
-        return total == totals[0]   # the run's own steps go on; the rerun's first report stops it
+        reports.append((done, total))
+        return done < total or reports.count((total, total)) < 2   # the rerun's first question stops it
     with pytest.raises(RunStopped) as info:
         run_scenario(SCENARIOS / "cardan_startup.toml", fmu_dir=fmu_dir, out_dir=tmp_path, plot=False,
                      progress=progress)
-    assert set(totals) == {totals[0], 2 * totals[0]} and "step-halving rerun" in str(info.value)
+    total = reports[0][1]
+    assert {t for _, t in reports} == {total} and reports[-2:] == [(total, total)] * 2
+    assert "stopped in the step-halving rerun" in str(info.value) and "complete and kept" in str(info.value)
     rows = (tmp_path / "cardan_startup.csv").read_text().splitlines()
-    assert len(rows) - 1 == totals[0] + 1 == len(info.value.partial)
+    assert len(rows) - 1 == total + 1 == len(info.value.partial)
 
 
 def test_an_unchecked_model_exchange_run_is_not_sent_to_the_step_check():

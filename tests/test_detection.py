@@ -241,6 +241,11 @@ def test_a_proportional_drive_short_of_its_set_point_is_told_its_offset(fmu_dir,
     line = next(x for x in capsys.readouterr().out.splitlines() if "operating point motor.omega" in x)
     assert float(line.split("mean ")[1].split()[0]) == pytest.approx(50.0 - 1.0 / 0.6, abs=1e-3)
     assert "no integral action (Ki = 0)" in line and "lengthen stop_time" not in line
+    # at its 0.8 N.m limit against the 1 N.m load the limit is the cause, not the missing integral (a reviewer's)
+    path.write_text(SCENARIO.format(tau_max=0.8).replace("Ki = 9.0", "Ki = 0.0"))
+    assert main(["--fmu-dir", str(fmu_dir), "run", str(path), "--no-plot", "--out", str(tmp_path)]) == 1
+    line = next(x for x in capsys.readouterr().out.splitlines() if "operating point motor.omega" in x)
+    assert "no integral action" not in line and "give the drive more torque (tau_max)" in line
 
 
 JOINT_AT_1500_RPM = """title = "Cardan joint at 20 deg behind an ideal speed source at 1500 rpm, no reference"
@@ -835,6 +840,12 @@ def test_a_setup_error_is_not_blamed_on_the_loads_chatter(fmu_dir):
     with pytest.raises(ScenarioError) as info:
         run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, progress=False)
     assert "more than once" in str(info.value) and "hint" not in str(info.value)
+    # a setup error only the co-simulation finds (a connection to an input the FMU does not have): no hint either
+    scenario.record.pop()
+    scenario.connections.append(Connection("motor.omega", "driveline.no_such_input"))
+    with pytest.raises(CosimulationError) as info:
+        run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, progress=False)
+    assert "no_such_input" in str(info.value) and "hint" not in str(info.value)
 
 
 def test_a_failure_far_from_rest_is_not_blamed_on_the_loads_chatter(fmu_dir):

@@ -425,6 +425,17 @@ def test_a_sampled_pi_too_fast_for_its_step_is_named(kp, warned):
         assert "Kp h / J = 150 x 0.001 / 0.05 = 3," in advice[0] and "Lower Kp below 100 or the step below" in advice[0]
 
 
+def test_a_sampled_pi_is_judged_at_the_smallest_inertia_over_a_turn():
+    """The heavy torque-driven CardanJoint reflects J_drive + J1 + J2 r^2 at its input, r from cos 20 deg to
+    1 / cos 20 deg over a turn: 0.1866 to 0.2365 kg.m2. At Kp = 382.5 the sampled loop passes Kp h / J = 2 where J
+    is smallest (2.05) though not at the start angle (1.62), and it diverged there (a reviewer's run): named, with
+    J near its smallest (16 angles a turn)."""
+    scenario = Scenario(SCENARIOS / "cardan_heavy_torque_driven.toml").with_parameters({"motor.Kp": 382.5})
+    (advice,) = [a for a in scenario.model_advice() if a.startswith("motor: its PI reads the speed once a step")]
+    inertia = float(advice.split("Kp h / J = 382.5 x 0.001 / ")[1].split(" =")[0])
+    assert 0.1866 <= inertia < 0.1866 * 1.01
+
+
 @pytest.mark.parametrize("t_step, warned", [(0.0, True), (0.01, False)])
 def test_a_motors_step_at_the_start_is_named(t_step, warned):
     """A Motor's step profile at t_step = 0 starts its rotor at omega_set (the profile's speed at the start), the

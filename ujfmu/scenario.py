@@ -127,6 +127,8 @@ def not_found_hint(path: Path) -> str:
 LOAD_CHATTER_ADVICE = 2.0
 #: Kp h / J at or above which a MotorController's PI, sampled at the step, is unstable (its pole 1 - Kp h / J at -1)
 SAMPLED_LOOP_LIMIT = 2.0
+#: input angles over a turn at which ``Scenario._sampled_loops`` takes the inertia, the smallest
+SAMPLED_LOOP_ANGLES = 16
 #: a Load's smooth sign below this at a drive's settled speed is named before the run
 #: (``Scenario.smoothed_friction``): 10 omega_smooth gives 0.995
 SMOOTH_SIGN = 0.99
@@ -941,8 +943,9 @@ class Scenario:
     def _sampled_loops(self) -> list:
         """'controller: warning' for a MotorController whose PI, sampled at the step, cannot hold its loop:
         Kp h / J >= SAMPLED_LOOP_LIMIT, J the inertia its torque accelerates at once (the driven FMU's
-        input shaft up to its first compliance, J_drive included: 1 / d(alpha_in)/d(tau_in) of its model at the
-        start), the sampled loop's pole 1 - Kp h / J then at or beyond -1."""
+        input shaft up to its first compliance, J_drive included: 1 / d(alpha_in)/d(tau_in) of its model), the
+        smallest over a turn of the input shaft (a joint's reflected inertia swings with its angle), the sampled
+        loop's pole 1 - Kp h / J then at or beyond -1 somewhere in the turn."""
         from .models.protocol import Torques
         found = []
         feeds = {c.source: c.target for c in self.connections}
@@ -953,10 +956,14 @@ class Scenario:
                 continue
             try:
                 model, p = fmu_class(self.components[driven][0]).MODEL, self.model_parameters(driven)
-                y = model.initial_state(p, self.start_time, Torques(0.0, 0.0))
-                accelerations = [model.derivatives(p, self.start_time, y, Torques(torque, 0.0))[1]
-                                 for torque in (1.0, -1.0)]
-                inertia = 2.0 / (accelerations[0] - accelerations[1])
+                y = tuple(model.initial_state(p, self.start_time, Torques(0.0, 0.0)))
+                inertias = []
+                for k in range(SAMPLED_LOOP_ANGLES):   # the input angle (the state's first entry) over a turn
+                    at = (y[0] + 2.0 * math.pi * k / SAMPLED_LOOP_ANGLES,) + y[1:]
+                    accelerations = [model.derivatives(p, self.start_time, at, Torques(torque, 0.0))[1]
+                                     for torque in (1.0, -1.0)]
+                    inertias.append(2.0 / (accelerations[0] - accelerations[1]))
+                inertia = min(inertias)
             except (ArithmeticError, ValueError, TypeError, IndexError):
                 continue
             kp = float(self.parameters_with_defaults(name)["Kp"])

@@ -91,7 +91,8 @@ class OperatingPointCheck:
     holds_from: float = math.nan
     #: the largest |set point| over the run [rad/s], the scale of a stop's tolerance
     top: float = 0.0
-    #: the drive's PI has no integral action (Ki = 0): a load leaves a steady offset T / Kp
+    #: the drive's PI has no integral action (Ki = 0) and is off its torque limit: a load leaves a steady offset
+    #: T / Kp (at the limit the limit is the cause, which the torque-limit note says)
     proportional: bool = False
 
     @property
@@ -582,10 +583,14 @@ def check_operating_points(scenario: Scenario, table: np.ndarray) -> list:
             off = np.flatnonzero(np.abs(ref - ref[-1]) > 1e-9 * max(1.0, float(np.max(np.abs(ref)))))
             if off.size and off[-1] < len(ref) - 2:
                 holds_from = float(t[window][off[-1] + 1])
-        drive = scenario.parameters_with_defaults(signal.partition(".")[0])
+        name = signal.partition(".")[0]
+        drive, torque = scenario.parameters_with_defaults(name), f"{name}.tau_motor"
+        limited = torque in table.dtype.names and bool(
+            np.max(np.abs(table[torque][window])) >= (1.0 - AT_LIMIT) * drive.get("tau_max", math.inf))
         checks.append(OperatingPointCheck(signal, set_point, float(np.mean(table[signal][window])),
                                           math.nan if moving else float(ref[-1]), float(t[window][0]), holds_from,
-                                          float(np.max(np.abs(table[set_point]))), drive.get("Ki", 1.0) == 0.0))
+                                          float(np.max(np.abs(table[set_point]))),
+                                          drive.get("Ki", 1.0) == 0.0 and not limited))
     return checks
 
 
@@ -1006,11 +1011,13 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                                     f"{scenario.step_size:g} s is coarser ([reference.tolerance] checked)")
         elif scenario.extrapolated_tolerances:
             try:
-                extrapolated = table if model_exchange else extrapolate_step(scenario, fmu_dir, table,
-                                                                             progress=progress or None)
+                # the rerun asks the callback whether to go on, at the run's own count (the bar stays full)
+                done = int(round((scenario.stop_time - scenario.start_time) / scenario.step_size))
+                extrapolated = table if model_exchange else extrapolate_step(
+                    scenario, fmu_dir, table, progress=(lambda *_: progress(done, done)) if progress else None)
             except (Interrupted, RunStopped) as exc:   # the run itself is whole: kept, as a stopped run's
-                exc.args = (f"{exc.args[0] if exc.args else 'stopped'} in the step-halving rerun at h/2 "
-                            "([reference.extrapolated]); the run at the scenario's step is complete and kept",)
+                exc.args = ("stopped in the step-halving rerun at half the step ([reference.extrapolated] bands); "
+                            "the run at the scenario's step is complete and kept, its comparison not made",)
                 exc.partial = table
                 _keep_partial(scenario, exc, [], out_dir, plot, model_exchange)
                 raise
