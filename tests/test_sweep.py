@@ -517,30 +517,29 @@ def test_order_phases_refer_to_the_running_shafts_own_angle(tmp_path, fmu_dir):
     scenario = Scenario(SCENARIOS / "cardan_constant_speed.toml").with_parameters(
         {"joint.bend_angle": math.radians(30.0), "joint.error_angle_beta": 0.0, "joint.error_angle_gamma": 0.0,
          "motor.omega_set": 50.0})
-    settings = SweepSettings.from_scenario(scenario, outputs=["joint.omega_out"], running_speed="motor.omega",
-                                           settle_time=0.2)
-    assert settings.running_angle == "motor.phi"
-    sweep = Sweep(scenario, [parse_axis("joint.phi_in_start=0,0.3", scenario)], settings, out_dir=tmp_path,
-                  name="phases", fmu_dir=fmu_dir)
-    sweep.run(workers=0)
-    for row in sweep.table():
+    def swept(output, speed, starts, name):
+        """The sweep of output over the joint's start angles, its orders against the angle of speed's shaft."""
+        settings = SweepSettings.from_scenario(scenario, outputs=[output], running_speed=speed, settle_time=0.2)
+        sweep = Sweep(scenario, [parse_axis(f"joint.phi_in_start={starts}", scenario)], settings, out_dir=tmp_path,
+                      name=name, fmu_dir=fmu_dir)
+        sweep.run(workers=0)
+        return settings.running_angle, sweep.table()
+    angle, rows = swept("joint.omega_out", "motor.omega", "0,0.3", "phases")
+    assert angle == "motor.phi"
+    for row in rows:
         start = row["point"]["joint.phi_in_start"]
         for k in (2, 4):
             assert row[f"joint.omega_out.ph{k}"] == pytest.approx(math.remainder(-k * start, 2 * math.pi), abs=1e-5)
     with open(tmp_path / "phases.columns.csv") as f:
         units = {r["column"]: r["unit"] for r in csv.DictReader(f)}
     assert units["joint.omega_out.ph2"] == "rad"
-    assert all(math.isnan(row["joint.omega_out.ph1"]) for row in sweep.table())   # a 1x of round-off: no phase
+    assert all(math.isnan(row["joint.omega_out.ph1"]) for row in rows)   # a 1x of round-off: no phase
     # against the joint's own output angle (joint.omega_out's shaft), whose 2x ripple a plain mean of the angle's
     # offset had let into the phases (up to 0.03 rad, a reviewer's find): the input torque's 2x, even in that
     # angle, has phase 0 whatever the start
-    settings = SweepSettings.from_scenario(scenario, outputs=["joint.tau_in"], running_speed="joint.omega_out",
-                                           settle_time=0.2)
-    assert settings.running_angle == "joint.phi_out"
-    sweep = Sweep(scenario, [parse_axis("joint.phi_in_start=0,0.3,1,2", scenario)], settings, out_dir=tmp_path,
-                  name="output_phases", fmu_dir=fmu_dir)
-    sweep.run(workers=0)
-    assert [row["joint.tau_in.ph2"] for row in sweep.table()] == pytest.approx([0.0] * 4, abs=1e-5)
+    angle, rows = swept("joint.tau_in", "joint.omega_out", "0,0.3,1,2", "output_phases")
+    assert angle == "joint.phi_out"
+    assert [row["joint.tau_in.ph2"] for row in rows] == pytest.approx([0.0] * 4, abs=1e-5)
 
 
 def ring_sweep(tmp_path, fmu_dir, specs, name, **settings):
