@@ -303,7 +303,7 @@ class Scenario:
         #: the file's reference, kept on a changed copy that runs without it (``with_parameters``), and the step and
         #: coupling its bands were chosen for
         self.file_reference = self.reference_file
-        self.file_step_size, self.file_coupling = getattr(self, "step_size", None), getattr(self, "coupling", None)
+        self.file_step_size, self.file_coupling = self.step_size, self.coupling
 
     def _read_header(self, data):
         """The top-level fields: only known ones; title and description strings."""

@@ -159,6 +159,11 @@ class TorqueLimitNote:
 AT_LIMIT = 1e-6
 
 
+def at_limit(torque: np.ndarray, tau_max: float) -> np.ndarray:
+    """Where a drive's torque samples are at its limit tau_max (within ``AT_LIMIT`` of it)."""
+    return np.abs(torque) >= (1.0 - AT_LIMIT) * tau_max
+
+
 def torque_limit_notes(scenario: Scenario, table: np.ndarray) -> list:
     """A :class:`TorqueLimitNote` per drive of ``operating_pairs`` whose tau_motor (in table) reached its tau_max."""
     notes = []
@@ -169,7 +174,7 @@ def torque_limit_notes(scenario: Scenario, table: np.ndarray) -> list:
         if len(t) < 2 or not {speed, set_point, torque} <= set(table.dtype.names):
             continue
         tau_max = float(scenario.parameters_with_defaults(drive)["tau_max"])
-        at = np.abs(table[torque]) >= (1.0 - AT_LIMIT) * tau_max
+        at = at_limit(table[torque], tau_max)
         if not at.any():
             continue
         dt = np.diff(t)
@@ -586,7 +591,7 @@ def check_operating_points(scenario: Scenario, table: np.ndarray) -> list:
         name = signal.partition(".")[0]
         drive, torque = scenario.parameters_with_defaults(name), f"{name}.tau_motor"
         limited = torque in table.dtype.names and bool(
-            np.max(np.abs(table[torque][window])) >= (1.0 - AT_LIMIT) * drive.get("tau_max", math.inf))
+            at_limit(table[torque][window], drive.get("tau_max", math.inf)).any())
         checks.append(OperatingPointCheck(signal, set_point, float(np.mean(table[signal][window])),
                                           math.nan if moving else float(ref[-1]), float(t[window][0]), holds_from,
                                           float(np.max(np.abs(table[set_point]))),
@@ -705,7 +710,7 @@ class ScenarioResult:
                         else f"ujfmu run {self.scenario.path} --check-step{self._fmu_dir_option()} estimates the "
                         "coupling error at this step")
             what = ("the run is not compared with the scenario file's [reference], made for the file's setup (a "
-                    "changed copy runs without it)" if getattr(self.scenario, "file_reference", None) is not None
+                    "changed copy runs without it)" if self.scenario.file_reference is not None
                     else "the scenario has no [reference]")
             return f"{what}: nothing was compared, and the result's accuracy is unknown ({estimate})"
         return "the scenario's [reference.tolerance] names no signal: nothing was compared"
@@ -770,8 +775,7 @@ class ScenarioResult:
         figures = ("[reference.tolerance] holds figures chosen for the scenario's own parameters (a few times the "
                    "error its run reaches there): a copy with other parameters needs figures of its own, the accuracy "
                    "its study needs")
-        own_step, own_coupling = (getattr(self.scenario, "file_step_size", self.scenario.step_size),
-                                  getattr(self.scenario, "file_coupling", self.scenario.coupling))
+        own_step, own_coupling = self.scenario.file_step_size, self.scenario.file_coupling
         if (self.scenario.step_size, self.scenario.coupling) != (own_step, own_coupling):
             figures += (f"; and for its own step and coupling ({own_step:g} s, {own_coupling}): at "
                         f"{self.scenario.step_size:g} s, {self.scenario.coupling}, a FAIL holds this run to the file's "

@@ -340,7 +340,7 @@ def not_steady_message(settled: float, earlier_start: float, cap: float, length:
 
 def _measured(window, s):
     fits = {}
-    out = figures(window, s.outputs, s.orders, fits, phases_wanted=bool(getattr(s, "running_angle", "")))
+    out = figures(window, s.outputs, s.orders, fits, phases_wanted=bool(s.running_angle))
     speed = window.table[s.running_speed]
     out["speed_mean"] = float(order_fit(window.angle, speed, fitted_orders(window, s.orders))[0])
     out["note"] = "; ".join(n for n in (unresolved_note(window, s.orders, out["speed_mean"]),
