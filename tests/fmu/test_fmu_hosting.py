@@ -225,3 +225,45 @@ def test_steps_computed_as_differences_of_times_are_the_constant_step(fmu_dir, n
     scale = [max(max(abs(row[i]) for row in constant), 1e-9) for i in range(len(constant[0]))]
     worst = max(abs(a - b) / s for r1, r2 in zip(constant, jittered) for a, b, s in zip(r1, r2, scale))
     assert worst < 1e-10, worst
+
+
+@pytest.mark.parametrize("name", ["TwinJeffcottRotor", "Motor", "DoubleCardanDrivelineTorqueDriven", "Load"])
+def test_a_step_that_does_not_start_where_the_last_ended_is_said_once(fmu_dir, name):
+    """FMI leaves the time axis to the host: a step from elsewhere, without a saved state restored, is taken and
+    said once, as a warning naming both times; a host's own time arithmetic (t_k = k h, which the FMU's t + h
+    differs from in its last bits) and a step from a restored state are not."""
+    h, log = 1e-3, []
+    inst = open_instance(fmu_dir, name, log)
+    inputs = inputs_of(inst)
+
+    def step(t):
+        inst.set(**{n: INPUTS[n](t) for n in inputs})
+        inst.slave.doStep(t, h)
+
+    def warnings():
+        return [m for m in log if "[warning]" in m and "no saved FMU state was restored" in m]
+
+    try:
+        inst.initialize()
+        for k in range(37):
+            step(k * h)   # 0.001 * k: not the FMU's accumulated t + h in the last bits
+        assert not warnings()
+        saved = inst.slave.getFMUstate()
+        step(40 * h)
+        said = warnings()
+        assert len(said) == 1 and "t = 0.04 s, forward" in said[0] and "(0.037 s)" in said[0]
+        assert "skips or repeats 0.003 s" in said[0]
+        step(10 * h)   # back: said once per instance
+        step(11 * h)
+        assert len(warnings()) == 1
+        inst.slave.setFMUstate(saved)   # the state holds its own account: nothing said yet at 0.037 s
+        step(37 * h)
+        assert len(warnings()) == 1
+        step(38 * h + 1e-7)   # a tenth of a microsecond is no rounding
+        assert len(warnings()) == 2 and "skips or repeats 1e-07 s" in warnings()[1]
+        inst.slave.setFMUstate(saved)
+        step(20 * h)
+        assert len(warnings()) == 3 and "t = 0.02 s, back" in warnings()[2]
+        inst.slave.freeFMUstate(saved)
+    finally:
+        inst.free()

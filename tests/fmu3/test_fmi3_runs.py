@@ -475,6 +475,21 @@ def test_a_step_that_aliases_the_2x_order_is_said_once_in_fmi3(fmu3_dir, opened)
     assert len(warnings) == 1 and "reads the outputs once a period" in warnings[0], log
 
 
+def test_a_step_from_elsewhere_is_said_once_in_fmi3(fmu3_dir, opened):
+    """As the FMI 2.0 FMU (tests/fmu/test_fmu_hosting.py): a step that does not start where the last ended, no
+    state restored, is taken and said once, naming both times."""
+    log = []
+    inst = _open(FmuInstance3, fmu3_dir, "TwinJeffcottRotor", log)
+    opened.append(inst)
+    inst.initialize()
+    step = inst.raw("fmi2DoStep")
+    for t in (0.5, 0.5 + H, 0.5 + 2 * H, 0.5 + 9 * H, 0.5):
+        inst.set(omega_in=100.0, tau_load=1.0)
+        assert step(inst.slave.component, t, H, 1) == 0
+    said = [m for m in log if "no saved FMU state was restored" in m]
+    assert len(said) == 1 and "t = 0.509 s, forward from where the last one ended (0.503 s)" in said[0], log
+
+
 def test_the_states_nominals_are_in_the_model_description_as_the_fmu_gives_them(fmu3_dir, opened):
     """The twin rotor's disc displacements and velocities carry their nominals (1e-4 m, 1e-2 m/s) in the
     modelDescription, the values fmi3GetNominalsOfContinuousStates gives, so a host that scales its solver's

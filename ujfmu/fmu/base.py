@@ -521,6 +521,25 @@ class UjfmuSlave(Fmi2Slave):
         return var.check(value, hint=False) + UNSTABLE_INPUT + (
             f"; or, if the host gives this input in another unit: {slip.strip()[1:-1]}" if slip else "")
 
+    #: where the last step ended (ModelSlave: the time of its state; None: not kept) and whether a host's step from
+    #: elsewhere has been said (:meth:`_say_time_jump`; True: not watched)
+    _time, _clock_said = None, True
+
+    def _say_time_jump(self, current_time, step_size):
+        """Log once, as a warning, a step that does not start where the last ended (:meth:`do_step` calls it beyond
+        the rounding of a host's time arithmetic, 1e-9 of the time): a step back or a jump without restoring a saved
+        FMU state. The FMI standard leaves the time axis to the host, so the step is taken (from the state at the
+        last step's end, over step_size, the host's time from then on), but the run is not what the host's time
+        axis says it is."""
+        last, self._clock_said = self._time, True
+        kind = "back" if current_time < last else "forward"
+        self.log(f"{self.modelName} '{self.instance_name}': a step starts at t = {current_time:.10g} s, {kind} from "
+                 f"where the last one ended ({last:.10g} s), and no saved FMU state was restored: the FMU steps its "
+                 f"state at {last:g} s over {step_size:g} s and takes the host's time from there (time-dependent "
+                 f"inputs, such as a Motor's profile, follow it), so the run skips or repeats "
+                 f"{abs(current_time - last):.6g} s of this model's motion. Check the host's time axis: each step starts where the last ended, or "
+                 "after restoring the FMU state saved there. (Said once per instance.)", Fmi2Status.warning)
+
     def do_step(self, current_time, step_size):
         try:
             if not self._running:
@@ -531,6 +550,9 @@ class UjfmuSlave(Fmi2Slave):
             for name, lo, hi, var in self._input_bounds:
                 if not lo <= values[name] <= hi:   # NaN and inf fail too
                     raise ValueError(self._input_problem(var, values[name], current_time, step_size))
+            t0 = self._time   # one line: a host's rounding (t0 != current_time) costs no more lines or calls
+            if not self._clock_said and t0 != current_time and abs(current_time - t0) > 1e-9 * (abs(t0) + step_size):
+                self._say_time_jump(current_time, step_size)
             self.advance(current_time, step_size)
             self._stale, self._partial = True, False
             return True
@@ -564,7 +586,7 @@ class ModelSlave(UjfmuSlave):
 
     MODEL = None
     STATE = {"_time": "float", "_started": "bool", "_aliasing_said": "bool",
-             "_state_advice_said": "bool"}   # plus "_y", the model state
+             "_state_advice_said": "bool", "_clock_said": "bool"}   # plus "_y", the model state
     #: h |omega_in| at and above which a host that reads the outputs every step h aliases the model's
     #: ``EXCITATION_ORDER`` (at most MIN_SAMPLES_PER_PERIOD reads a period), or its ``excitation_order(p)`` at these
     #: parameters where it has one (:meth:`derive`); inf: none
@@ -641,6 +663,7 @@ class ModelSlave(UjfmuSlave):
 
     def initialize(self, start_time):
         self._time, self._started, self._aliasing_said, self._state_advice_said = start_time, False, False, False
+        self._clock_said = False
         self._y = tuple(self.MODEL.initial_state(self._p, start_time, self.model_inputs()))
         if self._history_step is not None:
             self._history = self.MODEL.NO_HISTORY
