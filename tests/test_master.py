@@ -301,6 +301,43 @@ def test_ctrl_c_from_python_stops_at_the_next_communication_step(fmu_dir, ideal)
         signal.signal(signal.SIGINT, previous)
 
 
+@pytest.mark.parametrize("ideal", [True, False])
+def test_a_second_ctrl_c_inside_an_fmus_code_is_an_interrupt_not_a_failure(fmu_dir, monkeypatch, ideal):
+    """A second Ctrl-C raises at once; landing inside an FMU's own code (here: both inside the Load's step), it
+    makes that FMU's call fail, which the master had reported as the FMU refusing the step: a sweep kept it as the
+    point's result and reused it on the rerun. It is the KeyboardInterrupt it is, with the results up to the last
+    whole step, and the next run is whole."""
+    import signal
+    import sys
+
+    from ujfmu.master import Interrupted
+    components = chain(fmu_dir)
+    components[0].parameters["ideal_speed_source"] = ideal
+    cosimulate(components, CONNECTIONS, 1e-3, 1e-3, ["joint.omega_out"])   # the Load's runtime package imported
+    load_fmu = next(m for name, m in sys.modules.items() if name.startswith("ujfmu_load_")
+                    and name.endswith(".models.load.fmu"))
+    advance = load_fmu.Load.advance
+
+    def pressed_twice(self, t, h):
+        if t >= 0.0195:
+            signal.raise_signal(signal.SIGINT)   # the first: stop at the next communication step
+            signal.raise_signal(signal.SIGINT)   # the second: at once, here
+        return advance(self, t, h)
+    monkeypatch.setattr(load_fmu.Load, "advance", pressed_twice)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(Interrupted) as info:
+            cosimulate(components, CONNECTIONS, 0.1, 1e-3, ["joint.omega_out"])
+        assert len(info.value.partial) == 21   # t = 0 ... 0.019: the step at 0.0195 did not end
+        monkeypatch.setattr(load_fmu.Load, "advance", advance)
+        try:
+            assert len(cosimulate(components, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])) == 11
+        except KeyboardInterrupt:
+            pytest.fail("the Ctrl-C stopped the next run too")
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 @pytest.mark.parametrize("at", [1.0, 1.04, 1.05])
 def test_a_change_meant_at_a_communication_point_happens_there(fmu_dir, at):
     """The master's times are k h: 1.04 and 1.05 arrive as 1.0399999999999998 and 1.0499999999999998 at 1 ms, and

@@ -1134,7 +1134,7 @@ def _interrupt(signum, frame) -> None:
         what = "Ctrl-C" if signum == signal.SIGINT else "SIGTERM"
         print(f"\n{what}: stopping at the next communication step ({what} again to stop at once)", file=sys.stderr)
         return
-    raise KeyboardInterrupt
+    master.raise_at_once()
 
 
 def _stopped_text() -> str:

@@ -110,6 +110,10 @@ SPEED_UNIT, TORQUE_UNIT = "rad/s", "N.m"
 #: sweep took it for a failed point and went on); OPEN[0] counts the co-simulations open now (``ujfmu.cli``'s handler
 #: stops at once when none is)
 STOP, OPEN = [False], [0]
+#: True once a handler raised KeyboardInterrupt at once (a second Ctrl-C) while a co-simulation was open: raised
+#: inside an FMU's code, it makes that FMU's call fail, and the master reports the failure as the interrupt it is
+#: (``Cosimulation._failure``), so a sweep does not keep it as the point's result
+RAISED_IN_RUN = [False]
 #: communication steps a run may take at most (1e9 steps of 25 us are seven hours, and a record of them 8 GB a signal)
 MAX_STEPS = 1e9
 
@@ -122,6 +126,13 @@ def _stop_at_next_step(signum, frame) -> None:
     if OPEN[0] and not STOP[0]:
         STOP[0] = True
         return
+    raise_at_once()
+
+
+def raise_at_once() -> None:
+    """Raise KeyboardInterrupt now (a handler's second Ctrl-C), marking it for a co-simulation that is open
+    (``RAISED_IN_RUN``)."""
+    RAISED_IN_RUN[0] = RAISED_IN_RUN[0] or bool(OPEN[0])
     raise KeyboardInterrupt
 
 
@@ -131,7 +142,7 @@ def _defer_interrupt(signum, frame) -> None:
     if not STOP[0]:
         STOP[0] = True
         return
-    raise KeyboardInterrupt
+    raise_at_once()
 
 
 @contextlib.contextmanager
@@ -462,17 +473,20 @@ class Cosimulation:
         self._warned_texts = set()   # the texts raised
         asked = STOP[0]
         self.interrupted_while_closing = False   # a Ctrl-C while the FMUs were freed (``close``)
+        RAISED_IN_RUN[0] = False
         try:
             with deferred_interrupt():   # a Ctrl-C meanwhile stops the run at its first step (``advance``)
                 self._setup(components, connections, record)
-        except CosimulationError:
+        except CosimulationError as exc:
             self.close()
             STOP[0] = STOP[0] and asked   # a Ctrl-C during a setup that failed: this setup's, not the next run's
+            if RAISED_IN_RUN[0]:
+                raise self._failure("") from exc
             raise
         except Exception as exc:
             self.close()
             STOP[0] = STOP[0] and asked
-            raise CosimulationError(f"{exc}" + self._log_text()) from exc
+            raise self._failure(f"{exc}") from exc
         self._warn_fmu_warnings()
 
     def _warn_fmu_warnings(self):
@@ -731,6 +745,15 @@ class Cosimulation:
         lines = without_wrapper_noise(self.log)
         return ("\nFMU log:\n" + "\n".join(lines)) if lines else ""
 
+    def _failure(self, message: str) -> Exception:
+        """The error of an FMU call that failed: a CosimulationError of message and the FMUs' log, or,
+        where a second Ctrl-C raised KeyboardInterrupt at once inside an FMU's code and so made the call fail
+        (``RAISED_IN_RUN``), the Interrupted it is."""
+        if RAISED_IN_RUN[0]:
+            RAISED_IN_RUN[0] = False
+            return self._interrupted()
+        return CosimulationError(message + self._log_text())
+
     def _communicate(self):
         """Transfer every connection, in feedthrough order, at the current communication point."""
         for op in self._ops:
@@ -740,7 +763,7 @@ class Cosimulation:
     def _op_failed(self, op):
         plan = self._ops if op in self._ops else self._lean_ops
         name = self._op_names[plan.index(op)] if op in plan else "reading the recorded signals"
-        raise CosimulationError(f"t = {self.time!r}: {name} failed" + self._log_text())
+        raise self._failure(f"t = {self.time!r}: {name} failed")
 
     def read(self, row):
         """Write the recorded signals at the current communication point into row (len(columns) floats)."""
@@ -763,7 +786,7 @@ class Cosimulation:
         callable(steps_done, n_steps) called now and then; returning False stops the run there (``RunStopped``).
         ``rows_done``: the rows written so far. A Ctrl-C raises KeyboardInterrupt at the next communication step
         (:func:`_stop_at_next_step`, while Python's own SIGINT handler was the one in place)."""
-        previous = None
+        previous, RAISED_IN_RUN[0] = None, False
         if (threading.current_thread() is threading.main_thread()
                 and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
             previous = signal.signal(signal.SIGINT, _stop_at_next_step)
@@ -966,6 +989,8 @@ class Cosimulation:
                 self._refused(name, t.value)
 
     def _refused(self, name, t):
+        if RAISED_IN_RUN[0]:   # the FMU refused a Ctrl-C raised in its code: no divergence to report
+            raise self._failure("")
         if self._held_rows:   # implicit steps not yet watched: the reports below need them
             self._settle_pending(failing=True)
         growing = self._growth_report() or self._jump_report() or self._energy_report()
@@ -973,7 +998,7 @@ class Cosimulation:
             raise CouplingInstabilityError(
                 f"component '{name}' refused the step at t = {t!r} after the coupling went unstable: "
                 f"{growing}; the component's own message follows" + self._log_text())
-        raise CosimulationError(f"component '{name}' refused the step at t = {t!r}" + self._log_text())
+        raise self._failure(f"component '{name}' refused the step at t = {t!r}")
 
     def _remedy(self):
         return ("use the implicit coupling (the default; coupling = \"implicit\" in a scenario's [experiment], "
@@ -1115,7 +1140,7 @@ class Cosimulation:
         states = self._states
         for (get_state, _, _, comp, name), ref in zip(self._state_ops, self._state_refs):
             if get_state(comp, ref) > 1:
-                raise CosimulationError(f"component '{name}' could not save its state at t = {t!r}" + self._log_text())
+                raise self._failure(f"component '{name}' could not save its state at t = {t!r}")
         try:
             self._step(self._fixed_steppers, c_double(t), c_double(h))
             g_start = [v[0] for v in self._tear_values]
@@ -1195,13 +1220,11 @@ class Cosimulation:
         if restore:
             for (_, set_state, _, comp, name), state in zip(self._state_ops, states):
                 if set_state(comp, state) > 1:
-                    raise CosimulationError(f"component '{name}' could not restore its state at t = {t!r}"
-                                            + self._log_text())
+                    raise self._failure(f"component '{name}' could not restore its state at t = {t!r}")
         for (set_, dst, dst_vr, one, buffer), i, value in zip(self._tear_sets, self._tears, u):
             buffer[0] = value
             if set_(dst, dst_vr, one, buffer) > 1:
-                raise CosimulationError(f"t = {t!r}: setting {self._transfers[i][-1].target} failed"
-                                        + self._log_text())
+                raise self._failure(f"t = {t!r}: setting {self._transfers[i][-1].target} failed")
         self._held = u
         self._step(self._rolled_steppers, c_double(t), c_double(h))
         self.time = t + h

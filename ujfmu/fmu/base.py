@@ -268,8 +268,9 @@ class UjfmuSlave(Fmi2Slave):
                         self.compute_load_outputs()
                     else:
                         self.compute_outputs()
-                except Exception as exc:
-                    self._raise_to_host(f"{self.modelName} '{self.instance_name}': cannot compute {name}: {exc}")
+                except (Exception, KeyboardInterrupt) as exc:   # a Ctrl-C too: pythonfmu frees what it raises twice
+                    self._raise_to_host(f"{self.modelName} '{self.instance_name}': cannot compute {name}: "
+                                        f"{exc or type(exc).__name__}")
                 self._stale = self._partial = False
             return getattr(self, name)
         return get
@@ -556,8 +557,9 @@ class UjfmuSlave(Fmi2Slave):
             self.advance(current_time, step_size)
             self._stale, self._partial = True, False
             return True
-        except Exception as exc:  # reported to the host, never raised into it
-            self.log(f"{self.modelName} '{self.instance_name}': step at t = {current_time!r} refused: {exc}",
+        except (Exception, KeyboardInterrupt) as exc:  # reported to the host, never raised into it
+            why = exc if isinstance(exc, Exception) else "interrupted (a Ctrl-C raised KeyboardInterrupt in its code)"
+            self.log(f"{self.modelName} '{self.instance_name}': step at t = {current_time!r} refused: {why}",
                      Fmi2Status.error)
             return False
 
