@@ -384,3 +384,37 @@ def test_a_refused_parameter_is_named_without_the_wrappers_noise(fmu_dir):
     noise = "[fatal] j: Fatal py exception encountered: [doStep] PyObject_CallMethod\nunknown error"
     assert without_wrapper_noise(["[error] j: refused", noise]) == ["[error] j: refused"]
     assert without_wrapper_noise([noise]) == [noise]   # no cause said before it: kept
+
+
+def test_the_fmu_folders_of_a_process_that_ended_without_its_exit_handlers_are_removed_by_the_next(fmu_dir,
+                                                                                                  tmp_path):
+    """A script that ends with os._exit (as pythonfmu's exit abort advises), a dask worker its cluster stops, a
+    kill -9: the process's extraction folders stay; the next process to extract an FMU removes them, and only
+    those of ended processes of its user (not a running one's, not this one's, not other files)."""
+    import os
+    import subprocess
+    import sys
+
+    script = (f"from ujfmu.master import extracted; extracted({str(fmu_dir / 'Load.fmu')!r}); "
+              "import os; print(os.getpid(), flush=True); os._exit(0)")
+
+    def extract_and_exit():
+        done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True,
+                              env={**os.environ, "TMPDIR": str(tmp_path)})
+        return int(done.stdout.split()[0])
+    dead = extract_and_exit()
+    left = [p for p in tmp_path.iterdir() if p.name.startswith(f"ujfmu_fmu_{dead}_")]
+    assert len(left) == 1 and (left[0] / "modelDescription.xml").exists()   # os._exit: no exit handlers ran
+    running = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        kept = [tmp_path / f"ujfmu_worker_fmus_{running.pid}_x", tmp_path / f"ujfmu_fmu_{os.getpid()}_y",
+                tmp_path / "ujfmu_fmu_abc", tmp_path / "other_123_z"]
+        for folder in kept:
+            folder.mkdir()
+        (tmp_path / f"ujfmu_fmu_{dead}_file").write_text("not a folder")
+        extract_and_exit()
+    finally:
+        running.kill()
+        running.wait()
+    assert not left[0].exists() and all(folder.exists() for folder in kept)
+    assert (tmp_path / f"ujfmu_fmu_{dead}_file").exists()

@@ -31,6 +31,8 @@ import dataclasses
 import difflib
 import math
 import numbers
+import os
+import re
 import shutil
 import signal
 import tempfile
@@ -385,6 +387,47 @@ class FmuInstance:
 
 
 _EXTRACTED = {}
+#: a temporary folder of this process's FMUs: ``<prefix><pid>_<random>`` in the system's temporary folder
+_OWN_FOLDER = re.compile(r"(ujfmu_fmu_|ujfmu_worker_fmus_)(\d+)_\w+")
+
+
+def temporary_folder(prefix: str) -> Path:
+    """A new temporary folder named prefix, this process's id, '_' and a random part; the first in a process
+    removes those the same user's ended processes left (:func:`remove_abandoned_folders`)."""
+    if not _FOLDERS_SWEPT:
+        _FOLDERS_SWEPT.append(True)
+        remove_abandoned_folders()
+    return Path(tempfile.mkdtemp(prefix=f"{prefix}{os.getpid()}_"))
+
+
+_FOLDERS_SWEPT = []
+
+
+def remove_abandoned_folders(root: str | os.PathLike | None = None) -> list:
+    """Remove the FMU folders (``_OWN_FOLDER``) in root (default: the system's temporary folder) that a process of
+    this user left behind when it ended without its exit handlers (``kill -9``, ``os._exit``, a dask worker
+    stopped by its cluster); a folder whose process still runs (or whose id another process now has) is kept.
+    Returns the folders removed."""
+    removed = []
+    root = Path(root or tempfile.gettempdir())
+    try:
+        entries = list(os.scandir(root))
+    except OSError:
+        return removed
+    for entry in entries:
+        match = _OWN_FOLDER.fullmatch(entry.name)
+        if match is None or int(match.group(2)) == os.getpid():
+            continue
+        try:
+            if not entry.is_dir(follow_symlinks=False) or entry.stat(follow_symlinks=False).st_uid != os.getuid():
+                continue
+            os.kill(int(match.group(2)), 0)
+        except ProcessLookupError:   # its process has ended
+            shutil.rmtree(entry.path, ignore_errors=True)
+            removed.append(Path(entry.path))
+        except (OSError, OverflowError):   # another user's process, or not ours to judge
+            continue
+    return removed
 
 
 def extracted(fmu):
@@ -392,14 +435,15 @@ def extracted(fmu):
 
     Every instance of an FMU then loads the same binary (the loader counts references) instead of a fresh copy
     from a fresh folder, which a sweep of thousands of co-simulations in one worker process would pile up. The
-    folders are removed when the process exits."""
+    folders are removed when the process exits, or, where it ended without its exit handlers, by the next process
+    that extracts an FMU (:func:`temporary_folder`)."""
     path = Path(fmu).resolve()
     stat = path.stat()
     key = (str(path), stat.st_size, stat.st_mtime_ns)
     if key not in _EXTRACTED:
         if not _EXTRACTED:
             atexit.register(lambda: [shutil.rmtree(d, ignore_errors=True) for d, _ in _EXTRACTED.values()])
-        folder = tempfile.mkdtemp(prefix="ujfmu_fmu_")
+        folder = str(temporary_folder("ujfmu_fmu_"))
         try:
             _EXTRACTED[key] = (extract(str(path), unzipdir=folder), read_model_description(str(path)))
         except BaseException:   # not an FMU (or not one we read): nothing of it is kept

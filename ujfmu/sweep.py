@@ -44,7 +44,6 @@ import re
 import shutil
 import signal
 import sys
-import tempfile
 import threading
 import time
 import warnings
@@ -55,7 +54,7 @@ from pathlib import Path
 
 from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
 from .extras import require
-from .master import Component, Connection, Cosimulation, FmuWarning, RunStopped
+from .master import Component, Connection, Cosimulation, FmuWarning, RunStopped, temporary_folder
 from .scenario import SWEEP_KEYS, Scenario, ScenarioError, plain_number
 from .steady import ERROR, FIGURES, FINAL, OK, STATUSES, grows, settle_and_measure
 
@@ -634,7 +633,7 @@ def _worker_fmu_dir(hashes, fmu_blobs=None):
             raise WorkerSetupError("this worker has not received the sweep's FMUs (FmuInstaller plugin missing)")
         if not _WORKER_DIRS:
             atexit.register(lambda: [shutil.rmtree(d, ignore_errors=True) for d in _WORKER_DIRS.values()])
-        folder = Path(tempfile.mkdtemp(prefix="ujfmu_worker_fmus_"))
+        folder = temporary_folder("ujfmu_worker_fmus_")
         for name, blob in fmu_blobs.items():
             (folder / f"{name}.fmu").write_bytes(blob)
         _WORKER_DIRS[key] = folder
