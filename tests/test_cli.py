@@ -244,6 +244,30 @@ def test_progress_is_a_callback_and_the_cli_draws_no_bar_off_a_terminal(fmu_dir,
     assert "results:" not in capsys.readouterr().out   # --quiet: the verdict only
 
 
+@pytest.mark.parametrize("reused, seconds, said", [(0, 10.0, "about 16 min to go"), (20, 10.0, "about 13 min to go"),
+                                                  (0, 0.1, None)])
+def test_a_sweep_off_a_terminal_says_its_time_to_go_once_from_its_first_computed_points(capsys, monkeypatch, reused,
+                                                                                      seconds, said):
+    """A DOE engineer's long sweep in a CI log had said nothing about its length: after its first four computed
+    points (the ones reused from a journal are done at once and do not count) it says the time to go at their pace,
+    once, where that is a minute or more."""
+    import argparse
+
+    from ujfmu import cli
+    clock = [0.0]
+    monkeypatch.setattr(cli.time, "perf_counter", lambda: clock[0])
+    with cli._progress(argparse.Namespace(quiet=False), "grid", "point") as say:
+        say(reused, 100)
+        for done in range(reused + 1, reused + 9):
+            clock[0] += seconds
+            say(done, 100)
+    lines = [line for line in capsys.readouterr().err.splitlines() if "to go" in line]
+    if said is None:
+        assert not lines
+    else:
+        assert len(lines) == 1 and said in lines[0] and f"({seconds:.3g} s each, wall" in lines[0], lines
+
+
 @pytest.mark.parametrize("scenario", ["cardan_constant_speed", "cardan_startup"])   # explicit, implicit steps
 def test_a_progress_callback_that_returns_false_stops_the_run_and_keeps_its_results(fmu_dir, tmp_path, scenario):
     """As fmpy's step_finished: returning False stops the run at that report (a caller's time budget had to raise

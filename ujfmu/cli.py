@@ -65,9 +65,12 @@ def _note_subfolders(folder: Path, named) -> None:
               + "; name a subfolder to include it", file=sys.stderr)
 
 
-#: off a terminal (a CI log), sweeps say their progress in a line at each tenth of their points and at least every
-#: PLAIN_PROGRESS_EVERY s
+#: off a terminal (a CI log), sweeps say their progress in a line at each tenth of their points and at the end of a
+#: point PLAIN_PROGRESS_EVERY s or more after the last line
 PLAIN_PROGRESS_EVERY = 60.0
+#: computed points after which a sweep off a terminal says the time to go once, where it is a minute or more (on a
+#: terminal the bar shows it)
+PACE_AFTER_POINTS = 4
 
 
 @contextlib.contextmanager
@@ -78,14 +81,24 @@ def _progress(args, desc, unit):
         yield None
         return
     if not sys.stderr.isatty():
-        started, said = time.perf_counter(), {"tenth": 0, "at": time.perf_counter()}
+        started, said = time.perf_counter(), {"tenth": 0, "at": time.perf_counter(), "first": None, "paced": False}
 
         def say(done, total):
             now, tenth = time.perf_counter(), (10 * done) // max(total, 1)
+            if said["first"] is None:   # the points reused from a journal are done at once
+                said["first"] = done
             if done and (tenth > said["tenth"] or now - said["at"] >= PLAIN_PROGRESS_EVERY):
                 said.update(tenth=tenth, at=now)
                 print(f"  {desc}: {done} of {total} {unit}s done ({now - started:.0f} s)", file=sys.stderr,
                       flush=True)
+            computed = done - said["first"]
+            if not said["paced"] and computed >= PACE_AFTER_POINTS and done < total:
+                said["paced"] = True
+                pace = (now - started) / computed
+                if pace * (total - done) >= PLAIN_PROGRESS_EVERY:
+                    print(f"  {desc}: about {pace * (total - done) / 60.0:.2g} min to go at the pace of its first "
+                          f"{computed} {unit}s ({pace:.3g} s each, wall; a {unit} that settles slowly takes longer)",
+                          file=sys.stderr, flush=True)
         yield say
         return
     from tqdm import tqdm
