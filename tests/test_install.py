@@ -79,14 +79,15 @@ def test_installed_copy_builds_and_checks_the_project_folder(plain_install):
     assert "PASS cardan_constant_speed" in checked.stdout and "1 passed, 0 failed, 0 not checked" in checked.stdout
     assert (project / "results" / "cardan_constant_speed.csv").is_file()
     assert "pip install 'ujfmu[plot]'" in checked.stderr   # no matplotlib: said once, the check still passes
-    # a missing extra is named, with the command that installs it
+    # a missing extra is named, with the command that installs it; a sweep without dask runs in this process
     swept = ujfmu(venv, project, "sweep", "scenarios/cardan_constant_speed.toml", "--param",
-                  "load.T0=0.1,0.2", "--settle", "0.1", "--running-speed", "motor.omega")
+                  "load.T0=0.1,0.2", "--settle", "0.1", "--running-speed", "motor.omega", "--workers", "2")
     assert swept.returncode == 2 and "pip install 'ujfmu[sweep]'" in swept.stderr
     assert "ujfmu sweep (--workers 0 runs in this process without it) needs distributed" in swept.stderr
     in_process = ujfmu(venv, project, "sweep", "scenarios/cardan_constant_speed.toml", "--param", "load.T0=0.1,0.2",
-                       "--settle", "0.1", "--running-speed", "motor.omega", "--workers", "0")
+                       "--settle", "0.1", "--running-speed", "motor.omega")
     assert in_process.returncode == 0 and "pip install 'ujfmu[plot]'" in in_process.stderr, in_process.stderr
+    assert "the points run one after another in this process (pip install -e '.[sweep]'" in in_process.stderr
     assert (project / "results" / "cardan_constant_speed_sweep.csv").is_file()
     regenerated = ujfmu(venv, project, "references")
     assert regenerated.returncode == 2 and "pip install 'ujfmu[references]'" in regenerated.stderr

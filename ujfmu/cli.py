@@ -473,6 +473,10 @@ def cmd_references(args):
 
 
 def cmd_sweep(args):
+    if args.workers is None and not args.scheduler and not available("distributed"):
+        args.workers = 0
+        print("note: dask's distributed is not installed, so the points run one after another in this process "
+              "(pip install -e '.[sweep]' for worker processes, one per core)", file=sys.stderr)
     if args.workers != 0 or args.scheduler:
         require("distributed", "sweep", "ujfmu sweep (--workers 0 runs in this process without it)")
     from .scenario import Scenario, ScenarioError
@@ -977,7 +981,8 @@ def _main(raw: list):
     p.add_argument("--check-step", action="store_true",
                    help="rerun the peak point at half the step and estimate the order amplitudes' error (exit "
                         "status 1 if above 2%%)")
-    p.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: no dask)")
+    p.add_argument("--workers", type=int, help="local worker processes (default: one per core, or this process "
+                                               "alone where dask's distributed is not installed; 0: no dask)")
     p.add_argument("--scheduler", help="address of a running dask.distributed scheduler, e.g. tls://host:8786; "
                         "it must be a trusted cluster (it runs what its clients submit); TLS settings come from "
                         "the dask config (docs/security.md)")

@@ -355,6 +355,10 @@ PEAK_SHORTFALL = 0.01
 SHAPING_ORDER = 0.05
 
 
+#: how :func:`peak_note`'s note starts (``Sweep.coarse_peaks`` finds the points by it)
+PEAK_NOTE = "max, min and p2p are sample extremes"
+
+
 def peak_note(window: Window, fits: dict, orders, speed: float) -> str:
     """Why the max, min and p2p may fall short of the peaks ("" when they cannot by more than PEAK_SHORTFALL):
     they are the extremes of the samples at the communication points, and the highest order that shapes an output
@@ -377,11 +381,10 @@ def peak_note(window: Window, fits: dict, orders, speed: float) -> str:
         return ""
     shortfall, out, k, n = worst
     step = 2.0 * math.pi / (abs(speed) * k) * math.acos(1.0 - PEAK_SHORTFALL) / math.pi if speed else math.nan
-    return (f"max, min and p2p are the samples' extremes: {out}'s {k}x order is read {n:.3g} times a period, so "
-            f"they may fall short of its peaks by up to {100.0 * shortfall:.2g}% of its amplitude (the order "
-            f"amplitudes, fitted to every sample, do not: they carry only the run's own error at this step, which a "
-            f"sweep's --check-step estimates); a step of at most {step:.3g} s (--step) reads it closely enough "
-            f"for {100.0 * PEAK_SHORTFALL:g}%")
+    return (f"{PEAK_NOTE}: {out}'s {k}x order is read {n:.3g} times a period, so they "
+            f"may fall short of its peaks by up to {100.0 * shortfall:.2g}% of its amplitude (the fitted order "
+            f"amplitudes do not); a step of at most {step:.3g} s (--step) reads it within "
+            f"{100.0 * PEAK_SHORTFALL:g}%")
 
 
 def unresolved_note(window: Window, orders, speed: float) -> str:

@@ -56,7 +56,8 @@ from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
 from .extras import require
 from .master import Component, Connection, Cosimulation, FmuWarning, RunStopped, temporary_folder
 from .scenario import SWEEP_KEYS, Scenario, ScenarioError, plain_number
-from .steady import ERROR, FIGURES, FINAL, OK, STATUSES, grows, settle_and_measure
+from .steady import (ERROR, FIGURES, FINAL, OK, PEAK_NOTE, STATUSES, coupling_noise, grows,
+                     settle_and_measure)
 
 #: human units accepted after a --param range, and their factor to SI (rad and rad/s: the SI units, named)
 UNITS = {"rpm": math.pi / 30.0, "deg": math.pi / 180.0, "rad": 1.0, "rad/s": 1.0, "": 1.0}
@@ -1082,7 +1083,9 @@ class Sweep:
             columns[column] = (self.scenario.unit(output), self.FIGURE_MEANINGS.get(figure) or
                                f"amplitude (zero to peak) of the {figure[1:]}x running-speed order")
         columns.update(settled_s=("s", "settle time used"),
-                       steady_change=("1", "largest change of a figure between the last windows, of its size"),
+                       steady_change=("1", "largest change of a figure between the last windows, of its size "
+                                           "(0: every change within the implicit coupling's resolution, "
+                                           f"{coupling_noise(True):.2g} of the signal's size)"),
                        wall_s=("s", "wall time of the point"), error=("", "why the point is not ok"),
                        note=("", "what limits its figures"), warnings=("", "what its FMUs warned of"),
                        step_size=("s", "communication step of the co-simulation (every point's)"),
@@ -1112,7 +1115,7 @@ class Sweep:
         """Records of the measured points whose max, min and p2p may fall short of the peaks by more than
         ``steady.PEAK_SHORTFALL`` (their note says how far, and the step that reads the peaks closely:
         ``steady.peak_note``)."""
-        return [r for r in self.table() if r.get("status") in FINAL and "the samples' extremes" in r.get("note", "")]
+        return [r for r in self.table() if r.get("status") in FINAL and PEAK_NOTE in r.get("note", "")]
 
     def step_check(self, rel_tol: float = STEP_CHECK_TOL) -> "StepCheck | None":
         """The step-halving estimate of the order amplitudes' error at the sweep's peak: the ok point where its first

@@ -953,9 +953,10 @@ def _twist_advice(p: Parameters, phi1: float, y: Sequence[float]) -> list:
     twist = flexible_kinematics(p, phi1, 0.0, phi4, 0.0, phi, 0.0)[0]
     if abs(twist) <= LARGE_TWIST:
         return []
-    return [f"the intermediate shaft is twisted {twist:.3g} rad ({math.degrees(twist):.3g} deg), a static torque of "
-            f"{p.k_theta * twist:.4g} N.m on k_theta = {p.k_theta:.6g} N.m/rad: past {LARGE_TWIST:g} rad, more than a "
-            "real driveshaft takes (a steel propshaft yields near 0.2 rad). The model's linear torsion still holds, "
+    return [f"the intermediate shaft is twisted {twist:.3g} rad ({math.degrees(twist):.3g} deg), its spring torque "
+            f"k_theta x twist {p.k_theta * twist:.4g} N.m on k_theta = {p.k_theta:.6g} N.m/rad (in a start-up or "
+            f"another transient more than the load's: it also accelerates the inertias): past {LARGE_TWIST:g} rad, "
+            "more than a real driveshaft takes (a steel propshaft yields near 0.2 rad). The model's linear torsion still holds, "
             "but the shaft is likely not yours: the defaults are Omar's laboratory rig (k_theta = 92.2 N.m/rad, "
             "J_load = 0.0045 kg.m2, m_s, k_phi); set k_theta, xi_theta, m_s, k_phi and J_load for your driveline"]
 
