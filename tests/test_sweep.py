@@ -453,6 +453,30 @@ def test_another_grid_under_the_same_name_is_refused_and_a_rerun_says_what_it_re
     assert len(rows) == 1 and float(rows[0]["motor.omega_set"]) == pytest.approx(1500 * RPM)
 
 
+def test_a_grid_made_finer_takes_over_the_journal_with_extend_and_reuses_its_points(fmu_dir, tmp_path, capsys):
+    """Small first, then bigger: a DOE engineer's second grid over the same parameter had been refused, and all its
+    points computed again under another name. --extend takes the journal over: the points on the new grid are
+    reused, the table and a plain rerun are the new grid's; a grid over other parameters is still refused."""
+    args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_brutti_rigid.toml"),
+            "--output", "driveline.tau_in", "--running-speed", "motor.omega", "--settle", "0.01",
+            "--revolutions", "1", "--workers", "0", "--out", str(tmp_path), "--no-plot"]
+    assert main(args + ["--param", "motor.omega_set=1000,2000rpm"]) == 0
+    first = {r["motor.omega_set"]: r for r in csv.DictReader(open(tmp_path / "double_cardan_brutti_rigid_sweep.csv"))}
+    capsys.readouterr()
+    finer = ["--param", "motor.omega_set=1000,1500,2000rpm"]
+    assert main(args + finer) == 2
+    assert "--extend (Sweep.run(extend=True)) reuses its points on this one" in capsys.readouterr().err
+    assert main(args + ["--param", "load.c2=0.02", "--extend"]) == 2
+    assert "over other parameters (motor.omega_set): --extend takes over" in capsys.readouterr().err
+    assert main(args + finer + ["--extend"]) == 0
+    assert "reused 2 of 3 points" in capsys.readouterr().out
+    rows = list(csv.DictReader(open(tmp_path / "double_cardan_brutti_rigid_sweep.csv")))
+    assert [float(r["motor.omega_set"]) for r in rows] == pytest.approx([1000 * RPM, 1500 * RPM, 2000 * RPM])
+    assert rows[0] == first[rows[0]["motor.omega_set"]] and rows[2] == first[rows[2]["motor.omega_set"]]
+    assert main(args + finer) == 0   # the journal is the new grid's now
+    assert "reused 3 of 3 points" in capsys.readouterr().out
+
+
 def test_the_same_grid_with_its_axes_in_another_order_reuses_its_points(fmu_dir, tmp_path, capsys):
     """A grid is its points: the same two axes given the other way round reuse every point (they were refused as
     another grid), and the table follows the order given (its first column, its rows)."""

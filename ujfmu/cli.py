@@ -521,7 +521,7 @@ def cmd_sweep(args):
               "steady-state check leaves it out)")
     try:
         with _progress(args, sweep.name, "point") as progress:
-            sweep.run(workers=args.workers, scheduler=args.scheduler, progress=progress)
+            sweep.run(workers=args.workers, scheduler=args.scheduler, progress=progress, extend=args.extend)
     except KeyboardInterrupt:
         kept = sum(r["status"] != "missing" for r in sweep.records())
         try:
@@ -983,6 +983,9 @@ def _main(raw: list):
                         "status 1 if above 2%%)")
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core, or this process "
                                                "alone where dask's distributed is not installed; 0: no dask)")
+    p.add_argument("--extend", action="store_true",
+                   help="take over the journal of another grid over the same parameters (a grid made finer or "
+                        "wider): its points on this grid are reused, its CSV and plots become this grid's")
     p.add_argument("--scheduler", help="address of a running dask.distributed scheduler, e.g. tls://host:8786; "
                         "it must be a trusted cluster (it runs what its clients submit); TLS settings come from "
                         "the dask config (docs/security.md)")

@@ -890,22 +890,24 @@ class Sweep:
         return records
 
     def run(self, workers=None, scheduler=None, progress: Callable[[int, int], None] | None = None,
-            client=None):
+            client=None, extend: bool = False):
         """Run the missing points; returns the path of the CSV. workers: local worker processes (default: the
         number of cores); 0 runs the points in this process without dask. scheduler: address of an existing
         dask.distributed scheduler (its workers need ujfmu installed; the FMUs are sent to them). client: a
         dask.distributed Client to use instead (kept open). progress: optional callable(points_done,
-        points_total), called as points finish (points reused from the journal count as done)."""
+        points_total), called as points finish (points reused from the journal count as done). extend: take over
+        a journal of another grid over the same parameters (a grid made finer or wider): its points on this grid
+        are reused, and its CSV and plots become this grid's (:meth:`_check_grid`)."""
         if client is None and (workers != 0 or scheduler is not None):
             require("distributed", "sweep", "Sweep.run with dask workers (sweep.run(workers=0) runs in this process "
                     "without it)")
         self.out_dir.mkdir(parents=True, exist_ok=True)
         with _sole_writer(self.out_dir / f"{self.name}.lock", self.journal):
-            return self._run(workers, scheduler, progress, client)
+            return self._run(workers, scheduler, progress, client, extend)
 
-    def _run(self, workers, scheduler, progress, client):
+    def _run(self, workers, scheduler, progress, client, extend=False):
         """:meth:`run` as the journal's sole writer."""
-        self._check_grid()
+        self._check_grid(extend)
         others = set()
         done = self.done(others)
         finished = {k for k, r in done.items() if r["status"] in FINAL or r.get("repeatable")}
@@ -990,19 +992,47 @@ class Sweep:
             if own:
                 close_client(client)
 
-    def _check_grid(self):
-        """SweepGridConflict when the journal holds points of another grid (its CSV and plots would be replaced)."""
+    def _check_grid(self, extend=False):
+        """SweepGridConflict when the journal holds points of another grid (its CSV and plots would be replaced);
+        with extend, a grid over the same parameters is taken over: every line of the journal becomes this grid's
+        (its points on this grid are then reused; the others stay in the journal, out of the table)."""
         if not self.journal.is_file():
             return
-        for line in self.journal.read_text().splitlines():
+        lines, other, parameters = self.journal.read_text(errors="replace").splitlines(), False, set()
+        for line in lines:
             try:
-                grid = json.loads(line).get("grid", self.grid)
+                record = json.loads(line)
             except json.JSONDecodeError:
                 continue
-            if grid not in (self.grid, self._ordered_grid):
-                raise SweepGridConflict(
-                    f"{self.journal} holds a sweep of {self.scenario.name} over another grid: give this one another "
-                    f"name (--name, or Sweep(..., name=...)) to keep both, or delete {self.journal} to replace it")
+            if isinstance(record, dict) and record.get("grid", self.grid) not in (self.grid, self._ordered_grid):
+                other = True
+                if isinstance(record.get("point"), dict):
+                    parameters.add(frozenset(record["point"]))
+        if not other:
+            return
+        same = parameters <= {frozenset(self.points[0])}
+        if not extend or not same:
+            raise SweepGridConflict(
+                f"{self.journal} holds a sweep of {self.scenario.name} over another grid"
+                + (f" over other parameters ({', '.join(sorted(set().union(*parameters)))}): --extend takes over a "
+                   "grid over the same parameters only" if extend else "")
+                + f": give this one another name (--name, or Sweep(..., name=...)) to keep both, or delete "
+                f"{self.journal} to replace it" + ("; or, to make that grid finer or wider, --extend "
+                                                   "(Sweep.run(extend=True)) reuses its points on this one"
+                                                   if same and not extend else ""))
+        taken = []
+        for line in lines:
+            try:
+                record = json.loads(line)
+            except json.JSONDecodeError:
+                record = None
+            if isinstance(record, dict) and "grid" in record:
+                record["grid"] = self.grid
+                line = json.dumps(record)
+            taken.append(line)
+        staged = self.journal.with_name(self.journal.name + ".extending")
+        staged.write_text("".join(line + "\n" for line in taken))
+        os.replace(staged, self.journal)
 
     def records(self) -> list:
         """The journal records of the current grid, in grid order (axis values under "point"); missing points
