@@ -244,6 +244,51 @@ def test_progress_is_a_callback_and_the_cli_draws_no_bar_off_a_terminal(fmu_dir,
     assert "results:" not in capsys.readouterr().out   # --quiet: the verdict only
 
 
+def test_run_prints_what_an_fmu_warns_of_while_it_steps(fmu_dir, tmp_path, capsys):
+    """A truck engineer left k_theta out of a scenario: Omar's 92.2 N.m/rad shaft twisted past 0.5 rad under the
+    load and the FMU said so, but ``ujfmu run`` printed nothing (the command ignores FmuWarning and says only its
+    own advice, which comes before the run): the warning is printed once, in the command's own form."""
+    scenario = tmp_path / "twisted.toml"
+    scenario.write_text(_twisted_scenario())
+    assert main(["run", str(scenario), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path), "--no-plot"]) == 0
+    err = capsys.readouterr().err
+    twisted = [line for line in err.splitlines() if "intermediate shaft is twisted" in line]
+    assert len(twisted) == 1 and twisted[0].startswith("  warning driveline: at t = ")
+    assert "Said once" not in twisted[0] and "DoubleCardanDriveline 'driveline'" not in twisted[0]
+
+
+def _twisted_scenario() -> str:
+    """Omar's rig at 50 rad/s against 60 N.m: its 92.2 N.m/rad shaft twists past 0.5 rad within 0.02 s."""
+    return """title = "Omar's rig under a load its shaft twists past 0.5 rad"
+[experiment]
+stop_time = 0.3
+step_size = 1e-3
+[components.motor]
+fmu = "Motor"
+parameters = { ideal_speed_source = true, profile = 0, omega_set = 50.0 }
+[components.driveline]
+fmu = "DoubleCardanDriveline"
+parameters = { k_phi = 1e8 }
+[components.load]
+fmu = "Load"
+parameters = { T0 = 60.0, omega_smooth = 1.0 }
+[[connections]]
+from = "motor.omega"
+to = "driveline.omega_in"
+[[connections]]
+from = "driveline.tau_in"
+to = "motor.tau_load"
+[[connections]]
+from = "driveline.omega_out"
+to = "load.omega"
+[[connections]]
+from = "load.tau"
+to = "driveline.tau_load"
+[output]
+record = ["driveline.twist"]
+"""
+
+
 @pytest.mark.parametrize("reused, seconds, said", [(0, 10.0, "about 16 min to go"), (20, 10.0, "about 13 min to go"),
                                                   (0, 0.1, None)])
 def test_a_sweep_off_a_terminal_says_its_time_to_go_once_from_its_first_computed_points(capsys, monkeypatch, reused,

@@ -10,6 +10,7 @@ import atexit
 import contextlib
 import math
 import os
+import re
 import signal
 import sys
 import time
@@ -249,6 +250,7 @@ def _check_fmi3(scenario, fmu_dir) -> None:
 
 
 def _run_one(args, path, scenario=None):
+    from .master import FmuWarning
     from .scenario import Scenario
     from .scenario_run import run_scenario
     plot = not args.no_plot and available("matplotlib")
@@ -257,18 +259,45 @@ def _run_one(args, path, scenario=None):
         _check_fmi3(scenario, args.fmu_dir)
     if args.output_interval is not None:
         scenario.output_interval = args.output_interval
-    for message in scenario.model_advice():
+    advice = scenario.model_advice()
+    for message in advice:
         print(f"  warning {message}", file=sys.stderr)
     if not args.model_exchange:   # a periodic load torque the step holds too coarsely, said before the run
         from .scenario_run import load_order_holds
         for hold in load_order_holds(scenario):
             print(f"  warning {hold.text()}", file=sys.stderr)
-    with _progress(args, Path(path).stem, "step") as progress:
+    with _progress(args, Path(path).stem, "step") as progress, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FmuWarning)
         result = run_scenario(scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=plot,
                               progress=_paced(args, scenario.step_size, progress),
                               model_exchange=args.model_exchange)
+    for line in _run_warnings(caught, [message.partition(": ")[2] for message in advice]):
+        print(f"  warning {line}", file=sys.stderr)
     print(result.summary(step_check_follows=getattr(args, "check_step", False)))
     return result
+
+
+def _run_warnings(caught, said) -> list:
+    """The FMUs' warnings of a run (FmuWarning among caught) as 'component: text' lines, the others warned again:
+    once each (the step-halving rerun's repeats, at other times, left out), but for what the command says in its
+    own terms (said: the advice it printed before the run; the outputs read too seldom for an order, which the
+    run's sampling check reports)."""
+    from .master import FmuWarning
+    lines, seen = [], set()
+    for w in caught:
+        if not issubclass(w.category, FmuWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            continue
+        text = str(w.message).removeprefix("[warning] ")
+        name, _, rest = text.partition(": ")
+        model, own, message = rest.partition(f" '{name}': ")
+        line = (f"{name}: {message}" if own else text).removesuffix(" (Said once per instance.)")
+        key = re.sub(r"[-+]?\d[\d.]*(e[-+]?\d+)?", "#", line)
+        if key in seen or "reads the outputs" in line or any(s and s in line for s in said):
+            continue
+        seen.add(key)
+        lines.append(line)
+    return lines
 
 
 def _positive_int(text):
