@@ -829,6 +829,67 @@ def test_a_run_stopped_by_its_loads_chatter_names_the_load_and_its_remedies(fmu_
     assert "Widen omega_smooth to at least 44.4 rad/s" in message and "torque-driven" not in message
 
 
+def test_a_truck_run_up_diverging_at_too_large_a_step_is_not_blamed_on_the_loads_chatter(fmu_dir, tmp_path):
+    """A truck propshaft (k_theta = 1e5 N.m/rad, 3 kg.m2 axle side, 1500 N.m) run up speed-driven by a PI motor
+    at 4 ms (a trial's file): the motor and driveline's coupling diverges (their torsional mode needs a smaller
+    step) while the output turns at 2-20 rad/s. The error's hint had been the load's chatter near rest (widen
+    omega_smooth, which did not help): the output never reversed at rest before the divergence."""
+    from ujfmu.scenario_run import run_scenario
+    path = tmp_path / "truck.toml"
+    path.write_text("""title = "Truck propshaft PI run-up, speed-driven"
+[experiment]
+stop_time = 0.4
+step_size = 4e-3
+[components.motor]
+fmu = "Motor"
+parameters = { J_rotor = 0.1, Kp = 124.0, Ki = 1240.0, tau_max = 3000.0, profile = 1, accel = 100.0, omega_set = 157.0 }
+[components.driveline]
+fmu = "DoubleCardanDriveline"
+parameters = { beta1 = 0.1047, beta2 = 0.1047, k_theta = 1.0e5, xi_theta = 1.0e-3, J_load = 3.0, I_input = 0.1, I_intermediate = 0.02, k_phi = 1.0e8, m_s = 8.0, L_c = 1.2 }
+[components.load]
+fmu = "Load"
+parameters = { T0 = 1500.0, c1 = 0.0, c2 = 0.0, omega_smooth = 1.0 }
+[[connections]]
+from = "motor.omega"
+to = "driveline.omega_in"
+[[connections]]
+from = "driveline.tau_in"
+to = "motor.tau_load"
+[[connections]]
+from = "driveline.omega_out"
+to = "load.omega"
+[[connections]]
+from = "load.tau"
+to = "driveline.tau_load"
+[output]
+record = ["motor.omega", "driveline.omega_out"]
+""")
+    scenario = Scenario(path)
+    assert [c.ratio > 1.0 for c in scenario.load_chatter()] == [True]   # the load would chatter at rest
+    with pytest.raises(CosimulationError) as info:
+        run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, progress=False)
+    message = str(info.value)
+    assert "coupling instability between 'driveline' and 'motor'" in message and "reduce the step" in message
+    assert "omega_smooth" not in message
+
+
+def test_a_failure_is_the_loads_chatter_only_where_the_speed_reversed_at_rest_just_before():
+    """The chatter's hint looks at the speed over the steps before the failure (band: 2 x max(T0 h / J, omega_smooth)
+    = 4 rad/s here): a chatter reverses the speed at rest; a run-up from rest that failed at speed, or a divergence
+    that crossed rest from far outside the band, is not the load's chatter."""
+    from ujfmu.scenario import LoadChatter
+    from ujfmu.scenario_run import OSCILLATION_WINDOW, came_near_rest
+    chatter = LoadChatter("load", "driveline", inertia=3.0, torque=1500.0, smooth=1.0, step=4e-3, ratio=2.0)
+
+    def near_rest(*speeds):
+        return came_near_rest(chatter, np.rec.fromarrays([np.array(speeds)], names=["driveline.omega_out"]))
+    assert near_rest(0.0, -0.0, 0.15, -3.9, 36.8)   # a stall's chatter, then the swing it grows into
+    assert not near_rest(0.5, -0.5, 0.5, *np.linspace(1.0, 100.0, OSCILLATION_WINDOW))   # a start long past
+    assert not near_rest(1.8, 2.6, 6.5, 3.1, 13.6, 19.6, -17.5, 61.1, -100.9)   # a divergence through rest
+    assert not near_rest(3.0, 3.5, 2.0, 1.0)   # slow, but not reversing
+    assert near_rest(0.5)
+
+
 def test_a_setup_error_is_not_blamed_on_the_loads_chatter(fmu_dir):
     """The same start-up with a signal recorded twice fails before anything runs, naming the signal, as a setup
     error (a ScenarioError, as a file's would be: a notebook user's had come as a CosimulationError); the load's

@@ -1094,14 +1094,21 @@ OSCILLATION_WINDOW, OSCILLATION_GROWTH, OSCILLATION_REVERSALS = 24, 10.0, 2
 
 
 def came_near_rest(chatter, partial: np.ndarray) -> bool:
-    """Whether the speed a chattering Load acts on (``Scenario.load_chatter``) came within twice the speed one step
-    of its torque moves the inertia, or of its omega_smooth, of rest in the results up to a failure (True where they
-    do not hold that speed)."""
+    """Whether the speed a chattering Load acts on (``Scenario.load_chatter``) reversed near rest, both sides
+    within twice the speed one step of its torque moves the inertia, or of its omega_smooth, over the last
+    ``OSCILLATION_WINDOW`` rows of the results up to a failure (a single row: came within it; True where they do not
+    hold that speed): the load's torque reverses with the speed, so its chatter shows as the speed's reversals at
+    rest. A run that started from rest and failed at speed, or whose coupling diverged through rest from far
+    outside that band (a truck propshaft's run-up at too large a step), is not its."""
     speed = f"{chatter.driven}.omega_out"
     if speed not in partial.dtype.names or len(partial) == 0:
         return True
     band = 2.0 * max(chatter.torque * chatter.step / chatter.inertia, chatter.smooth)
-    return bool(np.nanmin(np.abs(np.asarray(partial[speed], dtype=float))) <= band)
+    recent = np.asarray(partial[speed][-OSCILLATION_WINDOW:], dtype=float)
+    near = np.abs(recent) <= band
+    if len(recent) == 1:
+        return bool(near[0])
+    return bool(np.any(near[1:] & near[:-1] & (recent[1:] * recent[:-1] < 0.0)))
 
 
 def oscillation_hint(scenario: Scenario, partial: np.ndarray) -> str:
