@@ -257,6 +257,15 @@ def test_run_prints_what_an_fmu_warns_of_while_it_steps(fmu_dir, tmp_path, capsy
     assert "Said once" not in twisted[0] and "DoubleCardanDriveline 'driveline'" not in twisted[0]
 
 
+def test_run_without_plots_names_an_earlier_runs_figures_beside_the_new_table(fmu_dir, tmp_path, capsys):
+    """--no-plot had left an earlier run's figure of another setup beside the fresh CSV, unsaid."""
+    (tmp_path / "cardan_constant_speed.png").write_bytes(b"an earlier figure")
+    assert main(["run", str(SCENARIOS / "cardan_constant_speed.toml"), "--fmu-dir", str(fmu_dir), "--out",
+                 str(tmp_path), "--no-plot"]) == 0
+    assert (f"figures of an earlier run, not redrawn for this one: {tmp_path / 'cardan_constant_speed.png'}"
+            in capsys.readouterr().err)
+
+
 def _twisted_scenario() -> str:
     """Omar's rig at 50 rad/s against 60 N.m: its 92.2 N.m/rad shaft twists past 0.5 rad within 0.02 s."""
     return """title = "Omar's rig under a load its shaft twists past 0.5 rad"

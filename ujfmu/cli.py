@@ -274,6 +274,11 @@ def _run_one(args, path, scenario=None):
     for line in _run_warnings(caught, [message.partition(": ")[2] for message in advice]):
         print(f"  warning {line}", file=sys.stderr)
     print(result.summary(step_check_follows=getattr(args, "check_step", False)))
+    if result.csv and not result.plot:   # --no-plot (or no matplotlib): an earlier run's figures stay as they were
+        figures = (Path(result.csv).with_name(f"{scenario.name}{suffix}.png") for suffix in ("", "_orbits", "_spectra"))
+        stale = [str(figure) for figure in figures if figure.is_file()]
+        if stale:
+            print(f"  figures of an earlier run, not redrawn for this one: {', '.join(stale)}", file=sys.stderr)
     return result
 
 
