@@ -449,6 +449,25 @@ def test_a_motors_step_at_the_start_is_named(t_step, warned):
         assert "the Motor starts at omega_set = 60 rad/s" in advice[0]
 
 
+@pytest.mark.parametrize("changes, said", [
+    ({"motor.profile": 0}, "its speed reference starts at 60 rad/s, driveline's input shaft at omega_in_start = 0"),
+    ({"motor.profile": 0, "driveline.omega_in_start": 60.0}, None),
+    ({}, None),   # the scenario's ramp from rest: launched from rest as meant
+    ({"motor.profile": 3, "motor.omega_initial": 20.0, "motor.t_step": 0.5}, "starts at 20 rad/s"),
+    ({"motor.profile": 2, "motor.omega_initial": 20.0, "motor.t_step": 0.0, "driveline.omega_in_start": 20.0},
+     "starts at 60 rad/s"),   # stepped at the start: the reference is omega_set there
+])
+def test_a_controller_whose_reference_starts_away_from_its_shafts_start_is_named(changes, said):
+    """A truck engineer's PI run at speed started its torque-driven shaft at 0 rad/s (its omega_in_start) and the
+    controller launched it into its torque limit: the MotorController's reference (omega_initial, omega_set) does not
+    set the shaft's start. Named before the run, with the parameter that starts it at speed."""
+    scenario = Scenario(SCENARIOS / "double_cardan_stiff_torque_driven.toml").with_parameters(changes)
+    advice = [a for a in scenario.model_advice() if a.startswith("motor: its speed reference starts at")]
+    assert len(advice) == (said is not None)
+    if said:
+        assert said in advice[0] and "set driveline.omega_in_start = " in advice[0]
+
+
 @pytest.mark.parametrize("changes, times, settled, span", [
     # a slew from 1.0 to 0.2 rad/s settles at 0.2 (a float equality had dropped it: 1 - 0.8 != 0.2)
     ({"motor.profile": 3, "motor.omega_initial": 1.0, "motor.omega_set": 0.2, "motor.t_step": 0.5}, (0.0, 7.0),

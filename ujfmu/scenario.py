@@ -936,7 +936,7 @@ class Scenario:
                    and any(lo <= 0.0 <= hi for lo, hi in (self._drive_speeds(d)[1] for d in self._load_drives(c.load)))]
         both = {c.load: c for c in chatter if c.load in smoothed}
         return ([f"{name}: {message}" for name in self.components for message in self._ask_model(name, "advice")]
-                + self._stepped_at_start() + self._sampled_loops()
+                + self._stepped_at_start() + self._launched_from_elsewhere() + self._sampled_loops()
                 + [c.text() for c in chatter if c.load not in both]
                 + [self._smoothed_text(load, *found, both.get(load)) for load, found in smoothed.items()])
 
@@ -992,6 +992,40 @@ class Scenario:
                              "it drives already turning with it (no step, no launch); for a step during the run, set "
                              "t_step after the start")
         return found
+
+    def _launched_from_elsewhere(self) -> list:
+        """'controller: warning' for a MotorController driving a torque-driven FMU's tau_in whose reference at the
+        start differs from that FMU's omega_in_start: the input shaft starts there and the controller launches it (a
+        run meant to start at speed starts at 0 rad/s, the default; the controller's omega_initial is its
+        reference's only)."""
+        found = []
+        feeds = {c.source: c.target for c in self.connections}
+        for name, (fmu, _) in self.components.items():
+            driven, _, port = feeds.get(f"{name}.tau_motor", "").partition(".") if fmu == "MotorController" \
+                else ("", "", "")
+            if port != "tau_in" or driven not in self.components:
+                continue
+            shaft = self.parameters_with_defaults(driven).get("omega_in_start")
+            reference = self._reference_at(name, self.start_time)
+            if shaft is not None and abs(reference - shaft) > 1e-6 * max(abs(reference), 1.0):
+                found.append(f"{name}: its speed reference starts at {reference:g} rad/s, {driven}'s input shaft at "
+                             f"omega_in_start = {shaft:g} rad/s: the controller launches the shaft from there (for a "
+                             f"run at speed from the start, set {driven}.omega_in_start = {reference:g}; a "
+                             "MotorController's omega_initial sets its reference, not the shaft it drives)")
+        return found
+
+    def _reference_at(self, drive: str, t: float) -> float:
+        """The speed reference [rad/s] of a Motor's or MotorController's profile at time t: constant, a ramp from
+        rest at t = 0, a step at t_step (omega_set from it on), a slew from omega_initial at t_step, at accel."""
+        v = self.parameters_with_defaults(drive)
+        profile, target = v["profile"], float(v["omega_set"])
+        if profile == 0:
+            return target
+        if profile == 2:
+            return float(v["omega_initial"]) if float(v["t_step"]) > t else target
+        t0, initial = (0.0, 0.0) if profile == 1 else (float(v["t_step"]), float(v["omega_initial"]))
+        change = target - initial
+        return initial + math.copysign(min(abs(change), float(v["accel"]) * max(0.0, t - t0)), change)
 
     def smoothed_friction(self) -> list:
         """'load: warning' for each Load with a constant torque (T0, or T0 + T_change where larger) whose smooth
@@ -1078,12 +1112,10 @@ class Scenario:
         # a ramp from rest at t = 0, or a slew from omega_initial at t_step: piecewise linear at accel
         t0, initial = (0.0, 0.0) if profile == 1 else (float(v["t_step"]), float(v["omega_initial"]))
         change, accel = target - initial, float(v["accel"])
-
-        def at(t):
-            return initial + math.copysign(min(abs(change), accel * max(0.0, t - t0)), change)
         settled = ([("omega_initial", initial)] if profile == 3 and t0 > start else []) + \
                   ([("omega_set", target)] if accel * max(0.0, stop - t0) >= abs(change) else [])
-        return settled, (min(at(start), at(stop)), max(at(start), at(stop)))
+        ends = self._reference_at(drive, start), self._reference_at(drive, stop)
+        return settled, (min(ends), max(ends))
 
     def load_chatter(self) -> list:
         """``LoadChatter`` of each Load fed from a component's ``omega_out`` whose model has an output inertia of
