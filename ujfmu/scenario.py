@@ -972,8 +972,10 @@ class Scenario:
                 found.append(f"{name}: its PI reads the speed once a step (a sampled controller): Kp h / J = "
                              f"{kp:g} x {self.step_size:g} / {inertia:.4g} = {ratio:.3g}, at or above "
                              f"{SAMPLED_LOOP_LIMIT:g}, where the sampled loop is unstable (J the inertia its torque "
-                             f"accelerates at once: {driven}'s J_drive and input shaft, up to its first compliance). "
-                             "Explicitly coupled the run grows, as a digital PI at this rate would; the implicit "
+                             f"accelerates at once: {driven}'s J_drive and input shaft, up to its first compliance; "
+                             "where the step is long against that compliance's mode, the inertia behind it takes "
+                             "part within a step, which may hold the loop: `ujfmu modes` gives the mode). "
+                             "Explicitly coupled the run may grow, as a digital PI at this rate would; the implicit "
                              "scheme iterates the loop to a smoother one no such controller is. Lower Kp below "
                              f"{SAMPLED_LOOP_LIMIT * inertia / self.step_size:.4g} or the step below "
                              f"{SAMPLED_LOOP_LIMIT * inertia / kp:.3g} s")
