@@ -298,28 +298,31 @@ record = ["driveline.twist"]
 """
 
 
-@pytest.mark.parametrize("reused, seconds, said", [(0, 10.0, "about 16 min to go"), (20, 10.0, "about 13 min to go"),
-                                                  (0, 0.1, None)])
+@pytest.mark.parametrize("reused, workers, seconds, said, pace", [
+    (0, 0, 10.0, "about 16 min to go", "10 s each"), (20, 0, 10.0, "about 13 min to go", "10 s each"),
+    (0, 0, 0.1, None, None),
+    (0, 4, 10.0, "about 3.8 min to go", "2.5 s each")])   # four at a time: each round of 10 s ends four points
 def test_a_sweep_off_a_terminal_says_its_time_to_go_once_from_its_first_computed_points(capsys, monkeypatch, reused,
-                                                                                      seconds, said):
-    """A DOE engineer's long sweep in a CI log had said nothing about its length: after its first four computed
-    points (the ones reused from a journal are done at once and do not count) it says the time to go at their pace,
-    once, where that is a minute or more."""
+                                                                                      workers, seconds, said, pace):
+    """A DOE engineer's long sweep in a CI log had said nothing about its length: after its first computed points
+    (four, or two per worker: points finish together on parallel workers; the ones reused from a journal are done
+    at once and do not count) it says the time to go at their pace, once, where that is a minute or more."""
     import argparse
 
     from ujfmu import cli
     clock = [0.0]
     monkeypatch.setattr(cli.time, "perf_counter", lambda: clock[0])
-    with cli._progress(argparse.Namespace(quiet=False), "grid", "point") as say:
+    with cli._progress(argparse.Namespace(quiet=False, workers=workers), "grid", "point") as say:
         say(reused, 100)
-        for done in range(reused + 1, reused + 9):
-            clock[0] += seconds
+        for done in range(reused + 1, reused + 13):
+            if (done - reused - 1) % max(workers, 1) == 0:
+                clock[0] += seconds
             say(done, 100)
     lines = [line for line in capsys.readouterr().err.splitlines() if "to go" in line]
     if said is None:
         assert not lines
     else:
-        assert len(lines) == 1 and said in lines[0] and f"({seconds:.3g} s each, wall" in lines[0], lines
+        assert len(lines) == 1 and said in lines[0] and f"({pace}, wall" in lines[0], lines
 
 
 @pytest.mark.parametrize("scenario", ["cardan_constant_speed", "cardan_startup"])   # explicit, implicit steps

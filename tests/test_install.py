@@ -87,7 +87,7 @@ def test_installed_copy_builds_and_checks_the_project_folder(plain_install):
     in_process = ujfmu(venv, project, "sweep", "scenarios/cardan_constant_speed.toml", "--param", "load.T0=0.1,0.2",
                        "--settle", "0.1", "--running-speed", "motor.omega")
     assert in_process.returncode == 0 and "pip install 'ujfmu[plot]'" in in_process.stderr, in_process.stderr
-    assert "the points run one after another in this process (pip install -e '.[sweep]'" in in_process.stderr
+    assert "the points run one after another in this process (for worker processes" in in_process.stderr
     assert (project / "results" / "cardan_constant_speed_sweep.csv").is_file()
     regenerated = ujfmu(venv, project, "references")
     assert regenerated.returncode == 2 and "pip install 'ujfmu[references]'" in regenerated.stderr

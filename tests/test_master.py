@@ -303,10 +303,11 @@ def test_ctrl_c_from_python_stops_at_the_next_communication_step(fmu_dir, ideal)
 
 @pytest.mark.parametrize("ideal", [True, False])
 def test_a_second_ctrl_c_inside_an_fmus_code_is_an_interrupt_not_a_failure(fmu_dir, monkeypatch, ideal):
-    """A second Ctrl-C raises at once; landing inside an FMU's own code (here: both inside the Load's step), it
-    makes that FMU's call fail, which the master had reported as the FMU refusing the step: a sweep kept it as the
-    point's result and reused it on the rerun. It is the KeyboardInterrupt it is, with the results up to the last
-    whole step, and the next run is whole."""
+    """A second Ctrl-C raises at once, but landing inside an FMU's own code (here: both inside the Load's step) it
+    had made that FMU's call fail, which the master reported as the FMU refusing the step (a sweep kept it as the
+    point's result and reused it on the rerun), and pythonfmu then freed the instance twice (a segfault later). It
+    waits for the FMU's call to return and stops the run there, as the Interrupted it is, with the results up to
+    that step; the next run is whole."""
     import signal
     import sys
 
@@ -328,12 +329,46 @@ def test_a_second_ctrl_c_inside_an_fmus_code_is_an_interrupt_not_a_failure(fmu_d
     try:
         with pytest.raises(Interrupted) as info:
             cosimulate(components, CONNECTIONS, 0.1, 1e-3, ["joint.omega_out"])
-        assert len(info.value.partial) == 21   # t = 0 ... 0.019: the step at 0.0195 did not end
+        assert len(info.value.partial) == 22   # t = 0 ... 0.021: the step the Ctrl-Cs came in ended, then stopped
         monkeypatch.setattr(load_fmu.Load, "advance", advance)
         try:
             assert len(cosimulate(components, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])) == 11
         except KeyboardInterrupt:
             pytest.fail("the Ctrl-C stopped the next run too")
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def test_a_ctrl_c_another_handler_raises_inside_an_fmus_code_is_an_interrupt_not_a_failure(fmu_dir, monkeypatch):
+    """Under a SIGINT handler of the caller's own that raises at once (the master then keeps its hands off), the
+    KeyboardInterrupt lands in the Load's step: the FMU refuses it as fatal (what pythonfmu frees twice pinned, so
+    the process lives on) and says why, and the master reports the Interrupted it is, not the FMU refusing the
+    step; the next run is whole."""
+    import signal
+    import sys
+
+    from ujfmu.master import Interrupted
+    components = chain(fmu_dir)
+    cosimulate(components, CONNECTIONS, 1e-3, 1e-3, ["joint.omega_out"])   # the Load's runtime package imported
+    load_fmu = next(m for name, m in sys.modules.items() if name.startswith("ujfmu_load_")
+                    and name.endswith(".models.load.fmu"))
+    advance = load_fmu.Load.advance
+
+    def pressed(self, t, h):
+        if t >= 0.0095:
+            signal.raise_signal(signal.SIGINT)
+        return advance(self, t, h)
+
+    def own_handler(signum, frame):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(load_fmu.Load, "advance", pressed)
+    previous = signal.signal(signal.SIGINT, own_handler)
+    try:
+        with pytest.raises(Interrupted) as info:
+            cosimulate(components, CONNECTIONS, 0.1, 1e-3, ["joint.omega_out"])
+        assert len(info.value.partial) == 11   # t = 0 ... 0.01: the step the Ctrl-C came in failed
+        monkeypatch.setattr(load_fmu.Load, "advance", advance)
+        assert len(cosimulate(components, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])) == 11
     finally:
         signal.signal(signal.SIGINT, previous)
 
@@ -389,32 +424,40 @@ def test_a_refused_parameter_is_named_without_the_wrappers_noise(fmu_dir):
 def test_the_fmu_folders_of_a_process_that_ended_without_its_exit_handlers_are_removed_by_the_next(fmu_dir,
                                                                                                   tmp_path):
     """A script that ends with os._exit (as pythonfmu's exit abort advises), a dask worker its cluster stops, a
-    kill -9: the process's extraction folders stay; the next process to extract an FMU removes them, and only
-    those of ended processes of its user (not a running one's, not this one's, not other files)."""
+    kill -9: the process's extraction folders stay; the next process to extract an FMU removes them: those whose
+    owner file no process holds locked, not a running process's (whatever its id: another container's, another
+    host's), not one a minute old and unlocked yet (its process may be about to lock it), not one without an owner
+    file (an older ujfmu's), not other files."""
     import os
     import subprocess
     import sys
+    import time
 
-    script = (f"from ujfmu.master import extracted; extracted({str(fmu_dir / 'Load.fmu')!r}); "
-              "import os; print(os.getpid(), flush=True); os._exit(0)")
+    from ujfmu.master import OWNER_FILE, OWNER_GRACE
+    env = {**os.environ, "TMPDIR": str(tmp_path)}
+    extract = f"from ujfmu.master import extracted; extracted({str(fmu_dir / 'Load.fmu')!r}); import os"
 
-    def extract_and_exit():
-        done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True,
-                              env={**os.environ, "TMPDIR": str(tmp_path)})
-        return int(done.stdout.split()[0])
-    dead = extract_and_exit()
-    left = [p for p in tmp_path.iterdir() if p.name.startswith(f"ujfmu_fmu_{dead}_")]
-    assert len(left) == 1 and (left[0] / "modelDescription.xml").exists()   # os._exit: no exit handlers ran
-    running = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    def ended():
+        done = subprocess.run([sys.executable, "-c", extract + "; print(os.getpid(), flush=True); os._exit(0)"],
+                              capture_output=True, text=True, check=True, env=env)
+        return next(tmp_path.glob(f"ujfmu_fmu_{int(done.stdout)}_*"))
+    dead, young = ended(), ended()
+    assert (dead / "modelDescription.xml").exists()   # os._exit: no exit handlers ran
+    old = time.time() - 2.0 * OWNER_GRACE
+    os.utime(dead / OWNER_FILE, (old, old))
+    running = subprocess.Popen([sys.executable, "-c", extract + "; print('ready', flush=True); import time; "
+                                "time.sleep(60)"], env=env, stdout=subprocess.PIPE, text=True)
     try:
-        kept = [tmp_path / f"ujfmu_worker_fmus_{running.pid}_x", tmp_path / f"ujfmu_fmu_{os.getpid()}_y",
-                tmp_path / "ujfmu_fmu_abc", tmp_path / "other_123_z"]
-        for folder in kept:
-            folder.mkdir()
-        (tmp_path / f"ujfmu_fmu_{dead}_file").write_text("not a folder")
-        extract_and_exit()
+        assert running.stdout.readline().strip() == "ready"
+        alive = next(tmp_path.glob(f"ujfmu_fmu_{running.pid}_*"))
+        os.utime(alive / OWNER_FILE, (old, old))
+        unowned = tmp_path / "ujfmu_fmu_4821_kq9z"   # an older ujfmu's random name
+        unowned.mkdir()
+        (tmp_path / "ujfmu_fmu_17_file").write_text("not a folder")
+        ended()
+        assert not dead.exists()
+        assert (alive / "modelDescription.xml").exists() and young.exists() and unowned.exists()
+        assert (tmp_path / "ujfmu_fmu_17_file").exists()
     finally:
         running.kill()
         running.wait()
-    assert not left[0].exists() and all(folder.exists() for folder in kept)
-    assert (tmp_path / f"ujfmu_fmu_{dead}_file").exists()

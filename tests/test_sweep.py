@@ -475,6 +475,16 @@ def test_a_grid_made_finer_takes_over_the_journal_with_extend_and_reuses_its_poi
     assert rows[0] == first[rows[0]["motor.omega_set"]] and rows[2] == first[rows[2]["motor.omega_set"]]
     assert main(args + finer) == 0   # the journal is the new grid's now
     assert "reused 3 of 3 points" in capsys.readouterr().out
+    # a span made finer: its points meet the coarser span's, whatever the last bits of start + k step
+    loads = args + ["--name", "loads"]
+    assert main(loads + ["--param", "load.T0=0.1:0.7:0.3"]) == 0   # 0.1 + 2 x 0.3 = 0.7
+    capsys.readouterr()
+    assert main(loads + ["--param", "load.T0=0.1:0.7:0.1", "--extend"]) == 0   # 0.1 + 6 x 0.1 = 0.7000000000000001
+    assert "reused 3 of 7 points" in capsys.readouterr().out
+    # the step check's own journal (one point, the peak) follows a peak the wider grid moves
+    checked = args + ["--name", "checked", "--check-step"]
+    assert main(checked + ["--param", "motor.omega_set=1000,2000rpm"]) == 0
+    assert main(checked + ["--param", "motor.omega_set=1000,2000,3000rpm", "--extend"]) == 0
 
 
 def test_the_same_grid_with_its_axes_in_another_order_reuses_its_points(fmu_dir, tmp_path, capsys):

@@ -69,8 +69,8 @@ def _note_subfolders(folder: Path, named) -> None:
 #: off a terminal (a CI log), sweeps say their progress in a line at each tenth of their points and at the end of a
 #: point PLAIN_PROGRESS_EVERY s or more after the last line
 PLAIN_PROGRESS_EVERY = 60.0
-#: computed points after which a sweep off a terminal says the time to go once, where it is a minute or more (on a
-#: terminal the bar shows it)
+#: computed points (at least; two per worker) after which a sweep off a terminal says the time to go once, where it
+#: is a minute or more (on a terminal the bar shows it)
 PACE_AFTER_POINTS = 4
 
 
@@ -83,6 +83,9 @@ def _progress(args, desc, unit):
         return
     if not sys.stderr.isatty():
         started, said = time.perf_counter(), {"tenth": 0, "at": time.perf_counter(), "first": None, "paced": False}
+        workers = getattr(args, "workers", None)   # points finish together on parallel workers: two rounds of them
+        parallel = (os.cpu_count() or 1) if workers is None else max(workers, 1)
+        pace_after = max(PACE_AFTER_POINTS, 2 * parallel)
 
         def say(done, total):
             now, tenth = time.perf_counter(), (10 * done) // max(total, 1)
@@ -93,12 +96,13 @@ def _progress(args, desc, unit):
                 print(f"  {desc}: {done} of {total} {unit}s done ({now - started:.0f} s)", file=sys.stderr,
                       flush=True)
             computed = done - said["first"]
-            if not said["paced"] and computed >= PACE_AFTER_POINTS and done < total:
+            if not said["paced"] and computed >= pace_after and done < total:
                 said["paced"] = True
                 pace = (now - started) / computed
                 if pace * (total - done) >= PLAIN_PROGRESS_EVERY:
                     print(f"  {desc}: about {pace * (total - done) / 60.0:.2g} min to go at the pace of its first "
-                          f"{computed} {unit}s ({pace:.3g} s each, wall; a {unit} that settles slowly takes longer)",
+                          f"{computed} {unit}s ({pace:.3g} s each, wall, on all workers; a {unit} that settles slowly "
+                          "takes longer)",
                           file=sys.stderr, flush=True)
         yield say
         return
@@ -510,7 +514,8 @@ def cmd_sweep(args):
     if args.workers is None and not args.scheduler and not available("distributed"):
         args.workers = 0
         print("note: dask's distributed is not installed, so the points run one after another in this process "
-              "(pip install -e '.[sweep]' for worker processes, one per core)", file=sys.stderr)
+              "(for worker processes, one per core: pip install 'ujfmu[sweep]'; in a clone: pip install -e "
+              "'.[sweep]')", file=sys.stderr)
     if args.workers != 0 or args.scheduler:
         require("distributed", "sweep", "ujfmu sweep (--workers 0 runs in this process without it)")
     from .scenario import Scenario, ScenarioError
@@ -1189,7 +1194,7 @@ def _interrupt(signum, frame) -> None:
         what = "Ctrl-C" if signum == signal.SIGINT else "SIGTERM"
         print(f"\n{what}: stopping at the next communication step ({what} again to stop at once)", file=sys.stderr)
         return
-    master.raise_at_once()
+    master.raise_at_once(frame)
 
 
 def _stopped_text() -> str:

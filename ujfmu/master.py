@@ -37,6 +37,7 @@ import shutil
 import signal
 import tempfile
 import threading
+import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,6 +48,8 @@ from fmpy.fmi1 import calloc, free
 from ctypes import PyDLL, addressof, byref, c_double, c_size_t, c_void_p, memmove, sizeof
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2FMUstate, fmi2Real, fmi2ValueReference)
+
+from .fmu.base import INTERRUPTED_IN_FMU
 
 
 #: coupling schemes (docs/cosimulation.md): "implicit" iterates the torn inputs to convergence at every step
@@ -112,10 +115,6 @@ SPEED_UNIT, TORQUE_UNIT = "rad/s", "N.m"
 #: sweep took it for a failed point and went on); OPEN[0] counts the co-simulations open now (``ujfmu.cli``'s handler
 #: stops at once when none is)
 STOP, OPEN = [False], [0]
-#: True once a handler raised KeyboardInterrupt at once (a second Ctrl-C) while a co-simulation was open: raised
-#: inside an FMU's code, it makes that FMU's call fail, and the master reports the failure as the interrupt it is
-#: (``Cosimulation._failure``), so a sweep does not keep it as the point's result
-RAISED_IN_RUN = [False]
 #: communication steps a run may take at most (1e9 steps of 25 us are seven hours, and a record of them 8 GB a signal)
 MAX_STEPS = 1e9
 
@@ -128,14 +127,28 @@ def _stop_at_next_step(signum, frame) -> None:
     if OPEN[0] and not STOP[0]:
         STOP[0] = True
         return
-    raise_at_once()
+    raise_at_once(frame)
 
 
-def raise_at_once() -> None:
-    """Raise KeyboardInterrupt now (a handler's second Ctrl-C), marking it for a co-simulation that is open
-    (``RAISED_IN_RUN``)."""
-    RAISED_IN_RUN[0] = RAISED_IN_RUN[0] or bool(OPEN[0])
+def raise_at_once(frame=None) -> None:
+    """Raise KeyboardInterrupt now (a handler's second Ctrl-C, frame the one the signal found running), but not
+    inside an FMU's code (``in_fmu_code``), where it would escape into pythonfmu, which then frees the instance twice
+    (a segfault later): there STOP stays set and the run stops as the FMU's call returns, at its communication
+    step."""
+    if OPEN[0] and in_fmu_code(frame):
+        STOP[0] = True
+        return
     raise KeyboardInterrupt
+
+
+def in_fmu_code(frame) -> bool:
+    """True where frame, or a frame that called it, runs an FMU's own Python code: a module of the runtime package
+    a ujfmu FMU ships (``ujfmu_<model>_<digest>``), loaded by pythonfmu, not the ``ujfmu`` package."""
+    while frame is not None:
+        if frame.f_globals.get("__name__", "").startswith("ujfmu_"):
+            return True
+        frame = frame.f_back
+    return False
 
 
 def _defer_interrupt(signum, frame) -> None:
@@ -144,7 +157,7 @@ def _defer_interrupt(signum, frame) -> None:
     if not STOP[0]:
         STOP[0] = True
         return
-    raise_at_once()
+    raise_at_once(frame)
 
 
 @contextlib.contextmanager
@@ -387,46 +400,64 @@ class FmuInstance:
 
 
 _EXTRACTED = {}
-#: a temporary folder of this process's FMUs: ``<prefix><pid>_<random>`` in the system's temporary folder
+#: a temporary folder of FMUs a ujfmu process made (:func:`temporary_folder`): ``<prefix><pid>_<random>``
 _OWN_FOLDER = re.compile(r"(ujfmu_fmu_|ujfmu_worker_fmus_)(\d+)_\w+")
+#: the file in such a folder that its process holds locked (flock) for its lifetime: the lock, not the process id,
+#: tells a folder in use (a process id means nothing across containers sharing /tmp or hosts sharing a TMPDIR)
+OWNER_FILE = ".ujfmu-owner"
+#: an unlocked owner file younger than this [s] may be its process's, between creating and locking it
+OWNER_GRACE = 60.0
+#: the open owner files of this process's folders (their locks last as long as they stay open)
+_OWNED = []
 
 
 def temporary_folder(prefix: str) -> Path:
-    """A new temporary folder named prefix, this process's id, '_' and a random part; the first in a process
-    removes those the same user's ended processes left (:func:`remove_abandoned_folders`)."""
-    if not _FOLDERS_SWEPT:
-        _FOLDERS_SWEPT.append(True)
+    """A new temporary folder named prefix, this process's id, '_' and a random part, its owner file locked for
+    this process's lifetime; the first in a process removes those that ended processes left
+    (:func:`remove_abandoned_folders`)."""
+    if not _OWNED:
         remove_abandoned_folders()
-    return Path(tempfile.mkdtemp(prefix=f"{prefix}{os.getpid()}_"))
-
-
-_FOLDERS_SWEPT = []
+    folder = Path(tempfile.mkdtemp(prefix=f"{prefix}{os.getpid()}_"))
+    owner = open(folder / OWNER_FILE, "w")
+    try:
+        import fcntl
+        fcntl.flock(owner, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except (ImportError, OSError):   # no flock (Windows), or a file system without locks: never removed by others
+        pass
+    _OWNED.append(owner)
+    return folder
 
 
 def remove_abandoned_folders(root: str | os.PathLike | None = None) -> list:
-    """Remove the FMU folders (``_OWN_FOLDER``) in root (default: the system's temporary folder) that a process of
-    this user left behind when it ended without its exit handlers (``kill -9``, ``os._exit``, a dask worker
-    stopped by its cluster); a folder whose process still runs (or whose id another process now has) is kept.
-    Returns the folders removed."""
+    """Remove the FMU folders (``_OWN_FOLDER``) in root (default: the system's temporary folder) that a ujfmu
+    process of this user left behind when it ended without its exit handlers (``kill -9``, ``os._exit``, a dask
+    worker stopped by its cluster): those whose owner file (``OWNER_FILE``) no process holds locked any more, and
+    older than ``OWNER_GRACE``. A folder without an owner file (an older ujfmu's, another program's) is kept, as
+    is every folder where files cannot be locked (Windows). Returns the folders removed."""
     removed = []
-    root = Path(root or tempfile.gettempdir())
     try:
-        entries = list(os.scandir(root))
-    except OSError:
+        import fcntl
+        entries = list(os.scandir(Path(root or tempfile.gettempdir())))
+    except (ImportError, OSError):
         return removed
     for entry in entries:
-        match = _OWN_FOLDER.fullmatch(entry.name)
-        if match is None or int(match.group(2)) == os.getpid():
+        if _OWN_FOLDER.fullmatch(entry.name) is None:
             continue
         try:
             if not entry.is_dir(follow_symlinks=False) or entry.stat(follow_symlinks=False).st_uid != os.getuid():
                 continue
-            os.kill(int(match.group(2)), 0)
-        except ProcessLookupError:   # its process has ended
+            owner = open(os.path.join(entry.path, OWNER_FILE))
+        except OSError:   # gone meanwhile, or no owner file
+            continue
+        with owner:
+            try:
+                if time.time() - os.fstat(owner.fileno()).st_mtime < OWNER_GRACE:
+                    continue
+                fcntl.flock(owner, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:   # locked: its process runs (here, in another container, on another host)
+                continue
             shutil.rmtree(entry.path, ignore_errors=True)
             removed.append(Path(entry.path))
-        except (OSError, OverflowError):   # another user's process, or not ours to judge
-            continue
     return removed
 
 
@@ -517,14 +548,13 @@ class Cosimulation:
         self._warned_texts = set()   # the texts raised
         asked = STOP[0]
         self.interrupted_while_closing = False   # a Ctrl-C while the FMUs were freed (``close``)
-        RAISED_IN_RUN[0] = False
         try:
             with deferred_interrupt():   # a Ctrl-C meanwhile stops the run at its first step (``advance``)
                 self._setup(components, connections, record)
         except CosimulationError as exc:
             self.close()
             STOP[0] = STOP[0] and asked   # a Ctrl-C during a setup that failed: this setup's, not the next run's
-            if RAISED_IN_RUN[0]:
+            if INTERRUPTED_IN_FMU in self._log_text():
                 raise self._failure("") from exc
             raise
         except Exception as exc:
@@ -791,10 +821,9 @@ class Cosimulation:
 
     def _failure(self, message: str) -> Exception:
         """The error of an FMU call that failed: a CosimulationError of message and the FMUs' log, or,
-        where a second Ctrl-C raised KeyboardInterrupt at once inside an FMU's code and so made the call fail
-        (``RAISED_IN_RUN``), the Interrupted it is."""
-        if RAISED_IN_RUN[0]:
-            RAISED_IN_RUN[0] = False
+        where a KeyboardInterrupt raised in an FMU's code made the call fail (its log says ``INTERRUPTED_IN_FMU``),
+        the Interrupted it is."""
+        if any(INTERRUPTED_IN_FMU in line for line in self.log):
             return self._interrupted()
         return CosimulationError(message + self._log_text())
 
@@ -830,7 +859,7 @@ class Cosimulation:
         callable(steps_done, n_steps) called now and then; returning False stops the run there (``RunStopped``).
         ``rows_done``: the rows written so far. A Ctrl-C raises KeyboardInterrupt at the next communication step
         (:func:`_stop_at_next_step`, while Python's own SIGINT handler was the one in place)."""
-        previous, RAISED_IN_RUN[0] = None, False
+        previous = None
         if (threading.current_thread() is threading.main_thread()
                 and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
             previous = signal.signal(signal.SIGINT, _stop_at_next_step)
@@ -1033,7 +1062,7 @@ class Cosimulation:
                 self._refused(name, t.value)
 
     def _refused(self, name, t):
-        if RAISED_IN_RUN[0]:   # the FMU refused a Ctrl-C raised in its code: no divergence to report
+        if any(INTERRUPTED_IN_FMU in line for line in self.log):   # a Ctrl-C in its code: no divergence
             raise self._failure("")
         if self._held_rows:   # implicit steps not yet watched: the reports below need them
             self._settle_pending(failing=True)

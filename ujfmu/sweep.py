@@ -865,7 +865,9 @@ class Sweep:
 
     @staticmethod
     def key(point):
-        return json.dumps({k: float(v) for k, v in sorted(point.items())})
+        """The journal's key of a point: its values to 12 significant digits, so that a grid made finer meets the
+        points of the coarser one (0.3 * 3 and 0.1 * 9 differ in their last bits)."""
+        return json.dumps({k: float(f"{float(v):.12g}") for k, v in sorted(point.items())})
 
     def done(self, others: set | None = None):
         """{point key: record} of the finished points in the journal made with the same configuration; others:
@@ -1030,9 +1032,8 @@ class Sweep:
                 record["grid"] = self.grid
                 line = json.dumps(record)
             taken.append(line)
-        staged = self.journal.with_name(self.journal.name + ".extending")
-        staged.write_text("".join(line + "\n" for line in taken))
-        os.replace(staged, self.journal)
+        with _writing("the journal", self.journal):
+            _replace_atomically(self.journal, lambda f: f.write("".join(line + "\n" for line in taken)))
 
     def records(self) -> list:
         """The journal records of the current grid, in grid order (axis values under "point"); missing points
@@ -1114,8 +1115,9 @@ class Sweep:
                                f"amplitude (zero to peak) of the {figure[1:]}x running-speed order")
         columns.update(settled_s=("s", "settle time used"),
                        steady_change=("1", "largest change of a figure between the last windows, of its size "
-                                           "(0: every change within the implicit coupling's resolution, "
-                                           f"{coupling_noise(True):.2g} of the signal's size)"),
+                                           "(0: every change within the coupling's resolution: "
+                                           f"{coupling_noise(True):.2g} of the signal's size under the implicit "
+                                           "scheme, none under the explicit one)"),
                        wall_s=("s", "wall time of the point"), error=("", "why the point is not ok"),
                        note=("", "what limits its figures"), warnings=("", "what its FMUs warned of"),
                        step_size=("s", "communication step of the co-simulation (every point's)"),
@@ -1164,7 +1166,7 @@ class Sweep:
         axes = [Axis.of(axis.signed_names, [axis.value_of(peak["point"])]) for axis in self.axes]
         fine = Sweep(half, axes, self.settings, out_dir=self.out_dir, name=f"{self.name}_step_check",
                      fmu_dir=self.fmu_dir)
-        fine.run(workers=0)
+        fine.run(workers=0, extend=True)   # its own journal: the peak of another grid, or moved, is no conflict
         (row,) = fine.table()
         figures = []
         if row["status"] in FINAL:

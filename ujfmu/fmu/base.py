@@ -52,6 +52,9 @@ _TYPES = {float: Real, int: Integer, bool: Boolean}
 NOT_INITIALIZED = ("the instance is not initialized: call fmi2ExitInitializationMode before fmi2DoStep; a state "
                    "saved before it and restored by fmi2SetFMUstate has no model state to step from (restore one "
                    "saved after it, or fmi2Reset and initialize again)")
+#: what the FMU logs when a KeyboardInterrupt was raised in its code (``ujfmu.master`` reports that failure as the
+#: interrupt it is; the FMU's code imports nothing from outside the standard library, so the text is its own copy)
+INTERRUPTED_IN_FMU = "KeyboardInterrupt raised in the FMU's code"
 #: life-cycle attributes of UjfmuSlave that are part of the FMU state
 _LIFECYCLE_KINDS = {"_stale": "bool", "_initialized": "bool", "_running": "bool", "_start_time": "float"}
 
@@ -270,7 +273,7 @@ class UjfmuSlave(Fmi2Slave):
                         self.compute_outputs()
                 except (Exception, KeyboardInterrupt) as exc:   # a Ctrl-C too: pythonfmu frees what it raises twice
                     self._raise_to_host(f"{self.modelName} '{self.instance_name}': cannot compute {name}: "
-                                        f"{exc or type(exc).__name__}")
+                                        f"{INTERRUPTED_IN_FMU if isinstance(exc, KeyboardInterrupt) else exc}")
                 self._stale = self._partial = False
             return getattr(self, name)
         return get
@@ -557,9 +560,11 @@ class UjfmuSlave(Fmi2Slave):
             self.advance(current_time, step_size)
             self._stale, self._partial = True, False
             return True
-        except (Exception, KeyboardInterrupt) as exc:  # reported to the host, never raised into it
-            why = exc if isinstance(exc, Exception) else "interrupted (a Ctrl-C raised KeyboardInterrupt in its code)"
-            self.log(f"{self.modelName} '{self.instance_name}': step at t = {current_time!r} refused: {why}",
+        except KeyboardInterrupt:   # a Ctrl-C in its code: the host stops (fatal), what pythonfmu frees twice pinned
+            self._raise_to_host(f"{self.modelName} '{self.instance_name}': step at t = {current_time!r} "
+                                f"interrupted ({INTERRUPTED_IN_FMU})")
+        except Exception as exc:  # reported to the host, never raised into it
+            self.log(f"{self.modelName} '{self.instance_name}': step at t = {current_time!r} refused: {exc}",
                      Fmi2Status.error)
             return False
 
