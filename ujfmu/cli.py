@@ -101,8 +101,7 @@ def _progress(args, desc, unit):
                 pace = (now - started) / computed
                 if pace * (total - done) >= PLAIN_PROGRESS_EVERY:
                     print(f"  {desc}: about {pace * (total - done) / 60.0:.2g} min to go at the pace of its first "
-                          f"{computed} {unit}s ({pace:.3g} s each, wall, on all workers; a {unit} that settles slowly "
-                          "takes longer)",
+                          f"{computed} {unit}s ({pace:.3g} s each, wall; a {unit} that settles slowly takes longer)",
                           file=sys.stderr, flush=True)
         yield say
         return
@@ -301,7 +300,7 @@ def _run_warnings(caught, said) -> list:
         name, _, rest = text.partition(": ")
         model, own, message = rest.partition(f" '{name}': ")
         line = (f"{name}: {message}" if own else text).removesuffix(" (Said once per instance.)")
-        key = re.sub(r"[-+]?\d[\d.]*(e[-+]?\d+)?", "#", line)
+        key = name, re.sub(r"(?<![\w.])[-+]?\d[\d.]*(e[-+]?\d+)?", "#", message or text)   # times, figures
         if key in seen or "reads the outputs" in line or any(s and s in line for s in said):
             continue
         seen.add(key)
@@ -1192,7 +1191,8 @@ def _interrupt(signum, frame) -> None:
     if master.OPEN[0] and not master.STOP[0]:
         master.STOP[0] = True
         what = "Ctrl-C" if signum == signal.SIGINT else "SIGTERM"
-        print(f"\n{what}: stopping at the next communication step ({what} again to stop at once)", file=sys.stderr)
+        print(f"\n{what}: stopping at the next communication step ({what} again to stop at once, or, inside an "
+              "FMU's call, as it returns)", file=sys.stderr)
         return
     master.raise_at_once(frame)
 

@@ -115,6 +115,10 @@ SPEED_UNIT, TORQUE_UNIT = "rad/s", "N.m"
 #: sweep took it for a failed point and went on); OPEN[0] counts the co-simulations open now (``ujfmu.cli``'s handler
 #: stops at once when none is)
 STOP, OPEN = [False], [0]
+#: True once a handler raised KeyboardInterrupt at once while a co-simulation was open: where that was in code run
+#: inside an FMU's call that ``in_fmu_code`` does not know, the call fails, and the master reports the failure as the
+#: interrupt it is (``Cosimulation._failure``)
+RAISED_IN_RUN = [False]
 #: communication steps a run may take at most (1e9 steps of 25 us are seven hours, and a record of them 8 GB a signal)
 MAX_STEPS = 1e9
 
@@ -138,14 +142,20 @@ def raise_at_once(frame=None) -> None:
     if OPEN[0] and in_fmu_code(frame):
         STOP[0] = True
         return
+    RAISED_IN_RUN[0] = RAISED_IN_RUN[0] or bool(OPEN[0])
     raise KeyboardInterrupt
 
 
+#: modules whose Python code runs inside an FMU's call: the runtime package a ujfmu FMU ships
+#: (``ujfmu_<model>_<digest>``), pythonfmu's own methods, and the import system while pythonfmu loads that package
+_FMU_CODE = ("ujfmu_", "pythonfmu", "importlib")
+
+
 def in_fmu_code(frame) -> bool:
-    """True where frame, or a frame that called it, runs an FMU's own Python code: a module of the runtime package
-    a ujfmu FMU ships (``ujfmu_<model>_<digest>``), loaded by pythonfmu, not the ``ujfmu`` package."""
+    """True where frame, or a frame that called it, runs Python code inside an FMU's call (``_FMU_CODE``), not the
+    ``ujfmu`` package's."""
     while frame is not None:
-        if frame.f_globals.get("__name__", "").startswith("ujfmu_"):
+        if frame.f_globals.get("__name__", "").startswith(_FMU_CODE):
             return True
         frame = frame.f_back
     return False
@@ -407,8 +417,8 @@ _OWN_FOLDER = re.compile(r"(ujfmu_fmu_|ujfmu_worker_fmus_)(\d+)_\w+")
 OWNER_FILE = ".ujfmu-owner"
 #: an unlocked owner file younger than this [s] may be its process's, between creating and locking it
 OWNER_GRACE = 60.0
-#: the open owner files of this process's folders (their locks last as long as they stay open)
-_OWNED = []
+#: {folder: its open owner file} of this process's folders (their locks last as long as the files stay open)
+_OWNED = {}
 
 
 def temporary_folder(prefix: str) -> Path:
@@ -424,8 +434,16 @@ def temporary_folder(prefix: str) -> Path:
         fcntl.flock(owner, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except (ImportError, OSError):   # no flock (Windows), or a file system without locks: never removed by others
         pass
-    _OWNED.append(owner)
+    _OWNED[str(folder)] = owner
     return folder
+
+
+def remove_folder(folder: str | os.PathLike) -> None:
+    """Remove a folder of :func:`temporary_folder` and let go of its owner file."""
+    owner = _OWNED.pop(str(folder), None)
+    if owner is not None:
+        owner.close()
+    shutil.rmtree(folder, ignore_errors=True)
 
 
 def remove_abandoned_folders(root: str | os.PathLike | None = None) -> list:
@@ -473,12 +491,12 @@ def extracted(fmu):
     key = (str(path), stat.st_size, stat.st_mtime_ns)
     if key not in _EXTRACTED:
         if not _EXTRACTED:
-            atexit.register(lambda: [shutil.rmtree(d, ignore_errors=True) for d, _ in _EXTRACTED.values()])
+            atexit.register(lambda: [remove_folder(d) for d, _ in list(_EXTRACTED.values())])
         folder = str(temporary_folder("ujfmu_fmu_"))
         try:
             _EXTRACTED[key] = (extract(str(path), unzipdir=folder), read_model_description(str(path)))
         except BaseException:   # not an FMU (or not one we read): nothing of it is kept
-            shutil.rmtree(folder, ignore_errors=True)
+            remove_folder(folder)
             raise
     return _EXTRACTED[key]
 
@@ -548,13 +566,14 @@ class Cosimulation:
         self._warned_texts = set()   # the texts raised
         asked = STOP[0]
         self.interrupted_while_closing = False   # a Ctrl-C while the FMUs were freed (``close``)
+        RAISED_IN_RUN[0] = False
         try:
             with deferred_interrupt():   # a Ctrl-C meanwhile stops the run at its first step (``advance``)
                 self._setup(components, connections, record)
         except CosimulationError as exc:
             self.close()
             STOP[0] = STOP[0] and asked   # a Ctrl-C during a setup that failed: this setup's, not the next run's
-            if INTERRUPTED_IN_FMU in self._log_text():
+            if RAISED_IN_RUN[0] or INTERRUPTED_IN_FMU in self._log_text():
                 raise self._failure("") from exc
             raise
         except Exception as exc:
@@ -821,9 +840,10 @@ class Cosimulation:
 
     def _failure(self, message: str) -> Exception:
         """The error of an FMU call that failed: a CosimulationError of message and the FMUs' log, or,
-        where a KeyboardInterrupt raised in an FMU's code made the call fail (its log says ``INTERRUPTED_IN_FMU``),
-        the Interrupted it is."""
-        if any(INTERRUPTED_IN_FMU in line for line in self.log):
+        where a KeyboardInterrupt raised in an FMU's code made the call fail (its log says ``INTERRUPTED_IN_FMU``, or
+        a handler raised one at once meanwhile: ``RAISED_IN_RUN``), the Interrupted it is."""
+        if RAISED_IN_RUN[0] or any(INTERRUPTED_IN_FMU in line for line in self.log):
+            RAISED_IN_RUN[0] = False
             return self._interrupted()
         return CosimulationError(message + self._log_text())
 
@@ -859,7 +879,7 @@ class Cosimulation:
         callable(steps_done, n_steps) called now and then; returning False stops the run there (``RunStopped``).
         ``rows_done``: the rows written so far. A Ctrl-C raises KeyboardInterrupt at the next communication step
         (:func:`_stop_at_next_step`, while Python's own SIGINT handler was the one in place)."""
-        previous = None
+        previous, RAISED_IN_RUN[0] = None, False
         if (threading.current_thread() is threading.main_thread()
                 and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
             previous = signal.signal(signal.SIGINT, _stop_at_next_step)
@@ -1062,7 +1082,7 @@ class Cosimulation:
                 self._refused(name, t.value)
 
     def _refused(self, name, t):
-        if any(INTERRUPTED_IN_FMU in line for line in self.log):   # a Ctrl-C in its code: no divergence
+        if RAISED_IN_RUN[0] or any(INTERRUPTED_IN_FMU in line for line in self.log):   # a Ctrl-C: no divergence
             raise self._failure("")
         if self._held_rows:   # implicit steps not yet watched: the reports below need them
             self._settle_pending(failing=True)

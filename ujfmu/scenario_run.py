@@ -954,7 +954,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     except CosimulationError as exc:
         # a Load that chatters near rest is the likelier cause, where it came near rest (a run that never stepped,
         # failing at its setup, has nothing to do with it)
-        chatter = [c for c in chatter if exc.partial is not None and came_near_rest(c, exc.partial)]
+        chatter = [c for c in chatter if exc.partial is not None
+                   and came_near_rest(c, exc.partial, scenario.output_interval or 1)]
         hint = "" if isinstance(exc, RunStopped) else "\n".join(f"hint: {c.text()}" for c in chatter) or (
             torque_driven_hint(scenario, str(exc.args[0]) if exc.args else ""))
         if exc.partial is not None and not isinstance(exc, RunStopped):
@@ -1093,21 +1094,22 @@ def torque_driven_hint(scenario: Scenario, message: str) -> str:
 OSCILLATION_WINDOW, OSCILLATION_GROWTH, OSCILLATION_REVERSALS = 24, 10.0, 2
 
 
-def came_near_rest(chatter, partial: np.ndarray) -> bool:
+def came_near_rest(chatter, partial: np.ndarray, every: int = 1) -> bool:
     """Whether the speed a chattering Load acts on (``Scenario.load_chatter``) reversed near rest, both sides
     within twice the speed one step of its torque moves the inertia, or of its omega_smooth, over the last
-    ``OSCILLATION_WINDOW`` rows of the results up to a failure (a single row: came within it; True where they do not
-    hold that speed): the load's torque reverses with the speed, so its chatter shows as the speed's reversals at
-    rest. A run that started from rest and failed at speed, or whose coupling diverged through rest from far
-    outside that band (a truck propshaft's run-up at too large a step), is not its."""
+    ``OSCILLATION_WINDOW`` rows of the results up to a failure (a single row, or rows recorded every ``every`` > 1
+    steps, which a reversal at every step need not change the sign of: came within it; True where they do not hold
+    that speed): the load's torque reverses with the speed, so its chatter shows as the speed's reversals at rest. A
+    run that started from rest and failed at speed, or whose coupling diverged through rest from far outside that
+    band (a truck propshaft's run-up at too large a step), is not its."""
     speed = f"{chatter.driven}.omega_out"
     if speed not in partial.dtype.names or len(partial) == 0:
         return True
     band = 2.0 * max(chatter.torque * chatter.step / chatter.inertia, chatter.smooth)
     recent = np.asarray(partial[speed][-OSCILLATION_WINDOW:], dtype=float)
     near = np.abs(recent) <= band
-    if len(recent) == 1:
-        return bool(near[0])
+    if len(recent) == 1 or every != 1:
+        return bool(near.any())
     return bool(np.any(near[1:] & near[:-1] & (recent[1:] * recent[:-1] < 0.0)))
 
 
