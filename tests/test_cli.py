@@ -248,9 +248,9 @@ def test_run_prints_what_an_fmu_warns_of_while_it_steps(fmu_dir, tmp_path, capsy
     """A truck engineer left k_theta out of a scenario: Omar's 92.2 N.m/rad shaft twisted past 0.5 rad under the
     load and the FMU said so, but ``ujfmu run`` printed nothing (the command ignores FmuWarning and says only its
     own advice, which comes before the run): the warning is printed once, in the command's own form."""
-    scenario = tmp_path / "twisted.toml"
-    scenario.write_text(_twisted_scenario())
-    assert main(["run", str(scenario), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path), "--no-plot"]) == 0
+    assert main(["run", str(SCENARIOS / "double_cardan_omar_torsional.toml"), "--set", "load.T0=60", "--set",
+                 "driveline.k_phi=1e8", "--stop-time", "0.3", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path),
+                 "--no-plot"]) == 0
     err = capsys.readouterr().err
     twisted = [line for line in err.splitlines() if "intermediate shaft is twisted" in line]
     assert len(twisted) == 1 and twisted[0].startswith("  warning driveline: at t = ")
@@ -285,38 +285,6 @@ def test_the_fmus_warnings_of_a_run_are_said_once_per_component_and_kind():
     assert _run_warnings(caught, ["T0 = 3 N.m is the paper's"]) == [
         "driveline1: at t = 0.014 s the shaft is twisted 0.528 rad",
         "driveline2: at t = 0.016 s the shaft is twisted 0.531 rad"]
-
-
-def _twisted_scenario() -> str:
-    """Omar's rig at 50 rad/s against 60 N.m: its 92.2 N.m/rad shaft twists past 0.5 rad within 0.02 s."""
-    return """title = "Omar's rig under a load its shaft twists past 0.5 rad"
-[experiment]
-stop_time = 0.3
-step_size = 1e-3
-[components.motor]
-fmu = "Motor"
-parameters = { ideal_speed_source = true, profile = 0, omega_set = 50.0 }
-[components.driveline]
-fmu = "DoubleCardanDriveline"
-parameters = { k_phi = 1e8 }
-[components.load]
-fmu = "Load"
-parameters = { T0 = 60.0, omega_smooth = 1.0 }
-[[connections]]
-from = "motor.omega"
-to = "driveline.omega_in"
-[[connections]]
-from = "driveline.tau_in"
-to = "motor.tau_load"
-[[connections]]
-from = "driveline.omega_out"
-to = "load.omega"
-[[connections]]
-from = "load.tau"
-to = "driveline.tau_load"
-[output]
-record = ["driveline.twist"]
-"""
 
 
 @pytest.mark.parametrize("reused, workers, seconds, said, pace", [

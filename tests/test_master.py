@@ -293,12 +293,25 @@ def test_ctrl_c_from_python_stops_at_the_next_communication_step(fmu_dir, ideal)
                 signal.raise_signal(signal.SIGINT)
         with pytest.raises(KeyboardInterrupt):
             cosimulate(components, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"], progress=last)
-        try:
-            assert len(cosimulate(components, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])) == 11
-        except KeyboardInterrupt:
-            pytest.fail("the Ctrl-C after the last step stopped the next run")
+        _next_run_is_whole(components, "the Ctrl-C after the last step stopped the next run")
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+def _next_run_is_whole(components, why):
+    """A 10-step run of components ends whole (a KeyboardInterrupt escaping a test would stop the whole session)."""
+    try:
+        assert len(cosimulate(components, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])) == 11
+    except KeyboardInterrupt:
+        pytest.fail(why)
+
+
+def _load_fmu_module(components):
+    """The Load FMU's own module as pythonfmu loaded it (its runtime package), after a one-step run of components."""
+    import sys
+    cosimulate(components, CONNECTIONS, 1e-3, 1e-3, ["joint.omega_out"])
+    return next(m for name, m in sys.modules.items() if name.startswith("ujfmu_load_")
+                and name.endswith(".models.load.fmu"))
 
 
 @pytest.mark.parametrize("ideal", [True, False])
@@ -309,14 +322,11 @@ def test_a_second_ctrl_c_inside_an_fmus_code_is_an_interrupt_not_a_failure(fmu_d
     waits for the FMU's call to return and stops the run there, as the Interrupted it is, with the results up to
     that step; the next run is whole."""
     import signal
-    import sys
 
     from ujfmu.master import Interrupted
     components = chain(fmu_dir)
     components[0].parameters["ideal_speed_source"] = ideal
-    cosimulate(components, CONNECTIONS, 1e-3, 1e-3, ["joint.omega_out"])   # the Load's runtime package imported
-    load_fmu = next(m for name, m in sys.modules.items() if name.startswith("ujfmu_load_")
-                    and name.endswith(".models.load.fmu"))
+    load_fmu = _load_fmu_module(components)
     advance = load_fmu.Load.advance
 
     def pressed_twice(self, t, h):
@@ -331,10 +341,7 @@ def test_a_second_ctrl_c_inside_an_fmus_code_is_an_interrupt_not_a_failure(fmu_d
             cosimulate(components, CONNECTIONS, 0.1, 1e-3, ["joint.omega_out"])
         assert len(info.value.partial) == 22   # t = 0 ... 0.021: the step the Ctrl-Cs came in ended, then stopped
         monkeypatch.setattr(load_fmu.Load, "advance", advance)
-        try:
-            assert len(cosimulate(components, CONNECTIONS, 0.01, 1e-3, ["joint.omega_out"])) == 11
-        except KeyboardInterrupt:
-            pytest.fail("the Ctrl-C stopped the next run too")
+        _next_run_is_whole(components, "the Ctrl-C stopped the next run too")
     finally:
         signal.signal(signal.SIGINT, previous)
 
@@ -345,13 +352,10 @@ def test_a_ctrl_c_another_handler_raises_inside_an_fmus_code_is_an_interrupt_not
     the process lives on) and says why, and the master reports the Interrupted it is, not the FMU refusing the
     step; the next run is whole."""
     import signal
-    import sys
 
     from ujfmu.master import Interrupted
     components = chain(fmu_dir)
-    cosimulate(components, CONNECTIONS, 1e-3, 1e-3, ["joint.omega_out"])   # the Load's runtime package imported
-    load_fmu = next(m for name, m in sys.modules.items() if name.startswith("ujfmu_load_")
-                    and name.endswith(".models.load.fmu"))
+    load_fmu = _load_fmu_module(components)
     advance = load_fmu.Load.advance
 
     def pressed(self, t, h):

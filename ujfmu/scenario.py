@@ -940,6 +940,17 @@ class Scenario:
                 + [c.text() for c in chatter if c.load not in both]
                 + [self._smoothed_text(load, *found, both.get(load)) for load, found in smoothed.items()])
 
+    def _controlled_shafts(self) -> list:
+        """[(controller, driven)]: each MotorController whose tau_motor feeds a component's tau_in (a torque-driven
+        FMU's input shaft)."""
+        feeds = {c.source: c.target for c in self.connections}
+        pairs = []
+        for name, (fmu, _) in self.components.items():
+            driven, _, port = feeds.get(f"{name}.tau_motor", "").partition(".")
+            if fmu == "MotorController" and port == "tau_in" and driven in self.components:
+                pairs.append((name, driven))
+        return pairs
+
     def _sampled_loops(self) -> list:
         """'controller: warning' for a MotorController whose PI, sampled at the step, cannot hold its loop:
         Kp h / J >= SAMPLED_LOOP_LIMIT, J the inertia its torque accelerates at once (the driven FMU's
@@ -948,12 +959,7 @@ class Scenario:
         loop's pole 1 - Kp h / J then at or beyond -1 somewhere in the turn."""
         from .models.protocol import Torques
         found = []
-        feeds = {c.source: c.target for c in self.connections}
-        for name, (fmu, _) in self.components.items():
-            driven, _, port = feeds.get(f"{name}.tau_motor", "").partition(".") if fmu == "MotorController" \
-                else ("", "", "")
-            if port != "tau_in" or driven not in self.components:
-                continue
+        for name, driven in self._controlled_shafts():
             try:
                 model, p = fmu_class(self.components[driven][0]).MODEL, self.model_parameters(driven)
                 y = tuple(model.initial_state(p, self.start_time, Torques(0.0, 0.0)))
@@ -1001,12 +1007,7 @@ class Scenario:
         run meant to start at speed starts at 0 rad/s, the default; the controller's omega_initial is its
         reference's only)."""
         found = []
-        feeds = {c.source: c.target for c in self.connections}
-        for name, (fmu, _) in self.components.items():
-            driven, _, port = feeds.get(f"{name}.tau_motor", "").partition(".") if fmu == "MotorController" \
-                else ("", "", "")
-            if port != "tau_in" or driven not in self.components:
-                continue
+        for name, driven in self._controlled_shafts():
             shaft = self.parameters_with_defaults(driven).get("omega_in_start")
             reference = self._reference_at(name, self.start_time)
             if shaft is not None and abs(reference - shaft) > 1e-6 * max(abs(reference), 1.0):
