@@ -413,6 +413,19 @@ def test_a_twist_no_real_shaft_takes_is_said_wherever_it_is_reached():
     assert dc.state_advice(rigid, 1e-3, (5.0, 0.0, 0.0, 0.0), dc.Drive(0.0, 0.0, 0.0, 0.0)) == []
 
 
+def test_the_twist_advice_blames_the_defaults_only_at_the_default_stiffness():
+    """The twist advice had told a truck engineer whose own 1e5 N.m/rad shaft twisted 1 rad in a diverging run that
+    "the shaft is likely not yours: the defaults are Omar's laboratory rig": that is said at Omar's k_theta only;
+    another shaft's advice names its stiffness and the torques on it."""
+    y, u = (-0.8, 50.0, 0.0, 0.0), dc.Drive(0.0, 50.0, 0.0, 0.0)
+    omar = dc.Parameters(0.2, 0.2, 0.0, 0.0, **OMAR)
+    assert omar.k_theta == dc.OMAR_K_THETA
+    own = dc.Parameters(0.2, 0.2, 0.0, 0.0, **{**OMAR, "k_theta": 1e5})
+    said_omar, said_own = dc.state_advice(omar, 0.0, y, u)[0], dc.state_advice(own, 0.0, y, u)[0]
+    assert "the defaults are Omar's laboratory rig" in said_omar
+    assert "defaults" not in said_own and "check k_theta and the torques on the shaft" in said_own
+
+
 @pytest.mark.parametrize("beta2, warnings", [(50.0, 1), (-50.0, 1), (48.0, 2), (10.0, 1)])
 def test_steep_joints_of_one_angle_are_one_warning(beta2, warnings):
     """A constant-velocity pair of steep joints (Z: beta2 = beta1, W: beta2 = -beta1) is named in one warning, not

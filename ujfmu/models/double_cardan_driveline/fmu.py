@@ -58,7 +58,7 @@ class DoubleCardanDriveline(PrescribedInputSlave):
                   "Intermediate shaft polar moment of inertia (Brutti I_3x; Omar: massless)", **_INERTIA),
         parameter("J_load", 0.0045, "kg.m2",
                   "Output shaft plus driven load moment of inertia (Omar J_load; Brutti I_5x)", **_INERTIA),
-        parameter("k_theta", 92.2, "N.m/rad", "Torsional stiffness of the intermediate shaft (Omar k_theta)",
+        parameter("k_theta", dc.OMAR_K_THETA, "N.m/rad", "Torsional stiffness of the intermediate shaft (Omar k_theta)",
                   min=1.0e-6, max=1.0e9),
         parameter("xi_theta", 0.002, "s", "Torsional damping coefficient, c_theta = xi_theta*k_theta (Omar)",
                   min=0.0, max=1.0e3),

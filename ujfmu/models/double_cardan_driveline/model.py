@@ -923,6 +923,8 @@ def check(p: Parameters) -> list:
 #: tau_yield L / (G r), 0.19 rad for L = 1.5 m, r = 40 mm (400 MPa, 80 GPa), and Omar's laboratory shaft twists
 #: less than 0.09 rad through both its critical speeds (the bundled references)
 LARGE_TWIST = 0.5
+#: the intermediate shaft's torsional stiffness of Omar's laboratory rig [N.m/rad] (Table 1), the FMU's default
+OMAR_K_THETA = 92.2
 #: dynamic misalignment [rad] up to which :func:`state_advice` bounds the joints' kinematic errors without
 #: evaluating them
 _TWIST_GATE_PHI = 0.2
@@ -953,12 +955,15 @@ def _twist_advice(p: Parameters, phi1: float, y: Sequence[float]) -> list:
     twist = flexible_kinematics(p, phi1, 0.0, phi4, 0.0, phi, 0.0)[0]
     if abs(twist) <= LARGE_TWIST:
         return []
+    whose = ("but the shaft is likely not yours: the defaults are Omar's laboratory rig (k_theta = "
+             f"{OMAR_K_THETA:g} N.m/rad, J_load = 0.0045 kg.m2, m_s, k_phi); set k_theta, xi_theta, m_s, k_phi and "
+             "J_load for your driveline" if p.k_theta == OMAR_K_THETA else
+             "but check k_theta and the torques on the shaft (a run whose coupling diverges twists it without bound)")
     return [f"the intermediate shaft is twisted {twist:.3g} rad ({math.degrees(twist):.3g} deg), its spring torque "
             f"k_theta x twist {p.k_theta * twist:.4g} N.m on k_theta = {p.k_theta:.6g} N.m/rad (in a start-up or "
             f"another transient more than the load's: it also accelerates the inertias): past {LARGE_TWIST:g} rad, "
-            "more than a real driveshaft takes (a steel propshaft yields near 0.2 rad). The model's linear torsion still holds, "
-            "but the shaft is likely not yours: the defaults are Omar's laboratory rig (k_theta = 92.2 N.m/rad, "
-            "J_load = 0.0045 kg.m2, m_s, k_phi); set k_theta, xi_theta, m_s, k_phi and J_load for your driveline"]
+            f"more than a real driveshaft takes (a steel propshaft yields near 0.2 rad). The model's linear torsion "
+            f"still holds, {whose}"]
 
 
 def check_state(p: Parameters, y: State) -> list:
