@@ -291,17 +291,16 @@ def test_the_fmus_warnings_of_a_run_are_said_once_per_component_and_kind():
     (0, 0, 10.0, "about 16 min to go", "10 s each"), (20, 0, 10.0, "about 13 min to go", "10 s each"),
     (0, 0, 0.1, None, None),
     (0, 4, 10.0, "about 3.8 min to go", "2.5 s each")])   # four at a time: each round of 10 s ends four points
-def test_a_sweep_off_a_terminal_says_its_time_to_go_once_from_its_first_computed_points(capsys, monkeypatch, reused,
-                                                                                      workers, seconds, said, pace):
+def test_a_sweep_off_a_terminal_says_its_time_to_go_once_from_its_first_computed_points(capsys, reused, workers,
+                                                                                      seconds, said, pace):
     """A DOE engineer's long sweep in a CI log had said nothing about its length: after its first computed points
     (four, or two per worker: points finish together on parallel workers; the ones reused from a journal are done
     at once and do not count) it says the time to go at their pace, once, where that is a minute or more."""
     import argparse
 
     from ujfmu import cli
-    clock = [0.0]
-    monkeypatch.setattr(cli.time, "perf_counter", lambda: clock[0])
-    with cli._progress(argparse.Namespace(quiet=False, workers=workers), "grid", "point") as say:
+    clock = [0.0]   # a clock of its own, advanced by hand
+    with cli._progress(argparse.Namespace(quiet=False, workers=workers), "grid", "point", lambda: clock[0]) as say:
         say(reused, 100)
         for done in range(reused + 1, reused + 13):
             if (done - reused - 1) % max(workers, 1) == 0:

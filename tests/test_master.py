@@ -475,9 +475,8 @@ def test_the_fmu_folders_of_a_process_that_ended_without_its_exit_handlers_are_r
     import os
     import subprocess
     import sys
-    import time
 
-    from ujfmu.master import OWNER_FILE, OWNER_GRACE
+    from ujfmu.master import OWNER_FILE
     env = {**os.environ, "TMPDIR": str(tmp_path)}
     extract = f"from ujfmu.master import extracted; extracted({str(fmu_dir / 'Load.fmu')!r}); import os"
 
@@ -487,10 +486,12 @@ def test_the_fmu_folders_of_a_process_that_ended_without_its_exit_handlers_are_r
         return next(tmp_path.glob(f"ujfmu_fmu_{int(done.stdout)}_*"))
     dead, young = ended(), ended()
     assert (dead / "modelDescription.xml").exists()   # os._exit: no exit handlers ran
-    old = time.time() - 2.0 * OWNER_GRACE
+    old, new = 1.0e9, 4.0e9   # an owner file's times set to 2001 (long past any grace) and 2096 (within it)
     os.utime(dead / OWNER_FILE, (old, old))
-    running = subprocess.Popen([sys.executable, "-c", extract + "; print('ready', flush=True); import time; "
-                                "time.sleep(60)"], env=env, stdout=subprocess.PIPE, text=True)
+    os.utime(young / OWNER_FILE, (new, new))
+    running = subprocess.Popen([sys.executable, "-c", extract + "; print('ready', flush=True); import sys; "
+                                "sys.stdin.read()"], env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                               text=True)
     try:
         assert running.stdout.readline().strip() == "ready"
         alive = next(tmp_path.glob(f"ujfmu_fmu_{running.pid}_*"))

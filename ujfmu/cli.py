@@ -75,20 +75,20 @@ PACE_AFTER_POINTS = 4
 
 
 @contextlib.contextmanager
-def _progress(args, desc, unit):
+def _progress(args, desc, unit, clock=time.perf_counter):
     """A progress callback(done, total) drawing a tqdm bar on stderr; off a terminal (CI logs), for sweep points, a
     plain line now and then instead (``PLAIN_PROGRESS_EVERY``), for anything else nothing; None with --quiet."""
     if args.quiet or (not sys.stderr.isatty() and unit != "point"):
         yield None
         return
     if not sys.stderr.isatty():
-        started, said = time.perf_counter(), {"tenth": 0, "at": time.perf_counter(), "first": None, "paced": False}
+        started, said = clock(), {"tenth": 0, "at": clock(), "first": None, "paced": False}
         workers = getattr(args, "workers", None)   # points finish together on parallel workers: two rounds of them
         parallel = (os.cpu_count() or 1) if workers is None else max(workers, 1)
         pace_after = max(PACE_AFTER_POINTS, 2 * parallel)
 
         def say(done, total):
-            now, tenth = time.perf_counter(), (10 * done) // max(total, 1)
+            now, tenth = clock(), (10 * done) // max(total, 1)
             if said["first"] is None:   # the points reused from a journal are done at once
                 said["first"] = done
             if done and (tenth > said["tenth"] or now - said["at"] >= PLAIN_PROGRESS_EVERY):
