@@ -298,7 +298,7 @@ def _run_warnings(caught, said) -> list:
             continue
         text = str(w.message).removeprefix("[warning] ")
         name, _, rest = text.partition(": ")
-        model, own, message = rest.partition(f" '{name}': ")
+        _, own, message = rest.partition(f" '{name}': ")
         line = (f"{name}: {message}" if own else text).removesuffix(" (Said once per instance.)")
         key = name, re.sub(r"(?<![\w.])[-+]?\d[\d.]*(e[-+]?\d+)?", "#", message or text)   # times, figures
         if key in seen or "reads the outputs" in line or any(s and s in line for s in said):

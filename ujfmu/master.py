@@ -573,7 +573,7 @@ class Cosimulation:
         except CosimulationError as exc:
             self.close()
             STOP[0] = STOP[0] and asked   # a Ctrl-C during a setup that failed: this setup's, not the next run's
-            if RAISED_IN_RUN[0] or INTERRUPTED_IN_FMU in self._log_text():
+            if self._interrupted_in_fmu():
                 raise self._failure("") from exc
             raise
         except Exception as exc:
@@ -842,10 +842,15 @@ class Cosimulation:
         """The error of an FMU call that failed: a CosimulationError of message and the FMUs' log, or,
         where a KeyboardInterrupt raised in an FMU's code made the call fail (its log says ``INTERRUPTED_IN_FMU``, or
         a handler raised one at once meanwhile: ``RAISED_IN_RUN``), the Interrupted it is."""
-        if RAISED_IN_RUN[0] or any(INTERRUPTED_IN_FMU in line for line in self.log):
+        if self._interrupted_in_fmu():
             RAISED_IN_RUN[0] = False
             return self._interrupted()
         return CosimulationError(message + self._log_text())
+
+    def _interrupted_in_fmu(self) -> bool:
+        """A KeyboardInterrupt was raised in an FMU's code (its log says ``INTERRUPTED_IN_FMU``) or a handler raised
+        one at once while this co-simulation ran (``RAISED_IN_RUN``)."""
+        return RAISED_IN_RUN[0] or any(INTERRUPTED_IN_FMU in line for line in self.log)
 
     def _communicate(self):
         """Transfer every connection, in feedthrough order, at the current communication point."""
@@ -1082,7 +1087,7 @@ class Cosimulation:
                 self._refused(name, t.value)
 
     def _refused(self, name, t):
-        if RAISED_IN_RUN[0] or any(INTERRUPTED_IN_FMU in line for line in self.log):   # a Ctrl-C: no divergence
+        if self._interrupted_in_fmu():   # a Ctrl-C, not a divergence
             raise self._failure("")
         if self._held_rows:   # implicit steps not yet watched: the reports below need them
             self._settle_pending(failing=True)

@@ -1000,18 +1000,18 @@ class Sweep:
         (its points on this grid are then reused; the others stay in the journal, out of the table)."""
         if not self.journal.is_file():
             return
-        lines, other, parameters = self.journal.read_text(errors="replace").splitlines(), False, set()
-        for line in lines:
+        lines = []   # (line, its record where it is one)
+        for line in self.journal.read_text(errors="replace").splitlines():
             try:
                 record = json.loads(line)
             except json.JSONDecodeError:
-                continue
-            if isinstance(record, dict) and record.get("grid", self.grid) not in (self.grid, self._ordered_grid):
-                other = True
-                if isinstance(record.get("point"), dict):
-                    parameters.add(frozenset(record["point"]))
-        if not other:
+                record = None
+            lines.append((line, record if isinstance(record, dict) else None))
+        mine = (self.grid, self._ordered_grid)
+        others = [r for _, r in lines if r is not None and r.get("grid", self.grid) not in mine]
+        if not others:
             return
+        parameters = {frozenset(r["point"]) for r in others if isinstance(r.get("point"), dict)}
         same = parameters <= {frozenset(self.points[0])}
         if not extend or not same:
             raise SweepGridConflict(
@@ -1022,16 +1022,7 @@ class Sweep:
                 f"{self.journal} to replace it" + ("; or, to make that grid finer or wider, --extend "
                                                    "(Sweep.run(extend=True)) reuses its points on this one"
                                                    if same and not extend else ""))
-        taken = []
-        for line in lines:
-            try:
-                record = json.loads(line)
-            except json.JSONDecodeError:
-                record = None
-            if isinstance(record, dict) and "grid" in record:
-                record["grid"] = self.grid
-                line = json.dumps(record)
-            taken.append(line)
+        taken = [json.dumps({**r, "grid": self.grid}) if r is not None and "grid" in r else line for line, r in lines]
         with _writing("the journal", self.journal):
             _replace_atomically(self.journal, lambda f: f.write("".join(line + "\n" for line in taken)))
 

@@ -541,8 +541,9 @@ class UjfmuSlave(Fmi2Slave):
                  f"where the last one ended ({last:.10g} s), and no saved FMU state was restored: the FMU steps its "
                  f"state at {last:g} s over {step_size:g} s and takes the host's time from there (time-dependent "
                  f"inputs, such as a Motor's profile, follow it), so the run skips or repeats "
-                 f"{abs(current_time - last):.6g} s of this model's motion. Check the host's time axis: each step starts where the last ended, or "
-                 "after restoring the FMU state saved there. (Said once per instance.)", Fmi2Status.warning)
+                 f"{abs(current_time - last):.6g} s of this model's motion. Check the host's time axis: each step "
+                 "starts where the last ended, or after restoring the FMU state saved there. (Said once per "
+                 "instance.)", Fmi2Status.warning)
 
     def do_step(self, current_time, step_size):
         try:
