@@ -136,9 +136,9 @@ def plot_orbits(result, path):
 
 
 def plot_spectra(result, path):
-    """Amplitude spectrum of each of the scenario's output.spectra (from steady_from on), frequency in orders of
-    the running speed when output.running_speed is given; the panels of one output of several components (the
-    aligned and the misaligned rotor's X2) on one scale. Returns path."""
+    """Amplitude spectrum of each of the scenario's output.spectra (from steady_from on), mean removed (each panel
+    names it), frequency in orders of the running speed when output.running_speed is given; the panels of one
+    output of several components (the aligned and the misaligned rotor's X2) on one scale. Returns path."""
     from .analysis import amplitude_spectrum
 
     scenario, table = result.scenario, _steady(result)
@@ -162,11 +162,11 @@ def plot_spectra(result, path):
         top = tops[name.partition(".")[2]] or 1.0
         ax.set_ylim(top * 1e-6, top * 3.0)
         ax.set_ylabel(f"amplitude [{label}]", fontsize=8)
-        ax.set_title(name, fontsize=9, loc="left")
+        ax.set_title(f"{name}, mean {k * float(np.mean(table[name])):.4g} {label} (removed)", fontsize=9, loc="left")
         ax.grid(alpha=0.3, which="both")
     axes[-1, 0].set_xlim(0, 6 if scenario.running_speed else None)
     axes[-1, 0].set_xlabel(f"frequency [{unit}]")
-    _title(fig, f"{scenario.title}: amplitude spectra (flat-top window), t >= {scenario.steady_from:g} s", 9)
+    _title(fig, f"{scenario.title}: amplitude spectra about the mean (flat-top window), t >= {scenario.steady_from:g} s", 9)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
