@@ -182,7 +182,8 @@ def test_campbell_diagram_shows_the_natural_frequencies(fmu_dir, tmp_path, figur
 
 def test_spectra_of_one_output_of_several_components_share_their_scale(tmp_path, figures):
     """The aligned and the misaligned rotor's X2 on one amplitude scale (the misaligned one's 2x stands 10x above
-    the aligned one's 1x), their Y2 on another; each panel reaches 6 decades below its group's largest peak."""
+    the aligned one's 1x), their Y2 on another; each panel reaches 6 decades below its group's largest peak and
+    names the mean it leaves out (the misaligned Y2's static offset of 0.03 mm)."""
     import numpy as np
 
     from ujfmu.plotting import plot_spectra
@@ -191,10 +192,14 @@ def test_spectra_of_one_output_of_several_components_share_their_scale(tmp_path,
     t = np.arange(0.0, 20.0, 1e-3)
     turn = 70.0 * t
     signals = {"aligned.X2": 1e-5 * np.sin(turn), "misaligned.X2": 1e-4 * np.sin(2.0 * turn),
-               "aligned.Y2": 2e-6 * np.cos(turn), "misaligned.Y2": 1e-6 * np.cos(turn), "motor.omega": 70.0 + 0 * t}
+               "aligned.Y2": 2e-6 * np.cos(turn), "misaligned.Y2": 3e-5 + 1e-6 * np.cos(turn),
+               "motor.omega": 70.0 + 0 * t}
     table = np.rec.fromarrays([t] + list(signals.values()), names=["time"] + list(signals))
     plot_spectra(ScenarioResult(scenario, table), tmp_path / "spectra.png")
-    axes = {ax.get_title(loc="left"): ax for ax in figures["spectra.png"].axes}
+    axes = {ax.get_title(loc="left").split(",")[0]: ax for ax in figures["spectra.png"].axes}
+    head, mean, unit, tail = axes["misaligned.Y2"].get_title(loc="left").rsplit(" ", 3)
+    assert (head, unit, tail) == ("misaligned.Y2, mean", "mm", "(removed)")
+    assert float(mean) == pytest.approx(0.03, rel=1e-3)
     assert axes["aligned.X2"].get_ylim() == axes["misaligned.X2"].get_ylim()
     assert axes["aligned.Y2"].get_ylim() == axes["misaligned.Y2"].get_ylim() != axes["aligned.X2"].get_ylim()
     low, high = axes["aligned.X2"].get_ylim()
