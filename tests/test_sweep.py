@@ -1285,3 +1285,30 @@ def test_a_periodic_load_torques_order_is_among_the_default_orders(brutti, tmp_p
     sweep.run(workers=0, progress=False)
     (row,) = sweep.table()
     assert row["status"] == "ok" and row["load.tau.h3"] == pytest.approx(2.0, rel=1e-3)
+
+
+def test_a_drive_set_to_rest_is_refused_before_any_point_runs(brutti, tmp_path, fmu_dir):
+    """A point measures whole revolutions at its drive's set speed: a Motor at omega_set = 0 turns none and its
+    operating point (within 1% of 0) cannot be met, so such a point is refused up front, on an axis or in the
+    scenario, naming the parameter; a slow speed is not refused up front."""
+    with pytest.raises(SweepSettingsError) as err:
+        brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=0:2000:1000rpm")
+    assert err.value.problems == [p for p in err.value.problems if p.startswith("motor.omega_set = 0 at 1 of the 3 "
+                                                                             "points")] != []
+    at_rest = brutti.with_parameters({"motor.omega_set": 0.0})
+    with pytest.raises(SweepSettingsError, match="motor.omega_set = 0 in the scenario"):
+        brutti_sweep(at_rest, tmp_path, fmu_dir, spec="load.T0=1,2")
+    assert len(brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=1,1000rpm").points) == 2
+
+
+def test_a_window_longer_than_a_table_may_hold_is_refused_naming_its_length(brutti, tmp_path, fmu_dir):
+    """Revolutions at a slow speed take a window of millions of steps, whose table would fill memory: the point
+    fails at once with the window's length and what shortens it, before any step of the window runs."""
+    from ujfmu.steady import MAX_WINDOW_STEPS
+    speed = 2.0 * 2.0 * math.pi / (1.5 * MAX_WINDOW_STEPS * brutti.step_size)   # 2 revolutions: 1.5e6 steps
+    sweep = brutti_sweep(brutti, tmp_path, fmu_dir, spec=f"motor.omega_set={speed!r}")
+    sweep.run(workers=0)
+    (row,) = sweep.table()
+    assert brutti.step_size == 1e-4
+    assert row["status"] == "error" and "2 revolutions take 150 s, 1.5e+06 steps of 0.0001 s" in row["error"]
+    assert "--revolutions" in row["error"] and "--step" in row["error"]

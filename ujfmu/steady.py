@@ -63,6 +63,11 @@ class Window:
     offset: float = math.nan
 
 
+#: the most steps a measurement window may take (:func:`record_window`): 1e6 rows of a few signals are tens of MB
+#: and a minute or more of computing; a slower running speed is refused
+MAX_WINDOW_STEPS = 1_000_000
+
+
 def record_window(cosim, running_speed: str, revolutions: float, angle_signal: str = "") -> Window:
     """Record ``revolutions`` revolutions of the running speed read at the current point (at least 8 steps); with
     angle_signal, the running shaft's angle, the window's offset: that angle less the window's running angle, its
@@ -76,7 +81,13 @@ def record_window(cosim, running_speed: str, revolutions: float, angle_signal: s
                          "revolutions to measure over")
     h = cosim.step_size
     start = cosim.time
-    table = cosim.run(max(8, int(math.ceil(revolutions * 2.0 * math.pi / abs(speed) / h))))
+    steps = max(8, math.ceil(revolutions * 2.0 * math.pi / abs(speed) / h))
+    if steps > MAX_WINDOW_STEPS:
+        raise ValueError(f"running speed {running_speed} = {speed_text(speed)} at t = {cosim.time:g} s: "
+                         f"{revolutions:g} revolutions take {steps * h:.4g} s, {steps:.3g} steps of {h:g} s, over the "
+                         f"{MAX_WINDOW_STEPS:.0e} a window may hold (its table in memory): measure fewer revolutions "
+                         "(--revolutions), take a larger step (--step) or leave out speeds this slow")
+    table = cosim.run(steps)
     window = Window(start, running_angle(table["time"], table[running_speed]), table)
     if angle_signal:   # the angle's own ripple fitted out (the window is no whole number of its revolutions)
         window.offset = float(order_fit(window.angle, table[angle_signal] - window.angle,

@@ -840,6 +840,9 @@ class Sweep:
         self.damaged = 0
         self.points = [{name: value for v, ax in zip(combo, self.axes) for name, value in ax.assignments(v).items()}
                        for combo in itertools.product(*(ax.values for ax in self.axes))]
+        resting = self._drives_at_rest()
+        if resting:
+            raise SweepSettingsError(resting)
         fmus = sorted({fmu for fmu, _ in self.scenario.components.values()})
         missing = [f for f in fmus if not (self.fmu_dir / f"{f}.fmu").is_file()]
         if missing:
@@ -862,6 +865,28 @@ class Sweep:
         self.config = hashlib.sha256(json.dumps([asdict(settings), self.job.components, self.job.connections,
                                                  self.job.step_size, builds, self.job.coupling, code_digest()],
                                                 sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+    def _drives_at_rest(self) -> list:
+        """A problem for each drive of the operating point check (``SweepSettings.operating_point``) set to rest
+        (omega_set = 0) at some point: its figures are measured over whole revolutions at its set speed, which a
+        shaft at rest never completes, and no speed is within operating_tol of 0."""
+        problems = []
+        for signal, _ in self.settings.operating_point:
+            comp = signal.partition(".")[0]
+            name = f"{comp}.omega_set"
+            if comp not in self.scenario.components:
+                continue
+            fixed = self.scenario.parameters_with_defaults(comp).get("omega_set")
+            at_rest = [p for p in self.points if p.get(name, fixed) == 0]
+            if at_rest:
+                where = (f"at {len(at_rest)} of the {len(self.points)} points" if name in self.points[0]
+                         else "in the scenario")
+                problems.append(f"{name} = 0 {where}: a point's figures are measured over whole revolutions of "
+                                f"the running speed at the drive's set speed, and a drive set to rest turns none "
+                                f"(nor can its speed be within {100 * self.settings.operating_tol:g}% of 0): start the "
+                                f"axis at a speed, e.g. {name}=10:...rpm; a run at rest is `ujfmu run "
+                                f"{self.scenario.path} --set {name}=0`")
+        return problems
 
     @staticmethod
     def key(point):
