@@ -80,7 +80,8 @@ def test_scenario_figures_have_units_an_error_panel_and_mm_for_lengths(fmu_dir, 
     # lengths in mm in every figure: time plots, orbits and spectra alike
     assert main.axes[0].get_ylabel() == "[mm]"
     assert all(ax.get_xlabel().endswith("[mm]") for ax in figures["twin_jeffcott_steady_orbits.png"].axes)
-    assert all(ax.get_ylabel() == "amplitude [mm]" for ax in figures["twin_jeffcott_steady_spectra.png"].axes)
+    assert all(ax.get_ylabel() == "amplitude, zero-to-peak [mm]"
+               for ax in figures["twin_jeffcott_steady_spectra.png"].axes)
 
 
 def test_a_constant_signal_has_readable_ticks():
@@ -245,7 +246,7 @@ def test_sweep_figures_say_what_they_leave_out_and_keep_every_title_inside(fmu_d
 
 
 def test_the_order_tracks_show_each_value_of_the_other_axes(fmu_dir, tmp_path, figures):
-    """A speed x joint-angle grid: the tracks of every angle (a line style each, orders by colour, two legends),
+    """A speed x joint-angle grid: the tracks of every angle (a line style each, orders by colour, one legend),
     the Campbell diagram of the first angle, which its title names; nothing said to be left out."""
     scenario = Scenario(SCENARIOS / "double_cardan_brutti_rigid.toml")
     settings = SweepSettings.from_scenario(scenario, outputs=["driveline.tau_in"], running_speed="motor.omega",
@@ -262,7 +263,28 @@ def test_the_order_tracks_show_each_value_of_the_other_axes(fmu_dir, tmp_path, f
     assert len(tracks.get_lines()) == 2 * orders
     assert {line.get_linestyle() for line in tracks.get_lines()} == {"-", "--"}
     styles = tracks.get_legend()
-    assert [t.get_text() for t in styles.get_texts()] == ["driveline.beta1,driveline.beta2 = 5 deg",
-                                                         "driveline.beta1,driveline.beta2 = 10 deg"]
+    assert [t.get_text() for t in styles.get_texts()] == [f"{k}x" for k in settings.orders] + [
+        "driveline.beta1,driveline.beta2 = 5 deg", "driveline.beta1,driveline.beta2 = 10 deg"]
     assert campbell.get_title(loc="left").endswith("driveline.beta1,driveline.beta2 = 5 deg")
     assert "not drawn" not in fig._suptitle.get_text()
+
+
+def test_sampled_rows_are_unjoined_points_in_the_order_figure_and_rows_sharing_x_are_named(fmu_dir, tmp_path,
+                                                                                           figures):
+    """Sampled rows (Axis.rows) are points, not a trend: the order tracks draw them as markers without a line
+    between them, a marker per value of the other axes; rows that share their first value stand on one vertical,
+    which the abscissa's label says (a 10/10 and a 10/-10 deg row read as one point before)."""
+    from ujfmu.sweep import Axis
+    scenario = Scenario(SCENARIOS / "double_cardan_brutti_rigid.toml")
+    settings = SweepSettings.from_scenario(scenario, outputs=["driveline.omega_out"], running_speed="motor.omega",
+                                           settle_time=0.01, revolutions=1, steady_tol=0.0)
+    rows = Axis.rows("driveline.beta1,driveline.beta2", [(10.0, 10.0), (8.0, 12.0), (10.0, -10.0)], "deg")
+    sweep = Sweep(scenario, [rows, parse_axis("motor.omega_set=1000,2000rpm", scenario)], settings,
+                  out_dir=tmp_path, fmu_dir=fmu_dir)
+    sweep.run(workers=0, progress=False)
+    sweep.plot()
+    tracks = figures[f"{sweep.name}_orders.png"].axes[0]
+    drawn = [line for line in tracks.get_lines() if len(line.get_xdata()) == 3]
+    assert drawn and {line.get_linestyle() for line in drawn} == {"None"}
+    assert len({line.get_marker() for line in drawn}) == 2   # one per speed
+    assert "points sharing it stand on one vertical" in tracks.get_xlabel()

@@ -161,7 +161,7 @@ def plot_spectra(result, path):
         ax.semilogy(freq * scale, np.maximum(amp, 1e-30), lw=0.9)
         top = tops[name.partition(".")[2]] or 1.0
         ax.set_ylim(top * 1e-6, top * 3.0)
-        ax.set_ylabel(f"amplitude [{label}]", fontsize=8)
+        ax.set_ylabel(f"amplitude, zero-to-peak [{label}]", fontsize=8)
         ax.set_title(f"{name}, mean {k * float(np.mean(table[name])):.4g} {label} (removed)", fontsize=9, loc="left")
         ax.grid(alpha=0.3, which="both")
     axes[-1, 0].set_xlim(0, 6 if scenario.running_speed else None)
@@ -205,6 +205,8 @@ ORDER_TRACK_FLOOR = 1e-6
 ORDER_FIGURE_OUTPUTS = 6
 #: the sweep's order tracks draw up to this many values of the other axes, one line style each
 GROUP_STYLES = ("-", "--", ":", "-.")
+#: their markers where the points are not joined (sampled rows, a Boolean axis)
+GROUP_MARKERS = ("o", "s", "^", "D")
 ORDER_FIGURE_GROUPS = len(GROUP_STYLES)
 
 
@@ -245,7 +247,9 @@ def plot_sweep(sweep, out_dir):
     def label(key):
         return ", ".join(f"{ax.label} = {value_text(ax, v)}" for ax, v in zip(others, key)) or None
 
-    xlabel = (first.label if on_off else f"{first.names[0]} [{axis_unit(first)}] (of each sampled point)"
+    shared = first.sampled and len({row[0] for row in first.values}) < len(first.values)
+    xlabel = (first.label if on_off else f"{first.names[0]} [{axis_unit(first)}] (of each sampled point"
+              + ("; points sharing it stand on one vertical" if shared else "") + ")"
               if first.sampled else f"{first.label} [{axis_unit(first)}]")
     # the scenario's title may name the value swept here ("30 deg joint"): the figures name the sweep instead
     swept = "; ".join(f"{ax.label} {', '.join(str(v).lower() for v in ax.values)}" if _boolean_axis(ax) else
@@ -306,6 +310,13 @@ def plot_sweep(sweep, out_dir):
         modes = sorted(scenario_modes(scenario, rows[0]["point"] if rows else {}), key=lambda m: m.omega)
     else:
         modes = []
+    def group_style(g: int) -> dict:
+        """A line style per combination of the other axes; unjoined markers where the points are sampled rows or
+        false and true (a line between them would read as a trend)."""
+        if on_off or first.sampled:
+            return dict(ls="none", marker=GROUP_MARKERS[g], ms=4, mfc="none" if g else None)
+        return dict(ls=GROUP_STYLES[g], marker="." if len(tracked[g][1]) <= 40 else None, ms=3)
+
     for (ax1, *ax2), out in zip(panels, shown):
         unit, k = display(scenario.unit(out))
         amplitudes = {order: np.array([r[f"{out}.h{order}"] for r in rows], dtype=float) for order in orders}
@@ -320,8 +331,7 @@ def plot_sweep(sweep, out_dir):
             for i, order in enumerate(orders):
                 amp = np.array([r[f"{out}.h{order}"] for r in group], dtype=float)
                 clipped |= bool(np.any(k * amp < floor))
-                ax1.semilogy(xs(group), np.maximum(k * amp, floor), marker="." if len(group) <= 40 else None,
-                             ls=GROUP_STYLES[g], ms=3, color=f"C{i % 10}")
+                ax1.semilogy(xs(group), np.maximum(k * amp, floor), color=f"C{i % 10}", **group_style(g))
         if scale > 0.0:
             ax1.set_ylim(bottom=0.5 * floor)
             if clipped:   # the floor shaded and named, so that a track on it does not read as a small order
@@ -333,12 +343,14 @@ def plot_sweep(sweep, out_dir):
             ax1.set_xticks([0, 1], ["false", "true"])
             ax1.set_xlim(-0.5, 1.5)
         ax1.set_ylabel(f"order amplitude, zero-to-peak [{unit}]")
-        # orders by colour; with several values of the other axes, those by line style in a second legend
-        ax1.add_artist(ax1.legend([Line2D([], [], color=f"C{i % 10}") for i in range(len(orders))],
-                                  [f"{order}x" for order in orders], fontsize=8, loc="upper right"))
+        # orders by colour; with several values of the other axes, those by line style or marker, in one legend
+        # placed clear of the data (two legends are placed each blind to the other)
+        handles = [Line2D([], [], color=f"C{i % 10}") for i in range(len(orders))]
+        names = [f"{order}x" for order in orders]
         if len(tracked) > 1:
-            ax1.legend([Line2D([], [], color="0.3", ls=GROUP_STYLES[g]) for g in range(len(tracked))],
-                       [label(key) for key, _ in tracked], fontsize=7, loc="lower right")
+            handles += [Line2D([], [], color="0.3", **group_style(g)) for g in range(len(tracked))]
+            names += [label(key) for key, _ in tracked]
+        ax1.legend(handles, names, fontsize=7, loc="best")
         ax1.grid(alpha=0.3, which="both")
         ax1.set_title(f"{out}: order tracks" + (f" ({label(key0)})" if label(key0) and len(tracked) == 1 else "")
                       + (f"\norders below {ORDER_TRACK_FLOOR:g} of its largest order or |value| drawn on the floor"
