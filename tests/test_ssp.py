@@ -95,3 +95,43 @@ def test_an_fmi3_package_goes_beside_the_fmi2_one_not_over_it(fmu_dir, fmu3_dir,
                 with zipfile.ZipFile(io.BytesIO(package.read(fmu))) as inner:
                     root = ET.fromstring(inner.read("modelDescription.xml"))
                     assert root.get("fmiVersion") == version, (path, fmu)
+
+
+def test_a_package_of_another_step_is_refused_and_export_ssp_takes_a_step(fmu_dir, tmp_path):
+    """libcosim runs the step the package carries and the rows take the scenario's times: a package exported at
+    another step than the scenario's ran 4x the time under the labels of 1x without a word. Now refused, naming
+    both steps; `ujfmu export-ssp --step` writes a package of that step, which runs with the scenario at it."""
+    path = SCENARIOS[0].parent / "cardan_constant_speed.toml"
+    assert main(["export-ssp", str(path), "--step", "2.5e-4", "--out", str(tmp_path), "--fmu-dir", str(fmu_dir)]) == 0
+    ssp = tmp_path / "cardan_constant_speed.ssp"
+    scenario = Scenario(path)
+    with pytest.raises(ValueError, match=r"step 0.00025 s in the package, 0.001 s in the scenario"):
+        cosimulate_ssp(ssp, scenario)
+    scenario.step_size = 2.5e-4
+    table = cosimulate_ssp(ssp, scenario)
+    assert len(table) == 2000 and table["time"][-1] == pytest.approx(0.5)
+    # the joint's output angle advances at the ideal source's mean speed: the rows are at the package's times
+    slope = np.polyfit(table["time"], table["joint.phi_out"], 1)[0]
+    assert slope == pytest.approx(62.83185307179586, rel=1e-3)
+
+
+def test_fmpy_arguments_run_the_scenario_in_fmpys_simulate_ssp(fmu_dir, tmp_path):
+    """fmpy's simulate_ssp reads neither the package's parameter sets nor its experiment: with
+    ujfmu.ssp.fmpy_arguments it runs the scenario's (the ideal source at its 600 rpm, a Boolean set as one; the
+    joint's driving torque within Feng's closed-form band T cos(beta) .. T / cos(beta) once the load's torque has come round its one-step delays), and
+    component names one of which begins another are refused (fmpy would give one the other's parameters)."""
+    from fmpy.ssp.simulation import simulate_ssp
+
+    from ujfmu.ssp import fmpy_arguments
+    scenario = Scenario(SCENARIOS[0].parent / "cardan_constant_speed.toml")
+    result = simulate_ssp(export_ssp(scenario, tmp_path, fmu_dir), **fmpy_arguments(scenario))
+    assert result["time"][-1] == pytest.approx(scenario.stop_time - scenario.step_size)
+    np.testing.assert_allclose(result["motor.omega"], 62.83185307179586, rtol=1e-12)
+    tau, cos_beta = result["joint.tau_in"][5:], np.cos(np.radians(30.0))
+    assert 0.3 * cos_beta * (1 - 1e-3) <= tau.min() and tau.max() <= 0.3 / cos_beta * (1 + 1e-3)
+    assert tau.max() - tau.min() > 0.9 * 0.3 * (1 / cos_beta - cos_beta)
+    twins = scenario.with_parameters({})
+    twins.components = {("motor" if n == "load" else "motor_b" if n == "motor" else n): c
+                        for n, c in scenario.components.items()}
+    with pytest.raises(ValueError, match="'motor' is a prefix of 'motor_b'"):
+        fmpy_arguments(twins)

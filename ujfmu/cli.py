@@ -763,7 +763,11 @@ def cmd_export_ssp(args):
     from .scenario import Scenario
     from .ssp import export_ssp
     for path in _scenarios(args.scenarios):
-        print(f"wrote {export_ssp(Scenario(path), args.out, args.fmu_dir)} (FMI {'3.0' if args.fmi == 3 else '2.0'} "
+        scenario = Scenario(path)
+        if args.step is not None:
+            scenario.step_size = _step_size(args.step)
+            scenario.check_experiment()
+        print(f"wrote {export_ssp(scenario, args.out, args.fmu_dir)} (FMI {'3.0' if args.fmi == 3 else '2.0'} "
               "Co-Simulation FMUs)")
     return 0
 
@@ -1039,6 +1043,8 @@ def _main(raw: list):
     p = command("export-ssp", cmd_export_ssp, "write scenarios as SSP packages (SystemStructure.ssd + FMUs)")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     _out(p, "results/", "writes <scenario>.ssp here (results/fmi3/ with --fmi 3)")
+    p.add_argument("--step", metavar="SECONDS", help="communication step the package carries instead of the "
+                                                     "scenario's (an engine such as libcosim runs the package's)")
     _fmi(p, "package the FMI 3.0 FMUs")
     p = command("bench", cmd_bench, "speed figures as ratios in one run: FMI floor, monolithic solve, engines, "
                                     "sweeps")

@@ -6,9 +6,11 @@ the communication step as an OSP fixed-step annotation) and the FMUs under resou
 it with libcosim (``CosimExecution.from_ssp_file``), which the test suite compares with our fmpy master.
 """
 
+import math
 import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from types import SimpleNamespace
 
 from .build import DEFAULT_FMU_DIR, UNITS, fmu_class
 
@@ -86,12 +88,50 @@ def export_ssp(scenario, out_dir=Path("results"), fmu_dir=DEFAULT_FMU_DIR):
     return out
 
 
+def experiment_of(ssp_path) -> dict:
+    """The default experiment an .ssp package carries (:func:`system_structure`): {"start time", "stop time",
+    "step"} [s]."""
+    with zipfile.ZipFile(ssp_path) as zf:
+        root = ET.fromstring(zf.read("SystemStructure.ssd"))
+    experiment = root.find("ssd:DefaultExperiment", NS)
+    step = experiment.find(".//osp:FixedStepAlgorithm", NS)
+    return {"start time": float(experiment.get("startTime")), "stop time": float(experiment.get("stopTime")),
+            "step": float(step.get("baseStepSize"))}
+
+
+def fmpy_arguments(scenario) -> dict:
+    """Keyword arguments of fmpy's ``simulate_ssp`` (fmpy 0.3.32) that run an exported scenario as ujfmu runs it:
+    its start and stop time and step (fmpy reads none of them from the package: it defaults to 1 s in 100 steps),
+    and its parameters as the parameter set object fmpy reads (``.parameters``, each with ``.name`` 'comp.par' and
+    ``.value``; Booleans as Python bools: fmpy sets a Boolean to value != 0). fmpy matches a parameter to a
+    component by the prefix of its name, so a component whose name begins another's and a dot (``motor`` and
+    ``motor.b``) or a prefix of another (``motor``, ``motor2``) is refused here: rename one."""
+    names = sorted(scenario.components)
+    clash = [(a, b) for a in names for b in names if a != b and b.startswith(a)]
+    if clash:
+        raise ValueError(f"fmpy's simulate_ssp matches parameters to components by name prefix: {clash[0][0]!r} is "
+                         f"a prefix of {clash[0][1]!r}, so it would take the other's parameters; rename one")
+    values = [SimpleNamespace(name=f"{comp}.{par}", value=value)
+              for comp in scenario.components for par, value in scenario.start_values(comp).items()]
+    return dict(start_time=scenario.start_time, stop_time=scenario.stop_time, step_size=scenario.step_size,
+                parameter_set=SimpleNamespace(parameters=values))
+
+
 def cosimulate_ssp(ssp_path, scenario):
     """Run an exported .ssp with libcosim; structured array 'time' + scenario.record."""
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 
     from .libcosim_run import record
+    packed = experiment_of(ssp_path)
+    ours = {"start time": scenario.start_time, "stop time": scenario.stop_time, "step": scenario.step_size}
+    differ = [f"{what} {packed[what]:g} s in the package, {ours[what]:g} s in the scenario"
+              for what in ours if not math.isclose(packed[what], ours[what], rel_tol=1e-9, abs_tol=1e-12)]
+    if differ:
+        raise ValueError(f"{ssp_path} was exported for another experiment than {scenario.path}'s "
+                         f"({'; '.join(differ)}): libcosim runs the package's, and the rows would be labelled "
+                         "with the scenario's times; export it again from this scenario (`ujfmu export-ssp "
+                         "--step SECONDS`, or set scenario.step_size before export_ssp)")
     log_output_level(CosimLogLevel.WARNING)
     execution = CosimExecution.from_ssp_file(str(Path(ssp_path).resolve()))
     index = {name: execution.slave_index_from_instance_name(name) for name in scenario.components}
