@@ -1,6 +1,7 @@
 """Command line and Python entry points: run, check with JUnit, failing exit status."""
 
 import re
+import shutil
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -915,16 +916,36 @@ def test_a_reference_that_checks_nothing_is_refused(tmp_path, edit, message):
         Scenario(tmp_path / "cardan_constant_speed.toml").reference()
 
 
-def test_a_band_of_the_whole_range_is_refused(tmp_path):
-    """rel_range = 1e9 had passed a model 238x outside its real band: a band of the signal's whole range or more
-    checks nothing of its course, and the scenario file is refused, naming the signal."""
+def test_a_band_of_half_the_range_or_more_is_refused(tmp_path):
+    """rel_range = 1e9 had passed a model 238x outside its real band, and 0.99 passed a fresh-eyes trial's gate: a
+    band of half the signal's range or more passes a flat line through its middle and checks nothing of its course,
+    and the scenario file is refused, naming the signal; just under half is taken."""
     from ujfmu.scenario import Scenario, ScenarioError
     text = (SCENARIOS / "cardan_constant_speed.toml").read_text()
     wide = tmp_path / "wide.toml"
-    wide.write_text(re.sub(r'("joint\.tau_in" = )\{[^}]*\}', r'\1{ rel_range = 1e9 }', text))
-    assert wide.read_text() != text
-    with pytest.raises(ScenarioError, match=r"reference.tolerance.joint.tau_in: rel_range = 1e\+09 allows an error"):
-        Scenario(wide)
+    for band, refused in (("1e9", r"1e\+09"), ("0.99", "0.99"), ("0.5", "0.5")):
+        wide.write_text(re.sub(r'("joint\.tau_in" = )\{[^}]*\}', rf'\1{{ rel_range = {band} }}', text))
+        assert wide.read_text() != text
+        with pytest.raises(ScenarioError, match=rf"reference.tolerance.joint.tau_in: rel_range = {refused} allows "
+                                                "an error of .* a flat line through the middle"):
+            Scenario(wide)
+    wide.write_text(re.sub(r'("joint\.tau_in" = )\{[^}]*\}', r'\1{ rel_range = 0.49 }', text))
+    assert Scenario(wide).tolerances["joint.tau_in"].rel_range == 0.49
+
+
+def test_check_names_the_bands_that_check_the_level_only(fmu_dir, tmp_path, capsys):
+    """An abs band 250x a torque's range (a fresh-eyes trial's) passed `ujfmu check --strict` without a word: the
+    signal's line and the command's summary say that the band checks its level only."""
+    text = (SCENARIOS / "cardan_constant_speed.toml").read_text()
+    loose = tmp_path / "cardan_constant_speed.toml"
+    loose.write_text(re.sub(r'("joint\.tau_in" = )\{[^}]*\}', r'\1{ abs = 1000.0 }', text))
+    (tmp_path / "references").mkdir()
+    shutil.copy(SCENARIOS / "references" / "cardan_constant_speed.csv", tmp_path / "references")
+    assert main(["check", str(loose), "--no-plot", "--out", str(tmp_path / "out"), "--fmu-dir", str(fmu_dir)]) == 0
+    out, err = capsys.readouterr()
+    assert "joint.tau_in" in out and "checks the level only: the band, 1e+03 N.m, is at least half" in out
+    assert "1 band(s) at least half their reference's range check the level only" in err
+    assert "cardan_constant_speed: joint.tau_in" in err
 
 
 def test_a_truncated_fmu_and_a_subfolder_left_out_are_named(fmu_dir, tmp_path, capsys):

@@ -104,6 +104,20 @@ def test_a_constant_reference_with_rel_range_alone_is_flagged():
     assert check.note == ""
 
 
+def test_a_band_of_half_the_range_is_said_to_check_the_level_only():
+    """A flat line through the middle of a reference ranging 0..4 is within 2 of it everywhere: a band of 2 (abs
+    1000 N.m on a 4 N.m torque, a fresh-eyes trial's gate) passes it, and the line says the band checks the level
+    only; a band just under half the range does not pass the flat line and has no such note."""
+    from ujfmu.scenario_run import LEVEL_ONLY
+    flat = table([0.0, 0.5, 1.0, 1.5, 2.0], a__y=[2.0] * 5)
+    (check,) = compare(flat, REFERENCE, {"a.y": Tolerance(abs=2.0)})
+    assert check.passed and check.level_only and LEVEL_ONLY in str(check)
+    (check,) = compare(flat, REFERENCE, {"a.y": Tolerance(rel_range=0.25, abs=1.0)})
+    assert check.passed and check.level_only
+    (check,) = compare(flat, REFERENCE, {"a.y": Tolerance(abs=1.99)})
+    assert not check.passed and not check.level_only and check.note == ""
+
+
 def test_an_operating_point_missed_from_above_is_called_an_overshoot_not_unreached():
     """A drive 2.2% above its set point at the end is not short of it: the message says which side it missed."""
     from ujfmu.scenario_run import OperatingPointCheck

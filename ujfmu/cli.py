@@ -325,6 +325,14 @@ def _band_missing(results) -> None:
         print(f"  {SCIPY_NOTE}", file=sys.stderr)
 
 
+def _level_only(results) -> None:
+    """Name once the bands that are at least half their reference's range (a flat line would pass them)."""
+    loose = [f"{r.scenario.name}: {c.name}" for r in results for c in r.checks if c.level_only]
+    if loose:
+        print(f"  {len(loose)} band(s) at least half their reference's range check the level only, not the course "
+              f"(a flat line through the middle would pass): {'; '.join(loose)}", file=sys.stderr)
+
+
 def _plots_missing(args):
     if not args.no_plot and not available("matplotlib"):
         print("  no plots: matplotlib is not installed (pip install 'ujfmu[plot]'; --no-plot silences this)",
@@ -441,6 +449,7 @@ def _check(args, kind: str) -> int:
             print(f"ERROR {name}: {exc}")
     _plots_missing(args)
     _band_missing(results)
+    _level_only(results)
     if args.junit:
         report = write_junit(results, args.junit, errors, skipped, kind)
         _say(args, f"JUnit report: {report}")

@@ -62,6 +62,9 @@ SWEEP_KEYS = {"params", "outputs", "running_speed", "settle_time", "revolutions"
 OUTPUT_KEYS = {"record", "plot", "orbits", "spectra", "running_speed", "steady_from"}
 REFERENCE_KEYS = {"file", "generator", "tolerance", "extrapolated", "not_compared", "orders"}
 TOLERANCE_KEYS = {"rel_range", "abs"}
+#: a rel_range from this on is refused: a flat line through the middle of the reference's range is within half of
+#: it everywhere
+MAX_REL_RANGE = 0.5
 
 
 #: what a name set under the wrong table is, and where it goes
@@ -856,9 +859,10 @@ class Scenario:
             values = {k: self._number(tol, f"{field}.{k}") for k in tol}
             if any(v < 0 for v in values.values()):
                 raise ScenarioError(f"{self.path}: {field}: bounds must not be negative, got {tol!r}")
-            if values.get("rel_range", 0.0) >= 1.0:
-                raise ScenarioError(f"{self.path}: {field}: rel_range = {values['rel_range']:g} allows an error of the "
-                                    "signal's whole range or more, which checks nothing of its course; give the "
+            if values.get("rel_range", 0.0) >= MAX_REL_RANGE:
+                raise ScenarioError(f"{self.path}: {field}: rel_range = {values['rel_range']:g} allows an error of "
+                                    f"{values['rel_range']:g} of the signal's range, which a flat line through the "
+                                    "middle of the range passes: it checks nothing of the signal's course; give the "
                                     "accuracy the study needs (`ujfmu run --check-step` estimates this step's)")
             tolerances[name] = Tolerance(**values)
         return tolerances

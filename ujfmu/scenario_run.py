@@ -40,6 +40,7 @@ class SignalCheck:
     note: str = ""   # what the figures mean, where the tolerance's form does not suit the reference
     unit: str = ""   # of the signal, printed beside the errors
     rms_error: float = math.nan   # RMS of the error over the compared samples (shown, not judged)
+    level_only: bool = False   # the band is at least half the reference's range: it checks the level, not the course
 
     @property
     def passed(self):
@@ -64,6 +65,10 @@ class SignalCheck:
 
 #: a reference whose range is at most this fraction of its magnitude is constant: rel_range gives it no allowance
 CONSTANT_REFERENCE = 1e-9
+
+
+#: what a band at least half its reference's range checks (a flat line through the middle passes it)
+LEVEL_ONLY = "checks the level only"
 
 
 #: a reference range below this multiple of the allowed error counts as constant (no "% of range" figure)
@@ -864,6 +869,12 @@ def compare(table, reference, tolerances, units: dict | None = None) -> list:
         if tol.abs == 0.0 and 0.0 < magnitude and span <= CONSTANT_REFERENCE * magnitude:
             check.note = (f"the reference is constant ({magnitude:.6g}, range {span:.3g}), so rel_range allows next to "
                           f"nothing; give this signal an abs tolerance")
+        elif check.allowed >= 0.5 * span > CONSTANT_REFERENCE * magnitude:
+            check.level_only = True
+            check.note = (f"{LEVEL_ONLY}: the band, {check.allowed:.3g}{' ' + check.unit if check.unit else ''}, is "
+                          f"at least half the reference's range ({span:.3g}), so a flat line through its middle would "
+                          "pass; tighten it where the course matters (`ujfmu run --check-step` estimates this step's "
+                          "error)")
         checks.append(check)
     return checks
 
