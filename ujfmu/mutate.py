@@ -33,7 +33,7 @@ DEFAULT_LIST = REPOSITORY / "mutants.toml"
 #: the areas the list must cover (a path prefix each)
 AREAS = {"physics": ("ujfmu/models/*/model.py", "ujfmu/models/protocol.py", "ujfmu/fmu/rk4.py"),
          "FMU layer": ("ujfmu/models/*/fmu.py", "ujfmu/fmu/", "ujfmu/build.py"), "master": "ujfmu/master.py",
-         "scenario comparison": ("ujfmu/scenario.py", "ujfmu/scenario_run.py", "ujfmu/stepsize.py",
+         "scenario comparison": ("ujfmu/scenario.py", "ujfmu/scenario_run.py", "ujfmu/stepsize.py", "ujfmu/ssp.py",
                                  "ujfmu/report.py"),
          "references": ("ujfmu/models/*/reference.py", "ujfmu/references/"),
          "FMI 3.0 layer": ("ujfmu/fmu3/", "ujfmu/build3.py", "ujfmu/model_exchange.py", "ujfmu/fmi3_host.py"),
