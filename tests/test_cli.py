@@ -468,8 +468,8 @@ def test_output_interval_thins_the_written_rows_and_keeps_the_verdict(fmu_dir, t
     out = capsys.readouterr().out
     assert "PASS cardan_constant_speed" in out
     # each error in its signal's unit: the speeds in rad/s, the torques in N.m
-    assert re.search(r"joint\.omega_out +max\|err\| = \S+ rad/s  allowed \S+ rad/s  ", out), out
-    assert re.search(r"joint\.tau_in +max\|err\| = \S+ N\.m  allowed \S+ N\.m  ", out), out
+    assert re.search(r"joint\.omega_out +max\|err\| = \S+ rad/s at t = \S+ s  allowed \S+ rad/s  ", out), out
+    assert re.search(r"joint\.tau_in +max\|err\| = \S+ N\.m at t = \S+ s  allowed \S+ N\.m  ", out), out
     rows = (tmp_path / "cardan_constant_speed.csv").read_text().splitlines()[1:]
     assert [float(r.split(",")[0]) for r in rows] == pytest.approx([0.01 * k for k in range(51)], abs=1e-12)
     assert main(["run", str(path), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path), "--no-plot",

@@ -41,6 +41,7 @@ class SignalCheck:
     unit: str = ""   # of the signal, printed beside the errors
     rms_error: float = math.nan   # RMS of the error over the compared samples (shown, not judged)
     level_only: bool = False   # the band is at least half the reference's range: it checks the level, not the course
+    at: float = math.nan   # the time of the largest error
 
     @property
     def passed(self):
@@ -55,8 +56,9 @@ class SignalCheck:
         verdict = "ok  " if self.passed else "FAIL"
         unit = f" {self.unit}" if self.unit and self.unit != "1" else ""
         rms = "" if math.isnan(self.rms_error) else f", RMS {self.rms_error:.3e}{unit}"
-        text = (f"{verdict} {self.name:20s} max|err| = {self.max_error:.3e}{unit}  allowed {self.allowed:.3e}{unit}  "
-                f"({self.fraction_of_allowed:.3g} of allowed{rms}")
+        at = "" if math.isnan(self.at) or self.max_error == 0.0 else f" at t = {self.at:.6g} s"
+        text = (f"{verdict} {self.name:20s} max|err| = {self.max_error:.3e}{unit}{at}  allowed "
+                f"{self.allowed:.3e}{unit}  ({self.fraction_of_allowed:.3g} of allowed{rms}")
         # the error relative to the reference's range means something only when the reference varies
         if self.reference_range > RANGE_FLOOR * self.allowed:
             text += f", {100 * self.max_error / self.reference_range:.3g}% of the reference's range"
@@ -699,6 +701,21 @@ class ScenarioResult:
         elsewhere = here != Path(DEFAULT_FMU3_DIR if fmi3 else DEFAULT_FMU_DIR).resolve()
         return (" --fmi 3" if fmi3 else "") + (f" --fmu-dir {self.fmu_dir}" if elsewhere else "")
 
+    def _start_failures(self) -> tuple:
+        """(names, text): the failing compared signals of a speed-driven run whose largest error falls in its first
+        START_STEPS steps and which pass after them, and their figures after them ([] and '' otherwise)."""
+        from .stepsize import START_STEPS, speed_driven
+        h, t0 = self.scenario.step_size, self.scenario.start_time
+        early = [c for c in self.checks if not c.passed and c.at <= t0 + (START_STEPS - 0.5) * h]
+        if not early or self.table is None or not speed_driven(self.scenario):
+            return [], ""
+        rows = self.table[self.table["time"] > t0 + (START_STEPS - 0.5) * h]
+        later = {c.name: c for c in compare(rows, self.scenario.read_reference(),
+                                            {c.name: self.scenario.tolerances[c.name] for c in early})}
+        passing = [c for c in early if later[c.name].passed]
+        return ([c.name for c in passing],
+                ", ".join(f"{c.name} {later[c.name].fraction_of_allowed:.3g} of allowed" for c in passing))
+
     def not_checked_reason(self, step_check_follows: bool = False) -> str:
         """Why nothing was compared ("" where something was); step_check_follows: the step-halving estimate is
         printed after the summary (``ujfmu run --check-step``), so it is named instead of suggested."""
@@ -805,10 +822,22 @@ class ScenarioResult:
                              "the fit under noise); a coupling error is the other cause, if the error shrinks with the "
                              f"step ({estimate})")
             else:
-                lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the "
-                             f"coupling's ({estimate}, --step auto picks a step); if it does not, it is the FMUs' own "
-                             "integration, or the model or its parameters differ from what the reference solves. "
-                             f"{figures}")
+                from .stepsize import START_STEPS
+                at_start, later = self._start_failures()
+                if at_start:
+                    lines.append(f"  {', '.join(at_start)}: the largest error is in the first {START_STEPS} steps, "
+                                 f"and after them {later}: a speed-driven FMU starts without a speed history, so "
+                                 "the inertia torques in its outputs miss its input's acceleration at the start (a "
+                                 "drive whose speed changes from the first step: e.g. a PI motor starting at speed "
+                                 "with no torque against a load), which no step removes (--check-step leaves these "
+                                 "steps out). Start where the input does not accelerate (a ramp from rest, a drive "
+                                 "in equilibrium) or wire the model torque-driven (README, \"Choose the wiring for "
+                                 "the host\")")
+                if len(at_start) < sum(not c.passed for c in self.checks + self.extrapolated_checks):
+                    lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the "
+                                 f"coupling's ({estimate}, --step auto picks a step); if it does not, it is the "
+                                 "FMUs' own integration, or the model or its parameters differ from what the "
+                                 f"reference solves. {figures}")
         if not self.checks and self.table is not None and len(self.table) > 1:
             lines += self._signal_figures()
         if not self.checked:
@@ -858,13 +887,14 @@ def compare(table, reference, tolerances, units: dict | None = None) -> list:
         if name not in reference.dtype.names:
             raise KeyError(f"signal '{name}' has a tolerance but is not in the reference")
         if shared:
-            error = table[name][mine] - reference[name][theirs]
+            error, times = table[name][mine] - reference[name][theirs], t[mine]
         else:
-            error = table[name] - np.interp(t, reference["time"], reference[name])
+            error, times = table[name] - np.interp(t, reference["time"], reference[name]), t
         err = float(np.max(np.abs(error)))
         span = float(np.ptp(reference[name][window])) if window.any() else 0.0
         check = SignalCheck(name, err, tol.rel_range * span + tol.abs, span, unit=(units or {}).get(name, ""),
-                            rms_error=float(np.sqrt(np.mean(np.square(error)))))
+                            rms_error=float(np.sqrt(np.mean(np.square(error)))),
+                            at=float(times[np.argmax(np.abs(error))]))
         magnitude = float(np.max(np.abs(reference[name][window]))) if window.any() else 0.0
         if tol.abs == 0.0 and 0.0 < magnitude and span <= CONSTANT_REFERENCE * magnitude:
             check.note = (f"the reference is constant ({magnitude:.6g}, range {span:.3g}), so rel_range allows next to "
