@@ -380,3 +380,22 @@ def test_an_error_only_in_the_first_steps_of_a_speed_driven_run_is_named_as_the_
     text = result.summary()
     assert "joint.tau_in: the largest error is in the first 3 steps, and after them joint.tau_in 0." in text
     assert "if the error shrinks with the step" not in text
+
+
+def test_the_operating_point_is_the_angles_advance_not_a_mean_of_aliased_samples():
+    """A record of every 20th step meets a 50 Hz ripple of the drive's speed at one phase (a fresh-eyes trial's
+    joint at 1500 rpm): the samples' mean sits on the ripple's crest, 1% over the set point, and had failed the
+    drive. Its angle's advance over the window is the mean speed whatever the samples."""
+    from ujfmu.scenario import Scenario
+    from ujfmu.scenario_run import check_operating_points
+    scenario = Scenario(Path(__file__).parent.parent / "scenarios" / "cardan_startup.toml")
+    omega, ripple, w = 150.0, 3.0, 2.0 * math.pi * 50.0
+    t = np.arange(0.0, 6.0 + 1e-9, 0.02) + 0.005   # a quarter period of the ripple in: its crest
+    speeds = omega + ripple * np.sin(w * t)
+    angle = omega * t - ripple / w * np.cos(w * t)
+    record = table(t, motor__omega=speeds, motor__omega_ref=np.full_like(t, omega), motor__phi=angle)
+    (check,) = check_operating_points(scenario, record)
+    assert float(np.mean(speeds[t >= check.since])) == pytest.approx(omega + ripple)
+    assert check.value == pytest.approx(omega, rel=1e-12) and check.passed
+    (plain,) = check_operating_points(scenario, record[["time", "motor.omega", "motor.omega_ref"]])
+    assert plain.value == pytest.approx(omega + ripple) and not plain.passed

@@ -1220,3 +1220,14 @@ class Scenario:
     def master_components(self, fmu_dir=DEFAULT_FMU_DIR):
         return [Component(name, Path(fmu_dir) / f"{fmu}.fmu", self.start_values(name))
                 for name, (fmu, _) in self.components.items()]
+
+
+def running_angle_of(scenario, running_speed: str) -> str:
+    """The angle output of the shaft whose speed is running_speed (a Motor's phi for its omega, a machine's phi_in
+    or phi_out for its omega_in or omega_out), "" where its component has none."""
+    comp, _, var = (running_speed or "").partition(".")
+    if comp not in scenario.components or not var.startswith("omega"):
+        return ""
+    angle = "phi" + var[len("omega"):]
+    declared = {v.name: v for v in fmu_class(scenario.components[comp][0]).VARIABLES}
+    return f"{comp}.{angle}" if angle in declared and declared[angle].causality == "output" else ""

@@ -55,7 +55,7 @@ from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
 from .extras import require
 from .master import (Component, Connection, Cosimulation, FmuWarning, RunStopped, remove_folder,
                      temporary_folder)
-from .scenario import SWEEP_KEYS, Scenario, ScenarioError, plain_number
+from .scenario import SWEEP_KEYS, Scenario, ScenarioError, plain_number, running_angle_of
 from .steady import (ERROR, FIGURES, FINAL, OK, PEAK_NOTE, STATUSES, coupling_noise, grows,
                      settle_and_measure)
 
@@ -541,17 +541,6 @@ class SweepSettings:
         phases = tuple(f"ph{k}" for k in self.orders) if self.running_angle else ()
         return [f"{out}.{fig}" for out in self.outputs
                 for fig in FIGURES + tuple(f"h{k}" for k in self.orders) + phases]
-
-
-def running_angle_of(scenario, running_speed: str) -> str:
-    """The angle output of the shaft whose speed is running_speed (a Motor's phi for its omega, a machine's phi_in
-    or phi_out for its omega_in or omega_out), "" where its component has none."""
-    comp, _, var = (running_speed or "").partition(".")
-    if comp not in scenario.components or not var.startswith("omega"):
-        return ""
-    angle = "phi" + var[len("omega"):]
-    declared = {v.name: v for v in fmu_class(scenario.components[comp][0]).VARIABLES}
-    return f"{comp}.{angle}" if angle in declared and declared[angle].causality == "output" else ""
 
 
 @dataclass
