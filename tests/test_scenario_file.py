@@ -283,6 +283,24 @@ def test_a_reference_made_with_other_fmu_defaults_is_refused_naming_the_remedy(t
     assert len(Scenario(path).read_reference()) == 2
 
 
+def test_a_parameter_an_update_adds_at_its_neutral_value_keeps_the_references(tmp_path, monkeypatch):
+    """An update that adds a parameter whose default leaves the model as it was (the Motor's tau_initial = 0: the
+    drive starts from zero torque, as before) keeps every reference made before it; the same parameter with a
+    default off its neutral value changes the system, and the reference is refused."""
+    from ujfmu.fmu.base import parameter
+    from ujfmu.models.load.fmu import Load
+    from ujfmu.references import DEFAULTS_TAG, SETUP_TAG
+    scenario = Scenario(write(tmp_path, GOOD + REF))
+    (tmp_path / "r.csv").write_text(f"# by hand {SETUP_TAG}{scenario.setup_digest()}] {DEFAULTS_TAG}"
+                                    f'{scenario.defaults_digest()}]\n"time","j.tau_in"\n0,0.0\n1,1.0\n')
+    declared = Load.VARIABLES
+    monkeypatch.setattr(Load, "VARIABLES", declared + (parameter("T_new", 0.0, "N.m", "a feature", neutral=0.0),))
+    assert len(Scenario(scenario.path).read_reference()) == 2
+    monkeypatch.setattr(Load, "VARIABLES", declared + (parameter("T_new", 0.5, "N.m", "a feature", neutral=0.0),))
+    with pytest.raises(ScenarioError, match="made with other FMU defaults"):
+        Scenario(scenario.path).read_reference()
+
+
 def test_a_reference_without_a_setup_digest_is_read_as_it_is(tmp_path):
     """A reference made by another tool has no setup digest: it is compared, as before."""
     (tmp_path / "r.csv").write_text('# measured on the test rig\n"time","j.tau_in"\n0,0.0\n1,1.0\n')

@@ -707,13 +707,16 @@ class Scenario:
     def defaults_digest(self) -> str:
         """Digest of the FMU defaults a reference of this scenario relies on: the declared start value of every
         parameter and unconnected input of its components that the scenario leaves unset (a default changed in an
-        update of an FMU changes the system the reference solved, which :meth:`setup_digest` cannot see)."""
+        update of an FMU changes the system the reference solved, which :meth:`setup_digest` cannot see), but for a
+        parameter at its neutral value (``Var.neutral``: a feature an update added, off by default, leaves the
+        system as it was)."""
         setup, connected = {}, {c.target for c in self.connections}
         for name, (fmu, params) in sorted(self.components.items()):
             given = {**params, **self.inputs.get(name, {}), **{t.split(".", 1)[1]: None for t in connected
                                                                 if t.split(".", 1)[0] == name}}
             setup[name] = [fmu, {v.name: v.start for v in fmu_class(fmu).VARIABLES
-                                 if v.causality in ("parameter", "input") and v.name not in given}]
+                                 if v.causality in ("parameter", "input") and v.name not in given
+                                 and not (v.neutral is not None and v.start == v.neutral)}]
         return hashlib.sha256(json.dumps(setup, sort_keys=True, default=float).encode()).hexdigest()[:12]
 
     def read_reference(self):

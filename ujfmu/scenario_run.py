@@ -849,8 +849,9 @@ class ScenarioResult:
                                  "the inertia torques in its outputs miss its input's acceleration at the start (a "
                                  "drive whose speed changes from the first step: e.g. a PI motor starting at speed "
                                  "with no torque against a load), which no step removes (--check-step leaves these "
-                                 "steps out). Start where the input does not accelerate (a ramp from rest, a drive "
-                                 "in equilibrium) or wire the model torque-driven (README, \"Choose the wiring for "
+                                 "steps out). Start where the input does not accelerate (a ramp from rest, or a PI "
+                                 "drive in equilibrium: its tau_initial the load's torque at the drive) or wire the "
+                                 "model torque-driven (README, \"Choose the wiring for "
                                  "the host\")")
                 if len(at_start) < sum(not c.passed for c in self.checks + self.extrapolated_checks):
                     lines.append(f"  a signal outside its tolerance: if the error shrinks with the step it is the "

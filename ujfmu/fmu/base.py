@@ -75,15 +75,17 @@ class Var:
     """One FMU variable: the single declaration of its name, causality, variability, unit, range and start."""
 
     __slots__ = ("name", "causality", "variability", "unit", "description", "start", "min", "max",
-                 "depends_on", "type", "used_if")
+                 "depends_on", "type", "used_if", "neutral")
 
     def __init__(self, name, causality, unit, description, start=None, min=None, max=None,
-                 variability=None, depends_on=(), type=float, used_if=None):
+                 variability=None, depends_on=(), type=float, used_if=None, neutral=None):
         self.name, self.causality, self.unit, self.description = name, causality, unit, description
         self.start, self.min, self.max, self.type = start, min, max, type
         self.depends_on = tuple(depends_on)
         #: an input the model reads only where this parameter is not 0 (a scenario need not feed it otherwise)
         self.used_if = used_if
+        #: a parameter's value at which the model is what it was without it (a feature off; None: no such value)
+        self.neutral = neutral
         if variability is None:
             variability = {"parameter": "fixed"}.get(causality, "continuous" if type is float else "discrete")
         self.variability = variability
@@ -136,8 +138,8 @@ UNSTABLE_INPUT = ("; an input this far out usually comes from the host's couplin
                   "(e.g. a joint angle near 90 deg, whose kinematics multiply the inertia torques)")
 
 
-def parameter(name, start, unit, description, min=None, max=None, type=float, variability="fixed"):
-    return Var(name, "parameter", unit, description, start, min, max, variability, type=type)
+def parameter(name, start, unit, description, min=None, max=None, type=float, variability="fixed", neutral=None):
+    return Var(name, "parameter", unit, description, start, min, max, variability, type=type, neutral=neutral)
 
 
 #: ranges of the drivetrain ports: +-1e4 rad/s (95,000 rpm) and +-1e7 N.m cover any real driveline and keep

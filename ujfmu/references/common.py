@@ -114,6 +114,12 @@ def check_load_angle(scenario, load: str, machine: str) -> None:
                           f"is not fed from {machine}.phi_out: connect it (the reference takes that angle)")
 
 
+def start_integral(p) -> float:
+    """The PI integral at the start: tau_initial / Ki, so that the law gives tau_initial at the reference speed
+    (the Motor FMU's tau_initial, written out again); 0 without an integral gain."""
+    return p.get("tau_initial", 0.0) / p["Ki"] if p["Ki"] else 0.0
+
+
 def pi_law(p, t, w, integral):
     """(tau_motor, d integral/dt) of the PI speed controller with torque limit and conditional integration."""
     e = profile(p, t)[0] - w

@@ -49,6 +49,49 @@ def test_pi_motor_holds_speed_against_load_and_respects_torque_limit(open_fmu):
     assert tau == pytest.approx(0.5) and omega < 100.0 - 0.3 / 1e-3 * 0.5 * 0.9  # decelerating at the limit
 
 
+@pytest.mark.parametrize("tau_initial", [0.0, 0.3])
+def test_a_pi_motor_started_at_its_load_torque_holds_its_speed_from_the_first_step(open_fmu, tau_initial):
+    """A PI motor at its set speed against a constant 0.3 N.m: with tau_initial = 0.3 N.m it starts in equilibrium
+    (tau_motor = tau_load, no speed error: the state at rest in the closed loop) and holds 100 rad/s to round-off;
+    from zero torque (the default) the load first slows it, by about tau_load h / J_rotor in the first step."""
+    m = open_fmu("Motor")
+    j, h, load = 1e-3, 1e-3, 0.3
+    m.initialize(dict(profile=0, omega_set=100.0, tau_max=0.5, J_rotor=j, Kp=0.2, Ki=10.0, tau_initial=tau_initial))
+    assert m.get("tau_motor")[0] == pytest.approx(tau_initial, abs=1e-15)
+    m.set(tau_load=load)
+    m.slave.doStep(0.0, h)
+    omega, tau = m.get("omega", "tau_motor")
+    if tau_initial:
+        assert omega == pytest.approx(100.0, abs=1e-12) and tau == pytest.approx(load, rel=1e-12)
+    else:
+        assert omega == pytest.approx(100.0 - load * h / j, rel=2e-3)
+
+
+def test_a_motor_controller_starts_at_its_starting_torque_and_integrates_from_there(open_fmu):
+    """The MotorController's integral starts at tau_initial / Ki: at the reference speed it delivers tau_initial,
+    and a speed 1 rad/s short for a step of h adds Kp e + Ki e h to it."""
+    c = open_fmu("MotorController")
+    kp, ki, h = 0.2, 10.0, 1e-3
+    c.initialize(dict(profile=0, omega_set=100.0, tau_max=5.0, Kp=kp, Ki=ki, tau_initial=1.5))
+    c.set(omega=100.0)
+    assert c.get("tau_motor")[0] == pytest.approx(1.5, rel=1e-15)
+    c.set(omega=99.0)
+    c.slave.doStep(0.0, h)
+    assert c.get("tau_motor")[0] == pytest.approx(1.5 + kp * 1.0 + ki * 1.0 * h, rel=1e-12)
+
+
+@pytest.mark.parametrize("params, words", [(dict(Ki=0.0, tau_initial=0.3), "needs an integral to start from (Ki > 0)"),
+                                           (dict(tau_max=0.5, tau_initial=-0.6), "beyond the drive's torque limit")])
+def test_a_starting_torque_a_drive_cannot_hold_is_refused(open_fmu, params, words):
+    """A P controller (Ki = 0) has no integral to start from, and no drive starts past its torque limit: both are
+    refused at initialisation, naming tau_initial, for the Motor and the MotorController alike."""
+    for fmu in ("Motor", "MotorController"):
+        inst = open_fmu(fmu)
+        with pytest.raises(FMICallException):
+            inst.initialize(params)
+        assert any("tau_initial" in msg and words in msg for msg in inst._log), (fmu, inst._log)
+
+
 def test_load_torque_law_feeds_through(open_fmu):
     ld = open_fmu("Load")
     ld.initialize(dict(T0=0.2, c1=0.01, c2=0.017, omega_smooth=0.1))

@@ -285,6 +285,17 @@ def test_a_set_speed_past_1000_rad_s_asks_whether_rpm_was_meant():
     assert len(motor.advice(drive(600.0, motor.STEP, -2000.0))) == 1 and motor.advice(drive(600.0)) == []
 
 
+def test_a_starting_torque_on_an_ideal_source_is_said_to_be_unused():
+    """An ideal speed source delivers whatever torque its profile takes: a tau_initial given to it is named as
+    unused; on a PI motor it is the integral's start, and says nothing."""
+    ideal = motor.Parameters(5.0, 125.0, 30.0, motor.CONSTANT, 100.0, 15.0, 1.0, 0.0, 2.0, J_rotor=0.05,
+                             ideal_speed_source=True)
+    (message,) = motor.advice(ideal)
+    assert message.startswith("tau_initial = 2 N.m is not used: an ideal speed source")
+    pi = motor.Parameters(5.0, 125.0, 30.0, motor.CONSTANT, 100.0, 15.0, 1.0, 0.0, 2.0, J_rotor=0.05)
+    assert motor.advice(pi) == [] and motor.initial_state(pi, 0.0, motor.Inputs(0.0)).integral == 2.0 / 125.0
+
+
 def test_a_pi_loop_too_fast_for_its_steps_is_said_at_initialisation():
     """Kp = 1.8e4 N.m.s/rad on a 1e-3 kg.m2 rotor (within the declared ranges) closes the loop at 1.8e7 1/s: where
     the torque limit acts, a 1 ms step takes 9e4 RK4 substeps (0.2 s each: a 6 s run took 20 minutes unsaid).

@@ -19,7 +19,8 @@ import numpy as np
 import sympy as sp
 
 from ...references.common import (check_chain_wiring, check_close, check_energy_balance, drive, load_torque, pi_law,
-                                  record_table, solve_piecewise, source_motion, source_torque, torque_driven_names)
+                                  record_table, solve_piecewise, source_motion, source_torque, start_integral,
+                                  torque_driven_names)
 from ...references.rotations import rx, ry
 
 RTOL, ATOL = 1e-11, 1e-12
@@ -102,7 +103,7 @@ def generate(scenario):
             a = (tau_m - j2 * r * dr * w * w - r * load_torque(pl, r * w, time, y[3])) / (jm + j1 + j2 * r * r)
             return [w, a, di, r * w]
 
-        y = [0.0, w0, 0.0, theta20]
+        y = [0.0, w0, start_integral(pm), theta20]
         ys = solve_piecewise(rhs, y, t, pm, RTOL, ATOL, [pl])
         phi_motor, w1, integral, theta2 = ys
         theta1 = pj["phi_in_start"] + phi_motor

@@ -19,9 +19,9 @@ import functools
 import numpy as np
 import sympy as sp
 
-from ...references.common import (check_chain_wiring, check_close, check_energy_balance, drive, drive_name,
-                                  load_torque, pi_law, profile, record_table, solve_piecewise, source_motion,
-                                  source_start_angle, source_torque, torque_driven_names, WiringError)
+from ...references.common import (check_chain_wiring, check_close, check_energy_balance, drive, drive_name, load_torque,
+                                  pi_law, profile, record_table, solve_piecewise, source_motion, source_start_angle,
+                                  source_torque, start_integral, torque_driven_names, WiringError)
 from ...references.rotations import rx
 
 RTOL, ATOL = 1e-10, 1e-11
@@ -191,7 +191,7 @@ def generate(scenario):
                 return [y[1], acc[1], y[3], acc[2]]
             ang0 = source_start_angle(pm, t)
         else:
-            y = [0.0, w1_0, 0.0] + y
+            y = [0.0, w1_0, start_integral(pm)] + y
 
             def rhs(time, y):
                 q, qd = (phi1_0 + y[0], y[3], y[5]), (y[1], y[4], y[6])

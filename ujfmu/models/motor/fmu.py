@@ -13,7 +13,8 @@ class Motor(ModelSlave):
     tau_motor = clamp(Kp*e + Ki*integral(e), -tau_max, tau_max), e = omega_ref - omega, conditional-integration
     anti-windup. Integrated over each communication step with tau_load held: exactly (a matrix exponential) while
     the torque stays within its limit and no profile corner falls inside the step, else classical RK4 with
-    substeps chosen from the closed loop's fastest pole. Starts at omega = omega_ref(start), integral 0.
+    substeps chosen from the closed loop's fastest pole. Starts at omega = omega_ref(start), integral
+    tau_initial / Ki (0 by default: the drive starts from zero torque).
     Ideal mode (ideal_speed_source = true): omega = omega_ref(t), phi = its integral, and
     tau_motor = J_rotor*alpha_ref + tau_load is the torque a perfect drive would deliver (a step has no impulse).
 
@@ -40,6 +41,9 @@ class Motor(ModelSlave):
         parameter("omega_initial", 0.0, "rad/s", "Speed before the step or ramp (profiles 2 and 3)", **_SPEED),
         parameter("ideal_speed_source", False, None, "True: follow the profile exactly (ideal speed source)",
                   type=bool),
+        parameter("tau_initial", 0.0, "N.m", "PI mode: drive torque at the start (the integral starts at "
+                  "tau_initial / Ki), e.g. the load's torque for a run that starts in equilibrium at its speed",
+                  neutral=0.0, **TORQUE_RANGE),
         input_("tau_load", 0.0, "N.m", "Reaction torque of the driven machine (positive opposes positive rotation)",
                **TORQUE_RANGE),
         output("omega", "rad/s", "Rotor speed"),
@@ -60,7 +64,7 @@ class MotorController(ModelSlave):
     tau_motor = clamp(Kp*e + Ki*I, -tau_max, tau_max), e = omega_ref(t) - omega, conditional-integration
     anti-windup, with omega the speed the host passes in (held over a step: a sampled speed controller). The
     rotor inertia belongs to the driven model: set the torque-driven joint's J_drive to the motor's J_rotor and
-    connect tau_motor -> tau_in, omega_in -> omega. The integral starts at 0.
+    connect tau_motor -> tau_in, omega_in -> omega. The integral starts at tau_initial / Ki (0 by default).
     Signs as Motor's: tau_motor > 0 drives in the sense of positive rotation.
     """
 

@@ -81,6 +81,8 @@ class ControllerParameters:
     accel: float
     t_step: float
     omega_initial: float
+    #: the drive torque at the start [N.m]: the PI integral starts at tau_initial / Ki (:func:`start_integral`)
+    tau_initial: float = 0.0
     #: :func:`profile_corners`
     corners: tuple = field(init=False, repr=False, default=())
 
@@ -124,10 +126,17 @@ def kinematic(p: Parameters) -> bool:
     return p.ideal_speed_source
 
 
+def start_integral(p: ControllerParameters) -> float:
+    """The PI integral at the start, I0 = tau_initial / Ki: at the reference speed (e = 0) the law gives
+    Kp e + Ki I0 = tau_initial, a drive already delivering the torque its load takes (0 without an integral)."""
+    return p.tau_initial / p.Ki if p.Ki else 0.0
+
+
 def initial_state(p: Parameters, t: float, u: Inputs) -> State:
-    """Rotor at angle 0 and the reference speed, integral 0 (ideal source: the offset -phi_ref(t))."""
+    """Rotor at angle 0 and the reference speed, integral :func:`start_integral` (ideal source: the offset
+    -phi_ref(t))."""
     omega_ref, _, phi_ref = reference(p, t)
-    return State(-phi_ref if p.ideal_speed_source else 0.0, omega_ref, 0.0)
+    return State(-phi_ref if p.ideal_speed_source else 0.0, omega_ref, start_integral(p))
 
 
 def derivatives(p: Parameters, t: float, y: State, u: Inputs) -> tuple:
@@ -311,15 +320,19 @@ SLOW_SUBSTEPS = 1000
 
 
 def advice(p: ControllerParameters) -> list:
-    """Warnings on valid parameters likely not meant: a set speed past ``LARGE_SPEED`` (rpm given as rad/s?); a
-    PI motor's closed loop so fast (Kp / J_rotor + sqrt(Ki / J_rotor), :func:`rate_bound`) that a 1 ms step takes
-    more than ``SLOW_SUBSTEPS`` substeps where the torque limit acts (there the exact linear step does not hold)."""
+    """Warnings on valid parameters likely not meant: a set speed past ``LARGE_SPEED`` (rpm given as rad/s?); an
+    ideal source's tau_initial (unused); a PI motor's closed loop so fast (Kp / J_rotor + sqrt(Ki / J_rotor),
+    :func:`rate_bound`) that a 1 ms step takes more than ``SLOW_SUBSTEPS`` substeps where the torque limit acts
+    (there the exact linear step does not hold)."""
     messages = []
     for name in ("omega_set", "omega_initial") if p.profile in (STEP, SLEW) else ("omega_set",):
         value = getattr(p, name)
         if abs(value) > LARGE_SPEED:
             messages.append(f"{name} = {value:.6g} rad/s is {value * 30.0 / math.pi:.6g} rpm; if the value was meant "
                             f"in rpm, {name} = {value * math.pi / 30.0:.6g} rad/s (the FMUs take SI units)")
+    if isinstance(p, Parameters) and p.ideal_speed_source and p.tau_initial:
+        messages.append(f"tau_initial = {p.tau_initial:.6g} N.m is not used: an ideal speed source delivers whatever "
+                        "torque its profile takes (tau_initial starts a PI drive's integral)")
     if isinstance(p, Parameters) and not p.ideal_speed_source and p.J_rotor > 0.0:
         pole = p.Kp / p.J_rotor + math.sqrt(p.Ki / p.J_rotor)
         substeps = 1e-3 * pole / POLE_STEP
@@ -336,12 +349,23 @@ def advice(p: ControllerParameters) -> list:
 
 
 def check(p: Parameters) -> list:
-    """The ramp runs from rest up to omega_set >= 0."""
+    """The ramp runs from rest up to omega_set >= 0; a starting torque needs an integral to hold it (Ki > 0) and
+    lies within the torque limit."""
+    problems = []
     if p.profile == RAMP and p.omega_set < 0.0:
-        return [f"omega_set = {p.omega_set!r} rad/s is outside its allowed range [0, 1e+04] rad/s for the "
-                "ramp profile (profile = 1), which runs up from rest; to run in reverse, use the ramp between two "
-                "speeds (profile = 3, omega_initial = 0, omega_set < 0) or the step profile (profile = 2)"]
-    return []
+        problems.append(f"omega_set = {p.omega_set!r} rad/s is outside its allowed range [0, 1e+04] rad/s for the "
+                        "ramp profile (profile = 1), which runs up from rest; to run in reverse, use the ramp between "
+                        "two speeds (profile = 3, omega_initial = 0, omega_set < 0) or the step profile (profile = 2)")
+    if p.tau_initial and not getattr(p, "ideal_speed_source", False):
+        if not p.Ki:
+            problems.append(f"tau_initial = {p.tau_initial!r} N.m needs an integral to start from (Ki > 0): the "
+                            "PI law with Ki = 0 gives Kp e, 0 at the reference speed (allowed with Ki = 0: only 0); "
+                            "give Ki, or tau_initial = 0")
+        elif abs(p.tau_initial) > p.tau_max:
+            problems.append(f"tau_initial = {p.tau_initial!r} N.m is beyond the drive's torque limit (allowed range "
+                            f"[-tau_max, tau_max] = [{-p.tau_max!r}, {p.tau_max!r}] N.m): a drive cannot start "
+                            "delivering it")
+    return problems
 
 
 # --- the controller without its rotor (MotorController): a sampled speed controller ----------------------------
@@ -385,8 +409,8 @@ class Controller:
 
     @staticmethod
     def initial_state(p: ControllerParameters, t: float, u: tuple) -> tuple:
-        """The integral starts at 0."""
-        return Controller.State(0.0)
+        """The integral starts at :func:`start_integral`."""
+        return Controller.State(start_integral(p))
 
     @staticmethod
     def derivatives(p: ControllerParameters, t: float, y: tuple, u: tuple) -> tuple:

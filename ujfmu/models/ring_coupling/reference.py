@@ -15,9 +15,9 @@ import numpy as np
 import sympy as sp
 from scipy import special
 
-from ...references.common import (check_energy_balance, check_fan_out_wiring, components_with_loads, drive_name,
-                                  feeds, load_torque, machines_and_loads, pi_law, profile, record_table,
-                                  solve_piecewise, source_torque, torque_driven_names, WiringError)
+from ...references.common import (check_energy_balance, check_fan_out_wiring, components_with_loads, drive_name, feeds,
+                                  load_torque, machines_and_loads, pi_law, profile, record_table, solve_piecewise,
+                                  source_torque, start_integral, torque_driven_names, WiringError)
 from ...references.common import drive as motor_drive
 
 RTOL, ATOL = 1e-11, 1e-12
@@ -81,7 +81,8 @@ def generate(scenario):
                 phi1 = pr["phi_in_start"] + phi_m
                 a = (float(tau_m) - drive(phi1, phi2, w, w2, *k)) / (j_motor + pr["I1"])
                 return [w, a, float(di), w2, (force2(phi1, phi2, w, w2, *k) - tau_l(w2, time, phi2)) / pr["I2"]]
-            ys = solve_piecewise(rhs, [0.0, w_start, 0.0, pr["phi_out_start"], w2_0], t, pm, RTOL, ATOL, [pl])
+            y0 = [0.0, w_start, start_integral(pm), pr["phi_out_start"], w2_0]
+            ys = solve_piecewise(rhs, y0, t, pm, RTOL, ATOL, [pl])
             phi_m, w1, integral, phi2, w2 = ys
             tau_m, _ = pi_law(pm, t, w1, integral)
             phi1 = pr["phi_in_start"] + phi_m

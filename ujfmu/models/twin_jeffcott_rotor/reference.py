@@ -24,7 +24,7 @@ import sympy as sp
 
 from ...references.common import (check_energy_balance, check_integral, drive, drive_name, feeds, load_torque,
                                   machines_and_loads, pi_law, profile, record_table, solve_piecewise, source_torque,
-                                  torque_driven_names)
+                                  start_integral, torque_driven_names)
 from ...references.rotations import ry, rz
 
 RTOL, ATOL = 1e-9, 1e-12
@@ -232,7 +232,8 @@ def generate(scenario):
                 a = (float(tau_m) - rates[1]) / (j_motor + ref.pr["J_gb"])
                 rot = _rotor_rhs(ref, y[:14], phi0 + phi_m, w, a, None, rates)
                 return np.concatenate([rot, [w, a, float(di)]])
-            ys = solve_piecewise(rhs, np.concatenate([y0, [0.0, w_start, 0.0]]), t, pm, RTOL, ATOL, [pl])
+            y0 = np.concatenate([y0, [0.0, w_start, start_integral(pm)]])
+            ys = solve_piecewise(rhs, y0, t, pm, RTOL, ATOL, [pl])
             phi_m, w_in, integral = ys[14:]
             tau_m, _ = pi_law(pm, t, w_in, integral)
         q, qd = ys[:6], ys[6:12]
