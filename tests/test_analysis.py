@@ -323,3 +323,21 @@ def test_drive_speeds_are_the_set_points_a_profile_holds(profile, speeds):
     from ujfmu.scenario import Scenario
     startup = Scenario(Path(__file__).parent.parent / "scenarios" / "cardan_startup.toml")
     assert drive_speeds(startup.with_values({"motor.profile": profile, "motor.omega_initial": 30.0})) == speeds
+
+
+def test_a_periodic_signals_mean_is_its_fits_not_the_samples():
+    """An orbit's coordinate at a critical speed: a 0.0014 mm offset under a 0.88 mm 1x, read over 18.6
+    revolutions (no whole number of them, as a fresh-eyes trial's window): the samples' mean is ten times the offset;
+    the constant of the fit with the orders is the offset, and the spectrum about it has no bump at order 0. Less
+    than a revolution falls back to the plain mean."""
+    from ujfmu.analysis import periodic_mean
+    omega = 117.0
+    t = np.arange(0.0, 18.6 * 2.0 * math.pi / omega, 1e-3)
+    x = 0.0014 + 0.88 * np.cos(omega * t + 0.3) + 0.003 * np.cos(2.0 * omega * t)
+    speed = np.full_like(t, omega)
+    assert abs(np.mean(x) - 0.0014) > 5 * 0.0014
+    assert periodic_mean(t, x, speed) == pytest.approx(0.0014, rel=1e-6)
+    freq, amp = amplitude_spectrum(t, x, periodic_mean(t, x, speed))
+    assert amp[0] < 1e-4 * 0.88 < amplitude_spectrum(t, x)[1][0]
+    short = t < 0.5 * 2.0 * math.pi / omega
+    assert periodic_mean(t[short], x[short], speed[short]) == pytest.approx(np.mean(x[short]))

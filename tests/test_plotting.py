@@ -200,7 +200,7 @@ def test_spectra_of_one_output_of_several_components_share_their_scale(tmp_path,
     axes = {ax.get_title(loc="left").split(",")[0]: ax for ax in figures["spectra.png"].axes}
     head, mean, unit, tail = axes["misaligned.Y2"].get_title(loc="left").rsplit(" ", 3)
     assert (head, unit, tail) == ("misaligned.Y2, mean", "mm", "(removed)")
-    assert float(mean) == pytest.approx(0.03, rel=1e-3)
+    assert float(mean) == pytest.approx(0.03, rel=1e-4)   # fitted with the orders: a plain mean read 0.02999
     assert axes["aligned.X2"].get_ylim() == axes["misaligned.X2"].get_ylim()
     assert axes["aligned.Y2"].get_ylim() == axes["misaligned.Y2"].get_ylim() != axes["aligned.X2"].get_ylim()
     low, high = axes["aligned.X2"].get_ylim()

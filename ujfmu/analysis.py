@@ -55,15 +55,38 @@ def order_fit(angle, signal, orders):
 FLAT_TOP = (0.21557895, 0.41663158, 0.277263158, 0.083578947, 0.006947368)
 
 
-def amplitude_spectrum(time, signal):
-    """(frequency [Hz], single-sided amplitude) of a uniformly sampled signal, mean removed, flat-top window
-    (``FLAT_TOP``) with its coherent gain corrected, so a sinusoid of amplitude A shows a peak of A within 0.2%
-    wherever its frequency falls between bins (a Hann window's peak reads up to 15% low there)."""
+#: the highest order fitted with a periodic signal's mean (:func:`periodic_mean`)
+MEAN_ORDERS = 8
+
+
+def periodic_mean(time, signal, speed) -> float:
+    """The mean of a signal periodic in the running angle (the integral of speed): the constant of its least-squares
+    fit with the orders 1 .. ``MEAN_ORDERS`` the samples resolve. A plain mean over a window of no whole number of
+    revolutions takes in part of the orders: 10x the true offset of a rotor's orbit at its critical speed, where the
+    1x is 60 times the offset. The plain mean where there is less than a revolution or the fit cannot be made."""
+    from .steady import running_angle
+    time, signal = np.asarray(time, float), np.asarray(signal, float)
+    angle = running_angle(time, np.asarray(speed, float))
+    turns = abs(float(angle[-1] - angle[0])) / (2.0 * math.pi) if len(angle) > 1 else 0.0
+    top = min(MEAN_ORDERS, int(len(time) / turns / 2.0) - 1) if turns >= 1.0 else 0
+    if top >= 1:
+        try:
+            return float(order_fit(angle, signal, range(1, top + 1))[0])
+        except ValueError:
+            pass
+    return float(np.mean(signal))
+
+
+def amplitude_spectrum(time, signal, mean: float | None = None):
+    """(frequency [Hz], single-sided amplitude) of a uniformly sampled signal, its mean removed (given, e.g.
+    :func:`periodic_mean`, else the samples'), flat-top window (``FLAT_TOP``) with its coherent gain corrected, so a
+    sinusoid of amplitude A shows a peak of A within 0.2% wherever its frequency falls between bins (a Hann
+    window's peak reads up to 15% low there)."""
     time, signal = np.asarray(time, float), np.asarray(signal, float)
     n = len(signal)
     phase = 2.0 * np.pi * np.arange(n) / (n - 1)
     window = sum((-1) ** k * a * np.cos(k * phase) for k, a in enumerate(FLAT_TOP))
-    spectrum = np.fft.rfft((signal - signal.mean()) * window)
+    spectrum = np.fft.rfft((signal - (signal.mean() if mean is None else mean)) * window)
     amplitude = 2.0 * np.abs(spectrum) / window.sum()
     return np.fft.rfftfreq(n, d=(time[-1] - time[0]) / (n - 1)), amplitude
 

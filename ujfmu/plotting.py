@@ -137,9 +137,10 @@ def plot_orbits(result, path):
 
 def plot_spectra(result, path):
     """Amplitude spectrum of each of the scenario's output.spectra (from steady_from on), mean removed (each panel
-    names it), frequency in orders of the running speed when output.running_speed is given; the panels of one
+    names it; with output.running_speed the mean of its fit with the running speed's orders, ``periodic_mean``),
+    frequency in orders of the running speed when output.running_speed is given; the panels of one
     output of several components (the aligned and the misaligned rotor's X2) on one scale. Returns path."""
-    from .analysis import amplitude_spectrum
+    from .analysis import amplitude_spectrum, periodic_mean
 
     scenario, table = result.scenario, _steady(result)
     names = scenario.spectra
@@ -149,7 +150,9 @@ def plot_spectra(result, path):
     if scenario.running_speed:
         scale = 2.0 * np.pi / float(np.mean(table[scenario.running_speed]))
         unit = f"orders of the running speed, 1 = {1.0 / scale:.2f} Hz"
-    spectra = {name: amplitude_spectrum(table["time"], table[name]) for name in names}
+    means = {name: periodic_mean(table["time"], table[name], table[scenario.running_speed]) if scenario.running_speed
+             else float(np.mean(table[name])) for name in names}
+    spectra = {name: amplitude_spectrum(table["time"], table[name], means[name]) for name in names}
     tops = {}
     for name, (_, amp) in spectra.items():   # the largest amplitude of each output over the components
         key = name.partition(".")[2]
@@ -162,7 +165,7 @@ def plot_spectra(result, path):
         top = tops[name.partition(".")[2]] or 1.0
         ax.set_ylim(top * 1e-6, top * 3.0)
         ax.set_ylabel(f"amplitude, zero-to-peak [{label}]", fontsize=8)
-        ax.set_title(f"{name}, mean {k * float(np.mean(table[name])):.4g} {label} (removed)", fontsize=9, loc="left")
+        ax.set_title(f"{name}, mean {k * means[name]:.4g} {label} (removed)", fontsize=9, loc="left")
         ax.grid(alpha=0.3, which="both")
     axes[-1, 0].set_xlim(0, 6 if scenario.running_speed else None)
     axes[-1, 0].set_xlabel(f"frequency [{unit}]")
