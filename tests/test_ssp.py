@@ -97,22 +97,28 @@ def test_an_fmi3_package_goes_beside_the_fmi2_one_not_over_it(fmu_dir, fmu3_dir,
                     assert root.get("fmiVersion") == version, (path, fmu)
 
 
-def test_a_package_of_another_step_is_refused_and_export_ssp_takes_a_step(fmu_dir, tmp_path):
-    """libcosim runs the step the package carries and the rows take the scenario's times: a package exported at
-    another step than the scenario's ran 4x the time under the labels of 1x without a word. Now refused, naming
-    both steps; `ujfmu export-ssp --step` writes a package of that step, which runs with the scenario at it."""
+def test_a_package_runs_at_the_scenarios_step_and_one_of_another_setup_is_refused(fmu_dir, tmp_path):
+    """cosimulate_ssp had run the package's step under the scenario's times (a 1 ms package with the scenario at
+    0.25 ms: 8 s labelled as 2 s, without a word): libcosim now runs the scenario's step, as a package exported at
+    that step (`ujfmu export-ssp --step`) gives, and a package of another setup (a parameter changed since) is
+    refused, naming the parameter."""
     path = SCENARIOS[0].parent / "cardan_constant_speed.toml"
-    assert main(["export-ssp", str(path), "--step", "2.5e-4", "--out", str(tmp_path), "--fmu-dir", str(fmu_dir)]) == 0
-    ssp = tmp_path / "cardan_constant_speed.ssp"
+    assert main(["export-ssp", str(path), "--out", str(tmp_path / "h"), "--fmu-dir", str(fmu_dir)]) == 0
+    assert main(["export-ssp", str(path), "--step", "2.5e-4", "--out", str(tmp_path / "q"), "--fmu-dir",
+                 str(fmu_dir)]) == 0
     scenario = Scenario(path)
-    with pytest.raises(ValueError, match=r"step 0.00025 s in the package, 0.001 s in the scenario"):
-        cosimulate_ssp(ssp, scenario)
     scenario.step_size = 2.5e-4
-    table = cosimulate_ssp(ssp, scenario)
+    table = cosimulate_ssp(tmp_path / "h" / "cardan_constant_speed.ssp", scenario)
     assert len(table) == 2000 and table["time"][-1] == pytest.approx(0.5)
-    # the joint's output angle advances at the ideal source's mean speed: the rows are at the package's times
+    # the joint's output angle advances at the ideal source's mean speed: the rows are at the run's times
     slope = np.polyfit(table["time"], table["joint.phi_out"], 1)[0]
     assert slope == pytest.approx(62.83185307179586, rel=1e-3)
+    at_its_step = cosimulate_ssp(tmp_path / "q" / "cardan_constant_speed.ssp", scenario)
+    for name in scenario.record:
+        np.testing.assert_array_equal(table[name], at_its_step[name])
+    other = scenario.with_parameters({"load.T0": 0.4})
+    with pytest.raises(ValueError, match=r"another setup .* load.T0 = 0.3 in the package, 0.4 in the scenario"):
+        cosimulate_ssp(tmp_path / "h" / "cardan_constant_speed.ssp", other)
 
 
 def test_fmpy_arguments_run_the_scenario_in_fmpys_simulate_ssp(fmu_dir, tmp_path):

@@ -6,7 +6,6 @@ the communication step as an OSP fixed-step annotation) and the FMUs under resou
 it with libcosim (``CosimExecution.from_ssp_file``), which the test suite compares with our fmpy master.
 """
 
-import math
 import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -104,8 +103,8 @@ def fmpy_arguments(scenario) -> dict:
     its start and stop time and step (fmpy reads none of them from the package: it defaults to 1 s in 100 steps),
     and its parameters as the parameter set object fmpy reads (``.parameters``, each with ``.name`` 'comp.par' and
     ``.value``; Booleans as Python bools: fmpy sets a Boolean to value != 0). fmpy matches a parameter to a
-    component by the prefix of its name, so a component whose name begins another's and a dot (``motor`` and
-    ``motor.b``) or a prefix of another (``motor``, ``motor2``) is refused here: rename one."""
+    component by the prefix of its name, so components one of whose names begins another's (``motor``,
+    ``motor2``) are refused here: rename one."""
     names = sorted(scenario.components)
     clash = [(a, b) for a in names for b in names if a != b and b.startswith(a)]
     if clash:
@@ -117,23 +116,42 @@ def fmpy_arguments(scenario) -> dict:
                 parameter_set=SimpleNamespace(parameters=values))
 
 
+def packed_parameters(ssp_path) -> dict:
+    """{"comp.par": value} of the parameter sets an .ssp package carries (:func:`system_structure`), as numbers
+    (Booleans as bools)."""
+    with zipfile.ZipFile(ssp_path) as zf:
+        root = ET.fromstring(zf.read("SystemStructure.ssd"))
+    values = {}
+    for comp in root.iter(f"{{{NS['ssd']}}}Component"):
+        for par in comp.iter(f"{{{NS['ssv']}}}Parameter"):
+            (typed,) = list(par)
+            text = typed.get("value")
+            values[f"{comp.get('name')}.{par.get('name')}"] = (text == "true" if typed.tag.endswith("Boolean")
+                                                                else float(text))
+    return values
+
+
 def cosimulate_ssp(ssp_path, scenario):
-    """Run an exported .ssp with libcosim; structured array 'time' + scenario.record."""
+    """Run an exported .ssp with libcosim at the scenario's step (libcosim's override of the package's); structured
+    array 'time' + scenario.record. A package of another start time, components or parameters than the scenario's
+    is refused: its rows would be labelled, or its results taken, as the scenario's."""
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 
     from .libcosim_run import record
-    packed = experiment_of(ssp_path)
-    ours = {"start time": scenario.start_time, "stop time": scenario.stop_time, "step": scenario.step_size}
-    differ = [f"{what} {packed[what]:g} s in the package, {ours[what]:g} s in the scenario"
-              for what in ours if not math.isclose(packed[what], ours[what], rel_tol=1e-9, abs_tol=1e-12)]
+    packed, start = packed_parameters(ssp_path), experiment_of(ssp_path)["start time"]
+    ours = {f"{comp}.{par}": (value if isinstance(value, bool) else float(value))
+            for comp in scenario.components for par, value in scenario.start_values(comp).items()}
+    differ = [f"{name} = {packed.get(name, 'unset')!r} in the package, {ours.get(name, 'unset')!r} in the scenario"
+              for name in sorted(set(packed) | set(ours)) if packed.get(name) != ours.get(name)]
+    if start != scenario.start_time:
+        differ.insert(0, f"start time {start!r} s in the package, {scenario.start_time!r} s in the scenario")
     if differ:
-        raise ValueError(f"{ssp_path} was exported for another experiment than {scenario.path}'s "
-                         f"({'; '.join(differ)}): libcosim runs the package's, and the rows would be labelled "
-                         "with the scenario's times; export it again from this scenario (`ujfmu export-ssp "
-                         "--step SECONDS`, or set scenario.step_size before export_ssp)")
+        more = f" (and {len(differ) - 1} more)" if len(differ) > 1 else ""
+        raise ValueError(f"{ssp_path} was exported from another setup than {scenario.path}'s: {differ[0]}{more}; "
+                         "export it again from this scenario (`ujfmu export-ssp`, or export_ssp(scenario))")
     log_output_level(CosimLogLevel.WARNING)
-    execution = CosimExecution.from_ssp_file(str(Path(ssp_path).resolve()))
+    execution = CosimExecution.from_ssp_file(str(Path(ssp_path).resolve()), int(round(scenario.step_size * 1e9)))
     index = {name: execution.slave_index_from_instance_name(name) for name in scenario.components}
     variables = {name: {v.name.decode(): (v.reference, v.type) for v in execution.slave_variables(i)}
                  for name, i in index.items()}
