@@ -381,6 +381,11 @@ def test_an_error_only_in_the_first_steps_of_a_speed_driven_run_is_named_as_the_
     text = result.summary()
     assert "joint.tau_in: the largest error is in the first 3 steps, and after them joint.tau_in 0." in text
     assert "if the error shrinks with the step" not in text
+    # a run of two steps has nothing after its start to compare: the summary says the general hint, not a crash
+    short = Scenario(path)
+    short.stop_time = 0.002
+    assert "if the error shrinks with the step" in run_scenario(short, fmu_dir=fmu_dir, out_dir=None, plot=False,
+                                                                progress=False).summary()
     # started in equilibrium (tau_initial about the load's 2 + 4e-5 * 157^2 N.m), the motor does not decelerate
     # first: the co-simulation and the reference, both started so, agree at t = 0 within the joint's own swing
     path.write_text(START_AT_SPEED.replace("profile = 0,", "profile = 0, tau_initial = 3.0,"))

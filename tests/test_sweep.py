@@ -1296,7 +1296,7 @@ def test_a_drive_set_to_rest_is_refused_before_any_point_runs(brutti, tmp_path, 
     assert err.value.problems == [p for p in err.value.problems if p.startswith("motor.omega_set = 0 at 1 of the 3 "
                                                                              "points")] != []
     at_rest = brutti.with_parameters({"motor.omega_set": 0.0})
-    with pytest.raises(SweepSettingsError, match="motor.omega_set = 0 in the scenario"):
+    with pytest.raises(SweepSettingsError, match=r"motor.omega_set = 0 for every point: .* give the drive a speed"):
         brutti_sweep(at_rest, tmp_path, fmu_dir, spec="load.T0=1,2")
     assert len(brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=1,1000rpm").points) == 2
 

@@ -868,13 +868,14 @@ class Sweep:
             fixed = self.scenario.parameters_with_defaults(comp).get("omega_set")
             at_rest = [p for p in self.points if p.get(name, fixed) == 0]
             if at_rest:
-                where = (f"at {len(at_rest)} of the {len(self.points)} points" if name in self.points[0]
-                         else "in the scenario")
+                on_axis = name in self.points[0]
+                where = f"at {len(at_rest)} of the {len(self.points)} points" if on_axis else "for every point"
+                remedy = (f"start the axis at a speed, e.g. {name}=10:...rpm" if on_axis else
+                          f"give the drive a speed (the scenario's {name}, or --set {name}=...)")
                 problems.append(f"{name} = 0 {where}: a point's figures are measured over whole revolutions of "
                                 f"the running speed at the drive's set speed, and a drive set to rest turns none "
-                                f"(nor can its speed be within {100 * self.settings.operating_tol:g}% of 0): start the "
-                                f"axis at a speed, e.g. {name}=10:...rpm; a run at rest is `ujfmu run "
-                                f"{self.scenario.path} --set {name}=0`")
+                                f"(nor can its speed be within {100 * self.settings.operating_tol:g}% of 0): "
+                                f"{remedy}; a run at rest is `ujfmu run {self.scenario.path} --set {name}=0`")
         return problems
 
     @staticmethod

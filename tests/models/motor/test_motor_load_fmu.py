@@ -49,22 +49,27 @@ def test_pi_motor_holds_speed_against_load_and_respects_torque_limit(open_fmu):
     assert tau == pytest.approx(0.5) and omega < 100.0 - 0.3 / 1e-3 * 0.5 * 0.9  # decelerating at the limit
 
 
-@pytest.mark.parametrize("tau_initial", [0.0, 0.3])
-def test_a_pi_motor_started_at_its_load_torque_holds_its_speed_from_the_first_step(open_fmu, tau_initial):
-    """A PI motor at its set speed against a constant 0.3 N.m: with tau_initial = 0.3 N.m it starts in equilibrium
-    (tau_motor = tau_load, no speed error: the state at rest in the closed loop) and holds 100 rad/s to round-off;
-    from zero torque (the default) the load first slows it, by about tau_load h / J_rotor in the first step."""
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+@pytest.mark.parametrize("started", [False, True])
+def test_a_pi_motor_started_at_its_load_torque_holds_its_speed_from_the_first_step(open_fmu, started, sign):
+    """A PI motor at its set speed against a constant load (0.3 N.m, or -0.3 N.m turning at -100 rad/s): with
+    tau_initial = the load it starts in equilibrium (tau_motor = tau_load, no speed error: the closed loop's state
+    at rest) and holds its speed to round-off; from zero torque (the default) the load first slows it, in the first
+    step by tau_load h / J_rotor less the PI's own response, Kp h^2 / J of that (the loop's first-order term)."""
     m = open_fmu("Motor")
-    j, h, load = 1e-3, 1e-3, 0.3
-    m.initialize(dict(profile=0, omega_set=100.0, tau_max=0.5, J_rotor=j, Kp=0.2, Ki=10.0, tau_initial=tau_initial))
+    j, h, kp, load, speed = 1e-3, 1e-3, 0.2, sign * 0.3, sign * 100.0
+    tau_initial = load if started else 0.0
+    m.initialize(dict(profile=2, t_step=-1.0, omega_set=speed, tau_max=0.5, J_rotor=j, Kp=kp, Ki=10.0,
+                      tau_initial=tau_initial))
     assert m.get("tau_motor")[0] == pytest.approx(tau_initial, abs=1e-15)
     m.set(tau_load=load)
     m.slave.doStep(0.0, h)
     omega, tau = m.get("omega", "tau_motor")
-    if tau_initial:
-        assert omega == pytest.approx(100.0, abs=1e-12) and tau == pytest.approx(load, rel=1e-12)
+    if started:
+        assert omega == pytest.approx(speed, abs=1e-12) and tau == pytest.approx(load, rel=1e-12)
     else:
-        assert omega == pytest.approx(100.0 - load * h / j, rel=2e-3)
+        drop = load * h / j * (1.0 - 0.5 * kp * h / j)
+        assert omega - speed == pytest.approx(-drop, rel=0.05)
 
 
 def test_a_motor_controller_starts_at_its_starting_torque_and_integrates_from_there(open_fmu):

@@ -41,15 +41,16 @@ class Motor(ModelSlave):
         parameter("omega_initial", 0.0, "rad/s", "Speed before the step or ramp (profiles 2 and 3)", **_SPEED),
         parameter("ideal_speed_source", False, None, "True: follow the profile exactly (ideal speed source)",
                   type=bool),
-        parameter("tau_initial", 0.0, "N.m", "PI mode: drive torque at the start (the integral starts at "
-                  "tau_initial / Ki), e.g. the load's torque for a run that starts in equilibrium at its speed",
-                  neutral=0.0, **TORQUE_RANGE),
         input_("tau_load", 0.0, "N.m", "Reaction torque of the driven machine (positive opposes positive rotation)",
                **TORQUE_RANGE),
         output("omega", "rad/s", "Rotor speed"),
         output("phi", "rad", "Rotor angle, continuous over revolutions"),
         output("tau_motor", "N.m", "Drive torque on the rotor", ("tau_load",)),
         output("omega_ref", "rad/s", "Reference speed of the profile"),
+        # declared after the ports, which keep their value references of the FMUs before it
+        parameter("tau_initial", 0.0, "N.m", "PI mode: drive torque at the start (the integral starts at "
+                  "tau_initial / Ki), e.g. the load's torque for a run that starts in equilibrium at its speed",
+                  neutral=0.0, **TORQUE_RANGE),
     )
     DEFAULT_EXPERIMENT = (0.0, 6.0, 1.0e-3)
 
@@ -69,12 +70,12 @@ class MotorController(ModelSlave):
     """
 
     MODEL = motor.Controller
-    VARIABLES = tuple(v for v in Motor.VARIABLES
-                      if v.causality == "parameter" and v.name not in ("J_rotor", "ideal_speed_source")) + (
+    VARIABLES = tuple(v for v in Motor.VARIABLES if v.causality == "parameter"
+                      and v.name not in ("J_rotor", "ideal_speed_source", "tau_initial")) + (
         input_("omega", 0.0, "rad/s", "Measured rotor speed (the torque-driven joint's omega_in)", **_SPEED),
         output("tau_motor", "N.m", "Drive torque on the rotor", ("omega",)),
         output("omega_ref", "rad/s", "Reference speed of the profile"),
-    )
+    ) + tuple(v for v in Motor.VARIABLES if v.name == "tau_initial")
     DEFAULT_EXPERIMENT = Motor.DEFAULT_EXPERIMENT
 
     def model_inputs(self):
