@@ -340,19 +340,9 @@ parameters = { bend_angle = 0.3490658503988659, J2 = 5e-4, error_angle_beta = 0.
 [components.load]
 fmu = "Load"
 parameters = { T0 = 2.0, c1 = 0.0, c2 = 4e-5, omega_smooth = 1.0 }
-[[connections]]
-from = "motor.omega"
-to = "joint.omega_in"
-[[connections]]
-from = "joint.tau_in"
-to = "motor.tau_load"
-[[connections]]
-from = "joint.omega_out"
-to = "load.omega"
-[[connections]]
-from = "load.tau"
-to = "joint.tau_load"
-[output]
+""" + "".join(f'[[connections]]\nfrom = "{a}"\nto = "{b}"\n' for a, b in (
+    ("motor.omega", "joint.omega_in"), ("joint.tau_in", "motor.tau_load"), ("joint.omega_out", "load.omega"),
+    ("load.tau", "joint.tau_load"))) + """[output]
 record = ["motor.omega", "joint.tau_in"]
 [reference]
 file = "start_at_speed.csv"
