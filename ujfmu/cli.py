@@ -765,7 +765,8 @@ def cmd_modes(args):
     print("  A crossing resonates where the order's forcing acts on the mode's shape (an unbalance drives lateral "
           "modes at 1x; a Cardan joint's 2x drives twist and, through its secondary couple, lateral motion), and "
           "the damping sets how much: run the scenario, or sweep the speed (`ujfmu sweep`, whose order figure "
-          "draws these lines on a Campbell diagram), to see the response.")
+          "draws these natural frequencies as lines on a Campbell diagram and each order's response as markers at "
+          "its frequency, sized by amplitude), to see the response.")
     return 0
 
 
