@@ -122,10 +122,10 @@ def test_a_package_runs_at_the_scenarios_step_and_one_of_another_setup_is_refuse
 
 
 def test_fmpy_arguments_run_the_scenario_in_fmpys_simulate_ssp(fmu_dir, tmp_path):
-    """fmpy's simulate_ssp reads neither the package's parameter sets nor its experiment: with
-    ujfmu.ssp.fmpy_arguments it runs the scenario's (the ideal source at its 600 rpm, a Boolean set as one; the
-    joint's driving torque within Feng's closed-form band T cos(beta) .. T / cos(beta) once the load's torque has come round its one-step delays), and
-    component names one of which begins another are refused (fmpy would give one the other's parameters)."""
+    """fmpy's simulate_ssp reads neither the package's parameter sets nor its experiment: with ujfmu.ssp.fmpy_arguments
+    it runs the scenario's (the ideal source at its 600 rpm, a Boolean set as one; the joint's driving torque within
+    Feng's closed-form band T cos(beta) .. T / cos(beta) once the load's torque has come round its one-step delays),
+    and component names one of which begins another are refused (fmpy would give one the other's parameters)."""
     from fmpy.ssp.simulation import simulate_ssp
 
     from ujfmu.ssp import fmpy_arguments

@@ -1055,7 +1055,7 @@ def _main(raw: list):
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     _out(p, "results/", "writes <scenario>.ssp here (results/fmi3/ with --fmi 3)")
     p.add_argument("--step", metavar="SECONDS", help="communication step the package carries instead of the "
-                                                     "scenario's (an engine such as libcosim runs the package's)")
+                                                     "scenario's (an importer that reads it runs at it)")
     _fmi(p, "package the FMI 3.0 FMUs")
     p = command("bench", cmd_bench, "speed figures as ratios in one run: FMI floor, monolithic solve, engines, "
                                     "sweeps")
