@@ -245,6 +245,25 @@ def check_steady_window(scenario: Scenario, table: np.ndarray, iterated: bool = 
     return [SteadyWindowCheck(scenario.steady_from, change, worst, against)]
 
 
+def steady_orders(scenario: Scenario, table: np.ndarray, orders=(1, 2, 4)) -> dict:
+    """{signal: (mean, amplitudes of orders)} of the recorded signals (but those that grow) over the steady window
+    (``output.steady_from`` on), from one least-squares fit against the running angle (``steady.periodic_figures``;
+    NaN for an order the record does not resolve); {} without a steady window or a running speed in table."""
+    from .steady import Window, grows, periodic_figures, running_angle
+    if not (scenario.steady_from > scenario.start_time and scenario.running_speed in table.dtype.names):
+        return {}
+    window = table[table["time"] >= scenario.steady_from - 1e-9]
+    signals = [n for n in scenario.record if not grows(n) and n in table.dtype.names]
+    if len(window) < 16 or not signals:
+        return {}
+    angle = running_angle(window["time"], window[scenario.running_speed])
+    try:
+        figures = periodic_figures(Window(float(window["time"][0]), angle, window), signals, orders)
+    except ValueError:   # too few distinct angles for the fit: the steady window's check says so
+        return {}
+    return {name: (f.figures[0], f.figures[1:]) for name, f in figures.items()}
+
+
 #: the running-speed orders [reference.orders] compares
 CHECKED_ORDERS = (1, 2, 4)
 #: an order below this fraction of the signal's largest checked order, in the run and in the reference, carries too
@@ -726,6 +745,22 @@ class ScenarioResult:
         elsewhere = here != Path(DEFAULT_FMU3_DIR if fmi3 else DEFAULT_FMU_DIR).resolve()
         return (" --fmi 3" if fmi3 else "") + (f" --fmu-dir {self.fmu_dir}" if elsewhere else "")
 
+    def _steady_order_lines(self) -> list:
+        """The recorded signals' mean and 1x, 2x, 4x amplitudes over the steady window (:func:`steady_orders`)."""
+        if self.table is None:
+            return []
+        figures = steady_orders(self.scenario, self.table)
+        if not figures:
+            return []
+        width = max(len(name) for name in figures)
+        lines = [f"  orders over the steady window from t = {self.scenario.steady_from:g} s, against the angle of "
+                 f"{self.scenario.running_speed} (mean, zero-to-peak orders; '-': not resolved by the record):"]
+        for name, (mean, amplitudes) in figures.items():
+            unit = self.scenario.unit(name)
+            orders = ", ".join(f"{k}x " + ("-" if math.isnan(a) else f"{a:.4g}") for k, a in zip((1, 2, 4), amplitudes))
+            lines.append(f"    {name:{width}s}  mean {mean:.4g}, {orders}{' ' + unit if unit and unit != '1' else ''}")
+        return lines
+
     def _start_failures(self) -> tuple:
         """(names, text): the failing compared signals of a speed-driven run whose largest error falls in its first
         START_STEPS steps and which pass after them, by a margin (their error there at least ``START_DOMINANCE``
@@ -822,6 +857,7 @@ class ScenarioResult:
         lines += [f"  {c}" for c in self.operating_checks]
         lines += [f"  {c}" for c in self.sampling_checks]
         lines += [f"  {c}" for c in self.steady_checks]
+        lines += self._steady_order_lines()
         lines += [f"  {b}" for b in self.bonds]
         figures = ("[reference.tolerance] holds figures chosen for the scenario's own parameters (a few times the "
                    "error its run reaches there): a copy with other parameters needs figures of its own, the accuracy "
