@@ -371,6 +371,20 @@ def test_an_error_only_in_the_first_steps_of_a_speed_driven_run_is_named_as_the_
     text = result.summary()
     assert "joint.tau_in: the largest error is in the first 3 steps, and after them joint.tau_in 0." in text
     assert "if the error shrinks with the step" not in text
+    # an error that merely peaks at the start, less than START_DOMINANCE times the largest after it, is the step's:
+    # with a band of 0.4 N.m and 0.33 N.m more error after the first steps (passing there), the general hint
+    from ujfmu.scenario import Tolerance
+    from ujfmu.scenario_run import START_DOMINANCE
+    scenario = result.scenario
+    scenario.tolerances["joint.tau_in"] = Tolerance(abs=0.4)
+    table = result.table.copy()
+    table["joint.tau_in"][table["time"] > 0.0025] += 0.33
+    result.table, result.checks = table, compare(table, scenario.read_reference(), scenario.tolerances)
+    (torque,) = [c for c in result.checks if c.name == "joint.tau_in"]
+    assert not torque.passed and torque.at == 0.0 and torque.max_error < START_DOMINANCE * 0.3
+    assert result._start_failures() == ([], "")
+    assert "the largest error is in the first 3 steps" not in result.summary()
+    assert "if the error shrinks with the step" in result.summary()
     # a run of two steps has nothing after its start to compare: the summary says the general hint, not a crash
     short = Scenario(path)
     short.stop_time = 0.002

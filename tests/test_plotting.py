@@ -224,6 +224,9 @@ def test_the_order_figure_shows_the_first_outputs_and_says_so(fmu_dir, tmp_path,
     titles = [ax.get_title(loc="left") for ax in orders.axes[::2]]
     assert [t.split(":")[0] for t in titles] == outputs[:6]
     assert "(the first 6 of 7 outputs; --output chooses)" in orders._suptitle.get_text().replace("\n", " ")
+    # one axis: the orders' one legend is placed clear of the tracks ("best", matplotlib's code 0), drawn once
+    tracks = orders.axes[0]
+    assert tracks.get_legend()._loc == 0 and not [a for a in tracks.artists if isinstance(a, type(tracks.get_legend()))]
     assert len(figures[f"{sweep.name}.png"].axes) == 7   # max and min: every output
 
 

@@ -1,6 +1,7 @@
 """SSP export: every scenario as a .ssp that libcosim's CosimExecution.from_ssp_file runs, carrying exactly the
 scenario (bitwise the same as libcosim run by hand), and agreeing with our fmpy master."""
 
+import copy
 import io
 import xml.etree.ElementTree as ET
 import zipfile
@@ -116,9 +117,17 @@ def test_a_package_runs_at_the_scenarios_step_and_one_of_another_setup_is_refuse
     at_its_step = cosimulate_ssp(tmp_path / "q" / "cardan_constant_speed.ssp", scenario)
     for name in scenario.record:
         np.testing.assert_array_equal(table[name], at_its_step[name])
+    package = tmp_path / "h" / "cardan_constant_speed.ssp"
     other = scenario.with_parameters({"load.T0": 0.4})
     with pytest.raises(ValueError, match=r"another setup .* load.T0 = 0.3 in the package, 0.4 in the scenario"):
-        cosimulate_ssp(tmp_path / "h" / "cardan_constant_speed.ssp", other)
+        cosimulate_ssp(package, other)
+    unwired = copy.deepcopy(scenario)
+    unwired.connections = unwired.connections[:-1]
+    with pytest.raises(ValueError, match=r"connections \[\('load.tau', 'joint.tau_load'\)\] only in the package"):
+        cosimulate_ssp(package, unwired)
+    # a default given explicitly is the same setup: the FMU's declared start is what an unset value takes
+    explicit = export_ssp(scenario.with_parameters({"motor.accel": 30.0}), tmp_path / "x", fmu_dir)
+    assert len(cosimulate_ssp(explicit, scenario)) == 2000
 
 
 def test_fmpy_arguments_run_the_scenario_in_fmpys_simulate_ssp(fmu_dir, tmp_path):

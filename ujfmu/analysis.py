@@ -63,10 +63,13 @@ def periodic_mean(time, signal, speed) -> float:
     """The mean of a signal periodic in the running angle (the integral of speed): the constant of its least-squares
     fit with the orders 1 .. ``MEAN_ORDERS`` the samples resolve. A plain mean over a window of no whole number of
     revolutions takes in part of the orders: 10x the true offset of a rotor's orbit at its critical speed, where the
-    1x is 60 times the offset. The plain mean where there is less than a revolution or the fit cannot be made."""
+    1x is 60 times the offset. The plain mean where there is less than a revolution, a speed that is not finite, or
+    the fit cannot be made."""
     from .steady import running_angle
-    time, signal = np.asarray(time, float), np.asarray(signal, float)
-    angle = running_angle(time, np.asarray(speed, float))
+    time, signal, speed = np.asarray(time, float), np.asarray(signal, float), np.asarray(speed, float)
+    if not np.all(np.isfinite(speed)):
+        return float(np.mean(signal))
+    angle = running_angle(time, speed)
     turns = abs(float(angle[-1] - angle[0])) / (2.0 * math.pi) if len(angle) > 1 else 0.0
     top = min(MEAN_ORDERS, int(len(time) / turns / 2.0) - 1) if turns >= 1.0 else 0
     if top >= 1:

@@ -346,19 +346,19 @@ def plot_sweep(sweep, out_dir):
             ax1.set_xticks([0, 1], ["false", "true"])
             ax1.set_xlim(-0.5, 1.5)
         ax1.set_ylabel(f"order amplitude, zero-to-peak [{unit}]")
-        # orders by colour; with several values of the other axes, those by line style in a second legend, or, for
-        # unjoined markers (which may sit anywhere, the floor's corners too), by marker in one legend placed clear of
-        # the data (two legends are placed each blind to the other)
+        # orders by colour, in one legend placed clear of the data; with several values of the other axes, those by
+        # line style in a second legend at the foot (two legends placed "best" are each blind to the other: one
+        # legend of both covered a grid's tracks), or, for unjoined markers (which may sit anywhere, the floor's
+        # corners too), by marker in the one legend
         handles = [Line2D([], [], color=f"C{i % 10}") for i in range(len(orders))]
         names = [f"{order}x" for order in orders]
         styles = ([Line2D([], [], color="0.3", **group_style(g)) for g in range(len(tracked))],
                   [label(key) for key, _ in tracked]) if len(tracked) > 1 else ([], [])
-        if on_off or first.sampled:
+        if on_off or first.sampled or not styles[0]:
             ax1.legend(handles + styles[0], names + styles[1], fontsize=7, loc="best")
         else:
             ax1.add_artist(ax1.legend(handles, names, fontsize=8, loc="upper right"))
-            if styles[0]:
-                ax1.legend(*styles, fontsize=7, loc="lower right")
+            ax1.legend(*styles, fontsize=7, loc="lower right")
         ax1.grid(alpha=0.3, which="both")
         ax1.set_title(f"{out}: order tracks" + (f" ({label(key0)})" if label(key0) and len(tracked) == 1 else "")
                       + (f"\norders below {ORDER_TRACK_FLOOR:g} of its largest order or |value| drawn on the floor"

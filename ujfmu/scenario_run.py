@@ -752,6 +752,9 @@ class ScenarioResult:
         figures = steady_orders(self.scenario, self.table)
         if not figures:
             return []
+        if not all(c.passed for c in self.steady_checks + self.sampling_checks):
+            return [f"  orders over the steady window from t = {self.scenario.steady_from:g} s: not given, as the "
+                    "steady-window or sampling check above failed (a transient's, or an aliased record's, figures)"]
         width = max(len(name) for name in figures)
         lines = [f"  orders over the steady window from t = {self.scenario.steady_from:g} s, against the angle of "
                  f"{self.scenario.running_speed} (mean, zero-to-peak orders; '-': not resolved by the record):"]

@@ -116,36 +116,61 @@ def fmpy_arguments(scenario) -> dict:
                 parameter_set=SimpleNamespace(parameters=values))
 
 
-def packed_parameters(ssp_path) -> dict:
-    """{"comp.par": value} of the parameter sets an .ssp package carries (:func:`system_structure`), as numbers
-    (Booleans as bools)."""
+def packed_setup(ssp_path) -> tuple:
+    """({"comp": fmu name}, {"comp.par": value}, sorted [(from, to)]) of an .ssp package (:func:`system_structure`):
+    its components, the values its parameter sets give (numbers; Booleans as bools) and its connections."""
     with zipfile.ZipFile(ssp_path) as zf:
         root = ET.fromstring(zf.read("SystemStructure.ssd"))
-    values = {}
+    components, values = {}, {}
     for comp in root.iter(f"{{{NS['ssd']}}}Component"):
+        components[comp.get("name")] = Path(comp.get("source")).stem
         for par in comp.iter(f"{{{NS['ssv']}}}Parameter"):
             (typed,) = list(par)
             text = typed.get("value")
             values[f"{comp.get('name')}.{par.get('name')}"] = (text == "true" if typed.tag.endswith("Boolean")
                                                                 else float(text))
-    return values
+    connections = sorted((f"{c.get('startElement')}.{c.get('startConnector')}",
+                          f"{c.get('endElement')}.{c.get('endConnector')}")
+                         for c in root.iter(f"{{{NS['ssd']}}}Connection"))
+    return components, values, connections
+
+
+def _setup_differences(ssp_path, scenario) -> list:
+    """What an .ssp package sets up otherwise than the scenario: its components (FMUs), the value of each start
+    value either sets (a value left unset is the FMU's declared start), its connections and its start time."""
+    components, packed, connections = packed_setup(ssp_path)
+    ours = {name: fmu for name, (fmu, _) in scenario.components.items()}
+    if components != ours:
+        return [f"components {components} in the package, {ours} in the scenario"]
+    declared = {f"{comp}.{v.name}": v.start for comp, fmu in ours.items() for v in fmu_class(fmu).VARIABLES
+                if v.causality in ("parameter", "input")}
+    given = {f"{comp}.{par}": value for comp in scenario.components
+             for par, value in scenario.start_values(comp).items()}
+
+    def value(table, name):
+        v = table.get(name, declared.get(name))
+        return v if isinstance(v, bool) or v is None else float(v)
+    differ = [f"{name} = {value(packed, name)!r} in the package, {value(given, name)!r} in the scenario"
+              for name in sorted(set(packed) | set(given)) if value(packed, name) != value(given, name)]
+    wired = sorted((c.source, c.target) for c in scenario.connections)
+    if connections != wired:
+        differ.append(f"connections {sorted(set(connections) - set(wired))} only in the package, "
+                      f"{sorted(set(wired) - set(connections))} only in the scenario")
+    start = experiment_of(ssp_path)["start time"]
+    if start != scenario.start_time:
+        differ.insert(0, f"start time {start!r} s in the package, {scenario.start_time!r} s in the scenario")
+    return differ
 
 
 def cosimulate_ssp(ssp_path, scenario):
     """Run an exported .ssp with libcosim at the scenario's step (libcosim's override of the package's); structured
-    array 'time' + scenario.record. A package of another start time, components or parameters than the scenario's
-    is refused: its rows would be labelled, or its results taken, as the scenario's."""
+    array 'time' + scenario.record. A package of another setup than the scenario's (:func:`_setup_differences`) is
+    refused: its rows would be labelled, or its results taken, as the scenario's."""
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 
     from .libcosim_run import record
-    packed, start = packed_parameters(ssp_path), experiment_of(ssp_path)["start time"]
-    ours = {f"{comp}.{par}": (value if isinstance(value, bool) else float(value))
-            for comp in scenario.components for par, value in scenario.start_values(comp).items()}
-    differ = [f"{name} = {packed.get(name, 'unset')!r} in the package, {ours.get(name, 'unset')!r} in the scenario"
-              for name in sorted(set(packed) | set(ours)) if packed.get(name) != ours.get(name)]
-    if start != scenario.start_time:
-        differ.insert(0, f"start time {start!r} s in the package, {scenario.start_time!r} s in the scenario")
+    differ = _setup_differences(ssp_path, scenario)
     if differ:
         more = f" (and {len(differ) - 1} more)" if len(differ) > 1 else ""
         raise ValueError(f"{ssp_path} was exported from another setup than {scenario.path}'s: {differ[0]}{more}; "
