@@ -481,6 +481,25 @@ def test_a_steady_window_that_does_not_repeat_fails_the_run(fmu_dir):
     assert run_scenario(damped, fmu_dir=fmu_dir, out_dir=None).steady_checks[0].change < 0.05
 
 
+def test_a_steady_window_of_too_few_revolutions_fails_naming_its_length(fmu_dir):
+    """At 0.5 rad/s the twin rotor's 1 s window from steady_from spans 0.08 revolutions: its halves' orders cannot be
+    fitted (the run had crashed with a fit's rank error blaming the step). The check fails, saying how many
+    revolutions the window spans and how to lengthen it; at 2 rad/s the window from 14 s (about one revolution)
+    fails the same way, and the one from 8 s (2.9 revolutions) is judged."""
+    from ujfmu.scenario_run import MIN_WINDOW_TURNS, run_scenario
+    scenario = Scenario(Path(__file__).parent.parent / "scenarios" / "twin_jeffcott_steady.toml")
+    slow = scenario.with_parameters({"motor.omega_set": 0.5})
+    (check,) = run_scenario(slow, fmu_dir=fmu_dir, out_dir=None, plot=False, progress=False).steady_checks
+    assert not check.passed and "spans 0.0" in str(check)
+    assert "an earlier steady_from or a later stop_time" in str(check)
+    slower = scenario.with_parameters({"motor.omega_set": 2.0})
+    for since, judged in ((14.0, False), (8.0, True)):
+        slower.steady_from = since
+        (check,) = run_scenario(slower, fmu_dir=fmu_dir, out_dir=None, plot=False, progress=False).steady_checks
+        turns = 2.0 * (slower.stop_time - since) / (2.0 * math.pi)
+        assert (turns >= MIN_WINDOW_TURNS) is judged and ("revolutions" not in str(check)) is judged, str(check)
+
+
 @pytest.mark.parametrize("stiffness, at_half_step", [
     (1.0, "(at half the step, 0.0005 s, it ran to t = 0.0435 s without failing)"),
     (0.5, "(at half the step, 0.0005 s, the coupling went unstable: coupling instability between 'rotor' and "

@@ -211,12 +211,15 @@ class SteadyWindowCheck:
     change: float
     worst: str
     against: str
+    note: str = ""   # why the halves could not be compared (then the check fails: nothing says the run is steady)
 
     @property
     def passed(self) -> bool:
-        return self.change <= STEADY_WINDOW_TOL
+        return not self.note and self.change <= STEADY_WINDOW_TOL
 
     def __str__(self):
+        if self.note:
+            return f"FAIL steady from t = {self.since:g} s (output.steady_from): {self.note}"
         if not self.worst:   # no figure moved past the coupling's noise (``ujfmu.steady.coupling_noise``)
             return (f"ok   steady from t = {self.since:g} s (output.steady_from): every figure repeats between the "
                     "window's halves (to the coupling's resolution: ujfmu.steady.coupling_noise)")
@@ -241,7 +244,17 @@ def check_steady_window(scenario: Scenario, table: np.ndarray, iterated: bool = 
     if len(window) < 16 or not signals:
         return []
     angle = running_angle(window["time"], window[scenario.running_speed])
-    change, worst, against = halves_change(angle, window, signals, noise=coupling_noise(iterated))
+    turns = abs(float(angle[-1] - angle[0])) / (2.0 * math.pi)
+    if not turns >= MIN_WINDOW_TURNS:
+        speed = float(np.mean(np.abs(window[scenario.running_speed])))
+        return [SteadyWindowCheck(scenario.steady_from, math.nan, "", "", note=(
+            f"the window spans {turns:.3g} revolutions of {scenario.running_speed} ({speed_text(speed)}), too few "
+            f"to compare its halves' orders (at least {MIN_WINDOW_TURNS:g}): make it longer (an earlier "
+            "steady_from or a later stop_time), or leave steady_from out at a speed this slow"))]
+    try:
+        change, worst, against = halves_change(angle, window, signals, noise=coupling_noise(iterated))
+    except ValueError as exc:   # samples at too few distinct angles to fit the orders
+        return [SteadyWindowCheck(scenario.steady_from, math.nan, "", "", note=f"cannot be judged: {exc}")]
     return [SteadyWindowCheck(scenario.steady_from, change, worst, against)]
 
 
@@ -262,6 +275,10 @@ def steady_orders(scenario: Scenario, table: np.ndarray, orders=(1, 2, 4)) -> di
     except ValueError:   # too few distinct angles for the fit: the steady window's check says so
         return {}
     return {name: (f.figures[0], f.figures[1:]) for name, f in figures.items()}
+
+
+#: the fewest revolutions a steady window spans for its halves' orders to be compared (each half one at least)
+MIN_WINDOW_TURNS = 2.0
 
 
 #: the running-speed orders [reference.orders] compares
