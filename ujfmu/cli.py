@@ -327,8 +327,9 @@ def _band_missing(results) -> None:
 
 def _level_only(results) -> None:
     """Name once the bands that are at least half their reference's range (a flat line would pass them)."""
-    loose = [f"{r.scenario.name}: {c.name}" + (" (extrapolated)" if c in r.extrapolated_checks else "")
-             for r in results for c in r.checks + r.extrapolated_checks if c.level_only]
+    loose = [f"{r.scenario.name}: {c.name}{kind}" for r in results
+             for checks, kind in ((r.checks, ""), (r.extrapolated_checks, " (extrapolated)")) for c in checks
+             if c.level_only]
     if loose:
         print(f"  {len(loose)} band(s) at least half their reference's range check the level only, not the course "
               f"(a flat line through the middle would pass): {'; '.join(loose)}", file=sys.stderr)

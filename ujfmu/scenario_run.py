@@ -233,17 +233,28 @@ class SteadyWindowCheck:
         return text
 
 
-def check_steady_window(scenario: Scenario, table: np.ndarray, iterated: bool = False) -> list:
-    """A SteadyWindowCheck where the scenario has a steady_from and a running speed (its window's angle), else none;
-    iterated: the run's steps iterated its torn inputs (``Cosimulation.iterates``), whose noise is no change."""
-    from .steady import coupling_noise, grows, halves_change, running_angle
+def _steady_window(scenario: Scenario, table: np.ndarray) -> tuple | None:
+    """(rows from output.steady_from on, the recorded signals there but those that grow, the running angle over
+    them) where the scenario has a steady window and its running speed is in table; None otherwise, or for a
+    window of fewer than 16 rows or without such signals."""
+    from .steady import grows, running_angle
     if not (scenario.steady_from > scenario.start_time and scenario.running_speed in table.dtype.names):
-        return []
+        return None
     window = table[table["time"] >= scenario.steady_from - 1e-9]
     signals = [n for n in scenario.record if not grows(n) and n in table.dtype.names]
     if len(window) < 16 or not signals:
+        return None
+    return window, signals, running_angle(window["time"], window[scenario.running_speed])
+
+
+def check_steady_window(scenario: Scenario, table: np.ndarray, iterated: bool = False) -> list:
+    """A SteadyWindowCheck where the scenario has a steady_from and a running speed (its window's angle), else none;
+    iterated: the run's steps iterated its torn inputs (``Cosimulation.iterates``), whose noise is no change."""
+    from .steady import coupling_noise, halves_change
+    steady = _steady_window(scenario, table)
+    if steady is None:
         return []
-    angle = running_angle(window["time"], window[scenario.running_speed])
+    window, signals, angle = steady
     turns = abs(float(angle[-1] - angle[0])) / (2.0 * math.pi)
     if not turns >= MIN_WINDOW_TURNS:
         speed = float(np.mean(np.abs(window[scenario.running_speed])))
@@ -262,14 +273,11 @@ def steady_orders(scenario: Scenario, table: np.ndarray, orders=(1, 2, 4)) -> di
     """{signal: (mean, amplitudes of orders)} of the recorded signals (but those that grow) over the steady window
     (``output.steady_from`` on), from one least-squares fit against the running angle (``steady.periodic_figures``;
     NaN for an order the record does not resolve); {} without a steady window or a running speed in table."""
-    from .steady import Window, grows, periodic_figures, running_angle
-    if not (scenario.steady_from > scenario.start_time and scenario.running_speed in table.dtype.names):
+    from .steady import Window, periodic_figures
+    steady = _steady_window(scenario, table)
+    if steady is None:
         return {}
-    window = table[table["time"] >= scenario.steady_from - 1e-9]
-    signals = [n for n in scenario.record if not grows(n) and n in table.dtype.names]
-    if len(window) < 16 or not signals:
-        return {}
-    angle = running_angle(window["time"], window[scenario.running_speed])
+    window, signals, angle = steady
     try:
         figures = periodic_figures(Window(float(window["time"][0]), angle, window), signals, orders)
     except ValueError:   # too few distinct angles for the fit: the steady window's check says so

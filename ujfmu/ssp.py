@@ -87,17 +87,6 @@ def export_ssp(scenario, out_dir=Path("results"), fmu_dir=DEFAULT_FMU_DIR):
     return out
 
 
-def experiment_of(ssp_path) -> dict:
-    """The default experiment an .ssp package carries (:func:`system_structure`): {"start time", "stop time",
-    "step"} [s]."""
-    with zipfile.ZipFile(ssp_path) as zf:
-        root = ET.fromstring(zf.read("SystemStructure.ssd"))
-    experiment = root.find("ssd:DefaultExperiment", NS)
-    step = experiment.find(".//osp:FixedStepAlgorithm", NS)
-    return {"start time": float(experiment.get("startTime")), "stop time": float(experiment.get("stopTime")),
-            "step": float(step.get("baseStepSize"))}
-
-
 def fmpy_arguments(scenario) -> dict:
     """Keyword arguments of fmpy's ``simulate_ssp`` (fmpy 0.3.32) that run an exported scenario as ujfmu runs it:
     its start and stop time and step (fmpy reads none of them from the package: it defaults to 1 s in 100 steps),
@@ -117,8 +106,9 @@ def fmpy_arguments(scenario) -> dict:
 
 
 def packed_setup(ssp_path) -> tuple:
-    """({"comp": fmu name}, {"comp.par": value}, sorted [(from, to)]) of an .ssp package (:func:`system_structure`):
-    its components, the values its parameter sets give (numbers; Booleans as bools) and its connections."""
+    """({"comp": fmu name}, {"comp.par": value}, sorted [(from, to)], start time [s]) of an .ssp package
+    (:func:`system_structure`): its components, the values its parameter sets give (numbers; Booleans as bools),
+    its connections and its default experiment's start."""
     with zipfile.ZipFile(ssp_path) as zf:
         root = ET.fromstring(zf.read("SystemStructure.ssd"))
     components, values = {}, {}
@@ -132,13 +122,13 @@ def packed_setup(ssp_path) -> tuple:
     connections = sorted((f"{c.get('startElement')}.{c.get('startConnector')}",
                           f"{c.get('endElement')}.{c.get('endConnector')}")
                          for c in root.iter(f"{{{NS['ssd']}}}Connection"))
-    return components, values, connections
+    return components, values, connections, float(root.find("ssd:DefaultExperiment", NS).get("startTime"))
 
 
 def _setup_differences(ssp_path, scenario) -> list:
     """What an .ssp package sets up otherwise than the scenario: its components (FMUs), the value of each start
     value either sets (a value left unset is the FMU's declared start), its connections and its start time."""
-    components, packed, connections = packed_setup(ssp_path)
+    components, packed, connections, start = packed_setup(ssp_path)
     ours = {name: fmu for name, (fmu, _) in scenario.components.items()}
     if components != ours:
         return [f"components {components} in the package, {ours} in the scenario"]
@@ -156,7 +146,6 @@ def _setup_differences(ssp_path, scenario) -> list:
     if connections != wired:
         differ.append(f"connections {sorted(set(connections) - set(wired))} only in the package, "
                       f"{sorted(set(wired) - set(connections))} only in the scenario")
-    start = experiment_of(ssp_path)["start time"]
     if start != scenario.start_time:
         differ.insert(0, f"start time {start!r} s in the package, {scenario.start_time!r} s in the scenario")
     return differ
