@@ -55,28 +55,21 @@ def order_fit(angle, signal, orders):
 FLAT_TOP = (0.21557895, 0.41663158, 0.277263158, 0.083578947, 0.006947368)
 
 
-#: the highest order fitted with a periodic signal's mean (:func:`periodic_mean`)
-MEAN_ORDERS = 8
-
-
 def periodic_mean(time, signal, speed) -> float:
     """The mean of a signal periodic in the running angle (the integral of speed): the constant of its least-squares
-    fit with the orders 1 .. ``MEAN_ORDERS`` the samples resolve. A plain mean over a window of no whole number of
-    revolutions takes in part of the orders: 10x the true offset of a rotor's orbit at its critical speed, where the
-    1x is 60 times the offset. The plain mean where there is less than a revolution, a speed that is not finite, or
-    the fit cannot be made."""
-    from .steady import running_angle
+    fit with the orders the steady-state check fits (``steady.fitted_orders``: 1 .. 8, as many as the samples
+    resolve). A plain mean over a window of no whole number of revolutions takes in part of the orders: 10x the true
+    offset of a rotor's orbit at its critical speed, where the 1x is 60 times the offset. The plain mean where there
+    is less than a revolution, a speed that is not finite, or the fit cannot be made."""
+    from .steady import Window, fitted_orders, nyquist_order, running_angle
     time, signal, speed = np.asarray(time, float), np.asarray(signal, float), np.asarray(speed, float)
-    if not np.all(np.isfinite(speed)):
-        return float(np.mean(signal))
-    angle = running_angle(time, speed)
-    turns = abs(float(angle[-1] - angle[0])) / (2.0 * math.pi) if len(angle) > 1 else 0.0
-    top = min(MEAN_ORDERS, int(len(time) / turns / 2.0) - 1) if turns >= 1.0 else 0
-    if top >= 1:
-        try:
-            return float(order_fit(angle, signal, range(1, top + 1))[0])
-        except ValueError:
-            pass
+    if len(time) > 1 and np.all(np.isfinite(speed)):
+        window = Window(float(time[0]), running_angle(time, speed), None)
+        if abs(float(window.angle[-1] - window.angle[0])) >= 2.0 * math.pi and nyquist_order(window) >= 1:
+            try:
+                return float(order_fit(window.angle, signal, fitted_orders(window, (1,)))[0])
+            except ValueError:
+                pass
     return float(np.mean(signal))
 
 
