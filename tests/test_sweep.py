@@ -13,6 +13,7 @@ import pytest
 from ujfmu.cli import main
 from ujfmu.references import read_reference
 from ujfmu.scenario import Scenario, ScenarioError
+from ujfmu import sweep as sweep_module
 from ujfmu.sweep import Sweep, SweepSettings, SweepSettingsError, parse_axis
 
 SCENARIOS = Path(__file__).parents[1] / "scenarios"
@@ -387,6 +388,26 @@ def test_dask_local_cluster_and_scheduler_address_give_the_in_process_results(br
     assert len(ran_on) == 2
     assert [without_timing(r) for r in distributed.table()] == [without_timing(r) for r in serial.table()]
     assert sorted(p.name for p in workers_tmp.iterdir()) == []
+
+
+def _worker_settings(keys):
+    import dask
+    return {key: dask.config.get(key) for key in keys}
+
+
+def test_local_cluster_workers_run_without_the_profiler_and_frequent_monitors():
+    """The local cluster's workers start with sweep.LOCAL_WORKER_CONFIG (each periodic wake-up of their event
+    loop takes the GIL from the point being computed), and the caller's dask config is left as it was."""
+    import dask
+    keys = sorted(sweep_module.LOCAL_WORKER_CONFIG)
+    before = _worker_settings(keys)
+    client = sweep_module.dask_client(workers=1)
+    try:
+        (settings,) = client.run(_worker_settings, keys).values()
+    finally:
+        sweep_module.close_client(client)
+    assert settings == sweep_module.LOCAL_WORKER_CONFIG
+    assert dask.config.get("distributed.worker.profile.enabled") is True and _worker_settings(keys) == before
 
 
 def test_cli_sweep_writes_table_and_plots_and_reports_bad_parameters(fmu_dir, tmp_path, capsys):

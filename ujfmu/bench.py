@@ -10,7 +10,8 @@ Per scenario, at a 1 ms communication step over the scenario's run:
 - the monolithic scipy solve (DOP853, rtol 1e-8) of the same system by the scenario's reference generator, only
   the integration timed (the symbolic derivation is not), and the ratio; plus whether the co-simulation stays
   within the scenario's tolerance of that solve. Scenarios whose reference is a closed form have no solve.
-For sweeps: Omar's Fig. 4 sweep (141 points) with 1 and 2 local dask workers, points per minute and speed-up.
+For sweeps: Omar's Fig. 4 sweep (141 points) with 1 and 2 local dask workers (a new local cluster each run, its
+start included), alternated, the fastest of three runs of each; points per minute and speed-up.
 Engines (``ujfmu.engines``): each scenario's SSP package stepped by our master, Ecos and libcosim, each in its own
 process pinned to one core, alternated, the fastest of three runs of each; microseconds per step and the ratios.
 The figures above run the explicit scheme (inputs held over the step, as the C++ engines do); the coupling-scheme
@@ -347,10 +348,12 @@ def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, ba
         result["battery"] = bench_schemes(battery, fmu_dir, 1, progress)
     if sweep:
         figures = {}
-        for workers in (1, 2):
-            progress(f"bench Omar Fig. 4 sweep, {workers} worker(s)")
-            seconds, points = bench_sweep(fmu_dir, workers)
-            figures[workers] = dict(seconds=seconds, points=points, points_per_minute=60.0 * points / seconds)
+        for turn in range(REPEATS):   # alternated, the fastest of each: a slow spell does not pick one count
+            for workers in (1, 2):
+                progress(f"bench Omar Fig. 4 sweep, {workers} worker(s), run {turn + 1} of {REPEATS}")
+                seconds, points = bench_sweep(fmu_dir, workers)
+                if workers not in figures or seconds < figures[workers]["seconds"]:
+                    figures[workers] = dict(seconds=seconds, points=points, points_per_minute=60.0 * points / seconds)
         result["sweep"] = dict(workers=figures, speedup=figures[1]["seconds"] / figures[2]["seconds"])
     return result
 
@@ -399,7 +402,8 @@ def render(result):
     if "sweep" in result:
         s = result["sweep"]
         one, two = s["workers"][1], s["workers"][2]
-        lines += ["", "| Omar Fig. 4 sweep (141 points, 100-1500 rpm) | wall s | points / min |", "| --- | --- | --- |",
+        lines += ["", "| Omar Fig. 4 sweep (141 points, 100-1500 rpm; fastest of 3) | wall s | points / min |",
+                  "| --- | --- | --- |",
                   f"| 1 worker | {one['seconds']:.1f} | {one['points_per_minute']:.0f} |",
                   f"| 2 workers | {two['seconds']:.1f} | {two['points_per_minute']:.0f} |", "",
                   f"Speed-up with 2 workers: {s['speedup']:.2f}x (target >= {t['worker_speedup']}x: "
