@@ -341,3 +341,27 @@ def test_a_periodic_signals_mean_is_its_fits_not_the_samples():
     assert amp[0] < 1e-4 * 0.88 < amplitude_spectrum(t, x)[1][0]
     short = t < 0.5 * 2.0 * math.pi / omega
     assert periodic_mean(t[short], x[short], speed[short]) == pytest.approx(np.mean(x[short]))
+
+
+def test_the_fits_solve_their_least_squares_with_blas_on_one_thread(monkeypatch):
+    """order_fit and the steady window's running angle run numpy's least squares with BLAS on one thread: more
+    threads spin after each call, and two sweep processes on two cores had each taken twice as long as one."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from ujfmu.steady import running_angle
+    seen = []
+    lstsq = np.linalg.lstsq
+
+    def recording(*args, **kwargs):
+        seen.append(max(lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"))
+        return lstsq(*args, **kwargs)
+
+    monkeypatch.setattr(np.linalg, "lstsq", recording)
+    t = np.linspace(0.0, 1.0, 2001)
+    with threadpool_limits(limits=2, user_api="blas"):
+        allowed = max(lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas")
+        order_fit(10.0 * t, np.cos(10.0 * t), (1, 2))
+        running_angle(t, 10.0 + 0.1 * np.cos(20.0 * t))
+        after = max(lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas")
+    assert len(seen) >= 3 and set(seen) == {1}
+    assert after == allowed   # the caller's setting is back

@@ -1,11 +1,28 @@
 """Signal analysis of results (numpy): running-speed harmonics (order amplitudes), amplitude spectra, orbits; the
 models' natural frequencies (linearisation) and the speeds at which the orders cross them."""
 
+import contextlib
 import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
+
+
+_blas = None
+
+
+@contextlib.contextmanager
+def one_blas_thread():
+    """numpy's BLAS limited to one thread (threadpoolctl) while the fits' least-squares problems are solved. With
+    more, its helper threads spin after every call: a sweep of fits in one process took 1.2x the CPU of its wall
+    time, and two such processes on two cores each took twice as long as one alone (docs/performance.md)."""
+    global _blas
+    if _blas is None:
+        from threadpoolctl import ThreadpoolController
+        _blas = ThreadpoolController()
+    with _blas.limit(limits=1, user_api="blas"):
+        yield
 
 
 def order_amplitudes(angle, signal, orders):
@@ -29,7 +46,8 @@ def order_fit(angle, signal, orders):
     for k in orders:
         columns += [np.cos(k * angle), np.sin(k * angle)]
     matrix = np.column_stack(columns)
-    coef, _, rank, _ = np.linalg.lstsq(matrix, signal, rcond=None)
+    with one_blas_thread():
+        coef, _, rank, _ = np.linalg.lstsq(matrix, signal, rcond=None)
     if rank < matrix.shape[1]:
         turns = abs(float(angle[-1] - angle[0])) / (2.0 * math.pi) if len(angle) > 1 else 0.0
         per_turn = len(angle) / turns if turns > 0.0 else math.inf

@@ -37,7 +37,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .analysis import order_fit
+from .analysis import one_blas_thread, order_fit
 
 OK, NOT_STEADY, OFF_TARGET, ERROR = "ok", "not_steady", "off_target", "error"
 #: statuses whose figures are a result of the requested settings (rerunning gives the same); `error` is reused where
@@ -112,15 +112,17 @@ def running_angle(t: np.ndarray, speed: np.ndarray) -> np.ndarray:
     if len(t) < 3:
         return angle
     tau = t - t[0]
-    smooth = np.polyval(np.polyfit(tau, angle, 2), tau)
-    turns = abs(float(smooth[-1] - smooth[0])) / (2.0 * math.pi)
-    orders = min(RIPPLE_ORDERS, int(len(t) / max(turns, 1e-300) / 2.0) - 1, (len(t) - 4) // 2)
-    if not (turns > 0.0 and orders >= 1):
-        return smooth
-    for _ in range(2):
-        ripple = [f(k * smooth) for k in range(1, orders + 1) for f in (np.cos, np.sin)]
-        coef = np.linalg.lstsq(np.column_stack([np.ones_like(tau), tau, tau * tau] + ripple), angle, rcond=None)[0]
-        smooth = coef[0] + coef[1] * tau + coef[2] * tau * tau
+    with one_blas_thread():
+        smooth = np.polyval(np.polyfit(tau, angle, 2), tau)
+        turns = abs(float(smooth[-1] - smooth[0])) / (2.0 * math.pi)
+        orders = min(RIPPLE_ORDERS, int(len(t) / max(turns, 1e-300) / 2.0) - 1, (len(t) - 4) // 2)
+        if not (turns > 0.0 and orders >= 1):
+            return smooth
+        for _ in range(2):
+            ripple = [f(k * smooth) for k in range(1, orders + 1) for f in (np.cos, np.sin)]
+            matrix = np.column_stack([np.ones_like(tau), tau, tau * tau] + ripple)
+            coef = np.linalg.lstsq(matrix, angle, rcond=None)[0]
+            smooth = coef[0] + coef[1] * tau + coef[2] * tau * tau
     return smooth - smooth[0]
 
 
