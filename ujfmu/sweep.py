@@ -40,6 +40,7 @@ import json
 import math
 import numbers
 import os
+import queue
 import re
 import signal
 import sys
@@ -972,7 +973,6 @@ class Sweep:
         return self.csv
 
     def _run_dask(self, todo, keep, workers, scheduler, client=None):
-        from distributed import wait
         own = client is None
         if own:
             client = dask_client(workers, scheduler)
@@ -981,11 +981,16 @@ class Sweep:
             # and a long sweep make fragile); points then carry only their parameters
             client.register_plugin(fmu_installer(self.fmu_blobs, self.job.fmu_hashes))
             futures = {client.submit(run_point, self.job, point, pure=False): point for point in todo}
-            pending, alone_since = set(futures), None
-            while pending:
+            # each future puts itself in the queue as it finishes (distributed.wait over the pending set had cost
+            # the sweep's process a CPU time that grew with the points left, at every point)
+            finished, alone_since = queue.SimpleQueue(), None
+            for future in futures:
+                future.add_done_callback(finished.put)
+            left = len(futures)
+            while left:
                 try:
-                    done, pending = wait(pending, timeout=WORKER_CHECK, return_when="FIRST_COMPLETED")
-                except TimeoutError:   # nothing finished for a while: are there workers left to finish anything?
+                    future = finished.get(timeout=WORKER_CHECK)
+                except queue.Empty:   # nothing finished for a while: are there workers left to finish anything?
                     if client.scheduler_info().get("workers"):
                         alone_since = None
                     elif alone_since is None:
@@ -993,18 +998,17 @@ class Sweep:
                     elif time.monotonic() - alone_since > NO_WORKERS_TIMEOUT:
                         raise SweepWorkersLost(
                             f"no dask worker has been left for {NO_WORKERS_TIMEOUT:g} s (they died: killed, out of "
-                            f"memory) with {len(pending)} of {len(futures)} points to run: the points finished are "
+                            f"memory) with {left} of {len(futures)} points to run: the points finished are "
                             "in the journal; run the same sweep again, which reuses them (--workers 0 runs the "
                             "rest in this process)") from None
                     continue
-                alone_since = None
-                for future in done:
-                    try:
-                        record = future.result()
-                    except Exception as exc:   # the worker itself died
-                        record = {"point": futures[future], "status": ERROR, "wall_s": float("nan"),
-                                  "error": f"worker failed: {type(exc).__name__}: {exc}"}
-                    keep(record)
+                alone_since, left = None, left - 1
+                try:
+                    record = future.result()
+                except Exception as exc:   # the worker itself died
+                    record = {"point": futures[future], "status": ERROR, "wall_s": float("nan"),
+                              "error": f"worker failed: {type(exc).__name__}: {exc}"}
+                keep(record)
         finally:
             if own:
                 close_client(client)
