@@ -348,20 +348,36 @@ def test_the_fits_solve_their_least_squares_with_blas_on_one_thread(monkeypatch)
     threads spin after each call, and two sweep processes on two cores had each taken twice as long as one."""
     from threadpoolctl import threadpool_info, threadpool_limits
 
+    from ujfmu.analysis import one_blas_thread
     from ujfmu.steady import running_angle
+
+    def blas_threads():
+        return max(lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas")
+
+    if not any(lib["user_api"] == "blas" for lib in threadpool_info()):
+        pytest.skip("no BLAS threadpoolctl can set (numpy on Accelerate)")
     seen = []
     lstsq = np.linalg.lstsq
 
     def recording(*args, **kwargs):
-        seen.append(max(lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"))
+        seen.append(blas_threads())
         return lstsq(*args, **kwargs)
 
     monkeypatch.setattr(np.linalg, "lstsq", recording)
     t = np.linspace(0.0, 1.0, 2001)
     with threadpool_limits(limits=2, user_api="blas"):
-        allowed = max(lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas")
+        allowed = blas_threads()
         order_fit(10.0 * t, np.cos(10.0 * t), (1, 2))
         running_angle(t, 10.0 + 0.1 * np.cos(20.0 * t))
-        after = max(lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas")
+        after = blas_threads()
+        # two threads' fits overlapping: the limit holds until the last one leaves, then the caller's is back
+        first, second = one_blas_thread(), one_blas_thread()
+        first.__enter__()
+        second.__enter__()
+        first.__exit__(None, None, None)
+        overlapped = blas_threads()
+        second.__exit__(None, None, None)
+        restored = blas_threads()
     assert len(seen) >= 3 and set(seen) == {1}
     assert after == allowed   # the caller's setting is back
+    assert (overlapped, restored) == (1, allowed)

@@ -398,6 +398,7 @@ def _worker_settings(keys):
 def test_local_cluster_workers_run_without_the_profiler_and_frequent_monitors():
     """The local cluster's workers start with sweep.LOCAL_WORKER_CONFIG (each periodic wake-up of their event
     loop takes the GIL from the point being computed), and the caller's dask config is left as it was."""
+    pytest.importorskip("distributed")   # its defaults in dask's config
     import dask
     keys = sorted(sweep_module.LOCAL_WORKER_CONFIG)
     before = _worker_settings(keys)
@@ -1159,6 +1160,58 @@ def test_a_dask_sweep_whose_workers_are_all_gone_stops_with_the_reason(brutti, t
     with pytest.raises(SweepWorkersLost, match=r"no dask worker has been left .* with 2 of 2 points to run"):
         sweep._run_dask(sweep.points, lambda record: None, 2, None, client)
     assert client.checks == 5   # three with workers, then the first without, then the one past the timeout
+
+
+def test_a_dask_sweep_on_a_shared_client_cancels_what_an_interruption_leaves(brutti, tmp_path, fmu_dir):
+    """A point whose worker died is an error record naming it; a sweep interrupted on a client it shares (Ctrl-C
+    while a point is kept) cancels its points not yet finished, which that cluster would otherwise run on."""
+    sweep = brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=1000:4000:1000rpm")
+
+    class Future:
+        def __init__(self, finished, result):
+            self.finished, self.outcome = finished, result
+
+        def add_done_callback(self, callback):
+            if self.finished:
+                callback(self)
+
+        def done(self):
+            return self.finished
+
+        def result(self):
+            if isinstance(self.outcome, Exception):
+                raise self.outcome
+            return self.outcome
+
+    class Client:
+        def __init__(self):
+            self.made, self.cancelled = [], []
+
+        def register_plugin(self, plugin):
+            pass
+
+        def submit(self, function, job, point, pure):
+            n = len(self.made)
+            future = Future(n < 2, RuntimeError("KilledWorker: the worker died") if n == 0 else {"point": point})
+            self.made.append(future)
+            return future
+
+        def cancel(self, futures):
+            self.cancelled += futures
+
+    kept = []
+
+    def keep(record):
+        kept.append(record)
+        if len(kept) == 2:
+            raise KeyboardInterrupt
+
+    client = Client()
+    with pytest.raises(KeyboardInterrupt):
+        sweep._run_dask(sweep.points, keep, None, None, client)
+    assert kept[0]["status"] == "error" and "worker failed: RuntimeError: KilledWorker" in kept[0]["error"]
+    assert kept[0]["point"] == sweep.points[0]
+    assert client.cancelled == client.made[2:] and len(client.made) == 4
 
 
 def test_a_rerun_says_what_it_skipped_and_what_it_left(brutti, tmp_path, fmu_dir, capsys):

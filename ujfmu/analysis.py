@@ -4,25 +4,36 @@ models' natural frequencies (linearisation) and the speeds at which the orders c
 import contextlib
 import dataclasses
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
 
 
-_blas = None
+_blas = {"controller": None, "limit": None, "users": 0}
+_blas_lock = threading.Lock()
 
 
 @contextlib.contextmanager
 def one_blas_thread():
     """numpy's BLAS limited to one thread (threadpoolctl) while the fits' least-squares problems are solved. With
-    more, its helper threads spin after every call: a sweep of fits in one process took 1.2x the CPU of its wall
-    time, and two such processes on two cores each took twice as long as one alone (docs/performance.md)."""
-    global _blas
-    if _blas is None:
-        from threadpoolctl import ThreadpoolController
-        _blas = ThreadpoolController()
-    with _blas.limit(limits=1, user_api="blas"):
+    more, its helper threads spin after every call: a sweep of fits in one process took 1.13x the CPU of its wall
+    time, and two such processes on two cores each took twice as long as one alone (docs/performance.md). The limit
+    is the process's: set as the first thread enters, the caller's restored as the last one leaves."""
+    with _blas_lock:
+        if _blas["users"] == 0:
+            if _blas["controller"] is None:
+                from threadpoolctl import ThreadpoolController
+                _blas["controller"] = ThreadpoolController()
+            _blas["limit"] = _blas["controller"].limit(limits=1, user_api="blas")
+        _blas["users"] += 1
+    try:
         yield
+    finally:
+        with _blas_lock:
+            _blas["users"] -= 1
+            if _blas["users"] == 0:
+                _blas["limit"].restore_original_limits()
 
 
 def order_amplitudes(angle, signal, orders):

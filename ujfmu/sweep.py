@@ -973,7 +973,7 @@ class Sweep:
         return self.csv
 
     def _run_dask(self, todo, keep, workers, scheduler, client=None):
-        own = client is None
+        own, futures = client is None, {}
         if own:
             client = dask_client(workers, scheduler)
         try:
@@ -1012,6 +1012,10 @@ class Sweep:
         finally:
             if own:
                 close_client(client)
+            else:   # each callback holds its future: a shared cluster would run an interrupted sweep's rest
+                unfinished = [f for f in futures if not f.done()]
+                if unfinished:
+                    client.cancel(unfinished)
 
     def _check_grid(self, extend=False):
         """SweepGridConflict when the journal holds points of another grid (its CSV and plots would be replaced);
@@ -1212,12 +1216,12 @@ class Sweep:
             return plot_sweep(self, Path(out_dir or self.out_dir))
 
 
-#: dask settings of the local cluster's workers (set as they start; a cluster given by its address or as a Client
-#: keeps its own): no statistical profiler (it samples the computing thread every 10 ms, for a dashboard the local
-#: cluster does not open) and the event loop's monitors woken every second instead of every 20-500 ms. Each wake-up
-#: takes the GIL from the point being computed: with dask's defaults a point took 1.2x its time in one process,
-#: with these 1.05x (Omar's Fig. 4 sweep on 1 worker: 18.0-18.8 s of points against 15.1-15.7 s; 14.4-14.8 s in
-#: process; docs/performance.md).
+#: dask settings of the local cluster's worker processes (given to them as they start; the caller's dask config,
+#: the scheduler's, and a cluster given by its address or as a Client keep their own): no statistical profiler (it
+#: samples the computing thread every 10 ms, for a dashboard the local cluster does not open) and the event loop's
+#: monitors woken every second instead of every 20-500 ms. Each wake-up takes the GIL from the point being computed:
+#: with dask's defaults a point took 1.2x its time in one process, with these about 1.05x (Omar's Fig. 4 sweep on 1
+#: worker: 17.7-18.8 s of points against 14.8-16.0 s; 14.4-14.8 s in process; docs/performance.md).
 LOCAL_WORKER_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
                        "distributed.worker.memory.monitor-interval": "1s",
                        "distributed.admin.system-monitor.interval": "5s"}
@@ -1241,9 +1245,17 @@ def dask_client(workers=None, scheduler=None):
                                 "(`dask scheduler` prints its address) and its workers, or leave --scheduler out "
                                 "to run on a local cluster (--workers N) or in this process (--workers 0)") from None
     import dask
-    with _main_script_hidden(), _interrupt_ignored(), dask.config.set(LOCAL_WORKER_CONFIG):
+    settings = {}
+    for key, value in LOCAL_WORKER_CONFIG.items():   # nested, as a worker's config is given
+        *path, last = key.split(".")
+        node = settings
+        for name in path:
+            node = node.setdefault(name, {})
+        node[last] = value
+    with _main_script_hidden(), _interrupt_ignored():
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=40, security=security)
+                               dashboard_address=None, silence_logs=40, security=security,
+                               config=dask.config.merge(dask.config.config, settings))
     return Client(cluster)
 
 
