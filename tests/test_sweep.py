@@ -1138,6 +1138,9 @@ def test_a_dask_sweep_whose_workers_are_all_gone_stops_with_the_reason(brutti, t
         def add_done_callback(self, callback):
             pass
 
+        def done(self):
+            return False
+
     class Client:   # a client whose workers are gone after `workers_for` checks
         def __init__(self, workers_for):
             self.checks, self.workers_for = 0, workers_for
@@ -1147,6 +1150,9 @@ def test_a_dask_sweep_whose_workers_are_all_gone_stops_with_the_reason(brutti, t
 
         def submit(self, *args, **kwargs):
             return Unfinished()
+
+        def cancel(self, futures):
+            self.cancelled = len(futures)
 
         def scheduler_info(self):
             self.checks += 1
@@ -1160,6 +1166,7 @@ def test_a_dask_sweep_whose_workers_are_all_gone_stops_with_the_reason(brutti, t
     with pytest.raises(SweepWorkersLost, match=r"no dask worker has been left .* with 2 of 2 points to run"):
         sweep._run_dask(sweep.points, lambda record: None, 2, None, client)
     assert client.checks == 5   # three with workers, then the first without, then the one past the timeout
+    assert client.cancelled == 2   # the points left do not run on when workers come back
 
 
 def test_a_dask_sweep_on_a_shared_client_cancels_what_an_interruption_leaves(brutti, tmp_path, fmu_dir):
