@@ -274,6 +274,21 @@ def test_an_interrupted_sweep_resumes_without_recomputing(brutti, tmp_path, fmu_
     assert [without_timing(r) for r in again.table()] == [without_timing(r) for r in first]
 
 
+def test_a_sweep_interrupted_from_python_writes_the_table_of_its_points(brutti, tmp_path, fmu_dir):
+    """Ctrl-C in a script's Sweep.run (here: from its progress callback after the second point) leaves the table
+    of the points done, the others with status missing, as the command line does; then KeyboardInterrupt."""
+    sweep = brutti_sweep(brutti, tmp_path, fmu_dir)
+
+    def progress(done, total):
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        sweep.run(workers=0, progress=progress)
+    with open(sweep.csv, newline="") as f:
+        assert [row["status"] for row in csv.DictReader(f)] == ["ok", "ok", "missing"]
+
+
 def test_changed_settings_do_not_reuse_old_points(brutti, tmp_path, fmu_dir):
     brutti_sweep(brutti, tmp_path, fmu_dir).run(workers=0, progress=False)
     scenario = Scenario(SCENARIOS / "double_cardan_brutti_rigid.toml")
@@ -397,16 +412,28 @@ def _worker_settings(keys):
 
 def test_local_cluster_workers_run_without_the_profiler_and_frequent_monitors():
     """The local cluster's workers start with sweep.LOCAL_WORKER_CONFIG (each periodic wake-up of their event
-    loop takes the GIL from the point being computed), and the caller's dask config is left as it was."""
+    loop takes the GIL from the point being computed), and the caller's dask config is left as it was. Another
+    cluster on dask's default port (8787) draws no warning (dask had warned of it in every sweep's output)."""
     pytest.importorskip("distributed")   # its defaults in dask's config
+    import socket
+    import warnings
+
     import dask
     keys = sorted(sweep_module.LOCAL_WORKER_CONFIG)
     before = _worker_settings(keys)
-    client = sweep_module.dask_client(workers=1)
-    try:
-        (settings,) = client.run(_worker_settings, keys).values()
-    finally:
-        sweep_module.close_client(client)
+    with socket.socket() as other, warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        try:
+            other.bind(("", 8787))
+            other.listen()
+        except OSError:   # taken already: by another cluster, as in the case tested
+            pass
+        client = sweep_module.dask_client(workers=1)
+        try:
+            (settings,) = client.run(_worker_settings, keys).values()
+        finally:
+            sweep_module.close_client(client)
+    assert not [w for w in said if "8787" in str(w.message)]
     assert settings == sweep_module.LOCAL_WORKER_CONFIG
     assert dask.config.get("distributed.worker.profile.enabled") is True and _worker_settings(keys) == before
 
@@ -1129,7 +1156,8 @@ def test_a_table_that_cannot_be_written_leaves_the_last_one_whole(brutti, tmp_pa
 def test_a_dask_sweep_whose_workers_are_all_gone_stops_with_the_reason(brutti, tmp_path, fmu_dir, monkeypatch):
     """Workers killed faster than they came back (kill -9 in a loop, an out-of-memory killer) had left a sweep
     waiting all night with no worker and no word: after NO_WORKERS_TIMEOUT without any worker it stops, naming the
-    points left and the rerun that reuses the finished ones; while workers are there it waits on."""
+    points left and the rerun that reuses the finished ones; while workers are there it waits on. A cluster that
+    never had a worker says so and how to start them (it had been told its workers died)."""
     import ujfmu.sweep as sweep_module
     from ujfmu.sweep import SweepWorkersLost
     sweep = brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=1000:2000:1000rpm")
@@ -1154,19 +1182,57 @@ def test_a_dask_sweep_whose_workers_are_all_gone_stops_with_the_reason(brutti, t
         def cancel(self, futures):
             self.cancelled = len(futures)
 
+        def run(self, function):   # the workers' check, here: this environment's answer
+            return {"w": function()} if self.workers_for else {}
+
         def scheduler_info(self):
             self.checks += 1
             if self.checks > 100:   # a sweep that waits on (the bug) fails here instead of hanging the test
                 raise AssertionError("still waiting after 100 checks without workers")
-            return {"workers": {"w": {}} if self.checks <= self.workers_for else {}}
+            return {"workers": {"w": {"nthreads": 1}} if self.checks <= self.workers_for else {}}
 
     monkeypatch.setattr(sweep_module, "WORKER_CHECK", 1e-3)
     monkeypatch.setattr(sweep_module, "NO_WORKERS_TIMEOUT", 0.0)
-    client = Client(workers_for=3)
+    client = Client(workers_for=5)
     with pytest.raises(SweepWorkersLost, match=r"no dask worker has been left .* with 2 of 2 points to run"):
         sweep._run_dask(sweep.points, lambda record: None, 2, None, client)
-    assert client.checks == 5   # three with workers, then the first without, then the one past the timeout
+    # two before the points (threads, any worker yet), three waiting with workers, then the first without, then
+    # the one past the timeout
+    assert client.checks == 7
     assert client.cancelled == 2   # the points left do not run on when workers come back
+    never = Client(workers_for=0)
+    with pytest.raises(SweepWorkersLost, match=r"has had no worker since the sweep started .* start its workers "
+                                               r"\(`dask worker ADDRESS --nworkers N --nthreads 1`"):
+        sweep._run_dask(sweep.points, lambda record: None, 2, None, never)
+
+
+def test_workers_that_cannot_run_the_points_are_refused_before_any_is_sent():
+    """A cluster's worker without ujfmu, of other ujfmu code or of another Python is named with its remedy before
+    the FMUs or points are sent (a worker without ujfmu had ended the sweep in an internal error); workers of
+    several threads are said to gain nothing."""
+    from ujfmu.sweep import SweepWorkersUnfit, check_workers
+
+    class Client:
+        def __init__(self, answers, nthreads=1):
+            self.answers, self.nthreads = answers, nthreads
+
+        def run(self, function):
+            here = function()
+            return {address: answer or here for address, answer in self.answers.items()}
+
+        def scheduler_info(self):
+            return {"workers": {address: {"nthreads": self.nthreads} for address in self.answers}}
+
+    python = list(sys.version_info[:2])
+    assert check_workers(Client({"tcp://a:1": None})) == []
+    assert "several threads (e.g. tcp://a:1)" in check_workers(Client({"tcp://a:1": None}, nthreads=2))[0]
+    with pytest.raises(SweepWorkersUnfit) as refused:
+        check_workers(Client({"tcp://a:1": None, "tcp://b:2": ("", python, "ModuleNotFoundError: No module named "
+                                                                "'ujfmu'"),
+                              "tcp://c:3": ("0123", python, ""), "tcp://d:4": ("0123", [python[0], 99], "")}))
+    text = str(refused.value)
+    assert "tcp://a:1" not in text and "tcp://b:2 cannot import ujfmu (ModuleNotFoundError" in text
+    assert "tcp://c:3 runs other ujfmu code" in text and "tcp://d:4 runs Python 3.99" in text
 
 
 def test_a_dask_sweep_on_a_shared_client_cancels_what_an_interruption_leaves(brutti, tmp_path, fmu_dir):
@@ -1205,6 +1271,12 @@ def test_a_dask_sweep_on_a_shared_client_cancels_what_an_interruption_leaves(bru
 
         def cancel(self, futures):
             self.cancelled += futures
+
+        def run(self, function):
+            return {"w": function()}
+
+        def scheduler_info(self):
+            return {"workers": {"w": {"nthreads": 1}}}
 
     kept = []
 

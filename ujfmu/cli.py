@@ -531,7 +531,7 @@ def cmd_sweep(args):
     from .scenario import Scenario, ScenarioError
     from .scenario_run import load_order_holds
     from .steady import grows
-    from .sweep import Sweep, sweep_setup
+    from .sweep import Sweep, SweepWarning, sweep_setup
     scenario = Scenario(args.scenario)
     fixed = _set_changes(scenario, args.set)
     if fixed:
@@ -569,8 +569,14 @@ def cmd_sweep(args):
               "max, min, mean and order amplitudes over a window describe its ramp, not a vibration (the "
               "steady-state check leaves it out)")
     try:
-        with _progress(args, sweep.name, "point") as progress:
+        with _progress(args, sweep.name, "point") as progress, warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always", SweepWarning)
             sweep.run(workers=args.workers, scheduler=args.scheduler, progress=progress, extend=args.extend)
+        for warning in said:
+            if issubclass(warning.category, SweepWarning):
+                print(f"  warning: {warning.message}", file=sys.stderr)
+            else:
+                warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
     except KeyboardInterrupt:
         kept = sum(r["status"] != "missing" for r in sweep.records())
         try:

@@ -744,6 +744,49 @@ class SweepWorkersLost(ScenarioError):
     """Every dask worker of a sweep is gone and none came back; the finished points are in the journal."""
 
 
+class SweepWarning(UserWarning):
+    """What a sweep warns of that is not a point's: workers of several threads."""
+
+
+class SweepWorkersUnfit(ScenarioError):
+    """Workers of the cluster given (``--scheduler``, ``client=``) cannot run this sweep's points: ujfmu missing, of
+    other code, or another Python than the FMUs' (checked before any point is sent)."""
+
+
+def check_workers(client) -> list:
+    """SweepWorkersUnfit naming each worker of the client's cluster that cannot import ujfmu, runs other ujfmu code
+    (``code_digest``) or another Python minor version than this process (the FMUs' runtime); the notes for workers
+    that can (a worker of several threads runs one point at a time in effect: the points share its GIL)."""
+    def probe():   # pickled by value: it runs where ujfmu cannot be imported
+        import sys
+        try:
+            from ujfmu.sweep import code_digest as digest
+            return digest(), list(sys.version_info[:2]), ""
+        except Exception as exc:   # noqa: BLE001 (reported, with the worker's address)
+            return "", list(sys.version_info[:2]), f"{type(exc).__name__}: {exc}"
+
+    ours, python = code_digest(), list(sys.version_info[:2])
+    problems, notes = [], []
+    for address, (digest, version, error) in sorted(client.run(probe).items()):
+        if error:
+            problems.append(f"{address} cannot import ujfmu ({error}): install ujfmu in the workers' environment, "
+                            "the same version as here (`pip install` from this repository)")
+        elif version != python:
+            problems.append(f"{address} runs Python {'.'.join(map(str, version))}, the FMUs Python "
+                            f"{'.'.join(map(str, python))}: start the workers with the same Python minor version")
+        elif digest != ours:
+            problems.append(f"{address} runs other ujfmu code (digest {digest}, here {ours}): install the same "
+                            "version in the workers' environment")
+    if problems:
+        raise SweepWorkersUnfit("the cluster's workers cannot run this sweep: " + "; ".join(problems))
+    threaded = sorted(a for a, w in client.scheduler_info().get("workers", {}).items() if w.get("nthreads", 1) > 1)
+    if threaded:
+        notes.append(f"{len(threaded)} worker(s) run several threads (e.g. {threaded[0]}): a worker's threads share "
+                     "one Python interpreter lock, so its points run no faster than one at a time; start workers "
+                     "with `dask worker ADDRESS --nworkers N --nthreads 1`")
+    return notes
+
+
 class SweepWriteError(ScenarioError):
     """A sweep's journal, table or figure could not be written (a full disk); what was written before is kept."""
 
@@ -964,11 +1007,16 @@ class Sweep:
                 if progress:
                     progress(count[0], len(self.points))
 
-            if todo and workers == 0 and scheduler is None and client is None:
-                for point in todo:
-                    keep(run_point(self.job, point, self.fmu_blobs))
-            elif todo:
-                self._run_dask(todo, keep, workers, scheduler, client)
+            try:
+                if todo and workers == 0 and scheduler is None and client is None:
+                    for point in todo:
+                        keep(run_point(self.job, point, self.fmu_blobs))
+                elif todo:
+                    self._run_dask(todo, keep, workers, scheduler, client)
+            except KeyboardInterrupt:   # the table of the points kept, the others missing, as the command's
+                with contextlib.suppress(OSError):
+                    self.write_csv()
+                raise
         self.write_csv()
         return self.csv
 
@@ -977,13 +1025,16 @@ class Sweep:
         if own:
             client = dask_client(workers, scheduler)
         try:
+            if not (own and scheduler is None):   # a cluster not started here, from this environment
+                for note in check_workers(client):
+                    warnings.warn(note, SweepWarning, stacklevel=4)
             # the FMUs travel once per worker in a plugin (not as scattered data, whose lifetime a shared client
             # and a long sweep make fragile); points then carry only their parameters
             client.register_plugin(fmu_installer(self.fmu_blobs, self.job.fmu_hashes))
             futures = {client.submit(run_point, self.job, point, pure=False): point for point in todo}
             # each future puts itself in the queue as it finishes (distributed.wait over the pending set had cost
             # the sweep's process a CPU time that grew with the points left, at every point)
-            finished, alone_since = queue.SimpleQueue(), None
+            finished, alone_since, seen = queue.SimpleQueue(), None, bool(client.scheduler_info().get("workers"))
             for future in futures:
                 future.add_done_callback(finished.put)
             left = len(futures)
@@ -992,9 +1043,15 @@ class Sweep:
                     future = finished.get(timeout=WORKER_CHECK)
                 except queue.Empty:   # nothing finished for a while: are there workers left to finish anything?
                     if client.scheduler_info().get("workers"):
-                        alone_since = None
+                        alone_since, seen = None, True
                     elif alone_since is None:
                         alone_since = time.monotonic()
+                    elif time.monotonic() - alone_since > NO_WORKERS_TIMEOUT and not seen:
+                        raise SweepWorkersLost(
+                            f"the dask cluster has had no worker since the sweep started ({NO_WORKERS_TIMEOUT:g} s "
+                            "and more): start its workers (`dask worker ADDRESS --nworkers N --nthreads 1`, in an "
+                            "environment with ujfmu installed) and run the same sweep again (--workers 0 runs it in "
+                            "this process)") from None
                     elif time.monotonic() - alone_since > NO_WORKERS_TIMEOUT:
                         raise SweepWorkersLost(
                             f"no dask worker has been left for {NO_WORKERS_TIMEOUT:g} s (they died: killed, out of "
@@ -1255,7 +1312,9 @@ def dask_client(workers=None, scheduler=None):
     with _main_script_hidden(), _interrupt_ignored():
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=40, security=security,
-                               config=dask.config.merge(dask.config.config, settings))
+                               config=dask.config.merge(dask.config.config, settings),
+                               # its HTTP routes on a free port: another cluster's 8787 had made dask warn
+                               scheduler_kwargs={"dashboard_address": ":0"})
     return Client(cluster)
 
 
