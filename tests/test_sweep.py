@@ -395,12 +395,16 @@ def test_dask_local_cluster_and_scheduler_address_give_the_in_process_results(br
     monkeypatch.setenv("TMPDIR", str(workers_tmp))   # read by each worker process as it starts
     serial = brutti_sweep(brutti, tmp_path / "serial", fmu_dir)
     serial.run(workers=0, progress=False)
+    checked = []
+    check = sweep_module.check_workers
+    monkeypatch.setattr(sweep_module, "check_workers", lambda client: checked.append(check(client)) or checked[-1])
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         distributed = brutti_sweep(brutti, tmp_path / "dask", fmu_dir)
         distributed.run(scheduler=cluster.scheduler_address, progress=False)
         with Client(cluster) as client:
             ran_on = {w["id"] for w in client.scheduler_info()["workers"].values()}
     assert len(ran_on) == 2
+    assert checked == [[]]   # a cluster not started here: its workers checked, and fit
     assert [without_timing(r) for r in distributed.table()] == [without_timing(r) for r in serial.table()]
     assert sorted(p.name for p in workers_tmp.iterdir()) == []
 
@@ -1182,7 +1186,7 @@ def test_a_dask_sweep_whose_workers_are_all_gone_stops_with_the_reason(brutti, t
         def cancel(self, futures):
             self.cancelled = len(futures)
 
-        def run(self, function):   # the workers' check, here: this environment's answer
+        def run(self, function, workers=None):   # the workers' check, here: this environment's answer
             return {"w": function()} if self.workers_for else {}
 
         def scheduler_info(self):
@@ -1216,12 +1220,13 @@ def test_workers_that_cannot_run_the_points_are_refused_before_any_is_sent():
         def __init__(self, answers, nthreads=1):
             self.answers, self.nthreads = answers, nthreads
 
-        def run(self, function):
+        def run(self, function, workers=None):
             here = function()
             return {address: answer or here for address, answer in self.answers.items()}
 
         def scheduler_info(self):
-            return {"workers": {address: {"nthreads": self.nthreads} for address in self.answers}}
+            return {"workers": {address: {"nthreads": self.nthreads, "status": "running"}
+                                for address in self.answers}}
 
     python = list(sys.version_info[:2])
     assert check_workers(Client({"tcp://a:1": None})) == []
@@ -1233,6 +1238,36 @@ def test_workers_that_cannot_run_the_points_are_refused_before_any_is_sent():
     text = str(refused.value)
     assert "tcp://a:1" not in text and "tcp://b:2 cannot import ujfmu (ModuleNotFoundError" in text
     assert "tcp://c:3 runs other ujfmu code" in text and "tcp://d:4 runs Python 3.99" in text
+
+
+def test_a_worker_stuck_in_its_start_is_not_waited_on_for_ever(monkeypatch):
+    """A worker that could not unpickle a plugin as it started stays listed as closing and answers nothing: it is
+    left out of the check; workers that do not answer within WORKER_PROBE_TIMEOUT are named (it had hung)."""
+    import threading
+
+    from ujfmu.sweep import SweepWorkersUnfit, check_workers
+    monkeypatch.setattr(sweep_module, "WORKER_PROBE_TIMEOUT", 0.05)
+    released = threading.Event()
+
+    class Client:
+        def __init__(self, statuses):
+            self.statuses, self.asked = statuses, None
+
+        def run(self, function, workers=None):
+            self.asked = workers
+            if "tcp://stuck:1" in workers:
+                released.wait()
+            return {address: function() for address in workers}
+
+        def scheduler_info(self):
+            return {"workers": {a: {"nthreads": 1, "status": s} for a, s in self.statuses.items()}}
+
+    fine = Client({"tcp://a:1": "running", "tcp://closing:2": "closing"})
+    assert check_workers(fine) == [] and fine.asked == ["tcp://a:1"]
+    with pytest.raises(SweepWorkersUnfit, match=r"\(tcp://a:1, tcp://stuck:1\) did not answer ujfmu's check in "
+                                                r"0.05 s: see their logs"):
+        check_workers(Client({"tcp://a:1": "running", "tcp://stuck:1": "running"}))
+    released.set()
 
 
 def test_a_dask_sweep_on_a_shared_client_cancels_what_an_interruption_leaves(brutti, tmp_path, fmu_dir):
@@ -1272,7 +1307,7 @@ def test_a_dask_sweep_on_a_shared_client_cancels_what_an_interruption_leaves(bru
         def cancel(self, futures):
             self.cancelled += futures
 
-        def run(self, function):
+        def run(self, function, workers=None):
             return {"w": function()}
 
         def scheduler_info(self):

@@ -568,15 +568,19 @@ def cmd_sweep(args):
         print(f"  note: {name} grows with time in any steady state (a running angle or an energy integral): its "
               "max, min, mean and order amplitudes over a window describe its ramp, not a vibration (the "
               "steady-state check leaves it out)")
+    show = warnings.showwarning
+
+    def said(message, category, filename, lineno, file=None, line=None):   # as it is said, in the command's words
+        if issubclass(category, SweepWarning):
+            print(f"  warning: {message}", file=sys.stderr)
+        else:
+            show(message, category, filename, lineno, file, line)
+
     try:
-        with _progress(args, sweep.name, "point") as progress, warnings.catch_warnings(record=True) as said:
+        with _progress(args, sweep.name, "point") as progress, warnings.catch_warnings():
             warnings.simplefilter("always", SweepWarning)
+            warnings.showwarning = said
             sweep.run(workers=args.workers, scheduler=args.scheduler, progress=progress, extend=args.extend)
-        for warning in said:
-            if issubclass(warning.category, SweepWarning):
-                print(f"  warning: {warning.message}", file=sys.stderr)
-            else:
-                warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
     except KeyboardInterrupt:
         kept = sum(r["status"] != "missing" for r in sweep.records())
         try:

@@ -738,6 +738,8 @@ class SweepBusy(ScenarioError):
 #: seconds a dask sweep waits for a point before it looks for workers, and seconds without any worker after which
 #: it stops (its workers died and none came back: they had kept the sweep waiting all night)
 WORKER_CHECK, NO_WORKERS_TIMEOUT = 10.0, 120.0
+#: seconds the workers of a cluster not started here have to answer ujfmu's check (``check_workers``)
+WORKER_PROBE_TIMEOUT = 60.0
 
 
 class SweepWorkersLost(ScenarioError):
@@ -767,19 +769,39 @@ def check_workers(client) -> list:
 
     ours, python = code_digest(), list(sys.version_info[:2])
     problems, notes = [], []
-    for address, (digest, version, error) in sorted(client.run(probe).items()):
+    workers = client.scheduler_info().get("workers", {})
+    running = sorted(a for a, w in workers.items() if w.get("status", "running") == "running")
+    if not running:
+        return notes
+    answer = queue.SimpleQueue()   # asked from a daemon thread: a worker stuck in its start answers nothing
+
+    def ask():
+        try:
+            answer.put(client.run(probe, workers=running))
+        except Exception as exc:   # noqa: BLE001 (raised below, in the sweep's thread)
+            answer.put(exc)
+    threading.Thread(target=ask, name="ujfmu-check-workers", daemon=True).start()
+    try:
+        answers = answer.get(timeout=WORKER_PROBE_TIMEOUT)
+    except queue.Empty:
+        raise SweepWorkersUnfit(f"the cluster's workers ({', '.join(running)}) did not answer ujfmu's check in "
+                                f"{WORKER_PROBE_TIMEOUT:g} s: see their logs (a worker that cannot import ujfmu "
+                                "may hang as it starts)") from None
+    if isinstance(answers, Exception):
+        raise answers
+    for address, (digest, version, error) in sorted(answers.items()):
         if error:
             problems.append(f"{address} cannot import ujfmu ({error}): install ujfmu in the workers' environment, "
                             "the same version as here (`pip install` from this repository)")
         elif version != python:
-            problems.append(f"{address} runs Python {'.'.join(map(str, version))}, the FMUs Python "
+            problems.append(f"{address} runs Python {'.'.join(map(str, version))}, the FMUs' Python "
                             f"{'.'.join(map(str, python))}: start the workers with the same Python minor version")
         elif digest != ours:
-            problems.append(f"{address} runs other ujfmu code (digest {digest}, here {ours}): install the same "
-                            "version in the workers' environment")
+            problems.append(f"{address} runs other ujfmu code (digest {digest}, here {ours}): install ujfmu from "
+                            "the same source (the same commit) in the workers' environment")
     if problems:
         raise SweepWorkersUnfit("the cluster's workers cannot run this sweep: " + "; ".join(problems))
-    threaded = sorted(a for a, w in client.scheduler_info().get("workers", {}).items() if w.get("nthreads", 1) > 1)
+    threaded = sorted(a for a in running if workers[a].get("nthreads", 1) > 1)
     if threaded:
         notes.append(f"{len(threaded)} worker(s) run several threads (e.g. {threaded[0]}): a worker's threads share "
                      "one Python interpreter lock, so its points run no faster than one at a time; start workers "
@@ -1014,7 +1036,7 @@ class Sweep:
                 elif todo:
                     self._run_dask(todo, keep, workers, scheduler, client)
             except KeyboardInterrupt:   # the table of the points kept, the others missing, as the command's
-                with contextlib.suppress(OSError):
+                with contextlib.suppress(OSError, SweepWriteError):
                     self.write_csv()
                 raise
         self.write_csv()
