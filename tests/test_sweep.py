@@ -1242,7 +1242,8 @@ def test_workers_that_cannot_run_the_points_are_refused_before_any_is_sent():
 
 def test_a_worker_stuck_in_its_start_is_not_waited_on_for_ever(monkeypatch):
     """A worker that could not unpickle a plugin as it started stays listed as closing and answers nothing: it is
-    left out of the check; workers that do not answer within WORKER_PROBE_TIMEOUT are named (it had hung)."""
+    left out of the check; workers that do not answer within WORKER_PROBE_TIMEOUT are named (it had hung), and a
+    check broken off names the error, not an internal one."""
     import threading
 
     from ujfmu.sweep import SweepWorkersUnfit, check_workers
@@ -1268,6 +1269,13 @@ def test_a_worker_stuck_in_its_start_is_not_waited_on_for_ever(monkeypatch):
                                                 r"0.05 s: see their logs"):
         check_workers(Client({"tcp://a:1": "running", "tcp://stuck:1": "running"}))
     released.set()
+
+    class Broken(Client):
+        def run(self, function, workers=None):
+            raise OSError("CommClosedError: in <TCP (closed)>")
+
+    with pytest.raises(SweepWorkersUnfit, match=r"\(tcp://a:1\) could not be checked \(OSError: CommClosedError"):
+        check_workers(Broken({"tcp://a:1": "running"}))
 
 
 def test_a_dask_sweep_on_a_shared_client_cancels_what_an_interruption_leaves(brutti, tmp_path, fmu_dir):

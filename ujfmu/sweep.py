@@ -787,8 +787,9 @@ def check_workers(client) -> list:
         raise SweepWorkersUnfit(f"the cluster's workers ({', '.join(running)}) did not answer ujfmu's check in "
                                 f"{WORKER_PROBE_TIMEOUT:g} s: see their logs (a worker that cannot import ujfmu "
                                 "may hang as it starts)") from None
-    if isinstance(answers, Exception):
-        raise answers
+    if isinstance(answers, Exception):   # a worker that broke off as it was asked
+        raise SweepWorkersUnfit(f"the cluster's workers ({', '.join(running)}) could not be checked "
+                                f"({type(answers).__name__}: {answers}): see their logs") from answers
     for address, (digest, version, error) in sorted(answers.items()):
         if error:
             problems.append(f"{address} cannot import ujfmu ({error}): install ujfmu in the workers' environment, "
