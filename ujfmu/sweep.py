@@ -1325,17 +1325,12 @@ def dask_client(workers=None, scheduler=None):
                                 "(`dask scheduler` prints its address) and its workers, or leave --scheduler out "
                                 "to run on a local cluster (--workers N) or in this process (--workers 0)") from None
     import dask
-    settings = {}
-    for key, value in LOCAL_WORKER_CONFIG.items():   # nested, as a worker's config is given
-        *path, last = key.split(".")
-        node = settings
-        for name in path:
-            node = node.setdefault(name, {})
-        node[last] = value
+    settings = copy.deepcopy(dask.config.config)   # the workers' own: this process's config stays as it is
+    dask.config.set(LOCAL_WORKER_CONFIG, config=settings)
     with _main_script_hidden(), _interrupt_ignored():
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=40, security=security,
-                               config=dask.config.merge(dask.config.config, settings),
+                               config=settings,
                                # its HTTP routes on a free port: another cluster's 8787 had made dask warn
                                scheduler_kwargs={"dashboard_address": ":0"})
     return Client(cluster)
