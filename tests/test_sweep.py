@@ -403,8 +403,11 @@ def test_dask_local_cluster_and_scheduler_address_give_the_in_process_results(br
         distributed.run(scheduler=cluster.scheduler_address, progress=False)
         with Client(cluster) as client:
             ran_on = {w["id"] for w in client.scheduler_info()["workers"].values()}
+            plugins = client.run_on_scheduler(lambda dask_scheduler: sorted(dask_scheduler.worker_plugins))
     assert len(ran_on) == 2
     assert checked == [[]]   # a cluster not started here: its workers checked, and fit
+    # and left without the sweep's FMU plugin, which the scheduler would send to each worker that joins later
+    assert not [name for name in plugins if name.startswith("ujfmu-fmus-")], plugins
     assert [without_timing(r) for r in distributed.table()] == [without_timing(r) for r in serial.table()]
     assert sorted(p.name for p in workers_tmp.iterdir()) == []
 
@@ -1180,6 +1183,9 @@ def test_a_dask_sweep_whose_workers_are_all_gone_stops_with_the_reason(brutti, t
         def register_plugin(self, plugin):
             pass
 
+        def unregister_worker_plugin(self, name):
+            pass
+
         def submit(self, *args, **kwargs):
             return Unfinished()
 
@@ -1278,6 +1284,99 @@ def test_a_worker_stuck_in_its_start_is_not_waited_on_for_ever(monkeypatch):
         check_workers(Broken({"tcp://a:1": "running"}))
 
 
+def test_the_fmu_plugin_is_removed_after_a_sweep_and_a_cluster_that_cannot_take_it_is_named(brutti, tmp_path,
+                                                                                              fmu_dir, monkeypatch):
+    """A sweep on a cluster not started here removes its FMU plugin as it ends, even when interrupted, and only its
+    own (another sweep's on the same cluster has another name): a worker without ujfmu that joined later had been
+    sent it, could not unpickle it and stayed stuck closing, and the next sweep's registration then ended in an
+    internal error. A registration that fails or gets no answer is SweepWorkersUnfit naming the workers not
+    running; a removal that fails or gets no answer is a warning, one of a plugin the scheduler does not hold
+    nothing."""
+    import threading
+    import warnings
+
+    from ujfmu.sweep import SweepWarning, SweepWorkersUnfit
+    sweep = brutti_sweep(brutti, tmp_path, fmu_dir, spec="motor.omega_set=1000:2000:1000rpm")
+    monkeypatch.setattr(sweep_module, "PLUGIN_REMOVAL_TIMEOUT", 0.05)
+    monkeypatch.setattr(sweep_module, "WORKER_PROBE_TIMEOUT", 0.05)
+    hung = threading.Event()
+
+    class Future:
+        def __init__(self, point):
+            self.point = point
+
+        def add_done_callback(self, callback):
+            callback(self)
+
+        def done(self):
+            return True
+
+        def result(self):
+            return {"point": self.point}
+
+    class Client:
+        def __init__(self, register=None, unregister=None):
+            self.plugins, self.removed = [], []
+            self.register, self.unregister = register, unregister
+
+        def register_plugin(self, plugin):
+            self.plugins.append(plugin.name)
+            if self.register == "hang":
+                hung.wait(2.0)   # bounded: a sweep that waits for it fails below, not hangs
+            elif self.register:
+                raise self.register
+
+        def unregister_worker_plugin(self, name):
+            if self.unregister == "hang":
+                hung.wait(2.0)   # bounded: a sweep that waits for it fails below, not hangs
+            elif self.unregister:
+                raise self.unregister
+            self.removed.append(name)
+
+        def submit(self, function, job, point, pure):
+            return Future(point)
+
+        def run(self, function, workers=None):
+            return {"tcp://a:1": function()}
+
+        def scheduler_info(self):
+            return {"workers": {"tcp://a:1": {"nthreads": 1, "status": "running"},
+                                "tcp://stuck:2": {"nthreads": 1, "status": "closing"}}}
+
+    def run(client, keep=lambda record: None):
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            sweep._run_dask(sweep.points, keep, None, None, client)
+        return [str(w.message) for w in said if issubclass(w.category, SweepWarning)]
+
+    first, second = Client(), Client()
+    assert run(first) == [] and run(second) == []
+    assert first.removed == first.plugins and len(first.plugins) == 1 and first.plugins[0].startswith("ujfmu-fmus-")
+    assert second.plugins != first.plugins   # each sweep's own name
+
+    def interrupt(record):
+        raise KeyboardInterrupt
+    interrupted = Client()
+    with pytest.raises(KeyboardInterrupt):
+        run(interrupted, interrupt)
+    assert interrupted.removed == interrupted.plugins
+
+    for cause, said in ((OSError("CommClosedError: Stream is closed"), r"\(OSError: CommClosedError: Stream is "
+                                                                      r"closed\)"),
+                        ("hang", r"\(TimeoutError: no answer in 0.05 s\)")):
+        with pytest.raises(SweepWorkersUnfit, match=r"the cluster could not install the sweep's FMUs on its workers "
+                                                    + said + r"; not running: tcp://stuck:2 .*restart the cluster's "
+                                                    r"workers, each in an environment with ujfmu installed"):
+            run(Client(register=cause))
+    assert run(Client(unregister=ValueError("The worker plugin ujfmu-fmus-x does not exist"))) == []
+    for cause, said in ((OSError("Stream is closed"), "OSError: Stream is closed"),
+                        ("hang", "TimeoutError: no answer in 0.05 s")):
+        (warning,) = run(Client(unregister=cause))
+        assert "removing the sweep's FMU plugin ujfmu-fmus-" in warning and said in warning
+        assert "restart the scheduler to clear it" in warning
+    hung.set()
+
+
 def test_a_dask_sweep_on_a_shared_client_cancels_what_an_interruption_leaves(brutti, tmp_path, fmu_dir):
     """A point whose worker died is an error record naming it; a sweep interrupted on a client it shares (Ctrl-C
     while a point is kept) cancels its points not yet finished, which that cluster would otherwise run on."""
@@ -1304,6 +1403,9 @@ def test_a_dask_sweep_on_a_shared_client_cancels_what_an_interruption_leaves(bru
             self.made, self.cancelled = [], []
 
         def register_plugin(self, plugin):
+            pass
+
+        def unregister_worker_plugin(self, name):
             pass
 
         def submit(self, function, job, point, pure):

@@ -46,6 +46,7 @@ import signal
 import sys
 import threading
 import time
+import uuid
 import warnings
 import zipfile
 from collections.abc import Callable
@@ -632,16 +633,57 @@ def _worker_fmu_dir(hashes, fmu_blobs=None):
 
 
 def fmu_installer(blobs, hashes):
-    """A dask WorkerPlugin that writes the FMUs on every worker of the cluster, present and future, once."""
+    """A dask WorkerPlugin that writes the FMUs on every worker of the cluster, present and future, once (per
+    worker process and FMU set: a second sweep's plugin of the same FMUs finds them written). Its name is the
+    sweep run's own, so a sweep removes its plugin at its end (:func:`remove_fmu_installer`) without removing that
+    of another sweep running on the same cluster."""
     from distributed import WorkerPlugin
 
     class FmuInstaller(WorkerPlugin):
-        name = "ujfmu-fmus-" + hashlib.sha256(json.dumps(hashes, sort_keys=True).encode()).hexdigest()[:16]
+        name = (f"ujfmu-fmus-{hashlib.sha256(json.dumps(hashes, sort_keys=True).encode()).hexdigest()[:16]}-"
+                f"{uuid.uuid4().hex[:12]}")
 
         def setup(self, worker):
             _worker_fmu_dir(hashes, blobs)
 
     return FmuInstaller()
+
+
+def install_fmus(client, plugin) -> None:
+    """Register the FMU plugin (:func:`fmu_installer`) with the client's cluster; SweepWorkersUnfit naming the
+    cause and the workers that are not running where the cluster cannot (a worker stuck as it closes answers no
+    broadcast: the registration had ended in an internal error after the connection's timeout)."""
+    try:
+        within(WORKER_PROBE_TIMEOUT, lambda: client.register_plugin(plugin), "ujfmu-install-fmus")
+    except Exception as exc:   # noqa: BLE001 (a CommClosedError, a timeout: the cluster's, named)
+        try:
+            workers = client.scheduler_info().get("workers", {})
+        except Exception:   # noqa: BLE001 (the scheduler itself gone: the error above says so)
+            workers = {}
+        stuck = sorted(a for a, w in workers.items() if w.get("status", "running") != "running")
+        raise SweepWorkersUnfit(
+            f"the cluster could not install the sweep's FMUs on its workers ({type(exc).__name__}: {exc})"
+            + (f"; not running: {', '.join(stuck)} (a worker that failed as it started, one without ujfmu say, can "
+               "stay stuck closing and answer nothing)" if stuck else "")
+            + ": restart the cluster's workers, each in an environment with ujfmu installed, or run the sweep on "
+            "local workers (--workers N without --scheduler) or in this process (--workers 0)") from exc
+
+
+def remove_fmu_installer(client, plugin) -> None:
+    """Remove the sweep's FMU plugin from a cluster it does not end with it (``--scheduler``, a client given):
+    the scheduler would otherwise send it to every worker that joins later, and a worker without ujfmu, unable to
+    unpickle it, fails to start and stays stuck closing (the next sweep's registration then failed on it). The
+    workers keep the FMUs they wrote. A removal that fails is a SweepWarning (the sweep's results stand); one the
+    scheduler does not hold (its registration failed before it) is nothing to remove."""
+    try:
+        within(PLUGIN_REMOVAL_TIMEOUT, lambda: client.unregister_worker_plugin(plugin.name), "ujfmu-remove-fmus")
+    except ValueError:   # the scheduler does not hold it
+        pass
+    except Exception as exc:   # noqa: BLE001 (said; the points are computed and kept)
+        warnings.warn(f"removing the sweep's FMU plugin {plugin.name} from the cluster failed "
+                      f"({type(exc).__name__}: {exc}; a worker that answers nothing holds the scheduler's broadcast): "
+                      "if the scheduler still holds the plugin, it sends it to each worker that joins, and one "
+                      "without ujfmu fails to start; restart the scheduler to clear it", SweepWarning, stacklevel=3)
 
 
 #: the modules that compute a point outside the FMUs: the master, the steady-state check, the reductions, this one
@@ -738,8 +780,12 @@ class SweepBusy(ScenarioError):
 #: seconds a dask sweep waits for a point before it looks for workers, and seconds without any worker after which
 #: it stops (its workers died and none came back: they had kept the sweep waiting all night)
 WORKER_CHECK, NO_WORKERS_TIMEOUT = 10.0, 120.0
-#: seconds the workers of a cluster not started here have to answer ujfmu's check (``check_workers``)
+#: seconds the workers of a cluster not started here have to answer ujfmu's check (``check_workers``) and the FMU
+#: plugin's registration (``install_fmus``)
 WORKER_PROBE_TIMEOUT = 60.0
+#: seconds the removal of a sweep's FMU plugin from such a cluster may take after the sweep (``remove_fmu_installer``;
+#: the scheduler drops it at once, then tells each worker)
+PLUGIN_REMOVAL_TIMEOUT = 10.0
 
 
 class SweepWorkersLost(ScenarioError):
@@ -753,6 +799,26 @@ class SweepWarning(UserWarning):
 class SweepWorkersUnfit(ScenarioError):
     """Workers of the cluster given (``--scheduler``, ``client=``) cannot run this sweep's points: ujfmu missing, of
     other code, or another Python than the FMUs' (checked before any point is sent)."""
+
+
+def within(seconds: float, call: Callable, name: str):
+    """call() in a daemon thread: its result, or its exception raised here; TimeoutError after seconds without
+    either (a cluster's call that a worker never answers waits for ever; the thread is left to it)."""
+    answer = queue.SimpleQueue()
+
+    def ask():
+        try:
+            answer.put((True, call()))
+        except BaseException as exc:   # noqa: BLE001 (raised in the caller's thread)
+            answer.put((False, exc))
+    threading.Thread(target=ask, name=name, daemon=True).start()
+    try:
+        done, value = answer.get(timeout=seconds)
+    except queue.Empty:
+        raise TimeoutError(f"no answer in {seconds:g} s") from None
+    if not done:
+        raise value
+    return value
 
 
 def check_workers(client) -> list:
@@ -773,23 +839,15 @@ def check_workers(client) -> list:
     running = sorted(a for a, w in workers.items() if w.get("status", "running") == "running")
     if not running:
         return notes
-    answer = queue.SimpleQueue()   # asked from a daemon thread: a worker stuck in its start answers nothing
-
-    def ask():
-        try:
-            answer.put(client.run(probe, workers=running))
-        except Exception as exc:   # noqa: BLE001 (raised below, in the sweep's thread)
-            answer.put(exc)
-    threading.Thread(target=ask, name="ujfmu-check-workers", daemon=True).start()
     try:
-        answers = answer.get(timeout=WORKER_PROBE_TIMEOUT)
-    except queue.Empty:
+        answers = within(WORKER_PROBE_TIMEOUT, lambda: client.run(probe, workers=running), "ujfmu-check-workers")
+    except TimeoutError:
         raise SweepWorkersUnfit(f"the cluster's workers ({', '.join(running)}) did not answer ujfmu's check in "
                                 f"{WORKER_PROBE_TIMEOUT:g} s: see their logs (a worker that cannot import ujfmu "
                                 "may hang as it starts)") from None
-    if isinstance(answers, Exception):   # a worker that broke off as it was asked
+    except Exception as exc:   # noqa: BLE001 (a worker that broke off as it was asked)
         raise SweepWorkersUnfit(f"the cluster's workers ({', '.join(running)}) could not be checked "
-                                f"({type(answers).__name__}: {answers}): see their logs") from answers
+                                f"({type(exc).__name__}: {exc}): see their logs") from exc
     for address, (digest, version, error) in sorted(answers.items()):
         if error:
             problems.append(f"{address} cannot import ujfmu ({error}): install ujfmu in the workers' environment, "
@@ -1044,16 +1102,18 @@ class Sweep:
         return self.csv
 
     def _run_dask(self, todo, keep, workers, scheduler, client=None):
-        own, futures = client is None, {}
+        own, futures, plugin = client is None, {}, None
+        foreign = not (own and scheduler is None)   # a cluster not started here, from this environment
         if own:
             client = dask_client(workers, scheduler)
         try:
-            if not (own and scheduler is None):   # a cluster not started here, from this environment
+            if foreign:
                 for note in check_workers(client):
                     warnings.warn(note, SweepWarning, stacklevel=4)
             # the FMUs travel once per worker in a plugin (not as scattered data, whose lifetime a shared client
             # and a long sweep make fragile); points then carry only their parameters
-            client.register_plugin(fmu_installer(self.fmu_blobs, self.job.fmu_hashes))
+            plugin = fmu_installer(self.fmu_blobs, self.job.fmu_hashes)
+            install_fmus(client, plugin)
             futures = {client.submit(run_point, self.job, point, pure=False): point for point in todo}
             # each future puts itself in the queue as it finishes (distributed.wait over the pending set had cost
             # the sweep's process a CPU time that grew with the points left, at every point)
@@ -1090,12 +1150,14 @@ class Sweep:
                               "error": f"worker failed: {type(exc).__name__}: {exc}"}
                 keep(record)
         finally:
-            if own:
-                close_client(client)
-            else:   # each callback holds its future: a shared cluster would run an interrupted sweep's rest
+            if not own:   # each callback holds its future: a shared cluster would run an interrupted sweep's rest
                 unfinished = [f for f in futures if not f.done()]
                 if unfinished:
                     client.cancel(unfinished)
+            if foreign and plugin is not None:
+                remove_fmu_installer(client, plugin)
+            if own:
+                close_client(client)
 
     def _check_grid(self, extend=False):
         """SweepGridConflict when the journal holds points of another grid (its CSV and plots would be replaced);
