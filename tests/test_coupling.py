@@ -127,15 +127,17 @@ def test_check_step_reports_every_signal(fmu_dir, tmp_path, capsys):
 
 def test_check_step_shows_a_constant_signal_in_absolute_terms(fmu_dir, tmp_path, capsys):
     """An ideal speed source's constant speed and a constant load have no range to take a percentage of: their
-    estimate and allowance are printed in absolute terms (they read "allowed inf%" and "allowed 4.61e+03%")."""
+    estimate and allowance are printed in absolute terms, with the signal's unit (they read "allowed inf%" and
+    "allowed 4.61e+03%")."""
     code = main(["--fmu-dir", str(fmu_dir), "run", str(CONSTANT_SPEED), "--check-step", "--no-plot",
                  "--out", str(tmp_path)])
     out = capsys.readouterr().out
     estimates = out.split("estimated coupling error")[1]
     assert code == 0 and "inf%" not in estimates and "e+03%" not in estimates
-    for name in ("motor.omega", "load.tau"):
+    for name, unit in (("motor.omega", "rad/s"), ("load.tau", "N.m")):
         line = next(line for line in estimates.splitlines() if f" {name} " in line)
-        assert line.split()[0] == "ok" and "(allowed 1e-09; absolute: the signal hardly varies)" in line, line
+        assert line.split()[0] == "ok" and f"(allowed 1e-09 {unit}; absolute: the signal hardly varies)" in line, line
+        assert line.split()[3] == unit, line   # the estimate's own figure too
 
 
 def test_check_step_judges_an_untoleranced_constant_signal_by_its_magnitude(monkeypatch):
@@ -408,7 +410,9 @@ def test_step_auto_stops_where_halving_does_not_shrink_the_error(monkeypatch):
     """An error of fixed size over a few steps (a speed-driven torque's inertia term for two steps after a load
     step: 8.1% of its range at 1 ms and at 0.125 ms alike) had --step auto halve on through steps that each cost
     twice the last: it stops at the first halving that leaves an estimate over its allowance above 3/4 of itself,
-    naming the signal and both figures; an error that halves (first order) is halved on until it passes."""
+    naming the signal and both figures; an error that halves (first order) is halved on until it passes, and so is
+    one of a quarter of the signal's range or more (the step does not resolve the motion yet: it had stopped
+    there, calling it an error no smaller step removes)."""
     from ujfmu.master import CosimulationError
 
     def fake(figures):
@@ -426,6 +430,19 @@ def test_step_auto_stops_where_halving_does_not_shrink_the_error(monkeypatch):
     monkeypatch.setattr(stepsize, "estimate", fake(lambda h: 0.081 * h / 1e-3))   # first order
     step, tried = stepsize.choose(scenario, None)
     assert step == 1.25e-4 and len(tried) == 4
+    # the runs at h and h/2 far apart (an 80 deg joint's PI start-up, a fresh-eyes trial's: 67%, 77%, 72% of range
+    # from 1 ms, then 23%, 4.6%) are a step that does not resolve the motion yet, not a stall: halved on, it passes
+    unresolved = {1e-3: 0.667, 5e-4: 0.77, 2.5e-4: 0.715, 1.25e-4: 0.232, 6.25e-5: 0.0458, 3.125e-5: 0.009}
+    monkeypatch.setattr(stepsize, "estimate", fake(lambda h: unresolved[h]))
+    step, tried = stepsize.choose(scenario, None)
+    assert step == 3.125e-5 and len(tried) == 6
+    # still over its allowance at the last halving, but shrinking: the error says so, with the next step to try
+    unresolved[3.125e-5] = 0.0202
+    with pytest.raises(CosimulationError, match=r"no step down to 3.125e-05 s keeps the estimated coupling error "
+                                                r"within the allowance \(the last halving shrank the failing "
+                                                r"estimates, joint.tau_in 4.58% of range -> 2.02% of range: a smaller "
+                                                r"step likely passes, e.g. --step 1.5625e-05"):
+        stepsize.choose(scenario, None)
     # a signal within its allowance before the halving (the other one, first order, needs it) that then rises a
     # little past it (the implicit iteration's noise) is no stall
     def two(step, _scenario=None, _fmu_dir=None):

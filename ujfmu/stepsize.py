@@ -30,6 +30,11 @@ MAX_HALVINGS = 5
 #: a signal's estimate that a halving leaves above this share of itself does not shrink with the step (a first-order
 #: error halves, a second-order one quarters): ``choose`` stops there instead of halving on
 STALLED = 0.75
+#: an estimate of at least this share of a signal's range (whole run or steady part, as judged) says the runs at h
+#: and h/2 follow different motions, the step not resolving them yet, not that the error is of a fixed size: a
+#: halving from or to it is no stall (an 80 deg joint's PI start-up: 67%, 77%, 72% of range over three steps
+#: from 1 ms, then 23%, 4.6% as the step resolved it)
+UNRESOLVED = 0.25
 #: without a tolerance a signal is also judged over its steady part (from steady_from, else the last STEADY_SHARE of
 #: the run) against that part's own range, where that range is between STEADY_FLOOR and half of the whole run's: a
 #: vibration about a level reached in a start-up (0.4% of the run's range) had passed with 9% of its own
@@ -55,6 +60,7 @@ class StepEstimate:
     steady_from: float = math.nan                # where that part starts [s]
     at: dict = field(default_factory=dict)       # signal -> the time of its largest estimated error [s]
     skipped: float = math.nan                    # the estimate starts there (``START_STEPS``) [s]
+    units: dict = field(default_factory=dict)    # signal -> its unit, for the figures shown in absolute terms
 
     @property
     def passed(self) -> bool:
@@ -74,6 +80,10 @@ class StepEstimate:
             return error <= allowance
         return self.errors[name] <= self.allowed[name]
 
+    def _unit(self, name: str) -> str:
+        unit = self.units.get(name, "")
+        return f" {unit}" if unit not in ("", "1") else ""
+
     def lines(self) -> list[str]:
         if self.failure:
             return [f"step {self.step:g} s: {self.failure}"]
@@ -81,7 +91,8 @@ class StepEstimate:
                  "history yet, left out)" if not math.isnan(self.skipped) else "")
         return [f"step {self.step:g} s, estimated coupling error (2 x |y(h) - y(h/2)|) per signal{start}:"] + [
             f"  {'ok  ' if self.within(n) else 'HIGH'} {n:28s} " + (
-                f"{self.absolute[n][0]:9.3g} (allowed {self.absolute[n][1]:.3g}; absolute: the signal hardly varies)"
+                f"{self.absolute[n][0]:9.3g}{self._unit(n)} (allowed {self.absolute[n][1]:.3g}{self._unit(n)}; "
+                "absolute: the signal hardly varies)"
                 if n in self.absolute else
                 f"{100 * self.errors[n]:9.3g}% of range (allowed {100 * self.allowed[n]:.3g}%)")
             + (f" at t = {self.at[n]:.4g} s" if n in self.at else "")
@@ -153,7 +164,17 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
         banded = compare(extrapolated, scenario.reference()[0], scenario.extrapolated_tolerances)
     return StepEstimate(run.step_size, errors, allowed, absolute=absolute, sampling=sampling, extrapolated=banded,
                         steady=steady, steady_from=float(time[window][0]) if window.any() else math.nan, at=at,
-                        skipped=float(time[later][0]) if not later.all() else math.nan)
+                        skipped=float(time[later][0]) if not later.all() else math.nan,
+                        units={name: _unit(scenario, name) for name in absolute})
+
+
+def _unit(scenario, name: str) -> str:
+    """The signal's declared unit, "" where the scenario cannot say (a name set on it by hand)."""
+    from .scenario import ScenarioError
+    try:
+        return scenario.unit(name)
+    except ScenarioError:
+        return ""
 
 
 def speed_driven(scenario) -> bool:
@@ -170,7 +191,7 @@ def _measure(est: StepEstimate, name: str) -> tuple:
     if name in est.steady and not est.steady[name] <= est.allowed[name]:
         return est.steady[name], f"{100 * est.steady[name]:.3g}% of its range from t = {est.steady_from:g} s"
     if name in est.absolute:
-        return est.absolute[name][0], f"{est.absolute[name][0]:.3g}"
+        return est.absolute[name][0], f"{est.absolute[name][0]:.3g}{est._unit(name)}"
     return est.errors[name], f"{100 * est.errors[name]:.3g}% of range"
 
 
@@ -184,10 +205,11 @@ def _kind(est: StepEstimate, name: str) -> str:
 def stalled(est: StepEstimate, previous: StepEstimate) -> list[str]:
     """The signals over their allowance at est and at previous (the step before the halving) whose estimate, as
     each is judged (:func:`_measure`), the halving left above ``STALLED`` of itself: an error that does not shrink
-    with the step."""
+    with the step. Not a signal whose estimate, as a share of its range, is ``UNRESOLVED`` at either step."""
     return [n for n in est.errors if not est.within(n) and n in previous.errors and not previous.within(n)
             and _kind(est, n) == _kind(previous, n)
-            and _measure(est, n)[0] > STALLED * _measure(previous, n)[0]]
+            and _measure(est, n)[0] > STALLED * _measure(previous, n)[0]
+            and (_kind(est, n) == "absolute" or max(_measure(est, n)[0], _measure(previous, n)[0]) < UNRESOLVED)]
 
 
 def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, list[StepEstimate]]:
@@ -217,5 +239,14 @@ def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, lis
                 "is; the torque-driven wiring integrates the input shaft instead (README, \"Choose the wiring for "
                 "the host\"):\n" + "\n".join(est.lines()))
         step /= 2.0
-    raise CosimulationError(f"--step auto: no step down to {2.0 * step:g} s keeps the estimated coupling error "
-                            f"within the allowance:\n" + "\n".join(tried[-1].lines()))
+    last, before = tried[-1], tried[-2] if len(tried) > 1 else None
+    failing = [n for n in last.errors if not last.within(n)]
+    shrinking = (before is not None and not last.failure and not before.failure and failing
+                 and all(n in before.errors and _kind(last, n) == _kind(before, n)
+                         and _measure(last, n)[0] <= 0.5 * _measure(before, n)[0] for n in failing))
+    hint = (f" (the last halving shrank the failing estimates, "
+            + ", ".join(f"{n} {_measure(before, n)[1]} -> {_measure(last, n)[1]}" for n in failing)
+            + f": a smaller step likely passes, e.g. --step {last.step / 2.0:g}; each halving doubles the run's "
+            "time)" if shrinking else "")
+    raise CosimulationError(f"--step auto: no step down to {last.step:g} s keeps the estimated coupling error "
+                            f"within the allowance{hint}:\n" + "\n".join(last.lines()))
