@@ -181,6 +181,33 @@ def test_campbell_diagram_shows_the_natural_frequencies(fmu_dir, tmp_path, figur
     check_readable(figures[f"{sweep.name}_orders.png"])
 
 
+def test_the_campbell_legend_covers_no_marker_and_no_mode_label(fmu_dir, tmp_path, figures):
+    """The legend stands in a band left empty above the data: placed upper left, it had covered the 4x order's
+    markers rising across the top and a mode's label (a fresh-eyes trial's sweep up to 1100 rpm); its markers are
+    of one size, not the first point's."""
+    scenario = Scenario(SCENARIOS / "double_cardan_omar_torsional.toml")
+    settings = SweepSettings.from_scenario(scenario, revolutions=2, settle_time=0.5)
+    sweep = Sweep(scenario, [parse_axis("motor.omega_set=600:1000:200rpm", scenario)], settings, out_dir=tmp_path,
+                  fmu_dir=fmu_dir, name="campbell_legend")
+    sweep.run(workers=0, progress=False)
+    sweep.plot()
+    fig = figures[f"{sweep.name}_orders.png"]
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    for campbell in fig.axes[1::2]:
+        legend = campbell.get_legend()
+        box = legend.get_window_extent(renderer)
+        markers = [xy for c in campbell.collections if len(c.get_offsets())
+                   for xy in campbell.transData.transform(c.get_offsets())]
+        assert max(xy[1] for xy in markers) > campbell.transData.transform((0, 60.0))[1]   # 4x up to 67 Hz
+        assert not [xy for xy in markers if box.contains(*xy)]
+        for label in campbell.texts:
+            assert not box.overlaps(label.get_window_extent(renderer)), label.get_text()
+        assert {float(h.get_sizes()[0]) for h in legend.legend_handles if hasattr(h, "get_sizes")} == {20.0}
+
+
 def test_spectra_of_one_output_of_several_components_share_their_scale(tmp_path, figures):
     """The aligned and the misaligned rotor's X2 on one amplitude scale (the misaligned one's 2x stands 10x above
     the aligned one's 1x), their Y2 on another; each panel reaches 6 decades below its group's largest peak and

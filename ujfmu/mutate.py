@@ -37,7 +37,8 @@ AREAS = {"physics": ("ujfmu/models/*/model.py", "ujfmu/models/protocol.py", "ujf
                                  "ujfmu/report.py"),
          "references": ("ujfmu/models/*/reference.py", "ujfmu/references/"),
          "FMI 3.0 layer": ("ujfmu/fmu3/", "ujfmu/build3.py", "ujfmu/model_exchange.py", "ujfmu/fmi3_host.py"),
-         "sweeps and command line": ("ujfmu/sweep.py", "ujfmu/steady.py", "ujfmu/analysis.py", "ujfmu/cli.py")}
+         "sweeps and command line": ("ujfmu/sweep.py", "ujfmu/steady.py", "ujfmu/analysis.py", "ujfmu/cli.py",
+                                     "ujfmu/plotting.py")}
 
 
 @dataclass

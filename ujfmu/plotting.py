@@ -204,6 +204,8 @@ def _plot_points_not_ok(ax, sweep, xs, out, k):
 #: an order that vanishes by symmetry (1e-13 of the others, round-off) sits on this floor instead of stretching
 #: the axis over a dozen decades
 ORDER_TRACK_FLOOR = 1e-6
+#: the share of a Campbell diagram's height each legend row takes, left empty above the data
+LEGEND_ROW_SHARE = 0.065
 #: outputs the order figure shows at most (a row each), the first of the sweep's
 ORDER_FIGURE_OUTPUTS = 6
 #: the sweep's order tracks draw up to this many values of the other axes, one line style each
@@ -395,8 +397,17 @@ def plot_sweep(sweep, out_dir):
             ax2.set_title(f"Campbell diagram of {out} (marker area ~ amplitude)"
                           + (f"\n{label(key0)}" if len(tracked) > 1 else ""), fontsize=9, loc="left")
             ax2.grid(alpha=0.3)
-            # upper left: the order lines rise to the right, and the modes' labels stand at the right edge
-            ax2.legend(fontsize=8, loc="upper left")
+            # the legend in a band left empty above the markers and the modes' lines (upper left had covered an
+            # order's markers where they rise across the top, and a mode's label), its markers of one size (the
+            # first point's had set each)
+            legend_rows = len(amplitudes) + (1 if modes else 0) + (1 if banded else 0)
+            low, high = ax2.get_ylim()
+            ax2.set_ylim(low, high + LEGEND_ROW_SHARE * legend_rows / (1.0 - LEGEND_ROW_SHARE * legend_rows)
+                         * (high - low))
+            legend = ax2.legend(fontsize=7, loc="upper left")
+            for handle in legend.legend_handles:
+                if hasattr(handle, "set_sizes"):
+                    handle.set_sizes([20.0])
     names = ", ".join(shown) + (f" (the first {len(shown)} of {len(outputs)} outputs; --output chooses)"
                                 if len(shown) < len(outputs) else "")
     left_out = [f"{len(groups) - len(tracked)} other value(s) of {', '.join(ax.label for ax in others)}"] \
