@@ -148,8 +148,12 @@ def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_p
     assert main(["check", str(unchecked), "--junit", str(junit)] + common) == 1
     captured = capsys.readouterr()
     assert "0 passed, 0 failed, 1 not checked" in captured.out and "nothing was checked" in captured.err
-    case = ET.parse(junit).getroot().find("testcase")
-    assert case.find("skipped") is not None and case.find("failure") is None
+    # and its JUnit case fails as the command does (a skipped case had shown a CI dashboard no failure)
+    suite = ET.parse(junit).getroot()
+    case = suite.find("testcase")
+    assert case.find("skipped") is None and "not checked: the scenario has no [reference]" in case.find("failure").get(
+        "message")
+    assert suite.get("failures") == "1" and suite.get("skipped") == "0"
     # with a checked scenario beside it: exit 0, the unchecked one skipped in the JUnit report and listed
     assert main(["check", str(SCENARIOS / "cardan_constant_speed.toml"), str(unchecked), "--junit", str(junit)]
                 + common) == 0
@@ -160,8 +164,13 @@ def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_p
     cases = {c.get("name"): c for c in suite.iter("testcase")}
     assert cases["unchecked"].find("skipped") is not None and cases["cardan_constant_speed"].find("skipped") is None
     # --strict: a gate that checks every scenario it is given fails on the unchecked one
-    assert main(["check", str(SCENARIOS / "cardan_constant_speed.toml"), str(unchecked), "--strict"] + common) == 1
+    assert main(["check", str(SCENARIOS / "cardan_constant_speed.toml"), str(unchecked), "--strict", "--junit",
+                 str(junit)] + common) == 1
     assert "--strict: 1 scenario(s) not checked: unchecked" in capsys.readouterr().err
+    suite = ET.parse(junit).getroot()   # its report fails that case too, and only that one
+    cases = {c.get("name"): c for c in suite.iter("testcase")}
+    assert suite.get("failures") == "1" and suite.get("skipped") == "0"
+    assert cases["unchecked"].find("failure") is not None and cases["cardan_constant_speed"].find("failure") is None
 
 
 def test_result_names_compared_and_uncompared_signals(fmu_dir, tmp_path):

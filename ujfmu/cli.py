@@ -452,11 +452,12 @@ def _check(args, kind: str) -> int:
     _plots_missing(args)
     _band_missing(results)
     _level_only(results)
-    if args.junit:
-        report = write_junit(results, args.junit, errors, skipped, kind)
-        _say(args, f"JUnit report: {report}")
     failed = [r for r in results if r.failed]
     unchecked = [r for r in results if not r.checked and not r.failed]
+    if args.junit:   # what fails the command below fails its case: --strict's and an all-unchecked run's
+        report = write_junit(results, args.junit, errors, skipped, kind,
+                             unchecked_fail=bool(unchecked) and (args.strict or len(unchecked) == len(results)))
+        _say(args, f"JUnit report: {report}")
     print(f"{len(results) - len(failed) - len(unchecked)} passed, {len(failed)} failed, "
           f"{len(unchecked)} not checked" + (f", {len(errors)} could not run" if errors else "")
           + (f", {len(skipped)} skipped (no Model Exchange wiring: {', '.join(skipped)})" if skipped else ""))

@@ -1428,18 +1428,20 @@ def _write_partial(scenario, exc, out_dir, plot, model_exchange=False):
 
 
 def write_junit(results: list, path: str | os.PathLike, errors: dict | None = None, skipped: dict | None = None,
-                kind: str = "") -> Path:
+                kind: str = "", unchecked_fail: bool = False) -> Path:
     """JUnit XML: one test case per scenario, a failure element carrying the error figures and naming the
     signals outside their bands; a scenario that compared nothing, or that was skipped (skipped: its name -> why),
-    is a skipped test case, and one that could not run (errors: its name -> the message) an error case. A case's
+    is a skipped test case (a failure where ``unchecked_fail``: ``check --strict``, or nothing checked at all, which
+    fail the command), and one that could not run (errors: its name -> the message) an error case. A case's
     time is its whole run (ScenarioResult.total_time). kind (e.g. "fmi3", "model_exchange") goes into the suite's
     and the cases' class names, so that reports of several runs merged in CI stay apart."""
     errors, skipped = errors or {}, skipped or {}
     classname = "ujfmu.scenarios" + (f".{kind}" if kind else "")
+    unchecked = sum(not r.checked and not r.failed for r in results)
     suite = ET.Element("testsuite", name="ujfmu scenarios" + (f" ({kind})" if kind else ""),
                        tests=str(len(results) + len(errors) + len(skipped)),
-                       failures=str(sum(r.failed for r in results)), errors=str(len(errors)),
-                       skipped=str(sum(not r.checked and not r.failed for r in results) + len(skipped)),
+                       failures=str(sum(r.failed for r in results) + (unchecked if unchecked_fail else 0)),
+                       errors=str(len(errors)), skipped=str((0 if unchecked_fail else unchecked) + len(skipped)),
                        time=f"{sum(r.total_time for r in results):.3f}")
     for r in results:
         case = ET.SubElement(suite, "testcase", classname=classname, name=r.scenario.name,
@@ -1461,6 +1463,9 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
                    if bad]
             failure = ET.SubElement(case, "failure", message="; ".join(why))
             failure.text = r.summary()
+        elif not r.checked and unchecked_fail:
+            ET.SubElement(case, "failure", message=f"not checked: {r.not_checked_reason()} (a gate that compares "
+                          "nothing fails it)").text = r.summary()
         elif not r.checked:
             ET.SubElement(case, "skipped", message=f"not checked: {r.not_checked_reason()}")
         ET.SubElement(case, "system-out").text = r.summary()
