@@ -958,7 +958,8 @@ def test_check_names_the_bands_that_check_the_level_only(fmu_dir, tmp_path, caps
 
 
 def test_a_truncated_fmu_and_a_subfolder_left_out_are_named(fmu_dir, tmp_path, capsys):
-    """A truncated FMU had failed with "File is not a zip file", naming neither file nor remedy; scenarios in a
+    """A truncated or damaged FMU had failed with "File is not a zip file" or "Bad CRC-32 for file ...", naming
+    neither file nor remedy; scenarios in a
     subfolder of a folder given to `check` are left out (a folder stands for its own *.toml), which a note says."""
     import shutil
 
@@ -968,6 +969,18 @@ def test_a_truncated_fmu_and_a_subfolder_left_out_are_named(fmu_dir, tmp_path, c
     (cut / "Load.fmu").write_bytes((fmu_dir / "Load.fmu").read_bytes()[:1000])
     with pytest.raises(ScenarioError, match=r"Load.fmu is not an FMU \(not a zip archive: truncated"):
         Scenario(SCENARIOS / "cardan_startup.toml").check_fmus(cut)
+    # a damaged one, its directory whole (a byte changed in a member: a bad CRC, or a deflate stream that breaks),
+    # is named with the remedy too (it had read "Bad CRC-32 for file 'binaries/win64/Load.dll'", no path, no remedy)
+    data = (fmu_dir / "Load.fmu").read_bytes()
+    for offset in (len(data) // 2, 5000):
+        damaged = bytearray(data)
+        damaged[offset] ^= 0xFF
+        (cut / "Load.fmu").write_bytes(bytes(damaged))
+        assert main(["--fmu-dir", str(cut), "check", str(SCENARIOS / "cardan_startup.toml"), "--no-plot", "--out",
+                     str(tmp_path / "o")]) == 2
+        out = capsys.readouterr().out   # its ERROR line
+        assert f"{(cut / 'Load.fmu').resolve()} is damaged (" in out and f"rebuild it (run `ujfmu build --fmu-dir " \
+            f"{cut.resolve()}` first)" in out, out
     (tmp_path / "gate" / "team").mkdir(parents=True)
     shutil.copy(SCENARIOS / "cardan_constant_speed.toml", tmp_path / "gate" / "team" / "mine.toml")
     (tmp_path / "gate" / "mine.toml").write_text("not toml [")

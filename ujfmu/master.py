@@ -39,6 +39,8 @@ import tempfile
 import threading
 import time
 import warnings
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -495,6 +497,10 @@ def extracted(fmu):
         folder = str(temporary_folder("ujfmu_fmu_"))
         try:
             _EXTRACTED[key] = (extract(str(path), unzipdir=folder), read_model_description(str(path)))
+        except (zipfile.BadZipFile, zlib.error) as exc:   # its directory reads, a member not (a byte changed)
+            remove_folder(folder)
+            from .build import build_hint
+            raise CosimulationError(f"{path} is damaged ({exc}): rebuild it ({build_hint(path.parent)})") from exc
         except BaseException:   # not an FMU (or not one we read): nothing of it is kept
             remove_folder(folder)
             raise
