@@ -96,6 +96,11 @@ def test_an_fmi3_package_goes_beside_the_fmi2_one_not_over_it(fmu_dir, fmu3_dir,
                 with zipfile.ZipFile(io.BytesIO(package.read(fmu))) as inner:
                     root = ET.fromstring(inner.read("modelDescription.xml"))
                     assert root.get("fmiVersion") == version, (path, fmu)
+    # libcosim runs FMI 2.0 only: the FMI 3.0 package is refused naming the engine that runs it (libcosim had said
+    # "Unable to create execution from path. Please check if path is correct.")
+    with pytest.raises(ValueError, match=r"holds FMI 3.0 FMUs .*libcosim \(libcosimpy\) runs FMI 2.0 FMUs only.*"
+                                         r"run it with Ecos, ujfmu.engines.cosimulate_ecos"):
+        cosimulate_ssp(tmp_path / "results" / "fmi3" / f"{name}.ssp", Scenario(SCENARIOS[0]))
 
 
 def test_a_package_runs_at_the_scenarios_step_and_one_of_another_setup_is_refused(fmu_dir, tmp_path):

@@ -6,6 +6,7 @@ the communication step as an OSP fixed-step annotation) and the FMUs under resou
 it with libcosim (``CosimExecution.from_ssp_file``), which the test suite compares with our fmpy master.
 """
 
+import io
 import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -151,14 +152,37 @@ def _setup_differences(ssp_path, scenario) -> list:
     return differ
 
 
+def packed_fmi_versions(ssp_path) -> dict:
+    """{FMU file inside the package: its fmiVersion} of an .ssp package ("" where its modelDescription cannot be
+    read)."""
+    versions = {}
+    with zipfile.ZipFile(ssp_path) as package:
+        for name in package.namelist():
+            if name.endswith(".fmu"):
+                try:
+                    with zipfile.ZipFile(io.BytesIO(package.read(name))) as fmu:
+                        root = ET.fromstring(fmu.read("modelDescription.xml"))
+                    versions[name] = root.get("fmiVersion", "")
+                except (KeyError, zipfile.BadZipFile, ET.ParseError):
+                    versions[name] = ""
+    return versions
+
+
 def cosimulate_ssp(ssp_path, scenario):
     """Run an exported .ssp with libcosim at the scenario's step (libcosim's override of the package's); structured
-    array 'time' + scenario.record. A package of another setup than the scenario's (:func:`_setup_differences`) is
-    refused: its rows would be labelled, or its results taken, as the scenario's."""
+    array 'time' + scenario.record. A package of FMI 3.0 FMUs, which libcosim cannot run, is refused with the engine
+    that can, and one of another setup than the scenario's (:func:`_setup_differences`): its rows would be
+    labelled, or its results taken, as the scenario's."""
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 
     from .libcosim_run import record
+    fmi3 = sorted(name for name, version in packed_fmi_versions(ssp_path).items() if version.startswith("3"))
+    if fmi3:
+        raise ValueError(f"{ssp_path} holds FMI 3.0 FMUs ({', '.join(fmi3)}), and libcosim (libcosimpy) runs FMI 2.0 "
+                         "FMUs only (it had said \"Unable to create execution from path\"): run it with Ecos, "
+                         "ujfmu.engines.cosimulate_ecos(ssp_path, scenario, work_dir) (the bench extra), or export the "
+                         "FMI 2.0 package (`ujfmu export-ssp` without --fmi 3) for libcosim")
     differ = _setup_differences(ssp_path, scenario)
     if differ:
         more = f" (and {len(differ) - 1} more)" if len(differ) > 1 else ""
