@@ -210,12 +210,16 @@ def test_common_options_go_before_or_after_the_command_and_hints_name_the_folder
         assert str(custom) in err and f"ujfmu build --fmu-dir {custom}" in err, err
     assert main(["build", "NoSuchFMU", "--fmu-dir", str(custom), "-q"]) == 2
     assert "unknown FMU NoSuchFMU" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
-        main(["build", "--out", str(tmp_path)])   # --out means nothing to build: refused, not ignored
-    assert "unrecognized arguments: --out" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
-        main(["--out", str(tmp_path), "build"])
-    assert "--out does not apply to `ujfmu build` (FMUs go to --fmu-dir)" in capsys.readouterr().err
+    # --out means nothing to build: refused, not ignored, and said so before or after the command (after it, it
+    # had read "unrecognized arguments: --out", as for battery and modes, though the README says either works)
+    for argv in (["build", "--out", str(tmp_path)], ["--out", str(tmp_path), "build"]):
+        with pytest.raises(SystemExit):
+            main(argv)
+        assert "--out does not apply to `ujfmu build` (FMUs go to --fmu-dir)" in capsys.readouterr().err
+    for command in (["battery"], ["modes", str(scenario)]):
+        with pytest.raises(SystemExit):
+            main(command + ["--out", str(tmp_path)])
+        assert f"--out does not apply to `ujfmu {command[0]}`" in capsys.readouterr().err
 
 
 def test_default_folders_are_the_current_directorys(tmp_path, monkeypatch, capsys):

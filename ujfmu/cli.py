@@ -1107,6 +1107,9 @@ def _main(raw: list):
     p.add_argument("--timeout", type=float, default=900.0, help="seconds per mutant (default: 900)")
     p.add_argument("--nice", type=int, default=19, help="CPU niceness of the test runs (default: 19)")
     _out(p, "results/", "writes mutate.jsonl here")
+    for p in sub.choices.values():   # --out after a command it does not apply to: said so below, not "unrecognized"
+        if "--out" not in p._option_string_actions:
+            p.add_argument("--out", type=Path, default=argparse.SUPPRESS, help=argparse.SUPPRESS)
     args = parser.parse_args(_joined_values(raw, ("--step",)))
     if args.command == "battery" and not args.coupling:
         args.coupling = ["explicit", "implicit"]
