@@ -481,6 +481,21 @@ def test_a_steady_window_that_does_not_repeat_fails_the_run(fmu_dir):
     assert run_scenario(damped, fmu_dir=fmu_dir, out_dir=None).steady_checks[0].change < 0.05
 
 
+def test_a_steady_window_judged_on_a_sparse_record_names_the_record(fmu_dir):
+    """The two rotors' steady window recorded every 10th step (9 samples a revolution at 70 rad/s): the halves' fits
+    reach the 3x order, the 4x and above leak into their means, and the misaligned disc's mean "changes" by 1.3%.
+    The check had blamed the response ("not steady there: move steady_from later", a verdict the full record
+    passes); it names the record and its remedy instead."""
+    from ujfmu.scenario_run import run_scenario
+    scenario = Scenario(Path(__file__).parent.parent / "scenarios" / "twin_jeffcott_aligned_vs_misaligned.toml")
+    scenario.output_interval = 10
+    (check,) = run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, plot=False, progress=False).steady_checks
+    text = str(check)
+    assert not check.passed and "the record may be the cause: it reads 9.16 samples a revolution" in text
+    assert "fits take orders up to 3 (of 8)" in text and "a smaller --output-interval" in text
+    assert "move steady_from later" not in text
+
+
 def test_a_steady_window_of_too_few_revolutions_fails_naming_its_length(fmu_dir):
     """At 0.5 rad/s the twin rotor's 1 s window from steady_from spans 0.08 revolutions: its halves' orders cannot be
     fitted (the run had crashed with a fit's rank error blaming the step). The check fails, saying how many

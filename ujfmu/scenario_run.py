@@ -212,6 +212,9 @@ class SteadyWindowCheck:
     worst: str
     against: str
     note: str = ""   # why the halves could not be compared (then the check fails: nothing says the run is steady)
+    #: where the record reads too few samples a revolution for the fit's full set of orders: what it reads, and the
+    #: highest order the halves' fits take (the orders above leak into the figures compared)
+    sampling: str = ""
 
     @property
     def passed(self) -> bool:
@@ -226,7 +229,11 @@ class SteadyWindowCheck:
         text = (f"{'ok  ' if self.passed else 'FAIL'} steady from t = {self.since:g} s (output.steady_from): the "
                 f"{self.worst} differs between the window's halves by {self.change:.3g} times {self.against} "
                 f"(allowed: {STEADY_WINDOW_TOL:g} times)")
-        if not self.passed:
+        if not self.passed and self.sampling:
+            text += (f"; the record may be the cause: {self.sampling}, so the orders above leak into the figures "
+                     "compared: judge it at a denser record (a smaller --output-interval or [experiment] "
+                     "output_interval, or none) before taking the response for unsteady")
+        elif not self.passed:
             text += ("; the response is not steady there, so the orbits and spectra drawn from it show a transient: "
                      "move steady_from later or lengthen stop_time, or look for a response that grows (no damping at "
                      "a resonance) or never settles")
@@ -250,7 +257,8 @@ def _steady_window(scenario: Scenario, table: np.ndarray) -> tuple | None:
 def check_steady_window(scenario: Scenario, table: np.ndarray, iterated: bool = False) -> list:
     """A SteadyWindowCheck where the scenario has a steady_from and a running speed (its window's angle), else none;
     iterated: the run's steps iterated its torn inputs (``Cosimulation.iterates``), whose noise is no change."""
-    from .steady import coupling_noise, halves_change
+    from .steady import (HALVES_ORDERS, Window, coupling_noise, full_fit, halves_change, nyquist_order,
+                         samples_per_revolution)
     steady = _steady_window(scenario, table)
     if steady is None:
         return []
@@ -266,7 +274,11 @@ def check_steady_window(scenario: Scenario, table: np.ndarray, iterated: bool = 
         change, worst, against = halves_change(angle, window, signals, noise=coupling_noise(iterated))
     except ValueError as exc:   # samples at too few distinct angles to fit the orders
         return [SteadyWindowCheck(scenario.steady_from, math.nan, "", "", note=f"cannot be judged: {exc}")]
-    return [SteadyWindowCheck(scenario.steady_from, change, worst, against)]
+    half = Window(0.0, np.asarray(angle[:len(angle) // 2]), window[:len(angle) // 2])
+    top, wanted = nyquist_order(half), full_fit(HALVES_ORDERS)
+    sampling = (f"it reads {samples_per_revolution(half):.3g} samples a revolution of {scenario.running_speed}, and "
+                f"the halves' fits take orders up to {max(top, 1)} (of {wanted})" if top < wanted else "")
+    return [SteadyWindowCheck(scenario.steady_from, change, worst, against, sampling=sampling)]
 
 
 def steady_orders(scenario: Scenario, table: np.ndarray, orders=(1, 2, 4)) -> dict:

@@ -137,10 +137,16 @@ def nyquist_order(window: Window) -> int:
     return int(samples_per_revolution(window) / 2.0) - 1
 
 
+def full_fit(orders) -> int:
+    """K of :func:`fitted_orders` where the samples allow: max(8, 2 max(orders)), so that unrequested orders do not
+    leak into the requested ones or the mean."""
+    return max(8, 2 * max(orders))
+
+
 def fitted_orders(window: Window, orders) -> range:
-    """Orders 1..K fitted together: K = max(8, 2 max(orders)) so that unrequested orders do not leak into the
-    requested ones or the mean, fewer if a revolution has too few samples (``nyquist_order``, at least 1)."""
-    return range(1, max(1, min(max(8, 2 * max(orders)), nyquist_order(window))) + 1)
+    """Orders 1..K fitted together: K = :func:`full_fit`, fewer if a revolution has too few samples
+    (``nyquist_order``, at least 1)."""
+    return range(1, max(1, min(full_fit(orders), nyquist_order(window))) + 1)
 
 
 def unresolved_orders(window: Window, orders) -> tuple:
@@ -237,7 +243,11 @@ def steady_change(new: dict, old: dict, orders=None, noise: float = 0.0) -> tupl
     return worst, name, against
 
 
-def halves_change(angle, table, signals, orders=(1, 2, 4), noise: float = 0.0) -> tuple:
+#: the orders whose amplitudes (and the mean) :func:`halves_change` compares
+HALVES_ORDERS = (1, 2, 4)
+
+
+def halves_change(angle, table, signals, orders=HALVES_ORDERS, noise: float = 0.0) -> tuple:
     """``steady_change`` between the first and the second half of a record (angle: the running angle of each
     sample, table: a structured array with the signals; noise: the coupling's, :func:`coupling_noise`): for a test
     that waited a fixed time, whether its record repeats."""
