@@ -3,6 +3,7 @@ scenario (bitwise the same as libcosim run by hand), and agreeing with our fmpy 
 
 import copy
 import io
+import os
 import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
@@ -73,9 +74,22 @@ def test_ssd_lists_components_connectors_parameters_and_experiment(fmu_dir, tmp_
     assert float(step) == scenario.step_size
 
 
-def test_cli_export_ssp(fmu_dir, tmp_path, capsys):
+def test_cli_export_ssp(fmu_dir, tmp_path, capsys, monkeypatch):
+    """A package is written, and the same scenario and FMUs give the same bytes (its entries had carried the time
+    of export: no two packages alike, unlike the FMUs in them); SOURCE_DATE_EPOCH dates them."""
     assert main(["--fmu-dir", str(fmu_dir), "export-ssp", str(SCENARIOS[0]), "--out", str(tmp_path)]) == 0
-    assert (tmp_path / f"{SCENARIOS[0].stem}.ssp").is_file() and "wrote" in capsys.readouterr().out
+    package = tmp_path / f"{SCENARIOS[0].stem}.ssp"
+    assert package.is_file() and "wrote" in capsys.readouterr().out
+    first = package.read_bytes()
+    os.utime(fmu_dir / "Motor.fmu")   # a file's own time is not the package's
+    assert main(["--fmu-dir", str(fmu_dir), "export-ssp", str(SCENARIOS[0]), "--out", str(tmp_path)]) == 0
+    assert package.read_bytes() == first
+    with zipfile.ZipFile(package) as zf:
+        assert {info.date_time for info in zf.infolist()} == {(1980, 1, 1, 0, 0, 0)}
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1764288000")   # 2025-11-28 00:00 UTC
+    assert main(["--fmu-dir", str(fmu_dir), "export-ssp", str(SCENARIOS[0]), "--out", str(tmp_path)]) == 0
+    with zipfile.ZipFile(package) as zf:
+        assert {info.date_time for info in zf.infolist()} == {(2025, 11, 28, 0, 0, 0)}
 
 
 def test_an_fmi3_package_goes_beside_the_fmi2_one_not_over_it(fmu_dir, fmu3_dir, tmp_path, capsys, monkeypatch):

@@ -12,7 +12,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 from types import SimpleNamespace
 
-from .build import DEFAULT_FMU_DIR, UNITS, fmu_class
+from .build import DEFAULT_FMU_DIR, UNITS, fmu_class, write_archive
 
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
@@ -76,15 +76,15 @@ def system_structure(scenario):
 
 
 def export_ssp(scenario, out_dir=Path("results"), fmu_dir=DEFAULT_FMU_DIR):
-    """Write <out_dir>/<scenario>.ssp; returns its path."""
+    """Write <out_dir>/<scenario>.ssp; returns its path. Reproducible as the FMUs are (``build.write_archive``:
+    entries sorted and dated SOURCE_DATE_EPOCH, else 1980-01-01): the same scenario and FMUs give the same bytes."""
     scenario.check_fmus(fmu_dir)
     out = Path(out_dir) / f"{scenario.name}.ssp"
     out.parent.mkdir(parents=True, exist_ok=True)
     ssd = b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(system_structure(scenario), encoding="utf-8")
-    with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zf:
-        zf.writestr("SystemStructure.ssd", ssd)
-        for fmu in sorted({fmu for fmu, _ in scenario.components.values()}):
-            zf.write(Path(fmu_dir) / f"{fmu}.fmu", f"resources/{fmu}.fmu")
+    write_archive(out, {"SystemStructure.ssd": ssd,
+                        **{f"resources/{fmu}.fmu": (Path(fmu_dir) / f"{fmu}.fmu").read_bytes()
+                           for fmu in {fmu for fmu, _ in scenario.components.values()}}})
     return out
 
 
