@@ -121,9 +121,9 @@ def test_the_step_check_suggested_after_an_fmi3_run_runs_the_fmi3_fmus(fmu3_dir,
     import shutil
     shutil.copytree(fmu3_dir, tmp_path / "fmus" / "fmi3")
     monkeypatch.chdir(tmp_path)
-    assert main(["run", str(unchecked), "--fmi", "3", "--no-plot"]) == 0
+    assert main(["run", str(unchecked), "--fmi", "3", "--no-plot", "--no-check-step"]) == 0
     assert f"ujfmu run {unchecked} --check-step --fmi 3 estimates the coupling error" in capsys.readouterr().out
-    assert main(["run", str(unchecked), "--fmi", "3", "--fmu-dir", str(fmu3_dir), "--no-plot"]) == 0
+    assert main(["run", str(unchecked), "--fmi", "3", "--fmu-dir", str(fmu3_dir), "--no-plot", "--no-check-step"]) == 0
     assert (f"ujfmu run {unchecked} --check-step --fmi 3 --fmu-dir {fmu3_dir} estimates the coupling error"
             in capsys.readouterr().out)
 
@@ -131,18 +131,24 @@ def test_the_step_check_suggested_after_an_fmi3_run_runs_the_fmi3_fmus(fmu3_dir,
 def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_path, capsys):
     unchecked = _unchecked(tmp_path)
     common = ["--fmu-dir", str(fmu_dir), "--out", str(tmp_path / "out"), "--no-plot"]
-    # run: says NOT CHECKED (not PASS), exit 0 (nothing failed)
-    assert main(["run", str(unchecked)] + common) == 0
+    # run --no-check-step: says NOT CHECKED (not PASS), exit 0 (nothing failed)
+    assert main(["run", str(unchecked), "--no-check-step"] + common) == 0
     out = capsys.readouterr().out
     assert out.startswith("NOT CHECKED unchecked") and "PASS" not in out and "no [reference]" in out
     # how to learn more, with the FMU folder this run used (not fmus/ here): the command runs as printed
     assert f"ujfmu run {unchecked} --check-step --fmu-dir {fmu_dir} estimates the coupling error" in out
-    # run --check-step: the estimate follows the summary, which names it instead of suggesting the option again
-    assert main(["run", str(unchecked), "--check-step"] + common) == 0
-    out = capsys.readouterr().out
-    summary, estimate = out.split("estimated coupling error", 1)
-    assert "--check-step" not in summary and "the step-halving estimate of the coupling error at this step follows" \
-        in summary and "joint.tau_in" in estimate
+    # run, and run --check-step: the estimate follows the summary, which names it instead of suggesting the option
+    # again (by default for a run that compares nothing, saying so)
+    for given, said in (([], True), (["--check-step"], False)):
+        assert main(["run", str(unchecked)] + given + common) == 0
+        out = capsys.readouterr().out
+        summary, estimate = out.split("estimated coupling error", 1)
+        assert "--check-step" not in summary and "the step-halving estimate of the coupling error at this step " \
+            "follows" in summary and "joint.tau_in" in estimate
+        assert ("the run compares nothing, so its coupling error is estimated by a rerun at half the step "
+                "(--no-check-step skips it)" in summary) is said
+    assert main(["run", str(unchecked), "--check-step", "--no-check-step"] + common) == 2
+    assert "--check-step and --no-check-step: give one" in capsys.readouterr().err
     # check of nothing but unchecked scenarios: exit 1, saying nothing was checked
     junit = tmp_path / "only.xml"
     assert main(["check", str(unchecked), "--junit", str(junit)] + common) == 1
@@ -171,6 +177,22 @@ def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_p
     cases = {c.get("name"): c for c in suite.iter("testcase")}
     assert suite.get("failures") == "1" and suite.get("skipped") == "0"
     assert cases["unchecked"].find("failure") is not None and cases["cardan_constant_speed"].find("failure") is None
+
+
+def test_a_changed_run_estimates_its_coupling_error_and_fails_where_it_is_high(fmu_dir, tmp_path, capsys):
+    """A changed copy of cardan_startup at an 80 deg joint (a fresh-eyes trial's) had ended with status 0, 8% of a
+    signal's range off its monolithic solution at 1 ms, its summary saying only that its accuracy was unknown: a
+    run that compares nothing now estimates its coupling error by step halving, and one above the allowance ends
+    with status 1 and a line saying so with the remedy; --no-check-step gives the old run."""
+    args = ["--fmu-dir", str(fmu_dir), "run", str(SCENARIOS / "cardan_startup.toml"), "--set",
+            "joint.bend_angle=80deg", "--stop-time", "2", "--no-plot", "--out", str(tmp_path)]
+    assert main(args) == 1
+    captured = capsys.readouterr()
+    assert "HIGH motor.tau_motor" in captured.out
+    assert "ujfmu: the estimated coupling error at 0.001 s is above the allowance (HIGH above)" in captured.err
+    assert "take a smaller step (--step, or --step auto to find one)" in captured.err
+    assert main(args + ["--no-check-step"]) == 0
+    assert "estimated coupling error" not in capsys.readouterr().out
 
 
 def test_result_names_compared_and_uncompared_signals(fmu_dir, tmp_path):
@@ -264,7 +286,7 @@ def test_run_prints_what_an_fmu_warns_of_while_it_steps(fmu_dir, tmp_path, capsy
     own advice, which comes before the run): the warning is printed once, in the command's own form."""
     assert main(["run", str(SCENARIOS / "double_cardan_omar_torsional.toml"), "--set", "load.T0=60", "--set",
                  "driveline.k_phi=1e8", "--stop-time", "0.3", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path),
-                 "--no-plot"]) == 0
+                 "--no-plot", "--no-check-step"]) == 0
     err = capsys.readouterr().err
     twisted = [line for line in err.splitlines() if "intermediate shaft is twisted" in line]
     assert len(twisted) == 1 and twisted[0].startswith("  warning driveline: at t = ")
@@ -1059,7 +1081,7 @@ def test_run_set_changes_a_parameter_for_that_run_only(fmu_dir, tmp_path, capsys
     refused."""
     scenario = Path(__file__).parent.parent / "scenarios" / "double_cardan_brutti_rigid.toml"
     code = main(["--fmu-dir", str(fmu_dir), "run", str(scenario), "--no-plot", "--out", str(tmp_path), "--set",
-                 "driveline.yoke_phase=90deg"])
+                 "driveline.yoke_phase=90deg", "--no-check-step"])
     out = capsys.readouterr().out
     assert code == 0 and out.startswith("NOT CHECKED double_cardan_brutti_rigid_changed")
     assert "changed: driveline.yoke_phase = 1.5708 rad (90 deg)" in out and "--check-step on the same command" in out
