@@ -193,6 +193,29 @@ def test_a_changed_run_estimates_its_coupling_error_and_fails_where_it_is_high(f
     assert "take a smaller step (--step, or --step auto to find one)" in captured.err
     assert main(args + ["--no-check-step"]) == 0
     assert "estimated coupling error" not in capsys.readouterr().out
+    # a signal recorded with --record, which the run does not compare, is not judged either (it had failed the run)
+    mild = [a.replace("80deg", "20deg") for a in args] + ["--record", "joint.alpha_in"]
+    assert main(mild) == 0
+    out = capsys.readouterr().out
+    assert "estimated coupling error" in out and "joint.alpha_in " not in out.split("estimated coupling error")[1]
+    # a run that compares something estimates nothing unless asked
+    assert main(["--fmu-dir", str(fmu_dir), "run", str(SCENARIOS / "cardan_constant_speed.toml"), "--no-plot",
+                 "--out", str(tmp_path)]) == 0
+    assert "estimated coupling error" not in capsys.readouterr().out
+
+
+def test_a_step_check_that_could_not_run_says_so_not_that_its_error_is_high(fmu_dir, tmp_path, capsys, monkeypatch):
+    """The step check's rerun at half the step stopped: there is no HIGH line, and the command said "above the
+    allowance (HIGH above)"; it says the error is not known, and why."""
+    from ujfmu import stepsize
+    monkeypatch.setattr(stepsize, "estimate", lambda scenario, step=None, fmu_dir=None, coarse=None:
+                        stepsize.StepEstimate(1e-3, {}, {}, "the co-simulation at half the step stopped: X"))
+    assert main(["--fmu-dir", str(fmu_dir), "run", str(SCENARIOS / "cardan_constant_speed.toml"), "--check-step",
+                 "--no-plot", "--out", str(tmp_path)]) == 1
+    captured = capsys.readouterr()
+    assert "step 0.001 s: the co-simulation at half the step stopped: X" in captured.out
+    assert "rerun at half the step stopped, so the coupling error at 0.001 s is not known" in captured.err
+    assert "HIGH above" not in captured.err
 
 
 def test_result_names_compared_and_uncompared_signals(fmu_dir, tmp_path):

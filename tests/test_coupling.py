@@ -436,12 +436,22 @@ def test_step_auto_stops_where_halving_does_not_shrink_the_error(monkeypatch):
     monkeypatch.setattr(stepsize, "estimate", fake(lambda h: unresolved[h]))
     step, tried = stepsize.choose(scenario, None)
     assert step == 3.125e-5 and len(tried) == 6
-    # still over its allowance at the last halving, but shrinking: the error says so, with the next step to try
+    # still over its allowance at the last halving, but shrinking: the error says so, with the step that the
+    # last halving's rate reaches it at (one more here; three from 16% at 0.4 a halving)
     unresolved[3.125e-5] = 0.0202
     with pytest.raises(CosimulationError, match=r"no step down to 3.125e-05 s keeps the estimated coupling error "
                                                 r"within the allowance \(the last halving shrank the failing "
-                                                r"estimates, joint.tau_in 4.58% of range -> 2.02% of range: a smaller "
-                                                r"step likely passes, e.g. --step 1.5625e-05"):
+                                                r"estimates, joint.tau_in 4.58% of range -> 2.02% of range: at that "
+                                                r"rate 1 more halving reaches the allowance, --step 1.5625e-05"):
+        stepsize.choose(scenario, None)
+    slow = {1e-3: 6.25, 5e-4: 2.5, 2.5e-4: 1.0, 1.25e-4: 0.7, 6.25e-5: 0.4, 3.125e-5: 0.16}
+    monkeypatch.setattr(stepsize, "estimate", fake(lambda h: slow[h]))
+    with pytest.raises(CosimulationError, match=r"40% of range -> 16% of range: at that rate 3 more halvings "
+                                                r"reach the allowance, --step 3.90625e-06"):
+        stepsize.choose(scenario, None)
+    # a fixed error that large is no unresolved motion for ever: after the first two halvings it is a stall
+    monkeypatch.setattr(stepsize, "estimate", fake(lambda h: 0.3))
+    with pytest.raises(CosimulationError, match=r"halving the step from 0.00025 s to 0.000125 s did not shrink"):
         stepsize.choose(scenario, None)
     # a signal within its allowance before the halving (the other one, first order, needs it) that then rises a
     # little past it (the implicit iteration's noise) is no stall

@@ -494,6 +494,10 @@ def test_a_steady_window_judged_on_a_sparse_record_names_the_record(fmu_dir):
     assert not check.passed and "the record may be the cause: it reads 9.16 samples a revolution" in text
     assert "fits take orders up to 3 (of 8)" in text and "a smaller --output-interval" in text
     assert "move steady_from later" not in text
+    # where the record takes every step, the step is what to make smaller (a smaller interval cannot be had)
+    scenario.output_interval, scenario.step_size = 1, 0.01
+    (check,) = run_scenario(scenario, fmu_dir=fmu_dir, out_dir=None, plot=False, progress=False).steady_checks
+    assert "judge it at a denser record (a smaller communication step, --step" in str(check), str(check)
 
 
 def test_a_steady_window_of_too_few_revolutions_fails_naming_its_length(fmu_dir):

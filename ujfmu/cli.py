@@ -403,11 +403,17 @@ def cmd_run(args):
         estimate = stepsize.estimate(scenario, fmu_dir=args.fmu_dir, coarse=result.table)
         print("\n".join(estimate.lines()))
         step_ok = estimate.passed
-        if not step_ok:
+        if estimate.failure:
+            print(f"ujfmu: the step check's rerun at half the step stopped, so the coupling error at "
+                  f"{scenario.step_size:g} s is not known (the line above says why)", file=sys.stderr)
+        elif any(not estimate.within(name) for name in estimate.errors):
             print(f"ujfmu: the estimated coupling error at {scenario.step_size:g} s is above the allowance (HIGH "
                   "above): the results are not that accurate; take a smaller step (--step, or --step auto to "
                   "find one), or the torque-driven wiring where a speed-driven joint reflects a large inertia "
                   "(README, \"Choose the wiring for the host\")", file=sys.stderr)
+        elif not step_ok:
+            print("ujfmu: the step check failed: the lines above say where (a record that aliases a model's order, "
+                  "or the step-halving extrapolation outside its [reference.extrapolated] band)", file=sys.stderr)
     return 1 if result.failed or not step_ok else 0
 
 

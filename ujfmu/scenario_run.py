@@ -212,8 +212,8 @@ class SteadyWindowCheck:
     worst: str
     against: str
     note: str = ""   # why the halves could not be compared (then the check fails: nothing says the run is steady)
-    #: where the record reads too few samples a revolution for the fit's full set of orders: what it reads, and the
-    #: highest order the halves' fits take (the orders above leak into the figures compared)
+    #: where the record reads too few samples a revolution for the fit's full set of orders: what it reads, the
+    #: highest order the halves' fits take (the orders above leak into the figures compared) and the remedy
     sampling: str = ""
 
     @property
@@ -230,9 +230,8 @@ class SteadyWindowCheck:
                 f"{self.worst} differs between the window's halves by {self.change:.3g} times {self.against} "
                 f"(allowed: {STEADY_WINDOW_TOL:g} times)")
         if not self.passed and self.sampling:
-            text += (f"; the record may be the cause: {self.sampling}, so the orders above leak into the figures "
-                     "compared: judge it at a denser record (a smaller --output-interval or [experiment] "
-                     "output_interval, or none) before taking the response for unsteady")
+            text += (f"; the record may be the cause: {self.sampling} before taking the response for "
+                     "unsteady")
         elif not self.passed:
             text += ("; the response is not steady there, so the orbits and spectra drawn from it show a transient: "
                      "move steady_from later or lengthen stop_time, or look for a response that grows (no damping at "
@@ -276,8 +275,12 @@ def check_steady_window(scenario: Scenario, table: np.ndarray, iterated: bool = 
         return [SteadyWindowCheck(scenario.steady_from, math.nan, "", "", note=f"cannot be judged: {exc}")]
     half = Window(0.0, np.asarray(angle[:len(angle) // 2]), window[:len(angle) // 2])
     top, wanted = nyquist_order(half), full_fit(HALVES_ORDERS)
+    denser = ("a smaller --output-interval or [experiment] output_interval, or none"
+              if (scenario.output_interval or 1) > 1 else "a smaller communication step, --step: the record takes "
+              "every one")
     sampling = (f"it reads {samples_per_revolution(half):.3g} samples a revolution of {scenario.running_speed}, and "
-                f"the halves' fits take orders up to {max(top, 1)} (of {wanted})" if top < wanted else "")
+                f"the halves' fits take orders up to {max(top, 1)} (of {wanted}), so the orders above leak into the "
+                f"figures compared: judge it at a denser record ({denser})" if top < wanted else "")
     return [SteadyWindowCheck(scenario.steady_from, change, worst, against, sampling=sampling)]
 
 

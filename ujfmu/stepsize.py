@@ -31,10 +31,11 @@ MAX_HALVINGS = 5
 #: error halves, a second-order one quarters): ``choose`` stops there instead of halving on
 STALLED = 0.75
 #: an estimate of at least this share of a signal's range (whole run or steady part, as judged) says the runs at h
-#: and h/2 follow different motions, the step not resolving them yet, not that the error is of a fixed size: a
-#: halving from or to it is no stall (an 80 deg joint's PI start-up: 67%, 77%, 72% of range over three steps
-#: from 1 ms, then 23%, 4.6% as the step resolved it)
-UNRESOLVED = 0.25
+#: and h/2 follow different motions, the step not resolving them yet, not that the error is of a fixed size: in
+#: the first ``UNRESOLVED_HALVINGS`` halvings, one from or to it is no stall (an 80 deg joint's PI start-up: 67%,
+#: 77%, 72% of range over three steps from 1 ms, then 23%, 4.6% as the step resolved it); after them it is
+#: judged as any (a fixed error that large stops there instead of costing every halving)
+UNRESOLVED, UNRESOLVED_HALVINGS = 0.25, 2
 #: without a tolerance a signal is also judged over its steady part (from steady_from, else the last STEADY_SHARE of
 #: the run) against that part's own range, where that range is between STEADY_FLOOR and half of the whole run's: a
 #: vibration about a level reached in a start-up (0.4% of the run's range) had passed with 9% of its own
@@ -109,14 +110,16 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     distance of y(h) from the step-halving extrapolation 2 y(h/2) - y(h) (scenario_run.extrapolate_step).
 
     Signals: the toleranced ones with their allowance rel_range (+ abs as a fraction of the range), else every
-    recorded signal with DEFAULT_REL_RANGE. coarse: the result at ``step`` if already computed (its sampling is
+    recorded signal but those the scenario does not compare (its ``not_compared``, ``--record``'s) with
+    DEFAULT_REL_RANGE. coarse: the result at ``step`` if already computed (its sampling is
     the run's own check); else the run records the drivetrain components' input speeds too, for
     ``scenario_run.check_sampling``. With a reference file and [reference.extrapolated] bands, at most the
     scenario's declared step (the bands hold the remainder there), the extrapolation compared within them."""
     from .scenario_run import check_sampling, compare, extrapolate_step, sampled_components, window_from
     run = copy.copy(scenario)
     run.step_size = scenario.step_size if step is None else step
-    names = list(scenario.tolerances) or list(scenario.record)
+    names = (list(scenario.tolerances) or [n for n in scenario.record if n not in scenario.not_compared]
+             or list(scenario.record))
     sampling = []
     try:
         if coarse is None:
@@ -202,14 +205,21 @@ def _kind(est: StepEstimate, name: str) -> str:
     return "absolute" if name in est.absolute else "range"
 
 
-def stalled(est: StepEstimate, previous: StepEstimate) -> list[str]:
+def stalled(est: StepEstimate, previous: StepEstimate, early: bool = False) -> list[str]:
     """The signals over their allowance at est and at previous (the step before the halving) whose estimate, as
     each is judged (:func:`_measure`), the halving left above ``STALLED`` of itself: an error that does not shrink
-    with the step. Not a signal whose estimate, as a share of its range, is ``UNRESOLVED`` at either step."""
+    with the step. In an early halving (``UNRESOLVED_HALVINGS``), not a signal whose estimate, as a share of its
+    range, is ``UNRESOLVED`` at either step."""
     return [n for n in est.errors if not est.within(n) and n in previous.errors and not previous.within(n)
             and _kind(est, n) == _kind(previous, n)
             and _measure(est, n)[0] > STALLED * _measure(previous, n)[0]
-            and (_kind(est, n) == "absolute" or max(_measure(est, n)[0], _measure(previous, n)[0]) < UNRESOLVED)]
+            and not (early and _kind(est, n) != "absolute"
+                     and max(_measure(est, n)[0], _measure(previous, n)[0]) >= UNRESOLVED)]
+
+
+def _allowance(est: StepEstimate, name: str) -> float:
+    """The allowance in the terms :func:`_measure` gives the estimate in."""
+    return est.absolute[name][1] if _kind(est, name) == "absolute" else est.allowed[name]
 
 
 def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, list[StepEstimate]]:
@@ -226,7 +236,8 @@ def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, lis
             progress("\n".join(est.lines()))
         if est.passed:
             return step, tried
-        stuck = stalled(est, tried[-2]) if len(tried) > 1 and not est.failure else []
+        stuck = (stalled(est, tried[-2], early=len(tried) - 1 <= UNRESOLVED_HALVINGS)
+                 if len(tried) > 1 and not est.failure else [])
         if stuck:
             before, after = tried[-2], est
             figures = ", ".join(f"{n} {_measure(before, n)[1]} -> {_measure(after, n)[1]}" for n in stuck)
@@ -243,10 +254,14 @@ def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, lis
     failing = [n for n in last.errors if not last.within(n)]
     shrinking = (before is not None and not last.failure and not before.failure and failing
                  and all(n in before.errors and _kind(last, n) == _kind(before, n)
-                         and _measure(last, n)[0] <= 0.5 * _measure(before, n)[0] for n in failing))
-    hint = (f" (the last halving shrank the failing estimates, "
-            + ", ".join(f"{n} {_measure(before, n)[1]} -> {_measure(last, n)[1]}" for n in failing)
-            + f": a smaller step likely passes, e.g. --step {last.step / 2.0:g}; each halving doubles the run's "
-            "time)" if shrinking else "")
+                         and 0.0 < _measure(last, n)[0] <= 0.5 * _measure(before, n)[0] for n in failing))
+    hint = ""
+    if shrinking:   # the halvings the failing estimates need at the rate the last one shrank them
+        more = max(math.ceil(math.log(_allowance(last, n) / _measure(last, n)[0])
+                             / math.log(_measure(last, n)[0] / _measure(before, n)[0]) - 1e-9) for n in failing)
+        hint = (" (the last halving shrank the failing estimates, "
+                + ", ".join(f"{n} {_measure(before, n)[1]} -> {_measure(last, n)[1]}" for n in failing)
+                + f": at that rate {more} more halving{'s reach' if more > 1 else ' reaches'} the allowance, --step "
+                f"{last.step / 2.0 ** more:g}; each halving doubles the run's time)")
     raise CosimulationError(f"--step auto: no step down to {last.step:g} s keeps the estimated coupling error "
                             f"within the allowance{hint}:\n" + "\n".join(last.lines()))

@@ -679,11 +679,16 @@ def remove_fmu_installer(client, plugin) -> None:
         within(PLUGIN_REMOVAL_TIMEOUT, lambda: client.unregister_worker_plugin(plugin.name), "ujfmu-remove-fmus")
     except ValueError:   # the scheduler does not hold it
         pass
+    except NoAnswer:   # the scheduler drops a plugin before it tells the workers: only a worker is not told
+        warnings.warn(f"removing the sweep's FMU plugin {plugin.name} from the cluster was not confirmed in "
+                      f"{PLUGIN_REMOVAL_TIMEOUT:g} s: a worker that answers nothing holds the scheduler's broadcast "
+                      "(see the scheduler's log); the scheduler drops a plugin before it tells the workers, so a "
+                      "worker that joins later does not receive it", SweepWarning, stacklevel=3)
     except Exception as exc:   # noqa: BLE001 (said; the points are computed and kept)
         warnings.warn(f"removing the sweep's FMU plugin {plugin.name} from the cluster failed "
-                      f"({type(exc).__name__}: {exc}; a worker that answers nothing holds the scheduler's broadcast): "
-                      "if the scheduler still holds the plugin, it sends it to each worker that joins, and one "
-                      "without ujfmu fails to start; restart the scheduler to clear it", SweepWarning, stacklevel=3)
+                      f"({type(exc).__name__}: {exc}): if the scheduler still holds the plugin, it sends it to each "
+                      "worker that joins, and one without ujfmu fails to start; restart the scheduler to clear it",
+                      SweepWarning, stacklevel=3)
 
 
 #: the modules that compute a point outside the FMUs: the master, the steady-state check, the reductions, this one
@@ -801,9 +806,14 @@ class SweepWorkersUnfit(ScenarioError):
     other code, or another Python than the FMUs' (checked before any point is sent)."""
 
 
+class NoAnswer(Exception):
+    """A call to the cluster (:func:`within`) gave neither a result nor an error in its time (dask's own timeouts
+    are TimeoutErrors, raised as the call's error)."""
+
+
 def within(seconds: float, call: Callable, name: str):
-    """call() in a daemon thread: its result, or its exception raised here; TimeoutError after seconds without
-    either (a cluster's call that a worker never answers waits for ever; the thread is left to it)."""
+    """call() in a daemon thread: its result, or its exception raised here; NoAnswer after seconds without either
+    (a cluster's call that a worker never answers waits for ever; the thread is left to it)."""
     answer = queue.SimpleQueue()
 
     def ask():
@@ -815,7 +825,7 @@ def within(seconds: float, call: Callable, name: str):
     try:
         done, value = answer.get(timeout=seconds)
     except queue.Empty:
-        raise TimeoutError(f"no answer in {seconds:g} s") from None
+        raise NoAnswer(f"no answer in {seconds:g} s") from None
     if not done:
         raise value
     return value
@@ -841,7 +851,7 @@ def check_workers(client) -> list:
         return notes
     try:
         answers = within(WORKER_PROBE_TIMEOUT, lambda: client.run(probe, workers=running), "ujfmu-check-workers")
-    except TimeoutError:
+    except NoAnswer:
         raise SweepWorkersUnfit(f"the cluster's workers ({', '.join(running)}) did not answer ujfmu's check in "
                                 f"{WORKER_PROBE_TIMEOUT:g} s: see their logs (a worker that cannot import ujfmu "
                                 "may hang as it starts)") from None

@@ -66,6 +66,11 @@ def test_run_model_exchange_refuses_a_speed_driven_scenario_and_step_checks(fmu3
     assert main(["run", "--model-exchange", "--check-step", "--fmu-dir", str(fmu3_dir),
                  "scenarios/cardan_heavy_torque_driven.toml", "--no-plot", "-q"]) == 2
     assert "has none" in capsys.readouterr().err
+    # nor does a Model Exchange run that compares nothing estimate one by default, as a co-simulation's does
+    assert main(["run", "--model-exchange", "--fmu-dir", str(fmu3_dir), "scenarios/cardan_heavy_torque_driven.toml",
+                 "--stop-time", "0.2", "--out", str(tmp_path), "--no-plot", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("NOT CHECKED") and "estimated coupling error" not in out
 
 
 def test_model_exchange_run_checks_the_operating_point(fmu3_dir, tmp_path, capsys):
