@@ -254,7 +254,8 @@ def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, lis
     failing = [n for n in last.errors if not last.within(n)]
     shrinking = (before is not None and not last.failure and not before.failure and failing
                  and all(n in before.errors and _kind(last, n) == _kind(before, n)
-                         and 0.0 < _measure(last, n)[0] <= 0.5 * _measure(before, n)[0] for n in failing))
+                         and 0.0 < _measure(last, n)[0] <= 0.5 * _measure(before, n)[0]
+                         and _allowance(last, n) > 0.0 for n in failing))
     hint = ""
     if shrinking:   # the halvings the failing estimates need at the rate the last one shrank them
         more = max(math.ceil(math.log(_allowance(last, n) / _measure(last, n)[0])
