@@ -378,8 +378,7 @@ def cmd_run(args):
         raise UsageError("--check-step and --no-check-step: give one")
     # a run that compares nothing estimates its coupling error instead (an 80 deg joint's changed copy had passed
     # 8% off its monolithic solution with exit status 0 and "accuracy unknown" among its summary's lines)
-    unchecked = scenario.reference_file is None or not scenario.tolerances
-    estimated = (unchecked and not args.check_step and not args.no_check_step and not args.model_exchange
+    estimated = (not scenario.compares and not args.check_step and not args.no_check_step and not args.model_exchange
                  and args.step != "auto")
     args.check_step = args.check_step or estimated
     if args.step == "auto":

@@ -45,6 +45,7 @@ import types
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import IO
 
 import numpy as np
 
@@ -210,9 +211,9 @@ class Tolerance:
     abs: float = 0.0
 
 
-def description_attribute(path: Path, attribute: str) -> str | None:
+def description_attribute(path: Path | IO[bytes], attribute: str) -> str | None:
     """An attribute of an FMU file's fmiModelDescription element, e.g. modelName or fmiVersion (None where it cannot
-    be read: the run reports that)."""
+    be read: the run reports that); path may be a file object (an FMU inside an SSP package)."""
     try:
         with zipfile.ZipFile(path) as fmu:
             head = fmu.read("modelDescription.xml")[:4096].decode("utf-8", "replace")
@@ -1172,6 +1173,12 @@ class Scenario:
         values = {v.name: v.start for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
         values.update(params)
         return values
+
+    @property
+    def compares(self) -> bool:
+        """Whether a run compares signals with a reference: a [reference] file and bands (a changed copy has no
+        reference; ``run_scenario`` compares exactly then)."""
+        return self.reference_file is not None and bool(self.tolerances)
 
     def check_experiment(self) -> None:
         """ScenarioError unless the experiment as it stands now (a caller may have set step_size, start_time or

@@ -1142,7 +1142,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                             sampling_checks=sampling, steady_checks=steady,
                             bonds=annotate_bonds(scenario, diagnostics.get("bonds", [])),
                             model_exchange=model_exchange)
-    if reference is not None and scenario.tolerances:
+    if scenario.compares:   # its reference read above
         units = {name: scenario.unit(name) for name in {**scenario.tolerances, **scenario.extrapolated_tolerances}}
         result.checks = compare(table, reference, scenario.tolerances, units)
         from .references import method_of, setup_of

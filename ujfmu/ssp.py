@@ -13,6 +13,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 from .build import DEFAULT_FMU_DIR, UNITS, fmu_class, write_archive
+from .scenario import description_attribute
 
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
@@ -155,17 +156,9 @@ def _setup_differences(ssp_path, scenario) -> list:
 def packed_fmi_versions(ssp_path) -> dict:
     """{FMU file inside the package: its fmiVersion} of an .ssp package ("" where its modelDescription cannot be
     read)."""
-    versions = {}
     with zipfile.ZipFile(ssp_path) as package:
-        for name in package.namelist():
-            if name.endswith(".fmu"):
-                try:
-                    with zipfile.ZipFile(io.BytesIO(package.read(name))) as fmu:
-                        root = ET.fromstring(fmu.read("modelDescription.xml"))
-                    versions[name] = root.get("fmiVersion", "")
-                except (KeyError, zipfile.BadZipFile, ET.ParseError):
-                    versions[name] = ""
-    return versions
+        return {name: description_attribute(io.BytesIO(package.read(name)), "fmiVersion") or ""
+                for name in package.namelist() if name.endswith(".fmu")}
 
 
 def cosimulate_ssp(ssp_path, scenario):
