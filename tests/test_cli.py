@@ -1004,6 +1004,19 @@ def test_check_names_the_bands_that_check_the_level_only(fmu_dir, tmp_path, caps
     assert "joint.tau_in" in out and "checks the level only: the band, 1e+03 N.m, is at least half" in out
     assert "1 band(s) at least half their reference's range check the level only" in err
     assert "cardan_constant_speed: joint.tau_in" in err
+    # a gate under --strict fails it, and so does its JUnit case, naming the band (it had passed with status 0)
+    junit = tmp_path / "strict.xml"
+    assert main(["check", str(loose), "--strict", "--junit", str(junit), "--no-plot", "--out", str(tmp_path / "out"),
+                 "--fmu-dir", str(fmu_dir)]) == 1
+    assert ("--strict: 1 scenario(s) compare through bands that check the level only, not the course: "
+            "cardan_constant_speed: joint.tau_in (") in capsys.readouterr().err
+    suite = ET.parse(junit).getroot()
+    assert suite.get("failures") == "1"
+    assert suite.find("testcase").find("failure").get("message").endswith("(--strict): joint.tau_in")
+    # the bundled band of the same scenario passes --strict
+    assert main(["check", str(SCENARIOS / "cardan_constant_speed.toml"), "--strict", "--junit", str(junit),
+                 "--no-plot", "--out", str(tmp_path / "out"), "--fmu-dir", str(fmu_dir)]) == 0
+    assert ET.parse(junit).getroot().get("failures") == "0"
 
 
 def test_a_truncated_fmu_and_a_subfolder_left_out_are_named(fmu_dir, tmp_path, capsys):

@@ -475,9 +475,11 @@ def _check(args, kind: str) -> int:
     _level_only(results)
     failed = [r for r in results if r.failed]
     unchecked = [r for r in results if not r.checked and not r.failed]
+    loose = [r for r in results if not r.failed and r.level_only_bands]
     if args.junit:   # what fails the command below fails its case: --strict's and an all-unchecked run's
         report = write_junit(results, args.junit, errors, skipped, kind,
-                             unchecked_fail=bool(unchecked) and (args.strict or len(unchecked) == len(results)))
+                             unchecked_fail=bool(unchecked) and (args.strict or len(unchecked) == len(results)),
+                             level_only_fail=args.strict)
         _say(args, f"JUnit report: {report}")
     print(f"{len(results) - len(failed) - len(unchecked)} passed, {len(failed)} failed, "
           f"{len(unchecked)} not checked" + (f", {len(errors)} could not run" if errors else "")
@@ -497,11 +499,18 @@ def _check(args, kind: str) -> int:
         print(f"ujfmu: error: nothing was checked: none of the {len(results)} scenario(s) compares a signal with a "
               "reference (add [reference] file and [reference.tolerance] to a scenario)", file=sys.stderr)
         return 1
+    strict_fail = False
     if unchecked and args.strict:
         print(f"ujfmu: error: --strict: {len(unchecked)} scenario(s) not checked: "
               f"{', '.join(r.scenario.name for r in unchecked)}", file=sys.stderr)
-        return 1
-    return 1 if failed else 0
+        strict_fail = True
+    if loose and args.strict:
+        print(f"ujfmu: error: --strict: {len(loose)} scenario(s) compare through bands that check the level only, "
+              "not the course: " + "; ".join(f"{r.scenario.name}: {', '.join(r.level_only_bands)}" for r in loose)
+              + " (a band of at least half the reference's range passes a flat line through its middle: tighten its "
+              "abs below that, at the accuracy the study needs)", file=sys.stderr)
+        strict_fail = True
+    return 1 if failed or strict_fail else 0
 
 
 def cmd_references(args):
@@ -1034,7 +1043,8 @@ def _main(raw: list):
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")
             p.add_argument("--strict", action="store_true",
                            help="exit with status 1 when any scenario is not checked (no [reference] with "
-                                "tolerances), not only when none is")
+                                "tolerances), not only when none is, or passes through a band that checks the "
+                                "level only (at least half its reference's range)")
         _out(p, "results/", "output folder; results/fmi3/ with --fmi 3, results/model_exchange/ with "
                              "--model-exchange, so that runs of different FMU kinds do not overwrite each other")
         p.add_argument("--no-plot", action="store_true", help="write no figures (about half the time)")

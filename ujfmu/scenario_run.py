@@ -754,6 +754,13 @@ class ScenarioResult:
         return [c.name for c in self.checks]
 
     @property
+    def level_only_bands(self) -> list:
+        """Names of the compared signals whose band checks their level only (``SignalCheck.level_only``; step-halving
+        bands marked "(extrapolated)")."""
+        return ([c.name for c in self.checks if c.level_only]
+                + [f"{c.name} (extrapolated)" for c in self.extrapolated_checks if c.level_only])
+
+    @property
     def uncompared(self) -> list:
         """Recorded signals that were not compared (no tolerance given for them)."""
         done = set(self.compared)
@@ -1443,19 +1450,22 @@ def _write_partial(scenario, exc, out_dir, plot, model_exchange=False):
 
 
 def write_junit(results: list, path: str | os.PathLike, errors: dict | None = None, skipped: dict | None = None,
-                kind: str = "", unchecked_fail: bool = False) -> Path:
+                kind: str = "", unchecked_fail: bool = False, level_only_fail: bool = False) -> Path:
     """JUnit XML: one test case per scenario, a failure element carrying the error figures and naming the
     signals outside their bands; a scenario that compared nothing, or that was skipped (skipped: its name -> why),
     is a skipped test case (a failure where ``unchecked_fail``: ``check --strict``, or nothing checked at all, which
-    fail the command), and one that could not run (errors: its name -> the message) an error case. A case's
+    fail the command), and one that could not run (errors: its name -> the message) an error case. Where
+    ``level_only_fail`` (``check --strict``), a passing scenario with a band that checks the level only
+    (``ScenarioResult.level_only_bands``) is a failure naming those bands. A case's
     time is its whole run (ScenarioResult.total_time). kind (e.g. "fmi3", "model_exchange") goes into the suite's
     and the cases' class names, so that reports of several runs merged in CI stay apart."""
     errors, skipped = errors or {}, skipped or {}
     classname = "ujfmu.scenarios" + (f".{kind}" if kind else "")
     unchecked = sum(not r.checked and not r.failed for r in results)
+    loose = sum(bool(level_only_fail and not r.failed and r.level_only_bands) for r in results)
     suite = ET.Element("testsuite", name="ujfmu scenarios" + (f" ({kind})" if kind else ""),
                        tests=str(len(results) + len(errors) + len(skipped)),
-                       failures=str(sum(r.failed for r in results) + (unchecked if unchecked_fail else 0)),
+                       failures=str(sum(r.failed for r in results) + (unchecked if unchecked_fail else 0) + loose),
                        errors=str(len(errors)), skipped=str((0 if unchecked_fail else unchecked) + len(skipped)),
                        time=f"{sum(r.total_time for r in results):.3f}")
     for r in results:
@@ -1478,6 +1488,9 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
                    if bad]
             failure = ET.SubElement(case, "failure", message="; ".join(why))
             failure.text = r.summary()
+        elif level_only_fail and r.level_only_bands:
+            ET.SubElement(case, "failure", message="band that checks the level only, not the course (--strict): "
+                          + ", ".join(r.level_only_bands)).text = r.summary()
         elif not r.checked and unchecked_fail:
             ET.SubElement(case, "failure", message=f"not checked: {r.not_checked_reason()} (a gate that compares "
                           "nothing fails it)").text = r.summary()
