@@ -85,9 +85,15 @@ class ControllerParameters:
     tau_initial: float = 0.0
     #: :func:`profile_corners`
     corners: tuple = field(init=False, repr=False, default=())
+    #: (corner, the host's rounding there, ``TIME_ROUNDING`` max(1, |corner|)) of each corner (:func:`corners_inside`)
+    corner_margins: tuple = field(init=False, repr=False, default=())
+    #: the last corner (-inf without one): no corner lies inside a step that starts at or after it
+    last_corner: float = field(init=False, repr=False, default=-math.inf)
 
     def __post_init__(self):
         self.corners = profile_corners(self)
+        self.corner_margins = tuple((c, TIME_ROUNDING * max(1.0, abs(c))) for c in self.corners)
+        self.last_corner = max(self.corners, default=-math.inf)
 
 
 @dataclass(slots=True, kw_only=True)
@@ -187,13 +193,13 @@ def corners_inside(p: ControllerParameters, t: float, h: float) -> list:
     """The corners of the profile (:func:`profile_corners`) inside (t, t + h), farther than a host's rounding of
     its times from either end (``protocol.reached``: a corner meant at a communication point is at the step's end,
     not inside it), in order."""
-    return [corner for corner in p.corners
-            if t + TIME_ROUNDING * max(1.0, abs(corner)) < corner < t + h - TIME_ROUNDING * max(1.0, abs(corner))]
+    return [corner for corner, margin in p.corner_margins if t + margin < corner < t + h - margin]
 
 
 def corner_inside(p: ControllerParameters, t: float, h: float) -> bool:
-    """True if a corner of the profile lies inside (t, t + h) (:func:`corners_inside`)."""
-    return bool(corners_inside(p, t, h))
+    """True if a corner of the profile lies inside (t, t + h) (:func:`corners_inside`; none once t is past the
+    last, which every step of a run's steady part is)."""
+    return t < p.last_corner and bool(corners_inside(p, t, h))
 
 
 def split_at_corners(step, p: ControllerParameters, t: float, h: float, y: tuple, u: tuple) -> tuple:
