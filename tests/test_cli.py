@@ -863,6 +863,35 @@ def test_fmus_built_from_other_sources_are_refused_before_anything_runs(fmu_dir,
     scenario.check_fmus(fmu_dir)   # the session's own build: accepted
 
 
+def test_an_fmu_edited_after_its_build_is_refused(fmu_dir, tmp_path, capsys):
+    """An FMU whose shipped code was edited by hand kept the name whose build hash the check compares, and passed
+    `ujfmu check`: each copied source, its entry point and the pythonfmu files it ships are compared with what a
+    build ships, and a difference is an error naming the member and the rebuild."""
+    import zipfile
+
+    from ujfmu.scenario import Scenario, ScenarioError
+    scenario = Scenario(SCENARIOS / "cardan_startup.toml")
+    with zipfile.ZipFile(fmu_dir / "Load.fmu") as archive:
+        names = archive.namelist()
+    model = next(n for n in names if n.endswith("/models/load/model.py"))
+    entry = next(n for n in names if n.endswith("_entry.py"))
+    for member, edit in ((model, lambda b: b.replace(b"return", b"return 0.0 *", 1)),
+                         (entry, lambda b: b + b"import os\n"),
+                         ("resources/pythonfmu/fmi2slave.py", lambda b: b + b"\n# edited\n")):
+        edited = tmp_path / member.replace("/", "_") / "fmus"
+        shutil.copytree(fmu_dir, edited)
+        with zipfile.ZipFile(fmu_dir / "Load.fmu") as old, zipfile.ZipFile(edited / "Load.fmu", "w") as new:
+            for item in old.infolist():
+                data = old.read(item.filename)
+                new.writestr(item, edit(data) if item.filename == member else data)
+        with pytest.raises(ScenarioError, match=f"Load.fmu was changed after its build: {re.escape(member)} differ"):
+            scenario.check_fmus(edited)
+        assert main(["--fmu-dir", str(edited), "check", str(SCENARIOS / "cardan_startup.toml"), "--no-plot",
+                     "--out", str(tmp_path / "out")]) == 2
+        assert "rebuild it" in capsys.readouterr().out
+    scenario.check_fmus(fmu_dir)   # the build itself: accepted
+
+
 def test_an_edit_of_the_module_that_writes_the_model_description_makes_the_fmus_stale(tmp_path, monkeypatch):
     """The build hash covers the module that writes the modelDescription, not only the runtime sources: an FMU
     built before an edit of it (units, model structure) had been taken as fresh."""

@@ -266,6 +266,49 @@ def stale_build(path: Path, fmu: str) -> tuple:
     return found[0].group(2), source_hash(stem)
 
 
+def edited_members(path: Path, fmu: str) -> list:
+    """The members of an FMU file of ujfmu's model fmu whose bytes differ from what its build ships: its runtime
+    package's sources (this ujfmu's, the build hash in the package's name being theirs: :func:`stale_build`), its
+    entry point, and the pythonfmu packages copied from the installed ones; [] for a file without a ujfmu runtime
+    package or one that cannot be read. An FMU edited by hand, or with another build's files copied in, keeps the
+    name whose hash :func:`stale_build` compares."""
+    import importlib.util
+    try:
+        with zipfile.ZipFile(path) as archive:
+            entries = [m for m in map(_BUILD_ENTRY.fullmatch, archive.namelist()) if m]
+            if len(entries) != 1 or fmu not in FMUS:
+                return []
+            entry = entries[0].group(0)
+            unique = entry[len("resources/"):-len("_entry.py")]
+            if entries[0].group(1):
+                from .build3 import shipped_entry3
+                expected = {entry: shipped_entry3(fmu, unique).encode()}
+            else:
+                from .build import shipped_entry
+                expected = {entry: shipped_entry(fmu, unique).encode()}
+            roots = {f"resources/{unique}/": PACKAGE_DIR}
+            for package in ("pythonfmu", "pythonfmu3"):
+                spec = importlib.util.find_spec(package)
+                if spec is not None and spec.origin:
+                    roots[f"resources/{package}/"] = Path(spec.origin).parent
+            edited = []
+            for name in archive.namelist():
+                if name in expected:
+                    shipped = expected[name]
+                else:
+                    root = next((r for r in roots if name.startswith(r)), None)
+                    rel = name[len(root):] if root else ""
+                    if not rel or name == f"resources/{unique}/__init__.py" or rel.endswith("/"):
+                        continue   # not a copied source (the package's own docstring, a folder)
+                    source = roots[root] / rel
+                    shipped = source.read_bytes() if source.is_file() else None
+                if archive.read(name).replace(b"\r\n", b"\n") != shipped:
+                    edited.append(name)
+            return edited
+    except (OSError, zipfile.BadZipFile, KeyError):
+        return []
+
+
 class Scenario:
     """A scenario file read and checked (README, "Scenario format"): what ``run_scenario`` and the master run.
 
@@ -925,6 +968,14 @@ class Scenario:
                                     f"sources' {now} (the model's equations or the FMU layer changed since, or it was "
                                     f"built by another checkout or version); rebuild it ({build_hint(fmu_dir)}), so "
                                     "that what is checked is the code you have")
+            edited = edited_members(path, fmu)
+            if edited:
+                raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path.absolute()} was changed "
+                                    f"after its build: {', '.join(edited[:3])}"
+                                    + (f" and {len(edited) - 3} more" if len(edited) > 3 else "")
+                                    + " differ from what a build from this ujfmu's sources ships (an FMU edited by "
+                                    "hand, or another build's files copied into it); rebuild it "
+                                    f"({build_hint(fmu_dir)}), so that what is checked is the code you have")
 
     def model_problems(self, component) -> list:
         """What the component's model refuses in its parameters as a whole (``MODEL.check``, which the FMU runs at
