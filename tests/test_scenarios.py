@@ -168,3 +168,24 @@ def test_committed_reference_names_its_generator_module_and_setup(path):
     assert setup_of(provenance) == scenario.setup_digest()
     assert f". Regenerate: ujfmu references scenarios/{path.name} [scenario setup " in provenance   # the command
     scenario.read_reference()
+
+
+def test_a_runs_steady_orders_are_data_and_a_hooke_joints_speed_has_its_closed_form_orders(fmu_dir):
+    """The orders a run's summary prints over its steady window were text only: `steady_orders()` gives them as
+    objects. An ideal Hooke joint at angle b driven at constant speed w turns its output at
+    w cos b / (1 - sin^2 b cos^2 theta) = w (1 + 2 sum_n (-q)^n cos 2n theta), q = tan^2(b / 2): mean w, no 1x,
+    2x amplitude 2 q w, 4x 2 q^2 w (zero-to-peak)."""
+    import math
+    copy = Scenario(Path(__file__).parents[1] / "scenarios" / "cardan_constant_speed.toml").with_parameters(
+        {"joint.error_angle_beta": 0.0, "joint.error_angle_gamma": 0.0, "joint.bend_angle": math.radians(30.0)})
+    with pytest.raises(ValueError, match="no steady window to fit orders over: set the scenario's steady_from"):
+        run_scenario(copy, fmu_dir, out_dir=None, plot=False).steady_orders()
+    copy.steady_from, copy.running_speed = 0.2, "motor.omega"
+    orders = run_scenario(copy, fmu_dir, out_dir=None, plot=False).steady_orders()
+    w, q = 20.0 * math.pi, math.tan(math.radians(15.0)) ** 2
+    speed = orders["joint.omega_out"]
+    assert speed.unit == "rad/s" and speed.mean == pytest.approx(w, rel=1e-6)
+    assert speed.amplitudes[1] < 1e-6 * speed.amplitudes[2]   # the 6x, 8x ... the fit leaves out leak in: 2e-7
+    assert speed.amplitudes[2] == pytest.approx(2.0 * q * w, rel=1e-6)
+    assert speed.amplitudes[4] == pytest.approx(2.0 * q * q * w, rel=1e-5)
+    assert "joint.phi_out" not in orders   # an angle grows: no orders

@@ -314,6 +314,17 @@ SIGNIFICANT_ORDER = 0.01
 NEGLIGIBLE_ORDER = 1e-9
 
 
+@dataclass(frozen=True)
+class SteadyOrders:
+    """One recorded signal over a run's steady window (``output.steady_from`` on): its mean and the zero-to-peak
+    amplitudes of the running speed's orders (``amplitudes[k]``, k = 1, 2, 4; NaN for an order the record does not
+    resolve), in the signal's unit, from one least-squares fit against the running angle (:func:`steady_orders`)."""
+    name: str
+    unit: str
+    mean: float
+    amplitudes: dict
+
+
 @dataclass
 class OrderCheck:
     """One running-speed order of a signal over the steady window (``output.steady_from`` on) against the
@@ -791,6 +802,26 @@ class ScenarioResult:
                 or description_attribute(here / f"{first}.fmu", "fmiVersion") == "3.0")
         elsewhere = here != Path(DEFAULT_FMU3_DIR if fmi3 else DEFAULT_FMU_DIR).resolve()
         return (" --fmi 3" if fmi3 else "") + (f" --fmu-dir {self.fmu_dir}" if elsewhere else "")
+
+    def steady_orders(self) -> dict:
+        """{signal: SteadyOrders} of the recorded signals (but those that grow: angles, energies) over the steady
+        window, the figures the summary prints. ValueError naming the cause and the remedy where there are none to
+        trust: no steady window (set the scenario's ``steady_from`` and ``running_speed``), or a window that the
+        steady-window or sampling check failed (a transient's, or an aliased record's, figures)."""
+        if self.table is None:
+            raise ValueError(f"{self.scenario.name}: no results (the run did not complete)")
+        failed = [str(c) for c in self.steady_checks + self.sampling_checks if not c.passed]
+        if failed:
+            raise ValueError(f"{self.scenario.name}: no orders over the steady window, as its check failed: "
+                             + "; ".join(failed))
+        figures = steady_orders(self.scenario, self.table)
+        if not figures:
+            raise ValueError(f"{self.scenario.name}: no steady window to fit orders over: set the scenario's "
+                             "steady_from (s, the window's start, at least two revolutions before stop_time) and "
+                             "running_speed (a recorded 'component.omega...' signal) before running it")
+        return {name: SteadyOrders(name, self.scenario.unit(name), float(mean),
+                                   {k: float(a) for k, a in zip(CHECKED_ORDERS, amplitudes)})
+                for name, (mean, amplitudes) in figures.items()}
 
     def _steady_order_lines(self) -> list:
         """The recorded signals' mean and 1x, 2x, 4x amplitudes over the steady window (:func:`steady_orders`)."""
