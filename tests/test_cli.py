@@ -34,7 +34,11 @@ def test_a_scenario_with_changed_parameters_runs_unchecked_under_its_own_name(fm
     phased = scenario.with_parameters({"driveline.yoke_phase": math.pi / 2})
     result = ujfmu.run_scenario(phased, fmu_dir=fmu_dir, out_dir=tmp_path, plot=False)
     assert result.csv == tmp_path / "double_cardan_brutti_rigid_changed.csv" and result.verdict == "NOT CHECKED"
-    assert "(changed: driveline.yoke_phase = 1.5708 rad (90 deg))" in phased.title
+    assert phased.title == f"driveline.yoke_phase = 1.5708 rad (90 deg) (a changed copy of: {scenario.title})"
+    # a copy of the copy says both changes, before the file's title (which describes another setup)
+    assert phased.with_parameters({"driveline.beta1": 0.1}).title == (
+        "driveline.yoke_phase = 1.5708 rad (90 deg), driveline.beta1 = 0.1 rad (5.72958 deg) (a changed copy of: "
+        f"{scenario.title})")
     assert scenario.reference_file is not None
     phased.record.append("driveline.tau_out")   # the copy's lists are its own: the file's scenario records as before
     assert "driveline.tau_out" not in scenario.record and phased.connections is not scenario.connections

@@ -359,6 +359,7 @@ class Scenario:
             raise ScenarioError(f"{self.path}: unknown top-level field(s) {', '.join(sorted(unknown))}; "
                                 f"known: {', '.join(sorted(TOP_LEVEL_KEYS))}")
         self.title = data.get("title", self.name)
+        self.file_title = self.title   # the file's, which a changed copy's title cites after its changes
         self.description = data.get("description", "")
         for field, value in (("title", self.title), ("description", self.description)):
             if not isinstance(value, str):
@@ -680,8 +681,9 @@ class Scenario:
             raise ScenarioError(f"{self.path}: with_parameters: {', '.join(changes)}: {self._unfed_text(unfed)}")
         out.name = name or f"{self.name}_changed"
         out.changes = {**self.changes, **changes}
-        if changes:
-            out.title = f"{self.title} (changed: " + ", ".join(self._change_text(k, v) for k, v in changes.items()) + ")"
+        if changes:   # what the copy runs first: the file's title describes another setup
+            out.title = (", ".join(self._change_text(k, v) for k, v in out.changes.items())
+                         + f" (a changed copy of: {self.file_title})")
         out.reference_file, out.tolerances, out.extrapolated_tolerances = None, {}, {}
         out.order_tolerances = {}
         return out
