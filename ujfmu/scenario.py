@@ -302,7 +302,7 @@ def edited_members(path: Path, fmu: str) -> list:
                         continue   # not a copied source (the package's own docstring, a folder)
                     source = roots[root] / rel
                     shipped = source.read_bytes() if source.is_file() else None
-                if archive.read(name).replace(b"\r\n", b"\n") != shipped:
+                if shipped is None or archive.read(name).replace(b"\r\n", b"\n") != shipped.replace(b"\r\n", b"\n"):
                     edited.append(name)
             return edited
     except (OSError, zipfile.BadZipFile, KeyError):
