@@ -828,7 +828,7 @@ def test_junit_says_which_comparison_a_signal_failed(tmp_path):
     def check(name, passed):
         return SimpleNamespace(name=name, passed=passed)
     result = SimpleNamespace(
-        scenario=SimpleNamespace(name="heavy"), failed=True, checked=True, total_time=1.0,
+        scenario=SimpleNamespace(name="heavy"), failed=True, checked=True, total_time=1.0, warnings=[],
         checks=[check("joint.tau_in", True), check("load.tau", False)],
         extrapolated_checks=[check("joint.tau_in", False), check("load.tau", True)],
         operating_checks=[], sampling_checks=[], steady_checks=[], order_checks=[], summary=lambda: "FAIL heavy")
@@ -1041,8 +1041,10 @@ def test_check_names_the_bands_that_check_the_level_only(fmu_dir, tmp_path, caps
     junit = tmp_path / "strict.xml"
     assert main(["check", str(loose), "--strict", "--junit", str(junit), "--no-plot", "--out", str(tmp_path / "out"),
                  "--fmu-dir", str(fmu_dir)]) == 1
+    out, err = capsys.readouterr()
     assert ("--strict: 1 scenario(s) compare through bands that check the level only, not the course: "
-            "cardan_constant_speed: joint.tau_in (") in capsys.readouterr().err
+            "cardan_constant_speed: joint.tau_in (") in err
+    assert "0 passed, 1 failed (1 by --strict: bands that check the level only), 0 not checked" in out
     suite = ET.parse(junit).getroot()
     assert suite.get("failures") == "1"
     assert suite.find("testcase").find("failure").get("message").endswith("(--strict): joint.tau_in")
@@ -1050,6 +1052,23 @@ def test_check_names_the_bands_that_check_the_level_only(fmu_dir, tmp_path, caps
     assert main(["check", str(SCENARIOS / "cardan_constant_speed.toml"), "--strict", "--junit", str(junit),
                  "--no-plot", "--out", str(tmp_path / "out"), "--fmu-dir", str(fmu_dir)]) == 0
     assert ET.parse(junit).getroot().get("failures") == "0"
+
+
+def test_checks_warnings_name_their_scenario_and_reach_its_junit_case(fmu_dir, tmp_path, capsys):
+    """A parameter in degrees that is valid in radians (a trial's) was said only on stderr, without the scenario's
+    name, and not at all in the JUnit report a CI dashboard shows: `check` names the scenario on each warning line,
+    and the case's system-out carries the warnings after the summary."""
+    text = (SCENARIOS / "cardan_constant_speed.toml").read_text().split("[reference]")[0]   # unchecked
+    steep = tmp_path / "steep.toml"
+    steep.write_text(text.replace('[components.joint]\nfmu = "CardanJoint"\nparameters = {}',
+                                  '[components.joint]\nfmu = "CardanJoint"\nparameters = { bend_angle = 1.0 }'))
+    junit = tmp_path / "report.xml"
+    main(["check", str(steep), "--junit", str(junit), "--no-plot", "--out", str(tmp_path / "out"), "--fmu-dir",
+          str(fmu_dir)])
+    err = capsys.readouterr().err
+    assert "  warning steep: joint: bend_angle = 1 rad is 57.3 deg" in err
+    said = ET.parse(junit).getroot().find("testcase").find("system-out").text
+    assert "\n  warning joint: bend_angle = 1 rad is 57.3 deg" in said
 
 
 def test_a_truncated_fmu_and_a_subfolder_left_out_are_named(fmu_dir, tmp_path, capsys):

@@ -262,20 +262,26 @@ def _run_one(args, path, scenario=None):
         _check_fmi3(scenario, args.fmu_dir)
     if args.output_interval is not None:
         scenario.output_interval = args.output_interval
+    # `check` runs many: its lines name the scenario (a CI log may keep stderr apart from the verdicts)
+    tag = f"{scenario.name}: " if args.command == "check" else ""
     advice = scenario.model_advice()
+    said = list(advice)
     for message in advice:
-        print(f"  warning {message}", file=sys.stderr)
+        print(f"  warning {tag}{message}", file=sys.stderr)
     if not args.model_exchange:   # a periodic load torque the step holds too coarsely, said before the run
         from .scenario_run import load_order_holds
         for hold in load_order_holds(scenario):
-            print(f"  warning {hold.text()}", file=sys.stderr)
+            said.append(hold.text())
+            print(f"  warning {tag}{hold.text()}", file=sys.stderr)
     with _progress(args, Path(path).stem, "step") as progress, warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FmuWarning)
         result = run_scenario(scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=plot,
                               progress=_paced(args, scenario.step_size, progress),
                               model_exchange=args.model_exchange)
     for line in _run_warnings(caught, [message.partition(": ")[2] for message in advice]):
-        print(f"  warning {line}", file=sys.stderr)
+        said.append(line)
+        print(f"  warning {tag}{line}", file=sys.stderr)
+    result.warnings = said
     print(result.summary(step_check_follows=getattr(args, "check_step", False)))
     if result.csv and not result.plot:   # --no-plot (or no matplotlib): an earlier run's figures stay as they were
         figures = (Path(result.csv).with_name(f"{scenario.name}{suffix}.png") for suffix in ("", "_orbits", "_spectra"))
@@ -481,12 +487,26 @@ def _check(args, kind: str) -> int:
                              unchecked_fail=bool(unchecked) and (args.strict or len(unchecked) == len(results)),
                              level_only_fail=args.strict)
         _say(args, f"JUnit report: {report}")
-    print(f"{len(results) - len(failed) - len(unchecked)} passed, {len(failed)} failed, "
-          f"{len(unchecked)} not checked" + (f", {len(errors)} could not run" if errors else "")
+    strict_failed = loose if args.strict else []   # passed their bands, failed by --strict (JUnit cases too)
+    print(f"{len(results) - len(failed) - len(unchecked) - len(strict_failed)} passed, "
+          f"{len(failed) + len(strict_failed)} failed"
+          + (f" ({len(strict_failed)} by --strict: bands that check the level only)" if strict_failed else "")
+          + f", {len(unchecked)} not checked" + (f", {len(errors)} could not run" if errors else "")
           + (f", {len(skipped)} skipped (no Model Exchange wiring: {', '.join(skipped)})" if skipped else ""))
     if unchecked:
         print(f"not checked (no [reference] with tolerances): {', '.join(r.scenario.name for r in unchecked)}",
               file=sys.stderr)
+    strict_fail = False
+    if unchecked and args.strict and len(unchecked) < len(results):
+        print(f"ujfmu: error: --strict: {len(unchecked)} scenario(s) not checked: "
+              f"{', '.join(r.scenario.name for r in unchecked)}", file=sys.stderr)
+        strict_fail = True
+    if strict_failed:
+        print(f"ujfmu: error: --strict: {len(loose)} scenario(s) compare through bands that check the level only, "
+              "not the course: " + "; ".join(f"{r.scenario.name}: {', '.join(r.level_only_bands)}" for r in loose)
+              + " (a band of at least half the reference's range passes a flat line through its middle: tighten its "
+              "abs below that, at the accuracy the study needs)", file=sys.stderr)
+        strict_fail = True
     if errors:
         print(f"ujfmu: error: {len(errors)} scenario(s) could not run ({', '.join(errors)}): each ERROR line above "
               "says why", file=sys.stderr)
@@ -499,17 +519,6 @@ def _check(args, kind: str) -> int:
         print(f"ujfmu: error: nothing was checked: none of the {len(results)} scenario(s) compares a signal with a "
               "reference (add [reference] file and [reference.tolerance] to a scenario)", file=sys.stderr)
         return 1
-    strict_fail = False
-    if unchecked and args.strict:
-        print(f"ujfmu: error: --strict: {len(unchecked)} scenario(s) not checked: "
-              f"{', '.join(r.scenario.name for r in unchecked)}", file=sys.stderr)
-        strict_fail = True
-    if loose and args.strict:
-        print(f"ujfmu: error: --strict: {len(loose)} scenario(s) compare through bands that check the level only, "
-              "not the course: " + "; ".join(f"{r.scenario.name}: {', '.join(r.level_only_bands)}" for r in loose)
-              + " (a band of at least half the reference's range passes a flat line through its middle: tighten its "
-              "abs below that, at the accuracy the study needs)", file=sys.stderr)
-        strict_fail = True
     return 1 if failed or strict_fail else 0
 
 

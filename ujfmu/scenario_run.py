@@ -749,6 +749,9 @@ class ScenarioResult:
     skipped_bands: str = ""   # why the [reference.extrapolated] bands were not checked, if they were not
     fmu_dir: Path = None   # where the run's FMUs came from (named in a suggested command when not the default)
     reference_method: str | None = None   # how the reference compared against was made (its provenance line)
+    #: what the command line warned of before and during the run ('component: text': the models' advice on their
+    #: parameters, a load's order held too coarsely, the FMUs' warnings); a JUnit case carries them
+    warnings: list = field(default_factory=list)
 
     def __repr__(self) -> str:   # the dataclass's would print the whole table
         rows = 0 if self.table is None else len(self.table)
@@ -1487,7 +1490,8 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
     is a skipped test case (a failure where ``unchecked_fail``: ``check --strict``, or nothing checked at all, which
     fail the command), and one that could not run (errors: its name -> the message) an error case. Where
     ``level_only_fail`` (``check --strict``), a passing scenario with a band that checks the level only
-    (``ScenarioResult.level_only_bands``) is a failure naming those bands. A case's
+    (``ScenarioResult.level_only_bands``) is a failure naming those bands. A case's system-out is the summary and
+    the run's warnings (``ScenarioResult.warnings``). A case's
     time is its whole run (ScenarioResult.total_time). kind (e.g. "fmi3", "model_exchange") goes into the suite's
     and the cases' class names, so that reports of several runs merged in CI stay apart."""
     errors, skipped = errors or {}, skipped or {}
@@ -1527,7 +1531,7 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
                           "nothing fails it)").text = r.summary()
         elif not r.checked:
             ET.SubElement(case, "skipped", message=f"not checked: {r.not_checked_reason()}")
-        ET.SubElement(case, "system-out").text = r.summary()
+        ET.SubElement(case, "system-out").text = r.summary() + "".join(f"\n  warning {w}" for w in r.warnings)
     for name, reason in skipped.items():
         case = ET.SubElement(suite, "testcase", classname=classname, name=name, time="0")
         ET.SubElement(case, "skipped", message=f"skipped: {reason.splitlines()[0] if reason else ''}")
