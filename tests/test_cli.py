@@ -1054,6 +1054,31 @@ def test_check_names_the_bands_that_check_the_level_only(fmu_dir, tmp_path, caps
     assert ET.parse(junit).getroot().get("failures") == "0"
 
 
+def test_a_reference_sampled_below_the_joints_order_is_named_not_blamed_on_the_model(fmu_dir, tmp_path, capsys):
+    """Bench data logged at 20 Hz against a joint whose 2x order is at 20 Hz (600 rpm) was interpolated between its
+    samples and failed as "the model or its parameters likely differ": the reference's own sampling is checked
+    against the order, as the record's is, and fails naming the file's step and the rate that resolves it; the same
+    data every 5 ms passes it."""
+    from ujfmu.scenario import Scenario
+    from ujfmu.scenario_run import run_scenario
+    text = (SCENARIOS / "cardan_constant_speed.toml").read_text().replace('generator = "cardan_joint"\n', "")
+    lines = (SCENARIOS / "references" / "cardan_constant_speed.csv").read_text().splitlines()
+    (tmp_path / "references").mkdir()
+    for every, passes in ((50, False), (5, True)):
+        name = f"bench_{every}ms"
+        (tmp_path / "references" / f"{name}.csv").write_text(
+            "\n".join([lines[1]] + lines[2::every]) + "\n")   # a logger's file: no provenance line
+        path = tmp_path / f"{name}.toml"
+        path.write_text(text.replace("references/cardan_constant_speed.csv", f"references/{name}.csv"))
+        result = run_scenario(Scenario(path), fmu_dir, out_dir=None, plot=False)
+        [check] = [c for c in result.sampling_checks if "reference file" in str(c)]
+        assert check.passed is passes and check.interval == pytest.approx(every * 1e-3)
+        if not passes:
+            assert str(check).startswith("FAIL sampling of the reference file against joint's 2x order (up to 20 Hz")
+            assert "give a reference sampled at least every 0.005 s (a logger at 200 Hz or more)" in str(check)
+            assert result.failed
+
+
 def test_checks_warnings_name_their_scenario_and_reach_its_junit_case(fmu_dir, tmp_path, capsys):
     """A parameter in degrees that is valid in radians (a trial's) was said only on stderr, without the scenario's
     name, and not at all in the JUnit report a CI dashboard shows: `check` names the scenario on each warning line,

@@ -451,6 +451,48 @@ class SamplingCheck:
 
 
 @dataclass
+class ReferenceSamplingCheck(SamplingCheck):
+    """A reference file sampled more coarsely than the run's record (a logger's rate, bench data) against the order
+    of the input speed a drivetrain component's outputs carry (:class:`SamplingCheck`, ``interval`` the file's
+    largest time step over the compared span): at MIN_SAMPLES_PER_PERIOD or fewer samples a period it aliases the
+    order, and compared (interpolated linearly between its samples) it is no measure of the model; above, a note
+    where the interpolation can miss the order's peaks by more than ``steady.PEAK_SHORTFALL`` of its amplitude."""
+
+    def __str__(self):
+        hertz = self.order * self.omega / (2.0 * math.pi)
+        what = (f"sampling of the reference file against {self.component}'s {self.order}x order (up to {hertz:.4g} Hz "
+                f"at omega_in = {speed_text(self.omega)})")
+        resolving = sampling_interval(RESOLVING_SAMPLES_PER_PERIOD, self.order, self.omega)
+        if self.passed:
+            shortfall = 1.0 - math.cos(math.pi / self.samples)
+            if shortfall <= PEAK_SHORTFALL:
+                return f"ok   {what}, {self.samples:.3g} samples a period"
+            return (f"note {what}, {self.samples:.3g} samples a period: interpolated between them it can miss the "
+                    f"order's peaks by up to {100.0 * shortfall:.3g}% of its amplitude, which the comparison counts "
+                    f"as the model's error; a file sampled at least every {resolving:.3g} s does not")
+        return (f"FAIL {what}, {self.samples:.3g} samples a period at its step of {self.interval:g} s, at most "
+                f"{MIN_SAMPLES_PER_PERIOD:g} (Nyquist): the file aliases the order, so interpolated between its "
+                f"samples it is not the motion it recorded, and its errors say nothing of the model; give a reference "
+                f"sampled at least every {resolving:.3g} s (a logger at {1.0 / resolving:.4g} Hz or more), or "
+                "filter the order out of both before comparing")
+
+
+def check_reference_sampling(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -> list:
+    """A ReferenceSamplingCheck per component of :func:`sampled_components` whose omega_in is in table, where the
+    reference's largest time step over the run's span is larger than the record's (a reference on the run's grid, or
+    finer, is the record's own check)."""
+    t, times = table["time"], reference["time"]
+    times = times[(times >= t[0] - 1e-9) & (times <= t[-1] + 1e-9)]
+    if len(t) < 2 or len(times) < 2:
+        return []
+    interval = float(np.max(np.diff(times)))
+    if interval <= float(np.max(np.diff(t))) * (1.0 + 1e-9):
+        return []
+    return [ReferenceSamplingCheck(name, order, float(np.max(np.abs(table[f"{name}.omega_in"]))), interval)
+            for name, order in sampled_components(scenario) if f"{name}.omega_in" in table.dtype.names]
+
+
+@dataclass
 class ModeSampling:
     """A note, not a check: a machine component's fastest natural mode (``analysis.scenario_modes``: linearised at
     rest, the top of the range it spans over the input angle) against the record's step, where the record's
@@ -1176,6 +1218,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         if not model_exchange:   # a host's solver holds no input over a step
             sampling += load_order_holds(scenario, table)
     steady = check_steady_window(scenario, table, diagnostics.get("iterates", False))
+    if scenario.compares:   # a reference coarser than the record (bench data) against the orders it must carry
+        sampling += check_reference_sampling(scenario, table, reference)
     if extra:
         table = _without(table, extra)
     result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start, fmu_dir=Path(fmu_dir),
@@ -1516,7 +1560,8 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
                                     ("operating point not reached", any(not c.passed for c in r.operating_checks)),
                                     ("running-speed order amplitude outside [reference.orders]",
                                      any(not c.passed for c in r.order_checks)),
-                                    ("record aliases a model's excitation order, or the step a Load's periodic torque",
+                                    ("record or reference file aliases a model's excitation order, or the step a "
+                                     "Load's periodic torque",
                                      any(not c.passed for c in r.sampling_checks)),
                                     ("not steady from output.steady_from",
                                      any(not c.passed for c in r.steady_checks)))
