@@ -1079,6 +1079,53 @@ def test_a_reference_sampled_below_the_joints_order_is_named_not_blamed_on_the_m
             assert result.failed
 
 
+def test_bench_data_in_rpm_or_milliseconds_is_named_as_such(fmu_dir, tmp_path):
+    """Bench data with speeds in rpm failed at 1e3 of allowed, blamed on the model or the noise, and a file with
+    times in milliseconds on its span only: the failing line says the file is 9.55 times the run (rpm where rad/s is
+    meant), the span error that its times look like milliseconds; a torque of the other sign is named too."""
+    import math
+
+    from ujfmu.scenario import Scenario, ScenarioError
+    from ujfmu.scenario_run import run_scenario
+    text = (SCENARIOS / "cardan_constant_speed.toml").read_text().replace('generator = "cardan_joint"\n', "")
+    lines = (SCENARIOS / "references" / "cardan_constant_speed.csv").read_text().splitlines()
+    head = lines[1].split(",")
+    speed, torque = head.index('"joint.omega_out"'), head.index('"joint.tau_in"')
+    rows = [[float(v) for v in line.split(",")] for line in lines[2:]]
+    (tmp_path / "references").mkdir()
+
+    def bench(name, edit):
+        (tmp_path / "references" / f"{name}.csv").write_text(
+            "\n".join([lines[1]] + [",".join(repr(v) for v in edit(list(row))) for row in rows]) + "\n")
+        path = tmp_path / f"{name}.toml"
+        path.write_text(text.replace("references/cardan_constant_speed.csv", f"references/{name}.csv"))
+        return Scenario(path)
+
+    def in_rpm(row):
+        row[speed] *= 30.0 / math.pi
+        row[torque] = -row[torque]
+        return row
+    checks = {c.name: c for c in run_scenario(bench("rpm", in_rpm), fmu_dir, out_dir=None, plot=False).checks}
+    assert not checks["joint.omega_out"].passed and "as if the file held rpm where rad/s is meant" in str(
+        checks["joint.omega_out"]) and "the reference is 9.549 times the run here" in str(checks["joint.omega_out"])
+    assert "as if the file held the opposite sign convention" in str(checks["joint.tau_in"])
+    assert checks["joint.M_x"].passed and not checks["joint.M_x"].note
+
+    def in_ms(row):
+        row[0] *= 1000.0
+        return row
+    checks = run_scenario(bench("ms", in_ms), fmu_dir, out_dir=None, plot=False).checks
+    assert all(c.passed or "the reference file's times look like milliseconds (in seconds they would run from 0 to "
+               "0.5 s)" in str(c) for c in checks) and not all(c.passed for c in checks)
+
+    def late_in_ms(row):   # a logger that starts 0.3 ms late: short of the experiment's start
+        row[0] = 1000.0 * row[0] + 0.3
+        return row
+    with pytest.raises(ScenarioError, match=r"covers t = 0.3 to 500.3 s, .*its times look like milliseconds \(in "
+                                            r"seconds they would run from 0.0003 to 0.5003 s\)"):
+        run_scenario(bench("late_ms", late_in_ms), fmu_dir, out_dir=None, plot=False)
+
+
 def test_checks_warnings_name_their_scenario_and_reach_its_junit_case(fmu_dir, tmp_path, capsys):
     """A parameter in degrees that is valid in radians (a trial's) was said only on stderr, without the scenario's
     name, and not at all in the JUnit report a CI dashboard shows: `check` names the scenario on each warning line,

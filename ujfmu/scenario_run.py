@@ -1060,6 +1060,34 @@ def common_instants(t: np.ndarray, t_ref: np.ndarray, slack: float) -> tuple:
     return np.nonzero(hit)[0], nearest[hit]
 
 
+#: (factor, what it suggests): a reference column that is a run's signal times one of these (within
+#: ``SLIP_FIT``) holds another unit or sign convention than the run's (:func:`unit_slip`)
+UNIT_SLIPS = ((30.0 / math.pi, "rpm where rad/s is meant"), (180.0 / math.pi, "degrees where rad is meant"),
+              (1.0 / (2.0 * math.pi), "revolutions (rev/s, Hz) where rad is meant"),
+              (1000.0, "thousandths (mm, N.mm, ms) where the SI unit is meant"),
+              (1e-3, "thousands (kN.m, km) where the SI unit is meant"),
+              (-1.0, "the opposite sign convention (README, \"Port and sign conventions\")"))
+#: the share by which the fitted factor and the fit's RMS residual (of the reference's RMS) may miss for a slip
+SLIP_FIT = 0.03
+
+
+def unit_slip(values: np.ndarray, reference: np.ndarray) -> str:
+    """A note where the reference is the run's values times one of ``UNIT_SLIPS`` (least-squares factor within
+    SLIP_FIT of it, the fit's residual within SLIP_FIT of the reference's RMS), else ""."""
+    values, reference = np.asarray(values, dtype=float), np.asarray(reference, dtype=float)
+    power = float(np.dot(values, values))
+    if not power > 0.0 or not np.all(np.isfinite(reference)):
+        return ""
+    factor = float(np.dot(reference, values)) / power
+    rms = float(np.sqrt(np.mean(np.square(reference))))
+    for slip, what in UNIT_SLIPS:
+        if (abs(factor / slip - 1.0) <= SLIP_FIT
+                and float(np.sqrt(np.mean(np.square(reference - factor * values)))) <= SLIP_FIT * rms):
+            return (f"the reference is {factor:.4g} times the run here, as if the file held {what}: the file's columns "
+                    "are in the run's SI units and sign conventions")
+    return ""
+
+
 def compare(table, reference, tolerances, units: dict | None = None) -> list:
     """Check each toleranced signal: max |result - reference| <= rel_range*(range of reference) + abs; the range
     is the reference's over the result's time span (a reference longer than the run does not widen the band).
@@ -1078,10 +1106,11 @@ def compare(table, reference, tolerances, units: dict | None = None) -> list:
     for name, tol in tolerances.items():
         if name not in reference.dtype.names:
             raise KeyError(f"signal '{name}' has a tolerance but is not in the reference")
+        values = table[name][mine] if shared else table[name]
         if shared:
-            error, times = table[name][mine] - reference[name][theirs], t[mine]
+            error, times = values - reference[name][theirs], t[mine]
         else:
-            error, times = table[name] - np.interp(t, reference["time"], reference[name]), t
+            error, times = values - np.interp(t, reference["time"], reference[name]), t
         err = float(np.max(np.abs(error)))
         span = float(np.ptp(reference[name][window])) if window.any() else 0.0
         check = SignalCheck(name, err, tol.rel_range * span + tol.abs, span, unit=(units or {}).get(name, ""),
@@ -1097,8 +1126,23 @@ def compare(table, reference, tolerances, units: dict | None = None) -> list:
                           f"at least half the reference's range ({span:.3g}), so a flat line through its middle would "
                           "pass; tighten it where the course matters (`ujfmu run --check-step` estimates this step's "
                           "error)")
+        if not check.passed and not check.note:
+            check.note = unit_slip(values, values - error)
         checks.append(check)
     return checks
+
+
+def milliseconds_hint(scenario: Scenario, reference: np.ndarray) -> str:
+    """'; its times look like milliseconds ...' for a reference that names no generator whose times, read as
+    milliseconds, span the experiment (to 5% of it) and run past 100 times its end; "" otherwise."""
+    t0, t1 = float(reference["time"][0]), float(reference["time"][-1])
+    span = scenario.stop_time - scenario.start_time
+    if (scenario.reference_generator or not t1 > 100.0 * max(abs(scenario.stop_time), span)
+            or not 1e-3 * t0 <= scenario.start_time + 0.05 * span
+            or not scenario.stop_time - 0.05 * span <= 1e-3 * t1 <= scenario.stop_time + span):
+        return ""
+    return (f"; its times look like milliseconds (in seconds they would run from {1e-3 * t0:g} to {1e-3 * t1:g} s): "
+            "the time column is in seconds, as every column is in SI units")
 
 
 def check_reference_span(scenario: Scenario, reference: np.ndarray) -> None:
@@ -1109,6 +1153,7 @@ def check_reference_span(scenario: Scenario, reference: np.ndarray) -> None:
     if t0 > scenario.start_time + slack or t1 < scenario.stop_time - slack:
         remedy = (f"regenerate the reference (`ujfmu references {scenario.path}`)" if scenario.reference_generator
                   else "extend the file (it names no generator: a measured or hand-made reference)")
+        remedy += milliseconds_hint(scenario, reference)
         raise ScenarioError(f"{scenario.path}: the reference {scenario.reference_file_text} covers t = {t0:g} to "
                             f"{t1:g} s, the experiment runs from {scenario.start_time:g} to "
                             f"{scenario.stop_time:g} s: set the scenario's [experiment] start_time and stop_time "
@@ -1230,6 +1275,10 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     if scenario.compares:   # its reference read above
         units = {name: scenario.unit(name) for name in {**scenario.tolerances, **scenario.extrapolated_tolerances}}
         result.checks = compare(table, reference, scenario.tolerances, units)
+        slip = milliseconds_hint(scenario, reference).replace("; its times", "the reference file's times", 1)
+        for check in result.checks if slip else ():   # the cause of every failure, before what it makes them look
+            if not check.passed:
+                check.note = slip
         from .references import method_of, setup_of
         if setup_of(provenance) is None and len(table) > 2 and all(c.max_error == 0.0 for c in result.checks):
             raise ScenarioError(f"{scenario.path}: [reference] file {scenario.reference_file} equals this run to the "
