@@ -1058,19 +1058,24 @@ def test_a_reference_sampled_below_the_joints_order_is_named_not_blamed_on_the_m
     """Bench data logged at 20 Hz against a joint whose 2x order is at 20 Hz (600 rpm) was interpolated between its
     samples and failed as "the model or its parameters likely differ": the reference's own sampling is checked
     against the order, as the record's is, and fails naming the file's step and the rate that resolves it; the same
-    data every 5 ms passes it."""
+    data every 5 ms passes it, and so does a file compared at the instants it shares with the run."""
     from ujfmu.scenario import Scenario
     from ujfmu.scenario_run import run_scenario
     text = (SCENARIOS / "cardan_constant_speed.toml").read_text().replace('generator = "cardan_joint"\n', "")
     lines = (SCENARIOS / "references" / "cardan_constant_speed.csv").read_text().splitlines()
     (tmp_path / "references").mkdir()
-    for every, passes in ((50, False), (5, True)):
-        name = f"bench_{every}ms"
+    for every, passes, late in ((50, False, 0.0), (5, True, 5e-4), (5, None, 0.0)):
+        name = f"bench_{every}ms_{late}"   # a logger's file (no provenance line), its clock late by `late`
+        rows = [line.split(",", 1) for line in lines[2::every]]
         (tmp_path / "references" / f"{name}.csv").write_text(
-            "\n".join([lines[1]] + lines[2::every]) + "\n")   # a logger's file: no provenance line
+            "\n".join([lines[1]] + [f"{float(t) + late!r},{rest}" for t, rest in rows]) + "\n")
         path = tmp_path / f"{name}.toml"
-        path.write_text(text.replace("references/cardan_constant_speed.csv", f"references/{name}.csv"))
+        path.write_text(text.replace("references/cardan_constant_speed.csv", f"references/{name}.csv")
+                        .replace("stop_time = 0.5", "stop_time = 0.49"))
         result = run_scenario(Scenario(path), fmu_dir, out_dir=None, plot=False)
+        if passes is None:   # 99 instants shared with the run: compared there, not interpolated
+            assert not [c for c in result.sampling_checks if "reference file" in str(c)]
+            continue
         [check] = [c for c in result.sampling_checks if "reference file" in str(c)]
         assert check.passed is passes and check.interval == pytest.approx(every * 1e-3)
         if not passes:

@@ -478,12 +478,16 @@ class ReferenceSamplingCheck(SamplingCheck):
 
 
 def check_reference_sampling(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -> list:
-    """A ReferenceSamplingCheck per component of :func:`sampled_components` whose omega_in is in table, where the
-    reference's largest time step over the run's span is larger than the record's (a reference on the run's grid, or
-    finer, is the record's own check)."""
+    """A ReferenceSamplingCheck per component of :func:`sampled_components` whose omega_in is in table, where
+    :func:`compare` interpolates the reference (it shares too few instants with the record) and its largest time
+    step over the run's span is larger than the record's (compared at shared instants, or on a grid as fine, the
+    record's own check covers it)."""
     t, times = table["time"], reference["time"]
     times = times[(times >= t[0] - 1e-9) & (times <= t[-1] + 1e-9)]
     if len(t) < 2 or len(times) < 2:
+        return []
+    mine, _ = common_instants(t, reference["time"], 1e-9 * max(1.0, abs(float(t[-1]))))
+    if len(mine) >= min(MIN_COMMON_INSTANTS, len(t)):
         return []
     interval = float(np.max(np.diff(times)))
     if interval <= float(np.max(np.diff(t))) * (1.0 + 1e-9):
