@@ -250,3 +250,34 @@ def test_a_stiffness_beyond_any_step_is_refused_naming_its_rate_and_the_paramete
     assert "refused" in message and "fastest rate 1.6" in message and "3.23e+05 substeps" in message, message
     assert "stiffness, damping and inertia" in message and "not fewer in all" in message
     assert "RK4" not in message   # the double Cardan steps with an exponential Adams method: the count is its rule's
+    # the model's parts' rates follow, the fastest first, each with the parameters that set it
+    assert ("; the parts of the model that set it, by the bound of their rates at these parameters, the fastest first: "
+            "the intermediate shaft's torsion (k_theta = 1e+09 N.m/rad, xi_theta = 0.01 s, J_load = 0.0045 kg.m2) "
+            "2.38e+09 1/s, the lateral support") in message, message
+    # a support meant rigid (a trial's k_phi = 1e12 N/m at Omar's xi_phi): its motion is named first
+    log.clear()
+    inst = open_instance(fmu_dir, "DoubleCardanDriveline", log)
+    try:
+        inst.initialize({"k_phi": 1e12})
+        inst.set(**{name: INPUTS[name](0.0) for name in inputs_of(inst)})
+        assert inst.raw("fmi2DoStep")(inst.slave.component, 0.0, 1e-3, 1) != 0
+    finally:
+        inst.free()
+    assert "the fastest first: the lateral support (k_phi = 1e+12 N/m, xi_phi = 0.002 s, m_s = 4.09 kg) " \
+        "4.89e+08 1/s, the intermediate shaft's torsion" in log[-1], log[-1]
+
+
+@pytest.mark.parametrize("name", ["TwinJeffcottRotor", "TwinJeffcottRotorTorqueDriven"])
+def test_a_twin_rotor_step_refused_for_its_substeps_names_the_disc_that_sets_the_rate(fmu_dir, name):
+    """C1X = 1e9 N.s/m (the declared maximum) damps disc 1's lateral motion at about 3e8 1/s: a 1 ms step is refused,
+    and the message names disc 1's lateral motion, with its parameters, as the fastest of the rotor's parts."""
+    log = []
+    inst = open_instance(fmu_dir, name, log)
+    try:
+        inst.initialize({"C1X": 1e9})
+        inst.set(**{n: INPUTS[n](0.0) for n in inputs_of(inst)})
+        assert inst.raw("fmi2DoStep")(inst.slave.component, 0.0, 1e-3, 1) != 0
+    finally:
+        inst.free()
+    assert ("the fastest first: disc 1's lateral motion (K1X = 82081.5, K1Y = 82081.5 N/m, C1X = 1e+09, "
+            "C1Y = ") in log[-1]

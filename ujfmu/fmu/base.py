@@ -738,7 +738,16 @@ class ModelSlave(UjfmuSlave):
     def step_state(self, t, h, u):
         """The state from t to t + h under the inputs u (:meth:`integrate`), checked finite and by the model's
         ``check_state`` (a refusal), its ``state_advice`` said once (a warning), and the time."""
-        y = self.integrate(t, h, self._y if self._started else self.current_state(u), u)
+        try:
+            y = self.integrate(t, h, self._y if self._started else self.current_state(u), u)
+        except rk4.TooManySubsteps as exc:   # which parameters make the rate, where the model can say
+            sources = getattr(self.MODEL, "rate_sources", None)
+            if sources is None or not sources(self._p):
+                raise
+            raise ValueError(f"{exc}; the parts of the model that set it, by the bound of their rates at these "
+                             "parameters, the fastest first: "
+                             + ", ".join(f"{what} {rate:.3g} 1/s"
+                                         for what, rate in sorted(sources(self._p), key=lambda s: -s[1]))) from None
         if not math.isfinite(sum(y)) and not all(map(math.isfinite, y)):   # a sum is finite unless one is not
             raise ValueError(f"the state became non-finite over the step ({y!r})")
         if self._check_state is not None:

@@ -61,19 +61,27 @@ def kept_substep(h: float, kept: float, t: float, n: int) -> float:
 MAX_SUBSTEPS = 100_000
 
 
+class TooManySubsteps(ValueError):
+    """A step that needs more than ``MAX_SUBSTEPS`` substeps (:func:`substeps`); its ``rate`` [1/s] the fastest."""
+
+    def __init__(self, message: str, rate: float):
+        super().__init__(message)
+        self.rate = rate
+
+
 def substeps(rate: float, h: float, max_substeps: int = MAX_SUBSTEPS) -> int:
-    """Number of RK4 substeps for a step h so that each is at most RATE_STEP / rate long; ValueError above
-    max_substeps (or for a non-finite rate)."""
+    """Number of RK4 substeps for a step h so that each is at most RATE_STEP / rate long; TooManySubsteps (a
+    ValueError) above max_substeps (or for a non-finite rate)."""
     n = h * rate / RATE_STEP
     if n <= 1.0:
         return 1
     if not n <= max_substeps:
-        raise ValueError(f"a step of {h!r} s needs {n:.3g} substeps (each at most {RATE_STEP} / rate long) for the "
-                         f"model's fastest rate {rate:.6g} 1/s, more than the {max_substeps} allowed: check the "
-                         "stiffness, damping and inertia parameters, and joint angles near 90 deg (a joint's speed "
-                         "ratio, up to 1/cos(angle), scales the stiffness its shafts feel) (a mode this fast is far "
-                         "beyond what the step resolves; a smaller communication step takes fewer substeps each, "
-                         "not fewer in all)")
+        raise TooManySubsteps(f"a step of {h!r} s needs {n:.3g} substeps (each at most {RATE_STEP} / rate long) for "
+                              f"the model's fastest rate {rate:.6g} 1/s, more than the {max_substeps} allowed: check "
+                              "the stiffness, damping and inertia parameters, and joint angles near 90 deg (a joint's "
+                              "speed ratio, up to 1/cos(angle), scales the stiffness its shafts feel) (a mode this "
+                              "fast is far beyond what the step resolves; a smaller communication step takes fewer "
+                              "substeps each, not fewer in all)", rate)
     return math.ceil(n)
 
 

@@ -33,7 +33,9 @@ the model's compliance; default None, where the output follows the input's kinem
 torque with it, ``Scenario.load_chatter``) and ``check_state(p, y) -> list``
 (messages when a state reached by a step is outside the model's validity, which refuse the step; default none),
 ``state_advice(p, h, y, u) -> list`` (warnings on a state y reached by a step of h from the inputs u that is valid
-but likely not what was meant, logged once per instance; default none) and
+but likely not what was meant, logged once per instance; default none), ``rate_sources(p) -> list`` ((what, rate
+[1/s]) of the model's parts, naming the parameters that set each rate: a step refused for its substeps lists them,
+the fastest first; default none) and
 ``output_free_inputs(p) -> tuple`` (names of FMU inputs that neither ``outputs`` nor ``initial_state`` depend on at
 these parameters, e.g. a load torque that only enters the derivatives: a change of them leaves the outputs valid,
 so the FMU does not recompute them when a host sets them after reading the outputs; default none), for a model

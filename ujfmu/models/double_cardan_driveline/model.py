@@ -351,11 +351,29 @@ def _rate_terms(p: Parameters, input_inertia: float) -> tuple:
     k_phi (L_c cos beta1)^2 e e^T, C = c_theta a a^T + c_phi (L_c cos beta1)^2 e e^T with a = d(twist)/dq =
     (r1, -r2, g), e the lateral coordinate, both bounded by their traces, with r <= 1/cos b and |g| <= the sum of
     |dy/db| <= tan b / (2 cos b) of both joints."""
+    mobility = _twist_mobility(p, input_inertia)
+    return p.k_theta * mobility + p.k_phi / p.m_s, p.c_theta * mobility + p.c_phi / p.m_s
+
+
+def _twist_mobility(p: Parameters, input_inertia: float) -> float:
+    """a^T M^-1 a of :func:`_rate_terms`: the twist's mobility, with r <= 1/cos b and |g| <= tan b / (2 cos b)."""
     r_max = 1.0 / min(math.cos(p.beta1), math.cos(p.beta2))  # dy/dx <= 1/cos b
     g_max = 0.5 * (  # |dy/db| <= tan b / (2 cos b)
                    abs(math.tan(p.beta1)) / math.cos(p.beta1) + abs(math.tan(p.beta2)) / math.cos(p.beta2))
-    mobility = r_max * r_max * (1.0 / p.J_load + 1.0 / input_inertia) + g_max ** 2 / p.m_lat   # a^T M^-1 a
-    return p.k_theta * mobility + p.k_phi / p.m_s, p.c_theta * mobility + p.c_phi / p.m_s
+    return r_max * r_max * (1.0 / p.J_load + 1.0 / input_inertia) + g_max ** 2 / p.m_lat
+
+
+def rate_sources(p: Parameters, input_inertia: float = math.inf) -> list:
+    """(what, rate [1/s]) of each part of the flexible equations' rate bound (:func:`_rate_terms`; input_inertia as
+    there), sqrt(stiffness) + damping of each with the parameters that set it: the intermediate shaft's torsion and
+    the lateral support's motion; [] for a rigid shaft. A step refused for its substeps names them."""
+    if p.rigid_intermediate_shaft or not p.J_load > 0.0:
+        return []
+    mobility = _twist_mobility(p, input_inertia)
+    return [(f"the intermediate shaft's torsion (k_theta = {p.k_theta:g} N.m/rad, xi_theta = {p.xi_theta:g} s, "
+             f"J_load = {p.J_load:g} kg.m2)", math.sqrt(p.k_theta * mobility) + p.c_theta * mobility),
+            (f"the lateral support (k_phi = {p.k_phi:g} N/m, xi_phi = {p.xi_phi:g} s, m_s = {p.m_s:g} kg)",
+             math.sqrt(p.k_phi / p.m_s) + p.c_phi / p.m_s)]
 
 
 def natural_rate_bound(p: Parameters, input_inertia: float = math.inf) -> float:
@@ -1011,6 +1029,11 @@ class TorqueDriven:
     Parameters = TorqueDrivenParameters
     Inputs = Torques
     LATERAL_STATES = LATERAL_STATES
+
+    @staticmethod
+    def rate_sources(p: TorqueDrivenParameters) -> list:
+        """:func:`rate_sources` with the input shaft free (J_drive + I_input)."""
+        return rate_sources(p, p.J_drive + p.I_input)
 
     class State(NamedTuple):
         """Input shaft angle and speed, then the speed-driven driveline's :class:`State`."""
