@@ -222,6 +222,22 @@ def test_a_step_check_that_could_not_run_says_so_not_that_its_error_is_high(fmu_
     assert "HIGH above" not in captured.err
 
 
+def test_a_high_step_estimate_suggests_the_torque_driven_wiring_only_where_a_joint_is_speed_driven(
+        fmu_dir, tmp_path, capsys, monkeypatch):
+    """A torque-driven scenario's HIGH estimate had advised "the torque-driven wiring where a speed-driven joint
+    reflects a large inertia", the wiring it already had (a trial's): that remedy is said where a joint is
+    speed-driven only."""
+    from ujfmu import stepsize
+    monkeypatch.setattr(stepsize, "estimate", lambda scenario, step=None, fmu_dir=None, coarse=None:
+                        stepsize.StepEstimate(1e-3, {"joint.tau_in": 0.5}, {"joint.tau_in": 0.02}))
+    for name, said in (("cardan_heavy_torque_driven", False), ("cardan_constant_speed", True)):
+        assert main(["--fmu-dir", str(fmu_dir), "run", str(SCENARIOS / f"{name}.toml"), "--check-step",
+                     "--no-plot", "--out", str(tmp_path)]) == 1
+        err = capsys.readouterr().err
+        assert "the estimated coupling error at 0.001 s is above the allowance" in err
+        assert ("torque-driven wiring" in err) is said
+
+
 def test_result_names_compared_and_uncompared_signals(fmu_dir, tmp_path):
     text = (SCENARIOS / "cardan_constant_speed.toml").read_text()
     assert '"joint.M_z" = { abs = 1e-09 }' in text

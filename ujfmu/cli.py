@@ -412,10 +412,11 @@ def cmd_run(args):
             print(f"ujfmu: the step check's rerun at half the step stopped, so the coupling error at "
                   f"{scenario.step_size:g} s is not known (the line above says why)", file=sys.stderr)
         elif any(not estimate.within(name) for name in estimate.errors):
+            wiring = (", or the torque-driven wiring where a speed-driven joint reflects a large inertia (README, "
+                      "\"Choose the wiring for the host\")" if stepsize.speed_driven(scenario) else "")
             print(f"ujfmu: the estimated coupling error at {scenario.step_size:g} s is above the allowance (HIGH "
                   "above): the results are not that accurate; take a smaller step (--step, or --step auto to "
-                  "find one), or the torque-driven wiring where a speed-driven joint reflects a large inertia "
-                  "(README, \"Choose the wiring for the host\")", file=sys.stderr)
+                  f"find one){wiring}", file=sys.stderr)
         elif not step_ok:
             print("ujfmu: the step check failed: the lines above say where (a record that aliases a model's order, "
                   "or the step-halving extrapolation outside its [reference.extrapolated] band)", file=sys.stderr)

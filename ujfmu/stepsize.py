@@ -241,14 +241,16 @@ def choose(scenario, fmu_dir=DEFAULT_FMU_DIR, progress=None) -> tuple[float, lis
         if stuck:
             before, after = tried[-2], est
             figures = ", ".join(f"{n} {_measure(before, n)[1]} -> {_measure(after, n)[1]}" for n in stuck)
+            cause = ("(e.g. a speed-driven model's torque, whose inertia term estimates the input acceleration from "
+                     "the held speeds, for two steps after a jump of that acceleration: a load step, a drive's torque "
+                     "limit). `ujfmu run --check-step` shows where it is; the torque-driven wiring integrates the "
+                     "input shaft instead (README, \"Choose the wiring for the host\")" if speed_driven(scenario) else
+                     "(e.g. a torque held over a step that jumps or switches within it: a load step, a drive's "
+                     "torque limit, a controller's clamp). `ujfmu run --check-step` shows where it is")
             raise CosimulationError(
                 f"--step auto: halving the step from {before.step:g} s to {after.step:g} s did not shrink the "
                 f"estimated coupling error of {figures} (a first-order error halves): an error of a fixed "
-                "size over a few steps, which no smaller step removes (e.g. a speed-driven model's torque, whose "
-                "inertia term estimates the input acceleration from the held speeds, for two steps after a jump of "
-                "that acceleration: a load step, a drive's torque limit). `ujfmu run --check-step` shows where it "
-                "is; the torque-driven wiring integrates the input shaft instead (README, \"Choose the wiring for "
-                "the host\"):\n" + "\n".join(est.lines()))
+                f"size over a few steps, which no smaller step removes {cause}:\n" + "\n".join(est.lines()))
         step /= 2.0
     last, before = tried[-1], tried[-2] if len(tried) > 1 else None
     failing = [n for n in last.errors if not last.within(n)]
