@@ -672,13 +672,13 @@ def cmd_sweep(args):
               f"at the first: {warned[0]['warnings'][:400]}")
     step_ok = True
     if args.check_step:
-        check = sweep.step_check()
-        if check is None:
+        checks = sweep.step_checks()
+        if not checks:
             print("  step check: no ok point to check", file=sys.stderr)
             step_ok = False
         else:
-            print("\n".join(f"  {line}" for line in check.lines(scenario)))
-            step_ok = check.passed
+            print("\n".join(f"  {line}" for check in checks for line in check.lines(scenario)))
+            step_ok = all(check.passed for check in checks)
     else:
         print("  the order amplitudes carry the run's error at this step and coupling: --check-step reruns the "
               "peak point at half the step to estimate it")

@@ -393,7 +393,7 @@ def peak_note(window: Window, fits: dict, orders, speed: float) -> str:
         if grows(out):
             continue
         size = float(np.max(np.abs(window.table[out]))) if out in window.table.dtype.names else 0.0
-        if not len(amps) or not amps.max() > 1e-9 * size:   # nothing, or a constant's round-off
+        if not len(amps) or not amps.max() > PHASE_FLOOR * size:   # nothing, or round-off (no phase either)
             continue
         k = max(j for j, a in zip(fitted, amps) if a >= SHAPING_ORDER * amps.max())
         n = steps / k   # reads a period

@@ -58,7 +58,7 @@ from .extras import require
 from .master import (Component, Connection, Cosimulation, FmuWarning, RunStopped, remove_folder,
                      temporary_folder)
 from .scenario import SWEEP_KEYS, Scenario, ScenarioError, plain_number, running_angle_of
-from .steady import (ERROR, FIGURES, FINAL, OK, PEAK_NOTE, STATUSES, coupling_noise, grows,
+from .steady import (ERROR, FIGURES, FINAL, OK, PEAK_NOTE, PHASE_FLOOR, STATUSES, coupling_noise, grows,
                      settle_and_measure)
 
 #: human units accepted after a --param range, and their factor to SI (rad and rad/s: the SI units, named)
@@ -302,9 +302,10 @@ def _signed(names) -> tuple:
     return plain, tuple(p for n, p in zip(names, plain) if n.startswith("-"))
 
 
-#: an output whose order amplitudes are all below this share of its size is constant up to round-off (an ideal
-#: speed source's speed): the step check leaves its orders out
-ROUND_OFF_ORDERS = 1e-9
+#: an output whose order amplitudes are all below this share of its size carries no vibration the step check can
+#: judge (an ideal speed source's speed, 1e-15 of itself; a twin rotor's tau_in without load or joint angle, 1e-7):
+#: it leaves their orders out, as the table leaves out their phases (``steady.PHASE_FLOOR``)
+ROUND_OFF_ORDERS = PHASE_FLOOR
 
 
 def _csv_number(value) -> str:
@@ -733,6 +734,7 @@ class StepCheck:
     status: str = OK
     error: str = ""
     units: dict = field(default_factory=dict)   # of the point's parameters and the figures' outputs, by name
+    peaking: list = field(default_factory=list)   # the outputs whose largest order peaks at the point
 
     @staticmethod
     def estimate(coarse: float, fine: float) -> float:
@@ -756,7 +758,8 @@ class StepCheck:
                 text += f" ({value * 30.0 / math.pi:.6g} rpm)"
             return text
         where = ", ".join(f"{name} = {value_text(name, value)}" for name, value in self.point.items())
-        head = (f"step check at the peak ({where}): order amplitudes at {self.step:g} s against "
+        of = f" of {', '.join(self.peaking)}" if self.peaking else ""
+        head = (f"step check at the peak{of} ({where}): order amplitudes at {self.step:g} s against "
                 f"{self.step / 2:g} s, error estimated as 2 |a(h) - a(h/2)| (allowed {100 * self.rel_tol:g}% of "
                 "the amplitude)")
         if self.status != OK:
@@ -1316,17 +1319,39 @@ class Sweep:
         return [r for r in self.table() if r.get("status") in FINAL and PEAK_NOTE in r.get("note", "")]
 
     def step_check(self, rel_tol: float = STEP_CHECK_TOL) -> "StepCheck | None":
-        """The step-halving estimate of the order amplitudes' error at the sweep's peak: the ok point where its first
-        output's largest order amplitude is largest (a resonance, where a step's or a coupling's error grows most)
-        is run again at half the step (in this process; its journal ``<name>_step_check.jsonl`` beside this one's),
-        and every resolved order of every output that carries at least 1% of that output's largest is compared
-        (:class:`StepCheck`). None without an ok point."""
+        """The step-halving estimate of the order amplitudes' error at the peak of the sweep's first output
+        (:meth:`step_checks` of that output alone); None without an ok point."""
+        checks = self.step_checks(rel_tol, self.settings.outputs[:1])
+        return checks[0] if checks else None
+
+    def step_checks(self, rel_tol: float = STEP_CHECK_TOL, outputs=None) -> list:
+        """The step-halving estimates of the order amplitudes' error at the sweep's peaks: for each output (default
+        every one) the ok point where its largest order amplitude is largest (a resonance, where a step's or a
+        coupling's error grows most), each such point once, is run again at half the step (in this process; their
+        journal ``<name>_step_check.jsonl`` beside this one's), and every resolved order of every output that
+        carries at least 1% of that output's largest is compared there (:class:`StepCheck`, naming the outputs
+        that peak at it). An output whose orders are round-off at its peak (below ``ROUND_OFF_ORDERS`` of its size)
+        has no peak to check. [] without an ok point."""
         ok = [r for r in self.table() if r["status"] == OK]
-        first = [c for c in self.settings.columns() if c.rsplit(".", 1)[0] == self.settings.outputs[0]
-                 and c.rsplit(".", 1)[1].startswith("h")]
-        if not ok or not first:
-            return None
-        peak = max(ok, key=lambda r: max((r[c] for c in first if not math.isnan(r[c])), default=-math.inf))
+        peaks = {}   # the peak points' keys -> (row, outputs peaking there)
+        for output in self.settings.outputs if outputs is None else outputs:
+            columns = [c for c in self.settings.columns() if c.rsplit(".", 1)[0] == output
+                       and c.rsplit(".", 1)[1].startswith("h")]
+            if not ok or not columns:
+                continue
+            peak = max(ok, key=lambda r: max((r[c] for c in columns if not math.isnan(r[c])), default=-math.inf))
+            largest = max((peak[c] for c in columns if not math.isnan(peak[c])), default=0.0)
+            size = max(abs(peak[f"{output}.max"]), abs(peak[f"{output}.min"]))
+            if outputs is None and not largest > ROUND_OFF_ORDERS * size:   # no vibration to peak
+                continue
+            key = json.dumps(peak["point"], sort_keys=True, default=str)
+            peaks.setdefault(key, (peak, []))[1].append(output)
+        if not peaks and ok and outputs is None:   # every output's orders round-off: the first output's peak
+            return self.step_checks(rel_tol, self.settings.outputs[:1])
+        return [self._step_check_at(peak, names, rel_tol) for peak, names in peaks.values()]
+
+    def _step_check_at(self, peak: dict, peaking: list, rel_tol: float) -> "StepCheck":
+        """:meth:`step_checks` at one peak point (its row; the outputs that peak there)."""
         half = copy.copy(self.scenario)
         half.step_size = self.scenario.step_size / 2.0
         axes = [Axis.of(axis.signed_names, [axis.value_of(peak["point"])]) for axis in self.axes]
@@ -1346,7 +1371,7 @@ class Sweep:
                             if not (math.isnan(row[c]) or math.isnan(peak[c])) and abs(row[c]) >= 0.01 * largest]
         units = {name: self.scenario.unit(name) for name in [*peak["point"], *self.settings.outputs]}
         return StepCheck(peak["point"], self.scenario.step_size, figures, rel_tol, row["status"], row["error"],
-                         units)
+                         units, peaking)
 
     def failed(self):
         """Records of the points that are not ok (failed, not steady, operating point missed or not run)."""
