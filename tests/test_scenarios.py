@@ -189,3 +189,23 @@ def test_a_runs_steady_orders_are_data_and_a_hooke_joints_speed_has_its_closed_f
     assert speed.amplitudes[2] == pytest.approx(2.0 * q * w, rel=1e-6)
     assert speed.amplitudes[4] == pytest.approx(2.0 * q * q * w, rel=1e-5)
     assert "joint.phi_out" not in orders   # an angle grows: no orders
+
+
+def test_the_recorded_signals_means_are_over_whole_revolutions(fmu_dir):
+    """The summary's mean and RMS of each recorded signal were time averages over the steady window, 2.7 revolutions
+    here, where a joint's 2x does not cancel: a trial's twin rotor tau_in read 6% off the fitted mean beside it. Over
+    whole revolutions a Hooke joint's output speed averages to its input's and its input torque to the load's (power
+    balance, no loss), to round-off."""
+    import math
+    import re
+    copy = Scenario(Path(__file__).parents[1] / "scenarios" / "cardan_constant_speed.toml").with_parameters(
+        {"joint.error_angle_beta": 0.0, "joint.error_angle_gamma": 0.0})
+    copy.steady_from, copy.running_speed = 0.23, "motor.omega"
+    text = run_scenario(copy, fmu_dir, out_dir=None, plot=False).summary()
+    block = text[text.index("  recorded signals from t = 0.23 s"):]
+    assert "mean, RMS over its first 2 whole revolutions of motor.omega, trapezoidal" in block.splitlines()[0]
+
+    def mean(name):
+        return float(re.search(rf"    {re.escape(name)} +\S+ \.\. \S+, mean (\S+),", block).group(1))
+    assert mean("joint.omega_out") == pytest.approx(20.0 * math.pi, rel=1e-6)
+    assert mean("joint.tau_in") == pytest.approx(0.3, rel=1e-6)
