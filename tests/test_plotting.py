@@ -318,3 +318,18 @@ def test_sampled_rows_are_unjoined_points_in_the_order_figure_and_rows_sharing_x
     assert drawn and {line.get_linestyle() for line in drawn} == {"None"}
     assert len({line.get_marker() for line in drawn}) == 2   # one per speed
     assert "points sharing it stand on one vertical" in tracks.get_xlabel()
+
+
+def test_a_sweep_of_a_changed_copy_names_its_set_values_in_its_titles(fmu_dir, tmp_path, figures):
+    """A `--set` sweep's figures read "the rest as in scenario <name>_changed" without the values set (a trial's
+    K2Y = 60000): both titles give them after the scenario's name."""
+    scenario = Scenario(SCENARIOS / "double_cardan_brutti_rigid.toml").with_parameters({"load.T0": 3.5})
+    settings = SweepSettings.from_scenario(scenario, outputs=["driveline.tau_in"], running_speed="motor.omega",
+                                           settle_time=0.01, revolutions=1)
+    sweep = Sweep(scenario, [parse_axis("motor.omega_set=1000,2000rpm", scenario)], settings, out_dir=tmp_path,
+                  fmu_dir=fmu_dir)
+    sweep.run(workers=0)
+    sweep.plot()
+    for name in (f"{sweep.name}.png", f"{sweep.name}_orders.png"):
+        title = figures[name]._suptitle.get_text().replace("\n", " ")
+        assert "the rest as in scenario double_cardan_brutti_rigid_changed (load.T0 = 3.5 N.m)" in title, title

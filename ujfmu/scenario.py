@@ -682,13 +682,13 @@ class Scenario:
         out.name = name or f"{self.name}_changed"
         out.changes = {**self.changes, **changes}
         if changes:   # what the copy runs first: the file's title describes another setup
-            out.title = (", ".join(self._change_text(k, v) for k, v in out.changes.items())
+            out.title = (", ".join(self.change_text(k, v) for k, v in out.changes.items())
                          + f" (a changed copy of: {self.file_title})")
         out.reference_file, out.tolerances, out.extrapolated_tolerances = None, {}, {}
         out.order_tolerances = {}
         return out
 
-    def _change_text(self, key: str, value) -> str:
+    def change_text(self, key: str, value) -> str:
         """'component.parameter = value unit' for a title, with deg or rpm beside rad and rad/s."""
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             return f"{key} = {value}"
