@@ -157,7 +157,8 @@ def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_p
     junit = tmp_path / "only.xml"
     assert main(["check", str(unchecked), "--junit", str(junit)] + common) == 1
     captured = capsys.readouterr()
-    assert "0 passed, 0 failed, 1 not checked" in captured.out and "nothing was checked" in captured.err
+    assert "0 passed, 1 failed (1 compares nothing), 0 not checked" in captured.out
+    assert "nothing was checked" in captured.err
     # and its JUnit case fails as the command does (a skipped case had shown a CI dashboard no failure)
     suite = ET.parse(junit).getroot()
     case = suite.find("testcase")
@@ -176,7 +177,9 @@ def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_p
     # --strict: a gate that checks every scenario it is given fails on the unchecked one
     assert main(["check", str(SCENARIOS / "cardan_constant_speed.toml"), str(unchecked), "--strict", "--junit",
                  str(junit)] + common) == 1
-    assert "--strict: 1 scenario(s) not checked: unchecked" in capsys.readouterr().err
+    captured = capsys.readouterr()   # counted as failed, as its JUnit case and the exit status have it
+    assert "--strict: 1 scenario(s) not checked: unchecked" in captured.err
+    assert "1 passed, 1 failed (--strict: 1 compares nothing), 0 not checked" in captured.out
     suite = ET.parse(junit).getroot()   # its report fails that case too, and only that one
     cases = {c.get("name"): c for c in suite.iter("testcase")}
     assert suite.get("failures") == "1" and suite.get("skipped") == "0"
@@ -885,8 +888,9 @@ def test_fmus_built_from_other_sources_are_refused_before_anything_runs(fmu_dir,
 
 def test_an_fmu_edited_after_its_build_is_refused(fmu_dir, tmp_path, capsys):
     """An FMU whose shipped code was edited by hand kept the name whose build hash the check compares, and passed
-    `ujfmu check`: each copied source, its entry point and the pythonfmu files it ships are compared with what a
-    build ships, and a difference is an error naming the member and the rebuild."""
+    `ujfmu check`: each copied source, its runtime package's docstring module, its entry point and the module
+    pythonfmu loads, the pythonfmu files it ships and any added Python file are compared with what a build ships,
+    and a difference is an error naming the member and the rebuild; line endings are no difference."""
     import zipfile
 
     from ujfmu.scenario import Scenario, ScenarioError
@@ -895,21 +899,44 @@ def test_an_fmu_edited_after_its_build_is_refused(fmu_dir, tmp_path, capsys):
         names = archive.namelist()
     model = next(n for n in names if n.endswith("/models/load/model.py"))
     entry = next(n for n in names if n.endswith("_entry.py"))
-    for member, edit in ((model, lambda b: b.replace(b"return", b"return 0.0 *", 1)),
-                         (entry, lambda b: b + b"import os\n"),
-                         ("resources/pythonfmu/fmi2slave.py", lambda b: b + b"\n# edited\n")):
-        edited = tmp_path / member.replace("/", "_") / "fmus"
+    package = entry.removesuffix("_entry.py") + "/__init__.py"
+    added = "resources/other_entry.py"
+    for member, edit, named in ((model, lambda b: b.replace(b"return", b"return 0.0 *", 1), model),
+                                (entry, lambda b: b + b"import os\n", entry),
+                                (package, lambda b: b + b"import os\n", package),
+                                ("resources/pythonfmu/fmi2slave.py", lambda b: b + b"\n# edited\n",
+                                 "resources/pythonfmu/fmi2slave.py"),
+                                ("resources/slavemodule.txt", lambda b: b"other_entry", "resources/slavemodule.txt"),
+                                (entry, lambda b: b.replace(b"\n", b"\r\n"), None),   # a Windows build's
+                                ("modelDescription.xml", lambda b: b, added)):   # only a Python file added
+        edited = tmp_path / f"{member.replace('/', '_')}_{named is None}" / "fmus"
         shutil.copytree(fmu_dir, edited)
         with zipfile.ZipFile(fmu_dir / "Load.fmu") as old, zipfile.ZipFile(edited / "Load.fmu", "w") as new:
             for item in old.infolist():
                 data = old.read(item.filename)
                 new.writestr(item, edit(data) if item.filename == member else data)
-        with pytest.raises(ScenarioError, match=f"Load.fmu was changed after its build: {re.escape(member)} differ"):
+            if member in ("resources/slavemodule.txt", "modelDescription.xml"):
+                new.writestr(added, "import os\n")
+        if named is None:
+            scenario.check_fmus(edited)   # line endings are no edit
+            continue
+        with pytest.raises(ScenarioError, match=f"Load.fmu was changed after its build: {re.escape(named)}"):
             scenario.check_fmus(edited)
         assert main(["--fmu-dir", str(edited), "check", str(SCENARIOS / "cardan_startup.toml"), "--no-plot",
                      "--out", str(tmp_path / "out")]) == 2
         assert "rebuild it" in capsys.readouterr().out
     scenario.check_fmus(fmu_dir)   # the build itself: accepted
+
+
+def test_another_pythonfmu_makes_the_fmus_stale(monkeypatch):
+    """An FMU carries pythonfmu's files: one built with another pythonfmu had been reported as edited by hand; its
+    build hash covers pythonfmu's version, so it is stale, with the rebuild as remedy."""
+    import pythonfmu
+
+    from ujfmu import build
+    before = build.source_hash("load")
+    monkeypatch.setattr(pythonfmu, "__version__", pythonfmu.__version__ + ".post1")
+    assert build.source_hash("load") != before
 
 
 def test_an_edit_of_the_module_that_writes_the_model_description_makes_the_fmus_stale(tmp_path, monkeypatch):
@@ -1060,7 +1087,7 @@ def test_check_names_the_bands_that_check_the_level_only(fmu_dir, tmp_path, caps
     out, err = capsys.readouterr()
     assert ("--strict: 1 scenario(s) compare through bands that check the level only, not the course: "
             "cardan_constant_speed: joint.tau_in (") in err
-    assert "0 passed, 1 failed (1 by --strict: bands that check the level only), 0 not checked" in out
+    assert "0 passed, 1 failed (--strict: 1 by bands that check the level only), 0 not checked" in out
     suite = ET.parse(junit).getroot()
     assert suite.get("failures") == "1"
     assert suite.find("testcase").find("failure").get("message").endswith("(--strict): joint.tau_in")
@@ -1092,6 +1119,11 @@ def test_a_reference_sampled_below_the_joints_order_is_named_not_blamed_on_the_m
         if passes is None:   # 99 instants shared with the run: compared there, not interpolated
             assert not [c for c in result.sampling_checks if "reference file" in str(c)]
             continue
+        if every == 50:   # a file of signals flat within their bands (a load's constant torque) is not judged
+            flat = Scenario(path)
+            flat.tolerances = {name: flat.tolerances[name] for name in ("joint.M_z", "load.tau")}
+            assert not [c for c in run_scenario(flat, fmu_dir, out_dir=None, plot=False).sampling_checks
+                        if "reference file" in str(c)]
         [check] = [c for c in result.sampling_checks if "reference file" in str(c)]
         assert check.passed is passes and check.interval == pytest.approx(every * 1e-3)
         if not passes:
@@ -1131,6 +1163,15 @@ def test_bench_data_in_rpm_or_milliseconds_is_named_as_such(fmu_dir, tmp_path):
         checks["joint.omega_out"]) and "the reference is 9.549 times the run here" in str(checks["joint.omega_out"])
     assert "as if the file held the opposite sign convention" in str(checks["joint.tau_in"])
     assert checks["joint.M_x"].passed and not checks["joint.M_x"].note
+    # a zero-mean 2x logged a quarter revolution late reads as the run's negative: no sign convention is blamed
+    moment = head.index('"joint.M_x"')
+    late = [row[moment] for row in rows[-25:] + rows[:-25]]
+
+    def quarter_late(row, values=iter(late)):
+        row[moment] = next(values)
+        return row
+    checks = {c.name: c for c in run_scenario(bench("late", quarter_late), fmu_dir, out_dir=None, plot=False).checks}
+    assert not checks["joint.M_x"].passed and "sign convention" not in str(checks["joint.M_x"])
 
     def in_ms(row):
         row[0] *= 1000.0

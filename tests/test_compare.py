@@ -447,3 +447,20 @@ def test_a_steady_run_states_its_orders_over_the_steady_window(fmu_dir):
     basis = np.column_stack([np.ones_like(angle)] + [f(j * angle) for j in range(1, 9) for f in (np.cos, np.sin)])
     coef = np.linalg.lstsq(basis, steady["rotor.X2"], rcond=None)[0]
     assert figures["X2"][0] == pytest.approx(math.hypot(coef[1], coef[2]), rel=2e-4)
+
+
+def test_a_unit_slip_is_named_by_the_signals_unit_and_not_for_a_wave_out_of_phase():
+    """unit_slip names a measured column that is the run's signal times a unit's factor: rpm only for a speed, the
+    other sign only where the signal has a clear mean (a zero-mean wave half a period late is its own negative too),
+    nothing for a reference that does not vary (any two constants have some ratio)."""
+    from ujfmu.scenario_run import unit_slip
+    t = np.linspace(0.0, 1.0, 1001)
+    wave = np.sin(2.0 * np.pi * 5.0 * t)
+    speed = 100.0 + 5.0 * wave
+    assert "rpm where rad/s is meant" in unit_slip(speed, speed * 30.0 / np.pi, "rad/s")
+    assert unit_slip(speed, speed * 30.0 / np.pi, "N.m") == ""
+    assert "degrees where rad is meant" in unit_slip(wave, np.degrees(wave), "rad")
+    torque = 0.3 + 0.05 * wave
+    assert "the opposite sign convention" in unit_slip(torque, -torque, "N.m")
+    assert unit_slip(wave, -wave, "N.m") == ""   # half a period late
+    assert unit_slip(np.full(11, 300.0), np.full(11, 0.3), "N.m") == ""

@@ -94,10 +94,13 @@ WRITERS = (Path(__file__),)
 
 def source_hash(stem: str) -> str:
     """Hash of everything an FMU of model stem ships: the version, the build digest of its runtime sources (which
-    also tags the FMU's serialized states) and this module, which writes its modelDescription; so a changed model
-    never reuses an old module name, and an FMU built before a change of either is found stale."""
+    also tags the FMU's serialized states), pythonfmu's version (whose files it carries) and this module, which
+    writes its modelDescription; so a changed model never reuses an old module name, and an FMU built before a
+    change of any is found stale."""
+    import pythonfmu
+
     from .fmu.base import sources_digest
-    digest = hashlib.sha256(f"{__version__} {sources_digest(stem)}".encode())
+    digest = hashlib.sha256(f"{__version__} {sources_digest(stem)} pythonfmu {pythonfmu.__version__}".encode())
     for path in WRITERS:
         digest.update(b"\0" + path.read_bytes())
     return digest.hexdigest()[:10]
@@ -107,6 +110,11 @@ def source_hash(stem: str) -> str:
 def build_all(dest=DEFAULT_FMU_DIR, names=None):
     """Build the named FMUs (default: all) into dest; returns their paths."""
     return [build_fmu(name, dest) for name in (names or FMUS)]
+
+
+def runtime_title(name: str, fmi3: bool = False) -> str:
+    """The docstring of the runtime package of ujfmu's FMU ``name`` (its ``__init__.py``: ``stage_runtime``)."""
+    return f"ujfmu {__version__} runtime for {name}.fmu" + (" (FMI 3.0)." if fmi3 else ".")
 
 
 def stage_runtime(package: Path, title: str, files: list) -> Path:
@@ -143,7 +151,7 @@ def build_fmu(name, dest=DEFAULT_FMU_DIR, pass_through=False):
 
     stem, cls_name = FMUS[name]
     cls = fmu_class(name)
-    import_line = f"from {{unique}}.models.{stem}.fmu import {cls_name}\n"
+    import_line = None   # the shipped entry point (shipped_entry), or the pass-through twin's
     if pass_through:
         from .fmu.passthrough import pass_through as twin
         cls = twin(cls)
@@ -157,9 +165,10 @@ def build_fmu(name, dest=DEFAULT_FMU_DIR, pass_through=False):
     unique = f"ujfmu_{name.lower()}_{source_hash(stem)}"
     with tempfile.TemporaryDirectory(prefix="ujfmu_build_") as tmp:
         stage = Path(tmp)
-        package = stage_runtime(stage / unique, f"ujfmu {__version__} runtime for {name}.fmu.", runtime_files(stem))
+        package = stage_runtime(stage / unique, runtime_title(name), runtime_files(stem))
         entry = stage / f"{unique}_entry.py"
-        entry.write_text(entry_source(name, import_line.format(unique=unique)))
+        entry.write_text(shipped_entry(name, unique) if import_line is None
+                         else entry_source(name, import_line.format(unique=unique)))
         docs = stage / "documentation"
         docs.mkdir()
         (docs / "index.html").write_text(documentation_html(name, cls))

@@ -26,8 +26,8 @@ import zipfile
 from pathlib import Path
 
 from . import __version__
-from .build import (DEFAULT_FMU_DIR, FMUS, PACKAGE_DIR, UNITS, documentation_html, fmu_class, source_hash,
-                    stage_runtime, write_archive)
+from .build import (DEFAULT_FMU_DIR, FMUS, PACKAGE_DIR, UNITS, documentation_html, fmu_class, runtime_title,
+                    source_hash, stage_runtime, write_archive)
 
 #: default folder of the FMI 3.0 FMUs (same file names as the FMI 2.0 ones: a scenario runs either version with
 #: --fmu-dir)
@@ -102,7 +102,7 @@ def build_fmu3(name: str, dest=DEFAULT_FMU3_DIR) -> Path:
     unique = f"ujfmu3_{name.lower()}_{fmi3_hash(stem)}"
     with tempfile.TemporaryDirectory(prefix="ujfmu_build3_") as tmp:
         stage = Path(tmp)
-        package = stage_runtime(stage / unique, f"ujfmu {__version__} runtime for {name}.fmu (FMI 3.0).",
+        package = stage_runtime(stage / unique, runtime_title(name, fmi3=True),
                                 runtime_files(stem) + [f"fmu3/{p.name}"
                                                        for p in sorted((PACKAGE_DIR / "fmu3").glob("*.py"))])
         shipped = stage / "pythonfmu"   # the pure-Python part the declarations import (not its builder's binaries)

@@ -489,10 +489,15 @@ def _check(args, kind: str) -> int:
                              level_only_fail=args.strict)
         _say(args, f"JUnit report: {report}")
     strict_failed = loose if args.strict else []   # passed their bands, failed by --strict (JUnit cases too)
+    strict_unchecked = unchecked if args.strict or len(unchecked) == len(results) else []   # failed cases too
+    why = ([f"{len(strict_failed)} by bands that check the level only"] if strict_failed else []) + (
+        [f"{len(strict_unchecked)} compare{'s' if len(strict_unchecked) == 1 else ''} nothing"]
+        if strict_unchecked else [])
     print(f"{len(results) - len(failed) - len(unchecked) - len(strict_failed)} passed, "
-          f"{len(failed) + len(strict_failed)} failed"
-          + (f" ({len(strict_failed)} by --strict: bands that check the level only)" if strict_failed else "")
-          + f", {len(unchecked)} not checked" + (f", {len(errors)} could not run" if errors else "")
+          f"{len(failed) + len(strict_failed) + len(strict_unchecked)} failed"
+          + (f" ({'--strict: ' if args.strict else ''}{', '.join(why)})" if why else "")
+          + f", {len(unchecked) - len(strict_unchecked)} not checked"
+          + (f", {len(errors)} could not run" if errors else "")
           + (f", {len(skipped)} skipped (no Model Exchange wiring: {', '.join(skipped)})" if skipped else ""))
     if unchecked:
         print(f"not checked (no [reference] with tolerances): {', '.join(r.scenario.name for r in unchecked)}",
@@ -680,8 +685,8 @@ def cmd_sweep(args):
             print("\n".join(f"  {line}" for check in checks for line in check.lines(scenario)))
             step_ok = all(check.passed for check in checks)
     else:
-        print("  the order amplitudes carry the run's error at this step and coupling: --check-step reruns the "
-              "peak point at half the step to estimate it")
+        print("  the order amplitudes carry the run's error at this step and coupling: --check-step reruns each "
+              "output's peak point at half the step to estimate it")
     print(_status_summary(sweep.status_counts(), len(sweep.points), steady_checked=bool(sweep.settings.steady_tol)),
           file=sys.stderr if failed else sys.stdout)
     return 1 if failed or not step_ok else 0
@@ -1088,8 +1093,8 @@ def _main(raw: list):
     p.add_argument("--step", metavar="SECONDS", help="communication step instead of the scenario's (as for run; "
                                                      "points of the journal at another step are not reused)")
     p.add_argument("--check-step", action="store_true",
-                   help="rerun the peak point at half the step and estimate the order amplitudes' error (exit "
-                        "status 1 if above 2%%)")
+                   help="rerun each output's peak point at half the step and estimate the order amplitudes' error "
+                        "(exit status 1 if above 2%%)")
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core, or this process "
                                                "alone where dask's distributed is not installed; 0: no dask)")
     p.add_argument("--extend", action="store_true",

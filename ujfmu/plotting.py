@@ -261,7 +261,7 @@ def plot_sweep(sweep, out_dir):
                       f"{len(ax.values)} sampled points of ({ax.label})" if ax.sampled else
                       f"{ax.label} {axis_value(ax, min(ax.values)):.4g}..{axis_value(ax, max(ax.values)):.4g} "
                       f"{axis_unit(ax)}" for ax in sweep.axes)
-    fixed = ", ".join(scenario.change_text(k, v) for k, v in scenario.changes.items())   # a --set copy's values
+    fixed = ", ".join(scenario.change_text(k, v) for k, v in sweep.fixed_parameters().items())   # --set, unswept
     heading = (f"{sweep.name}: {swept}, the rest as in scenario {scenario.name}"
                + (f" ({fixed})" if fixed else ""))
 

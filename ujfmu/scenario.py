@@ -268,10 +268,11 @@ def stale_build(path: Path, fmu: str) -> tuple:
 
 def edited_members(path: Path, fmu: str) -> list:
     """The members of an FMU file of ujfmu's model fmu whose bytes differ from what its build ships: its runtime
-    package's sources (this ujfmu's, the build hash in the package's name being theirs: :func:`stale_build`), its
-    entry point, and the pythonfmu packages copied from the installed ones; [] for a file without a ujfmu runtime
-    package or one that cannot be read. An FMU edited by hand, or with another build's files copied in, keeps the
-    name whose hash :func:`stale_build` compares."""
+    package (this ujfmu's sources, the build hash in the package's name being theirs: :func:`stale_build`, and its
+    docstring), its entry point and the module pythonfmu loads (``slavemodule.txt``), the pythonfmu packages
+    copied from the installed ones, and any other Python file under resources/; [] for a file without a ujfmu
+    runtime package or one that cannot be read. An FMU edited by hand, or with another build's files copied in,
+    keeps the name whose hash :func:`stale_build` compares."""
     import importlib.util
     try:
         with zipfile.ZipFile(path) as archive:
@@ -280,12 +281,16 @@ def edited_members(path: Path, fmu: str) -> list:
                 return []
             entry = entries[0].group(0)
             unique = entry[len("resources/"):-len("_entry.py")]
-            if entries[0].group(1):
+            from .build import runtime_title
+            fmi3 = bool(entries[0].group(1))
+            if fmi3:
                 from .build3 import shipped_entry3
                 expected = {entry: shipped_entry3(fmu, unique).encode()}
             else:
                 from .build import shipped_entry
                 expected = {entry: shipped_entry(fmu, unique).encode()}
+            expected[f"resources/{unique}/__init__.py"] = f'"""{runtime_title(fmu, fmi3)}"""\n'.encode()
+            expected["resources/slavemodule.txt"] = f"{unique}_entry".encode()
             roots = {f"resources/{unique}/": PACKAGE_DIR}
             for package in ("pythonfmu", "pythonfmu3"):
                 spec = importlib.util.find_spec(package)
@@ -298,8 +303,10 @@ def edited_members(path: Path, fmu: str) -> list:
                 else:
                     root = next((r for r in roots if name.startswith(r)), None)
                     rel = name[len(root):] if root else ""
-                    if not rel or name == f"resources/{unique}/__init__.py" or rel.endswith("/"):
-                        continue   # not a copied source (the package's own docstring, a folder)
+                    if not rel or rel.endswith("/"):   # no copied source: a folder, or none of the build's code
+                        if name.startswith("resources/") and name.endswith(".py"):
+                            edited.append(name)   # Python that no build ships
+                        continue
                     source = roots[root] / rel
                     shipped = source.read_bytes() if source.is_file() else None
                 if shipped is None or archive.read(name).replace(b"\r\n", b"\n") != shipped.replace(b"\r\n", b"\n"):

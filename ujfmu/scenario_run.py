@@ -479,18 +479,26 @@ class ReferenceSamplingCheck(SamplingCheck):
 
 def check_reference_sampling(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -> list:
     """A ReferenceSamplingCheck per component of :func:`sampled_components` whose omega_in is in table, where
-    :func:`compare` interpolates the reference (it shares too few instants with the record) and its largest time
-    step over the run's span is larger than the record's (compared at shared instants, or on a grid as fine, the
-    record's own check covers it)."""
-    t, times = table["time"], reference["time"]
-    times = times[(times >= t[0] - 1e-9) & (times <= t[-1] + 1e-9)]
+    :func:`compare` interpolates the reference (it shares too few instants with the record), its largest time step
+    over the run's span, the samples bracketing it included, is larger than the record's (compared at shared
+    instants, or on a grid as fine, the record's own check covers it) and a compared column varies by more than its
+    band (a tachometer's flat speed is interpolated without loss)."""
+    t, times = table["time"], np.asarray(reference["time"], dtype=float)
     if len(t) < 2 or len(times) < 2:
         return []
+    first = max(int(np.searchsorted(times, t[0] - 1e-9, side="right")) - 1, 0)   # the sample at or before t[0]
+    last = min(int(np.searchsorted(times, t[-1] + 1e-9, side="left")) + 1, len(times))   # at or after t[-1]
+    times = times[first:last]
     mine, _ = common_instants(t, reference["time"], 1e-9 * max(1.0, abs(float(t[-1]))))
-    if len(mine) >= min(MIN_COMMON_INSTANTS, len(t)):
+    if len(times) < 2 or len(mine) >= min(MIN_COMMON_INSTANTS, len(t)):
         return []
     interval = float(np.max(np.diff(times)))
     if interval <= float(np.max(np.diff(t))) * (1.0 + 1e-9):
+        return []
+    spans = {name: float(np.ptp(reference[name][first:last])) for name in scenario.tolerances
+             if name in reference.dtype.names}
+    if not any(spans[name] > tol.rel_range * spans[name] + tol.abs for name, tol in scenario.tolerances.items()
+               if name in spans):
         return []
     return [ReferenceSamplingCheck(name, order, float(np.max(np.abs(table[f"{name}.omega_in"]))), interval)
             for name, order in sampled_components(scenario) if f"{name}.omega_in" in table.dtype.names]
@@ -852,6 +860,11 @@ class ScenarioResult:
         elsewhere = here != Path(DEFAULT_FMU3_DIR if fmi3 else DEFAULT_FMU_DIR).resolve()
         return (" --fmi 3" if fmi3 else "") + (f" --fmu-dir {self.fmu_dir}" if elsewhere else "")
 
+    def _record_sampling(self) -> list:
+        """The sampling checks of the run's own record (not of a reference file's: ReferenceSamplingCheck), which
+        its steady window's figures depend on."""
+        return [c for c in self.sampling_checks if not isinstance(c, ReferenceSamplingCheck)]
+
     def steady_orders(self) -> dict:
         """{signal: SteadyOrders} of the recorded signals (but those that grow: angles, energies) over the steady
         window, the figures the summary prints. ValueError naming the cause and the remedy where there are none to
@@ -859,7 +872,7 @@ class ScenarioResult:
         steady-window or sampling check failed (a transient's, or an aliased record's, figures)."""
         if self.table is None:
             raise ValueError(f"{self.scenario.name}: no results (the run did not complete)")
-        failed = [str(c) for c in self.steady_checks + self.sampling_checks if not c.passed]
+        failed = [str(c) for c in self.steady_checks + self._record_sampling() if not c.passed]
         if failed:
             raise ValueError(f"{self.scenario.name}: no orders over the steady window, as its check failed: "
                              + "; ".join(failed))
@@ -879,7 +892,7 @@ class ScenarioResult:
         figures = steady_orders(self.scenario, self.table)
         if not figures:
             return []
-        if not all(c.passed for c in self.steady_checks + self.sampling_checks):
+        if not all(c.passed for c in self.steady_checks + self._record_sampling()):
             return [f"  orders over the steady window from t = {self.scenario.steady_from:g} s: not given, as the "
                     "steady-window or sampling check above failed (a transient's, or an aliased record's, figures)"]
         width = max(len(name) for name in figures)
@@ -960,7 +973,7 @@ class ScenarioResult:
         def average(values):
             """The time average of values over [times[0], times[0] + end] (trapezoidal, the value at its end
             interpolated; the one value of a single instant): over whole revolutions, a periodic signal's orders
-            cancel (over 15.9 revolutions a twin rotor's 25 N.m 2x had moved tau_in's mean by 6%)."""
+            cancel (over 15.9 revolutions a twin rotor's 25 N.m 2x moves tau_in's time average by 6%)."""
             if not end > 0.0:
                 return float(np.mean(values))
             inside = times - times[0] < end
@@ -1081,38 +1094,47 @@ def common_instants(t: np.ndarray, t_ref: np.ndarray, slack: float) -> tuple:
     return np.nonzero(hit)[0], nearest[hit]
 
 
-#: (factor, what it suggests): a reference column that is a run's signal times one of these (within
-#: ``SLIP_FIT``) holds another unit or sign convention than the run's (:func:`unit_slip`)
-UNIT_SLIPS = ((30.0 / math.pi, "rpm where rad/s is meant"), (180.0 / math.pi, "degrees where rad is meant"),
-              (1.0 / (2.0 * math.pi), "revolutions (rev/s, Hz) where rad is meant"),
-              (1000.0, "thousandths (mm, N.mm, ms) where the SI unit is meant"),
-              (1e-3, "thousands (kN.m, km) where the SI unit is meant"),
-              (-1.0, "the opposite sign convention (README, \"Port and sign conventions\")"))
+#: (factor, what it suggests, the signal units it can apply to; None: any) for a measured reference column that is
+#: the run's signal times the factor (:func:`unit_slip`)
+UNIT_SLIPS = ((30.0 / math.pi, "rpm where rad/s is meant", ("rad/s",)),
+              (180.0 / math.pi, "degrees where rad is meant", ("rad", "rad/s", "rad/s2")),
+              (1.0 / (2.0 * math.pi), "revolutions (rev, rev/s) where rad is meant", ("rad", "rad/s", "rad/s2")),
+              (1000.0, "thousandths (mm, N.mm) where the SI unit is meant", None),
+              (1e-3, "thousands (kN.m, km) where the SI unit is meant", None),
+              (-1.0, "the opposite sign convention (README, \"Port and sign conventions\")", None))
 #: the share by which the fitted factor and the fit's RMS residual (of the reference's RMS) may miss for a slip
 SLIP_FIT = 0.03
 
 
-def unit_slip(values: np.ndarray, reference: np.ndarray) -> str:
-    """A note where the reference is the run's values times one of ``UNIT_SLIPS`` (least-squares factor within
-    SLIP_FIT of it, the fit's residual within SLIP_FIT of the reference's RMS), else ""."""
+def unit_slip(values: np.ndarray, reference: np.ndarray, unit: str = "") -> str:
+    """A note where a measured reference varies and is the run's values times one of the ``UNIT_SLIPS`` that can
+    apply to the signal's unit (least-squares factor within SLIP_FIT of it, the fit's residual within SLIP_FIT of
+    the reference's RMS; for the opposite sign, a mean of at least half the RMS: a zero-mean wave half a period
+    late is no sign slip), else ""."""
     values, reference = np.asarray(values, dtype=float), np.asarray(reference, dtype=float)
     power = float(np.dot(values, values))
-    if not power > 0.0 or not np.all(np.isfinite(reference)):
+    rms = float(np.sqrt(np.mean(np.square(reference)))) if len(reference) else 0.0
+    if not power > 0.0 or not np.all(np.isfinite(reference)) or not np.ptp(reference) > 1e-6 * rms:
         return ""
     factor = float(np.dot(reference, values)) / power
-    rms = float(np.sqrt(np.mean(np.square(reference))))
-    for slip, what in UNIT_SLIPS:
+    for slip, what, units in UNIT_SLIPS:
+        if units is not None and unit not in units:
+            continue
+        if slip < 0.0 and not abs(float(np.mean(reference))) >= 0.5 * rms:
+            continue
         if (abs(factor / slip - 1.0) <= SLIP_FIT
                 and float(np.sqrt(np.mean(np.square(reference - factor * values)))) <= SLIP_FIT * rms):
-            return (f"the reference is {factor:.4g} times the run here, as if the file held {what}: the file's columns "
-                    "are in the run's SI units and sign conventions")
+            return (f"the reference is {factor:.4g} times the run here, as if the file held {what} (the file's "
+                    "columns are in the run's SI units and sign conventions), or the scenario's parameters differ "
+                    "from the measured setup's by that factor")
     return ""
 
 
-def compare(table, reference, tolerances, units: dict | None = None) -> list:
+def compare(table, reference, tolerances, units: dict | None = None, measured: bool = False) -> list:
     """Check each toleranced signal: max |result - reference| <= rel_range*(range of reference) + abs; the range
     is the reference's over the result's time span (a reference longer than the run does not widen the band).
-    units: {signal: unit} printed beside its errors.
+    units: {signal: unit} printed beside its errors. measured: the reference is a file of measurements (it names
+    no generator): a failing signal that is the file's times a unit's factor says so (:func:`unit_slip`).
 
     The two are compared at the instants both grids hold (any step that divides the reference's, or a multiple of
     it): interpolating a sampled reference between its points would add its own error (a 2x-per-revolution ripple
@@ -1147,18 +1169,22 @@ def compare(table, reference, tolerances, units: dict | None = None) -> list:
                           f"at least half the reference's range ({span:.3g}), so a flat line through its middle would "
                           "pass; tighten it where the course matters (`ujfmu run --check-step` estimates this step's "
                           "error)")
-        if not check.passed and not check.note:
-            check.note = unit_slip(values, values - error)
+        if measured and not check.passed and not check.note:
+            check.note = unit_slip(values, values - error, check.unit)
         checks.append(check)
     return checks
 
 
 def milliseconds_hint(scenario: Scenario, reference: np.ndarray) -> str:
     """'; its times look like milliseconds ...' for a reference that names no generator whose times, read as
-    milliseconds, span the experiment (to 5% of it) and run past 100 times its end; "" otherwise."""
+    milliseconds, span the experiment (to 5% of it) and run past 100 times its end, sampled at least 100 times
+    more coarsely than the run's step (a logger's millisecond clock read as seconds); "" otherwise (a long log in
+    seconds samples finely)."""
     t0, t1 = float(reference["time"][0]), float(reference["time"][-1])
     span = scenario.stop_time - scenario.start_time
-    if (scenario.reference_generator or not t1 > 100.0 * max(abs(scenario.stop_time), span)
+    steps = np.diff(np.asarray(reference["time"], dtype=float))
+    if (scenario.reference_generator or not len(steps) or not float(np.median(steps)) >= 100.0 * scenario.step_size
+            or not t1 > 100.0 * max(abs(scenario.stop_time), span)
             or not 1e-3 * t0 <= scenario.start_time + 0.05 * span
             or not scenario.stop_time - 0.05 * span <= 1e-3 * t1 <= scenario.stop_time + span):
         return ""
@@ -1295,11 +1321,12 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                             model_exchange=model_exchange)
     if scenario.compares:   # its reference read above
         units = {name: scenario.unit(name) for name in {**scenario.tolerances, **scenario.extrapolated_tolerances}}
-        result.checks = compare(table, reference, scenario.tolerances, units)
+        result.checks = compare(table, reference, scenario.tolerances, units,
+                                measured=not scenario.reference_generator)
         slip = milliseconds_hint(scenario, reference).replace("; its times", "the reference file's times", 1)
-        for check in result.checks if slip else ():   # the cause of every failure, before what it makes them look
+        for check in result.checks if slip else ():   # the likely cause of every failure, first
             if not check.passed:
-                check.note = slip
+                check.note = slip + (f"; {check.note}" if check.note else "")
         from .references import method_of, setup_of
         if setup_of(provenance) is None and len(table) > 2 and all(c.max_error == 0.0 for c in result.checks):
             raise ScenarioError(f"{scenario.path}: [reference] file {scenario.reference_file} equals this run to the "

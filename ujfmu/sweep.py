@@ -1346,8 +1346,11 @@ class Sweep:
                 continue
             key = json.dumps(peak["point"], sort_keys=True, default=str)
             peaks.setdefault(key, (peak, []))[1].append(output)
-        if not peaks and ok and outputs is None:   # every output's orders round-off: the first output's peak
-            return self.step_checks(rel_tol, self.settings.outputs[:1])
+        if not peaks and ok and outputs is None:   # every output's orders round-off: the first output's peak,
+            checks = self.step_checks(rel_tol, self.settings.outputs[:1])   # named as no output's
+            for check in checks:
+                check.peaking = []
+            return checks
         return [self._step_check_at(peak, names, rel_tol) for peak, names in peaks.values()]
 
     def _step_check_at(self, peak: dict, peaking: list, rel_tol: float) -> "StepCheck":

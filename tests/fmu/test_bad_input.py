@@ -251,7 +251,8 @@ def test_a_stiffness_beyond_any_step_is_refused_naming_its_rate_and_the_paramete
     assert "stiffness, damping and inertia" in message and "not fewer in all" in message
     assert "RK4" not in message   # the double Cardan steps with an exponential Adams method: the count is its rule's
     # the model's parts' rates follow, the fastest first, each with the parameters that set it
-    assert ("; the parts of the model that set it, by the bound of their rates at these parameters, the fastest first: "
+    assert ("; the parameters to check, by the bound of the natural rate of each part of the model at these "
+            "parameters, the fastest first: "
             "the intermediate shaft's torsion (k_theta = 1e+09 N.m/rad, xi_theta = 0.01 s, J_load = 0.0045 kg.m2) "
             "2.38e+09 1/s, the lateral support") in message, message
     # a support meant rigid (a trial's k_phi = 1e12 N/m at Omar's xi_phi): its motion is named first

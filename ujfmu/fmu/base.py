@@ -744,8 +744,8 @@ class ModelSlave(UjfmuSlave):
             sources = getattr(self.MODEL, "rate_sources", None)
             if sources is None or not sources(self._p):
                 raise
-            raise ValueError(f"{exc}; the parts of the model that set it, by the bound of their rates at these "
-                             "parameters, the fastest first: "
+            raise ValueError(f"{exc}; the parameters to check, by the bound of the natural rate of each part of "
+                             "the model at these parameters, the fastest first: "
                              + ", ".join(f"{what} {rate:.3g} 1/s"
                                          for what, rate in sorted(sources(self._p), key=lambda s: -s[1]))) from None
         if not math.isfinite(sum(y)) and not all(map(math.isfinite, y)):   # a sum is finite unless one is not

@@ -396,38 +396,38 @@ def natural_rate_bound(p: Parameters) -> float:
 
 
 def rate_sources(p: Parameters, flange_inertia: float = math.inf) -> list:
-    """(what, rate [1/s]) of each part of :func:`natural_rate_bound`'s traces, sqrt(stiffness) + damping of each with
-    the parameters that set it: the shafts' torsion (with a free gearbox flange of flange_inertia [kg.m2]: the
-    torque-driven rotor's K1T / J_in, C1T / J_in) and each disc's lateral motion. A step refused for its substeps
-    names them."""
-    r = 1.0 / p.cos_beta
-    g = 1.1 * abs(p.sin_beta) / p.cos_beta + 0.01
-    j1, j2 = p.disc1["j_eff"], p.disc2["j_eff"]
-    lat1, lat2 = p.slope1 ** 2 * g * g, p.slope2 ** 2 * g * g
-    torsion = ((p.K1T + p.K2T * r * r) / j1 + p.K2T / j2 + p.K1T / flange_inertia,
-               (p.C1T + p.C2T * r * r) / j1 + p.C2T / j2 + p.C1T / flange_inertia)
-    disc1 = ((p.K1X + p.K1Y + 2.0 * p.K2T * lat1) / p.disc1["M"], (p.C1X + p.C1Y + 2.0 * p.C2T * lat1) / p.disc1["M"])
-    disc2 = ((p.K2X + p.K2Y + 2.0 * p.K2T * lat2) / p.disc2["M"], (p.C2X + p.C2Y + 2.0 * p.C2T * lat2) / p.disc2["M"])
+    """(what, rate [1/s]) of each part of :func:`natural_rate_bound`'s traces (:func:`_rate_parts`), sqrt(stiffness)
+    + damping of each with the parameters that set it: the shafts' torsion (with a free gearbox flange of
+    flange_inertia [kg.m2]: the torque-driven rotor's K1T / J_in, C1T / J_in) and each disc's lateral motion. A step
+    refused for its substeps names them."""
+    (kt, ct), (k1, c1), (k2, c2) = _rate_parts(p, p.cos_beta, p.sin_beta)
+    kt, ct = kt + p.K1T / flange_inertia, ct + p.C1T / flange_inertia
     return [(f"the shafts' torsion (K1T = {p.K1T:g}, K2T = {p.K2T:g} N.m/rad, C1T = {p.C1T:g}, C2T = {p.C2T:g} "
-             f"N.m.s/rad, on J_M1 = {p.J_M1:g}, J_M2 = {p.J_M2:g} kg.m2)", math.sqrt(torsion[0]) + torsion[1]),
+             f"N.m.s/rad, on J_M1 = {p.J_M1:g}, J_M2 = {p.J_M2:g} kg.m2)", math.sqrt(kt) + ct),
             (f"disc 1's lateral motion (K1X = {p.K1X:g}, K1Y = {p.K1Y:g} N/m, C1X = {p.C1X:g}, C1Y = {p.C1Y:g} N.s/m, "
-             f"M1 = {p.M1:g} kg)", math.sqrt(disc1[0]) + disc1[1]),
+             f"M1 = {p.M1:g} kg)", math.sqrt(k1) + c1),
             (f"disc 2's lateral motion (K2X = {p.K2X:g}, K2Y = {p.K2Y:g} N/m, C2X = {p.C2X:g}, C2Y = {p.C2Y:g} N.s/m, "
-             f"M2 = {p.M2:g} kg)", math.sqrt(disc2[0]) + disc2[1])]
+             f"M2 = {p.M2:g} kg)", math.sqrt(k2) + c2)]
 
 
-def _rate_traces(p: Parameters, cos_beta: float, sin_beta: float) -> tuple:
-    """(trace M^-1 K, trace M^-1 C) bounds of :func:`natural_rate_bound` at the joint angle given by its cos, sin."""
+def _rate_parts(p: Parameters, cos_beta: float, sin_beta: float) -> tuple:
+    """((stiffness, damping) trace terms of M^-1 K, M^-1 C) of the shafts' torsion, disc 1's and disc 2's lateral
+    motion at the joint angle given by its cos, sin: the parts :func:`_rate_traces` sums."""
     r = 1.0 / cos_beta
     g = 1.1 * abs(sin_beta) / cos_beta + 0.01
     j1, j2 = p.disc1["j_eff"], p.disc2["j_eff"]
     m1, m2 = p.disc1["M"], p.disc2["M"]
     lat1, lat2 = p.slope1 ** 2 * g * g, p.slope2 ** 2 * g * g
-    stiffness = ((p.K1T + p.K2T * r * r) / j1 + p.K2T / j2 + (p.K1X + p.K1Y + 2.0 * p.K2T * lat1) / m1
-                 + (p.K2X + p.K2Y + 2.0 * p.K2T * lat2) / m2)
-    decay = ((p.C1T + p.C2T * r * r) / j1 + p.C2T / j2 + (p.C1X + p.C1Y + 2.0 * p.C2T * lat1) / m1
-             + (p.C2X + p.C2Y + 2.0 * p.C2T * lat2) / m2)
-    return stiffness, decay
+    return (((p.K1T + p.K2T * r * r) / j1 + p.K2T / j2, (p.C1T + p.C2T * r * r) / j1 + p.C2T / j2),
+            ((p.K1X + p.K1Y + 2.0 * p.K2T * lat1) / m1, (p.C1X + p.C1Y + 2.0 * p.C2T * lat1) / m1),
+            ((p.K2X + p.K2Y + 2.0 * p.K2T * lat2) / m2, (p.C2X + p.C2Y + 2.0 * p.C2T * lat2) / m2))
+
+
+def _rate_traces(p: Parameters, cos_beta: float, sin_beta: float) -> tuple:
+    """(trace M^-1 K, trace M^-1 C) bounds of :func:`natural_rate_bound` at the joint angle given by its cos, sin:
+    the sums of :func:`_rate_parts`."""
+    (kt, ct), (k1, c1), (k2, c2) = _rate_parts(p, cos_beta, sin_beta)
+    return kt + k1 + k2, ct + c1 + c2
 
 
 def step(p: Parameters, t_span: float, phi_in: float, w_in: float,
