@@ -419,14 +419,20 @@ def test_step_auto_stops_where_halving_does_not_shrink_the_error(monkeypatch):
         def estimate(scenario, step, fmu_dir):
             return stepsize.StepEstimate(step, {"joint.tau_in": figures(step)}, {"joint.tau_in": 0.02})
         return estimate
-    scenario = type("S", (), {"step_size": 1e-3})()
+    scenario = type("S", (), {"step_size": 1e-3, "components": {"joint": ("CardanJoint", {})}})()   # speed-driven
     monkeypatch.setattr(stepsize, "estimate", fake(lambda h: 0.081))
     with pytest.raises(CosimulationError, match=r"0.001 s to 0.0005 s did not shrink .* joint.tau_in 8.1% of range -> "
                                                 r"8.1% of range"):
         stepsize.choose(scenario, None)
     monkeypatch.setattr(stepsize, "estimate", fake(lambda h: 0.081 * (1.0 - 0.2 * (h < 1e-3))))   # 0.8x: stalled
-    with pytest.raises(CosimulationError, match="did not shrink"):
+    with pytest.raises(CosimulationError, match="did not shrink") as stalled:
         stepsize.choose(scenario, None)
+    assert "the torque-driven wiring integrates the input shaft instead" in str(stalled.value)
+    # a torque-driven joint is not sent to the wiring it has (a trial's)
+    driven = type("S", (), {"step_size": 1e-3, "components": {"joint": ("CardanJointTorqueDriven", {})}})()
+    with pytest.raises(CosimulationError, match="did not shrink") as stalled:
+        stepsize.choose(driven, None)
+    assert "torque-driven" not in str(stalled.value) and "a drive's torque limit" in str(stalled.value)
     monkeypatch.setattr(stepsize, "estimate", fake(lambda h: 0.081 * h / 1e-3))   # first order
     step, tried = stepsize.choose(scenario, None)
     assert step == 1.25e-4 and len(tried) == 4
