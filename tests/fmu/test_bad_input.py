@@ -232,21 +232,26 @@ def test_non_finite_values_are_refused_even_without_a_declared_range():
         assert var.check(1e300) is None and var.check(-1e-300) is None
 
 
+def refused_first_step(fmu_dir, name: str, parameters: dict) -> str:
+    """The message of the FMU's refusal of its first 1 ms step at these parameters, its inputs at rest."""
+    log = []
+    inst = open_instance(fmu_dir, name, log)
+    try:
+        inst.initialize(parameters)
+        inst.set(**{n: INPUTS[n](0.0) for n in inputs_of(inst)})
+        assert inst.raw("fmi2DoStep")(inst.slave.component, 0.0, 1e-3, 1) != 0
+    finally:
+        inst.free()
+    return log[-1]
+
+
 def test_a_stiffness_beyond_any_step_is_refused_naming_its_rate_and_the_parameters(fmu_dir):
     """k_theta = 1e9 N.m/rad and xi_theta = 0.01 s are inside the declared ranges, but the joints' modulation of
     that shaft's damping (c_theta r^2, r^2 within [cos^2 b, 1/cos^2 b]), which the exponential Adams method takes
     explicitly, has a rate of about 1.6e8 1/s: a 1 ms step would take about 3.2e5 substeps. The step is refused
     with the rate, the count and the parameters to check; a smaller step is said not to help in all. (The shaft's
     own modes, however stiff, set no substep: the method takes them exactly.)"""
-    log = []
-    inst = open_instance(fmu_dir, "DoubleCardanDriveline", log)
-    try:
-        inst.initialize({"k_theta": 1e9, "xi_theta": 0.01})
-        inst.set(**{name: INPUTS[name](0.0) for name in inputs_of(inst)})
-        assert inst.raw("fmi2DoStep")(inst.slave.component, 0.0, 1e-3, 1) != 0
-    finally:
-        inst.free()
-    message = log[-1]
+    message = refused_first_step(fmu_dir, "DoubleCardanDriveline", {"k_theta": 1e9, "xi_theta": 0.01})
     assert "refused" in message and "fastest rate 1.6" in message and "3.23e+05 substeps" in message, message
     assert "stiffness, damping and inertia" in message and "not fewer in all" in message
     assert "RK4" not in message   # the double Cardan steps with an exponential Adams method: the count is its rule's
@@ -256,29 +261,14 @@ def test_a_stiffness_beyond_any_step_is_refused_naming_its_rate_and_the_paramete
             "the intermediate shaft's torsion (k_theta = 1e+09 N.m/rad, xi_theta = 0.01 s, J_load = 0.0045 kg.m2) "
             "2.38e+09 1/s, the lateral support") in message, message
     # a support meant rigid (a trial's k_phi = 1e12 N/m at Omar's xi_phi): its motion is named first
-    log.clear()
-    inst = open_instance(fmu_dir, "DoubleCardanDriveline", log)
-    try:
-        inst.initialize({"k_phi": 1e12})
-        inst.set(**{name: INPUTS[name](0.0) for name in inputs_of(inst)})
-        assert inst.raw("fmi2DoStep")(inst.slave.component, 0.0, 1e-3, 1) != 0
-    finally:
-        inst.free()
+    message = refused_first_step(fmu_dir, "DoubleCardanDriveline", {"k_phi": 1e12})
     assert "the fastest first: the lateral support (k_phi = 1e+12 N/m, xi_phi = 0.002 s, m_s = 4.09 kg) " \
-        "4.89e+08 1/s, the intermediate shaft's torsion" in log[-1], log[-1]
+        "4.89e+08 1/s, the intermediate shaft's torsion" in message, message
 
 
 @pytest.mark.parametrize("name", ["TwinJeffcottRotor", "TwinJeffcottRotorTorqueDriven"])
 def test_a_twin_rotor_step_refused_for_its_substeps_names_the_disc_that_sets_the_rate(fmu_dir, name):
     """C1X = 1e9 N.s/m (the declared maximum) damps disc 1's lateral motion at about 3e8 1/s: a 1 ms step is refused,
     and the message names disc 1's lateral motion, with its parameters, as the fastest of the rotor's parts."""
-    log = []
-    inst = open_instance(fmu_dir, name, log)
-    try:
-        inst.initialize({"C1X": 1e9})
-        inst.set(**{n: INPUTS[n](0.0) for n in inputs_of(inst)})
-        assert inst.raw("fmi2DoStep")(inst.slave.component, 0.0, 1e-3, 1) != 0
-    finally:
-        inst.free()
     assert ("the fastest first: disc 1's lateral motion (K1X = 82081.5, K1Y = 82081.5 N/m, C1X = 1e+09, "
-            "C1Y = ") in log[-1]
+            "C1Y = ") in refused_first_step(fmu_dir, name, {"C1X": 1e9})
