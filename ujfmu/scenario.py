@@ -975,7 +975,8 @@ class Scenario:
                 raise ScenarioError(f"{self.path}: components.{cname}.fmu = {fmu!r}: {path.absolute()} was built from "
                                     f"other sources than this ujfmu's ({PACKAGE_DIR}): its build hash {built}, these "
                                     f"sources' {now} (the model's equations or the FMU layer changed since, or it was "
-                                    f"built by another checkout or version); rebuild it ({build_hint(fmu_dir)}), so "
+                                    f"built by another checkout, ujfmu or pythonfmu version); rebuild it "
+                                    f"({build_hint(fmu_dir)}), so "
                                     "that what is checked is the code you have")
             edited = edited_members(path, fmu)
             if edited:
