@@ -489,8 +489,7 @@ def check_reference_sampling(scenario: Scenario, table: np.ndarray, reference: n
     first = max(int(np.searchsorted(times, t[0] - 1e-9, side="right")) - 1, 0)   # the sample at or before t[0]
     last = min(int(np.searchsorted(times, t[-1] + 1e-9, side="left")) + 1, len(times))   # at or after t[-1]
     times = times[first:last]
-    mine, _ = common_instants(t, reference["time"], 1e-9 * max(1.0, abs(float(t[-1]))))
-    if len(times) < 2 or len(mine) >= min(MIN_COMMON_INSTANTS, len(t)):
+    if len(times) < 2 or shared_instants(t, reference["time"])[2]:
         return []
     interval = float(np.max(np.diff(times)))
     if interval <= float(np.max(np.diff(t))) * (1.0 + 1e-9):
@@ -1094,6 +1093,14 @@ def common_instants(t: np.ndarray, t_ref: np.ndarray, slack: float) -> tuple:
     return np.nonzero(hit)[0], nearest[hit]
 
 
+def shared_instants(t: np.ndarray, t_ref: np.ndarray) -> tuple:
+    """(indices into t, into t_ref, whether compared there) of :func:`common_instants` at the rounding of t's
+    times: :func:`compare` compares at them where they are at least MIN_COMMON_INSTANTS (or all of t), else it
+    interpolates the reference."""
+    mine, theirs = common_instants(t, t_ref, 1e-9 * max(1.0, abs(float(t[-1]))))
+    return mine, theirs, len(mine) >= min(MIN_COMMON_INSTANTS, len(t))
+
+
 #: (factor, what it suggests, the signal units it can apply to; None: any) for a measured reference column that is
 #: the run's signal times the factor (:func:`unit_slip`)
 UNIT_SLIPS = ((30.0 / math.pi, "rpm where rad/s is meant", ("rad/s",)),
@@ -1144,8 +1151,7 @@ def compare(table, reference, tolerances, units: dict | None = None, measured: b
     t = table["time"]
     slack = 1e-9 * max(1.0, abs(float(t[-1])))
     window = (reference["time"] >= t[0] - slack) & (reference["time"] <= t[-1] + slack)
-    mine, theirs = common_instants(t, reference["time"], slack)
-    shared = len(mine) >= min(MIN_COMMON_INSTANTS, len(t))
+    mine, theirs, shared = shared_instants(t, reference["time"])
     for name, tol in tolerances.items():
         if name not in reference.dtype.names:
             raise KeyError(f"signal '{name}' has a tolerance but is not in the reference")

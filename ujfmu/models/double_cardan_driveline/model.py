@@ -351,8 +351,15 @@ def _rate_terms(p: Parameters, input_inertia: float) -> tuple:
     k_phi (L_c cos beta1)^2 e e^T, C = c_theta a a^T + c_phi (L_c cos beta1)^2 e e^T with a = d(twist)/dq =
     (r1, -r2, g), e the lateral coordinate, both bounded by their traces, with r <= 1/cos b and |g| <= the sum of
     |dy/db| <= tan b / (2 cos b) of both joints."""
+    (k_twist, c_twist), (k_support, c_support) = _rate_parts(p, input_inertia)
+    return k_twist + k_support, c_twist + c_support
+
+
+def _rate_parts(p: Parameters, input_inertia: float) -> tuple:
+    """((stiffness, damping) terms of :func:`_rate_terms`) of the intermediate shaft's torsion and of the lateral
+    support, the parts it sums."""
     mobility = _twist_mobility(p, input_inertia)
-    return p.k_theta * mobility + p.k_phi / p.m_s, p.c_theta * mobility + p.c_phi / p.m_s
+    return (p.k_theta * mobility, p.c_theta * mobility), (p.k_phi / p.m_s, p.c_phi / p.m_s)
 
 
 def _twist_mobility(p: Parameters, input_inertia: float) -> float:
@@ -364,16 +371,16 @@ def _twist_mobility(p: Parameters, input_inertia: float) -> float:
 
 
 def rate_sources(p: Parameters, input_inertia: float = math.inf) -> list:
-    """(what, rate [1/s]) of each part of the flexible equations' rate bound (:func:`_rate_terms`; input_inertia as
+    """(what, rate [1/s]) of each part of the flexible equations' rate bound (:func:`_rate_parts`; input_inertia as
     there), sqrt(stiffness) + damping of each with the parameters that set it: the intermediate shaft's torsion and
     the lateral support's motion; [] for a rigid shaft. A step refused for its substeps names them."""
     if p.rigid_intermediate_shaft or not p.J_load > 0.0:
         return []
-    mobility = _twist_mobility(p, input_inertia)
+    (k_twist, c_twist), (k_support, c_support) = _rate_parts(p, input_inertia)
     return [(f"the intermediate shaft's torsion (k_theta = {p.k_theta:g} N.m/rad, xi_theta = {p.xi_theta:g} s, "
-             f"J_load = {p.J_load:g} kg.m2)", math.sqrt(p.k_theta * mobility) + p.c_theta * mobility),
+             f"J_load = {p.J_load:g} kg.m2)", math.sqrt(k_twist) + c_twist),
             (f"the lateral support (k_phi = {p.k_phi:g} N/m, xi_phi = {p.xi_phi:g} s, m_s = {p.m_s:g} kg)",
-             math.sqrt(p.k_phi / p.m_s) + p.c_phi / p.m_s)]
+             math.sqrt(k_support) + c_support)]
 
 
 def natural_rate_bound(p: Parameters, input_inertia: float = math.inf) -> float:
