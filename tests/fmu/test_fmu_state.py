@@ -93,6 +93,29 @@ def test_a_step_from_a_state_saved_before_initialization_is_refused_naming_the_r
     assert any("call fmi2ExitInitializationMode before fmi2DoStep" in m for m in never._log), never._log
 
 
+@pytest.mark.parametrize("name", ["CardanJoint", "TwinJeffcottRotorTorqueDriven"])
+def test_a_step_after_terminate_is_refused_and_reset_runs_again(open_fmu, name):
+    """After fmi2Terminate the outputs stay readable (the run's last values) and a step is refused (fmi2Discard)
+    naming fmi2Reset, also after restoring a state saved while stepping (FMI's state machine allows no step after
+    fmi2Terminate); fmi2Reset and initialization run the same steps again."""
+    inst = open_fmu(name, "ended")
+    inst.initialize()
+    first = run(inst, 0, 10)
+    state = inst.slave.getFMUstate()
+    inst.slave.terminate()
+    assert tuple(inst.get(*outputs_of(inst))) == first[-1]
+    for restore in (False, True):
+        if restore:
+            inst.slave.setFMUstate(state)
+        with pytest.raises(FMICallException):
+            inst.slave.doStep(10 * H, H)
+    assert sum("the instance is terminated" in m and "fmi2Reset" in m for m in inst._log) == 2, inst._log
+    inst.slave.freeFMUstate(state)
+    inst.slave.reset()
+    inst.initialize()
+    assert run(inst, 0, 10) == first
+
+
 @pytest.mark.parametrize("name", list(FMUS))
 def test_reset_returns_to_the_initial_state(open_fmu, name):
     inst = open_fmu(name)

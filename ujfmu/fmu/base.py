@@ -52,6 +52,8 @@ _TYPES = {float: Real, int: Integer, bool: Boolean}
 NOT_INITIALIZED = ("the instance is not initialized: call fmi2ExitInitializationMode before fmi2DoStep; a state "
                    "saved before it and restored by fmi2SetFMUstate has no model state to step from (restore one "
                    "saved after it, or fmi2Reset and initialize again)")
+TERMINATED = ("the instance is terminated (fmi2Terminate ended its run): fmi2Reset and initialize it again, or "
+              "instantiate a new one, to step again")
 #: what the FMU logs when a KeyboardInterrupt was raised in its code (``ujfmu.master`` reports that failure as the
 #: interrupt it is; the FMU's code imports nothing from outside the standard library, so the text is its own copy)
 INTERRUPTED_IN_FMU = "KeyboardInterrupt raised in the FMU's code"
@@ -217,6 +219,7 @@ class UjfmuSlave(Fmi2Slave):
         self._partial = False      # stale only in the outputs of load_outputs (see _input_setter); plumbing
         self._initialized = False  # initialize() has run with the current parameters
         self._running = False      # past fmi2ExitInitializationMode
+        self._terminated = False   # past fmi2Terminate: no more steps
         self._inputs = tuple(v for v in self.VARIABLES if v.causality == "input")
         self._start_time = 0.0
         self._derivation = None    # token of the derive() the DERIVED attributes come from (see _set_fmu_state)
@@ -368,6 +371,8 @@ class UjfmuSlave(Fmi2Slave):
                 setattr(self, key, value)
         self._partial = False
         self._state_outputs_of = None
+        if self._terminated:   # a restored state is read, not stepped, after fmi2Terminate (FMI's state machine)
+            self._running = False
         if not self._initialized:
             self._derivation = None
         elif state.derivation is None or state.derivation is not self._derivation:
@@ -547,10 +552,14 @@ class UjfmuSlave(Fmi2Slave):
                  "starts where the last ended, or after restoring the FMU state saved there. (Said once per "
                  "instance.)", Fmi2Status.warning)
 
+    def terminate(self):
+        """fmi2Terminate: the outputs stay readable, a later fmi2DoStep is refused (:data:`TERMINATED`)."""
+        self._running, self._terminated = False, True
+
     def do_step(self, current_time, step_size):
         try:
             if not self._running:
-                raise ValueError(NOT_INITIALIZED)
+                raise ValueError(TERMINATED if self._terminated else NOT_INITIALIZED)
             if not (step_size > 0.0 and math.isfinite(step_size)):
                 raise ValueError(f"communication step size = {step_size!r} must be finite and > 0")
             values = self.__dict__

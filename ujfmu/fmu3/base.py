@@ -201,7 +201,7 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         core._stale, core._initialized, core._running, core._start_time = True, False, False, 0.0
         core._partial = False
         core._state_vrs, core._state_outputs_of = frozenset(), None   # UjfmuSlave.get_real's, which this FMU bypasses
-        core._derivation = None
+        core._derivation, core._terminated = None, False
         core._inputs = tuple(v for v in model.VARIABLES if v.causality == "input")
         for var in model.VARIABLES:
             setattr(core, var.name, 0.0 if var.causality == "output" else var.type(var.start))
@@ -305,6 +305,9 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
     # --- life cycle ---
     def exit_initialization_mode(self):
         self._guarded(self._core.exit_initialization_mode)()
+
+    def terminate(self):
+        self._core.terminate()
 
     def do_step(self, current_time, step_size):
         core = self._core
