@@ -40,7 +40,9 @@ class SignalCheck:
     note: str = ""   # what the figures mean, where the tolerance's form does not suit the reference
     unit: str = ""   # of the signal, printed beside the errors
     rms_error: float = math.nan   # RMS of the error over the compared samples (shown, not judged)
-    level_only: bool = False   # the band is at least half the reference's range: it checks the level, not the course
+    #: the band is at least half the reference's range, or at least the signal's steady vibration
+    #: (``mark_vibration_blind``): it checks the level, not the course
+    level_only: bool = False
     at: float = math.nan   # the time of the largest error
 
     @property
@@ -77,6 +79,9 @@ START_DOMINANCE = 3.0
 
 #: what a band at least half its reference's range checks (a flat line through the middle passes it)
 LEVEL_ONLY = "checks the level only"
+#: a steady vibration (max |x - mean| over the steady window, the run's or the reference's) of at least this fraction
+#: of the reference's range is a feature of the signal's course, which a band at least as wide cannot see
+VISIBLE_VIBRATION = 0.01
 
 
 #: a reference range below this multiple of the allowed error counts as constant (no "% of range" figure)
@@ -1181,6 +1186,40 @@ def compare(table, reference, tolerances, units: dict | None = None, measured: b
     return checks
 
 
+def mark_vibration_blind(scenario: Scenario, table: np.ndarray, reference: np.ndarray, checks: list) -> None:
+    """Mark as checking the level only (``SignalCheck.level_only``, its note saying why) each check whose band is at
+    least the signal's steady vibration, max |x - mean| over the steady window (``output.steady_from`` on) of the
+    run or of the reference, where that vibration is at least ``VISIBLE_VIBRATION`` of the reference's range and
+    its orders are not compared ([reference.orders]): a signal without the vibration, or a reference without it,
+    passes such a band."""
+    steady = _steady_window(scenario, table)
+    if steady is None:
+        return
+    window = steady[0]
+    since = float(window["time"][0])
+    end = float(window["time"][-1]) + 1e-9 * max(1.0, abs(float(window["time"][-1])))
+    theirs = reference[(reference["time"] >= since - 1e-9 * max(1.0, abs(since))) & (reference["time"] <= end)]
+    orders = steady_orders(scenario, table)
+    for check in checks:
+        if check.level_only or check.name in scenario.order_tolerances or check.name not in window.dtype.names:
+            continue
+        swings = [(float(np.max(np.abs(x - np.mean(x)))), what)
+                  for x, what in ((window[check.name], "the run"), (theirs[check.name], "the reference")) if len(x)]
+        swing, where = max(swings)
+        if not (swing >= VISIBLE_VIBRATION * check.reference_range and check.allowed >= swing > 0.0):
+            continue
+        unit = f" {check.unit}" if check.unit and check.unit != "1" else ""
+        amplitudes = orders.get(check.name, (None, ()))[1]
+        largest = max(((a, k) for k, a in zip(CHECKED_ORDERS, amplitudes) if not math.isnan(a)), default=None)
+        order = f"; the run's largest order there {largest[1]}x, {largest[0]:.3g}{unit}" if largest else ""
+        check.level_only = True
+        check.note = (f"{LEVEL_ONLY} over the steady window from t = {since:g} s: the band, {check.allowed:.3g}"
+                      f"{unit}, is at least the signal's vibration there ({swing:.3g}{unit}, max |x - mean| in "
+                      f"{where}{order}), so a signal without that vibration would pass; compare its orders "
+                      f"([reference.orders] \"{check.name}\" = {{ rel = 0.05 }}) or tighten the band below it"
+                      + (f"; {check.note}" if check.note else ""))
+
+
 def milliseconds_hint(scenario: Scenario, reference: np.ndarray) -> str:
     """'; its times look like milliseconds ...' for a reference that names no generator whose times, read as
     milliseconds, span the experiment (to 5% of it) and run past 100 times its end, sampled at least 100 times
@@ -1343,6 +1382,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                                 "format\")")
         result.reference_method = method_of(provenance)
         result.order_checks = check_orders(scenario, table, reference)
+        mark_vibration_blind(scenario, table, reference, result.checks)
         # fmpy's band scales with each signal's range: a signal constant to within its absolute tolerance (say the
         # output speed of a constant-velocity layout) is checked by compare() alone
         compared = ["time"] + [c.name for c in result.checks if c.reference_range > scenario.tolerances[c.name].abs]
