@@ -1661,3 +1661,72 @@ def test_the_step_check_reruns_each_outputs_peak(tmp_path, fmu_dir):
     assert all(c.passed for c in checks) and checks[1].lines(twin)[0].startswith(
         "step check at the peak of rotor.X2 (motor.omega_set = 117 rad/s (1117.27 rpm))")
     assert sweep.step_check().point == checks[0].point   # the first output's, as before
+
+
+RING_AT_SPEED = """title = "A ring coupling at constant speed against a load"
+[experiment]
+stop_time = 3.0
+step_size = 1e-3
+[components.motor]
+fmu = "Motor"
+parameters = { ideal_speed_source = true, profile = 0, omega_set = 40.0 }
+[components.coupling]
+fmu = "RingCoupling"
+parameters = { c_d = 1.205345998078447 }
+[components.load]
+fmu = "Load"
+parameters = { T0 = 5.0, c1 = 0.0, c2 = 2e-4, omega_smooth = 1.0 }
+[[connections]]
+from = "motor.omega"
+to = "coupling.omega_in"
+[[connections]]
+from = "coupling.tau_in"
+to = "motor.tau_load"
+[[connections]]
+from = "coupling.omega_out"
+to = "load.omega"
+[[connections]]
+from = "load.tau"
+to = "coupling.tau_load"
+[output]
+record = ["motor.omega", "coupling.transmitted_torque", "coupling.x_e"]
+"""
+
+
+def test_a_grid_that_steps_over_a_mode_crossing_where_an_order_peaks_says_so_with_the_span_to_sweep(tmp_path,
+                                                                                                 fmu_dir, capsys):
+    """A speed sweep every 15 rad/s read a ring coupling's 2x torque peak 32% low (a fresh-eyes trial's) without a
+    word: the ring's torsional mode (sqrt(c_s / I_eff), Turla and Iljin's omega_min = sqrt(c_s / (4 I2)) = 60.3
+    rad/s its 2x crossing) lies between the points 55 and 70 rad/s, where the peak was read. The sweep names the
+    crossing, the points around it and a span that resolves it; that span's sweep reads a peak at least 1.3x
+    higher, and names no crossing (one of its points within 1% of it); nor does a grid with a point on it."""
+    path = tmp_path / "ring_at_speed.toml"
+    path.write_text(RING_AT_SPEED)
+    ring = Scenario(path)
+    settings = SweepSettings.from_scenario(ring, outputs=["coupling.transmitted_torque", "coupling.x_e"],
+                                           running_speed="motor.omega", settle_time=1.5, revolutions=4)
+
+    def sweep(name, spec):
+        swept = Sweep(ring, [parse_axis(spec, ring)], settings, out_dir=tmp_path, name=name, fmu_dir=fmu_dir)
+        swept.run(workers=0, progress=False)
+        return swept
+
+    coarse = sweep("coarse", "motor.omega_set=10:100:15")
+    found = coarse.stepped_over_crossings()
+    assert [(c.output, c.order, c.low, c.high, c.at) for c in found] == [
+        ("coupling.transmitted_torque", 2, 55.0, 70.0, 55.0), ("coupling.x_e", 2, 55.0, 70.0, 55.0)]
+    crossing = math.sqrt(726.4294875418636 / (4 * 0.05))   # c_s = 87 EI/R at the defaults, I2
+    assert found[0].speed == pytest.approx(crossing, rel=0.005) and found[0].component == "coupling"
+    text = found[0].text(ring, found[1:])
+    assert "the 2x order of coupling.transmitted_torque, coupling.x_e peaks next to the crossing of coupling's" in text
+    assert text.endswith("--param motor.omega_set=55:70:0.75")
+    fine = sweep("fine", "motor.omega_set=58:62:1")
+    assert fine.stepped_over_crossings() == []
+    read = max(r["coupling.transmitted_torque.h2"] for r in coarse.table())
+    assert max(r["coupling.transmitted_torque.h2"] for r in fine.table()) > 1.3 * read
+    assert sweep("on", "motor.omega_set=40,60.3,80").stepped_over_crossings() == []
+    assert main(["sweep", str(path), "--param", "motor.omega_set=10:100:15", "--name", "coarse", "--out",
+                 str(tmp_path), "--fmu-dir", str(fmu_dir), "--workers", "0", "--no-plot", "--output",
+                 "coupling.transmitted_torque", "--output", "coupling.x_e", "--settle", "1.5", "--revolutions",
+                 "4", "--running-speed", "motor.omega"]) == 0
+    assert text in capsys.readouterr().out   # the journal's points reused

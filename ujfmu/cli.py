@@ -673,6 +673,14 @@ def cmd_sweep(args):
         fastest = max(coarse, key=lambda r: abs(r.get("speed_mean", 0.0)))["note"]
         print(f"  the max, min and p2p of {len(coarse)} point{'s' if len(coarse) > 1 else ''} may fall short of the "
               f"peaks (read too few times a period); at the fastest: {fastest[fastest.index('max, min and p2p'):]}")
+    crossings = {}
+    for crossing in sweep.stepped_over_crossings():   # the outputs peaking next to one crossing in one line
+        crossings.setdefault(crossing.key, []).append(crossing)
+    for first, *peers in list(crossings.values())[:5]:
+        print(f"  {first.text(scenario, peers)}")
+    if len(crossings) > 5:
+        print(f"  ... and {len(crossings) - 5} more crossings the grid steps over where an order peaks "
+              "(Sweep.stepped_over_crossings)")
     warned = [r for r in sweep.table() if r.get("warnings")]
     if warned:
         print(f"  the FMUs warned at {len(warned)} point{'s' if len(warned) > 1 else ''} (the CSV's warnings column); "

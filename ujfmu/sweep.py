@@ -719,6 +719,53 @@ def fmu_build_digest(blob: bytes) -> str:
 
 #: the error of an order amplitude a sweep's step check allows, as a fraction of the amplitude
 STEP_CHECK_TOL = 0.02
+#: a mode crossing within this fraction of its speed from a point of the grid is read there
+CROSSING_READ = 0.01
+#: points a span suggested to resolve a stepped-over crossing has (``SteppedOverCrossing``)
+CROSSING_POINTS = 21
+
+
+@dataclass
+class SteppedOverCrossing:
+    """An order of an output whose largest amplitude over the speeds read (one curve of the other axes' values) is
+    at one of the two points between which a mode crossing lies, farther than ``CROSSING_READ`` from both (a Campbell
+    diagram's crossing, ``analysis.Mode.critical_speed``): the resonance peaks between the points, likely higher
+    than read (``Sweep.stepped_over_crossings``)."""
+    output: str
+    order: int
+    amplitude: float   # the largest read, in the output's unit
+    unit: str
+    component: str
+    mode: float        # its natural frequency [rad/s]
+    kind: str
+    speed: float       # the crossing's running speed [rad/s]
+    axis: "Axis"
+    low: float         # the axis's values at the two points around the crossing (SI)
+    high: float
+    at: float          # the axis's value where the amplitude read is largest
+    fixed: dict = field(default_factory=dict)   # the other axes' values of the curve
+
+    @property
+    def key(self) -> tuple:
+        """The crossing and the curve: equal for the outputs peaking next to one crossing."""
+        return (self.order, self.component, self.mode, self.axis.label, self.low, self.high,
+                tuple(self.fixed.items()))
+
+    def text(self, scenario, peers: list = ()) -> str:
+        """What was read and where the crossing lies, with a span that resolves it; peers: the other outputs'
+        orders at the same crossing (:attr:`key`), named in the same line."""
+        def value(v):
+            return self.axis.value_text(scenario, v)
+        lo, hi = self.axis.display(self.low), self.axis.display(self.high)
+        step = (hi - lo) / (CROSSING_POINTS - 1)
+        where = "".join(f", {name} = {v:.6g}" for name, v in self.fixed.items())
+        read = "; ".join(f"{c.output} {c.amplitude:.4g} {c.unit} at {value(c.at)}" for c in [self, *peers])
+        return (f"the {self.order}x order of {', '.join(c.output for c in [self, *peers])} peaks next to the "
+                f"crossing of {self.component}'s {self.mode:.5g} rad/s {self.kind} mode at a running speed of "
+                f"{self.speed:.5g} rad/s{where}, which the grid steps over (its points {value(self.low)} and "
+                f"{value(self.high)}; largest read, zero-to-peak: {read}): the resonance peaks between them, likely "
+                f"higher than read; sweep that span finely, e.g. --param "
+                f"{self.axis.label}={lo:.6g}:{hi:.6g}:{step:.3g}{self.axis.unit}")
 
 
 @dataclass
@@ -1317,6 +1364,56 @@ class Sweep:
         ``steady.PEAK_SHORTFALL`` (their note says how far, and the step that reads the peaks closely:
         ``steady.peak_note``)."""
         return [r for r in self.table() if r.get("status") in FINAL and PEAK_NOTE in r.get("note", "")]
+
+    def stepped_over_crossings(self) -> list:
+        """:class:`SteppedOverCrossing` of each output's order whose largest amplitude, over the ok points of a
+        speed axis (rad/s; one curve per combination of the other axes, ordered by the running speed read, which
+        must follow the axis), is at a point next to a crossing of that order with a natural frequency of the
+        scenario's machines (``analysis.scenario_modes`` at the curve's parameters; the orders the mode's component
+        carries) that lies between two points, farther than ``CROSSING_READ`` of its speed from both. Orders of
+        round-off (below ``ROUND_OFF_ORDERS`` of the output's size) have no peak."""
+        from .analysis import scenario_modes
+        speed_axes = [a for a in self.axes if not a.sampled and not any(isinstance(v, bool) for v in a.values)
+                      and self.scenario.unit(a.names[0]) == "rad/s"]
+        found = []
+        for axis in speed_axes:
+            others = [a for a in self.axes if a is not axis]
+            curves = {}
+            for row in self.table():
+                if row["status"] == OK and not math.isnan(row.get("speed_mean", math.nan)):
+                    key = tuple(json.dumps(a.value_of(row["point"]), default=str) for a in others)
+                    curves.setdefault(key, []).append(row)
+            for rows in curves.values():
+                rows.sort(key=lambda r: axis.value_of(r["point"]))
+                speeds = [abs(r["speed_mean"]) for r in rows]
+                if len(rows) < 2 or any(b <= a for a, b in zip(speeds, speeds[1:])):
+                    continue   # the axis does not set the running speed here
+                point = rows[0]["point"]
+                modes = scenario_modes(self.scenario, {k: v for k, v in point.items()
+                                                       if k not in axis.names})
+                fixed = {a.label: a.value_of(point) for a in others}
+                for output in self.settings.outputs:
+                    size = max(max(abs(r[f"{output}.max"]), abs(r[f"{output}.min"])) for r in rows)
+                    for order in self.settings.orders:
+                        amplitudes = [r.get(f"{output}.h{order}", math.nan) for r in rows]
+                        if all(math.isnan(a) for a in amplitudes):
+                            continue
+                        i = max((a, i) for i, a in enumerate(amplitudes) if not math.isnan(a))[1]
+                        if not amplitudes[i] > ROUND_OFF_ORDERS * size:
+                            continue
+                        for mode in modes:
+                            if order not in mode.orders:
+                                continue
+                            crossing = mode.critical_speed(order)
+                            j = next((j for j in range(len(rows) - 1) if speeds[j] < crossing < speeds[j + 1]), None)
+                            if (j is None or i not in (j, j + 1)
+                                    or min(crossing - speeds[j], speeds[j + 1] - crossing) <= CROSSING_READ * crossing):
+                                continue
+                            found.append(SteppedOverCrossing(
+                                output, order, amplitudes[i], self.scenario.unit(output), mode.component, mode.omega,
+                                mode.kind.partition(",")[0], crossing, axis, axis.value_of(rows[j]["point"]),
+                                axis.value_of(rows[j + 1]["point"]), axis.value_of(rows[i]["point"]), fixed))
+        return found
 
     def step_check(self, rel_tol: float = STEP_CHECK_TOL) -> "StepCheck | None":
         """The step-halving estimate of the order amplitudes' error at the peak of the sweep's first output
