@@ -689,3 +689,32 @@ def test_numpy_numbers_from_a_sampling_loop_are_taken_as_the_numbers_they_hold()
         scenario.with_parameters({"driveline.beta1": np.float64(2.0)})
     with pytest.raises(ScenarioError, match="rigid_intermediate_shaft"):
         scenario.with_parameters({"driveline.rigid_intermediate_shaft": np.float64(1.0)})
+
+
+@pytest.mark.parametrize("section, old, new, meant", [
+    ("output", 'record = ["j.tau_in"]', 'record = ["j.tau_in"]\nplot = ["j.tau_in"]\nsteady_form = 0.5',
+     "steady_from"),
+    ("experiment", "stop_time = 1.0", "stop_tme = 1.0", "stop_time"),
+    ("reference", 'file = "r.csv"', 'fiel = "r.csv"', "file")])
+def test_a_misspelt_field_is_named_with_the_field_meant_and_nothing_else_is_blamed_on_it(tmp_path, section, old,
+                                                                                       new, meant):
+    """A misspelt [output] field (steady_form, a fresh-eyes trial's) was named, and the plotted signals were then
+    said not to be recorded, which they were: the field is named with the one it likely misspells, alone."""
+    text = (GOOD + REF).replace(old, new)
+    assert text != GOOD + REF
+    with pytest.raises(ScenarioError) as error:
+        Scenario(write(tmp_path, text))
+    message = str(error.value)
+    assert f"[{section}]: unknown field(s) {new.split(chr(10))[-1].split(' =')[0]} (did you mean {meant}?)" in message
+    assert "problems" not in message and "not a recorded signal" not in message
+
+
+@pytest.mark.parametrize("field, value", [("running_speed", '"j.tua_in"'), ("plot", '["j.tua_in"]')])
+def test_a_misspelt_recorded_signal_is_named_with_the_one_meant(tmp_path, field, value):
+    """`running_speed = "motor.omgea"` was told to add the misspelt name to output.record: a name close to a
+    recorded signal is asked whether it means that one; a name close to none is told to record it."""
+    text = GOOD.replace('record = ["j.tau_in"]', f'record = ["j.tau_in"]\n{field} = {value}')
+    with pytest.raises(ScenarioError, match=r"'j.tua_in' is not a recorded signal \(did you mean 'j.tau_in'\?\)"):
+        Scenario(write(tmp_path, text))
+    with pytest.raises(ScenarioError, match="'j.M_x' is not a recorded signal: add it to output.record"):
+        Scenario(write(tmp_path, text.replace("j.tua_in", "j.M_x")))

@@ -372,12 +372,25 @@ class Scenario:
             if not isinstance(value, str):
                 raise ScenarioError(f"{self.path}: {field} = {value!r} must be a string")
 
+    def _unknown_fields(self, section: str, unknown: set, known) -> str:
+        """The error for unknown fields of a section: each with the known one it likely misspells, and the known."""
+        close = {name: difflib.get_close_matches(str(name), sorted(known), n=1, cutoff=0.6) for name in unknown}
+        named = ", ".join(f"{name} (did you mean {close[name][0]}?)" if close[name] else str(name)
+                          for name in sorted(unknown, key=str))
+        return f"{self.path}: [{section}]: unknown field(s) {named}; known: {', '.join(sorted(known))}"
+
+    def _recorded_hint(self, name) -> str:
+        """' (did you mean ...?)' for a name close to a recorded signal, else how to record it."""
+        close = difflib.get_close_matches(str(name), [str(n) for n in self.record], n=1, cutoff=0.6)
+        if close:
+            return f" (did you mean {close[0]!r}?)"
+        return ": add it to output.record (what the figures and checks read is recorded)"
+
     def _read_experiment(self, exp):
         """[experiment]: times, step, coupling scheme and output interval."""
         unknown = set(exp) - EXPERIMENT_KEYS
         if unknown:   # before the required ones: a misspelt stop_time is named as such, not as a missing value
-            raise ScenarioError(f"{self.path}: [experiment]: unknown field(s) {', '.join(sorted(unknown))}; "
-                                f"known: {', '.join(sorted(EXPERIMENT_KEYS))}")
+            raise ScenarioError(self._unknown_fields("experiment", unknown, EXPERIMENT_KEYS))
         self.start_time = self._number(exp, "experiment.start_time", 0.0)
         self.stop_time = self._number(exp, "experiment.stop_time")
         self.step_size = self._number(exp, "experiment.step_size")
@@ -492,11 +505,12 @@ class Scenario:
         """[output]: recorded signals (each checked on its own, those of a component with a problem not), the ones
         plotted, drawn as orbits or spectra, the running speed, and steady_from within the experiment's times
         (where those are valid: ``timed``)."""
-        unknown = set(out) - OUTPUT_KEYS if isinstance(out, dict) else {"(not a table)"}
-        if unknown:
+        if not isinstance(out, dict):
             self.record = []
-            raise ScenarioError(f"{self.path}: [output]: unknown field(s) {', '.join(sorted(unknown))}; "
-                                f"known: {', '.join(sorted(OUTPUT_KEYS))}")
+            raise ScenarioError(f"{self.path}: [output] must be a table; known fields: {', '.join(sorted(OUTPUT_KEYS))}")
+        unknown = set(out) - OUTPUT_KEYS
+        if unknown:   # the others still read: what they name is checked, and nothing is blamed on the misspelling
+            problems.add(self._unknown_fields("output", unknown, OUTPUT_KEYS))
         self.record = list(out.get("record", []))
         if not self.record:
             offered = [f"{c}.{v.name}" for c, (fmu, _) in self.components.items() if fmu in FMUS
@@ -518,8 +532,8 @@ class Scenario:
                              ("running_speed", [self.running_speed] if self.running_speed else [])):
             for name in names:
                 if name not in self.record:
-                    raise ScenarioError(f"{self.path}: output.{field}: {name!r} is not a recorded signal: add it to "
-                                        "output.record (what the figures and checks read is recorded)")
+                    raise ScenarioError(f"{self.path}: output.{field}: {name!r} is not a recorded signal"
+                                        f"{self._recorded_hint(name)}")
         if timed:
             self.steady_from = self._number(out, "output.steady_from", self.start_time)
             if not self.start_time <= self.steady_from < self.stop_time:
@@ -532,8 +546,7 @@ class Scenario:
         self.reference_file_text = ref.get("file") if isinstance(ref, dict) else None
         unknown = set(ref) - REFERENCE_KEYS if isinstance(ref, dict) else {"(not a table)"}
         if unknown:
-            raise ScenarioError(f"{self.path}: [reference]: unknown field(s) {', '.join(sorted(unknown))}; "
-                                f"known: {', '.join(sorted(REFERENCE_KEYS))}")
+            raise ScenarioError(self._unknown_fields("reference", unknown, REFERENCE_KEYS))
         self.reference_file = None
         if "file" in ref:
             if not isinstance(ref["file"], str) or not ref["file"].endswith((".csv", ".csv.gz")):
@@ -570,22 +583,23 @@ class Scenario:
         self.plot = list(out.get("plot", self.tolerances or self.record))
         for name in self.plot:
             if name not in self.record:
-                raise ScenarioError(f"{self.path}: output.plot: {name!r} is not a recorded signal")
+                raise ScenarioError(f"{self.path}: output.plot: {name!r} is not a recorded signal"
+                                    f"{self._recorded_hint(name)}")
 
     def _read_sweep(self, sweep):
         """[sweep]: known fields, numbers where numbers go, recorded signals."""
         self.sweep = sweep
         unknown = set(self.sweep) - SWEEP_KEYS if isinstance(self.sweep, dict) else {"(not a table)"}
         if unknown:
-            raise ScenarioError(f"{self.path}: [sweep]: unknown field(s) {', '.join(sorted(unknown))}; "
-                                f"known: {', '.join(sorted(SWEEP_KEYS))}")
+            raise ScenarioError(self._unknown_fields("sweep", unknown, SWEEP_KEYS))
         for key in ("settle_time", "revolutions", "steady_tol", "max_settle_time"):
             if key in self.sweep:
                 self._number(self.sweep, f"sweep.{key}")
         speed = [self.sweep["running_speed"]] if "running_speed" in self.sweep else []
         for name in list(self.sweep.get("outputs", [])) + speed:
             if name not in self.record:
-                raise ScenarioError(f"{self.path}: sweep: {name!r} is not a recorded signal")
+                raise ScenarioError(f"{self.path}: sweep: {name!r} is not a recorded signal"
+                                    f"{self._recorded_hint(name)}")
 
     def _values(self, cname, fmu, comp, key, problems):
         """components.NAME.parameters or .inputs: declared names of that causality, values of the declared type
