@@ -810,9 +810,12 @@ class Scenario:
             table, provenance = read_reference(self.reference_file)
         except (ValueError, IndexError, OSError) as exc:
             head = self.reference_file.read_bytes()[:200] if self.reference_file.is_file() else b""
-            why = (" (it is a Git LFS pointer, not the data: fetch the file, e.g. `git lfs pull`, or regenerate it)"
-                   if head.startswith(b"version https://git-lfs") else
-                   f" (a truncated or hand-edited file? `ujfmu references {self.path}` regenerates it)")
+            remake = (f"`ujfmu references {self.path}` regenerates it" if self.reference_generator else
+                      "the scenario names no generator (a measured or hand-made reference): fix the file, a header "
+                      "line of the column names then one line of numbers a time, in SI units, comma-separated")
+            why = (" (it is a Git LFS pointer, not the data: fetch the file, e.g. `git lfs pull`"
+                   + (", or regenerate it)" if self.reference_generator else ")")
+                   if head.startswith(b"version https://git-lfs") else f" (a truncated or hand-edited file? {remake})")
             raise ScenarioError(f"{field}: cannot read {self.reference_file}: {exc}{why}") from None
         made_for = setup_of(provenance)
         if made_for is not None and made_for != self.setup_digest():
