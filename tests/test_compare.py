@@ -283,7 +283,14 @@ def test_a_set_point_that_stops_moving_inside_the_check_window_is_said_with_when
     assert not check.checked and check.passed and check.since == pytest.approx(28.8)
     assert check.holds_from == pytest.approx(30.0) and "reaches its final value only at t = 30 s" in str(check)
     (moving,) = check_operating_points(scenario, table(t, motor__omega=t, motor__omega_ref=t))
-    assert "the run ends before the profile does" in str(moving) and math.isnan(moving.holds_from)
+    assert "the run ends before the profile does)" in str(moving) and math.isnan(moving.holds_from)
+    # a ramp that a run ends in (a set point the 30 rad/s^2 ramp reaches at 66.7 s, a fresh-eyes trial's 2000 rad/s
+    # meant in rpm) says when it ends and the remedy
+    far = scenario.with_parameters({"motor.omega_set": 2000.0})
+    (moving,) = check_operating_points(far, table(t, motor__omega=t, motor__omega_ref=t))
+    assert moving.reaches == (pytest.approx(2000.0 / 30.0), 2000.0)
+    assert ("the run ends before the profile does: it reaches its final 2000 rad/s (19098.6 rpm) only at t = 66.67 s; "
+            "lengthen stop_time past that") in str(moving)
 
 
 def test_a_run_without_a_reference_gives_each_signals_figures(fmu_dir):

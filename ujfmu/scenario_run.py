@@ -112,6 +112,9 @@ class OperatingPointCheck:
     #: the drive's PI has no integral action (Ki = 0) and is off its torque limit: a load leaves a steady offset
     #: T / Kp (at the limit the limit is the cause, which the torque-limit note says)
     proportional: bool = False
+    #: where the set point moves to the end: (the profile's last corner [s], its final set point [rad/s]), the
+    #: time it reaches that value (nan where unknown)
+    reaches: tuple = (math.nan, math.nan)
 
     @property
     def checked(self) -> bool:
@@ -132,8 +135,12 @@ class OperatingPointCheck:
                     f"{self.holds_from:g} s, inside the window the check averages over (from t = {self.since:g} s): "
                     "lengthen stop_time, or set [output] steady_from, to leave the drive a settling time after it")
         if not self.checked:
+            at, final = self.reaches
             return (f"not checked {self.signal}: its set point {self.set_point} still moves after t = "
-                    f"{self.since:g} s (the run ends before the profile does)")
+                    f"{self.since:g} s (the run ends before the profile does" + (
+                        f": it reaches its final {speed_text(final)} only at t = {at:.4g} s; lengthen stop_time past "
+                        "that and the drive's settling to check the operating point, or lower omega_set or raise "
+                        "accel, unless the run ends during the ramp on purpose)" if not math.isnan(at) else ")"))
         head = "ok  " if self.passed else "FAIL"
         text = (f"{head} operating point {self.signal}: mean {speed_text(self.value)} from t = {self.since:g} s "
                 f"against its set point {self.set_point} = {speed_text(self.target)} "
@@ -749,13 +756,24 @@ def check_operating_points(scenario: Scenario, table: np.ndarray) -> list:
                 holds_from = float(t[window][off[-1] + 1])
         name = signal.partition(".")[0]
         drive, torque = scenario.parameters_with_defaults(name), f"{name}.tau_motor"
+        reaches = (math.nan, math.nan)
+        if moving and math.isnan(holds_from):   # the profile's end, past the run's
+            from types import SimpleNamespace
+
+            from .models.motor.model import profile_corners
+            try:
+                corners = profile_corners(SimpleNamespace(**drive))
+            except (AttributeError, TypeError, ZeroDivisionError):   # not a Motor's profile
+                corners = ()
+            if corners and max(corners) > float(t[-1]):
+                reaches = (max(corners), float(drive["omega_set"]))
         limited = torque in table.dtype.names and bool(
             at_limit(table[torque][window], drive.get("tau_max", math.inf)).any())
         checks.append(OperatingPointCheck(signal, set_point, mean_speed(table, signal, drive_angle(scenario, signal),
                                                                     window),
                                           math.nan if moving else float(ref[-1]), float(t[window][0]), holds_from,
                                           float(np.max(np.abs(table[set_point]))),
-                                          drive.get("Ki", 1.0) == 0.0 and not limited))
+                                          drive.get("Ki", 1.0) == 0.0 and not limited, reaches))
     return checks
 
 
