@@ -1296,6 +1296,7 @@ def test_a_gate_in_a_checkout_whose_code_differs_from_the_installed_one_refuses(
         assert main(command) == 2
         err = capsys.readouterr().err
         assert f"{checkout} is a ujfmu checkout whose sources differ" in err and f"pip install -e {checkout}" in err
+        assert "move them out of it" in err
     assert "refused: " in junit.read_text() and "sources differ" in junit.read_text()
 
 

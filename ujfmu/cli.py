@@ -216,7 +216,8 @@ def _own_checkout(paths) -> None:
         raise UsageError(f"{foreign.parent} is a ujfmu checkout whose sources differ from those of the ujfmu this "
                          f"command runs from ({PACKAGE_DIR}): its FMUs would be built, and its scenarios checked, "
                          f"with the latter's code, not the checkout's. Install the checkout (`pip install -e "
-                         f"{foreign.parent}` in a venv of its own, fresh for each CI job) and run its `ujfmu`")
+                         f"{foreign.parent}` in a venv of its own, fresh for each CI job) and run its `ujfmu`; "
+                         "or, for scenarios of your own that only lie inside that checkout, move them out of it")
 
 
 def foreign_checkout(paths) -> Path | None:
