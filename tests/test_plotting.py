@@ -333,3 +333,29 @@ def test_a_sweep_of_a_changed_copy_names_its_set_values_in_its_titles(fmu_dir, t
     for name in (f"{sweep.name}.png", f"{sweep.name}_orders.png"):
         title = figures[name]._suptitle.get_text().replace("\n", " ")
         assert "the rest as in scenario double_cardan_brutti_rigid_changed (load.T0 = 3.5 N.m)" in title, title
+
+
+def test_many_curves_are_named_beside_the_panels_each_distinct(fmu_dir, tmp_path, figures):
+    """A three-axis grid (20 combinations of joint angle and yoke phase, a fresh-eyes trial's) had its legend of 20
+    entries inside the first panel, crushing it, and its colours repeating after ten: the legend goes beside the
+    panels, outside every panel, and no two curves share both colour and marker."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    scenario = Scenario(SCENARIOS / "double_cardan_brutti_rigid.toml")
+    settings = SweepSettings.from_scenario(scenario, outputs=["driveline.omega_out"], running_speed="motor.omega",
+                                           settle_time=0.01, revolutions=1, steady_tol=0.0)
+    axes = [parse_axis("motor.omega_set=1000,2000rpm", scenario), parse_axis("driveline.beta1=5:25:5deg", scenario),
+            parse_axis("driveline.yoke_phase=0:90:30deg", scenario)]
+    sweep = Sweep(scenario, axes, settings, out_dir=tmp_path, fmu_dir=fmu_dir)
+    sweep.run(workers=0, progress=False)
+    sweep.plot()
+    fig = figures[f"{sweep.name}.png"]
+    check_readable(fig)
+    (panel,) = fig.axes
+    assert panel.get_legend() is None and len(fig.legends) == 1
+    legend = fig.legends[0]
+    assert len(legend.get_texts()) == 20
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    outside = legend.get_window_extent(renderer)
+    assert outside.x0 >= panel.get_window_extent(renderer).x1 and outside.x1 <= fig.bbox.x1
+    maxima = panel.get_lines()[::2]
+    assert len({(line.get_color(), line.get_marker()) for line in maxima}) == 20

@@ -213,6 +213,9 @@ GROUP_STYLES = ("-", "--", ":", "-.")
 #: their markers where the points are not joined (sampled rows, a Boolean axis)
 GROUP_MARKERS = ("o", "s", "^", "D")
 ORDER_FIGURE_GROUPS = len(GROUP_STYLES)
+#: at most this many curves (combinations of the other axes) are named in a legend inside the first panel; more
+#: go beside the panels, ``LEGEND_COLUMN_ROWS`` to a column
+LEGEND_INSIDE, LEGEND_COLUMN_ROWS = 8, 24
 
 
 def _boolean_axis(axis) -> bool:
@@ -269,8 +272,10 @@ def plot_sweep(sweep, out_dir):
         return np.array([axis_value(first, r["point"][first.names[0]]) for r in rows])
 
     outputs, orders = sweep.settings.outputs, sweep.settings.orders
-    fig, axes = plt.subplots(len(outputs), 1, figsize=(9, 2.4 * len(outputs) + 1.0), sharex=True, squeeze=False,
-                             layout="constrained")
+    beside = 2.6 * (1 + len(groups) // LEGEND_COLUMN_ROWS) if others and len(groups) > LEGEND_INSIDE else 0.0
+    rows = min(len(groups), LEGEND_COLUMN_ROWS) if beside else 0   # the legend's column fits below the title
+    fig, axes = plt.subplots(len(outputs), 1, figsize=(9 + beside, max(2.4 * len(outputs), 0.17 * rows) + 1.0),
+                             sharex=True, squeeze=False, layout="constrained")
     for ax, out in zip(axes[:, 0], outputs):
         unit, k = display(scenario.unit(out))
         for i, (key, rows) in enumerate(sorted(groups.items())):
@@ -278,10 +283,12 @@ def plot_sweep(sweep, out_dir):
             color = f"C{i % 10}"
             # false and true, or sampled points: markers, not a line between them
             points = on_off or first.sampled
-            line, size = ("o", 5 if on_off else 3) if points else (".-", 3)
+            # past ten curves the colours repeat: each ten then has markers of its own
+            mark = "." if i < 10 else GROUP_MARKERS[(i // 10 - 1) % len(GROUP_MARKERS)]
+            line, size = ("o", 5 if on_off else 3) if points else (f"{mark}-", 3)
             ax.plot(xs(rows), [k * r[f"{out}.max"] for r in rows], line, color=color, ms=size, label=label(key))
-            ax.plot(xs(rows), [k * r[f"{out}.min"] for r in rows], line if points else ".--", color=color, ms=size,
-                    mfc="none" if points else None)
+            ax.plot(xs(rows), [k * r[f"{out}.min"] for r in rows], line if points else f"{mark}--", color=color,
+                    ms=size, mfc="none" if points else None)
         flagged = _plot_points_not_ok(ax, sweep, xs, out, k)
         ax.set_ylabel(f"[{unit}]", fontsize=8)
         extremes = "max (filled), min (open)" if on_off or first.sampled else "max (solid), min (dashed)"
@@ -290,7 +297,11 @@ def plot_sweep(sweep, out_dir):
         ax.grid(alpha=0.3)
         if flagged and not others:
             ax.legend(fontsize=7)
-    if others:
+    if others and len(groups) > LEGEND_INSIDE:   # beside the panels, in columns: inside it had crushed them
+        handles, labels = axes[0, 0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="outside right lower", fontsize=6,
+                   ncol=1 + len(labels) // LEGEND_COLUMN_ROWS)
+    elif others:
         axes[0, 0].legend(fontsize=7)
     axes[-1, 0].set_xlabel(xlabel)
     if on_off:
