@@ -4,7 +4,7 @@ the paper's Eq. (20) and the trends of its figures. Tooling (numpy, the sweeps):
 
 import numpy as np
 
-from ...report import SCENARIOS, Report, Section, verdict
+from ...report import SCENARIOS, Report, Section
 from ...scenario import Scenario
 from ...sweep import Axis
 from . import model as rc
@@ -30,12 +30,15 @@ def turla(rep: Report) -> Section:
                        steady_tol=0.0)   # undamped pendulum: its oscillation never settles, it is the result
     r100 = pts.at({"motor.omega_set": 100.0})
     a100 = eq20(p, 100.0)
+    solves = ("consistent (the pendulum case solves the paper's Eq. 9, of which Eq. 20 is the paper's approximate "
+              "solution: it checks the integration and our reading of the equations, not the physics)")
     s.row("Fig. 3: 2x amplitude of x_e at 100 rad/s (Eq. 20 vs FMU)", a100, r100["coupling.x_e.h2"], "rad",
-          verdict(r100["coupling.x_e.h2"], a100, 0.02), paper_text=f"{a100:.4g} (Eq. 20; no value printed)")
+          solves if abs(r100["coupling.x_e.h2"] / a100 - 1.0) <= 0.02 else "not reproduced",
+          paper_text=f"{a100:.4g} (Eq. 20; no value printed)")
     w2a = [w * w * pts.at({"motor.omega_set": w})["coupling.x_e.h2"] for w in (50.0, 100.0, 200.0, 400.0)]
     spread = (max(w2a) - min(w2a)) / np.mean(w2a)
     s.row("Fig. 3: amplitude falls as 1/w^2 (w^2 x amplitude at 50, 100, 200, 400 rad/s)", None, None, "rad^2/s^2",
-          "reproduced" if spread < 0.02 else "not reproduced", paper_text="1/w^2",
+          solves if spread < 0.02 else "not reproduced", paper_text="1/w^2",
           ours_text=" / ".join(f"{v:.4g}" for v in w2a) + f" (spread {100 * spread:.2f}%)")
 
     rings = {"ring_r10": 0.1, "ring_r20": 0.2, "ring_r30": 0.3}
