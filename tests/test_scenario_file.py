@@ -718,3 +718,33 @@ def test_a_misspelt_recorded_signal_is_named_with_the_one_meant(tmp_path, field,
         Scenario(write(tmp_path, text))
     with pytest.raises(ScenarioError, match="'j.M_x' is not a recorded signal: add it to output.record"):
         Scenario(write(tmp_path, text.replace("j.tua_in", "j.M_x")))
+
+
+def test_a_load_behind_a_joint_whose_output_follows_its_input_chatters_on_the_drivers_inertia(fmu_dir):
+    """A CardanJoint's output follows its input, so a Load on it acts on what drives the input: cardan_startup's PI
+    Motor (J_rotor = 1 g.m2) with T0 = 0.5 N.m and omega_smooth = 1e-4 rad/s (a fresh-eyes trial's) moves it by
+    T0 h / J = 0.5 rad/s a step, 5000x omega_smooth: it had been left unsaid before the run (the joint has no
+    output inertia of its own), and the run's failure at t = 0 advised the torque-driven wiring. Now the advice
+    names the rotor's inertia, and so does the failure; an ideal speed source, whose speed no torque moves, is
+    named by none; a torque-driven joint's load acts on its J_drive."""
+    from ujfmu.master import CosimulationError
+    from ujfmu.scenario_run import run_scenario
+    start = Scenario(SCENARIOS / "cardan_startup.toml").with_parameters({"load.T0": 0.5, "load.omega_smooth": 1e-4})
+    (chatter,) = start.load_chatter()
+    assert (chatter.inertia, chatter.ratio) == (1e-3, pytest.approx(0.5 * 1e-3 / 1e-3 / 1e-4))
+    said = "moves joint's output, which follows its input, and with it motor's rotor inertia J_rotor, J = 0.001 kg.m2"
+    assert any(said in a for a in start.model_advice())
+    start.stop_time = 0.2
+    with pytest.raises(CosimulationError) as failed:
+        run_scenario(start, fmu_dir, out_dir=None, plot=False)
+    assert said in str(failed.value) and "Widen omega_smooth to at least 0.5 rad/s" in str(failed.value)
+    assert start.with_parameters({"motor.ideal_speed_source": True}).load_chatter() == []
+    heavy = Scenario(SCENARIOS / "cardan_heavy_torque_driven.toml").with_parameters({"load.omega_smooth": 1e-4})
+    (driven,) = [c for c in heavy.load_chatter() if c.driven == "joint"]
+    assert driven.inertia == 0.01 and driven.holder == "its driven input shaft's J_drive"
+    # a twin rotor's load acts on disc 2 behind the secondary shaft, its lateral coupling eliminated
+    runup = Scenario(SCENARIOS / "twin_jeffcott_runup.toml").with_parameters({"rotor.J_M2": 0.02})   # not disc 1's
+    (disc,) = runup.load_chatter()
+    q = runup.parameters_with_defaults("rotor")
+    j2 = q["J_M2"] + q["m_u2"] * q["e"] ** 2 - (q["m_u2"] * q["e"]) ** 2 / (q["M2"] + q["m_u2"])
+    assert disc.holder == "" and disc.inertia == pytest.approx(j2, rel=1e-12)

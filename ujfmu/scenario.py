@@ -149,12 +149,18 @@ class LoadChatter:
     step: float
     ratio: float   # T0 h / (J omega_smooth)
     name: str = "T0"   # what torque is meant: T0, or T0 + T_change where the change makes it larger
+    #: where the driven model's output follows its input (a CardanJoint, a rigid double Cardan): the inertia the
+    #: load acts on instead, named ("motor's rotor inertia J_rotor", "its driven input shaft's J_drive")
+    holder: str = ""
 
     def text(self) -> str:
         reach = self.torque * self.step / self.inertia
+        moves = (f"{self.driven}'s output, which follows its input, and with it {self.holder}, J = "
+                 f"{self.inertia:g} kg.m2," if self.holder else
+                 f"{self.driven}'s output inertia J = {self.inertia:g} kg.m2")
         return (f"{self.load}: its constant torque {self.name} = {self.torque:g} N.m reverses within omega_smooth = "
-                f"{self.smooth:g} rad/s of rest, and one step of it ({self.step:g} s) moves {self.driven}'s output "
-                f"inertia J = {self.inertia:g} kg.m2 by {self.name} h / J = {reach:.3g} rad/s, "
+                f"{self.smooth:g} rad/s of rest, and one step of it ({self.step:g} s) moves {moves} by "
+                f"{self.name} h / J = {reach:.3g} rad/s, "
                 f"{self.ratio:.3g}x omega_smooth: near rest (a start, a stall) the load's torque reverses at every "
                 f"step, and the run stops as a coupling instability or chatter. Widen omega_smooth to at least "
                 f"{reach:.3g} rad/s, or take a step of at most {self.inertia * self.smooth / self.torque:.3g} s")
@@ -1208,17 +1214,20 @@ class Scenario:
 
     def load_chatter(self) -> list:
         """``LoadChatter`` of each Load fed from a component's ``omega_out`` whose model has an output inertia of
-        its own (the protocol's ``free_output_inertia``): one step of the Load's constant torque T0 moves that
-        inertia by T0 h / J, and where that exceeds omega_smooth, the band within which T0 reverses, a shaft near
-        rest sees the torque reverse at every step (README, "Port and sign conventions"); T0 the larger of its
-        values before and after a change (T_change)."""
+        its own (the protocol's ``free_output_inertia``), or whose output follows its input (:meth:`_input_inertia`:
+        the load then acts on the driver's inertia): one step of the Load's constant torque T0 moves that inertia
+        by T0 h / J, and where that exceeds omega_smooth, the band within which T0 reverses, a shaft near rest sees
+        the torque reverse at every step (README, "Port and sign conventions"); T0 the larger of its values before
+        and after a change (T_change)."""
         found = []
         for conn in self.connections:
             load, _, port = conn.target.partition(".")
             driven, _, out = conn.source.partition(".")
             if port != "omega" or out != "omega_out" or self.components.get(load, ("",))[0] != "Load":
                 continue
-            inertia = self._ask_model(driven, "free_output_inertia")   # [] where the model has none
+            inertia, holder = self._ask_model(driven, "free_output_inertia"), ""   # [] where the model has none
+            if not (isinstance(inertia, numbers.Real) and inertia > 0.0):
+                inertia, holder = self._input_inertia(driven)
             law = self.parameters_with_defaults(load)
             changed = law.get("T_change", 0.0) > 0.0
             torque = law["T0"] + law.get("T_change", 0.0) if changed else law["T0"]
@@ -1226,8 +1235,23 @@ class Scenario:
                 reach = torque * self.step_size / inertia
                 found.append(LoadChatter(load, driven, inertia, float(torque), float(law["omega_smooth"]),
                                          self.step_size, reach / law["omega_smooth"],
-                                         "T0 + T_change" if changed else "T0"))
+                                         "T0 + T_change" if changed else "T0", holder))
         return found
+
+    def _input_inertia(self, component) -> tuple:
+        """(J, what it is) that a load on the output of a component whose output follows its input acts on: its
+        own driven input shaft's J_drive (a torque-driven FMU), or the rotor inertia J_rotor of the Motor that
+        drives its omega_in (not an ideal speed source, whose speed ignores any torque); (None, "") otherwise."""
+        own = self.parameters_with_defaults(component)
+        if "J_drive" in own:
+            return own["J_drive"], "its driven input shaft's J_drive"
+        for conn in self.connections:
+            motor, _, out = conn.source.partition(".")
+            if conn.target == f"{component}.omega_in" and out == "omega" and self.components[motor][0] == "Motor":
+                drive = self.parameters_with_defaults(motor)
+                if not drive.get("ideal_speed_source", False):
+                    return drive["J_rotor"], f"{motor}'s rotor inertia J_rotor"
+        return None, ""
 
     def _ask_model(self, component, what) -> list:
         model = getattr(fmu_class(self.components[component][0]), "MODEL", None)

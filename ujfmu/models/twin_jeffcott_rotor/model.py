@@ -916,6 +916,13 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
             "secondary_shaft_torque": t2}
 
 
+def free_output_inertia(p: Parameters) -> float:
+    """Disc 2's effective polar inertia J_M2 + m_u2 e^2 - (m_u2 e)^2 / (M2 + m_u2) (``Parameters.j_eff2``, its
+    lateral coupling eliminated) behind the secondary shaft's torsional stiffness K2T: what a load on disc 2
+    accelerates on its own."""
+    return p.j_eff2
+
+
 def output_free_inputs(p: Parameters) -> tuple:
     """The outputs (:func:`torque_outputs`) and the start do not depend on tau_load, which enters only disc 2's
     equation of motion."""
@@ -1392,6 +1399,7 @@ class TorqueDriven:
 
     #: gearbox flange angle and speed, then the speed-driven rotor's :class:`State`
     State = NamedTuple("State", [("phi_in", float), ("omega_in", float)] + list(State.__annotations__.items()))
+    free_output_inertia = staticmethod(free_output_inertia)
 
     @staticmethod
     def rate_sources(p: TorqueDrivenParameters) -> list:
