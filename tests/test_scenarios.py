@@ -1,6 +1,7 @@
 """Every scenario against its reference; the fmpy/libcosim difference shrinks with the step (libcosim on every
 scenario: tests/test_ssp.py); references regenerate; step-size convergence."""
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -209,3 +210,99 @@ def test_the_recorded_signals_means_are_over_whole_revolutions(fmu_dir):
         return float(re.search(rf"    {re.escape(name)} +\S+ \.\. \S+, mean (\S+),", block).group(1))
     assert mean("joint.omega_out") == pytest.approx(20.0 * math.pi, rel=1e-6)
     assert mean("joint.tau_in") == pytest.approx(0.3, rel=1e-6)
+
+
+def test_a_run_that_would_compare_what_it_does_not_record_is_refused_before_it_starts(fmu_dir, tmp_path):
+    """A caller who records fewer signals of a read scenario (`s.record = [...]`, a fresh-eyes trial's) ran the
+    whole run, then lost it to a bare numpy error in the comparison: the run is refused before it starts, naming
+    the compared signals it would lack and the remedies; unchecked, it runs and plots what it recorded. A record
+    given as one string, an output_interval that is not a whole number, and changes that are not a dict are
+    refused naming the field."""
+    from ujfmu.scenario import ScenarioError
+    path = Path(__file__).parents[1] / "scenarios" / "cardan_startup.toml"
+    fewer = Scenario(path)
+    fewer.record = ["joint.omega_out", "joint.tau_in"]
+    with pytest.raises(ScenarioError, match=r"motor\.omega, .*load\.tau are compared with the reference but not "
+                                            r"recorded: record them \(scenario\.record\)") as refused:
+        run_scenario(fewer, fmu_dir=fmu_dir, out_dir=tmp_path, plot=False)
+    assert "joint.tau_in" not in str(refused.value).split(" are compared")[0]
+    assert not list(tmp_path.iterdir())   # refused before anything ran
+    fewer.reference_file = None
+    result = run_scenario(fewer, fmu_dir=fmu_dir, out_dir=tmp_path, plot=True)
+    assert result.table.dtype.names == ("time", "joint.omega_out", "joint.tau_in") and result.plot.is_file()
+    for field, value, says in (("record", "joint.omega_out", "must be a list of signals, e.g. ['joint.omega_out']"),
+                               ("output_interval", 2.5, "output_interval = 2.5 must be a whole number")):
+        wrong = Scenario(path)
+        setattr(wrong, field, value)
+        with pytest.raises(ScenarioError, match=re.escape(says)):
+            run_scenario(wrong, fmu_dir=fmu_dir, out_dir=None, plot=False)
+    with pytest.raises(ScenarioError, match="with_parameters takes a dict"):
+        Scenario(path).with_parameters(["motor.J_rotor", 1.0])
+
+
+def _write_many(path, value, count, barrier):
+    from ujfmu.scenario_run import write_table
+    table = np.rec.fromarrays([np.arange(20000.0), np.full(20000, value)], names=["time", "x"])
+    for _ in range(count):
+        barrier.wait(60)   # both write at once, to the last
+        write_table(path, table)
+
+
+def test_runs_writing_one_name_at_once_leave_one_whole_table(tmp_path):
+    """Two processes running changed copies of one name into one folder (a fresh-eyes trial's pool of variants)
+    left a CSV of both interleaved, times running backwards: each writes its table whole, so the file is one of
+    them, every row of one run."""
+    import multiprocessing
+    path = tmp_path / "same.csv"
+    context = multiprocessing.get_context("spawn")
+    barrier = context.Barrier(2)
+    writers = [context.Process(target=_write_many, args=(path, value, 20, barrier)) for value in (1.0, 2.0)]
+    for writer in writers:
+        writer.start()
+    seen = []   # what a reader finds while they write: a whole table each time, never a part
+    while any(writer.is_alive() for writer in writers):
+        if path.exists():
+            seen.append(path.read_text().count("\n"))
+    for writer in writers:
+        writer.join(120)
+        assert writer.exitcode == 0
+    assert seen and set(seen) == {20001}, sorted(set(seen))[:5]
+    table = np.genfromtxt(path, delimiter=",", names=True)
+    assert len(table) == 20000 and np.array_equal(table["time"], np.arange(20000.0))
+    assert len(set(table["x"])) == 1 and table["x"][0] in (1.0, 2.0)
+    assert [p.name for p in tmp_path.iterdir()] == ["same.csv"]   # no temporary file left
+
+
+def test_a_stopped_runs_columns_file_says_its_table_ends_early(fmu_dir, tmp_path):
+    """A stopped run's CSV looked complete: its columns file's time row says where the results end, and why."""
+    from ujfmu.master import RunStopped
+    path = Path(__file__).parents[1] / "scenarios" / "cardan_startup.toml"
+    with pytest.raises(RunStopped):
+        run_scenario(path, fmu_dir=fmu_dir, out_dir=tmp_path, plot=False,
+                     progress=lambda done, total: False if done > 1000 else None)
+    time_row = (tmp_path / "cardan_startup.columns.csv").read_text().splitlines()[1]
+    assert "the run stopped early: results up to t = 1.0" in time_row and "of 6.0 s" in time_row
+    assert "stopped by the progress callback" in time_row
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="os.fork: POSIX only")
+def test_a_forked_child_that_exits_leaves_its_parents_fmu_folders(fmu_dir):
+    """A process forked after running FMUs inherits the exit handler that removes the extracted FMU folders: the
+    child's normal exit removed the parent's, whose next run then failed ("Cannot find shared library"). Only the
+    folders a process made itself are removed at its exit."""
+    import subprocess
+    import sys
+    script = f"""
+import os, sys
+from ujfmu.scenario_run import run_scenario
+scenario = {str(Path(__file__).parents[1] / "scenarios" / "cardan_constant_speed.toml")!r}
+run_scenario(scenario, fmu_dir={str(fmu_dir)!r}, out_dir=None, plot=False)
+child = os.fork()
+if child == 0:
+    sys.exit(0)
+os.waitpid(child, 0)
+print(run_scenario(scenario, fmu_dir={str(fmu_dir)!r}, out_dir=None, plot=False).verdict, flush=True)
+os._exit(0)
+"""
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert done.stdout.strip() == "PASS", done.stderr[-2000:]

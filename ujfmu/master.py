@@ -481,6 +481,20 @@ def remove_abandoned_folders(root: str | os.PathLike | None = None) -> list:
     return removed
 
 
+def made_here(folder: str | os.PathLike) -> bool:
+    """Whether this process made the folder (:func:`temporary_folder`: its name holds the process id): a process
+    forked from one that had extracted FMUs inherits their folders, which the parent still uses."""
+    match = _OWN_FOLDER.fullmatch(Path(folder).name)
+    return match is not None and int(match.group(2)) == os.getpid()
+
+
+def _remove_extracted() -> None:
+    """At exit: remove the FMU folders this process extracted (:func:`made_here`; not a forking parent's)."""
+    for folder, _ in list(_EXTRACTED.values()):
+        if made_here(folder):
+            remove_folder(folder)
+
+
 def extracted(fmu):
     """(unzip folder, model description) of an FMU file, extracted once per process and file version.
 
@@ -493,7 +507,7 @@ def extracted(fmu):
     key = (str(path), stat.st_size, stat.st_mtime_ns)
     if key not in _EXTRACTED:
         if not _EXTRACTED:
-            atexit.register(lambda: [remove_folder(d) for d, _ in list(_EXTRACTED.values())])
+            atexit.register(_remove_extracted)
         folder = str(temporary_folder("ujfmu_fmu_"))
         try:
             _EXTRACTED[key] = (extract(str(path), unzipdir=folder), read_model_description(str(path)))

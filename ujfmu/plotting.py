@@ -60,7 +60,8 @@ def plot_scenario(result, reference, path):
     """Per plotted signal two panels: the co-simulation with the reference, and below it the error (result -
     reference) with the allowed error when the signal is compared. Returns path."""
     scenario, table = result.scenario, result.table
-    names = scenario.plot
+    # the plotted signals the run recorded (a caller may have recorded fewer since), else every recorded one
+    names = [n for n in scenario.plot if n in table.dtype.names] or list(table.dtype.names[1:])
     has_ref = [reference is not None and name in reference.dtype.names for name in names]
     ratios = [r for name, ref in zip(names, has_ref) for r in ((3, 1.4) if ref else (3,))]
     fig, axes = plt.subplots(len(ratios), 1, figsize=(9, 0.75 * sum(ratios) + 1.2), sharex=True, squeeze=False,

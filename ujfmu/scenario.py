@@ -663,12 +663,34 @@ class Scenario:
                 with problems.kept():
                     self._check_value(fmu, declared, "parameter", f"components.{comp}.parameters.{par}", par,
                                       plain_number(value))
+        if isinstance(self.record, str) or not isinstance(self.record, (list, tuple)):
+            problems.add(f"{self.path}: record = {self.record!r} must be a list of signals, e.g. "
+                         f"[{self.record!r}]" if isinstance(self.record, str) else
+                         f"{self.path}: record = {self.record!r} must be a list of signals")
+            problems.raise_any()
         for i, name in enumerate(self.record):
             with problems.kept():
                 self._check_signal(name, f"record[{i}]")
         twice = sorted({name for name in self.record if self.record.count(name) > 1})
         if twice:
             problems.add(f"{self.path}: record names {', '.join(twice)} more than once: record each signal once")
+        compared = dict.fromkeys([*self.tolerances, *self.extrapolated_tolerances, *self.order_tolerances])
+        unrecorded = [n for n in compared if n not in self.record] if self.reference_file is not None else []
+        if unrecorded:   # the run would end in a comparison of columns it does not have
+            one = len(unrecorded) == 1
+            problems.add(f"{self.path}: {', '.join(unrecorded)} {'is' if one else 'are'} compared with the reference "
+                         f"but not recorded: record {'it' if one else 'them'} (scenario.record), or compare "
+                         f"{'it' if one else 'them'} no more (del scenario.tolerances[name], and from "
+                         "extrapolated_tolerances and order_tolerances where named), or set reference_file = None "
+                         "to run unchecked")
+        asked = {"running_speed": [self.running_speed] if self.running_speed else [],
+                 "orbits": [n for pair in self.orbits for n in pair], "spectra": self.spectra}
+        for what, names in asked.items():
+            unrecorded = list(dict.fromkeys(n for n in names if n not in self.record))
+            if unrecorded:
+                problems.add(f"{self.path}: {what} names {', '.join(unrecorded)}, not recorded: record "
+                             f"{'it' if len(unrecorded) == 1 else 'them'} (scenario.record), or leave "
+                             f"{'it' if len(unrecorded) == 1 else 'them'} out of scenario.{what}")
         problems.raise_any()
 
     def with_parameters(self, changes: dict, name: str | None = None) -> "Scenario":
@@ -676,6 +698,9 @@ class Scenario:
         are; named ``name`` (default ``<name>_changed``: its CSV and figures do not overwrite this scenario's), its
         title saying what changed, and without the reference: a reference is made for the file's setup, so the copy
         runs unchecked (give it a scenario file and `ujfmu references` to check it)."""
+        if not isinstance(changes, dict):
+            raise ScenarioError(f"{self.path}: with_parameters takes a dict {{\"component.parameter\": value}}, not "
+                                f"{type(changes).__name__} {changes!r}")
         changes = {key: plain_number(value) for key, value in changes.items()}
         problems = _Problems(self.path)
         if name is not None and (not isinstance(name, str) or not name or name.startswith(".")
@@ -1303,6 +1328,11 @@ class Scenario:
             raise ScenarioError(f"{self.path}: output steady_from = {self.steady_from!r} s is not before stop_time = "
                                 f"{self.stop_time!r} s: the steady window would be empty; set steady_from before it "
                                 "(0 or None: no steady window) or run longer")
+        interval = self.output_interval
+        if interval is not None and (isinstance(interval, bool) or not isinstance(interval, numbers.Integral)
+                                     or interval < 1):
+            raise ScenarioError(f"{self.path}: experiment output_interval = {interval!r} must be a whole number of "
+                                "communication steps >= 1 (1 or None: record every step)")
         self._check_steps()
 
     def _check_steps(self) -> None:

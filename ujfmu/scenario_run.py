@@ -1429,7 +1429,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
         result.csv = out_dir / f"{scenario.name}.csv"
-        write_csv(result.csv, table)
+        write_table(result.csv, table)
         write_columns(scenario, result.csv, table.dtype.names, model_exchange)
         if plot:
             from .plotting import plot_orbits, plot_scenario, plot_spectra
@@ -1649,10 +1649,30 @@ def _keep_partial(scenario, exc, extra, out_dir, plot, model_exchange=False):
         _write_partial(scenario, exc, Path(out_dir), plot, model_exchange)
 
 
-def write_columns(scenario: Scenario, csv_path: Path, names, model_exchange: bool = False) -> Path:
+def _replace_written(path: Path, write: Callable[[Path], None]) -> None:
+    """write(a temporary file beside path), then put it in path's place at once (``os.replace``): a reader, or
+    another process writing the same name (two runs of one changed copy's name), sees one whole file or the other,
+    never the two interleaved."""
+    path = Path(path)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.{time.monotonic_ns()}.tmp")
+    try:
+        write(temporary)
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
+def write_table(path: Path, table: np.ndarray) -> Path:
+    """A run's table as CSV (fmpy's ``write_csv``), written whole (:func:`_replace_written`)."""
+    _replace_written(path, lambda temporary: write_csv(temporary, table))
+    return Path(path)
+
+
+def write_columns(scenario: Scenario, csv_path: Path, names, model_exchange: bool = False,
+                  stopped: str = "") -> Path:
     """``<name>.columns.csv`` beside a run's CSV: column, unit, meaning (the FMU's description of the variable, the
     time's communication step and coupling, or the Model Exchange solve's), so a spreadsheet or a script reads the
-    units with the numbers."""
+    units with the numbers; stopped: what a failed or stopped run's results are (said in the time's meaning)."""
     import csv
     from .build import fmu_class
     path = Path(csv_path).with_suffix(".columns.csv")
@@ -1662,16 +1682,20 @@ def write_columns(scenario: Scenario, csv_path: Path, names, model_exchange: boo
         if name == "time":
             how = ("Model Exchange FMUs under CVode" if model_exchange else
                    f"communication step {scenario.step_size:g} s, {scenario.coupling} coupling")
-            rows.append(["time", "s", f"simulation time, a row every {every:g} s ({how})"])
+            rows.append(["time", "s", f"simulation time, a row every {every:g} s ({how})"
+                         + (f"; {stopped}" if stopped else "")])
             continue
         comp, _, var = name.partition(".")
         fmu = scenario.components[comp][0]
         description = next((v.description for v in fmu_class(fmu).VARIABLES if v.name == var), "")
         rows.append([name, scenario.unit(name), f"{description} ({comp}, {fmu})"])
-    with open(path, "w", newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(["column", "unit", "meaning"])
-        writer.writerows(rows)
+
+    def write(temporary):
+        with open(temporary, "w", newline="") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(["column", "unit", "meaning"])
+            writer.writerows(rows)
+    _replace_written(path, write)
     return path
 
 
@@ -1679,8 +1703,14 @@ def _write_partial(scenario, exc, out_dir, plot, model_exchange=False):
     """Write the results up to a failure (CSV, plot) and name them in the error's message."""
     out_dir.mkdir(parents=True, exist_ok=True)
     csv = out_dir / f"{scenario.name}.csv"
-    write_csv(csv, exc.partial)
-    write_columns(scenario, csv, exc.partial.dtype.names, model_exchange)
+    write_table(csv, exc.partial)
+    end = float(exc.partial["time"][-1]) if len(exc.partial) else scenario.start_time
+    first = str(exc.args[0] if exc.args else exc).splitlines()[0] if str(exc) else type(exc).__name__
+    whole = end >= scenario.stop_time - 1e-9 * max(1.0, abs(scenario.stop_time))
+    write_columns(scenario, csv, exc.partial.dtype.names, model_exchange,
+                  stopped=(f"the run is whole, its checks not made ({first})" if whole else
+                           f"the run stopped early: results up to t = {end!r} s of {scenario.stop_time!r} s "
+                           f"({first})"))
     written = [f"results up to t = {float(exc.partial['time'][-1])!r}: {csv}"]
     if plot and len(exc.partial) > 1:
         from .plotting import plot_scenario

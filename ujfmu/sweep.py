@@ -55,7 +55,7 @@ from pathlib import Path
 
 from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
 from .extras import require
-from .master import (Component, Connection, Cosimulation, FmuWarning, RunStopped, remove_folder,
+from .master import (Component, Connection, Cosimulation, FmuWarning, RunStopped, made_here, remove_folder,
                      temporary_folder)
 from .scenario import SWEEP_KEYS, Scenario, ScenarioError, plain_number, running_angle_of
 from .steady import (ERROR, FIGURES, FINAL, OK, PEAK_NOTE, PHASE_FLOOR, STATUSES, coupling_noise, grows,
@@ -625,7 +625,7 @@ def _worker_fmu_dir(hashes, fmu_blobs=None):
         if fmu_blobs is None:
             raise WorkerSetupError("this worker has not received the sweep's FMUs (FmuInstaller plugin missing)")
         if not _WORKER_DIRS:
-            atexit.register(lambda: [remove_folder(d) for d in list(_WORKER_DIRS.values())])
+            atexit.register(lambda: [remove_folder(d) for d in list(_WORKER_DIRS.values()) if made_here(d)])
         folder = temporary_folder("ujfmu_worker_fmus_")
         for name, blob in fmu_blobs.items():
             (folder / f"{name}.fmu").write_bytes(blob)
