@@ -352,19 +352,15 @@ def test_the_fmus_warnings_of_a_run_are_said_once_per_component_and_kind():
     """Two rigs named driveline1 and driveline2 each warned of their twist; the dedup had masked the digits of their
     names and printed one. Said once per component and kind of warning (the step-halving rerun's, at another time,
     left out); what the command said before the run is not said again."""
-    import warnings
-
-    from ujfmu.cli import _run_warnings
-    from ujfmu.master import FmuWarning
+    from ujfmu.scenario_run import fmu_warning_lines
 
     def fmu(name, text):
-        return warnings.WarningMessage(FmuWarning(f"[warning] {name}: DoubleCardanDriveline '{name}': {text}"),
-                                       FmuWarning, "master.py", 1)
+        return f"[warning] {name}: DoubleCardanDriveline '{name}': {text}"
     caught = [fmu("driveline1", "at t = 0.014 s the shaft is twisted 0.528 rad"),
               fmu("driveline2", "at t = 0.016 s the shaft is twisted 0.531 rad"),
               fmu("driveline1", "at t = 0.0145 s the shaft is twisted 0.529 rad"),   # the rerun at h/2
               fmu("driveline2", "T0 = 3 N.m is the paper's")]
-    assert _run_warnings(caught, ["T0 = 3 N.m is the paper's"]) == [
+    assert fmu_warning_lines(caught, ["driveline2: T0 = 3 N.m is the paper's"]) == [
         "driveline1: at t = 0.014 s the shaft is twisted 0.528 rad",
         "driveline2: at t = 0.016 s the shaft is twisted 0.531 rad"]
 

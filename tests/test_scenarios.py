@@ -306,3 +306,27 @@ os._exit(0)
 """
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
     assert done.stdout.strip() == "PASS", done.stderr[-2000:]
+
+
+def test_a_runs_warnings_are_data_from_python(fmu_dir):
+    """ScenarioResult.warnings was filled by the command line only: from Python it was always [] while the FMUs
+    warned (a fresh-eyes trial's). A run holds the models' advice on their parameters (Feng's default error angles
+    at a 0.03 rad bend) and the FMUs' warnings during the run (Omar's shaft twisted past LARGE_TWIST by 40 N.m on
+    k_theta = 92.2 N.m/rad: 0.5 rad as it starts), each once, as 'component: text'; the FMU's warning is still warned too."""
+    import warnings
+
+    from ujfmu.master import FmuWarning
+    scenarios = Path(__file__).parents[1] / "scenarios"
+    bent = Scenario(scenarios / "cardan_startup.toml").with_parameters({"joint.bend_angle": 0.03})
+    bent.stop_time = 0.2
+    (advice,) = run_scenario(bent, fmu_dir=fmu_dir, out_dir=None, plot=False).warnings
+    assert advice.startswith("joint: error_angle_beta = error_angle_gamma = 0.3 deg are the defaults")
+    twisted = Scenario(scenarios / "double_cardan_omar_torsional.toml").with_parameters({"load.T0": 40.0})
+    twisted.stop_time = 0.5
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FmuWarning)
+        said = run_scenario(twisted, fmu_dir=fmu_dir, out_dir=None, plot=False).warnings
+    twist = [line for line in said if line.startswith("driveline: at t = ") and "shaft is twisted 0.5" in line]
+    assert len(twist) == 1, said
+    assert any("the intermediate shaft is twisted" in str(w.message) for w in caught
+               if issubclass(w.category, FmuWarning))

@@ -10,7 +10,6 @@ import atexit
 import contextlib
 import math
 import os
-import re
 import signal
 import sys
 import time
@@ -279,10 +278,11 @@ def _run_one(args, path, scenario=None):
         result = run_scenario(scenario, fmu_dir=args.fmu_dir, out_dir=args.out, plot=plot,
                               progress=_paced(args, scenario.step_size, progress),
                               model_exchange=args.model_exchange)
-    for line in _run_warnings(caught, [message.partition(": ")[2] for message in advice]):
-        said.append(line)
+    for w in caught:   # the FMUs' are in the result, once each; any other is warned again
+        if not issubclass(w.category, FmuWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    for line in result.warnings[len(said):]:
         print(f"  warning {tag}{line}", file=sys.stderr)
-    result.warnings = said
     print(result.summary(step_check_follows=getattr(args, "check_step", False)))
     if result.csv and not result.plot:   # --no-plot (or no matplotlib): an earlier run's figures stay as they were
         figures = (Path(result.csv).with_name(f"{scenario.name}{suffix}.png") for suffix in ("", "_orbits", "_spectra"))
@@ -290,29 +290,6 @@ def _run_one(args, path, scenario=None):
         if stale:
             print(f"  figures of an earlier run, not redrawn for this one: {', '.join(stale)}", file=sys.stderr)
     return result
-
-
-def _run_warnings(caught, said) -> list:
-    """The FMUs' warnings of a run (FmuWarning among caught) as 'component: text' lines, the others warned again:
-    once each (the step-halving rerun's repeats, at other times, left out), but for what the command says in its
-    own terms (said: the advice it printed before the run; the outputs read too seldom for an order, which the
-    run's sampling check reports)."""
-    from .master import FmuWarning
-    lines, seen = [], set()
-    for w in caught:
-        if not issubclass(w.category, FmuWarning):
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-            continue
-        text = str(w.message).removeprefix("[warning] ")
-        name, _, rest = text.partition(": ")
-        _, own, message = rest.partition(f" '{name}': ")
-        line = (f"{name}: {message}" if own else text).removesuffix(" (Said once per instance.)")
-        key = name, re.sub(r"(?<![\w.])[-+]?\d[\d.]*(e[-+]?\d+)?", "#", message or text)   # times, figures
-        if key in seen or "reads the outputs" in line or any(s and s in line for s in said):
-            continue
-        seen.add(key)
-        lines.append(line)
-    return lines
 
 
 def _positive_int(text):

@@ -584,6 +584,7 @@ class Cosimulation:
         self._open = True
         self._warned = 0             # log entries already raised as FmuWarning
         self._warned_texts = set()   # the texts raised
+        self.warned = []             # and in order: the run's FMU warnings (``cosimulate``'s diagnostics)
         asked = STOP[0]
         self.interrupted_while_closing = False   # a Ctrl-C while the FMUs were freed (``close``)
         RAISED_IN_RUN[0] = False
@@ -611,6 +612,7 @@ class Cosimulation:
         for entry in new:
             if entry.startswith("[warning]") and entry not in said:
                 said.add(entry)
+                self.warned.append(entry)
                 warnings.warn(entry, FmuWarning, stacklevel=3)
 
     def _setup(self, components, connections, record):
@@ -1834,8 +1836,9 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
     every output_interval communication steps and at stop_time.
 
     progress: optional callable(steps_done, steps_total) called now and then. diagnostics: optional dict, filled
-    (also when the run fails) with "bonds" (``BondEnergy`` per power bond) and "held_inputs" (``HeldInput`` per
-    input no connection feeds), and after a run with "iterates" (``Cosimulation.iterates``).
+    (also when the run fails) with "bonds" (``BondEnergy`` per power bond), "held_inputs" (``HeldInput`` per
+    input no connection feeds) and "fmu_warnings" (the FMUs' warnings as logged, each once, as they are also
+    warned: ``FmuWarning``), and after a run with "iterates" (``Cosimulation.iterates``).
     """
     if not (isinstance(step_size, numbers.Real) and step_size > 0.0 and math.isfinite(step_size)):
         raise CosimulationError(f"communication step size {step_size!r} must be finite and > 0")
@@ -1854,7 +1857,7 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
                                 f"communication steps of {step_size}")
     with Cosimulation(components, connections, step_size, record, start_time, coupling) as cosim:
         if diagnostics is not None:
-            diagnostics.update(bonds=cosim.bond_energies, held_inputs=cosim.held_inputs)
+            diagnostics.update(bonds=cosim.bond_energies, held_inputs=cosim.held_inputs, fmu_warnings=cosim.warned)
         table = cosim.run(n_steps, progress, output_interval)
         if diagnostics is not None:
             diagnostics["iterates"] = cosim.iterates

@@ -64,7 +64,7 @@ class _NoInput:
 
 def simulate_me(components, connections, stop_time: float, output_interval: float, record, start_time=0.0,
                 relative_tolerance: float = ME_TOLERANCE, events: list | None = None,
-                event_indicators: bool = True) -> np.ndarray:
+                event_indicators: bool = True, warned: list | None = None) -> np.ndarray:
     """Integrate the components' Model Exchange FMUs together with CVode; a structured array with 'time' and one
     column per recorded 'comp.var' at start_time + k * output_interval (as ``master.cosimulate`` returns).
 
@@ -74,7 +74,8 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
     event an FMU announces (fmi3UpdateDiscreteStates' nextEventTime: the MotorController's profile corner). Each
     event is appended to ``events`` (if given) as (time, 'comp.indicator') or (time, 'comp.time event');
     ``event_indicators=False`` leaves the switches to the solver's error control. What the FMUs warned of comes as
-    one ``FmuWarning`` per distinct text, as from ``master.cosimulate``."""
+    one ``FmuWarning`` per distinct text, as from ``master.cosimulate``, and is appended to ``warned`` (if given),
+    also when the run fails."""
     from fmpy.sundials import CVodeSolver
 
     n_out = int(round((stop_time - start_time) / output_interval))
@@ -273,6 +274,8 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
         interrupts.close()
         asked, STOP[0] = STOP[0], False   # this run's, not the next's
         for entry in dict.fromkeys(line for line in log if line.startswith("[warning]")):   # as cosimulate does
+            if warned is not None:
+                warned.append(entry)
             warnings.warn(entry, FmuWarning, stacklevel=2)
     if asked:   # pressed during the last interval or while freeing
         stopped = Interrupted(f"stopped at t = {stop_time:.10g} s, the run's end")
@@ -300,11 +303,11 @@ def _failures(failure):
     return failure[0] + (f" (then {len(failure) - 1} more failed calls)" if len(failure) > 1 else "")
 
 
-def simulate_scenario_me(scenario, fmu_dir, relative_tolerance: float = ME_TOLERANCE, extra: list = ()
-                         ) -> np.ndarray:
+def simulate_scenario_me(scenario, fmu_dir, relative_tolerance: float = ME_TOLERANCE, extra: list = (),
+                         warned: list | None = None) -> np.ndarray:
     """The scenario (a ``ujfmu.scenario.Scenario``) run with the Model Exchange FMUs of fmu_dir, output at its
-    communication step; extra: signals recorded besides the scenario's."""
+    communication step; extra: signals recorded besides the scenario's; warned: as ``simulate_me``'s."""
     scenario.check_fmus(fmu_dir)
     return simulate_me(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
                        scenario.step_size, list(scenario.record) + list(extra), scenario.start_time,
-                       relative_tolerance)
+                       relative_tolerance, warned=warned)

@@ -825,8 +825,9 @@ class ScenarioResult:
     skipped_bands: str = ""   # why the [reference.extrapolated] bands were not checked, if they were not
     fmu_dir: Path = None   # where the run's FMUs came from (named in a suggested command when not the default)
     reference_method: str | None = None   # how the reference compared against was made (its provenance line)
-    #: what the command line warned of before and during the run ('component: text': the models' advice on their
-    #: parameters, a load's order held too coarsely, the FMUs' warnings); a JUnit case carries them
+    #: what the run warned of ('component: text'): the models' advice on their parameters and a load's order held
+    #: too coarsely (said before it runs: ``Scenario.model_advice``, ``load_order_holds``), then the FMUs' warnings
+    #: (each also warned as a ``master.FmuWarning``); a JUnit case carries them
     warnings: list = field(default_factory=list)
 
     def __repr__(self) -> str:   # the dataclass's would print the whole table
@@ -1317,7 +1318,9 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         reference, provenance = scenario.reference()
         check_reference_span(scenario, reference)
     start = time.perf_counter()
-    diagnostics = {}
+    said = scenario.model_advice() + ([] if model_exchange else [h.text() for h in load_order_holds(scenario)])
+    warned = []   # the FMUs' warnings as logged (Model Exchange); a co-simulation's come in its diagnostics
+    diagnostics = {"fmu_warnings": warned}
     # the drives' speeds and set points ride along for the operating-point check, the drivetrain components' input
     # speeds for the sampling check, then leave the table
     extra = [x for pair in operating_pairs(scenario) for x in pair if x not in scenario.record]
@@ -1335,7 +1338,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     try:
         if model_exchange:
             from .model_exchange import simulate_scenario_me
-            table = simulate_scenario_me(scenario, fmu_dir, extra=extra)
+            table = simulate_scenario_me(scenario, fmu_dir, extra=extra, warned=warned)
         else:
             table = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
                                scenario.step_size, scenario.record + extra, scenario.start_time,
@@ -1378,6 +1381,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     if extra:
         table = _without(table, extra)
     result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start, fmu_dir=Path(fmu_dir),
+                            warnings=said + fmu_warning_lines(diagnostics["fmu_warnings"], said),
                             operating_checks=operating,
                             sampling_checks=sampling, steady_checks=steady,
                             bonds=annotate_bonds(scenario, diagnostics.get("bonds", [])),
@@ -1638,6 +1642,26 @@ def stalled_drive_hint(scenario: Scenario, partial: np.ndarray) -> str:
                     "load, and a load's torque reversing about zero speed chatters; if so, give the drive more "
                     "torque (tau_max) or lower the load")
     return ""
+
+
+def fmu_warning_lines(entries: list, said: list = ()) -> list:
+    """The FMUs' logged warnings (``[warning] Model 'instance': text``) as 'component: text' lines, once each (a
+    step-halving rerun's repeats, at other times, left out), but for what was said in other terms (said: the
+    models' advice given before the run; the outputs read too seldom for an order, which the run's sampling check
+    reports)."""
+    advice = [s.partition(": ")[2] or s for s in said]
+    lines, seen = [], set()
+    for entry in entries:
+        text = str(entry).removeprefix("[warning] ")
+        name, _, rest = text.partition(": ")
+        _, own, message = rest.partition(f" '{name}': ")
+        line = (f"{name}: {message}" if own else text).removesuffix(" (Said once per instance.)")
+        key = name, re.sub(r"(?<![\w.])[-+]?\d[\d.]*(e[-+]?\d+)?", "#", message or text)   # times, figures
+        if key in seen or "reads the outputs" in line or any(s and s in line for s in advice):
+            continue
+        seen.add(key)
+        lines.append(line)
+    return lines
 
 
 def _keep_partial(scenario, exc, extra, out_dir, plot, model_exchange=False):
