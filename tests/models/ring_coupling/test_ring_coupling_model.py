@@ -219,6 +219,19 @@ def test_a_misalignment_large_against_the_ring_is_named():
     assert len(rc.advice(ring(0.0101))) == 1
 
 
+def test_a_stiff_ring_without_damping_is_named_with_its_crossing_and_a_damping():
+    """The default ring (c_s = 87 EI/R, c_d = 0) is neither the paper's pendulum (c_s = 0) nor damped: its mode
+    sqrt(c_s / I2) rings for good, and its 2x crossing, at half that speed, grows without bound (an audit's 0.37 rad
+    after 40 revolutions). The warning names the crossing, which is the paper's Eq. (22) validity limit
+    sqrt(c_s / (4 I2)), and 10% damping, 0.2 sqrt(c_s I2); the pendulum case and a damped ring draw none."""
+    c_s = rc.rotational_stiffness(E, D, R)
+    (message,) = rc.advice(coupling(c_s=c_s, c_d=0.0))
+    limit = rc.validity_speed(E, D, R, I2)
+    assert f"near a running speed of {limit:.4g} rad/s, where the 2x excitation meets it" in message
+    assert f"c_d = 0.2 sqrt(c_s I2) = {0.2 * math.sqrt(c_s * I2):.4g} N.m.s/rad" in message
+    assert rc.advice(coupling(c_s=0.0, c_d=0.0)) == [] and rc.advice(coupling(c_s=c_s, c_d=1e-3)) == []
+
+
 @pytest.mark.parametrize("y0, v0", [(0.5, 1.0), (0.5, -1.0), (-0.3, 0.4), (1.0, 5.0), (1.0, -5.0)])
 def test_the_pendulum_closed_form_starts_where_it_is_told_and_solves_its_equation(y0, v0):
     """The reference's elliptic-function pendulum (Turla, Iljin Eqs. 13-16), y'' + a_e sin y = 0: at t = 0 it is at
