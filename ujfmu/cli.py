@@ -68,8 +68,9 @@ def _note_subfolders(folder: Path, named) -> None:
 #: off a terminal (a CI log), sweeps say their progress in a line at each tenth of their points and at the end of a
 #: point PLAIN_PROGRESS_EVERY s or more after the last line
 PLAIN_PROGRESS_EVERY = 60.0
-#: computed points (at least; two per worker) after which a sweep off a terminal says the time to go once, where it
-#: is a minute or more (on a terminal the bar shows it)
+#: computed points (at least; three rounds of the workers) after which a sweep off a terminal says the time to go
+#: once, where it is a minute or more (on a terminal the bar shows it), at the pace of the points after the first
+#: round (which also pays the workers' start and first imports)
 PACE_AFTER_POINTS = 4
 
 
@@ -81,10 +82,10 @@ def _progress(args, desc, unit, clock=time.perf_counter):
         yield None
         return
     if not sys.stderr.isatty():
-        started, said = clock(), {"tenth": 0, "at": clock(), "first": None, "paced": False}
-        workers = getattr(args, "workers", None)   # points finish together on parallel workers: two rounds of them
+        started, said = clock(), {"tenth": 0, "at": clock(), "first": None, "paced": False, "round": None}
+        workers = getattr(args, "workers", None)   # points finish together on parallel workers: rounds of them
         parallel = (os.cpu_count() or 1) if workers is None else max(workers, 1)
-        pace_after = max(PACE_AFTER_POINTS, 2 * parallel)
+        pace_after = max(PACE_AFTER_POINTS, 3 * parallel)
 
         def say(done, total):
             now, tenth = clock(), (10 * done) // max(total, 1)
@@ -95,13 +96,15 @@ def _progress(args, desc, unit, clock=time.perf_counter):
                 print(f"  {desc}: {done} of {total} {unit}s done ({now - started:.0f} s)", file=sys.stderr,
                       flush=True)
             computed = done - said["first"]
-            if not said["paced"] and computed >= pace_after and done < total:
+            if said["round"] is None and computed >= parallel:   # the first round's end: (points, time)
+                said["round"] = computed, now
+            if not said["paced"] and computed >= pace_after and done < total and computed > said["round"][0]:
                 said["paced"] = True
-                pace = (now - started) / computed
+                pace = (now - said["round"][1]) / (computed - said["round"][0])
                 if pace * (total - done) >= PLAIN_PROGRESS_EVERY:
-                    print(f"  {desc}: about {pace * (total - done) / 60.0:.2g} min to go at the pace of its first "
-                          f"{computed} {unit}s ({pace:.3g} s each, wall; a {unit} that settles slowly takes longer)",
-                          file=sys.stderr, flush=True)
+                    print(f"  {desc}: about {pace * (total - done) / 60.0:.2g} min to go at the pace of its "
+                          f"{computed - said['round'][0]} {unit}s after the first {said['round'][0]} ({pace:.3g} s "
+                          f"each, wall; a {unit} that settles slowly takes longer)", file=sys.stderr, flush=True)
         yield say
         return
     from tqdm import tqdm
