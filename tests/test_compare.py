@@ -514,3 +514,11 @@ def test_a_band_as_wide_as_the_steady_vibration_is_said_to_check_the_level_only(
     for name in ("twin_jeffcott_steady", "twin_jeffcott_aligned_vs_misaligned"):
         bundled = run_scenario(SCENARIOS / f"{name}.toml", fmu_dir=fmu_dir, out_dir=None, plot=False)
         assert bundled.passed and bundled.level_only_bands == [], name
+    # a signal that grows (the input work, an angle) has no steady vibration for a band to miss
+    grows = base.replace('"rotor.input_work" = { rel_range = 1e-06 }', '"rotor.input_work" = { rel_range = 0.05 }')
+    assert grows != base
+    (tmp_path / "twin_jeffcott_steady.toml").write_text(grows)
+    (tmp_path / "references" / "twin_jeffcott_steady.csv").write_bytes(
+        (SCENARIOS / "references" / "twin_jeffcott_steady.csv").read_bytes())
+    assert run_scenario(tmp_path / "twin_jeffcott_steady.toml", fmu_dir=fmu_dir, out_dir=None,
+                        plot=False).level_only_bands == []

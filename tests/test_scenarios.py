@@ -312,7 +312,8 @@ def test_a_runs_warnings_are_data_from_python(fmu_dir):
     """ScenarioResult.warnings was filled by the command line only: from Python it was always [] while the FMUs
     warned (a fresh-eyes trial's). A run holds the models' advice on their parameters (Feng's default error angles
     at a 0.03 rad bend) and the FMUs' warnings during the run (Omar's shaft twisted past LARGE_TWIST by 40 N.m on
-    k_theta = 92.2 N.m/rad: 0.5 rad as it starts), each once, as 'component: text'; the FMU's warning is still warned too."""
+    k_theta = 92.2 N.m/rad: 0.5 rad as it starts), each once, as 'component: text'; the FMU's warning is still
+    warned too."""
     import warnings
 
     from ujfmu.master import FmuWarning

@@ -286,7 +286,8 @@ def plot_sweep(sweep, out_dir):
             points = on_off or first.sampled
             # past ten curves the colours repeat: each ten then has markers of its own
             mark = "." if i < 10 else GROUP_MARKERS[(i // 10 - 1) % len(GROUP_MARKERS)]
-            line, size = ("o", 5 if on_off else 3) if points else (f"{mark}-", 3)
+            dot = GROUP_MARKERS[(i // 10) % len(GROUP_MARKERS)]   # "o" for the first ten
+            line, size = (dot, 5 if on_off else 3) if points else (f"{mark}-", 3)
             ax.plot(xs(rows), [k * r[f"{out}.max"] for r in rows], line, color=color, ms=size, label=label(key))
             ax.plot(xs(rows), [k * r[f"{out}.min"] for r in rows], line if points else f"{mark}--", color=color,
                     ms=size, mfc="none" if points else None)
@@ -298,7 +299,7 @@ def plot_sweep(sweep, out_dir):
         ax.grid(alpha=0.3)
         if flagged and not others:
             ax.legend(fontsize=7)
-    if others and len(groups) > LEGEND_INSIDE:   # beside the panels, in columns: inside it had crushed them
+    if others and len(groups) > LEGEND_INSIDE:   # beside the panels, in columns, clear of the data
         handles, labels = axes[0, 0].get_legend_handles_labels()
         fig.legend(handles, labels, loc="outside right lower", fontsize=6,
                    ncol=1 + len(labels) // LEGEND_COLUMN_ROWS)

@@ -513,7 +513,8 @@ class Scenario:
         (where those are valid: ``timed``)."""
         if not isinstance(out, dict):
             self.record = []
-            raise ScenarioError(f"{self.path}: [output] must be a table; known fields: {', '.join(sorted(OUTPUT_KEYS))}")
+            raise ScenarioError(f"{self.path}: [output] must be a table; known fields: "
+                                f"{', '.join(sorted(OUTPUT_KEYS))}")
         unknown = set(out) - OUTPUT_KEYS
         if unknown:   # the others still read: what they name is checked, and nothing is blamed on the misspelling
             problems.add(self._unknown_fields("output", unknown, OUTPUT_KEYS))

@@ -79,8 +79,8 @@ START_DOMINANCE = 3.0
 
 #: what a band at least half its reference's range checks (a flat line through the middle passes it)
 LEVEL_ONLY = "checks the level only"
-#: a steady vibration (max |x - mean| over the steady window, the run's or the reference's) of at least this fraction
-#: of the reference's range is a feature of the signal's course, which a band at least as wide cannot see
+#: a steady vibration (half the peak-to-peak over the steady window, the run's or the reference's) of at least this
+#: fraction of the reference's range is a feature of the signal's course, which a band at least as wide cannot see
 VISIBLE_VIBRATION = 0.01
 
 
@@ -1207,22 +1207,23 @@ def compare(table, reference, tolerances, units: dict | None = None, measured: b
 
 def mark_vibration_blind(scenario: Scenario, table: np.ndarray, reference: np.ndarray, checks: list) -> None:
     """Mark as checking the level only (``SignalCheck.level_only``, its note saying why) each check whose band is at
-    least the signal's steady vibration, max |x - mean| over the steady window (``output.steady_from`` on) of the
-    run or of the reference, where that vibration is at least ``VISIBLE_VIBRATION`` of the reference's range and
-    its orders are not compared ([reference.orders]): a signal without the vibration, or a reference without it,
-    passes such a band."""
+    least half the signal's peak-to-peak over the steady window (``output.steady_from`` on), in the run or in the
+    reference, where that vibration is at least ``VISIBLE_VIBRATION`` of the reference's range and its orders are
+    not compared ([reference.orders]): a flat line through the window's middle, a signal or a reference without
+    the vibration, passes such a band. Signals that grow (running angles, energy integrals: ``steady.grows``) have
+    no steady vibration and are left out, as the steady window's figures leave them out."""
     steady = _steady_window(scenario, table)
     if steady is None:
         return
-    window = steady[0]
+    window, steady_signals = steady[0], set(steady[1])   # running angles and energy integrals grow: left out
     since = float(window["time"][0])
     end = float(window["time"][-1]) + 1e-9 * max(1.0, abs(float(window["time"][-1])))
     theirs = reference[(reference["time"] >= since - 1e-9 * max(1.0, abs(since))) & (reference["time"] <= end)]
     orders = steady_orders(scenario, table)
     for check in checks:
-        if check.level_only or check.name in scenario.order_tolerances or check.name not in window.dtype.names:
+        if check.level_only or check.name in scenario.order_tolerances or check.name not in steady_signals:
             continue
-        swings = [(float(np.max(np.abs(x - np.mean(x)))), what)
+        swings = [(0.5 * float(np.ptp(x)), what)
                   for x, what in ((window[check.name], "the run"), (theirs[check.name], "the reference")) if len(x)]
         swing, where = max(swings)
         if not (swing >= VISIBLE_VIBRATION * check.reference_range and check.allowed >= swing > 0.0):
@@ -1232,11 +1233,11 @@ def mark_vibration_blind(scenario: Scenario, table: np.ndarray, reference: np.nd
         largest = max(((a, k) for k, a in zip(CHECKED_ORDERS, amplitudes) if not math.isnan(a)), default=None)
         order = f"; the run's largest order there {largest[1]}x, {largest[0]:.3g}{unit}" if largest else ""
         check.level_only = True
-        check.note = (f"{LEVEL_ONLY} over the steady window from t = {since:g} s: the band, {check.allowed:.3g}"
-                      f"{unit}, is at least the signal's vibration there ({swing:.3g}{unit}, max |x - mean| in "
-                      f"{where}{order}), so a signal without that vibration would pass; compare its orders "
-                      f"([reference.orders] \"{check.name}\" = {{ rel = 0.05 }}) or tighten the band below it"
-                      + (f"; {check.note}" if check.note else ""))
+        blind = (f"{LEVEL_ONLY} over the steady window from t = {since:g} s: the band, {check.allowed:.3g}"
+                 f"{unit}, is at least half the signal's peak-to-peak there ({swing:.3g}{unit} in {where}{order}), so "
+                 "a flat line through its middle, a signal without that vibration, would pass; compare its orders "
+                 f"([reference.orders] \"{check.name}\" = {{ rel = 0.05 }}) or tighten the band below it")
+        check.note = f"{check.note}; {blind}" if check.note else blind   # a failure's likely cause stays first
 
 
 def milliseconds_hint(scenario: Scenario, reference: np.ndarray) -> str:
