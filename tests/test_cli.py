@@ -396,6 +396,24 @@ def test_a_sweep_off_a_terminal_says_its_time_to_go_once_from_its_first_computed
         assert len(lines) == 1 and said in lines[0] and f"({pace}, wall" in lines[0], lines
 
 
+def test_the_progress_counts_the_step_halving_rerun(fmu_dir):
+    """cardan_startup's [reference.extrapolated] bands rerun it at half the step after its 6000 steps: the progress
+    had stood at 6000 of 6000 through that rerun, the longer part (12000 steps). Its total counts both from the
+    start, 18000, and the count goes on through the rerun to it; a run without a rerun counts its own steps."""
+    calls = []
+    ujfmu.run_scenario(SCENARIOS / "cardan_startup.toml", fmu_dir=fmu_dir, out_dir=None, plot=False,
+                       progress=lambda done, total: calls.append((done, total)))
+    assert {total for _, total in calls} == {18000}
+    done = [d for d, _ in calls]
+    assert done == sorted(done) and done[-1] == 18000 and any(6000 < d < 18000 for d in done)
+    calls.clear()
+    from ujfmu.scenario import Scenario
+    plain = Scenario(SCENARIOS / "cardan_startup.toml").with_parameters({})   # a changed copy: no reference
+    ujfmu.run_scenario(plain, fmu_dir=fmu_dir, out_dir=None, plot=False,
+                       progress=lambda done, total: calls.append((done, total)))
+    assert {total for _, total in calls} == {6000} and calls[-1][0] == 6000
+
+
 @pytest.mark.parametrize("scenario", ["cardan_constant_speed", "cardan_startup"])   # explicit, implicit steps
 def test_a_progress_callback_that_returns_false_stops_the_run_and_keeps_its_results(fmu_dir, tmp_path, scenario):
     """As fmpy's step_finished: returning False stops the run at that report (a caller's time budget had to raise
@@ -408,7 +426,7 @@ def test_a_progress_callback_that_returns_false_stops_the_run_and_keeps_its_resu
     n = int(round((s.stop_time - s.start_time) / s.step_size))
     with pytest.raises(RunStopped) as info:
         ujfmu.run_scenario(path, fmu_dir=fmu_dir, out_dir=tmp_path, plot=False,
-                           progress=lambda done, total: done < total // 2)
+                           progress=lambda done, total: done < n // 2)
     partial = info.value.partial
     assert n // 2 <= len(partial) - 1 <= n // 2 + n // 200 + 1 and "hint" not in str(info.value)
     assert f"stopped by the progress callback after {len(partial) - 1} of {n} steps" in str(info.value)
@@ -603,24 +621,23 @@ def test_record_adds_a_signal_and_keeps_the_run_checked(fmu_dir, tmp_path, capsy
 
 def test_a_stop_in_the_step_halving_rerun_keeps_the_whole_run(fmu_dir, tmp_path):
     """cardan_startup's [reference.extrapolated] bands rerun it at h/2 after the run itself: that rerun asks the
-    callback too (at the run's full count, so a bar stays full; it had asked nothing, 70% of the call unseen), a
-    False stops it, and the complete run at the scenario's step is written, not lost (a notebook user's interrupt
-    there had kept only the rerun's rows)."""
+    callback too (its steps counted on from the run's; it had asked nothing, 70% of the call unseen), a False
+    stops it, and the complete run at the scenario's step is written, not lost (a notebook user's interrupt there
+    had kept only the rerun's rows)."""
     from ujfmu.master import RunStopped
     from ujfmu.scenario_run import run_scenario
-    reports = []
+    reports, steps = [], 6000
 
     def progress(done, total):
         reports.append((done, total))
-        return done < total or reports.count((total, total)) < 2   # the rerun's first question stops it
+        return done <= steps   # the rerun's first report stops it
     with pytest.raises(RunStopped) as info:
         run_scenario(SCENARIOS / "cardan_startup.toml", fmu_dir=fmu_dir, out_dir=tmp_path, plot=False,
                      progress=progress)
-    total = reports[0][1]
-    assert {t for _, t in reports} == {total} and reports[-2:] == [(total, total)] * 2
+    assert {t for _, t in reports} == {3 * steps} and reports[-1][0] > steps
     assert "stopped in the step-halving rerun" in str(info.value) and "complete and kept" in str(info.value)
     rows = (tmp_path / "cardan_startup.csv").read_text().splitlines()
-    assert len(rows) - 1 == total + 1 == len(info.value.partial)
+    assert len(rows) - 1 == steps + 1 == len(info.value.partial)
 
 
 def test_an_unchecked_model_exchange_run_is_not_sent_to_the_step_check():

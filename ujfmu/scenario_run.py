@@ -1274,11 +1274,12 @@ def check_reference_span(scenario: Scenario, reference: np.ndarray) -> None:
 
 
 def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.ndarray | None = None,
-                     progress: Callable[[int, int], bool | None] | None = None) -> np.ndarray:
+                     progress: Callable[[int, int], bool | None] | None = None,
+                     diagnostics: dict | None = None) -> np.ndarray:
     """Richardson extrapolation 2 y(h/2) - y(h) of the recorded signals on the scenario's grid (step h).
 
     It cancels a coupling error c*h + O(h^2) (inputs held over each step), leaving O(h^2). coarse: the run at h
-    when it is already at hand. progress: as ``cosimulate``'s, for the run at h/2 (its own steps).
+    when it is already at hand. progress, diagnostics: as ``cosimulate``'s, for the run at h/2 (its own steps).
     """
     h, every = scenario.step_size, scenario.output_interval
     if coarse is None:
@@ -1286,7 +1287,7 @@ def extrapolate_step(scenario: Scenario, fmu_dir=DEFAULT_FMU_DIR, coarse: np.nda
                             scenario.record, scenario.start_time, coupling=scenario.coupling, output_interval=every)
     fine = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time, h / 2,
                       scenario.record, scenario.start_time, coupling=scenario.coupling, output_interval=2 * every,
-                      progress=progress)
+                      progress=progress, diagnostics=diagnostics)
     out = coarse.copy()
     for name in scenario.record:
         out[name] = 2.0 * fine[name] - coarse[name]
@@ -1300,7 +1301,9 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     """Co-simulate a scenario, compare with its reference; write CSV (and PNG) into out_dir (None: write nothing).
 
     fmu_dir and out_dir default to fmus/ and results/ of the current directory. progress: optional
-    callable(steps_done, steps_total), called now and then (the command line draws a progress bar with it).
+    callable(steps_done, steps_total), called now and then (the command line draws a progress bar with it); where
+    the scenario's [reference.extrapolated] bands rerun it at half the step, the total counts the rerun's steps too
+    and the rerun continues the count; returning False stops the run (``master.RunStopped``).
     Returns a ScenarioResult whose .table is the result (structured array, 'time' + 'comp.var' columns).
     model_exchange=True runs the FMI 3.0 Model Exchange FMUs of fmu_dir together under CVode
     (``ujfmu.model_exchange``) instead of co-simulating, output at the scenario's step; with no step error to
@@ -1322,6 +1325,11 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     said = scenario.model_advice() + ([] if model_exchange else [h.text() for h in load_order_holds(scenario)])
     warned = []   # the FMUs' warnings as logged (Model Exchange); a co-simulation's come in its diagnostics
     diagnostics = {"fmu_warnings": warned}
+    # a step-halving rerun follows ([reference.extrapolated]): its 2n steps count in the progress's total
+    steps = int(round((scenario.stop_time - scenario.start_time) / scenario.step_size))
+    rerun_steps = 2 * steps if (not model_exchange and scenario.compares and scenario.extrapolated_tolerances
+                                and scenario.bands_hold_at(scenario.step_size)) else 0
+    counted = (lambda done, total: progress(done, total + rerun_steps)) if progress and rerun_steps else progress
     # the drives' speeds and set points ride along for the operating-point check, the drivetrain components' input
     # speeds for the sampling check, then leave the table
     extra = [x for pair in operating_pairs(scenario) for x in pair if x not in scenario.record]
@@ -1343,7 +1351,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
         else:
             table = cosimulate(scenario.master_components(fmu_dir), scenario.connections, scenario.stop_time,
                                scenario.step_size, scenario.record + extra, scenario.start_time,
-                               progress=progress or None, coupling=scenario.coupling,
+                               progress=counted or None, coupling=scenario.coupling,
                                output_interval=scenario.output_interval, diagnostics=diagnostics)
     except CosimulationError as exc:
         # a Load that chatters near rest is the likelier cause, where it came near rest (a run that never stepped,
@@ -1419,10 +1427,14 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                                     f"{scenario.step_size:g} s is coarser ([reference.tolerance] checked)")
         elif scenario.extrapolated_tolerances:
             try:
-                # the rerun asks the callback whether to go on, at the run's own count (the bar stays full)
-                done = int(round((scenario.stop_time - scenario.start_time) / scenario.step_size))
+                # the rerun's steps continue the run's count (its total counted them from the start)
+                rerun = {}
                 extrapolated = table if model_exchange else extrapolate_step(
-                    scenario, fmu_dir, table, progress=(lambda *_: progress(done, done)) if progress else None)
+                    scenario, fmu_dir, table, diagnostics=rerun,
+                    progress=(lambda done, total: progress(steps + done, steps + total)) if progress else None)
+                # the rerun's warnings too, once with the run's (the same warning at another time is the same)
+                result.warnings = said + fmu_warning_lines(diagnostics["fmu_warnings"]
+                                                           + rerun.get("fmu_warnings", []), said)
             except (Interrupted, RunStopped) as exc:   # the run itself is whole: kept, as a stopped run's
                 exc.args = ("stopped in the step-halving rerun at half the step ([reference.extrapolated] bands); "
                             "the run at the scenario's step is complete and kept, its comparison not made",)
