@@ -1,6 +1,7 @@
 """RingCoupling physics: the ring's potential, units of c_s, and the paper's coefficients."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -9,6 +10,7 @@ import sympy as sp
 from ujfmu.models.ring_coupling import model as rc
 
 E, D, R, ECC, I2 = 2.1e11, 0.003, 0.1, 0.003, 0.05
+SCENARIOS = Path(__file__).parents[3] / "scenarios"
 
 
 def coupling(**changes):
@@ -228,8 +230,17 @@ def test_a_stiff_ring_without_damping_is_named_with_its_crossing_and_a_damping()
     (message,) = rc.advice(coupling(c_s=c_s, c_d=0.0))
     limit = rc.validity_speed(E, D, R, I2)
     assert f"near a running speed of {limit:.4g} rad/s, where the 2x excitation meets it" in message
-    assert f"c_d = 0.2 sqrt(c_s I2) = {0.2 * math.sqrt(c_s * I2):.4g} N.m.s/rad" in message
+    assert f"c_d = {0.2 * math.sqrt(c_s * I2):.4g} N.m.s/rad (0.2 sqrt(c_s J)" in message
+    assert rc.advice(coupling(c_s=c_s, c_d=0.0))[0].startswith("c_d = 0 with c_s = 726.429 N.m/rad: the coupling's "
+                                                                f"torsional mode, {math.sqrt(c_s / I2):.4g} rad/s")
     assert rc.advice(coupling(c_s=0.0, c_d=0.0)) == [] and rc.advice(coupling(c_s=c_s, c_d=1e-3)) == []
+    # torque-driven, the two-mass mode: J_drive + I1 against I2, as the modes' linearisation has it
+    from ujfmu.analysis import scenario_modes
+    from ujfmu.scenario import Scenario
+    free = Scenario(SCENARIOS / "ring_coupling_torque_driven.toml").with_parameters({"coupling.c_d": 0.0})
+    (mode,) = scenario_modes(free)
+    (said,) = free.model_advice()
+    assert f"near a running speed of {mode.omega / 2:.4g} rad/s" in said and "with the input shaft free" in said
 
 
 @pytest.mark.parametrize("y0, v0", [(0.5, 1.0), (0.5, -1.0), (-0.3, 0.4), (1.0, 5.0), (1.0, -5.0)])

@@ -315,10 +315,11 @@ def free_output_inertia(p: Parameters) -> float:
     return p.I2
 
 
-def advice(p: Parameters) -> list:
+def advice(p: Parameters, inertia: float | None = None, held: str = "with the input held") -> list:
     """Warnings on valid parameters that are likely not what was meant: c_s left at the default ring's 87 EI/R
     while R, d or E describe another ring (c_s is a parameter of its own, not derived from them); a stiff ring
-    without damping (c_s > 0, c_d = 0: an undamped mode whose 2x crossing grows without bound); a misalignment
+    without damping (c_s > 0, c_d = 0: a mode sqrt(c_s / inertia) undamped within the coupling, inertia I2 with the
+    input held, whose 2x crossing grows without bound unless the load or the drive damps it); a misalignment
     e above ``LARGE_MISALIGNMENT`` of R, where the paper's e^2 law (Eq. 7, derived for e small against R) is not
     established."""
     messages = []
@@ -330,14 +331,15 @@ def advice(p: Parameters) -> list:
                         f"ring's 87 EI/R is {own:.6g} N.m/rad: set c_s = {own:.6g} for it (or 0 for the paper's "
                         "pendulum case, Eq. 9)")
     if p.c_s > 0.0 and p.c_d == 0.0:
-        w_n = math.sqrt(p.c_s / p.I2)
-        messages.append(f"c_d = 0 with c_s = {p.c_s:.6g} N.m/rad: the coupling's torsional mode, sqrt(c_s / I2) = "
-                        f"{w_n:.4g} rad/s with the input held, is undamped, so a run's start-up oscillation never "
-                        "decays (its amplitudes depend on how long the run is) and near a running speed of "
-                        f"{0.5 * w_n:.4g} rad/s, where the 2x excitation meets it, the response grows without bound; "
-                        "give the ring its damping, e.g. 10% of critical, c_d = 0.2 sqrt(c_s I2) = "
-                        f"{0.2 * math.sqrt(p.c_s * p.I2):.4g} N.m.s/rad (the bundled rings'), or c_s = 0 for the "
-                        "paper's undamped pendulum case (Eq. 9)")
+        inertia = p.I2 if inertia is None else inertia
+        w_n = math.sqrt(p.c_s / inertia)
+        messages.append(f"c_d = 0 with c_s = {p.c_s:.6g} N.m/rad: the coupling's torsional mode, {w_n:.4g} rad/s "
+                        f"{held}, has no damping within the coupling, so unless the load or the drive damps it a "
+                        "run's start-up oscillation never decays (its amplitudes depend on how long the run is) and "
+                        f"near a running speed of {0.5 * w_n:.4g} rad/s, where the 2x excitation meets it, the "
+                        "response grows without bound; give the ring its damping, e.g. 10% of critical, c_d = "
+                        f"{0.2 * math.sqrt(p.c_s * inertia):.4g} N.m.s/rad (0.2 sqrt(c_s J), J the mode's inertia), or "
+                        "c_s = 0 for the paper's undamped pendulum case (Eq. 9)")
     if p.e > LARGE_MISALIGNMENT * p.R:
         messages.append(f"e = {p.e:.6g} m is {p.e / p.R:.3g} of the ring radius R = {p.R:.6g} m: the misalignment "
                         "moment M_p = 157 (EI/R^3) e^2 is the paper's result for a misalignment small against the "
@@ -495,7 +497,13 @@ class TorqueDriven:
         alpha = input_acceleration(p, u.tau_in, m_p, elastic)
         return {"alpha_in": alpha, "tau_input_shaft": p.I1 * alpha - m_p + elastic}
 
-    advice = staticmethod(advice)
+    @staticmethod
+    def advice(p: TorqueDrivenParameters) -> list:
+        """:func:`advice` with the coupling's two-mass mode: the reduced inertia J_in I2 / (J_in + I2), J_in =
+        J_drive + I1."""
+        j_in = p.J_drive + p.I1
+        return advice(p, j_in * p.I2 / (j_in + p.I2) if j_in > 0.0 else None,
+                      "with the input shaft free (J_drive + I1 against I2)")
     free_output_inertia = staticmethod(free_output_inertia)
 
     @staticmethod
