@@ -731,13 +731,17 @@ def test_a_load_behind_a_joint_whose_output_follows_its_input_chatters_on_the_dr
     from ujfmu.scenario_run import run_scenario
     start = Scenario(SCENARIOS / "cardan_startup.toml").with_parameters({"load.T0": 0.5, "load.omega_smooth": 1e-4})
     (chatter,) = start.load_chatter()
-    assert (chatter.inertia, chatter.ratio) == (1e-3, pytest.approx(0.5 * 1e-3 / 1e-3 / 1e-4))
+    # the rotor's speed under T0 held over h against the loop's Kp = 0.2 N.m.s/rad: T0 (1 - exp(-Kp h / J)) / Kp
+    reach = 0.5 * (1.0 - math.exp(-0.2 * 1e-3 / 1e-3)) / 0.2
+    assert (chatter.inertia, chatter.gain, chatter.ratio) == (1e-3, 0.2, pytest.approx(reach / 1e-4))
     said = "moves joint's output, which follows its input, and with it motor's rotor inertia J_rotor, J = 0.001 kg.m2"
     assert any(said in a for a in start.model_advice())
     start.stop_time = 0.2
     with pytest.raises(CosimulationError) as failed:
         run_scenario(start, fmu_dir, out_dir=None, plot=False)
-    assert said in str(failed.value) and "Widen omega_smooth to at least 0.5 rad/s" in str(failed.value)
+    assert said in str(failed.value) and f"Widen omega_smooth to at least {reach:.3g} rad/s" in str(failed.value)
+    # the step that would do: where the loop's hold meets omega_smooth, -J/Kp ln(1 - Kp omega_smooth / T0)
+    assert f"take a step of at most {-1e-3 / 0.2 * math.log(1.0 - 0.2 * 1e-4 / 0.5):.3g} s" in str(failed.value)
     assert start.with_parameters({"motor.ideal_speed_source": True}).load_chatter() == []
     heavy = Scenario(SCENARIOS / "cardan_heavy_torque_driven.toml").with_parameters({"load.omega_smooth": 1e-4})
     (driven,) = [c for c in heavy.load_chatter() if c.driven == "joint"]

@@ -147,23 +147,41 @@ class LoadChatter:
     torque: float
     smooth: float
     step: float
-    ratio: float   # T0 h / (J omega_smooth)
+    ratio: float   # the speed one step of the torque moves the inertia by (:meth:`reach`), over omega_smooth
     name: str = "T0"   # what torque is meant: T0, or T0 + T_change where the change makes it larger
     #: where the driven model's output follows its input (a CardanJoint, a rigid double Cardan): the inertia the
     #: load acts on instead, named ("motor's rotor inertia J_rotor", "its driven input shaft's J_drive")
     holder: str = ""
+    #: the proportional gain Kp [N.m.s/rad] of a PI Motor's speed loop on that inertia (0: none), which holds the
+    #: speed back within the step
+    gain: float = 0.0
+
+    @staticmethod
+    def reach_of(torque: float, step: float, inertia: float, gain: float = 0.0) -> float:
+        """The speed [rad/s] a torque held over a step moves the inertia by: T h / J, or against a speed loop of
+        gain Kp, T (1 - exp(-Kp h / J)) / Kp (the loop's proportional part resisting the change)."""
+        if gain > 0.0:
+            return torque * -math.expm1(-gain * step / inertia) / gain
+        return torque * step / inertia
 
     def text(self) -> str:
-        reach = self.torque * self.step / self.inertia
+        reach = self.reach_of(self.torque, self.step, self.inertia, self.gain)
         moves = (f"{self.driven}'s output, which follows its input, and with it {self.holder}, J = "
                  f"{self.inertia:g} kg.m2," if self.holder else
                  f"{self.driven}'s output inertia J = {self.inertia:g} kg.m2")
+        law = (f"{self.name} (1 - exp(-Kp h / J)) / Kp (its speed loop's Kp = {self.gain:g} N.m.s/rad holding it "
+               "back)" if self.gain > 0.0 else f"{self.name} h / J")
+        if self.gain > 0.0:   # the step at which the loop's hold meets omega_smooth
+            share = self.gain * self.smooth / self.torque
+            step = -self.inertia / self.gain * math.log1p(-share) if share < 1.0 else math.inf
+        else:
+            step = self.inertia * self.smooth / self.torque
         return (f"{self.load}: its constant torque {self.name} = {self.torque:g} N.m reverses within omega_smooth = "
                 f"{self.smooth:g} rad/s of rest, and one step of it ({self.step:g} s) moves {moves} by "
-                f"{self.name} h / J = {reach:.3g} rad/s, "
+                f"{law} = {reach:.3g} rad/s, "
                 f"{self.ratio:.3g}x omega_smooth: near rest (a start, a stall) the load's torque reverses at every "
                 f"step, and the run stops as a coupling instability or chatter. Widen omega_smooth to at least "
-                f"{reach:.3g} rad/s, or take a step of at most {self.inertia * self.smooth / self.torque:.3g} s")
+                f"{reach:.3g} rad/s, or take a step of at most {step:.3g} s")
 
 
 class ScenarioError(ValueError):
@@ -1251,33 +1269,35 @@ class Scenario:
             driven, _, out = conn.source.partition(".")
             if port != "omega" or out != "omega_out" or self.components.get(load, ("",))[0] != "Load":
                 continue
-            inertia, holder = self._ask_model(driven, "free_output_inertia"), ""   # [] where the model has none
+            inertia, holder, gain = self._ask_model(driven, "free_output_inertia"), "", 0.0   # []: none
             if not (isinstance(inertia, numbers.Real) and inertia > 0.0):
-                inertia, holder = self._input_inertia(driven)
+                inertia, holder, gain = self._input_inertia(driven)
             law = self.parameters_with_defaults(load)
             changed = law.get("T_change", 0.0) > 0.0
             torque = law["T0"] + law.get("T_change", 0.0) if changed else law["T0"]
             if isinstance(inertia, numbers.Real) and inertia > 0.0 and torque > 0.0:
-                reach = torque * self.step_size / inertia
+                reach = LoadChatter.reach_of(torque, self.step_size, inertia, gain)
                 found.append(LoadChatter(load, driven, inertia, float(torque), float(law["omega_smooth"]),
                                          self.step_size, reach / law["omega_smooth"],
-                                         "T0 + T_change" if changed else "T0", holder))
+                                         "T0 + T_change" if changed else "T0", holder, gain))
         return found
 
     def _input_inertia(self, component) -> tuple:
-        """(J, what it is) that a load on the output of a component whose output follows its input acts on: its
-        own driven input shaft's J_drive (a torque-driven FMU), or the rotor inertia J_rotor of the Motor that
-        drives its omega_in (not an ideal speed source, whose speed ignores any torque); (None, "") otherwise."""
+        """(J, what it is, the gain Kp of a speed loop on it) that a load on the output of a component whose output
+        follows its input acts on: its own driven input shaft's J_drive (a torque-driven FMU, its MotorController's
+        loop left out: its torque is held over the step), or the rotor inertia J_rotor of the PI Motor that drives
+        its omega_in, with its Kp (not an ideal speed source, whose speed ignores any torque); (None, "", 0)
+        otherwise."""
         own = self.parameters_with_defaults(component)
         if "J_drive" in own:
-            return own["J_drive"], "its driven input shaft's J_drive"
+            return own["J_drive"], "its driven input shaft's J_drive", 0.0
         for conn in self.connections:
             motor, _, out = conn.source.partition(".")
             if conn.target == f"{component}.omega_in" and out == "omega" and self.components[motor][0] == "Motor":
                 drive = self.parameters_with_defaults(motor)
                 if not drive.get("ideal_speed_source", False):
-                    return drive["J_rotor"], f"{motor}'s rotor inertia J_rotor"
-        return None, ""
+                    return drive["J_rotor"], f"{motor}'s rotor inertia J_rotor", float(drive.get("Kp", 0.0))
+        return None, "", 0.0
 
     def _ask_model(self, component, what) -> list:
         model = getattr(fmu_class(self.components[component][0]), "MODEL", None)
