@@ -1725,6 +1725,21 @@ def test_a_grid_that_steps_over_a_mode_crossing_where_an_order_peaks_says_so_wit
     read = max(r["coupling.transmitted_torque.h2"] for r in coarse.table())
     assert max(r["coupling.transmitted_torque.h2"] for r in fine.table()) > 1.3 * read
     assert sweep("on", "motor.omega_set=40,60.3,80").stepped_over_crossings() == []
+    backwards = sweep("backwards", "motor.omega_set=-100:-10:15").stepped_over_crossings()   # the same ring reversed
+    assert [(c.output, c.low, c.high, c.at) for c in backwards][:1] == [("coupling.transmitted_torque", -70.0, -55.0,
+                                                                         -55.0)]
+    # a PI motor's loop puts the mode between its free input's (the rotor J_rotor against I2) and its held input's:
+    # both crossings are named where the grid steps over them next to the peak
+    startup = Scenario(SCENARIOS / "ring_coupling_startup.toml")
+    driven = Sweep(startup, [parse_axis("motor.omega_set=10:90:20", startup)],
+                   SweepSettings.from_scenario(startup, outputs=["coupling.transmitted_torque"],
+                                               running_speed="motor.omega", settle_time=1.5, revolutions=4),
+                   out_dir=tmp_path, name="driven", fmu_dir=fmu_dir)
+    driven.run(workers=0, progress=False)
+    c_s, i2 = 726.4294875418636, 0.05
+    j = startup.parameters_with_defaults("motor")["J_rotor"]
+    named = sorted(c.speed for c in driven.stepped_over_crossings())
+    assert named == pytest.approx([math.sqrt(c_s / i2) / 2, math.sqrt(c_s * (1 / i2 + 1 / j)) / 2], rel=2e-3)
     assert main(["sweep", str(path), "--param", "motor.omega_set=10:100:15", "--name", "coarse", "--out",
                  str(tmp_path), "--fmu-dir", str(fmu_dir), "--workers", "0", "--no-plot", "--output",
                  "coupling.transmitted_torque", "--output", "coupling.x_e", "--settle", "1.5", "--revolutions",

@@ -729,8 +729,8 @@ CROSSING_POINTS = 21
 class SteppedOverCrossing:
     """An order of an output whose largest amplitude over the speeds read (one curve of the other axes' values) is
     at one of the two points between which a mode crossing lies, farther than ``CROSSING_READ`` from both (a Campbell
-    diagram's crossing, ``analysis.Mode.critical_speed``): the resonance peaks between the points, likely higher
-    than read (``Sweep.stepped_over_crossings``)."""
+    diagram's crossing, ``analysis.Mode.critical_speed``): a resonance there peaks between the points, possibly far
+    higher than read, by as much as the mode's damping lets it (``Sweep.stepped_over_crossings``)."""
     output: str
     order: int
     amplitude: float   # the largest read, in the output's unit
@@ -763,9 +763,9 @@ class SteppedOverCrossing:
         return (f"the {self.order}x order of {', '.join(c.output for c in [self, *peers])} peaks next to the "
                 f"crossing of {self.component}'s {self.mode:.5g} rad/s {self.kind} mode at a running speed of "
                 f"{self.speed:.5g} rad/s{where}, which the grid steps over (its points {value(self.low)} and "
-                f"{value(self.high)}; largest read, zero-to-peak: {read}): the resonance peaks between them, likely "
-                f"higher than read; sweep that span finely, e.g. --param "
-                f"{self.axis.label}={lo:.6g}:{hi:.6g}:{step:.3g}{self.axis.unit}")
+                f"{value(self.high)}; largest read, zero-to-peak: {read}): a resonance there peaks between them, "
+                "possibly far higher than read (how much, the mode's damping sets, which the grid cannot tell); "
+                f"sweep that span finely, e.g. --param {self.axis.label}={lo:.6g}:{hi:.6g}:{step:.3g}{self.axis.unit}")
 
 
 @dataclass
@@ -1367,12 +1367,14 @@ class Sweep:
 
     def stepped_over_crossings(self) -> list:
         """:class:`SteppedOverCrossing` of each output's order whose largest amplitude, over the ok points of a
-        speed axis (rad/s; one curve per combination of the other axes, ordered by the running speed read, which
-        must follow the axis), is at a point next to a crossing of that order with a natural frequency of the
-        scenario's machines (``analysis.scenario_modes`` at the curve's parameters; the orders the mode's component
-        carries) that lies between two points, farther than ``CROSSING_READ`` of its speed from both. Orders of
-        round-off (below ``ROUND_OFF_ORDERS`` of the output's size) have no peak."""
-        from .analysis import scenario_modes
+        speed axis (rad/s; one curve per combination of the other axes, ordered by the running speed read, whose
+        magnitude the axis must set, rising or falling), is at a point next to a crossing of that order with a
+        natural frequency of the scenario's machines (``analysis.scenario_modes`` at the curve's parameters, and
+        ``held_input_modes`` where a PI motor drives, the other bound of its closed loop's modes; the orders the
+        mode's component carries) that lies between two points, farther than ``CROSSING_READ`` of its speed from
+        both. Orders of round-off (below ``ROUND_OFF_ORDERS`` of the output's size) have no peak. The mode's damping
+        is not known here, so a broad resonance is named too."""
+        from .analysis import held_input_modes, scenario_modes
         speed_axes = [a for a in self.axes if not a.sampled and not any(isinstance(v, bool) for v in a.values)
                       and self.scenario.unit(a.names[0]) == "rad/s"]
         found = []
@@ -1384,13 +1386,16 @@ class Sweep:
                     key = tuple(json.dumps(a.value_of(row["point"]), default=str) for a in others)
                     curves.setdefault(key, []).append(row)
             for rows in curves.values():
-                rows.sort(key=lambda r: axis.value_of(r["point"]))
+                rows.sort(key=lambda r: abs(r["speed_mean"]))
                 speeds = [abs(r["speed_mean"]) for r in rows]
-                if len(rows) < 2 or any(b <= a for a, b in zip(speeds, speeds[1:])):
+                values = [axis.value_of(r["point"]) for r in rows]
+                rising, falling = (all(op(b, a) for a, b in zip(values, values[1:]))
+                                   for op in (float.__gt__, float.__lt__))
+                if len(rows) < 2 or any(b <= a for a, b in zip(speeds, speeds[1:])) or not (rising or falling):
                     continue   # the axis does not set the running speed here
-                point = rows[0]["point"]
-                modes = scenario_modes(self.scenario, {k: v for k, v in point.items()
-                                                       if k not in axis.names})
+                point = {k: v for k, v in rows[0]["point"].items() if k not in axis.names}
+                # a PI motor's loop puts each mode between its free and held input's: both bounds' crossings
+                modes = scenario_modes(self.scenario, point) + held_input_modes(self.scenario, point)
                 fixed = {a.label: a.value_of(point) for a in others}
                 for output in self.settings.outputs:
                     size = max(max(abs(r[f"{output}.max"]), abs(r[f"{output}.min"])) for r in rows)
@@ -1411,8 +1416,8 @@ class Sweep:
                                 continue
                             found.append(SteppedOverCrossing(
                                 output, order, amplitudes[i], self.scenario.unit(output), mode.component, mode.omega,
-                                mode.kind.partition(",")[0], crossing, axis, axis.value_of(rows[j]["point"]),
-                                axis.value_of(rows[j + 1]["point"]), axis.value_of(rows[i]["point"]), fixed))
+                                mode.kind.partition(",")[0], crossing, axis, *sorted((values[j], values[j + 1])),
+                                values[i], fixed))
         return found
 
     def step_check(self, rel_tol: float = STEP_CHECK_TOL) -> "StepCheck | None":
