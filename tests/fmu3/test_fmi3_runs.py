@@ -600,3 +600,20 @@ def test_model_exchange_says_a_twist_no_real_shaft_takes(fmu3_dir):
         table = simulate_me(components, connections, 0.05, 1e-3, ["driveline.twist"])
     said = [str(w.message) for w in caught if "twisted" in str(w.message)]
     assert np.max(np.abs(table["driveline.twist"])) > 0.5 and len(said) == 1 and "k_theta" in said[0]
+
+
+def test_a_step_after_fmi3_terminate_is_refused_naming_the_reset(fmu3_dir, opened):
+    """After fmi3Terminate the outputs stay readable and fmi3DoStep is refused (discard) naming fmi3Reset, as the
+    FMI 2.0 FMUs do after fmi2Terminate."""
+    log = []
+    inst = _open(FmuInstance3, fmu3_dir, "CardanJoint", log)
+    opened.append(inst)
+    inst.initialize()
+    step = inst.raw("fmi2DoStep")
+    inst.set(omega_in=10.0, tau_load=0.1)
+    assert step(inst.slave.component, 0.0, H, 1) == 0
+    before = inst.get("omega_out")
+    inst.slave.terminate()
+    assert inst.get("omega_out") == before
+    assert step(inst.slave.component, H, H, 1) == 2          # fmi3Discard
+    assert any("the instance is terminated (fmi3Terminate ended its run): fmi3Reset" in m for m in log), log
