@@ -1663,36 +1663,6 @@ def test_the_step_check_reruns_each_outputs_peak(tmp_path, fmu_dir):
     assert sweep.step_check().point == checks[0].point   # the first output's, as before
 
 
-RING_AT_SPEED = """title = "A ring coupling at constant speed against a load"
-[experiment]
-stop_time = 3.0
-step_size = 1e-3
-[components.motor]
-fmu = "Motor"
-parameters = { ideal_speed_source = true, profile = 0, omega_set = 40.0 }
-[components.coupling]
-fmu = "RingCoupling"
-parameters = { c_d = 1.205345998078447 }
-[components.load]
-fmu = "Load"
-parameters = { T0 = 5.0, c1 = 0.0, c2 = 2e-4, omega_smooth = 1.0 }
-[[connections]]
-from = "motor.omega"
-to = "coupling.omega_in"
-[[connections]]
-from = "coupling.tau_in"
-to = "motor.tau_load"
-[[connections]]
-from = "coupling.omega_out"
-to = "load.omega"
-[[connections]]
-from = "load.tau"
-to = "coupling.tau_load"
-[output]
-record = ["motor.omega", "coupling.transmitted_torque", "coupling.x_e"]
-"""
-
-
 def test_a_grid_that_steps_over_a_mode_crossing_where_an_order_peaks_says_so_with_the_span_to_sweep(tmp_path,
                                                                                                  fmu_dir, capsys):
     """A speed sweep every 15 rad/s read a ring coupling's 2x torque peak 32% low (a fresh-eyes trial's) without a
@@ -1700,9 +1670,9 @@ def test_a_grid_that_steps_over_a_mode_crossing_where_an_order_peaks_says_so_wit
     rad/s its 2x crossing) lies between the points 55 and 70 rad/s, where the peak was read. The sweep names the
     crossing, the points around it and a span that resolves it; that span's sweep reads a peak at least 1.3x
     higher, and names no crossing (one of its points within 1% of it); nor does a grid with a point on it."""
-    path = tmp_path / "ring_at_speed.toml"
-    path.write_text(RING_AT_SPEED)
-    ring = Scenario(path)
+    path = SCENARIOS / "ring_coupling_startup.toml"   # the ring at constant speeds against its load
+    at_speed = {"motor.ideal_speed_source": True, "motor.profile": 0}
+    ring = Scenario(path).with_parameters(at_speed)
     settings = SweepSettings.from_scenario(ring, outputs=["coupling.transmitted_torque", "coupling.x_e"],
                                            running_speed="motor.omega", settle_time=1.5, revolutions=4)
 
@@ -1740,8 +1710,8 @@ def test_a_grid_that_steps_over_a_mode_crossing_where_an_order_peaks_says_so_wit
     j = startup.parameters_with_defaults("motor")["J_rotor"]
     named = sorted(c.speed for c in driven.stepped_over_crossings())
     assert named == pytest.approx([math.sqrt(c_s / i2) / 2, math.sqrt(c_s * (1 / i2 + 1 / j)) / 2], rel=2e-3)
-    assert main(["sweep", str(path), "--param", "motor.omega_set=10:100:15", "--name", "coarse", "--out",
-                 str(tmp_path), "--fmu-dir", str(fmu_dir), "--workers", "0", "--no-plot", "--output",
-                 "coupling.transmitted_torque", "--output", "coupling.x_e", "--settle", "1.5", "--revolutions",
-                 "4", "--running-speed", "motor.omega"]) == 0
-    assert text in capsys.readouterr().out   # the journal's points reused
+    assert main(["sweep", str(path), *(f"--set={k}={v}" for k, v in at_speed.items()), "--param",
+                 "motor.omega_set=10:100:15", "--name", "coarse", "--out", str(tmp_path), "--fmu-dir", str(fmu_dir),
+                 "--workers", "0", "--no-plot", "--output", "coupling.transmitted_torque", "--output",
+                 "coupling.x_e", "--settle", "1.5", "--revolutions", "4", "--running-speed", "motor.omega"]) == 0
+    assert text in capsys.readouterr().out
