@@ -76,6 +76,16 @@ def open_fmu(fmu_dir):
 
 
 @pytest.fixture
+def python_sigint():
+    """Python's own SIGINT handler for the test, as a script has it (a process started in the background or
+    under nohup ignores SIGINT, and a Ctrl-C test would see nothing), the one in place restored after."""
+    import signal
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+@pytest.fixture
 def drive():
     """drive(inst, omega, tau_load, h, n, outputs, params) -> record array, see _drive."""
     return _drive

@@ -104,7 +104,7 @@ def test_bond_energy_ranks_the_schemes_as_their_errors_do(fmu_dir):
     assert relative["explicit"] > 3 * relative["implicit"] and relative["implicit"] < 0.03, relative
 
 
-def test_a_ctrl_c_while_the_fmus_are_set_up_stops_the_run_at_its_first_step(fmu_dir, monkeypatch):
+def test_a_ctrl_c_while_the_fmus_are_set_up_stops_the_run_at_its_first_step(fmu_dir, monkeypatch, python_sigint):
     """A SIGINT while the FMUs load (a notebook's Interrupt kernel) waits for the end of the setup and stops the
     run at its first step (Interrupted), instead of raising inside an FMU's code: that had left fmpy's chdir into an
     extraction folder in place, an FMU's fatal error, and a crash at the next garbage collection. The process is

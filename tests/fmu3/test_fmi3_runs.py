@@ -129,7 +129,7 @@ def test_run_scenario_takes_the_fmi3_folder_for_model_exchange_by_default(fmu3_d
     assert run_scenario(scenario, model_exchange=True, out_dir=None, plot=False).passed
 
 
-def test_a_ctrl_c_in_a_model_exchange_run_stops_it_at_an_output_point(fmu3_dir, monkeypatch):
+def test_a_ctrl_c_in_a_model_exchange_run_stops_it_at_an_output_point(fmu3_dir, monkeypatch, python_sigint):
     """A SIGINT during a Model Exchange run waits for the next output point (not raised inside CVode's callbacks,
     where it had been reported as the model's fatal error or lost) and stops the run there: Interrupted, with the
     rows so far."""
