@@ -406,7 +406,8 @@ def plot_sweep(sweep, out_dir):
                 ax2.annotate(f"{component}: {f_n:.4g} Hz ({omega_n:.4g} rad/s, {mode.kind.partition(',')[0]})"
                              + (f", {count} modes" if count > 1 else ""),
                              xy=(0.99, f_n), xycoords=("axes fraction", "data"), ha="right",
-                             va="top" if below[i] else "bottom", fontsize=6, color="0.25")
+                             va="top" if below[i] else "bottom", fontsize=6, color="0.25",
+                             bbox=dict(boxstyle="square,pad=0.1", fc="white", ec="none", alpha=0.7))   # over markers
             ax2.set_xlabel(xlabel)
             ax2.set_ylabel("frequency [Hz]")
             ax2.set_title(f"Campbell diagram of {out} (marker area ~ amplitude)"
