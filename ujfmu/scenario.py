@@ -426,10 +426,7 @@ class Scenario:
             raise ScenarioError(f"{self.path}: experiment.coupling = {self.coupling!r} must be one of "
                                 f"{', '.join(repr(c) for c in COUPLINGS)} (docs/cosimulation.md)")
         self.output_interval = exp.get("output_interval", 1)
-        if isinstance(self.output_interval, bool) or not isinstance(self.output_interval, int) \
-                or self.output_interval < 1:
-            raise ScenarioError(f"{self.path}: experiment.output_interval = {self.output_interval!r} must be a whole "
-                                "number of communication steps >= 1 (1: record every step)")
+        self._check_output_interval()
         self._check_steps()
 
     def _read_components(self, data, problems) -> set:
@@ -1349,12 +1346,16 @@ class Scenario:
             raise ScenarioError(f"{self.path}: output steady_from = {self.steady_from!r} s is not before stop_time = "
                                 f"{self.stop_time!r} s: the steady window would be empty; set steady_from before it "
                                 "(0 or None: no steady window) or run longer")
+        self._check_output_interval()
+        self._check_steps()
+
+    def _check_output_interval(self) -> None:
+        """ScenarioError unless output_interval is a whole number of steps >= 1 (None, a caller's: every step)."""
         interval = self.output_interval
         if interval is not None and (isinstance(interval, bool) or not isinstance(interval, numbers.Integral)
                                      or interval < 1):
-            raise ScenarioError(f"{self.path}: experiment output_interval = {interval!r} must be a whole number of "
-                                "communication steps >= 1 (1 or None: record every step)")
-        self._check_steps()
+            raise ScenarioError(f"{self.path}: experiment.output_interval = {interval!r} must be a whole number of "
+                                "communication steps >= 1 (1: record every step)")
 
     def _check_steps(self) -> None:
         """ScenarioError unless stop_time - start_time is a finite whole number (1 to ``master.MAX_STEPS``) of
