@@ -313,14 +313,14 @@ def _band_missing(results) -> None:
 
 
 def _level_only(results) -> None:
-    """Name once the bands that check the level only: at least half their reference's range, or at least the
-    signal's steady vibration (a flat line would pass them there)."""
+    """Name once the bands that check the level only: at least half their reference's range, or at least half the
+    signal's steady peak-to-peak (a flat line would pass them there)."""
     loose = [f"{r.scenario.name}: {c.name}{kind}" for r in results
              for checks, kind in ((r.checks, ""), (r.extrapolated_checks, " (extrapolated)")) for c in checks
              if c.level_only]
     if loose:
         print(f"  {len(loose)} band(s) check the level only, not the course (at least half the reference's range, "
-              f"or at least the steady vibration: a flat line would pass): {'; '.join(loose)}", file=sys.stderr)
+              f"or of the steady peak-to-peak: a flat line would pass): {'; '.join(loose)}", file=sys.stderr)
 
 
 def _plots_missing(args):
@@ -493,8 +493,8 @@ def _check(args, kind: str) -> int:
         print(f"ujfmu: error: --strict: {len(loose)} scenario(s) compare through bands that check the level only, "
               "not the course: " + "; ".join(f"{r.scenario.name}: {', '.join(r.level_only_bands)}" for r in loose)
               + " (a band of at least half the reference's range passes a flat line through its middle, one of at "
-              "least the signal's steady vibration a signal without it: tighten it below that, at the accuracy the "
-              "study needs, or compare the vibration's orders, [reference.orders])", file=sys.stderr)
+              "least half the steady peak-to-peak a signal without that vibration: tighten it below that, at the "
+              "accuracy the study needs, or compare the vibration's orders, [reference.orders])", file=sys.stderr)
         strict_fail = True
     if errors:
         print(f"ujfmu: error: {len(errors)} scenario(s) could not run ({', '.join(errors)}): each ERROR line above "
@@ -1050,8 +1050,8 @@ def _main(raw: list):
             p.add_argument("--strict", action="store_true",
                            help="exit with status 1 when any scenario is not checked (no [reference] with "
                                 "tolerances), not only when none is, or passes through a band that checks the "
-                                "level only (at least half its reference's range, or at least the signal's steady "
-                                "vibration)")
+                                "level only (at least half its reference's range, or of the signal's steady "
+                                "peak-to-peak)")
         _out(p, "results/", "output folder; results/fmi3/ with --fmi 3, results/model_exchange/ with "
                              "--model-exchange, so that runs of different FMU kinds do not overwrite each other")
         p.add_argument("--no-plot", action="store_true", help="write no figures (about half the time)")

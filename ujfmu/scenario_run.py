@@ -40,7 +40,7 @@ class SignalCheck:
     note: str = ""   # what the figures mean, where the tolerance's form does not suit the reference
     unit: str = ""   # of the signal, printed beside the errors
     rms_error: float = math.nan   # RMS of the error over the compared samples (shown, not judged)
-    #: the band is at least half the reference's range, or at least the signal's steady vibration
+    #: the band is at least half the reference's range, or of the signal's steady peak-to-peak
     #: (``mark_vibration_blind``): it checks the level, not the course
     level_only: bool = False
     at: float = math.nan   # the time of the largest error
