@@ -275,20 +275,24 @@ def test_sweep_figures_say_what_they_leave_out_and_keep_every_title_inside(fmu_d
     assert f"not drawn: 1 point(s) not ok (marked in {sweep.name}.png)" in orders, orders
 
 
-def test_the_order_tracks_show_each_value_of_the_other_axes(fmu_dir, tmp_path, figures):
+@pytest.mark.parametrize("speed_first", [True, False])
+def test_the_order_tracks_show_each_value_of_the_other_axes(fmu_dir, tmp_path, figures, speed_first):
     """A speed x joint-angle grid: the tracks of every angle (a line style each, orders by colour, two legends),
-    the Campbell diagram of the first angle, which its title names; nothing said to be left out."""
+    the Campbell diagram of the first angle, which its title names; nothing said to be left out. The speed is the
+    abscissa whichever axis was given first."""
     scenario = Scenario(SCENARIOS / "double_cardan_brutti_rigid.toml")
     settings = SweepSettings.from_scenario(scenario, outputs=["driveline.tau_in"], running_speed="motor.omega",
                                            settle_time=0.01, revolutions=1)
     axes = [parse_axis("motor.omega_set=1000,2000rpm", scenario),
             parse_axis("driveline.beta1,driveline.beta2=5,10deg", scenario)]
-    sweep = Sweep(scenario, axes, settings, out_dir=tmp_path, fmu_dir=fmu_dir)
+    sweep = Sweep(scenario, axes if speed_first else axes[::-1], settings, out_dir=tmp_path, fmu_dir=fmu_dir)
     sweep.run(workers=0)
     sweep.plot()
     fig = figures[f"{sweep.name}_orders.png"]
     check_readable(fig)
     tracks, campbell = fig.axes
+    assert tracks.get_xlabel() == campbell.get_xlabel() == "motor.omega_set [rpm]"
+    assert figures[f"{sweep.name}.png"].axes[-1].get_xlabel() == "motor.omega_set [rpm]"
     orders = len(settings.orders)
     assert len(tracks.get_lines()) == 2 * orders
     assert {line.get_linestyle() for line in tracks.get_lines()} == {"-", "--"}

@@ -1,7 +1,7 @@
 """Plots of scenario results with their references overlaid, and of sweeps (matplotlib, no screen needed).
 
 Units: every axis carries one. A quantity has one display unit in every figure: SI, except lengths in mm
-(``DISPLAY_UNITS``); a sweep's first axis is shown in the unit it was given in (rpm, deg). Tick labels never use
+(``DISPLAY_UNITS``); a sweep's abscissa is shown in the unit it was given in (rpm, deg). Tick labels never use
 an offset (``1e-12+2.999999999e-2``): a signal constant to within round-off gets a readable band around its value.
 """
 
@@ -225,16 +225,19 @@ def _boolean_axis(axis) -> bool:
 
 
 def plot_sweep(sweep, out_dir):
-    """Sweep figures against the first axis (in the unit it was given in): results/<name>.png with max and min of
-    every output, one curve per combination of the other axes; results/<name>_orders.png with, per output, its
-    order amplitudes (order tracks, log scale down to ``ORDER_TRACK_FLOOR`` of the largest) and, when the first
+    """Sweep figures against the first axis (a swept speed if any; in the unit it was given in): results/<name>.png
+    with max and min of every output, one curve per combination of the other axes; results/<name>_orders.png with,
+    per output, its order amplitudes (order tracks, log scale down to ``ORDER_TRACK_FLOOR`` of the largest) and, when the first
     axis is a speed, a Campbell diagram (frequency of each order against the swept speed, marker area by
     amplitude, with the machines' natural frequencies as labelled lines: a critical speed is where an order
     crosses one) for the first ``ORDER_FIGURE_OUTPUTS`` outputs: the tracks of the first ``ORDER_FIGURE_GROUPS``
     combinations of the other axes (a line style each), the Campbell diagram of the first. Returns the paths."""
     scenario = sweep.scenario
-    # a Boolean axis (two values) keys the curves, not the abscissa, unless it is the only axis
-    ordered = sorted(sweep.axes, key=lambda axis: (_boolean_axis(axis), not axis.sampled))   # samples on x
+    # a Boolean axis (two values) keys the curves, not the abscissa, unless it is the only axis; sampled points,
+    # then a swept speed on x (the orders figure draws only ``ORDER_FIGURE_GROUPS`` curves: a speed among the
+    # others would leave most of its resonances out, and the Campbell diagram needs it)
+    ordered = sorted(sweep.axes, key=lambda axis: (_boolean_axis(axis), not axis.sampled,
+                                                   scenario.unit(axis.names[0]) != "rad/s"))
     first, others = ordered[0], ordered[1:]
     on_off = _boolean_axis(first)
     records = [r for r in sweep.records() if r["status"] == "ok"]
