@@ -66,6 +66,9 @@ STALL_FACTOR = 100.0
 #: implicit coupling: quasi-Newton iterations per step before the interface Jacobian is rebuilt by finite
 #: differences, and rebuilds per step before the step is declared not converging
 MAX_ITERATIONS, MAX_REBUILDS = 6, 2
+#: implicit coupling: Illinois steps on one torn input's bracketed root where the quasi-Newton ones stall
+#: (``Cosimulation._bracketed_root``)
+BRACKET_ITERATIONS = 60
 #: implicit coupling: the torn inputs are held at theta G(t_k+1) + (1 - theta) G(t_k), theta in [1/2, THETA]: the
 #: least blend whose inertia amplification stays within AMPLIFICATION_BOUND = (1 - THETA)/THETA, the bound
 #: THETA guarantees for any inertia ratio (``blend_weight``, docs/cosimulation.md)
@@ -1322,6 +1325,12 @@ class Cosimulation:
                     rebuilds += 1
                     if rebuilds <= MAX_REBUILDS:
                         continue
+                    if len(u) == 1 and best[0] > STALL_FACTOR:   # a steep G (a load's friction at rest)
+                        best = min(best, self._bracketed_root(best[1], best[2], t, h, states, tol))
+                        if best[0] <= 1.0:
+                            if best[1] != self._held:
+                                self._evaluate(best[1], t, h, states)
+                            break
                     # no fixed point within tol: G jumps inside the step (a torque limit switching on or off)
                     if best[0] > STALL_FACTOR:
                         raise CosimulationError(self._divergence_message(t, best[2], tol))
@@ -1332,6 +1341,34 @@ class Cosimulation:
             for (_, _, free_state, comp, _), state, ref in zip(self._state_ops, states, self._state_refs):
                 free_state(comp, ref)
                 state.value = None
+
+    def _bracketed_root(self, u, r, t, h, states, tol) -> tuple:
+        """(error, u, r) of one torn input's fixed point by the Illinois method, where quasi-Newton steps stall
+        on a steep G (a load's smoothed friction through rest: dG/du up to T0 h / (J omega_smooth)). A passive loop
+        gives dG/du <= 0, so r = theta G + (1 - theta) G(t_k) - u falls with slope at most -1 and [u, u + r]
+        brackets its root; otherwise (no sign change there) the best point found is returned."""
+        best = (_worst(r, tol), u, r)
+        a, fa = u[0], r[0]
+        b = a + fa
+        fb = self._evaluate([b], t, h, states)[0]
+        best = min(best, (_worst([fb], tol), [b], [fb]))
+        if not (fa * fb < 0.0):
+            return best
+        side = 0
+        for _ in range(BRACKET_ITERATIONS):
+            if best[0] <= 1.0:
+                break
+            c = (a * fb - b * fa) / (fb - fa)
+            fc = self._evaluate([c], t, h, states)[0]
+            best = min(best, (_worst([fc], tol), [c], [fc]))
+            if fc * fb < 0.0:
+                a, fa, b, fb, side = b, fb, c, fc, 0
+            else:   # the end kept twice running is halved (Illinois): linear convergence becomes superlinear
+                b, fb = c, fc
+                if side == -1:
+                    fa *= 0.5
+                side = -1
+        return best
 
     def _evaluate(self, u, t, h, states, restore=True):
         """r(u) = G(u) - u: step the rolled-back components with the torn inputs held at u, transfer everything

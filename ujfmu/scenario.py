@@ -155,6 +155,9 @@ class LoadChatter:
     #: the proportional gain Kp [N.m.s/rad] of a PI Motor's speed loop on that inertia (0: none), which holds the
     #: speed back within the step
     gain: float = 0.0
+    #: the load's torque reaches that inertia through the Motor's tau_load, an input the implicit scheme iterates
+    #: (``ujfmu.master``: one torn input's root bracketed), so only explicit coupling chatters there
+    iterated: bool = False
 
     @staticmethod
     def reach_of(torque: float, step: float, inertia: float, gain: float = 0.0) -> float:
@@ -1062,10 +1065,12 @@ class Scenario:
         the FMU logs at initialization: e.g. a ring coupling's c_s left at the default ring's); where the speed of a
         Load's drive reaches rest within the run (a Motor's ramp from 0, a set speed of 0, a step or ramp between
         speeds from, to or through 0: a start, a hold at rest, a stop or a reversal), a Load that chatters as its
-        shaft comes near rest (:meth:`load_chatter`, ``LOAD_CHATTER_ADVICE``); and a Load whose friction is smoothed
+        shaft comes near rest (:meth:`load_chatter`, ``LOAD_CHATTER_ADVICE``; but where the implicit scheme
+        iterates the loop, ``LoadChatter.iterated``); and a Load whose friction is smoothed
         at its drive's running speed (:meth:`smoothed_friction`), with one remedy for both where both apply."""
         smoothed = self._smoothed()
         chatter = [c for c in self.load_chatter() if c.ratio > LOAD_CHATTER_ADVICE
+                   and not (c.iterated and self.coupling == "implicit")
                    and any(lo <= 0.0 <= hi for lo, hi in (self._drive_speeds(d)[1] for d in self._load_drives(c.load)))]
         both = {c.load: c for c in chatter if c.load in smoothed}
         return ([f"{name}: {message}" for name in self.components for message in self._ask_model(name, "advice")]
@@ -1266,9 +1271,9 @@ class Scenario:
             driven, _, out = conn.source.partition(".")
             if port != "omega" or out != "omega_out" or self.components.get(load, ("",))[0] != "Load":
                 continue
-            inertia, holder, gain = self._ask_model(driven, "free_output_inertia"), "", 0.0   # []: none
+            inertia, holder, gain, iterated = self._ask_model(driven, "free_output_inertia"), "", 0.0, False
             if not (isinstance(inertia, numbers.Real) and inertia > 0.0):
-                inertia, holder, gain = self._input_inertia(driven)
+                inertia, holder, gain, iterated = self._input_inertia(driven)
             law = self.parameters_with_defaults(load)
             changed = law.get("T_change", 0.0) > 0.0
             torque = law["T0"] + law.get("T_change", 0.0) if changed else law["T0"]
@@ -1276,25 +1281,28 @@ class Scenario:
                 reach = LoadChatter.reach_of(torque, self.step_size, inertia, gain)
                 found.append(LoadChatter(load, driven, inertia, float(torque), float(law["omega_smooth"]),
                                          self.step_size, reach / law["omega_smooth"],
-                                         "T0 + T_change" if changed else "T0", holder, gain))
+                                         "T0 + T_change" if changed else "T0", holder, gain, iterated))
         return found
 
     def _input_inertia(self, component) -> tuple:
-        """(J, what it is, the gain Kp of a speed loop on it) that a load on the output of a component whose output
-        follows its input acts on: its own driven input shaft's J_drive (a torque-driven FMU, its MotorController's
-        loop left out: its torque is held over the step), or the rotor inertia J_rotor of the PI Motor that drives
-        its omega_in, with its Kp (not an ideal speed source, whose speed ignores any torque); (None, "", 0)
-        otherwise."""
+        """(J, what it is, the gain Kp of a speed loop on it, whether the load reaches it through an input the
+        implicit scheme iterates) that a load on the output of a component whose output follows its input acts on:
+        its own driven input shaft's J_drive (a torque-driven FMU, its MotorController's loop left out: its torque
+        is held over the step), or the rotor inertia J_rotor of the PI Motor that drives its omega_in, with its Kp,
+        through the Motor's tau_load (not an ideal speed source, whose speed ignores any torque); (None, "", 0,
+        False) otherwise."""
         own = self.parameters_with_defaults(component)
         if "J_drive" in own:
-            return own["J_drive"], "its driven input shaft's J_drive", 0.0
+            return own["J_drive"], "its driven input shaft's J_drive", 0.0, False
         for conn in self.connections:
             motor, _, out = conn.source.partition(".")
             if conn.target == f"{component}.omega_in" and out == "omega" and self.components[motor][0] == "Motor":
                 drive = self.parameters_with_defaults(motor)
                 if not drive.get("ideal_speed_source", False):
-                    return drive["J_rotor"], f"{motor}'s rotor inertia J_rotor", float(drive.get("Kp", 0.0))
-        return None, "", 0.0
+                    fed_back = any(c.source == f"{component}.tau_in" and c.target == f"{motor}.tau_load"
+                                   for c in self.connections)
+                    return drive["J_rotor"], f"{motor}'s rotor inertia J_rotor", float(drive.get("Kp", 0.0)), fed_back
+        return None, "", 0.0, False
 
     def _ask_model(self, component, what) -> list:
         model = getattr(fmu_class(self.components[component][0]), "MODEL", None)
