@@ -304,11 +304,13 @@ def documentation_html(name, cls):
     if "omega_in" in ports and "tau_in" in ports:   # a drivetrain FMU, either causality
         coupling = f"""A drivetrain FMU driven by the speed <code>omega_in</code> answers with <code>tau_in</code>, which
 contains the inertia torques of what it drives (an inertia times the acceleration it estimates from the speed
-history). With an explicit master (Jacobi or Gauss-Seidel, no iteration) this is stable only when the inertia
+history). With an explicit master (no iteration) this is stable only when the inertia
 reflected through <code>tau_in</code> is smaller than the driver's own inertia (a motor rotor, say), whatever the
 step{half}: give the driver the larger inertia, use an iterating master, or use the torque-driven variant (driving
 torque <code>tau_in</code> in, <code>omega_in</code> out). A stiff spring between two FMUs needs h well below
-2/omega_n of that spring."""
+2/omega_n of that spring. Set <code>omega_in</code> to the speed at the start of the step (transfer at the
+communication point, then step every FMU: Jacobi): a host that steps the driver first and hands this FMU the
+speed at the step's end (sequential Gauss-Seidel) runs it one step ahead, an error first order in the step."""
     elif "omega" in ports and "tau_motor" in ports and "J_rotor" not in ports:   # MotorController
         coupling = """Its speed controller sees the speed at the start of each communication step (a PI sampled at
 the host's step): closed through a torque-driven FMU, the torque it commands is a step late, which holds while
