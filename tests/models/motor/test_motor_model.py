@@ -259,6 +259,31 @@ def test_controller_step_with_the_torque_peak_inside_falls_back_to_rk4():
     assert y1[0] != pytest.approx(integral + h * (e0 + 0.5 * a * h), rel=1e-6)
 
 
+@pytest.mark.parametrize("sense", [1.0, -1.0])
+@pytest.mark.parametrize("omega, frozen", [(20.0, True), (29.99, False), (30.0 - 1e-12, False)])
+def test_controller_step_held_at_a_limit_keeps_its_integral(sense, omega, frozen):
+    """A slew from 60 rad/s down at 30 rad/s^2 (t = 1: 30 rad/s, or its mirror from -60) with the speed held 10 rad/s
+    below: Kp e + Ki I beyond tau_max all along with e of the same sign, so the conditional integration freezes I:
+    the step leaves it exactly (bitwise RK4's, whose four stages each give dI/dt = 0). Where e reaches 0 within the
+    step (0.01 rad/s below, the set point coming down to the speed; or within round-off of 0), the integration
+    resumes inside the step: it is RK4's step as before, which moves I."""
+    p = motor.ControllerParameters(0.2, 10.0, 1.0, motor.SLEW, 0.0, 30.0, 0.0, 60.0 * sense)
+    t, h, y = 1.0, 1e-3, (0.2 * sense,)
+    ref = motor.Controller.outputs(p, t, y, motor.Controller.Inputs(0.0))["omega_ref"]
+    assert ref == pytest.approx(30.0 * sense, rel=1e-12)
+    speed = omega * sense
+    u = motor.Controller.Inputs(speed)
+    assert motor.Controller.outputs(p, t, y, u)["tau_motor"] == sense * 1.0   # at the limit
+    y1 = motor.Controller.integrate(p, t, h, y, u)
+    assert y1 == controller_rk4_step(p, t, h, y, speed)
+    assert (y1 == y) == frozen
+    # the speed 10 rad/s past the set point, the integral still holding the limit: it unwinds (dI/dt = e)
+    wound, past = (0.5 * sense,), motor.Controller.Inputs(40.0 * sense)
+    assert motor.Controller.outputs(p, t, wound, past)["tau_motor"] == sense * 1.0
+    y1 = motor.Controller.integrate(p, t, h, wound, past)
+    assert y1 == controller_rk4_step(p, t, h, wound, 40.0 * sense) and y1 != wound
+
+
 def test_controller_step_across_a_profile_corner_is_split_there():
     """The ramp's end (0.1005 s) inside the step, the speed held at 3.0: e = 30 s rises to 0.015 at the corner, then
     stays, so I gains 30 (5e-4)^2 / 2 + 0.015 (5e-4) = 1.125e-5 rad exactly (not the ramp's slope carried past

@@ -392,6 +392,20 @@ def controller_torque_peak(p: ControllerParameters, h: float, e0: float, a: floa
 
 
 _RK4_1 = rk4.unrolled("held", 1)
+#: relative margin of :func:`clamped_all_along` over the rounding of e and v at RK4's inner stages
+CLAMP_MARGIN = 1e-9
+
+
+def clamped_all_along(p: ControllerParameters, h: float, e0: float, a: float, integral: float, scale: float) -> bool:
+    """Whether :func:`pi_torque` holds one limit with the integral frozen over the whole step, e = e0 + a s with the
+    speed held: e and v = Kp e + Ki I (I constant) are linear in s, so both ends beyond the limit in the same sense
+    (with ``CLAMP_MARGIN`` of scale and tau_max to spare) put every RK4 stage on that branch, dI/dt = 0 at each, and
+    the step leaves I as it was (bitwise what the RK4 step gives)."""
+    e1 = e0 + a * h
+    margin, limit = CLAMP_MARGIN * scale, p.tau_max * (1.0 + CLAMP_MARGIN)
+    v0, v1 = p.Kp * e0 + p.Ki * integral, p.Kp * e1 + p.Ki * integral
+    return ((e0 > margin and e1 > margin and v0 > limit and v1 > limit)
+            or (e0 < -margin and e1 < -margin and v0 < -limit and v1 < -limit))
 
 
 class Controller:
@@ -433,16 +447,19 @@ class Controller:
     def integrate(p: ControllerParameters, t: float, h: float, y: tuple, u: tuple) -> tuple:
         """The FMU's step, omega held, piece by piece between the profile's corners inside (t, t + h)
         (:func:`split_at_corners`); on a piece, I(t + h) = I + e0 h + a h^2 / 2 in closed form (e = e0 + a s,
-        a = alpha_ref) where |Kp e + Ki I| <= tau_max all along (:func:`controller_torque_peak`); elsewhere one
+        a = alpha_ref) where |Kp e + Ki I| <= tau_max all along (:func:`controller_torque_peak`), I itself where
+        the torque stays at one limit with the integral frozen (:func:`clamped_all_along`); elsewhere one
         classical RK4 step of :meth:`derivatives` (the clamp and the anti-windup), as the FMU's default. RK4
-        integrates the linear e(s) exactly too: the closed form is the same number to round-off, at a quarter of
-        the cost."""
+        integrates the linear e(s) exactly too: the closed forms are the same numbers to round-off (the frozen
+        integral bitwise), at a quarter of the cost."""
         if corner_inside(p, t, h):
             return split_at_corners(Controller.integrate, p, t, h, y, u)
         r0, a, _ = reference(p, t)
         e0, integral = r0 - u[0], y[0]
         if controller_torque_peak(p, h, e0, a, integral) <= p.tau_max:
             return (integral + h * (e0 + 0.5 * a * h),)
+        if clamped_all_along(p, h, e0, a, integral, max(1.0, abs(r0), abs(u[0]))):
+            return (integral,)
         return _RK4_1(Controller.derivatives, p, t, u, y, h, rk4.substeps(Controller.rate_bound(p, y, 0.0), h))
 
     @staticmethod
