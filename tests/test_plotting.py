@@ -6,6 +6,7 @@ import re
 from pathlib import Path
 
 import matplotlib.figure
+import numpy as np
 import pytest
 
 from ujfmu.plotting import DISPLAY_UNITS
@@ -82,6 +83,31 @@ def test_scenario_figures_have_units_an_error_panel_and_mm_for_lengths(fmu_dir, 
     assert all(ax.get_xlabel().endswith("[mm]") for ax in figures["twin_jeffcott_steady_orbits.png"].axes)
     assert all(ax.get_ylabel() == "amplitude, zero-to-peak [mm]"
                for ax in figures["twin_jeffcott_steady_spectra.png"].axes)
+
+
+def test_a_figure_names_a_failed_order_and_draws_the_error_where_it_is_checked(tmp_path, figures):
+    """A run at 0.25 ms against a reference sampled every 1 ms: the error panel draws the error at the instants
+    both hold, as the check compares (the reference interpolated between its samples would draw its own
+    interpolation error, here 2% of a 2x at 35 samples a period); a failed order, which no panel's band shows, is
+    named in its signal's title."""
+    from types import SimpleNamespace
+
+    from ujfmu.plotting import plot_scenario
+    from ujfmu.scenario_run import OrderCheck
+    scenario = Scenario(SCENARIOS / "cardan_constant_speed.toml")
+    name = scenario.plot[0]
+    run_t, ref_t = np.arange(0.0, 0.2 + 1e-9, 2.5e-4), np.arange(0.0, 0.2 + 1e-9, 1e-3)
+    wave = lambda t: 60.0 + 5.0 * np.sin(2 * 90.0 * t)   # noqa: E731
+    table = np.rec.fromarrays([run_t, wave(run_t)], names=["time", name])
+    reference = np.rec.fromarrays([ref_t, wave(ref_t)], names=["time", name])
+    result = SimpleNamespace(scenario=scenario, table=table, checks=[], extrapolated_checks=[], model_exchange=False,
+                             order_checks=[OrderCheck(name, 2, 10.56, 10.0, 0.05), OrderCheck(name, 1, 1.0, 1.0, 0.05)],
+                             verdict="FAIL")
+    plot_scenario(result, reference, tmp_path / "f.png")
+    signal, error = figures["f.png"].axes[:2]
+    assert signal.get_title(loc="left") == f"{name}  (not compared)  (FAIL: 2x order +5.6%, allowed 5%)"
+    (line,) = error.get_lines()
+    assert len(line.get_xdata()) == len(ref_t) and np.max(np.abs(line.get_ydata())) < 1e-9
 
 
 def test_a_constant_signal_has_readable_ticks():

@@ -87,13 +87,23 @@ def plot_scenario(result, reference, path):
                    f"{k * check.allowed:.3g} {label})" if check else "  (not compared)" if ref else "")
         if name in banded and not banded[name].passed:
             verdict += f"  (FAIL: its tight band {k * banded[name].allowed:.3g} {label})"
+        failed_orders = [c for c in result.order_checks if c.name == name and not c.passed]
+        if failed_orders:   # the vibration's check, which the error panel does not show
+            verdict += "  (FAIL: " + ", ".join(
+                f"{c.order}x order {100 * (c.amplitude / c.reference_amplitude - 1):+.3g}%, allowed "
+                f"{100 * c.rel:.3g}%" for c in failed_orders) + ")"
         ax.set_title(f"{name}{verdict}", fontsize=9, loc="left")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="best")
         if ref:
             err_ax = axes.pop(0)
-            err = table[name] - np.interp(t, reference["time"], reference[name])
-            err_ax.plot(t, k * err, color="tab:red", lw=0.8)
+            # at the instants both hold, as the check compares (a coarser reference interpolated between its
+            # samples would draw its own interpolation error)
+            from .scenario_run import shared_instants
+            mine, theirs, shared = shared_instants(t, reference["time"])
+            at, err = ((t[mine], table[name][mine] - reference[name][theirs]) if shared else
+                       (t, table[name] - np.interp(t, reference["time"], reference[name])))
+            err_ax.plot(at, k * err, color="tab:red", lw=0.8)
             if check:
                 for sign in (1, -1):
                     err_ax.axhline(sign * k * check.allowed, color="0.4", lw=0.8, ls=":")
