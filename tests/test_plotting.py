@@ -105,6 +105,7 @@ def test_a_figure_names_a_failed_order_and_draws_the_error_where_it_is_checked(t
                              verdict="FAIL")
     plot_scenario(result, reference, tmp_path / "f.png")
     signal, error = figures["f.png"].axes[:2]
+    assert figures["f.png"]._suptitle.get_text().startswith("FAIL: ")   # not after a wrapped title's last words
     assert signal.get_title(loc="left") == f"{name}  (not compared)  (FAIL: 2x order +5.6%, allowed 5%)"
     (line,) = error.get_lines()
     assert len(line.get_xdata()) == len(ref_t) and np.max(np.abs(line.get_ydata())) < 1e-9

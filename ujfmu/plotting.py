@@ -116,7 +116,8 @@ def plot_scenario(result, reference, path):
             err_ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4), useOffset=False)
             err_ax.grid(alpha=0.3)
     fig.axes[-1].set_xlabel("time [s]")
-    _title(fig, f"{scenario.title}: {result.verdict}" + ("  (dotted: allowed error)" if result.checks else ""), 9)
+    # the verdict first: after a wrapped title it had read as the title's last words' ("load / step: FAIL")
+    _title(fig, f"{result.verdict}: {scenario.title}" + ("  (dotted: allowed error)" if result.checks else ""), 9)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
