@@ -110,6 +110,14 @@ def test_a_step_after_terminate_is_refused_and_reset_runs_again(open_fmu, name):
         with pytest.raises(FMICallException):
             inst.slave.doStep(10 * H, H)
     assert sum("the instance is terminated" in m and "fmi2Reset" in m for m in inst._log) == 2, inst._log
+    ended = inst.slave.getFMUstate()   # saved after fmi2Terminate, restored into another, running instance
+    other = open_fmu(name, "other")
+    other.initialize()
+    other.slave.setFMUstate(ended)
+    with pytest.raises(FMICallException):
+        other.slave.doStep(10 * H, H)
+    assert any("was saved after fmi2Terminate" in m and "fmi2Reset" in m for m in other._log), other._log
+    inst.slave.freeFMUstate(ended)
     inst.slave.freeFMUstate(state)
     inst.slave.reset()
     inst.initialize()

@@ -54,6 +54,9 @@ NOT_INITIALIZED = ("the instance is not initialized: call fmi2ExitInitialization
                    "saved after it, or fmi2Reset and initialize again)")
 TERMINATED = ("the instance is terminated (fmi2Terminate ended its run): fmi2Reset and initialize it again, or "
               "instantiate a new one, to step again")
+#: why a step is refused after fmi2SetFMUstate restored, into a running instance, a state saved after fmi2Terminate
+RESTORED_TERMINATED = ("the state fmi2SetFMUstate restored was saved after fmi2Terminate, which ended its run: "
+                       "restore one saved before it, or fmi2Reset and initialize again, to step again")
 #: what the FMU logs when a KeyboardInterrupt was raised in its code (``ujfmu.master`` reports that failure as the
 #: interrupt it is; the FMU's code imports nothing from outside the standard library, so the text is its own copy)
 INTERRUPTED_IN_FMU = "KeyboardInterrupt raised in the FMU's code"
@@ -559,7 +562,8 @@ class UjfmuSlave(Fmi2Slave):
     def do_step(self, current_time, step_size):
         try:
             if not self._running:
-                raise ValueError(TERMINATED if self._terminated else NOT_INITIALIZED)
+                raise ValueError(TERMINATED if self._terminated else RESTORED_TERMINATED if self._initialized
+                                 else NOT_INITIALIZED)
             if not (step_size > 0.0 and math.isfinite(step_size)):
                 raise ValueError(f"communication step size = {step_size!r} must be finite and > 0")
             values = self.__dict__
