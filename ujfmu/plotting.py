@@ -59,6 +59,7 @@ def _readable_limits(ax, *series):
 def plot_scenario(result, reference, path):
     """Per plotted signal two panels: the co-simulation with the reference, and below it the error (result -
     reference) with the allowed error when the signal is compared. Returns path."""
+    from .scenario_run import shared_instants
     scenario, table = result.scenario, result.table
     # the plotted signals the run recorded (a caller may have recorded fewer since), else every recorded one
     names = [n for n in scenario.plot if n in table.dtype.names] or list(table.dtype.names[1:])
@@ -99,7 +100,6 @@ def plot_scenario(result, reference, path):
             err_ax = axes.pop(0)
             # at the instants both hold, as the check compares (a coarser reference interpolated between its
             # samples would draw its own interpolation error)
-            from .scenario_run import shared_instants
             mine, theirs, shared = shared_instants(t, reference["time"])
             at, err = ((t[mine], table[name][mine] - reference[name][theirs]) if shared else
                        (t, table[name] - np.interp(t, reference["time"], reference[name])))
@@ -238,8 +238,8 @@ def _boolean_axis(axis) -> bool:
 def plot_sweep(sweep, out_dir):
     """Sweep figures against the first axis (a swept speed if any; in the unit it was given in): results/<name>.png
     with max and min of every output, one curve per combination of the other axes; results/<name>_orders.png with,
-    per output, its order amplitudes (order tracks, log scale down to ``ORDER_TRACK_FLOOR`` of the largest) and, when the first
-    axis is a speed, a Campbell diagram (frequency of each order against the swept speed, marker area by
+    per output, its order amplitudes (order tracks, log scale down to ``ORDER_TRACK_FLOOR`` of the largest) and,
+    when the first axis is a speed, a Campbell diagram (frequency of each order against the swept speed, marker area by
     amplitude, with the machines' natural frequencies as labelled lines: a critical speed is where an order
     crosses one) for the first ``ORDER_FIGURE_OUTPUTS`` outputs: the tracks of the first ``ORDER_FIGURE_GROUPS``
     combinations of the other axes (a line style each), the Campbell diagram of the first. Returns the paths."""

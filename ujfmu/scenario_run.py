@@ -379,8 +379,9 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
     window, t = table[rows], table["time"][rows]
     angle = running_angle(t, window[scenario.running_speed])
     names = list(scenario.order_tolerances)
-    span = 1e-9 * max(1.0, abs(float(t[-1]))) if len(t) else 0.0
-    kept = (reference["time"] >= scenario.steady_from - 1e-9) & (reference["time"] <= (t[-1] if len(t) else 0.0) + span)
+    end = float(t[-1]) if len(t) else 0.0
+    span = 1e-9 * max(1.0, abs(end))
+    kept = (reference["time"] >= scenario.steady_from - 1e-9) & (reference["time"] <= end + span)
     their_t = reference["time"][kept]
     if len(their_t) == len(t) and np.all(np.abs(their_t - t) <= span):   # one grid
         their_t, their_angle = t, angle
