@@ -77,17 +77,41 @@ def generate(scenario):
             raise ModuleNotFoundError(f"regenerating a reference solution needs {dependency}, which is not installed: "
                                       "pip install 'ujfmu[references]'", name=dependency) from None
     module, function = GENERATORS[name]
-    table, provenance = getattr(importlib.import_module(module), function)(scenario)
-    missing = [n for n in scenario.tolerances if n not in table.dtype.names]
+    generator = getattr(importlib.import_module(module), function)
+    names = _computed_names(generator, scenario)   # before the solve, which may take minutes
+    if names is not None:
+        _check_computed(scenario, name, names)
+    table, provenance = generator(scenario)
+    _check_computed(scenario, name, table.dtype.names)
+    return table, (f"{provenance}. {regenerate_text(scenario)} {SETUP_TAG}{scenario.setup_digest()}] "
+                   f"{DEFAULTS_TAG}{scenario.defaults_digest()}]")
+
+
+def _computed_names(generator, scenario) -> tuple | None:
+    """The columns the generator gives for the scenario, from a dry run over two steps (``common.dry_run``: the
+    set-up without the solve); None where even that fails (the solve then says why)."""
+    import copy
+
+    from .common import dry_run
+    probe = copy.deepcopy(scenario)
+    probe.stop_time = scenario.start_time + 2.0 * scenario.step_size
+    try:
+        with dry_run(), np.errstate(all="ignore"):
+            return generator(probe)[0].dtype.names
+    except Exception:   # noqa: BLE001 - a probe only: the real solve reports what is wrong
+        return None
+
+
+def _check_computed(scenario, generator: str, names) -> None:
+    """ScenarioError naming the signals of [reference.tolerance] the generator does not compute."""
+    missing = [n for n in scenario.tolerances if n not in names]
     if missing:
         from ..scenario import ScenarioError
-        given = [n for n in table.dtype.names if n != "time"]
-        raise ScenarioError(f"{scenario.path}: the reference generator '{name}' does not compute "
+        given = [n for n in names if n != "time"]
+        raise ScenarioError(f"{scenario.path}: the reference generator '{generator}' does not compute "
                             f"{', '.join(missing)}, which [reference.tolerance] compares: move "
                             f"{'it' if len(missing) == 1 else 'them'} to [reference.not_compared] with the reason "
                             f"(it computes {', '.join(given)}); no reference was written")
-    return table, (f"{provenance}. {regenerate_text(scenario)} {SETUP_TAG}{scenario.setup_digest()}] "
-                   f"{DEFAULTS_TAG}{scenario.defaults_digest()}]")
 
 
 #: the clone this package lives in (an editable install): committed scenarios are named relative to it
