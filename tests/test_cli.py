@@ -1118,6 +1118,35 @@ def test_check_names_the_bands_that_check_the_level_only(fmu_dir, tmp_path, caps
     assert ET.parse(junit).getroot().get("failures") == "0"
 
 
+def test_a_gate_that_compares_only_the_drive_and_the_load_fails_strict(fmu_dir, tmp_path, capsys):
+    """cardan_constant_speed comparing only motor.omega (its ideal source's own set speed) and load.tau (a
+    constant), the joint's signals moved to not_compared (a CI trial's): it had passed `check --strict`, no
+    output of the joint compared. Its verdict line says --strict fails it, and --strict does, naming the joint."""
+    text = (SCENARIOS / "cardan_constant_speed.toml").read_text()
+    blind = re.sub(r'(?m)^"(joint\.\w+)" = \{[^}]*\}$', "", text).replace(
+        "[reference.tolerance]", '[reference.not_compared]\n' + "".join(
+            f'"joint.{n}" = "covered elsewhere"\n' for n in ("omega_out", "phi_out", "phi_in", "tau_in", "M_x", "M_y",
+                                                              "M_z")) + '\n[reference.tolerance]')
+    path = tmp_path / "cardan_constant_speed.toml"
+    path.write_text(blind)
+    (tmp_path / "references").mkdir()
+    shutil.copy(SCENARIOS / "references" / "cardan_constant_speed.csv", tmp_path / "references")
+    assert main(["check", str(path), "--no-plot", "--out", str(tmp_path / "out"), "--fmu-dir", str(fmu_dir)]) == 0
+    out, err = capsys.readouterr()
+    assert ("PASS cardan_constant_speed" in out and "(check --strict fails it: no output of its machines (joint) "
+            "compared, only its drive's and load's)" in out)
+    junit = tmp_path / "strict.xml"
+    assert main(["check", str(path), "--strict", "--junit", str(junit), "--no-plot", "--out", str(tmp_path / "out"),
+                 "--fmu-dir", str(fmu_dir)]) == 1
+    out, err = capsys.readouterr()
+    assert "0 passed, 1 failed (--strict: 1 by comparing no output of its machines), 0 not checked" in out
+    assert "--strict: 1 scenario(s) compare no output of the machines they model" in err
+    assert "cardan_constant_speed: joint (give a band" in err
+    case = ET.parse(junit).getroot().find("testcase")
+    assert case.find("failure").get("message") == ("compares no output of its machines, joint, only its drive's and "
+                                                    "load's (--strict)")
+
+
 def test_a_reference_sampled_below_the_joints_order_is_named_not_blamed_on_the_model(fmu_dir, tmp_path, capsys):
     """Bench data logged at 20 Hz against a joint whose 2x order is at 20 Hz (600 rpm) was interpolated between its
     samples and failed as "the model or its parameters likely differ": the reference's own sampling is checked

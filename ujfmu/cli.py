@@ -464,7 +464,7 @@ def _check(args, kind: str) -> int:
     _level_only(results)
     failed = [r for r in results if r.failed]
     unchecked = [r for r in results if not r.checked and not r.failed]
-    loose = [r for r in results if not r.failed and r.level_only_bands]
+    loose = [r for r in results if not r.failed and r.strict_problems]
     if args.junit:   # what fails the command below fails its case: --strict's and an all-unchecked run's
         report = write_junit(results, args.junit, errors, skipped, kind,
                              unchecked_fail=bool(unchecked) and (args.strict or len(unchecked) == len(results)),
@@ -472,7 +472,11 @@ def _check(args, kind: str) -> int:
         _say(args, f"JUnit report: {report}")
     strict_failed = loose if args.strict else []   # passed their bands, failed by --strict (JUnit cases too)
     strict_unchecked = unchecked if args.strict or len(unchecked) == len(results) else []   # failed cases too
-    why = ([f"{len(strict_failed)} by bands that check the level only"] if strict_failed else []) + (
+    level, blind = ([r for r in strict_failed if test(r)] for test in (lambda r: r.level_only_bands,
+                                                                       lambda r: not r.level_only_bands))
+    why = ([f"{len(level)} by bands that check the level only"] if level else []) + (
+        [f"{len(blind)} by comparing no output of {'its' if len(blind) == 1 else 'their'} machines"]
+        if blind else []) + (
         [f"{len(strict_unchecked)} compare{'s' if len(strict_unchecked) == 1 else ''} nothing"]
         if strict_unchecked else [])
     print(f"{len(results) - len(failed) - len(unchecked) - len(strict_failed)} passed, "
@@ -489,9 +493,16 @@ def _check(args, kind: str) -> int:
         print(f"ujfmu: error: --strict: {len(unchecked)} scenario(s) not checked: "
               f"{', '.join(r.scenario.name for r in unchecked)}", file=sys.stderr)
         strict_fail = True
-    if strict_failed:
-        print(f"ujfmu: error: --strict: {len(loose)} scenario(s) compare through bands that check the level only, "
-              "not the course: " + "; ".join(f"{r.scenario.name}: {', '.join(r.level_only_bands)}" for r in loose)
+    if blind:
+        print(f"ujfmu: error: --strict: {len(blind)} scenario(s) compare no output of the machines they model, only "
+              "their drive's and load's signals (an ideal source's own speed, a load's constant torque): "
+              + "; ".join(f"{r.scenario.name}: {', '.join(r.machines_unchecked)}" for r in blind)
+              + " (give a band to a signal of the machine under test: its output speed, torques, twist)",
+              file=sys.stderr)
+        strict_fail = True
+    if level:
+        print(f"ujfmu: error: --strict: {len(level)} scenario(s) compare through bands that check the level only, "
+              "not the course: " + "; ".join(f"{r.scenario.name}: {', '.join(r.level_only_bands)}" for r in level)
               + " (a band of at least half the reference's range passes a flat line through its middle, one of at "
               "least half the steady peak-to-peak a signal without that vibration: tighten it below that, at the "
               "accuracy the study needs, or compare the vibration's orders, [reference.orders])", file=sys.stderr)

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 from fmpy.util import write_csv
 
+from .analysis import DRIVES_AND_LOADS
 from .build import DEFAULT_FMU_DIR
 from .build3 import DEFAULT_FMU3_DIR
 from .extras import available, preload
@@ -863,6 +864,26 @@ class ScenarioResult:
                 + [f"{c.name} (extrapolated)" for c in self.extrapolated_checks if c.level_only])
 
     @property
+    def machines_unchecked(self) -> list:
+        """The scenario's machines (components neither a drive nor a load: the models under test) where it compares
+        signals but none of theirs: a run that compares only its drive's speed and its load's torque (an ideal
+        source's own set speed, a constant load) checks no model; [] otherwise."""
+        if not self.checks:
+            return []
+        machines = [name for name, (fmu, _) in self.scenario.components.items() if fmu not in DRIVES_AND_LOADS]
+        compared = {c.name.partition(".")[0] for c in self.checks + self.order_checks}
+        return [] if compared & set(machines) else machines
+
+    @property
+    def strict_problems(self) -> list:
+        """Why ``ujfmu check --strict`` fails this run though its checks pass: bands that check the level only
+        (:attr:`level_only_bands`), no output of its machines compared (:attr:`machines_unchecked`)."""
+        return ([f"band(s) that check the level only: {', '.join(self.level_only_bands)}"]
+                if self.level_only_bands else []) + (
+            [f"no output of its machines ({', '.join(self.machines_unchecked)}) compared, only its drive's and "
+             "load's"] if self.machines_unchecked else [])
+
+    @property
     def uncompared(self) -> list:
         """Recorded signals that were not compared (no tolerance given for them)."""
         done = set(self.compared)
@@ -1031,6 +1052,8 @@ class ScenarioResult:
         span = self.scenario.stop_time - self.scenario.start_time
         head = (f"{self.verdict} {self.scenario.name}: {self.scenario.title} ({self.wall_time:.1f} s wall time for "
                 f"{span:g} s simulated)")
+        if self.passed and self.strict_problems:   # the verdict line is what a log is scanned for
+            head += f" (check --strict fails it: {'; '.join(self.strict_problems)})"
         lines = [head]
         if self.checks:
             lines.append(f"  against {shown_path(self.scenario.reference_file)}"
@@ -1780,7 +1803,7 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
     errors, skipped = errors or {}, skipped or {}
     classname = "ujfmu.scenarios" + (f".{kind}" if kind else "")
     unchecked = sum(not r.checked and not r.failed for r in results)
-    loose = sum(bool(level_only_fail and not r.failed and r.level_only_bands) for r in results)
+    loose = sum(bool(level_only_fail and not r.failed and r.strict_problems) for r in results)
     suite = ET.Element("testsuite", name="ujfmu scenarios" + (f" ({kind})" if kind else ""),
                        tests=str(len(results) + len(errors) + len(skipped)),
                        failures=str(sum(r.failed for r in results) + (unchecked if unchecked_fail else 0) + loose),
@@ -1810,6 +1833,9 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
         elif level_only_fail and r.level_only_bands:
             ET.SubElement(case, "failure", message="band that checks the level only, not the course (--strict): "
                           + ", ".join(r.level_only_bands)).text = r.summary()
+        elif level_only_fail and r.machines_unchecked:
+            ET.SubElement(case, "failure", message="compares no output of its machines, "
+                          f"{', '.join(r.machines_unchecked)}, only its drive's and load's (--strict)").text = r.summary()
         elif not r.checked and unchecked_fail:
             ET.SubElement(case, "failure", message=f"not checked: {r.not_checked_reason()} (a gate that compares "
                           "nothing fails it)").text = r.summary()
