@@ -1,6 +1,7 @@
 """Scenario files: errors name the file and the field."""
 
 import copy
+import shutil
 import math
 from pathlib import Path
 import numpy as np
@@ -719,6 +720,23 @@ def test_a_misspelt_recorded_signal_is_named_with_the_one_meant(tmp_path, field,
         Scenario(write(tmp_path, text))
     with pytest.raises(ScenarioError, match="'j.M_x' is not a recorded signal: add it to output.record"):
         Scenario(write(tmp_path, text.replace("j.tua_in", "j.M_x")))
+
+
+def test_a_file_cut_short_of_its_generated_reference_is_refused(tmp_path, fmu_dir):
+    """A CI trial's scenario with stop_time edited from 6 s to 0.003 s (3 steps) passed against its generated
+    reference without a word: the file is refused, naming the reference's end and the remedies; a caller who
+    shortens a read Scenario's run (a convergence study) compares that part as before."""
+    from ujfmu.scenario_run import run_scenario
+    text = (SCENARIOS / "cardan_startup.toml").read_text().replace("stop_time = 6.0", "stop_time = 0.003")
+    (tmp_path / "references").mkdir()
+    shutil.copy(SCENARIOS / "references" / "cardan_startup.csv", tmp_path / "references")
+    (tmp_path / "cardan_startup.toml").write_text(text)
+    with pytest.raises(ScenarioError, match=r"was made for a run to t = 6 s, the file's experiment stops at 0.003 s"
+                                            r".*set stop_time = 6 in \[experiment\], or regenerate"):
+        run_scenario(tmp_path / "cardan_startup.toml", fmu_dir=fmu_dir, out_dir=None, plot=False)
+    part = Scenario(SCENARIOS / "cardan_startup.toml")
+    part.stop_time = 0.05
+    assert run_scenario(part, fmu_dir=fmu_dir, out_dir=None, plot=False).checked
 
 
 def test_a_load_behind_a_joint_whose_output_follows_its_input_chatters_on_the_drivers_inertia(fmu_dir):

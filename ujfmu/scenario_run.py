@@ -1293,9 +1293,20 @@ def milliseconds_hint(scenario: Scenario, reference: np.ndarray) -> str:
 
 def check_reference_span(scenario: Scenario, reference: np.ndarray) -> None:
     """The reference must cover the experiment's [start_time, stop_time] (to half a step): beyond its ends it
-    would be held at its end values and the comparison would be meaningless."""
+    would be held at its end values and the comparison would be meaningless. A generated one must also end where
+    the file's stop_time does: it was made for the file's run, so a stop_time cut short in the file since would
+    check a gate's scenario over a part of it without a word (a measured file may run longer than the experiment;
+    a caller who shortens a read Scenario's run, a convergence study, compares that part knowingly)."""
     t0, t1 = float(reference["time"][0]), float(reference["time"][-1])
     slack = 0.5 * scenario.step_size
+    if (scenario.reference_generator and t1 > scenario.stop_time + slack
+            and scenario.stop_time == getattr(scenario, "file_stop_time", None)):
+        raise ScenarioError(f"{scenario.path}: the reference {scenario.reference_file_text} was made for a run to "
+                            f"t = {t1:g} s, the file's experiment stops at {scenario.stop_time:g} s: a gate would "
+                            "check only that part of the run it was made for, without a word; set "
+                            f"stop_time = {t1:g} in [experiment], or regenerate the reference for this span "
+                            f"(`ujfmu references {scenario.path}`; a run with --stop-time is a changed copy, not "
+                            "compared)")
     if t0 > scenario.start_time + slack or t1 < scenario.stop_time - slack:
         remedy = (f"regenerate the reference (`ujfmu references {scenario.path}`)" if scenario.reference_generator
                   else "extend the file (it names no generator: a measured or hand-made reference)")
