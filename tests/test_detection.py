@@ -91,6 +91,17 @@ def test_bond_energy_transmitted_matches_the_reference_and_the_residual_is_first
     assert 1.6 < residual[1e-3] / residual[5e-4] < 2.5, residual
 
 
+def test_a_bond_that_moved_next_to_no_power_gives_no_share():
+    """A one-step run (a CI trial's) had printed its residual as 7.13e+16% of the 5.9e-17 J transmitted: past the
+    energy transmitted, the line says so instead of a share."""
+    from ujfmu.master import BondEnergy, Connection
+    bond = BondEnergy(Connection("m.omega", "j.omega_in"), Connection("j.tau_in", "m.tau_load"), 0.0418, 0.0418,
+                      5.858e-17)
+    assert "%" not in str(bond) and "more than the 5.858e-17 J transmitted" in str(bond)
+    bond.transmitted = 4.18
+    assert str(bond).endswith("= 1% of the 4.18 J transmitted (sum |power| dt, both ways)")
+
+
 def test_bond_energy_ranks_the_schemes_as_their_errors_do(fmu_dir):
     """battery_01 (flexible shaft): explicit 4.0% off its reference, implicit 0.7% (docs/cosimulation.md); the
     relative coupling energy follows without any reference: explicit several times the implicit's."""

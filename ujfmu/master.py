@@ -272,9 +272,12 @@ class BondEnergy:
         a, b = self.components
         text = (f"coupling energy {a} <-> {b} ({self.speed.source} x {self.torque.source}): net "
                 f"{self.residual:+.4g} J, sum |per step| {self.residual_abs:.4g} J")
-        if self.transmitted > 0.0:
+        if self.transmitted > 0.0 and self.relative <= 1.0:
             text += (f" = {100.0 * self.relative:.3g}% of the {self.transmitted:.4g} J transmitted (sum |power| dt, "
                      "both ways)")
+        elif self.transmitted > 0.0:   # a run of a step or two, a shaft at rest: no share to speak of
+            text += (f", more than the {self.transmitted:.4g} J transmitted (sum |power| dt, both ways): the run "
+                     "moved too little power through the bond for a share")
         return text + (f" ({self.note})" if self.note else "")
 
 
