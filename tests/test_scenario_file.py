@@ -353,6 +353,12 @@ def test_a_scenario_path_without_toml_names_the_file_that_exists(tmp_path, capsy
     with pytest.raises(ScenarioError) as err:
         Scenario("scenarios/zzzz")
     assert str(err.value) == "scenarios/zzzz: scenario file not found"
+    # a misspelt folder of scenarios (a CI trial's `check scenarios/tema/`) gets the folder that holds them
+    (tmp_path / "scenarios" / "team").mkdir()
+    (tmp_path / "scenarios" / "team" / "truck.toml").write_text(GOOD)
+    with pytest.raises(ScenarioError, match=r"scenarios/tema: scenario file not found; did you mean the folder "
+                                            r"scenarios/team\?"):
+        Scenario("scenarios/tema")
     # a bare name, as typed in a project of one's own: its scenarios/ folder is looked in too
     with pytest.raises(ScenarioError, match=r"did you mean scenarios/my_rig.toml\?"):
         Scenario("my_rig")

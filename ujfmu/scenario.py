@@ -105,7 +105,8 @@ BUNDLED_SCENARIOS = REPO_DIR / "scenarios"
 def not_found_hint(path: Path) -> str:
     """'; did you mean ...?' for a scenario path that does not exist: the same path with .toml when that file
     exists, else the closest names (difflib) among the .toml files of its folder, of the current directory's
-    scenarios/ (a project's own) and of the bundled scenarios."""
+    scenarios/ (a project's own) and of the bundled scenarios, else (a name without a suffix) among the folders
+    beside it that hold scenarios."""
     path = Path(path)
     if path.suffix != ".toml" and path.with_name(path.name + ".toml").is_file():
         return f"; did you mean {path.with_name(path.name + '.toml')}? (scenario files end in .toml)"
@@ -117,6 +118,10 @@ def not_found_hint(path: Path) -> str:
                 candidates.setdefault(file.stem, shown / file.name)
     stem = path.name[:-len(".toml")] if path.name.endswith(".toml") else path.name
     close = [stem] if stem in candidates else difflib.get_close_matches(stem, list(candidates), n=3, cutoff=0.6)
+    if not close and not path.suffix and path.parent.is_dir():   # a folder of scenarios, misspelt
+        folders = {f.name: f for f in sorted(path.parent.iterdir()) if f.is_dir() and any(f.glob("*.toml"))}
+        near = difflib.get_close_matches(path.name, list(folders), n=3, cutoff=0.6)
+        return f"; did you mean the folder {' or '.join(str(folders[name]) for name in near)}?" if near else ""
     if not close:
         return ""
     return f"; did you mean {' or '.join(str(candidates[name]) for name in close)}?"
