@@ -1131,6 +1131,30 @@ def test_check_names_the_bands_that_check_the_level_only(fmu_dir, tmp_path, caps
     assert ET.parse(junit).getroot().get("failures") == "0"
 
 
+def test_a_band_wider_than_the_ripple_is_level_only_without_a_steady_window(fmu_dir, tmp_path, capsys):
+    """double_cardan_omar_torsional (no steady_from) with its shaft torque's band at 20% of the range, against a
+    reference whose torque holds its mean from 1 s on, the 2x ripple gone (a CI trial's): it had passed --strict.
+    Without a steady window the run's last quarter is looked at: a flat line there passes the band, so the band
+    checks the level only and --strict fails it; the file's own bands pass."""
+    from ujfmu.references import read_reference, write_reference
+    text = (SCENARIOS / "double_cardan_omar_torsional.toml").read_text()
+    assert "steady_from" not in text
+    path = tmp_path / "double_cardan_omar_torsional.toml"
+    path.write_text(re.sub(r'("driveline\.shaft_torque" = )\{[^}]*\}', r'\1{ rel_range = 0.2 }', text))
+    (tmp_path / "references").mkdir()
+    reference, provenance = read_reference(SCENARIOS / "references" / "double_cardan_omar_torsional.csv")
+    late = reference["time"] >= 1.0
+    reference["driveline.shaft_torque"][late] = reference["driveline.shaft_torque"][late].mean()
+    write_reference(tmp_path / "references" / "double_cardan_omar_torsional.csv", reference, provenance)
+    assert main(["check", str(path), "--strict", "--no-plot", "--out", str(tmp_path / "out"), "--fmu-dir",
+                 str(fmu_dir)]) == 1
+    out, err = capsys.readouterr()
+    assert "checks the level only over the run's last 25% from t = 2.25 s" in out
+    assert "double_cardan_omar_torsional: driveline.shaft_torque" in err
+    assert main(["check", str(SCENARIOS / "double_cardan_omar_torsional.toml"), "--strict", "--no-plot", "--out",
+                 str(tmp_path / "out"), "--fmu-dir", str(fmu_dir)]) == 0
+
+
 def test_a_gate_that_compares_only_the_drive_and_the_load_fails_strict(fmu_dir, tmp_path, capsys):
     """cardan_constant_speed comparing only motor.omega (its ideal source's own set speed) and load.tau (a
     constant), the joint's signals moved to not_compared (a CI trial's): it had passed `check --strict`, no

@@ -1239,17 +1239,31 @@ def compare(table, reference, tolerances, units: dict | None = None, measured: b
     return checks
 
 
+#: without a steady window, :func:`mark_vibration_blind` looks at this share of the run at its end
+TAIL_SHARE = 0.25
+
+
 def mark_vibration_blind(scenario: Scenario, table: np.ndarray, reference: np.ndarray, checks: list) -> None:
     """Mark as checking the level only (``SignalCheck.level_only``, its note saying why) each check whose band is at
     least half the signal's peak-to-peak over the steady window (``output.steady_from`` on), in the run or in the
     reference, where that vibration is at least ``VISIBLE_VIBRATION`` of the reference's range and its orders are
     not compared ([reference.orders]): a flat line through the window's middle, a signal or a reference without
     the vibration, passes such a band. Signals that grow (running angles, energy integrals: ``steady.grows``) have
-    no steady vibration and are left out, as the steady window's figures leave them out."""
+    no steady vibration and are left out, as the steady window's figures leave them out. A scenario without a
+    steady window is looked at over the last ``TAIL_SHARE`` of its run instead (a copy of a scenario without
+    steady_from had passed with bands wider than its torque's whole 2x ripple), where a flat line through the
+    middle passes the band just as well, the run's own course there (a ramp's trend) counted in its swing."""
+    from .steady import grows
     steady = _steady_window(scenario, table)
-    if steady is None:
-        return
-    window, steady_signals = steady[0], set(steady[1])   # running angles and energy integrals grow: left out
+    if steady is not None:
+        window, steady_signals = steady[0], set(steady[1])   # running angles and energy integrals grow: left out
+        over = "the steady window"
+    else:
+        window = table[table["time"] >= scenario.stop_time - TAIL_SHARE * (scenario.stop_time - scenario.start_time)]
+        steady_signals = {n for n in scenario.record if not grows(n) and n in table.dtype.names}
+        over = f"the run's last {100 * TAIL_SHARE:g}%"
+        if len(window) < 16:
+            return
     since = float(window["time"][0])
     end = float(window["time"][-1]) + 1e-9 * max(1.0, abs(float(window["time"][-1])))
     theirs = reference[(reference["time"] >= since - 1e-9 * max(1.0, abs(since))) & (reference["time"] <= end)]
@@ -1260,14 +1274,16 @@ def mark_vibration_blind(scenario: Scenario, table: np.ndarray, reference: np.nd
         swings = [(0.5 * float(np.ptp(x)), what)
                   for x, what in ((window[check.name], "the run"), (theirs[check.name], "the reference")) if len(x)]
         swing, where = max(swings)
-        if not (swing >= VISIBLE_VIBRATION * check.reference_range and check.allowed >= swing > 0.0):
+        size = max((float(np.max(np.abs(x))) for x in (window[check.name], theirs[check.name]) if len(x)), default=0.0)
+        if not (swing >= VISIBLE_VIBRATION * check.reference_range and check.allowed >= swing > 0.0
+                and swing > CONSTANT_REFERENCE * size):   # a constant's round-off is no vibration
             continue
         unit = f" {check.unit}" if check.unit and check.unit != "1" else ""
         amplitudes = orders.get(check.name, (None, ()))[1]
         largest = max(((a, k) for k, a in zip(CHECKED_ORDERS, amplitudes) if not math.isnan(a)), default=None)
         order = f"; the run's largest order there {largest[1]}x, {largest[0]:.3g}{unit}" if largest else ""
         check.level_only = True
-        blind = (f"{LEVEL_ONLY} over the steady window from t = {since:g} s: the band, {check.allowed:.3g}"
+        blind = (f"{LEVEL_ONLY} over {over} from t = {since:g} s: the band, {check.allowed:.3g}"
                  f"{unit}, is at least half the signal's peak-to-peak there ({swing:.3g}{unit} in {where}{order}), so "
                  "a flat line through its middle, a signal without that vibration, would pass; compare its orders "
                  f"([reference.orders] \"{check.name}\" = {{ rel = 0.05 }}) or tighten the band below it")
