@@ -1307,12 +1307,6 @@ def milliseconds_hint(scenario: Scenario, reference: np.ndarray) -> str:
             "the time column is in seconds, as every column is in SI units")
 
 
-#: a reference without provenance within this fraction of each compared signal's largest |value| of the run in every
-#: one is a copy of a co-simulation's output (as written, or by a writer that keeps fewer digits), not an independent
-#: computation or a measurement
-COPY_ROUND_OFF = 1e-9
-
-
 def check_reference_span(scenario: Scenario, reference: np.ndarray) -> None:
     """The reference must cover the experiment's [start_time, stop_time] (to half a step): beyond its ends it
     would be held at its end values and the comparison would be meaningless. A generated one must also end where
@@ -1471,11 +1465,9 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
             if not check.passed:
                 check.note = slip + (f"; {check.note}" if check.note else "")
         from .references import method_of, setup_of
-        if setup_of(provenance) is None and len(table) > 2 and all(
-                c.max_error <= COPY_ROUND_OFF * float(np.max(np.abs(reference[c.name]))) for c in result.checks):
-            raise ScenarioError(f"{scenario.path}: [reference] file {scenario.reference_file} equals this run to "
-                                f"round-off ({COPY_ROUND_OFF:g} of each signal's size, what a copy written with fewer "
-                                "digits keeps) in every compared signal and does not say how it was made (no '#' "
+        if setup_of(provenance) is None and len(table) > 2 and all(c.max_error == 0.0 for c in result.checks):
+            raise ScenarioError(f"{scenario.path}: [reference] file {scenario.reference_file} equals this run to the "
+                                "last digit in every compared signal and does not say how it was made (no '#' "
                                 "provenance line with the setup it was made for): it is a copy of a co-simulation's "
                                 "output, and comparing a run with itself checks nothing. A reference comes from an "
                                 "independent computation: a closed form or a monolithic solve (README, \"Scenario "
