@@ -1308,9 +1308,15 @@ def test_a_truncated_fmu_and_a_subfolder_left_out_are_named(fmu_dir, tmp_path, c
     (tmp_path / "gate" / "team").mkdir(parents=True)
     shutil.copy(SCENARIOS / "cardan_constant_speed.toml", tmp_path / "gate" / "team" / "mine.toml")
     (tmp_path / "gate" / "mine.toml").write_text("not toml [")
-    main(["--fmu-dir", str(fmu_dir), "check", str(tmp_path / "gate"), "--no-plot", "--out", str(tmp_path / "o")])
+    junit = tmp_path / "gate.xml"
+    main(["--fmu-dir", str(fmu_dir), "check", str(tmp_path / "gate"), "--no-plot", "--out", str(tmp_path / "o"),
+          "--junit", str(junit)])
     assert f"not included, a folder standing for its own *.toml only: {tmp_path / 'gate' / 'team'} (1 scenario " \
            "file)" in capsys.readouterr().err
+    # and in the report, a skipped case (a CI trial's forgotten folder had left no trace there)
+    (case,) = [c for c in ET.parse(junit).getroot().iter("testcase") if "folder not included" in c.get("name")]
+    assert case.find("skipped").get("message").startswith(f"skipped: not included: {tmp_path / 'gate' / 'team'} "
+                                                          "holds 1 scenario file this run did not check")
 
 
 def test_an_unexpected_exception_exits_3_not_as_a_failed_check(capsys):

@@ -28,9 +28,9 @@ class UsageError(Exception):
     """A command-line mistake: printed as an error with exit status 2."""
 
 
-def _scenarios(paths):
-    """The scenario files named, a folder standing for its *.toml files (not its subfolders', which a note names);
-    default: scenarios/*.toml."""
+def _scenarios(paths, left_out: list | None = None):
+    """The scenario files named, a folder standing for its *.toml files (not its subfolders', which a note names
+    and left_out gets as (subfolder, how many scenario files)); default: scenarios/*.toml."""
     if paths:
         found = []
         for path in map(Path, paths):
@@ -39,7 +39,7 @@ def _scenarios(paths):
                 if not inside:
                     raise UsageError(f"{path} is a folder without scenario files (*.toml)")
                 found += inside
-                _note_subfolders(path, paths)
+                (left_out if left_out is not None else []).extend(_note_subfolders(path, paths))
             else:
                 found.append(path)
         return found
@@ -47,13 +47,14 @@ def _scenarios(paths):
     if not found:
         raise UsageError(f"no scenario files (*.toml) in {DEFAULT_SCENARIO_DIR.absolute()}: name scenario files, "
                          "or run this in a folder that has a scenarios/ folder")
-    _note_subfolders(DEFAULT_SCENARIO_DIR, [])
+    (left_out if left_out is not None else []).extend(_note_subfolders(DEFAULT_SCENARIO_DIR, []))
     return found
 
 
-def _note_subfolders(folder: Path, named) -> None:
+def _note_subfolders(folder: Path, named) -> list:
     """A note on stderr naming the subfolders of folder that hold scenario files not taken (a folder stands for its
-    own *.toml), unless named too; the bundled coupling battery (``ujfmu battery`` runs it) goes unsaid."""
+    own *.toml), unless named too; the bundled coupling battery (``ujfmu battery`` runs it) goes unsaid. Returns
+    them, (subfolder, how many scenario files)."""
     from .battery import BATTERY_DIR
     named = {Path(p).resolve() for p in named}
     left = [(sub, len(list(sub.rglob("*.toml")))) for sub in sorted(folder.iterdir())
@@ -63,6 +64,7 @@ def _note_subfolders(folder: Path, named) -> None:
         print("note: not included, a folder standing for its own *.toml only: " + ", ".join(
             f"{sub} ({count} scenario file{'s' if count > 1 else ''})" for sub, count in left)
               + "; name a subfolder to include it", file=sys.stderr)
+    return left
 
 
 #: off a terminal (a CI log), sweeps say their progress in a line at each tenth of their points and at the end of a
@@ -436,7 +438,8 @@ def _check(args, kind: str) -> int:
     from .scenario_run import write_junit
     results, skipped, errors = [], {}, {}
     _own_checkout(list(args.scenarios or []))
-    paths = _scenarios(args.scenarios)
+    left_out = []
+    paths = _scenarios(args.scenarios, left_out)
     names = {}
     for path in paths:
         names.setdefault(Path(path).stem, []).append(str(path))
@@ -467,7 +470,11 @@ def _check(args, kind: str) -> int:
     unchecked = [r for r in results if not r.checked and not r.failed]
     loose = [r for r in results if not r.failed and r.strict_problems]
     if args.junit:   # what fails the command below fails its case: --strict's and an all-unchecked run's
-        report = write_junit(results, args.junit, errors, skipped, kind,
+        # a subfolder not searched is a skipped case: a dashboard counts what the gate did not check
+        folders = {f"{sub} (folder not included)": f"not included: {sub} holds {count} scenario file"
+                   f"{'s' if count > 1 else ''} this run did not check (a folder stands for its own *.toml); name it "
+                   "on the command line to check it" for sub, count in left_out}
+        report = write_junit(results, args.junit, errors, {**skipped, **folders}, kind,
                              unchecked_fail=bool(unchecked) and (args.strict or len(unchecked) == len(results)),
                              level_only_fail=args.strict)
         _say(args, f"JUnit report: {report}")
