@@ -1140,6 +1140,10 @@ def test_a_band_wider_than_the_ripple_is_level_only_without_a_steady_window(fmu_
     assert "double_cardan_omar_torsional: driveline.shaft_torque" in err
     assert main(["check", str(SCENARIOS / "double_cardan_omar_torsional.toml"), "--strict", "--no-plot", "--out",
                  str(tmp_path / "out"), "--fmu-dir", str(fmu_dir)]) == 0
+    # a run still settling from its run-up in its last quarter (its motor 2% off its set speed there) is not looked
+    # at: its trend is no vibration (a 2% band on the motor's speed had been marked)
+    assert main(["check", str(SCENARIOS / "battery" / "battery_06.toml"), "--strict", "--no-plot", "--out",
+                 str(tmp_path / "out"), "--fmu-dir", str(fmu_dir)]) == 0
 
 
 def test_a_gate_that_compares_only_the_drive_and_the_load_fails_strict(fmu_dir, tmp_path, capsys):
