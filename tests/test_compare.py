@@ -198,6 +198,28 @@ def test_a_reference_sampled_more_coarsely_than_the_run_keeps_its_orders():
     assert checks[2].reference_amplitude == pytest.approx(0.29, rel=1e-9)
 
 
+def test_an_order_the_reference_file_does_not_resolve_fails_as_unchecked():
+    """A reference sampled every 5 ms at 180 rad/s (3.5 samples a period of its 2x) against a run at 0.25 ms whose 2x
+    is twice the reference's: fitted on its own samples the reference resolves only the 1x, and the 2x and 4x had
+    passed as "not resolved at this step" (a review's case). An order the run carries and the reference file cannot
+    resolve is a failure naming the file's sampling; the 1x is compared."""
+    from types import SimpleNamespace
+
+    from ujfmu.scenario_run import check_orders
+
+    def table(h, h2):
+        t = np.arange(0.0, 2.0 + h / 2, h)
+        theta = 180.0 * t
+        torque = 550.0 + 3.0 * np.cos(theta) + h2 * np.cos(2 * theta - 0.4) + 0.3 * np.cos(4 * theta + 1.1)
+        return np.rec.fromarrays([t, np.full_like(t, 180.0), torque], names=["time", "m.omega", "d.T"])
+    scenario = SimpleNamespace(order_tolerances={"d.T": 0.05}, steady_from=1.0, running_speed="m.omega",
+                               path=Path("s.toml"))
+    checks = check_orders(scenario, table(2.5e-4, 25.0), table(5e-3, 12.5))
+    assert [(c.order, c.passed) for c in checks] == [(2, False), (4, False), (1, True)]
+    assert str(checks[0]).startswith("FAIL d.T: its 2x order, which the run carries, is not resolved by the "
+                                     "reference file's samples (every 0.005 s")
+
+
 def test_an_order_the_run_has_and_the_reference_lacks_is_compared_and_round_off_is_not():
     """A spurious 1x in the run (3.8% of its 2x, none in the reference) had passed unseen: an order counts if it
     carries 1% of the largest in the run or the reference. A constant speed's orders at round-off (1e-14 of it) are

@@ -102,12 +102,14 @@ def test_a_figure_names_a_failed_order_and_draws_the_error_where_it_is_checked(t
     table = np.rec.fromarrays([run_t, wave(run_t)], names=["time", name])
     reference = np.rec.fromarrays([ref_t, wave(ref_t)], names=["time", name])
     result = SimpleNamespace(scenario=scenario, table=table, checks=[], extrapolated_checks=[], model_exchange=False,
-                             order_checks=[OrderCheck(name, 2, 10.56, 10.0, 0.05), OrderCheck(name, 1, 1.0, 1.0, 0.05)],
+                             order_checks=[OrderCheck(name, 2, 10.56, 10.0, 0.05), OrderCheck(name, 1, 1.0, 1.0, 0.05),
+                                           OrderCheck(name, 4, 0.3, float("nan"), 0.05, note="n", refused=True)],
                              verdict="FAIL")
     plot_scenario(result, reference, tmp_path / "f.png")
     signal, error = figures["f.png"].axes[:2]
     assert figures["f.png"]._suptitle.get_text().startswith("FAIL: ")   # not after a wrapped title's last words
-    assert signal.get_title(loc="left") == f"{name}  (not compared)  (FAIL: 2x order +5.6%, allowed 5%)"
+    assert signal.get_title(loc="left") == (f"{name}  (not compared)  (FAIL: 2x order +5.6%, allowed 5%, 4x order not "
+                                            "resolved by the reference)")
     (line,) = error.get_lines()
     assert len(line.get_xdata()) == len(ref_t) and np.max(np.abs(line.get_ydata())) < 1e-9
 

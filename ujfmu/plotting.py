@@ -91,6 +91,7 @@ def plot_scenario(result, reference, path):
         failed_orders = [c for c in result.order_checks if c.name == name and not c.passed]
         if failed_orders:   # the vibration's check, which the error panel does not show
             verdict += "  (FAIL: " + ", ".join(
+                f"{c.order}x order not resolved by the reference" if c.refused else
                 f"{c.order}x order {100 * (c.amplitude / c.reference_amplitude - 1):+.3g}%, allowed "
                 f"{100 * c.rel:.3g}%" for c in failed_orders) + ")"
         ax.set_title(f"{name}{verdict}", fontsize=9, loc="left")

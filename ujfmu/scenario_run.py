@@ -349,14 +349,18 @@ class OrderCheck:
     reference_amplitude: float
     rel: float
     note: str = ""   # why nothing was compared (an order the step does not resolve, a signal without vibration)
+    #: the note says why it cannot be compared where it should be (the reference's samples do not resolve an order
+    #: the run carries): a failure
+    refused: bool = False
 
     @property
     def passed(self) -> bool:
-        return bool(self.note or abs(self.amplitude - self.reference_amplitude) <= self.rel * self.reference_amplitude)
+        return not self.refused and bool(
+            self.note or abs(self.amplitude - self.reference_amplitude) <= self.rel * self.reference_amplitude)
 
     def __str__(self):
         if self.note:
-            return f"--   {self.name}: {self.note}"
+            return f"{'FAIL' if self.refused else '--  '} {self.name}: {self.note}"
         off = (self.amplitude - self.reference_amplitude) / self.reference_amplitude
         return (f"{'ok  ' if self.passed else 'FAIL'} {self.name} {self.order}x order amplitude "
                 f"{self.amplitude:.4g} against the reference's {self.reference_amplitude:.4g} ({100 * off:+.3g}%, "
@@ -382,7 +386,8 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
     names = list(scenario.order_tolerances)
     end = float(t[-1]) if len(t) else 0.0
     span = 1e-9 * max(1.0, abs(end))
-    kept = (reference["time"] >= scenario.steady_from - 1e-9) & (reference["time"] <= end + span)
+    first = float(t[0]) if len(t) else scenario.steady_from   # the run's window: a coarser record starts it later
+    kept = (reference["time"] >= first - span) & (reference["time"] <= end + span)
     their_t = reference["time"][kept]
     if len(their_t) == len(t) and np.all(np.abs(their_t - t) <= span):   # one grid
         their_t, their_angle = t, angle
@@ -407,6 +412,17 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
         size = max(mine[name].size, ref[name].size)
         resolved = [max(a, b) for a, b in zip(runs, refs) if not (math.isnan(a) or math.isnan(b))]
         largest = max(resolved, default=0.0)
+        theirs_blind = [k for k, a, a_ref in zip(CHECKED_ORDERS, runs, refs) if not math.isnan(a) and math.isnan(a_ref)
+                        and a >= SIGNIFICANT_ORDER * max([largest] + [x for x in runs if not math.isnan(x)])
+                        and a > NEGLIGIBLE_ORDER * size]
+        for k in theirs_blind:   # the run resolves it, the reference file's samples do not: it cannot be checked
+            every = float(np.median(np.diff(their_t))) if len(their_t) > 1 else math.nan
+            checks.append(OrderCheck(name, k, runs[CHECKED_ORDERS.index(k)], math.nan, rel, refused=True, note=(
+                f"its {k}x order, which the run carries, is not resolved by the reference file's samples (every "
+                f"{every:.3g} s: too few a revolution there), so it cannot be checked; give a reference sampled more "
+                "finely, or leave the signal out of [reference.orders]")))
+        if not resolved and theirs_blind:
+            continue
         if not resolved:
             checks.append(OrderCheck(name, 0, math.nan, math.nan, rel, note=(
                 "no order is resolved at this step (too few samples a revolution): nothing compared")))
@@ -417,6 +433,8 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
                 "compared")))
             continue
         for k, a, a_ref in zip(CHECKED_ORDERS, runs, refs):
+            if k in theirs_blind:
+                continue
             if math.isnan(a) or math.isnan(a_ref):
                 checks.append(OrderCheck(name, k, a, a_ref, rel, note=(
                     f"its {k}x order is not resolved at this step (too few samples a revolution): not compared")))
@@ -1084,7 +1102,7 @@ class ScenarioResult:
             figures += (f"; and for its own step and coupling ({own_step:g} s, {own_coupling}): at "
                         f"{self.scenario.step_size:g} s, {self.scenario.coupling}, a FAIL holds this run to the file's "
                         "accuracy, so judge the error figures (% of the range) against what your study needs")
-        if any(not c.passed for c in self.order_checks) and not self.model_exchange:
+        if any(not c.passed and not c.refused for c in self.order_checks) and not self.model_exchange:
             lines.append("  an order amplitude outside its tolerance: a vibration the coupling or the step distorts "
                          "shows here first (the bands above scale with each signal's whole range); the implicit "
                          "scheme or a smaller step (--step) resolves it if the error shrinks with the step")
@@ -1253,9 +1271,9 @@ def mark_vibration_blind(scenario: Scenario, table: np.ndarray, reference: np.nd
     the vibration, passes such a band. Signals that grow (running angles, energy integrals: ``steady.grows``) have
     no steady vibration and are left out, as the steady window's figures leave them out. A scenario without a
     steady window is looked at over the last ``TAIL_SHARE`` of its run instead where its running speed (else its
-    Motor's or a driven input shaft's) holds within ``TAIL_STEADY`` of itself there (a copy of a scenario without steady_from, at a constant speed, had
-    passed with bands wider than its torque's whole 2x ripple); a run still ramping or settling there is not
-    looked at (its trend is no vibration)."""
+    Motor's or a driven input shaft's) holds within ``TAIL_STEADY`` of itself there (a copy of a scenario without
+    steady_from, at a constant speed, had passed with bands wider than its torque's whole 2x ripple); a run still
+    ramping or settling there is not looked at (its trend is no vibration)."""
     from .steady import grows
     steady = _steady_window(scenario, table)
     if steady is not None:
@@ -1266,8 +1284,9 @@ def mark_vibration_blind(scenario: Scenario, table: np.ndarray, reference: np.nd
         steady_signals = {n for n in scenario.record if not grows(n) and n in table.dtype.names}
         over = f"the run's last {100 * TAIL_SHARE:g}%"
         # the running speed, else a Motor's speed or a driven input shaft's, as recorded
-        drives = [scenario.running_speed] + [f"{name}.omega" for name, (fmu, _) in scenario.components.items()
-                                             if fmu == "Motor"] + [n for n in scenario.record if n.endswith(".omega_in")]
+        drives = ([scenario.running_speed] + [f"{name}.omega" for name, (fmu, _) in scenario.components.items()
+                                              if fmu == "Motor"]
+                  + [n for n in scenario.record if n.endswith(".omega_in")])
         speed = next((window[n] for n in drives if n and n in table.dtype.names), None)
         if (len(window) < 16 or speed is None
                 or not float(np.ptp(speed)) <= TAIL_STEADY * float(np.mean(np.abs(speed)))):
@@ -1870,7 +1889,8 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
                           + ", ".join(r.level_only_bands)).text = r.summary()
         elif level_only_fail and r.machines_unchecked:
             ET.SubElement(case, "failure", message="compares no output of its machines, "
-                          f"{', '.join(r.machines_unchecked)}, only its drive's and load's (--strict)").text = r.summary()
+                          f"{', '.join(r.machines_unchecked)}, only its drive's and load's (--strict)"
+                          ).text = r.summary()
         elif not r.checked and unchecked_fail:
             ET.SubElement(case, "failure", message=f"not checked: {r.not_checked_reason()} (a gate that compares "
                           "nothing fails it)").text = r.summary()

@@ -1491,8 +1491,8 @@ class Sweep:
 
     def plot(self, out_dir=None):
         """Figures against the first axis (a swept speed if any): max/min of every output (one curve per
-        combination of the other axes) and the running-speed order amplitudes (order tracks and a Campbell-style diagram), written to out_dir
-        (default: next to the CSV). Returns the paths."""
+        combination of the other axes) and the running-speed order amplitudes (order tracks and a Campbell-style
+        diagram), written to out_dir (default: next to the CSV). Returns the paths."""
         from .plotting import plot_sweep
         with _writing("the figures into", Path(out_dir or self.out_dir)):
             return plot_sweep(self, Path(out_dir or self.out_dir))

@@ -400,7 +400,9 @@ def clamped_all_along(p: ControllerParameters, h: float, e0: float, a: float, in
     """Whether :func:`pi_torque` holds one limit with the integral frozen over the whole step, e = e0 + a s with the
     speed held: e and v = Kp e + Ki I (I constant) are linear in s, so both ends beyond the limit in the same sense
     (with ``CLAMP_MARGIN`` of scale and tau_max to spare) put every RK4 stage on that branch, dI/dt = 0 at each, and
-    the step leaves I as it was (bitwise what the RK4 step gives)."""
+    the step leaves I as it was: bitwise what the RK4 step gives on a piece of the profile (where a set-speed step
+    falls on the step's end, RK4's last stage reads the next piece's speed; this closed form, as the unclamped one,
+    keeps the piece's own)."""
     e1 = e0 + a * h
     margin, limit = CLAMP_MARGIN * scale, p.tau_max * (1.0 + CLAMP_MARGIN)
     v0, v1 = p.Kp * e0 + p.Ki * integral, p.Kp * e1 + p.Ki * integral
@@ -451,7 +453,7 @@ class Controller:
         the torque stays at one limit with the integral frozen (:func:`clamped_all_along`); elsewhere one
         classical RK4 step of :meth:`derivatives` (the clamp and the anti-windup), as the FMU's default. RK4
         integrates the linear e(s) exactly too: the closed forms are the same numbers to round-off (the frozen
-        integral bitwise), at a quarter of the cost."""
+        integral bitwise) on a piece of the profile, at a quarter of the cost."""
         if corner_inside(p, t, h):
             return split_at_corners(Controller.integrate, p, t, h, y, u)
         r0, a, _ = reference(p, t)
