@@ -60,7 +60,7 @@ def test_scenario_figures_have_units_an_error_panel_and_mm_for_lengths(fmu_dir, 
     text = re.sub(r"(?m)^steady_from = .*$", "steady_from = 0.3", text)
     short.write_text(text.replace('file = "references/', f'file = "{SCENARIOS}/references/'))
     scenario = Scenario(short)
-    scenario.stop_time = 0.6   # a part of the file's run, compared knowingly (a file cut short is refused)
+    scenario.stop_time = 0.6   # a part of the file's run (its verdict line says so)
     result = run_scenario(scenario, fmu_dir=fmu_dir, out_dir=tmp_path)
     assert result.scenario.stop_time == 0.6 and result.checked
     for name in ("twin_jeffcott_steady.png", "twin_jeffcott_steady_orbits.png", "twin_jeffcott_steady_spectra.png"):

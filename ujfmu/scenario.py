@@ -390,7 +390,6 @@ class Scenario:
         #: coupling its bands were chosen for
         self.file_reference = self.reference_file
         self.file_step_size, self.file_coupling = self.step_size, self.coupling
-        self.file_stop_time = self.stop_time
 
     def _read_header(self, data):
         """The top-level fields: only known ones; title and description strings."""
