@@ -134,6 +134,11 @@ def not_found_hint(path: Path) -> str:
 #: constant speed runs at 1111 with his 1e-3 rad/s; his start-up runs at 1.1 and 1.8, 5 and 8 N.m, and stops as a
 #: coupling instability or chatter from 2.2 on, 10 N.m)
 LOAD_CHATTER_ADVICE = 2.0
+#: the implicit scheme iterates a load's chatter on a PI Motor's rotor away, where the load's constant torque is
+#: at most this share of the Motor's tau_max: above, a joint's swing of the torque it passes (up to 1 / cos of its
+#: angle) may keep the shaft stalled at rest, where the iterated steps still ring at the step rate (T0 = 4.9 N.m
+#: against cardan_startup's 5 N.m through its 30 deg joint)
+BREAKAWAY_SHARE = 0.8
 #: Kp h / J at or above which a MotorController's PI, sampled at the step, is unstable (its pole 1 - Kp h / J at -1)
 SAMPLED_LOOP_LIMIT = 2.0
 #: input angles over a turn at which ``Scenario._sampled_loops`` takes the inertia, the smallest
@@ -161,7 +166,8 @@ class LoadChatter:
     #: speed back within the step
     gain: float = 0.0
     #: the load's torque reaches that inertia through the Motor's tau_load, an input the implicit scheme iterates
-    #: (``ujfmu.master``: one torn input's root bracketed), so only explicit coupling chatters there
+    #: (``ujfmu.master``: one torn input's root bracketed), and the Motor can break it away
+    #: (``BREAKAWAY_SHARE``), so only explicit coupling chatters there
     iterated: bool = False
 
     @staticmethod
@@ -1282,12 +1288,22 @@ class Scenario:
             law = self.parameters_with_defaults(load)
             changed = law.get("T_change", 0.0) > 0.0
             torque = law["T0"] + law.get("T_change", 0.0) if changed else law["T0"]
+            if iterated:   # a load the drive may not break away (a stall at rest) rings at the step rate still
+                iterated = torque <= BREAKAWAY_SHARE * self._drive_limit(driven)
             if isinstance(inertia, numbers.Real) and inertia > 0.0 and torque > 0.0:
                 reach = LoadChatter.reach_of(torque, self.step_size, inertia, gain)
                 found.append(LoadChatter(load, driven, inertia, float(torque), float(law["omega_smooth"]),
                                          self.step_size, reach / law["omega_smooth"],
                                          "T0 + T_change" if changed else "T0", holder, gain, iterated))
         return found
+
+    def _drive_limit(self, component) -> float:
+        """The torque limit tau_max of the Motor that drives the component's omega_in (inf without one)."""
+        for conn in self.connections:
+            motor, _, out = conn.source.partition(".")
+            if conn.target == f"{component}.omega_in" and out == "omega" and self.components[motor][0] == "Motor":
+                return float(self.parameters_with_defaults(motor)["tau_max"])
+        return math.inf
 
     def _input_inertia(self, component) -> tuple:
         """(J, what it is, the gain Kp of a speed loop on it, whether the load reaches it through an input the
