@@ -1297,13 +1297,18 @@ class Scenario:
                                          "T0 + T_change" if changed else "T0", holder, gain, iterated))
         return found
 
-    def _drive_limit(self, component) -> float:
-        """The torque limit tau_max of the Motor that drives the component's omega_in (inf without one)."""
+    def _driving_motor(self, component) -> str:
+        """The Motor whose omega drives the component's omega_in, "" without one."""
         for conn in self.connections:
             motor, _, out = conn.source.partition(".")
             if conn.target == f"{component}.omega_in" and out == "omega" and self.components[motor][0] == "Motor":
-                return float(self.parameters_with_defaults(motor)["tau_max"])
-        return math.inf
+                return motor
+        return ""
+
+    def _drive_limit(self, component) -> float:
+        """The torque limit tau_max of the Motor that drives the component's omega_in (inf without one)."""
+        motor = self._driving_motor(component)
+        return float(self.parameters_with_defaults(motor)["tau_max"]) if motor else math.inf
 
     def _input_inertia(self, component) -> tuple:
         """(J, what it is, the gain Kp of a speed loop on it, whether the load reaches it through an input the
@@ -1315,15 +1320,12 @@ class Scenario:
         own = self.parameters_with_defaults(component)
         if "J_drive" in own:
             return own["J_drive"], "its driven input shaft's J_drive", 0.0, False
-        for conn in self.connections:
-            motor, _, out = conn.source.partition(".")
-            if conn.target == f"{component}.omega_in" and out == "omega" and self.components[motor][0] == "Motor":
-                drive = self.parameters_with_defaults(motor)
-                if not drive.get("ideal_speed_source", False):
-                    fed_back = any(c.source == f"{component}.tau_in" and c.target == f"{motor}.tau_load"
-                                   for c in self.connections)
-                    return drive["J_rotor"], f"{motor}'s rotor inertia J_rotor", float(drive.get("Kp", 0.0)), fed_back
-        return None, "", 0.0, False
+        motor = self._driving_motor(component)
+        drive = self.parameters_with_defaults(motor) if motor else {}
+        if not motor or drive.get("ideal_speed_source", False):
+            return None, "", 0.0, False
+        fed_back = any(c.source == f"{component}.tau_in" and c.target == f"{motor}.tau_load" for c in self.connections)
+        return drive["J_rotor"], f"{motor}'s rotor inertia J_rotor", float(drive.get("Kp", 0.0)), fed_back
 
     def _ask_model(self, component, what) -> list:
         model = getattr(fmu_class(self.components[component][0]), "MODEL", None)

@@ -412,11 +412,11 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
         size = max(mine[name].size, ref[name].size)
         resolved = [max(a, b) for a, b in zip(runs, refs) if not (math.isnan(a) or math.isnan(b))]
         largest = max(resolved, default=0.0)
+        floor = SIGNIFICANT_ORDER * max([largest] + [x for x in runs if not math.isnan(x)])
         theirs_blind = [k for k, a, a_ref in zip(CHECKED_ORDERS, runs, refs) if not math.isnan(a) and math.isnan(a_ref)
-                        and a >= SIGNIFICANT_ORDER * max([largest] + [x for x in runs if not math.isnan(x)])
-                        and a > NEGLIGIBLE_ORDER * size]
+                        and a >= floor and a > NEGLIGIBLE_ORDER * size]
+        every = float(np.median(np.diff(their_t))) if len(their_t) > 1 else math.nan
         for k in theirs_blind:   # the run resolves it, the reference file's samples do not: it cannot be checked
-            every = float(np.median(np.diff(their_t))) if len(their_t) > 1 else math.nan
             checks.append(OrderCheck(name, k, runs[CHECKED_ORDERS.index(k)], math.nan, rel, refused=True, note=(
                 f"its {k}x order, which the run carries, is not resolved by the reference file's samples (every "
                 f"{every:.3g} s: too few a revolution there), so it cannot be checked; give a reference sampled more "
