@@ -187,3 +187,38 @@ def pytest_unconfigure(config):
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(_EXIT[-1])
+
+
+#: a host's wrong calls on one initialized Motor, then steps and a free, in a process of its own (a crash must not
+#: take the tests with it); prints what the FMU logged. ujfmu's instance classes keep the log; {kind} is one of them
+WRONG_CALLS = """
+import sys
+from pathlib import Path
+from ujfmu.master import Component, FmuInstance, extracted
+from ujfmu.fmi3_host import FmuInstance3
+path = Path(sys.argv[1])
+log = []
+inst = {kind}(Component("m", path), *extracted(path), log)
+inst.initialize()
+slave, vr = inst.slave, {{v.name: v.valueReference for v in inst.md.modelVariables}}
+for call in ({calls}):
+    try:
+        call()
+        print("ACCEPTED")
+    except Exception:
+        pass
+for k in range(3):
+    slave.doStep(k * 1e-3, 1e-3)
+inst.free()
+print("\\n".join(log))
+"""
+
+
+@pytest.fixture
+def run_wrong_calls():
+    """run(kind, path, calls): the completed process of WRONG_CALLS on the FMU at path, opened as ``kind``
+    (FmuInstance, FmuInstance3)."""
+    def run(kind: str, path, calls: str):
+        return subprocess.run([sys.executable, "-c", WRONG_CALLS.format(kind=kind, calls=calls), str(path)],
+                              capture_output=True, text=True, timeout=120)
+    return run

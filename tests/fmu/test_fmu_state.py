@@ -75,7 +75,8 @@ def test_serialized_state_continues_in_a_fresh_instance(open_fmu, name, in_initi
 def test_a_step_from_a_state_saved_before_initialization_is_refused_naming_the_remedy(open_fmu, name):
     """A state saved in initialization mode holds no model state; restored into a stepping instance, a step from it
     is refused (fmi2Discard) with the reason and the remedy, where it had stepped on from what the instance held
-    before; so is a step before fmi2ExitInitializationMode."""
+    before; so is a step before fmi2ExitInitializationMode, also after an output read there (which computes the
+    start: a host's trial had been told of a restored state saved after fmi2Terminate)."""
     inst = open_fmu(name, "rewound")
     inst.slave.setupExperiment(startTime=0.0)
     inst.slave.enterInitializationMode()
@@ -91,6 +92,13 @@ def test_a_step_from_a_state_saved_before_initialization_is_refused_naming_the_r
     with pytest.raises(FMICallException):
         never.slave.doStep(0.0, H)
     assert any("call fmi2ExitInitializationMode before fmi2DoStep" in m for m in never._log), never._log
+    read = open_fmu(name, "read")
+    read.slave.setupExperiment(startTime=0.0)
+    read.get(outputs_of(read)[0])
+    with pytest.raises(FMICallException):
+        read.slave.doStep(0.0, H)
+    assert any("call fmi2ExitInitializationMode before fmi2DoStep" in m for m in read._log), read._log
+    assert not any("fmi2Terminate" in m for m in read._log), read._log
 
 
 @pytest.mark.parametrize("name", ["CardanJoint", "TwinJeffcottRotorTorqueDriven"])
@@ -116,7 +124,8 @@ def test_a_step_after_terminate_is_refused_and_reset_runs_again(open_fmu, name):
     other.slave.setFMUstate(ended)
     with pytest.raises(FMICallException):
         other.slave.doStep(10 * H, H)
-    assert any("was saved after fmi2Terminate" in m and "fmi2Reset" in m for m in other._log), other._log
+    assert any("was saved while no run was under way (after fmi2Terminate" in m and "fmi2Reset" in m
+               for m in other._log), other._log
     inst.slave.freeFMUstate(ended)
     inst.slave.freeFMUstate(state)
     inst.slave.reset()

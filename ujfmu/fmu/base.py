@@ -39,7 +39,7 @@ import weakref
 from collections.abc import Callable
 from pathlib import Path
 
-from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real, String
 from pythonfmu.enums import Fmi2Status
 from pythonfmu.default_experiment import DefaultExperiment
 
@@ -54,9 +54,11 @@ NOT_INITIALIZED = ("the instance is not initialized: call fmi2ExitInitialization
                    "saved after it, or fmi2Reset and initialize again)")
 TERMINATED = ("the instance is terminated (fmi2Terminate ended its run): fmi2Reset and initialize it again, or "
               "instantiate a new one, to step again")
-#: why a step is refused after fmi2SetFMUstate restored, into a running instance, a state saved after fmi2Terminate
-RESTORED_TERMINATED = ("the state fmi2SetFMUstate restored was saved after fmi2Terminate, which ended its run: "
-                       "restore one saved before it, or fmi2Reset and initialize again, to step again")
+#: why a step is refused after fmi2SetFMUstate restored a state saved with the model initialized but not stepping:
+#: after fmi2Terminate, or before fmi2ExitInitializationMode once an output read had computed the start
+RESTORED_UNRUN = ("the state fmi2SetFMUstate restored was saved while no run was under way (after fmi2Terminate, "
+                  "or before fmi2ExitInitializationMode): restore one saved while stepping, or fmi2Reset and "
+                  "initialize again, to step again")
 #: what the FMU logs when a KeyboardInterrupt was raised in its code (``ujfmu.master`` reports that failure as the
 #: interrupt it is; the FMU's code imports nothing from outside the standard library, so the text is its own copy)
 INTERRUPTED_IN_FMU = "KeyboardInterrupt raised in the FMU's code"
@@ -182,6 +184,32 @@ def output(name, unit, description, depends_on=()):
     return Var(name, "output", unit, description, depends_on=depends_on)
 
 
+def reference_problem(variables: dict, vrs, kinds, call: str) -> str:
+    """'' where each value reference of vrs names a variable of kinds (a type or tuple of types), else why not, for
+    the FMI function ``call`` (fmi2GetReal, fmi3SetInt32, ...)."""
+    for vr in vrs:
+        var = variables.get(vr)
+        if var is None:
+            return f"{call}: no variable has value reference {vr} (modelDescription.xml lists them)"
+        if not isinstance(var, kinds):
+            actual = type(var).__name__
+            return (f"{call}: {var.name} (value reference {vr}) is of type {actual}, not {call[7:]}: use "
+                    f"{call[:7]}{actual}")
+    return ""
+
+
+def _checked(method: str, kind: type) -> Callable:
+    """pythonfmu's ``method`` (get_integer, ...) for variables of ``kind``, its value references checked first
+    (``UjfmuSlave._check_refs``)."""
+    call = "fmi2" + method.title().replace("_", "")
+
+    def access(self, vrs, *values):
+        self._check_refs(vrs, kind, call)
+        return getattr(Fmi2Slave, method)(self, vrs, *values)
+    access.__name__ = method
+    return access
+
+
 class UjfmuSlave(Fmi2Slave):
     """Base of every ujfmu FMU. Subclasses set VARIABLES, DEFAULT_EXPERIMENT, and implement
     ``initialize(start_time)``, ``compute_outputs()`` and ``advance(t, h)``; ``check_parameters()`` is optional.
@@ -223,6 +251,7 @@ class UjfmuSlave(Fmi2Slave):
         self._initialized = False  # initialize() has run with the current parameters
         self._running = False      # past fmi2ExitInitializationMode
         self._terminated = False   # past fmi2Terminate: no more steps
+        self._restored = False     # fmi2SetFMUstate has restored a state into this instance
         self._inputs = tuple(v for v in self.VARIABLES if v.causality == "input")
         self._start_time = 0.0
         self._derivation = None    # token of the derive() the DERIVED attributes come from (see _set_fmu_state)
@@ -304,6 +333,7 @@ class UjfmuSlave(Fmi2Slave):
             names, values = self._real_names, self.__dict__
             return [values[names[vr]] for vr in vrs]
         except KeyError:
+            self._check_refs(vrs, Real, "fmi2GetReal")
             return super().get_real(vrs)
 
     def set_real(self, vrs, values):
@@ -316,7 +346,19 @@ class UjfmuSlave(Fmi2Slave):
                 if vr in self._real_outputs:
                     self._raise_to_host(f"{self.modelName} '{self.instance_name}': {self._real_names[vr]} is an "
                                         "output: the FMU computes it, a host reads it (fmi2GetReal)")
+            self._check_refs(vrs, Real, "fmi2SetReal")
             super().set_real(vrs, values)
+
+    def _check_refs(self, vrs, kind, call):
+        """Refuse (fmi2Fatal, the cause logged) a value reference ``reference_problem`` names: pythonfmu's own
+        refusal is an exception it releases twice, which crashed the host at a second one."""
+        problem = reference_problem(self.vars, vrs, kind, call)
+        if problem:
+            self._raise_to_host(f"{self.modelName} '{self.instance_name}': {problem}")
+
+    get_integer, set_integer = _checked("get_integer", Integer), _checked("set_integer", Integer)
+    get_boolean, set_boolean = _checked("get_boolean", Boolean), _checked("set_boolean", Boolean)
+    get_string, set_string = _checked("get_string", String), _checked("set_string", String)
 
     # --- FMU state (fmi2GetFMUstate / SetFMUstate / Serialize; canGetAndSetFMUstate in the modelDescription) ---
     @classmethod
@@ -374,6 +416,7 @@ class UjfmuSlave(Fmi2Slave):
                 setattr(self, key, value)
         self._partial = False
         self._state_outputs_of = None
+        self._restored = True
         if self._terminated:   # a restored state is read, not stepped, after fmi2Terminate (FMI's state machine)
             self._running = False
         if not self._initialized:
@@ -562,8 +605,8 @@ class UjfmuSlave(Fmi2Slave):
     def do_step(self, current_time, step_size):
         try:
             if not self._running:
-                raise ValueError(TERMINATED if self._terminated else RESTORED_TERMINATED if self._initialized
-                                 else NOT_INITIALIZED)
+                raise ValueError(TERMINATED if self._terminated else RESTORED_UNRUN
+                                 if self._restored and self._initialized else NOT_INITIALIZED)
             if not (step_size > 0.0 and math.isfinite(step_size)):
                 raise ValueError(f"communication step size = {step_size!r} must be finite and > 0")
             values = self.__dict__

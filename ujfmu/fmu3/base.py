@@ -31,7 +31,8 @@ import math
 import re
 import weakref
 
-from pythonfmu3 import Boolean, DefaultExperiment, Float64, Fmi3Causality, Fmi3SlaveBase, Fmi3Status, Int32
+from pythonfmu3 import (Boolean, DefaultExperiment, Enumeration, Float64, Fmi3Causality, Fmi3SlaveBase, Fmi3Status,
+                        Int32, Int64, String, UInt64)
 from pythonfmu3 import Fmi3StepResult, Fmi3Variability
 from pythonfmu3.cosimulation import CoSimulation
 from pythonfmu3.modelexchange import Fmi3UpdateDiscreteStatesResult, ModelExchange
@@ -181,6 +182,16 @@ def fmi3_names(message: str) -> str:
 
 
 # --- the FMU -------------------------------------------------------------------------------------------------------
+def _checked(method: str, kinds, call: str):
+    """pythonfmu3's ``method`` (get_int32, ...) for variables of kinds, its value references checked first
+    (``Fmi3Model._check_refs``)."""
+    def access(self, vrs, *values):
+        self._check_refs(vrs, kinds, call)
+        return getattr(Fmi3SlaveBase, method)(self, vrs, *values)
+    access.__name__ = method
+    return access
+
+
 class Fmi3Model(Fmi3SlaveBase, CoSimulation):
     """FMI 3.0 Co-Simulation FMU of the ujfmu model ``MODEL`` (see the module docstring)."""
 
@@ -287,6 +298,7 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
             getters = self._getters
             return [getters[vr]() for vr in vrs]
         except KeyError:
+            self._check_refs(vrs, Float64, "fmi3GetFloat64")
             return super().get_float64(vrs)
 
     def set_float64(self, vrs, values):
@@ -300,7 +312,25 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
                 if variable is not None and variable.causality == Fmi3Causality.output:
                     self._raise_to_host(f"{self._core.modelName} '{self._core.instance_name}': {variable.name} is "
                                         "an output: the FMU computes it, a host reads it (fmi3GetFloat64)")
+            self._check_refs(vrs, Float64, "fmi3SetFloat64")
             super().set_float64(vrs, values)
+
+    def _check_refs(self, vrs, kinds, call):
+        """Refuse (fmi3Fatal, the cause logged) a value reference ``fmu_base.reference_problem`` names: pythonfmu3's
+        own refusal is an exception it releases twice, which crashed the host at a second one."""
+        problem = fmu_base.reference_problem(self.vars, vrs, kinds, call)
+        if problem:
+            self._raise_to_host(f"{self._core.modelName} '{self._core.instance_name}': {problem}")
+
+    get_int32, set_int32 = _checked("get_int32", Int32, "fmi3GetInt32"), _checked("set_int32", Int32, "fmi3SetInt32")
+    get_int64, set_int64 = (_checked("get_int64", (Enumeration, Int64), "fmi3GetInt64"),
+                            _checked("set_int64", (Enumeration, Int64), "fmi3SetInt64"))
+    get_uint64, set_uint64 = _checked("get_uint64", UInt64, "fmi3GetUInt64"), _checked("set_uint64", UInt64,
+                                                                                       "fmi3SetUInt64")
+    get_boolean, set_boolean = (_checked("get_boolean", Boolean, "fmi3GetBoolean"),
+                                _checked("set_boolean", Boolean, "fmi3SetBoolean"))
+    get_string, set_string = _checked("get_string", String, "fmi3GetString"), _checked("set_string", String,
+                                                                                       "fmi3SetString")
 
     # --- life cycle ---
     def exit_initialization_mode(self):
