@@ -1,5 +1,6 @@
 """Command line and Python entry points: run, check with JUnit, failing exit status."""
 
+import math
 import re
 import shutil
 import xml.etree.ElementTree as ET
@@ -820,6 +821,31 @@ def test_an_unreadable_reference_says_what_the_file_is(fmu_dir, tmp_path, capsys
         assert main(["--fmu-dir", str(fmu_dir), "run", str(scenario), "--no-plot", "--out", str(tmp_path)]) == 2
         err = capsys.readouterr().err
         assert words in err and (name != "measured" or "ujfmu references" not in err), err
+
+
+def test_a_run_at_a_critical_speed_says_so_before_it_runs(fmu_dir, tmp_path, capsys):
+    """`ujfmu run` of the twin rotor with its drive set to disc 2's Jeffcott speed sqrt(K2X / (M2 + m_u2)) = 117.02
+    rad/s (a trial's changed copy had run there, its title saying "below its first critical speed", without a
+    word) notes the 1x crossing of that lateral mode before the run; at 90 rad/s, more than 10% from every crossing
+    (the 1x with the 110 rad/s torsional mode, the 2x with disc 1's 154 rad/s lateral one), it notes none; `check`
+    (a gate's output) never does."""
+    from ujfmu.models.twin_jeffcott_rotor import model as tj
+    rig = tj.rig_parameters()
+    jeffcott = math.sqrt(rig["K2X"] / (rig["M2"] + rig["m_u2"]))
+    steady = str(SCENARIOS / "twin_jeffcott_steady.toml")
+    common = ["--stop-time", "0.05", "--no-plot", "--no-check-step", "--out", str(tmp_path)]
+    assert main(["--fmu-dir", str(fmu_dir), "run", steady, "--set", f"motor.omega_set={jeffcott:.6f}"] + common) == 0
+    out = capsys.readouterr().err   # beside the warnings: the output starts with the verdict
+    said = re.search(r"note: motor\.omega_set = (\S+) rad/s is 0\.0% (above|below) the speed (\S+) rad/s at "
+                     r"which the 1x order meets rotor's (\S+) rad/s lateral mode: resonant where that order acts on "
+                     r"the mode's shape", out)
+    assert said, out
+    assert [float(said[i]) for i in (1, 3, 4)] == pytest.approx([jeffcott] * 3, rel=5e-4)
+    assert main(["--fmu-dir", str(fmu_dir), "run", steady, "--set", "motor.omega_set=90"] + common) == 0
+    assert "note: motor.omega_set" not in capsys.readouterr().err
+    torsional = str(SCENARIOS / "double_cardan_omar_torsional.toml")   # at its 2x crossing by design
+    main(["--fmu-dir", str(fmu_dir), "check", torsional, "--out", str(tmp_path), "--no-plot"])
+    assert "note: motor.omega_set" not in capsys.readouterr().err
 
 
 def test_modes_names_the_nearest_order_crossing_of_the_set_speed(capsys):

@@ -385,6 +385,72 @@ def load_orders(scenario) -> dict:
     return found
 
 
+def excitations(m: Mode, loads: dict) -> list:
+    """[(order, what excites it beyond the machine)] of mode m: the machine's own orders, then its Loads' periodic
+    torques' (``load_orders``' entries, ``loads``)."""
+    return ([(k, "") for k in m.orders]
+            + [(k, f" ({load}'s periodic torque)") for load, k in loads.get(m.component, [])])
+
+
+@dataclass
+class Crossing:
+    """A drive's set speed [rad/s] (``name`` its "component.omega_set") and the nearest order crossing of a mode
+    (:func:`nearest_crossings`): ``order`` times the speed meets ``mode``, held where it is the mode with the input
+    held (``held_input_modes``)."""
+    name: str
+    speed: float
+    mode: Mode
+    order: float
+    held: bool = False
+
+    @property
+    def margin(self) -> float:
+        """|speed| over the crossing's speed, less 1 (> 0 above it)."""
+        return abs(self.speed) / self.mode.critical_speed(self.order) - 1.0
+
+    @property
+    def near(self) -> bool:
+        """Within ``NEAR_CRITICAL`` of the crossing."""
+        return abs(self.margin) < NEAR_CRITICAL
+
+    def text(self) -> str:
+        """"the 2x order's with driveline's 154.71 rad/s torsional mode, at 77.357 rad/s"."""
+        return (f"the {self.order:g}x order's with {self.mode.component}'s {self.mode.omega:.5g} rad/s "
+                f"{self.mode.kind.partition(',')[0]} mode{' (input held)' if self.held else ''}, at "
+                f"{self.mode.critical_speed(self.order):.5g} rad/s")
+
+
+def nearest_crossings(scenario, modes: list | None = None, held: list | None = None) -> dict:
+    """{"component.omega_set": the nearest :class:`Crossing`, or None where no order excites a mode} of each drive's
+    nonzero set speed (``drive_speeds``) over the scenario's modes and its held-input modes (computed where not
+    given) and the orders that excite them (:func:`excitations`)."""
+    modes = scenario_modes(scenario) if modes is None else modes
+    held = held_input_modes(scenario) if held is None else held
+    loads = load_orders(scenario)
+    found = {}
+    for name, speed in drive_speeds(scenario).items():
+        if speed == 0.0:
+            continue
+        crossings = [Crossing(name, speed, m, k, bound) for m, bound in [(m, False) for m in modes]
+                     + [(m, True) for m in held] for k, _ in excitations(m, loads)]
+        found[name] = min(crossings, key=lambda c: abs(c.margin), default=None)
+    return found
+
+
+def near_crossing_notes(scenario) -> list[str]:
+    """One line per drive whose set speed lies within ``NEAR_CRITICAL`` of an order's crossing with a mode (a
+    resonance where that order drives the mode's shape): ``ujfmu run`` says it before the run."""
+    notes = []
+    for c in nearest_crossings(scenario).values():
+        if c is not None and c.near:
+            notes.append(f"{c.name} = {abs(c.speed):.6g} rad/s is {100 * abs(c.margin):.1f}% "
+                         f"{'above' if c.margin > 0 else 'below'} the speed {c.mode.critical_speed(c.order):.5g} "
+                         f"rad/s at which the {c.order:g}x order meets {c.mode.component}'s {c.mode.omega:.5g} rad/s "
+                         f"{c.mode.kind.partition(',')[0]} mode{' (input held)' if c.held else ''}: resonant "
+                         "where that order acts on the mode's shape (`ujfmu modes` lists every crossing)")
+    return notes
+
+
 def drive_speeds(scenario) -> dict:
     """{"component.omega_set": speed [rad/s]} of the scenario's drives (Motor, MotorController): the speed each
     profile settles at; a step profile's omega_initial too."""

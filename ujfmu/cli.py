@@ -273,6 +273,10 @@ def _run_one(args, path, scenario=None):
     said = list(advice)
     for message in advice:
         print(f"  warning {tag}{message}", file=sys.stderr)
+    if args.command == "run":   # a design study's operating point at a resonance, said before the run
+        from .analysis import near_crossing_notes
+        for note in [] if args.quiet else near_crossing_notes(scenario):
+            print(f"  note: {note}", file=sys.stderr)
     if not args.model_exchange:   # a periodic load torque the step holds too coarsely, said before the run
         from .scenario_run import load_order_holds
         for hold in load_order_holds(scenario):
@@ -765,7 +769,8 @@ def _set_changes(scenario, texts) -> dict:
 
 
 def cmd_modes(args):
-    from .analysis import NEAR_CRITICAL, PURE_MODE, drive_speeds, held_input_modes, load_orders, scenario_modes
+    from .analysis import (NEAR_CRITICAL, PURE_MODE, drive_speeds, excitations, held_input_modes, load_orders,
+                           nearest_crossings, scenario_modes)
     from .scenario import Scenario
     from .steady import speed_text
     scenario = _with_set(Scenario(args.scenario), args.set)
@@ -783,16 +788,12 @@ def cmd_modes(args):
         return 0
     loads = load_orders(scenario)
 
-    def orders(m):
-        """(order, what excites it) of a mode: the machine's own orders, then its Loads' periodic torques'."""
-        return ([(k, "") for k in m.orders]
-                + [(k, f" ({load}'s periodic torque)") for load, k in loads.get(m.component, [])])
-
     def show(modes):
         for m in modes:
             spread = f", {m.low:.5g}-{m.high:.5g} over the input angle" if m.high > 1.005 * m.low else ""
             merged = f", {m.count} modes" if m.count > 1 else ""
-            crossings = ("; ".join(f"{k:g}x{by} at {speed_text(m.critical_speed(k))}" for k, by in orders(m))
+            crossings = ("; ".join(f"{k:g}x{by} at {speed_text(m.critical_speed(k))}"
+                                   for k, by in excitations(m, loads))
                          or "no order of the input speed excites it at these parameters")
             print(f"  {m.component}: {m.omega:.5g} rad/s ({m.omega / (2 * math.pi):.5g} Hz, {m.kind}{merged}"
                   f"{spread}): {crossings}")
@@ -805,23 +806,17 @@ def cmd_modes(args):
               "outside them where it is strong (run or sweep the scenario for the closed loop's modes). With the "
               "input held:")
         show(held)
-    for name, speed in drive_speeds(scenario).items():
-        if speed == 0.0:
-            continue
-        crossings = sorted(((abs(speed) / m.critical_speed(k) - 1.0, m, k, bound)
-                            for m, bound in [(m, "") for m in modes] + [(m, " (input held)") for m in held]
-                            for k, _ in orders(m)), key=lambda item: abs(item[0]))
-        if not crossings:
+    speeds = drive_speeds(scenario)
+    for name, nearest in nearest_crossings(scenario, modes, held).items():
+        speed = speeds[name]
+        if nearest is None:
             print(f"  {name} = {speed_text(speed)}: no order of the input speed excites a mode")
             continue
-        margin, m, k, bound = crossings[0]
-        near = abs(margin) < NEAR_CRITICAL
-        magnitude = "'s magnitude" if speed < 0 else ""
-        print(f"  {name} = {speed_text(speed)}: the nearest crossing is the {k:g}x order's with {m.component}'s "
-              f"{m.omega:.5g} rad/s {m.kind.partition(',')[0]} mode{bound}, at {m.critical_speed(k):.5g} rad/s; "
-              f"the set speed{magnitude} is {100 * abs(margin):.1f}% "
-              f"{'above' if margin > 0 else 'below'} it" + (f" (within {100 * NEAR_CRITICAL:g}%)" if near else ""))
-        below = [(m, k) for m in modes for k, _ in orders(m) if m.critical_speed(k) < abs(speed)]
+        margin, magnitude = nearest.margin, "'s magnitude" if speed < 0 else ""
+        print(f"  {name} = {speed_text(speed)}: the nearest crossing is {nearest.text()}; the set speed{magnitude} "
+              f"is {100 * abs(margin):.1f}% {'above' if margin > 0 else 'below'} it"
+              + (f" (within {100 * NEAR_CRITICAL:g}%)" if nearest.near else ""))
+        below = [(m, k) for m in modes for k, _ in excitations(m, loads) if m.critical_speed(k) < abs(speed)]
         if below:
             one = len(below) == 1
             print(f"    below it {'lies 1 crossing' if one else f'lie {len(below)} crossings'} (a run-up from rest "
