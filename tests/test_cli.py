@@ -1504,9 +1504,10 @@ def test_a_runs_table_has_its_units_beside_it(fmu_dir, tmp_path):
     import csv as csv_module
     assert main(["--fmu-dir", str(fmu_dir), "run", str(SCENARIOS / "cardan_constant_speed.toml"), "--no-plot", "-q",
                  "--step", "5e-4", "--out", str(tmp_path)]) in (0, 1)
-    with open(tmp_path / "cardan_constant_speed.csv") as f:
+    assert not (tmp_path / "cardan_constant_speed.csv").exists()   # a trial's FAIL at --step had replaced a PASS's
+    with open(tmp_path / "cardan_constant_speed_step0.0005.csv") as f:   # beside the file's step's results
         header = next(line for line in f if not line.startswith("#")).strip().replace('"', "").split(",")
-    with open(tmp_path / "cardan_constant_speed.columns.csv") as f:
+    with open(tmp_path / "cardan_constant_speed_step0.0005.columns.csv") as f:
         rows = {r["column"]: r for r in csv_module.DictReader(f)}
     assert list(rows) == header
     assert rows["joint.tau_in"]["unit"] == "N.m" and rows["joint.omega_out"]["unit"] == "rad/s"

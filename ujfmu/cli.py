@@ -383,6 +383,8 @@ def cmd_run(args):
         print(f"--step auto: step_size = {scenario.step_size:g} s")
     elif args.step is not None:
         scenario.step_size = _step_size(args.step, auto=True)
+    if not math.isclose(scenario.step_size, scenario.declared_step, rel_tol=1e-9):   # beside the file's results
+        scenario.name = f"{scenario.name}_step{scenario.step_size:g}"
     result = _run_one(args, args.scenario, scenario)
     _say(args, f"  results: {result.csv}" + (f"\n  plot:    {result.plot}" if result.plot else ""))
     for extra in result.extra_plots:
