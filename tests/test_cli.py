@@ -844,6 +844,9 @@ def test_a_run_at_a_critical_speed_says_so_before_it_runs(fmu_dir, tmp_path, cap
     assert main(["--fmu-dir", str(fmu_dir), "run", steady, "--set", "motor.omega_set=90"] + common) == 0
     assert "note: motor.omega_set" not in capsys.readouterr().err
     torsional = str(SCENARIOS / "double_cardan_omar_torsional.toml")   # at its 2x crossing by design
+    main(["--fmu-dir", str(fmu_dir), "run", torsional] + common)
+    assert ("note: motor.omega_set = 71.6283 rad/s is 0.1% above the speed 71.57 rad/s at which the 2x order meets "
+            "driveline's 143.14 rad/s torsional mode") in capsys.readouterr().err
     main(["--fmu-dir", str(fmu_dir), "check", torsional, "--out", str(tmp_path), "--no-plot"])
     assert "note: motor.omega_set" not in capsys.readouterr().err
 
@@ -1466,8 +1469,12 @@ def test_run_stop_time_runs_a_changed_copy_and_says_why_it_is_not_compared(fmu_d
     from ujfmu.scenario import Scenario, ScenarioError
     short = Scenario(SCENARIOS / "twin_jeffcott_steady.toml")
     short.stop_time = 0.5   # from Python: an error naming both times (it had been an internal error)
-    with pytest.raises(ScenarioError, match=r"steady_from = 16.0 s is not before stop_time = 0.5 s"):
+    with pytest.raises(ScenarioError, match=r"steady_from = 16.0 s is not before stop_time = 0.5 s.*with_stop_time"):
         short.check_experiment()
+    copy = Scenario(SCENARIOS / "twin_jeffcott_steady.toml").with_stop_time(0.5)   # as --stop-time, from Python
+    assert (copy.stop_time, copy.steady_from, copy.name, copy.reference_file) == (0.5, 0.0,
+                                                                                   "twin_jeffcott_steady_changed", None)
+    assert copy.title.endswith("(no steady window: the file's steady_from = 16 s is after it)")
 
 
 def test_a_parameter_named_in_the_wrong_case_is_suggested(capsys):

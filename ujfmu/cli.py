@@ -356,7 +356,7 @@ def cmd_run(args):
     _own_checkout([args.scenario])
     scenario = _with_set(Scenario(args.scenario), args.set)
     if args.stop_time is not None:
-        scenario = _with_stop_time(scenario, args.stop_time)
+        scenario = scenario.with_stop_time(args.stop_time)
     for name in args.record or []:   # ride along: the setup, and so the reference, stay the file's
         scenario._check_signal(name, "--record")
         if name not in scenario.record:
@@ -729,23 +729,6 @@ def _with_set(scenario, texts):
     <scenario>_changed, without the reference), or itself without any."""
     changes = _set_changes(scenario, texts)
     return scenario.with_parameters(changes) if changes else scenario
-
-
-def _with_stop_time(scenario, stop_time: float):
-    """The scenario run until stop_time [s] (--stop-time): a copy as ``--set`` makes (<scenario>_changed, without
-    the file's reference, even where the run ends within it: the bands are shares of the range the file's whole run
-    reaches, which a shorter one need not), its title saying so; ScenarioError unless the time is a whole number of
-    steps after the start."""
-    if stop_time == scenario.stop_time:
-        return scenario
-    out = scenario.with_parameters({}) if scenario.name == scenario.path.stem else scenario
-    out.stop_time = stop_time
-    out.title = f"{out.title} (stop_time = {stop_time:g} s)"
-    if out.steady_from is not None and out.steady_from >= stop_time:   # the file's window lies beyond the run
-        out.title += f" (no steady window: the file's steady_from = {out.steady_from:g} s is after it)"
-        out.steady_from = 0.0
-    out.check_experiment()
-    return out
 
 
 def _set_changes(scenario, texts) -> dict:

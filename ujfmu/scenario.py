@@ -770,6 +770,23 @@ class Scenario:
         out.order_tolerances = {}
         return out
 
+    def with_stop_time(self, stop_time: float) -> "Scenario":
+        """This scenario run until stop_time [s] (``--stop-time``): a copy as :meth:`with_parameters` makes
+        (``<name>_changed``, without the file's reference, even where the run ends within it: the bands are shares of
+        the range the file's whole run reaches, which a shorter one need not), its title saying so, and without the
+        file's steady window where that starts at or after stop_time (a window past the run's end is empty); itself
+        where stop_time is the file's; ScenarioError unless stop_time is a whole number of steps after the start."""
+        if stop_time == self.stop_time:
+            return self
+        out = self.with_parameters({}) if self.name == self.path.stem else self
+        out.stop_time = stop_time
+        out.title = f"{out.title} (stop_time = {stop_time:g} s)"
+        if out.steady_from is not None and out.steady_from >= stop_time:
+            out.title += f" (no steady window: the file's steady_from = {out.steady_from:g} s is after it)"
+            out.steady_from = 0.0
+        out.check_experiment()
+        return out
+
     def change_text(self, key: str, value) -> str:
         """'component.parameter = value unit' for a title, with deg or rpm beside rad and rad/s."""
         if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -1376,7 +1393,8 @@ class Scenario:
         if self.steady_from > self.start_time and not self.steady_from < self.stop_time:
             raise ScenarioError(f"{self.path}: output steady_from = {self.steady_from!r} s is not before stop_time = "
                                 f"{self.stop_time!r} s: the steady window would be empty; set steady_from before it "
-                                "(0 or None: no steady window) or run longer")
+                                "(0 or None: no steady window) or run longer (Scenario.with_stop_time drops a window "
+                                "the run ends before)")
         self._check_output_interval()
         self._check_steps()
 
