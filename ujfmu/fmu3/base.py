@@ -212,7 +212,7 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         core._stale, core._initialized, core._running, core._start_time = True, False, False, 0.0
         core._partial = False
         core._state_vrs, core._state_outputs_of = frozenset(), None   # UjfmuSlave.get_real's, which this FMU bypasses
-        core._derivation, core._terminated = None, False
+        core._derivation, core._terminated, core._restored = None, False, False
         core._inputs = tuple(v for v in model.VARIABLES if v.causality == "input")
         for var in model.VARIABLES:
             setattr(core, var.name, 0.0 if var.causality == "output" else var.type(var.start))
