@@ -51,7 +51,8 @@ class CardanJoint(PrescribedInputSlave):
         parameter("J2", 0.0, "kg.m2",
                   "Driven-side moment of inertia carried by the joint (0: Feng's massless driven side)", **_INERTIA),
         parameter("phi_in_start", 0.0, "rad", "Driving shaft angle theta1 at the start time (0: driving yoke's pin "
-                  "in the bend plane, speed ratio at its maximum 1/cos(phi), with delta = 0)", min=-1.0e6, max=1.0e6),
+                  "in the bend plane, speed ratio at its maximum 1/cos(phi), with delta and the error angles 0)",
+                  min=-1.0e6, max=1.0e6),
         input_("omega_in", 0.0, "rad/s", "Driving shaft angular speed omega1", **SPEED_RANGE),
         input_("tau_load", 0.0, "N.m", "Load torque on the driven shaft (positive opposes positive rotation)",
                **TORQUE_RANGE),

@@ -36,13 +36,15 @@ LAB_ERROR_ANGLE = math.radians(0.3)
 #: a 2x speed swing changed by more than this fraction by the default error angles draws a warning (``advice``)
 ERROR_ANGLE_EFFECT = 0.05
 #: the order of the input speed the outputs carry at full size: the joint's speed ratio turns twice a revolution (its
-#: 4x, 6x, ... are smaller by q, q^2, ..., q = tan^2(beta/2)); a record must sample it (``ujfmu.scenario_run``)
+#: 4x, 6x, ... are smaller by q, q^2, ..., q = tan^2(psi/2), psi the shaft angle); a record must sample it
+#: (``ujfmu.scenario_run``)
 EXCITATION_ORDER = 2
 
 
 def excitation_order(p: "Parameters") -> int:
     """``EXCITATION_ORDER`` where the joint is misaligned (bend and error angles); an aligned one carries none, nor
-    one whose speed-ratio swing, about half the sum of their squares, is below ``protocol.NEGLIGIBLE_SWING``."""
+    one whose angles are all so small that half the sum of their squares (the order of the peak-to-peak speed-ratio
+    swing, about psi^2 for the shaft angle psi) is below ``protocol.NEGLIGIBLE_SWING``."""
     swing = 0.5 * (p.bend_angle ** 2 + p.bend_plane_angle ** 2 + p.error_angle_beta ** 2 + p.error_angle_gamma ** 2)
     return EXCITATION_ORDER if swing > NEGLIGIBLE_SWING else 0
 

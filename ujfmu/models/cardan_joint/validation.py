@@ -32,11 +32,18 @@ def feng(rep: Report) -> Section:
     m = np.array([cardan.transmitted_moment(frame, t, net) for t in np.linspace(0, 2 * math.pi, 20001)])
     mx, my = np.abs(m[:, 0]).max(), np.abs(m[:, 1]).max()
     ideal = cardan.joint_frame(joint["bend_angle"], joint["bend_plane_angle"], 0.0, 0.0)
-    mz_ideal = [cardan.transmitted_moment(ideal, t, net)[2] for t in np.linspace(0, 2 * math.pi, 20001)]
-    s.intro += (f" An ideal joint (error angles 0) gives M_z {min(mz_ideal):.4f} to {max(mz_ideal):.4f} N.m, within "
-                "the same bands: Fig. 2's M_z range does not tell the error angles' effect, its M_x and M_y do "
-                "(their published ranges read as magnitudes: our M_x changes sign over a revolution and our M_y is "
-                "negative, as the paper's Eqs. 17-18 give).")
+    m_ideal = np.array([cardan.transmitted_moment(ideal, t, net) for t in np.linspace(0, 2 * math.pi, 20001)])
+    shaft = math.acos(math.cos(joint["error_angle_gamma"]) * math.cos(joint["bend_angle"] - joint["error_angle_beta"]))
+    s.intro += (f" An ideal joint (error angles 0) gives M_z {m_ideal[:, 2].min():.4f} to {m_ideal[:, 2].max():.4f} "
+                f"N.m, max |M_x| {np.abs(m_ideal[:, 0]).max():.4f} and max |M_y| {np.abs(m_ideal[:, 1]).max():.4f} "
+                "N.m: the error angles move each Fig. 2 figure by less than 1%, within the rounding of the paper's "
+                "two-digit values, so Fig. 2 cannot tell their effect. With bend_plane_angle = 0 they turn the "
+                "driving shaft rigidly: the joint is an ideal one at the shaft angle acos(cos gamma cos(phi - beta)) "
+                f"= {math.degrees(shaft):.4f} deg, whose M_z spans T cos(that angle) to T / cos(that angle) "
+                f"({net * math.cos(shaft):.4f} to {net / math.cos(shaft):.4f} N.m). The published M_x and M_y ranges "
+                "are read as magnitudes: our M_x changes sign over a revolution and our M_y is negative, as the "
+                "paper's Eqs. 17-18 give (and the paper says M_y and M_z peak together: M_y's largest value, 0, "
+                "falls where M_z's does).")
     for key, ours in (("fig2_mz_min", m[:, 2].min()), ("fig2_mz_max", m[:, 2].max()), ("fig2_mx", mx),
                       ("fig2_my", my)):
         v = pub[key]
@@ -53,7 +60,8 @@ def feng(rep: Report) -> Section:
     s.row("Fig. 3: fluctuation (peak-to-peak) of the transmitted torque at alpha = 10, 30, 50 rad/s^2 "
           "\"does not change\" (measured in the driving torque tau_in, the load fixed)", None, None, "N.m",
           "consistent (at J2 = 0 and a fixed load the model's tau_in is J1 alpha + r(theta) T: its fluctuation "
-          "cannot change with alpha, so this checks the FMU's estimate of alpha; the paper's J1 alpha / T0 is 2e-5)"
+          "cannot change with alpha, J1 alpha being constant over a ramp (the paper's J1 alpha / T0 is 2e-5); the "
+          "spread is the sampling of the peaks at the 1 ms step)"
           if spread < 1e-3 else "not reproduced",
           paper_text="unchanged", ours_text=" / ".join(f"{v:.5f}" for v in p2p) + f" (spread {100 * spread:.3f}%)")
     s.row("Fig. 3: fluctuation period (2x) after 1 s \"decreases with the acceleration\" (pi / the mean speed "

@@ -37,7 +37,7 @@ def turla(rep: Report) -> Section:
           paper_text=f"{a100:.4g} (Eq. 20; no value printed)")
     w2a = [w * w * pts.at({"motor.omega_set": w})["coupling.x_e.h2"] for w in (50.0, 100.0, 200.0, 400.0)]
     spread = (max(w2a) - min(w2a)) / np.mean(w2a)
-    s.row("Fig. 3: amplitude falls as 1/w^2 (w^2 x amplitude at 50, 100, 200, 400 rad/s)", None, None, "rad^2/s^2",
+    s.row("Fig. 3: amplitude falls as 1/w^2 (w^2 x amplitude at 50, 100, 200, 400 rad/s)", None, None, "rad/s^2",
           solves if spread < 0.02 else "not reproduced", paper_text="1/w^2",
           ours_text=" / ".join(f"{v:.4g}" for v in w2a) + f" (spread {100 * spread:.2f}%)")
 
