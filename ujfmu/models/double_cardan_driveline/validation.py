@@ -161,7 +161,11 @@ def omar(rep: Report) -> Section:
                f"rounds to {fig12_peak:.1g}), so either the paper truncated it or "
                "its model differs from ours there; the attenuation itself (a smaller peak than at Table 1's "
                "stiffness) is reproduced. Table 2 and Figs. 4, 11, 12 come out of the corrected equations (printed "
-               "typos in Eqs. (11)-(19), see double_cardan_driveline/README.md).")
+               "typos in Eqs. (11)-(19), see double_cardan_driveline/README.md). The load here opposes rotation; "
+               "the paper's Eq. (16) as printed makes it drive, which changes the magnitudes a little: with that "
+               "sign (`--set load.T0=-25` at 684 rpm) the max twist is 19.24 deg, Table 2's figure to the printed "
+               "digit, against 19.30 here, so Table 2 was evidently computed with the load aiding rotation "
+               "(double_cardan_driveline/README.md).")
     return s
 
 
