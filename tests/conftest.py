@@ -216,9 +216,14 @@ print("\\n".join(log))
 
 @pytest.fixture
 def run_wrong_calls():
-    """run(kind, path, calls): the completed process of WRONG_CALLS on the FMU at path, opened as ``kind``
-    (FmuInstance, FmuInstance3)."""
-    def run(kind: str, path, calls: str):
-        return subprocess.run([sys.executable, "-c", WRONG_CALLS.format(kind=kind, calls=calls), str(path)],
-                              capture_output=True, text=True, timeout=120)
+    """run(kind, path, calls, said): WRONG_CALLS on the FMU at path, opened as ``kind`` (FmuInstance,
+    FmuInstance3), checked: the process ends cleanly (no crash), no call was accepted, and the FMU logged each
+    text of ``said``."""
+    def run(kind: str, path, calls: str, said: tuple):
+        out = subprocess.run([sys.executable, "-c", WRONG_CALLS.format(kind=kind, calls=calls), str(path)],
+                             capture_output=True, text=True, timeout=120)
+        assert out.returncode == 0, out.stderr[-2000:]
+        assert "ACCEPTED" not in out.stdout
+        for text in said:
+            assert text in out.stdout, out.stdout
     return run

@@ -278,13 +278,9 @@ def test_calls_with_a_wrong_type_or_an_unknown_value_reference_are_refused_witho
              "lambda: slave.getReal([9999]), lambda: slave.setReal([9999], [1.0]), "
              "lambda: slave.getBoolean([vr['omega_set']]), lambda: slave.setInteger([vr['omega_set']], [2]), "
              "lambda: slave.getString([vr['omega_set']]),")
-    out = run_wrong_calls("FmuInstance", fmu_dir / "Motor.fmu", calls)
-    assert out.returncode == 0, out.stderr[-2000:]
-    assert "ACCEPTED" not in out.stdout
-    for said in ("fmi2SetReal: profile (value reference 4) is of type Integer, not Real: use fmi2SetInteger",
-                 "fmi2SetReal: ideal_speed_source (value reference 9) is of type Boolean, not Real: use "
-                 "fmi2SetBoolean", "fmi2GetReal: no variable has value reference 9999",
-                 "fmi2SetReal: no variable has value reference 9999",
-                 "fmi2GetBoolean: omega_set (value reference 5) is of type Real, not Boolean: use fmi2GetReal",
-                 "fmi2SetInteger: omega_set", "fmi2GetString: omega_set"):
-        assert said in out.stdout, out.stdout
+    run_wrong_calls("FmuInstance", fmu_dir / "Motor.fmu", calls, (
+        "fmi2SetReal: profile (value reference 4) is of type Integer, not Real: use fmi2SetInteger",
+        "fmi2SetReal: ideal_speed_source (value reference 9) is of type Boolean, not Real: use fmi2SetBoolean",
+        "fmi2GetReal: no variable has value reference 9999", "fmi2SetReal: no variable has value reference 9999",
+        "fmi2GetBoolean: omega_set (value reference 5) is of type Real, not Boolean: use fmi2GetReal",
+        "fmi2SetInteger: omega_set", "fmi2GetString: omega_set"))

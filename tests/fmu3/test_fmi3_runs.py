@@ -629,14 +629,9 @@ def test_fmi3_calls_with_a_wrong_type_or_an_unknown_value_reference_are_refused_
              "lambda: slave.setFloat64([9999], [1.0]), lambda: slave.setInt32([vr['omega_set']], [2]), "
              "lambda: slave.getBoolean([vr['omega_set']]), lambda: slave.getInt64([vr['omega_set']]), "
              "lambda: slave.getUInt64([9999]),")
-    out = run_wrong_calls("FmuInstance3", fmu3_dir / "Motor.fmu", calls)
-    assert out.returncode == 0, out.stderr[-2000:]
-    assert "ACCEPTED" not in out.stdout
-    for said in ("fmi3SetFloat64: profile (value reference 5) is of type Int32, not Float64: use fmi3SetInt32",
-                 "fmi3SetFloat64: ideal_speed_source (value reference 10) is of type Boolean, not Float64: use "
-                 "fmi3SetBoolean", "fmi3GetFloat64: no variable has value reference 9999",
-                 "fmi3SetFloat64: no variable has value reference 9999",
-                 "fmi3SetInt32: omega_set (value reference 6) is of type Float64, not Int32: use fmi3SetFloat64",
-                 "fmi3GetBoolean: omega_set", "fmi3GetInt64: omega_set", "fmi3GetUInt64: no variable has value "
-                 "reference 9999"):
-        assert said in out.stdout, out.stdout
+    run_wrong_calls("FmuInstance3", fmu3_dir / "Motor.fmu", calls, (
+        "fmi3SetFloat64: profile (value reference 5) is of type Int32, not Float64: use fmi3SetInt32",
+        "fmi3SetFloat64: ideal_speed_source (value reference 10) is of type Boolean, not Float64: use fmi3SetBoolean",
+        "fmi3GetFloat64: no variable has value reference 9999", "fmi3SetFloat64: no variable has value reference 9999",
+        "fmi3SetInt32: omega_set (value reference 6) is of type Float64, not Int32: use fmi3SetFloat64",
+        "fmi3GetBoolean: omega_set", "fmi3GetInt64: omega_set", "fmi3GetUInt64: no variable has value reference 9999"))
