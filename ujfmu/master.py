@@ -579,6 +579,7 @@ class Cosimulation:
         self.iterations = 0          # implicit coupling: evaluations of the torn inputs' fixed point, in all
         self.jacobian_builds = 0     # implicit coupling: finite-difference interface Jacobians
         self.stalled_steps = 0       # implicit coupling: steps taken at their best iterate (see STALL_FACTOR)
+        self.stalled_worst = 0.0     # and their largest residual, in tolerances
         self.open_loop = False       # implicit coupling found no connection moving with the torn inputs
         self.step_size, self.time, self.steps_done = step_size, start_time, 0
         self.rows_done = 0           # rows recorded by the last advance
@@ -1338,6 +1339,7 @@ class Cosimulation:
                     if best[0] > STALL_FACTOR:
                         raise CosimulationError(self._divergence_message(t, best[2], tol))
                     self.stalled_steps += 1
+                    self.stalled_worst = max(self.stalled_worst, best[0])
                     self._evaluate(best[1], t, h, states)
                 break
         finally:
@@ -1878,7 +1880,8 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
     progress: optional callable(steps_done, steps_total) called now and then. diagnostics: optional dict, filled
     (also when the run fails) with "bonds" (``BondEnergy`` per power bond), "held_inputs" (``HeldInput`` per
     input no connection feeds) and "fmu_warnings" (the FMUs' warnings as logged, each once, as they are also
-    warned: ``FmuWarning``), and after a run with "iterates" (``Cosimulation.iterates``).
+    warned: ``FmuWarning``), and after a run with "iterates" (``Cosimulation.iterates``) and "stalled" (the implicit
+    scheme's steps taken at their best iterate, the largest residual among them in tolerances, the steps in all).
     """
     if not (isinstance(step_size, numbers.Real) and step_size > 0.0 and math.isfinite(step_size)):
         raise CosimulationError(f"communication step size {step_size!r} must be finite and > 0")
@@ -1901,6 +1904,7 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
         table = cosim.run(n_steps, progress, output_interval)
         if diagnostics is not None:
             diagnostics["iterates"] = cosim.iterates
+            diagnostics["stalled"] = (cosim.stalled_steps, cosim.stalled_worst, n_steps)
     if cosim.interrupted_while_closing:   # the run is complete: stopped with it
         stopped = Interrupted(f"stopped at t = {stop_time:.10g} s, the run's end, while its FMUs were freed")
         stopped.partial = table

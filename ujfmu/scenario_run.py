@@ -23,8 +23,8 @@ from .build import DEFAULT_FMU_DIR
 from .build3 import DEFAULT_FMU3_DIR
 from .extras import available, preload
 from .fmu.base import MIN_SAMPLES_PER_PERIOD, RESOLVING_SAMPLES_PER_PERIOD, samples_per_period, sampling_interval
-from .master import (CosimulationError, CouplingInstabilityError, Interrupted, RunStopped, cosimulate,
-                     is_ideal_speed_source)
+from .master import (COUPLING_RTOL, STALL_FACTOR, CosimulationError, CouplingInstabilityError, Interrupted,
+                     RunStopped, cosimulate, is_ideal_speed_source)
 from .scenario import Scenario, ScenarioError, description_attribute, running_angle_of
 from .steady import PEAK_SHORTFALL, speed_text
 
@@ -1474,7 +1474,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     if extra:
         table = _without(table, extra)
     result = ScenarioResult(scenario, table, wall_time=time.perf_counter() - start, fmu_dir=Path(fmu_dir),
-                            warnings=said + fmu_warning_lines(diagnostics["fmu_warnings"], said),
+                            warnings=said + fmu_warning_lines(diagnostics["fmu_warnings"], said)
+                            + stalled_lines(diagnostics.get("stalled")),
                             operating_checks=operating,
                             sampling_checks=sampling, steady_checks=steady,
                             bonds=annotate_bonds(scenario, diagnostics.get("bonds", [])),
@@ -1740,6 +1741,20 @@ def stalled_drive_hint(scenario: Scenario, partial: np.ndarray) -> str:
                     "load, and a load's torque reversing about zero speed chatters; if so, give the drive more "
                     "torque (tau_max) or lower the load")
     return ""
+
+
+def stalled_lines(stalled: tuple | None) -> list:
+    """A warning line where the implicit scheme took steps at their best iterate (``cosimulate``'s diagnostics
+    "stalled": the count, the largest residual in tolerances, the steps in all): those steps' coupling error is up
+    to that many times its tolerance, unlike every other step's."""
+    if not stalled or not stalled[0]:
+        return []
+    count, worst, steps = stalled
+    return [f"the implicit coupling took {count} of {steps} steps at its best iterate, their coupling residual up to "
+            f"{worst:.3g}x its tolerance ({COUPLING_RTOL:g} of each torn signal's largest value; within "
+            f"{STALL_FACTOR:g}x it is taken, not refused): a torque limit switching or a friction's knee inside "
+            "those steps; their error is not the run's stated accuracy there (a smaller step, or --check-step, "
+            "says how large it is)"]
 
 
 def fmu_warning_lines(entries: list, said: list = ()) -> list:
