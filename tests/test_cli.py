@@ -847,6 +847,8 @@ def test_a_run_at_a_critical_speed_says_so_before_it_runs(fmu_dir, tmp_path, cap
     main(["--fmu-dir", str(fmu_dir), "run", torsional] + common)
     assert ("note: motor.omega_set = 71.6283 rad/s is 0.1% above the speed 71.57 rad/s at which the 2x order meets "
             "driveline's 143.14 rad/s torsional mode") in capsys.readouterr().err
+    main(["--fmu-dir", str(fmu_dir), "run", torsional, "--set", "motor.omega_set=-71.6283"] + common)
+    assert "note: motor.omega_set = -71.6283 rad/s is in magnitude 0.1% above" in capsys.readouterr().err
     main(["--fmu-dir", str(fmu_dir), "check", torsional, "--out", str(tmp_path), "--no-plot"])
     assert "note: motor.omega_set" not in capsys.readouterr().err
 
@@ -1471,6 +1473,11 @@ def test_run_stop_time_runs_a_changed_copy_and_says_why_it_is_not_compared(fmu_d
     short.stop_time = 0.5   # from Python: an error naming both times (it had been an internal error)
     with pytest.raises(ScenarioError, match=r"steady_from = 16.0 s is not before stop_time = 0.5 s.*with_stop_time"):
         short.check_experiment()
+    changed = Scenario(SCENARIOS / "twin_jeffcott_steady.toml").with_parameters({"motor.omega_set": 50.0})
+    with pytest.raises(ScenarioError, match="whole number"):   # a copy of a copy: the copy itself left as it was
+        changed.with_stop_time(0.5004)
+    assert (changed.stop_time, changed.name) == (17.0, "twin_jeffcott_steady_changed") and "0.5004" not in changed.title
+    assert changed.with_stop_time(0.5).name == "twin_jeffcott_steady_changed" and changed.stop_time == 17.0
     copy = Scenario(SCENARIOS / "twin_jeffcott_steady.toml").with_stop_time(0.5)   # as --stop-time, from Python
     assert (copy.stop_time, copy.steady_from, copy.name, copy.reference_file) == (0.5, 0.0,
                                                                                    "twin_jeffcott_steady_changed", None)

@@ -443,7 +443,8 @@ def near_crossing_notes(scenario) -> list[str]:
     notes = []
     for c in nearest_crossings(scenario).values():
         if c is not None and c.near:
-            notes.append(f"{c.name} = {abs(c.speed):.6g} rad/s is {100 * abs(c.margin):.1f}% "
+            notes.append(f"{c.name} = {c.speed:.6g} rad/s is{' in magnitude' if c.speed < 0 else ''} "
+                         f"{100 * abs(c.margin):.1f}% "
                          f"{'above' if c.margin > 0 else 'below'} the speed {c.mode.critical_speed(c.order):.5g} "
                          f"rad/s at which the {c.order:g}x order meets {c.mode.component}'s {c.mode.omega:.5g} rad/s "
                          f"{c.mode.kind.partition(',')[0]} mode{' (input held)' if c.held else ''}: resonant "

@@ -775,10 +775,11 @@ class Scenario:
         (``<name>_changed``, without the file's reference, even where the run ends within it: the bands are shares of
         the range the file's whole run reaches, which a shorter one need not), its title saying so, and without the
         file's steady window where that starts at or after stop_time (a window past the run's end is empty); itself
-        where stop_time is the file's; ScenarioError unless stop_time is a whole number of steps after the start."""
+        where stop_time is the file's; ScenarioError unless stop_time is a whole number of steps after the start.
+        A copy of a copy keeps its name (this scenario is left as it was)."""
         if stop_time == self.stop_time:
             return self
-        out = self.with_parameters({}) if self.name == self.path.stem else self
+        out = self.with_parameters({}, name=None if self.name == self.path.stem else self.name)
         out.stop_time = stop_time
         out.title = f"{out.title} (stop_time = {stop_time:g} s)"
         if out.steady_from is not None and out.steady_from >= stop_time:

@@ -1519,8 +1519,10 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
                     scenario, fmu_dir, table, diagnostics=rerun,
                     progress=(lambda done, total: progress(steps + done, steps + total)) if progress else None)
                 # the rerun's warnings too, once with the run's (the same warning at another time is the same)
-                result.warnings = said + fmu_warning_lines(diagnostics["fmu_warnings"]
-                                                           + rerun.get("fmu_warnings", []), said)
+                result.warnings = (said + fmu_warning_lines(diagnostics["fmu_warnings"]
+                                                            + rerun.get("fmu_warnings", []), said)
+                                   + stalled_lines(diagnostics.get("stalled"))
+                                   + stalled_lines(rerun.get("stalled"), "its step-halving rerun at half the step"))
             except (Interrupted, RunStopped) as exc:   # the run itself is whole: kept, as a stopped run's
                 exc.args = ("stopped in the step-halving rerun at half the step ([reference.extrapolated] bands); "
                             "the run at the scenario's step is complete and kept, its comparison not made",)
@@ -1743,14 +1745,15 @@ def stalled_drive_hint(scenario: Scenario, partial: np.ndarray) -> str:
     return ""
 
 
-def stalled_lines(stalled: tuple | None) -> list:
+def stalled_lines(stalled: tuple | None, run: str = "") -> list:
     """A warning line where the implicit scheme took steps at their best iterate (``cosimulate``'s diagnostics
-    "stalled": the count, the largest residual in tolerances, the steps in all): those steps' coupling error is up
-    to that many times its tolerance, unlike every other step's."""
+    "stalled": the count, the largest residual in tolerances, the steps in all) in the run (or the one named):
+    those steps' coupling error is up to that many times its tolerance, unlike every other step's."""
     if not stalled or not stalled[0]:
         return []
     count, worst, steps = stalled
-    return [f"the implicit coupling took {count} of {steps} steps at its best iterate, their coupling residual up to "
+    return [f"{run + ': ' if run else ''}the implicit coupling took {count} of {steps} steps at its best iterate, "
+            f"their coupling residual up to "
             f"{worst:.3g}x its tolerance ({COUPLING_RTOL:g} of each torn signal's largest value; within "
             f"{STALL_FACTOR:g}x it is taken, not refused): a torque limit switching or a friction's knee inside "
             "those steps; their error is not the run's stated accuracy there (a smaller step, or --check-step, "

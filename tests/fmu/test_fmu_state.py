@@ -99,6 +99,16 @@ def test_a_step_from_a_state_saved_before_initialization_is_refused_naming_the_r
         read.slave.doStep(0.0, H)
     assert any("call fmi2ExitInitializationMode before fmi2DoStep" in m for m in read._log), read._log
     assert not any("fmi2Terminate" in m for m in read._log), read._log
+    rewound = open_fmu(name, "rewound_in_init")   # a state restored before the run started: still not started
+    rewound.slave.setupExperiment(startTime=0.0)
+    rewound.slave.enterInitializationMode()
+    kept = rewound.slave.getFMUstate()
+    rewound.slave.setFMUstate(kept)
+    rewound.get(outputs_of(rewound)[0])
+    with pytest.raises(FMICallException):
+        rewound.slave.doStep(0.0, H)
+    assert any("call fmi2ExitInitializationMode before fmi2DoStep" in m for m in rewound._log), rewound._log
+    rewound.slave.freeFMUstate(kept)
 
 
 @pytest.mark.parametrize("name", ["CardanJoint", "TwinJeffcottRotorTorqueDriven"])

@@ -623,15 +623,18 @@ def test_fmi3_calls_with_a_wrong_type_or_an_unknown_value_reference_are_refused_
                                                                                                   run_wrong_calls):
     """As the FMI 2.0 FMUs (tests/fmu/test_fmu_hosting.py): fmi3SetFloat64 on an Int32 or Boolean variable, fmi3GetInt64
     or fmi3GetUInt64 on what is not one, an unknown value reference: each refused naming the variable, its type and
-    the call to use; pythonfmu3's own TypeError or KeyError had crashed the host (SIGSEGV) at exit."""
+    the call to use; pythonfmu3's own TypeError or KeyError had crashed the host (SIGSEGV) at exit; so had
+    fmi3SetFloat64 on the independent time variable (a Float64 without a setter) twice, a review found."""
     calls = ("lambda: slave.setFloat64([vr['profile']], [2.0]), "
              "lambda: slave.setFloat64([vr['ideal_speed_source']], [1.0]), lambda: slave.getFloat64([9999]), "
              "lambda: slave.setFloat64([9999], [1.0]), lambda: slave.setInt32([vr['omega_set']], [2]), "
              "lambda: slave.getBoolean([vr['omega_set']]), lambda: slave.getInt64([vr['omega_set']]), "
-             "lambda: slave.getUInt64([9999]),")
+             "lambda: slave.getUInt64([9999]), lambda: slave.setFloat64([0], [1.0]), "
+             "lambda: slave.setFloat64([0], [1.0]),")
     run_wrong_calls("FmuInstance3", fmu3_dir / "Motor.fmu", calls, (
         "fmi3SetFloat64: profile (value reference 5) is of type Int32, not Float64: use fmi3SetInt32",
         "fmi3SetFloat64: ideal_speed_source (value reference 10) is of type Boolean, not Float64: use fmi3SetBoolean",
         "fmi3GetFloat64: no variable has value reference 9999", "fmi3SetFloat64: no variable has value reference 9999",
         "fmi3SetInt32: omega_set (value reference 6) is of type Float64, not Int32: use fmi3SetFloat64",
-        "fmi3GetBoolean: omega_set", "fmi3GetInt64: omega_set", "fmi3GetUInt64: no variable has value reference 9999"))
+        "fmi3GetBoolean: omega_set", "fmi3GetInt64: omega_set", "fmi3GetUInt64: no variable has value reference 9999",
+        "fmi3SetFloat64: time (value reference 0) cannot be set: its causality is independent"))

@@ -185,8 +185,9 @@ def output(name, unit, description, depends_on=()):
 
 
 def reference_problem(variables: dict, vrs, kinds, call: str) -> str:
-    """'' where each value reference of vrs names a variable of kinds (a type or tuple of types), else why not, for
-    the FMI function ``call`` (fmi2GetReal, fmi3SetInt32, ...)."""
+    """'' where each value reference of vrs names a variable of kinds (a type or tuple of types), one a host may set
+    where ``call`` sets (fmi2SetReal, ...: it has a setter), else why not, for the FMI function ``call``
+    (fmi2GetReal, fmi3SetInt32, ...)."""
     for vr in vrs:
         var = variables.get(vr)
         if var is None:
@@ -195,6 +196,9 @@ def reference_problem(variables: dict, vrs, kinds, call: str) -> str:
             actual = type(var).__name__
             return (f"{call}: {var.name} (value reference {vr}) is of type {actual}, not {call[7:]}: use "
                     f"{call[:7]}{actual}")
+        if call[4:7] == "Set" and getattr(var, "setter", None) is None:
+            return (f"{call}: {var.name} (value reference {vr}) cannot be set: its causality is "
+                    f"{getattr(var.causality, 'name', var.causality)} (the FMU computes it)")
     return ""
 
 
@@ -251,7 +255,7 @@ class UjfmuSlave(Fmi2Slave):
         self._initialized = False  # initialize() has run with the current parameters
         self._running = False      # past fmi2ExitInitializationMode
         self._terminated = False   # past fmi2Terminate: no more steps
-        self._restored = False     # fmi2SetFMUstate has restored a state into this instance
+        self._restored = False     # the last fmi2SetFMUstate restored a state into a running instance
         self._inputs = tuple(v for v in self.VARIABLES if v.causality == "input")
         self._start_time = 0.0
         self._derivation = None    # token of the derive() the DERIVED attributes come from (see _set_fmu_state)
@@ -409,6 +413,7 @@ class UjfmuSlave(Fmi2Slave):
         if not isinstance(state, FmuState) or state.origin != (type(self).__module__, type(self).__name__):
             self._raise_to_host(f"{self.modelName} '{self.instance_name}': fmi2SetFMUstate was given a state that "
                                 "is not one of this FMU's; the instance is unchanged")
+        was_running = self._running
         if self._capture_plan(True).plain:
             self.__dict__.update(state.fields)
         else:
@@ -416,7 +421,7 @@ class UjfmuSlave(Fmi2Slave):
                 setattr(self, key, value)
         self._partial = False
         self._state_outputs_of = None
-        self._restored = True
+        self._restored = was_running
         if self._terminated:   # a restored state is read, not stepped, after fmi2Terminate (FMI's state machine)
             self._running = False
         if not self._initialized:
