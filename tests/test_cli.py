@@ -1464,6 +1464,9 @@ def test_run_stop_time_runs_a_changed_copy_and_says_why_it_is_not_compared(fmu_d
     assert times[-1] == pytest.approx(0.5) and len(times) == 501
     assert main(base + ["--stop-time", "0.5005"]) == 2
     assert "whole number (at least 1) of communication steps" in capsys.readouterr().err
+    # a time of whole steps of the --step given, not of the file's (a review's 0.5005 s at 0.5 ms had been refused)
+    assert main(base + ["--stop-time", "0.5005", "--step", "5e-4", "--no-check-step"]) == 0
+    assert (tmp_path / "twin_jeffcott_runup_changed_step0.0005.csv").is_file()
     steady = ["--fmu-dir", str(fmu_dir), "run", str(SCENARIOS / "twin_jeffcott_steady.toml"), "--no-plot", "--out",
               str(tmp_path), "--stop-time", "0.5"]   # its steady window starts at 16 s: left out, and said
     assert main(steady) == 0 and "(no steady window: the file's steady_from = 16 s is after it)" in \

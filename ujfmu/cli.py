@@ -355,6 +355,8 @@ def cmd_run(args):
     from .scenario import Scenario
     _own_checkout([args.scenario])
     scenario = _with_set(Scenario(args.scenario), args.set)
+    if args.step is not None and args.step != "auto":   # before --stop-time, which must be whole steps of it
+        scenario.step_size = _step_size(args.step, auto=True)
     if args.stop_time is not None:
         scenario = scenario.with_stop_time(args.stop_time)
     for name in args.record or []:   # ride along: the setup, and so the reference, stay the file's
@@ -381,8 +383,6 @@ def cmd_run(args):
         scenario.step_size, _ = stepsize.choose(scenario, args.fmu_dir,
                                                 progress=(lambda *a: None) if args.quiet else print)
         print(f"--step auto: step_size = {scenario.step_size:g} s")
-    elif args.step is not None:
-        scenario.step_size = _step_size(args.step, auto=True)
     if not math.isclose(scenario.step_size, scenario.declared_step, rel_tol=1e-9):   # beside the file's results
         scenario.name = f"{scenario.name}_step{scenario.step_size:g}"
     result = _run_one(args, args.scenario, scenario)
