@@ -383,3 +383,41 @@ def test_the_fits_solve_their_least_squares_with_blas_on_one_thread(monkeypatch)
     assert len(seen) >= 3 and set(seen) == {1}
     assert after == allowed   # the caller's setting is back
     assert (overlapped, restored) == (1, allowed)
+
+
+def test_a_drive_is_matched_only_against_the_modes_of_what_it_turns(tmp_path, capsys):
+    """Two speed sources each driving its own twin rotor, the second's shafts 9x stiffer (its modes 3x faster): the
+    second source set at the first rotor's disc 2 Jeffcott speed sqrt(K2X / (M2 + m_u2)) = 117.02 rad/s is 29% from
+    its own rotor's nearest crossing (the 2x with its 330 rad/s torsional mode) and gets no note; the first rotor's
+    crossings are not listed under it in `ujfmu modes` either."""
+    from ujfmu.analysis import driven_components, near_crossing_notes, nearest_crossings
+    from ujfmu.cli import main
+    from ujfmu.models.twin_jeffcott_rotor import model as tj
+    from ujfmu.scenario import Scenario
+    rig = tj.rig_parameters()
+    jeffcott = math.sqrt(rig["K2X"] / (rig["M2"] + rig["m_u2"]))
+    stiff = ", ".join(f"{k} = {9 * rig[k]!r}" for k in ("K1X", "K1Y", "K2X", "K2Y", "K1T", "K2T"))
+    text = (SCENARIOS / "twin_jeffcott_aligned_vs_misaligned.toml").read_text()
+    text = text.replace('from = "motor.omega"\nto = "misaligned.omega_in"',
+                        'from = "motor2.omega"\nto = "misaligned.omega_in"')
+    text = text.replace("parameters = { beta = 0.17453292519943295 }", f"parameters = {{ beta = 0.17453292519943295, "
+                        f"{stiff} }}")
+    text = text.replace("[components.aligned]", "[components.motor2]\nfmu = \"Motor\"\nparameters = { "
+                        f"ideal_speed_source = true, profile = 0, omega_set = {jeffcott!r} }}\n"
+                        "inputs = { tau_load = 0.0 }\n\n[components.aligned]")
+    path = tmp_path / "two_drives.toml"
+    path.write_text(text)
+    scenario = Scenario(path)
+    assert driven_components(scenario, "motor") == {"aligned", "load_aligned"}
+    assert driven_components(scenario, "motor2") == {"misaligned", "load_misaligned"}
+    nearest = nearest_crossings(scenario)
+    assert nearest["motor.omega_set"].mode.component == "aligned"
+    second = nearest["motor2.omega_set"]
+    assert second.mode.component == "misaligned" and second.order == 2
+    assert second.margin == pytest.approx(jeffcott / (second.mode.omega / 2) - 1) and abs(second.margin) > 0.25
+    assert near_crossing_notes(scenario) == []
+    assert main(["modes", str(path)]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("  motor2.omega_set"))
+    assert "with misaligned's" in lines[start] and lines[start + 1].startswith("  A crossing"), out   # none below

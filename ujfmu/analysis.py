@@ -420,10 +420,24 @@ class Crossing:
                 f"{self.mode.critical_speed(self.order):.5g} rad/s")
 
 
+def driven_components(scenario, drive: str) -> set:
+    """The components the drive component ``drive`` turns: those its outputs feed, and on through their outputs."""
+    found, frontier = set(), [drive]
+    while frontier:
+        source = frontier.pop()
+        for conn in scenario.connections:
+            target = conn.target.partition(".")[0]
+            if conn.source.partition(".")[0] == source and target not in found:
+                found.add(target)
+                frontier.append(target)
+    return found
+
+
 def nearest_crossings(scenario, modes: list | None = None, held: list | None = None) -> dict:
     """{"component.omega_set": the nearest :class:`Crossing`, or None where no order excites a mode} of each drive's
-    nonzero set speed (``drive_speeds``) over the scenario's modes and its held-input modes (computed where not
-    given) and the orders that excite them (:func:`excitations`)."""
+    nonzero set speed (``drive_speeds``) over the modes of the components it turns (:func:`driven_components`)
+    among the scenario's modes and its held-input modes (computed where not given) and the orders that excite them
+    (:func:`excitations`)."""
     modes = scenario_modes(scenario) if modes is None else modes
     held = held_input_modes(scenario) if held is None else held
     loads = load_orders(scenario)
@@ -431,8 +445,9 @@ def nearest_crossings(scenario, modes: list | None = None, held: list | None = N
     for name, speed in drive_speeds(scenario).items():
         if speed == 0.0:
             continue
+        driven = driven_components(scenario, name.partition(".")[0])
         crossings = [Crossing(name, speed, m, k, bound) for m, bound in [(m, False) for m in modes]
-                     + [(m, True) for m in held] for k, _ in excitations(m, loads)]
+                     + [(m, True) for m in held] if m.component in driven for k, _ in excitations(m, loads)]
         found[name] = min(crossings, key=lambda c: abs(c.margin), default=None)
     return found
 

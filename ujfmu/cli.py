@@ -754,8 +754,8 @@ def _set_changes(scenario, texts) -> dict:
 
 
 def cmd_modes(args):
-    from .analysis import (NEAR_CRITICAL, PURE_MODE, drive_speeds, excitations, held_input_modes, load_orders,
-                           nearest_crossings, scenario_modes)
+    from .analysis import (NEAR_CRITICAL, PURE_MODE, drive_speeds, driven_components, excitations, held_input_modes,
+                           load_orders, nearest_crossings, scenario_modes)
     from .scenario import Scenario
     from .steady import speed_text
     scenario = _with_set(Scenario(args.scenario), args.set)
@@ -801,7 +801,9 @@ def cmd_modes(args):
         print(f"  {name} = {speed_text(speed)}: the nearest crossing is {nearest.text()}; the set speed{magnitude} "
               f"is {100 * abs(margin):.1f}% {'above' if margin > 0 else 'below'} it"
               + (f" (within {100 * NEAR_CRITICAL:g}%)" if nearest.near else ""))
-        below = [(m, k) for m in modes for k, _ in excitations(m, loads) if m.critical_speed(k) < abs(speed)]
+        driven = driven_components(scenario, name.partition(".")[0])
+        below = [(m, k) for m in modes if m.component in driven for k, _ in excitations(m, loads)
+                 if m.critical_speed(k) < abs(speed)]
         if below:
             one = len(below) == 1
             print(f"    below it {'lies 1 crossing' if one else f'lie {len(below)} crossings'} (a run-up from rest "
