@@ -23,8 +23,8 @@ from .build import DEFAULT_FMU_DIR
 from .build3 import DEFAULT_FMU3_DIR
 from .extras import available, preload
 from .fmu.base import MIN_SAMPLES_PER_PERIOD, RESOLVING_SAMPLES_PER_PERIOD, samples_per_period, sampling_interval
-from .master import (COUPLING_RTOL, STALL_FACTOR, CosimulationError, CouplingInstabilityError, Interrupted,
-                     RunStopped, cosimulate, is_ideal_speed_source)
+from .master import (COUPLING_ATOL, COUPLING_RTOL, STALL_FACTOR, CosimulationError, CouplingInstabilityError,
+                     Interrupted, RunStopped, cosimulate, is_ideal_speed_source)
 from .scenario import Scenario, ScenarioError, description_attribute, running_angle_of
 from .steady import PEAK_SHORTFALL, speed_text
 
@@ -1754,7 +1754,8 @@ def stalled_lines(stalled: tuple | None, run: str = "") -> list:
     count, worst, steps = stalled
     return [f"{run + ': ' if run else ''}the implicit coupling took {count} of {steps} steps at its best iterate, "
             f"their coupling residual up to "
-            f"{worst:.3g}x its tolerance ({COUPLING_RTOL:g} of each torn signal's largest value; within "
+            f"{worst:.3g}x its tolerance ({COUPLING_RTOL:g} of each torn signal's largest value plus "
+            f"{COUPLING_ATOL:g}; within "
             f"{STALL_FACTOR:g}x it is taken, not refused): a torque limit switching or a friction's knee inside "
             "those steps; their error is not the run's stated accuracy there (a smaller step, or --check-step, "
             "says how large it is)"]
