@@ -798,3 +798,20 @@ def test_a_load_behind_a_joint_whose_output_follows_its_input_chatters_on_the_dr
     q = runup.parameters_with_defaults("rotor")
     j2 = q["J_M2"] + q["m_u2"] * q["e"] ** 2 - (q["m_u2"] * q["e"]) ** 2 / (q["M2"] + q["m_u2"])
     assert disc.holder == "" and disc.inertia == pytest.approx(j2, rel=1e-12)
+
+
+def test_a_scenario_read_from_a_relative_path_keeps_its_files_after_a_change_of_directory(tmp_path, monkeypatch):
+    """A notebook reads a scenario by a relative path, then changes directory: the reference file it names is the
+    one beside the file (it had been looked for relative to the new directory, and reported missing), and a change
+    of the object after reading is still told from the file it was read from."""
+    from ujfmu.references import read_reference
+    repo = Path(__file__).resolve().parents[1]
+    monkeypatch.chdir(repo)
+    scenario = Scenario("scenarios/cardan_constant_speed.toml")
+    monkeypatch.chdir(tmp_path)
+    committed, _ = read_reference(repo / "scenarios" / "references" / "cardan_constant_speed.csv")
+    table, _ = scenario.reference()
+    assert np.array_equal(table["time"], committed["time"]) and str(scenario.path).startswith("scenarios")
+    scenario.components["joint"][1]["bend_angle"] = 0.2
+    with pytest.raises(ScenarioError, match=r"changed after it was read from scenarios.cardan_constant_speed"):
+        scenario.reference()

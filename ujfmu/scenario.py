@@ -39,6 +39,7 @@ import hashlib
 import json
 import math
 import numbers
+import os
 import re
 import tomllib
 import types
@@ -364,8 +365,12 @@ class Scenario:
     ``steady_from``, ``sweep`` (its [sweep] table); ``reference_file`` is None on a changed copy, whose ``changes``
     ({"component.parameter": value}, {} as read) say what ``with_parameters`` changed from the file."""
 
-    def __init__(self, path):
+    def __init__(self, path: str | os.PathLike):
+        """Read the scenario file at path (a ScenarioError names every problem in it); the paths it names are
+        resolved against its folder now, so a later change of the working directory leaves them valid."""
         self.path = Path(path)
+        #: the file, absolute: where the object looks for it, and for the files it names, after it is read
+        self.file_path = self.path.absolute()
         try:
             data = tomllib.loads(self.path.read_text())
         except FileNotFoundError:
@@ -588,7 +593,7 @@ class Scenario:
             if not isinstance(ref["file"], str) or not ref["file"].endswith((".csv", ".csv.gz")):
                 raise ScenarioError(f"{self.path}: reference.file = {ref['file']!r} must be the path of a .csv file "
                                     "(or a gzipped .csv.gz)")
-            self.reference_file = self.path.parent / ref["file"]
+            self.reference_file = self.file_path.parent / ref["file"]
         self.reference_generator = ref.get("generator")
         self._check_generator()
         self.tolerances = self._tolerances(ref, "tolerance")
@@ -906,7 +911,7 @@ class Scenario:
                 raise ScenarioError(f"{field}: {self.reference_file} holds the reference of {owner} (its provenance "
                                     "line says so), copied here; make this scenario's own: "
                                     f"`ujfmu references {self.path}`")
-            if self.path.is_file() and Scenario(self.path).setup_digest() == made_for:
+            if self.file_path.is_file() and Scenario(self.file_path).setup_digest() == made_for:
                 raise ScenarioError(f"{field}: this Scenario object was changed after it was read from {self.path}, "
                                     f"whose setup its reference {self.reference_file} was made for, so the reference "
                                     "cannot check it: make the copy with scenario.with_parameters({...}), which runs "
@@ -953,7 +958,7 @@ class Scenario:
     def reference_output(self):
         """Where `ujfmu references` writes the reference: the reference file if it resolves (symlinks followed)
         inside the scenario's folder, else a ScenarioError, so a scenario file cannot make it write elsewhere."""
-        folder = self.path.parent.resolve()
+        folder = self.file_path.parent.resolve()
         path = self.reference_file.resolve()
         if not path.is_relative_to(folder):
             raise ScenarioError(f"{self.path}: reference.file = {str(self.reference_file)!r} is outside the "
