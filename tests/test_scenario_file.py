@@ -815,3 +815,46 @@ def test_a_scenario_read_from_a_relative_path_keeps_its_files_after_a_change_of_
     scenario.components["joint"][1]["bend_angle"] = 0.2
     with pytest.raises(ScenarioError, match=r"changed after it was read from scenarios.cardan_constant_speed"):
         scenario.reference()
+
+
+def test_a_scripts_setup_slips_are_scenario_errors_before_anything_runs_and_numpy_numbers_work(fmu_dir, tmp_path):
+    """What a notebook sets on a read Scenario: numpy's integers and a tuple of signals work as a file's int and
+    list do (an np.int64 output interval had been refused as not whole, a tuple had raised a bare TypeError); a
+    coupling not among the schemes, a running speed that is a torque, a stop time given as a string are
+    ScenarioErrors naming the field before an FMU is loaded; a float32 step is shown at its full value, not as the
+    round step it is refused for."""
+    import ujfmu
+    base = Scenario(SCENARIOS / "cardan_constant_speed.toml").with_stop_time(0.05)
+    numpy_set = base.with_parameters({}, name="numpy_set")
+    numpy_set.output_interval, numpy_set.record = np.int64(5), ("joint.omega_out", "motor.omega")
+    result = ujfmu.run_scenario(numpy_set, fmu_dir=fmu_dir, out_dir=None, plot=False)
+    assert result.table["time"].tolist() == pytest.approx([0.005 * k for k in range(11)])
+    assert list(result.table.dtype.names) == ["time", "joint.omega_out", "motor.omega"]
+    missing = tmp_path / "no_fmus"   # refused before the FMUs are looked for
+    wrong = base.with_parameters({})
+    wrong.coupling = "Explicit"
+    with pytest.raises(ScenarioError, match="coupling = 'Explicit' must be one of"):
+        ujfmu.run_scenario(wrong, fmu_dir=missing, out_dir=None)
+    torque = base.with_parameters({})
+    torque.running_speed = "joint.tau_in"
+    with pytest.raises(ScenarioError, match=r"running_speed = 'joint.tau_in' is in N.m, not rad/s: .*joint.omega_out"):
+        ujfmu.run_scenario(torque, fmu_dir=missing, out_dir=None)
+    with pytest.raises(ScenarioError, match=r"with_stop_time\('1.0'\): the stop time must be a finite number"):
+        base.with_stop_time("1.0")
+    assert base.with_stop_time(np.float64(0.04)).stop_time == 0.04
+    single = base.with_parameters({})
+    single.step_size = np.float32(1e-3)
+    with pytest.raises(ScenarioError, match=r"step_size = 0.0010000000475 s \(.* such as 0.001 s\)"):
+        ujfmu.run_scenario(single, fmu_dir=missing, out_dir=None)
+
+
+def test_a_files_running_speed_must_be_a_speed(tmp_path):
+    """output.running_speed names the shaft whose revolutions the orders count: a torque is refused on reading,
+    naming the scenario's speeds."""
+    text = (SCENARIOS / "twin_jeffcott_steady.toml").read_text()
+    assert text.count('running_speed = "motor.omega"') == 2   # [output]'s, then [sweep]'s
+    path = tmp_path / "torque_speed.toml"
+    path.write_text(text.replace('running_speed = "motor.omega"', 'running_speed = "rotor.tau_in"', 1))
+    with pytest.raises(ScenarioError, match=r"output.running_speed = 'rotor.tau_in' is in N.m, not rad/s: "
+                       r".*speeds: motor.omega, motor.omega_ref, rotor.omega_out"):
+        Scenario(path)

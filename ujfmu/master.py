@@ -932,7 +932,7 @@ class Cosimulation:
 
     def _advance(self, n_steps, rows, progress, output_interval):
         """:meth:`advance` under whichever SIGINT handler is in place."""
-        _check_interval(output_interval)
+        output_interval = _check_interval(output_interval)
         implicit = self.iterates
         monitor = bool(self._watched or self._bonds)
         every = max(1, n_steps // 200)
@@ -1421,7 +1421,7 @@ class Cosimulation:
     def run(self, n_steps, progress=None, output_interval=1):
         """Record the current point, take n_steps steps recording after every output_interval-th step and the
         last; a structured array with 'time' and one column per recorded 'comp.var'."""
-        _check_interval(output_interval)
+        output_interval = _check_interval(output_interval)
         steps = np.arange(0, n_steps + 1, output_interval)
         if steps[-1] != n_steps:
             steps = np.append(steps, n_steps)
@@ -1863,9 +1863,11 @@ def _checked_setup(components, connections, record) -> tuple:
     return components, checked, record
 
 
-def _check_interval(output_interval):
-    if isinstance(output_interval, bool) or not isinstance(output_interval, int) or output_interval < 1:
+def _check_interval(output_interval) -> int:
+    """output_interval as an int (a numpy integer too); CosimulationError unless a whole number >= 1."""
+    if isinstance(output_interval, bool) or not isinstance(output_interval, numbers.Integral) or output_interval < 1:
         raise CosimulationError(f"output interval {output_interval!r} must be a whole number of steps >= 1")
+    return int(output_interval)
 
 
 def _vrs(*refs):

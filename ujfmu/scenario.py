@@ -575,6 +575,8 @@ class Scenario:
                 if name not in self.record:
                     raise ScenarioError(f"{self.path}: output.{field}: {name!r} is not a recorded signal"
                                         f"{self._recorded_hint(name)}")
+        if self.running_speed:
+            self._check_running_speed(self.running_speed, "output.running_speed")
         if timed:
             self.steady_from = self._number(out, "output.steady_from", self.start_time)
             if not self.start_time <= self.steady_from < self.stop_time:
@@ -718,6 +720,10 @@ class Scenario:
                          f"{'it' if one else 'them'} no more (del scenario.tolerances[name], and from "
                          "extrapolated_tolerances and order_tolerances where named), or set reference_file = None "
                          "to run unchecked")
+        if self.coupling not in COUPLINGS:
+            problems.add(f"{self.path}: coupling = {self.coupling!r} must be one of {', '.join(COUPLINGS)}")
+        if isinstance(self.record, tuple):
+            self.record = list(self.record)
         asked = {"running_speed": [self.running_speed] if self.running_speed else [],
                  "orbits": [n for pair in self.orbits for n in pair], "spectra": self.spectra}
         for what, names in asked.items():
@@ -726,6 +732,9 @@ class Scenario:
                 problems.add(f"{self.path}: {what} names {', '.join(unrecorded)}, not recorded: record "
                              f"{'it' if len(unrecorded) == 1 else 'them'} (scenario.record), or leave "
                              f"{'it' if len(unrecorded) == 1 else 'them'} out of scenario.{what}")
+        if self.running_speed and self.running_speed in self.record:
+            with problems.kept():
+                self._check_running_speed(self.running_speed, "running_speed")
         problems.raise_any()
 
     def with_parameters(self, changes: dict, name: str | None = None) -> "Scenario":
@@ -782,6 +791,10 @@ class Scenario:
         file's steady window where that starts at or after stop_time (a window past the run's end is empty); itself
         where stop_time is the file's; ScenarioError unless stop_time is a whole number of steps after the start.
         A copy of a copy keeps its name (this scenario is left as it was)."""
+        if isinstance(stop_time, bool) or not isinstance(stop_time, numbers.Real) or not math.isfinite(stop_time):
+            raise ScenarioError(f"{self.path}: with_stop_time({stop_time!r}): the stop time must be a finite number "
+                                "[s]")
+        stop_time = float(stop_time)
         if stop_time == self.stop_time:
             return self
         out = self.with_parameters({}, name=None if self.name == self.path.stem else self.name)
@@ -804,6 +817,20 @@ class Scenario:
         elif unit == "rad/s":
             text += f" ({value * 30.0 / math.pi:.6g} rpm)"
         return text
+
+    def _check_running_speed(self, name, field: str) -> None:
+        """ScenarioError unless the signal name (recorded: checked before) is a speed, in rad/s: orders and
+        revolutions count its angle."""
+        unit = self.unit(name)
+        if unit != "rad/s":
+            raise ScenarioError(f"{self.path}: {field} = {name!r} is in {unit or 'no unit'}, not rad/s: whole "
+                                "revolutions and orders are counted from a shaft's speed; this scenario's speeds: "
+                                f"{', '.join(self.speed_signals())}")
+
+    def speed_signals(self) -> list:
+        """The components' outputs in rad/s, "component.variable"."""
+        return [f"{c}.{v.name}" for c, (fmu, _) in self.components.items()
+                for v in fmu_class(fmu).VARIABLES if v.unit == "rad/s" and v.causality == "output"]
 
     def unit(self, name: str) -> str:
         """The declared unit of a "component.variable" ("" when it has none), "s" for "time" (a table's first
@@ -1387,6 +1414,7 @@ class Scenario:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
                 raise ScenarioError(f"{self.path}: experiment {name} = {value!r} must be a finite number [s]")
+            setattr(self, name, float(value))   # a numpy float32's arithmetic would stay in float32
         if self.steady_from is None:   # unset, as 0 is (a caller's None)
             self.steady_from = 0.0
         if (isinstance(self.steady_from, bool) or not isinstance(self.steady_from, numbers.Real)
@@ -1427,9 +1455,9 @@ class Scenario:
                 stops = dict.fromkeys(f"{self.start_time + n * self.step_size:.12g}"
                                       for n in (math.floor(steps), math.ceil(steps)) if n >= 1)
                 hint = (f" (e.g. stop_time = {' or '.join(stops)} s, or a step_size that divides {span:g} s such as "
-                        f"{_round_step(span, self.step_size):g} s)")
+                        f"{_round_step(span, self.step_size):.12g} s)")
             raise ScenarioError(f"{self.path}: [experiment] stop_time - start_time = {span:g} s must be a whole "
-                                f"number (at least 1) of communication steps of step_size = {self.step_size:g} s"
+                                f"number (at least 1) of communication steps of step_size = {self.step_size:.12g} s"
                                 + hint)
 
     def time_grid(self):

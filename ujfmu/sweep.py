@@ -507,11 +507,10 @@ class SweepSettings:
                 problems.append(str(exc))
             else:
                 if name == running_speed and scenario.unit(name) != "rad/s":
-                    speeds = [f"{c}.{v.name}" for c, (fmu, _) in scenario.components.items()
-                              for v in fmu_class(fmu).VARIABLES if v.unit == "rad/s" and v.causality == "output"]
                     problems.append(f"{where} running_speed (--running-speed) = {name} is in "
                                     f"{scenario.unit(name) or 'no unit'}, not rad/s: whole revolutions are counted "
-                                    f"from a shaft's speed; this scenario's speeds: {', '.join(speeds)}")
+                                    f"from a shaft's speed; this scenario's speeds: "
+                                    f"{', '.join(scenario.speed_signals())}")
         settle = number("settle_time", test=lambda x: x >= 0, needs=" >= 0 [s]")
         if "settle_time" not in table:
             problems.append(f"{where} settle_time (--settle on the command line, settle_time=... from Python) "
