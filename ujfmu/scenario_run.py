@@ -81,8 +81,9 @@ START_DOMINANCE = 3.0
 #: what a band at least half its reference's range checks (a flat line through the middle passes it)
 LEVEL_ONLY = "checks the level only"
 #: a steady vibration (half the peak-to-peak over the steady window, the run's or the reference's) of at least this
-#: fraction of the reference's range is a feature of the signal's course, which a band at least as wide cannot see
-VISIBLE_VIBRATION = 0.01
+#: fraction of the reference's range is a feature of the signal's course, which a band at least as wide cannot see:
+#: a Cardan joint's 2x speed swing at 3 deg, +-0.14% of the speed, in a run-up from rest (its range the speed)
+VISIBLE_VIBRATION = 0.001
 
 
 #: a reference range below this multiple of the allowed error counts as constant (no "% of range" figure)
