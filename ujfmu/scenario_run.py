@@ -323,6 +323,9 @@ CHECKED_ORDERS = (1, 2, 4)
 #: an order below this fraction of the signal's largest checked order, in the run and in the reference, carries too
 #: little of its vibration to be compared as a fraction of itself
 SIGNIFICANT_ORDER = 0.01
+#: where the orders resolved carry less than this fraction of a signal's vibration (half its peak-to-peak over the
+#: window), the vibration lies in an order the step does not resolve: its orders cannot be checked (a failure)
+HIDDEN_VIBRATION = 0.5
 #: a signal whose largest checked order is below this fraction of its size (its mean or half its peak-to-peak) has
 #: no vibration but round-off (a constant speed's 1e-14 of itself): nothing of it is compared
 NEGLIGIBLE_ORDER = 1e-9
@@ -433,13 +436,22 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
                 f"no order above round-off (the largest {largest:.3g}, of a signal of size {size:.3g}): nothing "
                 "compared")))
             continue
+        # where an order is not resolved, the resolved ones are judged against the signal's whole vibration (half its
+        # peak-to-peak): the unresolved one may carry it, and a run's spurious 1e-5 of it is no order to compare
+        unresolved = [k for k, a, a_ref in zip(CHECKED_ORDERS, runs, refs)
+                      if k not in theirs_blind and (math.isnan(a) or math.isnan(a_ref))]
+        vibration = max(0.5 * float(np.ptp(window[name])), 0.5 * float(np.ptp(theirs[name]))) if unresolved else 0.0
+        hidden = largest < HIDDEN_VIBRATION * vibration
         for k, a, a_ref in zip(CHECKED_ORDERS, runs, refs):
             if k in theirs_blind:
                 continue
-            if math.isnan(a) or math.isnan(a_ref):
-                checks.append(OrderCheck(name, k, a, a_ref, rel, note=(
-                    f"its {k}x order is not resolved at this step (too few samples a revolution): not compared")))
-            elif max(a, a_ref) >= SIGNIFICANT_ORDER * largest:   # in the run or in the reference: a spurious one too
+            if k in unresolved:
+                checks.append(OrderCheck(name, k, a, a_ref, rel, refused=hidden, note=(
+                    f"its {k}x order is not resolved at this step (too few samples a revolution): not compared" + (
+                        f"; the orders resolved carry at most {largest:.3g} of its vibration, {vibration:.3g} (half "
+                        "its peak-to-peak), which lies in the orders not resolved: take a smaller step (the "
+                        "sampling note says which)" if hidden else ""))))
+            elif max(a, a_ref) >= SIGNIFICANT_ORDER * max(largest, vibration):   # in the run or in the reference
                 checks.append(OrderCheck(name, k, a, a_ref, rel))
     return checks
 
