@@ -621,3 +621,18 @@ def test_orders_at_a_step_that_hides_the_vibration_fail_naming_the_step_not_a_sp
     assert "take a smaller step" in str(coarse[0])
     fine = check_orders(scenario, table(1e-3, 8.5e-5), table(1e-3, 2.4e-9))
     assert [(c.order, c.passed) for c in fine] == [(2, True)], [str(c) for c in fine]
+
+
+def test_a_wrong_stop_time_is_the_one_problem_of_a_scenario_with_orders(tmp_path):
+    """A stop time that is not whole steps leaves the steady window unread: it had added a false second problem,
+    that [reference.orders] needs steady_from after start_time (set to 16 s in the file)."""
+    from ujfmu.scenario import Scenario, ScenarioError
+    text = (SCENARIOS / "twin_jeffcott_steady.toml").read_text().replace(
+        "[reference.tolerance]", '[reference.orders]\n"rotor.X2" = { rel = 0.02 }\n\n[reference.tolerance]')
+    (tmp_path / "references").mkdir()
+    shutil.copy(SCENARIOS / "references" / "twin_jeffcott_steady.csv", tmp_path / "references")
+    (tmp_path / "s.toml").write_text(text.replace("stop_time = 17.0", "stop_time = 17.0005"))
+    with pytest.raises(ScenarioError) as info:
+        Scenario(tmp_path / "s.toml")
+    assert "must be a whole number (at least 1) of communication steps" in str(info.value)
+    assert "problems" not in str(info.value) and "steady_from" not in str(info.value)

@@ -1006,7 +1006,7 @@ class Scenario:
             ("output.running_speed (the speed whose revolutions the orders count)",
              getattr(self, "running_speed", None) is None),
             ("output.steady_from after start_time (where the window starts, after the start-up)",
-             not getattr(self, "steady_from", start) > start)) if lacking]
+             not getattr(self, "steady_from", math.inf) > start)) if lacking]   # unread: [experiment] is wrong
         if table and missing:
             raise ScenarioError(f"{self.path}: [reference.orders] compares the running-speed orders over the steady "
                                 f"window, so it needs {' and '.join(missing)}")
