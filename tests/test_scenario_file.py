@@ -118,6 +118,13 @@ def test_good_file_loads(tmp_path):
     ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF + '\n[reference.extrapolated]\n"j.M_x" = { abs = 1 }',
      "reference.extrapolated.j.M_x: not a recorded signal"),
     ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF.replace("file =", "fil ="), "[reference]: unknown field"),
+    # a misspelt signal gets the recorded one it is close to; a band that allows nothing is refused
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF + '\n[reference.extrapolated]\n"j.tau_inn" = { abs = 1 }',
+     "reference.extrapolated.j.tau_inn: not a recorded signal (did you mean 'j.tau_in'?)"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF.replace("rel_range = 0.01", "rel_range = 0"),
+     "reference.tolerance.j.tau_in = {'rel_range': 0} allows no error at all"),
+    ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF.replace("rel_range = 0.01", "rel_range = 0.0, abs = 0.0"),
+     "allows no error at all, which no computation meets"),
 ])
 def test_bad_field_is_named(tmp_path, old, new, field):
     path = write(tmp_path, GOOD.replace(old, new))

@@ -604,7 +604,7 @@ class Scenario:
         for name, reason in ref.get("not_compared", {}).items():
             field = f"reference.not_compared.{name}"
             if name not in self.record:
-                raise ScenarioError(f"{self.path}: {field}: not a recorded signal")
+                raise ScenarioError(f"{self.path}: {field}: not a recorded signal{self._recorded_hint(name)}")
             if name in self.tolerances:
                 raise ScenarioError(f"{self.path}: {field}: the signal also has a [reference.tolerance]")
             if not isinstance(reason, str) or not reason.strip():
@@ -1014,7 +1014,7 @@ class Scenario:
         for name, tol in table.items():
             field = f"reference.orders.{name}"
             if name not in self.record:
-                raise ScenarioError(f"{self.path}: {field}: not a recorded signal")
+                raise ScenarioError(f"{self.path}: {field}: not a recorded signal{self._recorded_hint(name)}")
             from .steady import grows
             if grows(name):
                 raise ScenarioError(f"{self.path}: {field}: a running angle or an energy integral grows along the "
@@ -1037,12 +1037,16 @@ class Scenario:
         for name, tol in table.items():
             field = f"reference.{key}.{name}"
             if name not in self.record:
-                raise ScenarioError(f"{self.path}: {field}: not a recorded signal")
+                raise ScenarioError(f"{self.path}: {field}: not a recorded signal{self._recorded_hint(name)}")
             if not isinstance(tol, dict) or not tol or set(tol) - TOLERANCE_KEYS:
                 raise ScenarioError(f"{self.path}: {field} = {tol!r} must be {{ rel_range = ..., abs = ... }}")
             values = {k: self._number(tol, f"{field}.{k}") for k in tol}
             if any(v < 0 for v in values.values()):
                 raise ScenarioError(f"{self.path}: {field}: bounds must not be negative, got {tol!r}")
+            if not any(values.values()):
+                raise ScenarioError(f"{self.path}: {field} = {tol!r} allows no error at all, which no computation "
+                                    "meets (round-off differs between any two): give the accuracy the study needs "
+                                    "(`ujfmu run --check-step` estimates this step's)")
             if values.get("rel_range", 0.0) >= MAX_REL_RANGE:
                 raise ScenarioError(f"{self.path}: {field}: rel_range = {values['rel_range']:g} allows an error of "
                                     f"{values['rel_range']:g} of the signal's range, which a flat line through the "
