@@ -160,6 +160,8 @@ def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_p
     captured = capsys.readouterr()
     assert "0 passed, 1 failed (1 compares nothing), 0 not checked" in captured.out
     assert "nothing was checked" in captured.err
+    assert "comparing nothing (no [reference] with tolerances): unchecked" in captured.err   # not "not checked"
+    assert "not checked (" not in captured.err
     # and its JUnit case fails as the command does (a skipped case had shown a CI dashboard no failure)
     suite = ET.parse(junit).getroot()
     case = suite.find("testcase")
