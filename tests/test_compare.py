@@ -328,6 +328,7 @@ def test_a_set_point_that_stops_moving_inside_the_check_window_is_said_with_when
     (check,) = check_operating_points(scenario, table(t, motor__omega=ramp, motor__omega_ref=ramp))
     assert not check.checked and check.passed and check.since == pytest.approx(28.8)
     assert check.holds_from == pytest.approx(30.0) and "reaches its final value only at t = 30 s" in str(check)
+    assert "or set [output] steady_from (where the window starts) past t = 30 s" in str(check)
     (moving,) = check_operating_points(scenario, table(t, motor__omega=t, motor__omega_ref=t))
     assert "the run ends before the profile does)" in str(moving) and math.isnan(moving.holds_from)
     # a ramp that a run ends in (a set point the 30 rad/s^2 ramp reaches at 66.7 s, a fresh-eyes trial's 2000 rad/s

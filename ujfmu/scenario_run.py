@@ -135,7 +135,8 @@ class OperatingPointCheck:
         if not self.checked and not math.isnan(self.holds_from):
             return (f"not checked {self.signal}: its set point {self.set_point} reaches its final value only at t = "
                     f"{self.holds_from:g} s, inside the window the check averages over (from t = {self.since:g} s): "
-                    "lengthen stop_time, or set [output] steady_from, to leave the drive a settling time after it")
+                    f"lengthen stop_time, or set [output] steady_from (where the window starts) past t = "
+                    f"{self.holds_from:g} s, to leave the drive a settling time after it")
         if not self.checked:
             at, final = self.reaches
             return (f"not checked {self.signal}: its set point {self.set_point} still moves after t = "
