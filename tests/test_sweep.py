@@ -180,6 +180,7 @@ def test_a_running_speed_that_is_not_a_speed_is_refused_naming_the_speeds(brutti
             SweepSettings.from_scenario(brutti, running_speed=name, settle_time=0.1)
         assert f"running_speed (--running-speed) = {name} is in {unit}, not rad/s" in str(err.value)
         assert "motor.omega" in str(err.value) and "driveline.omega_out" in str(err.value)
+        assert len(err.value.problems) == 1   # once, though the torque is among the outputs swept too
     assert SweepSettings.from_scenario(brutti, running_speed="driveline.omega_out", settle_time=0.1)
 
 

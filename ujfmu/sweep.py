@@ -500,7 +500,7 @@ class SweepSettings:
         if not running_speed:
             problems.append(f"{where} running_speed (or output.running_speed; --running-speed on the command "
                             "line, running_speed=... from Python) is needed to measure whole revolutions")
-        for name in outputs + ([running_speed] if running_speed else []):
+        for name in dict.fromkeys(outputs + ([running_speed] if running_speed else [])):   # each once
             try:
                 scenario._check_signal(name, "sweep signal")
             except ScenarioError as exc:
