@@ -865,3 +865,22 @@ def test_a_files_running_speed_must_be_a_speed(tmp_path):
     with pytest.raises(ScenarioError, match=r"output.running_speed = 'rotor.tau_in' is in N.m, not rad/s: "
                        r".*speeds: motor.omega, motor.omega_ref, rotor.omega_out"):
         Scenario(path)
+
+
+def test_the_speed_driven_wiring_on_a_torque_driven_fmu_names_the_wiring_it_needs(tmp_path):
+    """A speed-driven scenario's FMU swapped for its torque-driven variant (a trial's): each wrong-way connection
+    says which causality the variant has and how to wire it; the other way round, which variant takes tau_in."""
+    text = (SCENARIOS / "double_cardan_omar_torsional.toml").read_text()
+    path = tmp_path / "td.toml"
+    path.write_text(text.replace('fmu = "DoubleCardanDriveline"', 'fmu = "DoubleCardanDrivelineTorqueDriven"'))
+    with pytest.raises(ScenarioError) as err:
+        Scenario(path)
+    assert ("connections[0].to = 'driveline.omega_in' is an output, not an input (DoubleCardanDrivelineTorqueDriven "
+            "is the torque-driven variant: tau_in is its input and omega_in its output; wire a MotorController's "
+            "tau_motor to tau_in") in str(err.value)
+    text = (SCENARIOS / "double_cardan_stiff_torque_driven.toml").read_text()
+    path.write_text(text.replace('fmu = "DoubleCardanDrivelineTorqueDriven"', 'fmu = "DoubleCardanDriveline"'))
+    with pytest.raises(ScenarioError) as err:
+        Scenario(path)
+    assert ("is an output, not an input (DoubleCardanDriveline is driven by speed: omega_in is its input and tau_in "
+            "its output; DoubleCardanDrivelineTorqueDriven takes tau_in)") in str(err.value)

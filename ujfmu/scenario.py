@@ -1081,8 +1081,18 @@ class Scenario:
                                 f"'{var}'{f' (did you mean {comp}.{close[0]}?)' if close else ''}; its "
                                 f"{' and '.join(k + 's' for k in kinds)}: {', '.join(offered)}")
         if causality and variables[var].causality != causality:
+            fmu = self.components[comp][0]
+            wiring = ""
+            if var in ("omega_in", "tau_in") and fmu.endswith("TorqueDriven"):
+                wiring = (f" ({fmu} is the torque-driven variant: tau_in is its input and omega_in its output; wire a "
+                          "MotorController's tau_motor to tau_in and its omega from omega_in, as the bundled "
+                          "*_torque_driven scenarios do, or use the speed-driven "
+                          f"{fmu.removesuffix('TorqueDriven')})")
+            elif var in ("omega_in", "tau_in") and fmu + "TorqueDriven" in FMUS:
+                wiring = (f" ({fmu} is driven by speed: omega_in is its input and tau_in its output; "
+                          f"{fmu}TorqueDriven takes tau_in)")
             raise ScenarioError(f"{self.path}: {field} = {name!r} is an {variables[var].causality}, "
-                                f"not an {causality}")
+                                f"not an {causality}{wiring}")
         return variables[var]
 
     def check_fmus(self, fmu_dir=DEFAULT_FMU_DIR):
