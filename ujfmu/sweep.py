@@ -1491,9 +1491,11 @@ class Sweep:
     def plot(self, out_dir=None):
         """Figures against the first axis (a swept speed if any): max/min of every output (one curve per
         combination of the other axes) and the running-speed order amplitudes (order tracks and a Campbell-style
-        diagram), written to out_dir (default: next to the CSV). Returns the paths."""
+        diagram), written to out_dir (default: next to the CSV; made where missing: before run(), the figures
+        hold the model's natural frequencies alone). Returns the paths."""
         from .plotting import plot_sweep
         with _writing("the figures into", Path(out_dir or self.out_dir)):
+            Path(out_dir or self.out_dir).mkdir(parents=True, exist_ok=True)
             return plot_sweep(self, Path(out_dir or self.out_dir))
 
 
