@@ -242,3 +242,16 @@ def test_the_default_error_angles_at_a_small_bend_are_named(bend_deg):
     assert cardan.advice(_lab_joint(30.0)) == []
     assert cardan.advice(_lab_joint(bend_deg, 0.0, 0.0)) == []
     assert cardan.advice(_lab_joint(bend_deg, math.radians(0.2), math.radians(0.3))) == []
+
+
+def test_an_error_angle_typed_in_degrees_is_named():
+    """error_angle_beta = 0.3 meant as the README's 0.3 deg is 17.2 deg of manufacturing error (a fresh-eyes trial's:
+    it ran without a word, the output speed's range moved by a third): past 2 deg each error angle draws a warning
+    with the radians it would be; 1 deg draws none."""
+    messages = cardan.advice(_lab_joint(20.0, 0.3, 0.3))
+    assert [m.partition(" =")[0] for m in messages] == ["error_angle_beta", "error_angle_gamma"]
+    assert messages[0] == ("error_angle_beta = 0.3 rad is 17.19 deg, past the 2 deg of a manufactured joint's errors "
+                           "(Feng et al.'s laboratory joint's: 0.3 deg); if the value was meant in degrees, "
+                           "error_angle_beta = 0.00523599 rad (the FMUs take SI units)")
+    assert cardan.advice(_lab_joint(20.0, math.radians(1.0), -math.radians(1.0))) == []
+    assert len(cardan.advice(_lab_joint(20.0, 0.0, -0.05))) == 1   # a negative one by its size

@@ -35,6 +35,9 @@ MAX_ANGLE = math.radians(89.0)
 LAB_ERROR_ANGLE = math.radians(0.3)
 #: a 2x speed swing changed by more than this fraction by the default error angles draws a warning (``advice``)
 ERROR_ANGLE_EFFECT = 0.05
+#: an error angle past this [rad] is far beyond a manufactured joint's (the laboratory joint's 0.3 deg): degrees
+#: meant? (``advice``)
+LARGE_ERROR_ANGLE = math.radians(2.0)
 #: the order of the input speed the outputs carry at full size: the joint's speed ratio turns twice a revolution (its
 #: 4x, 6x, ... are smaller by q, q^2, ..., q = tan^2(psi/2), psi the shaft angle); a record must sample it
 #: (``ujfmu.scenario_run``)
@@ -247,8 +250,15 @@ def advice(p: Parameters) -> list:
     """Warnings: a bend past ``protocol.LARGE_JOINT_ANGLE`` (degrees meant?); the error angles left at the
     laboratory joint's (``LAB_ERROR_ANGLE``) where they change the joint's 2x velocity-ratio swing by more than
     ``ERROR_ANGLE_EFFECT`` from the ideal joint's at the same bend (at a bend of a few degrees, a vehicle's, by a
-    quarter or a third, with the bend's sign)."""
+    quarter or a third, with the bend's sign); an error angle past ``LARGE_ERROR_ANGLE`` (degrees meant?)."""
     angles = joint_angle_advice("bend_angle", p.bend_angle)
+    for name in ("error_angle_beta", "error_angle_gamma"):
+        value = getattr(p, name)
+        if abs(value) > LARGE_ERROR_ANGLE:
+            angles.append(f"{name} = {value:.6g} rad is {math.degrees(value):.4g} deg, past the "
+                          f"{math.degrees(LARGE_ERROR_ANGLE):g} deg of a manufactured joint's errors (Feng et al.'s "
+                          f"laboratory joint's: {math.degrees(LAB_ERROR_ANGLE):g} deg); if the value was meant in "
+                          f"degrees, {name} = {math.radians(value):.6g} rad (the FMUs take SI units)")
     if p.error_angle_beta != LAB_ERROR_ANGLE or p.error_angle_gamma != LAB_ERROR_ANGLE:
         return angles
     ideal = ratio_swing(joint_frame(p.bend_angle, p.bend_plane_angle, 0.0, 0.0))
