@@ -1532,3 +1532,16 @@ def test_a_runs_table_has_its_units_beside_it(fmu_dir, tmp_path):
     assert rows["joint.tau_in"]["unit"] == "N.m" and rows["joint.omega_out"]["unit"] == "rad/s"
     assert "communication step 0.0005 s, implicit coupling" in rows["time"]["meaning"]
     assert "(joint, CardanJoint)" in rows["joint.tau_in"]["meaning"]
+
+
+def test_a_missing_fmu_folders_hint_fits_what_was_given(tmp_path):
+    """The remedy for FMUs not found follows the folder given (a scripting trial's): a folder named fmi3 is built by
+    `ujfmu build --fmi 3` (the plain build's hint would put FMI 2.0 FMUs there), and an FMU file given as the folder
+    is told to be one FMU, with its folder."""
+    from ujfmu.build import build_hint
+    assert build_hint(tmp_path / "fmus" / "fmi3").startswith(
+        f"a folder named as the FMI 3.0 FMUs' is: `ujfmu build --fmi 3 --fmu-dir {tmp_path / 'fmus' / 'fmi3'}`")
+    assert build_hint(tmp_path / "Motor.fmu") == (f"{tmp_path / 'Motor.fmu'} names one FMU: give the folder that "
+                                                 f"holds them all, e.g. --fmu-dir {tmp_path} (from Python: "
+                                                 "fmu_dir=...)")
+    assert build_hint(tmp_path / "mine") == f"run `ujfmu build --fmu-dir {tmp_path / 'mine'}` first"

@@ -79,6 +79,12 @@ def build_hint(fmu_dir) -> str:
     if Path(fmu_dir).absolute() == (DEFAULT_FMU_DIR / "fmi3").absolute():
         return ("run `ujfmu build --fmi 3` first, or give --fmu-dir DIR (from Python: fmu_dir=DIR) where they were "
                 "built")
+    if Path(fmu_dir).suffix == ".fmu":
+        return (f"{fmu_dir} names one FMU: give the folder that holds them all, e.g. --fmu-dir {Path(fmu_dir).parent} "
+                "(from Python: fmu_dir=...)")
+    if Path(fmu_dir).name == "fmi3":   # the FMI 3.0 FMUs' folder
+        return (f"a folder named as the FMI 3.0 FMUs' is: `ujfmu build --fmi 3 --fmu-dir {fmu_dir}` builds them for "
+                "an FMI 3.0 run (--fmi 3); an FMI 2.0 run takes the folder `ujfmu build` writes (fmus/ by default)")
     return f"run `ujfmu build --fmu-dir {fmu_dir}` first"
 
 
