@@ -1545,3 +1545,12 @@ def test_a_missing_fmu_folders_hint_fits_what_was_given(tmp_path):
                                                  f"holds them all, e.g. --fmu-dir {tmp_path} (from Python: "
                                                  "fmu_dir=...)")
     assert build_hint(tmp_path / "mine") == f"run `ujfmu build --fmu-dir {tmp_path / 'mine'}` first"
+
+
+def test_an_out_dir_that_is_a_file_is_refused_before_the_run(fmu_dir, tmp_path):
+    """out_dir pointing at a file had ended the run in a bare FileExistsError: a ScenarioError says so first."""
+    from ujfmu.scenario import ScenarioError
+    taken = tmp_path / "results"
+    taken.write_text("not a folder")
+    with pytest.raises(ScenarioError, match=r"out_dir .*results is a file: give the folder the results go to"):
+        ujfmu.run_scenario(SCENARIOS / "cardan_constant_speed.toml", fmu_dir=fmu_dir, out_dir=taken, plot=False)

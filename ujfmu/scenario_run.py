@@ -1415,6 +1415,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     scenario.check_experiment()
     scenario.check_setup()   # what a caller changed after reading: refused before anything runs, as a file's
     scenario.check_fmus(fmu_dir)
+    if out_dir is not None and Path(out_dir).exists() and not Path(out_dir).is_dir():
+        raise ScenarioError(f"out_dir {Path(out_dir).absolute()} is a file: give the folder the results go to")
     reference, provenance = None, ""
     if scenario.reference_file is not None:   # a missing reference file is an error before anything runs
         reference, provenance = scenario.reference()
