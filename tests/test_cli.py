@@ -1554,3 +1554,20 @@ def test_an_out_dir_that_is_a_file_is_refused_before_the_run(fmu_dir, tmp_path):
     taken.write_text("not a folder")
     with pytest.raises(ScenarioError, match=r"out_dir .*results is a file: give the folder the results go to"):
         ujfmu.run_scenario(SCENARIOS / "cardan_constant_speed.toml", fmu_dir=fmu_dir, out_dir=taken, plot=False)
+
+
+def test_a_reference_solves_progress_is_said_off_a_terminal_once_it_takes_a_while(capsys):
+    """Off a terminal (a CI log), a reference's solve says how far it has come at each tenth once it has run 10 s
+    (most take a few, and say nothing more), in ms of simulated time."""
+    from types import SimpleNamespace
+
+    from ujfmu.cli import PLAIN_PROGRESS_AFTER, _progress
+    now = [0.0]
+    with _progress(SimpleNamespace(quiet=False), "s: reference solve (simulated time)", "ms",
+                   clock=lambda: now[0]) as say:
+        for at, done in ((1.0, 1000), (PLAIN_PROGRESS_AFTER - 1.0, 2000), (PLAIN_PROGRESS_AFTER + 2.0, 3000),
+                         (PLAIN_PROGRESS_AFTER + 3.0, 3100)):
+            now[0] = at
+            say(done, 8000)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == [f"  s: reference solve (simulated time): 3000 of 8000 ms done ({PLAIN_PROGRESS_AFTER + 2:.0f} s)"]

@@ -318,3 +318,23 @@ def test_the_reference_solve_restarts_at_a_load_change_and_is_exact_across_it():
                                                                      0.15 + (t - 0.5003))))):
         ys = solve_piecewise(lambda time, y: [float(load_level(law, time))], [0.0], t, motor, 1e-3, 1e-3, [law])
         assert np.max(np.abs(ys[0] - exact)) < 1e-12
+
+
+def test_a_reference_solve_reports_its_progress_in_simulated_time():
+    """`ujfmu references` of a stiff set-up took minutes with one line (a trial's): the solve reports how far it has
+    come, in ms of simulated time over its whole span (pieces cut at a profile's corners included), rising to it;
+    outside solve_progress nothing is reported."""
+    from ujfmu.references.common import solve_piecewise, solve_progress
+    calls = []
+    t = np.linspace(0.0, 0.2, 201)
+
+    def stiff(time_, y):   # DOP853 at its stability limit: about 2e4 evaluations over 0.2 s
+        return np.array([-1e5 * (y[0] - np.cos(1e3 * time_))])
+    ramp = {"profile": 1, "omega_set": 10.0, "accel": 100.0, "omega_initial": 0.0}   # a corner at 0.1 s
+    with solve_progress(lambda done, total: calls.append((done, total))):
+        y = solve_piecewise(stiff, np.array([1.0]), t, ramp, 1e-8, 1e-10)
+    assert y.shape == (1, 201) and len(calls) >= 5 and {total for _, total in calls} == {200}
+    assert all(b >= a for (a, _), (b, _) in zip(calls, calls[1:])) and 0 < calls[0][0] and 100 < calls[-1][0] <= 200
+    before = len(calls)
+    solve_piecewise(stiff, np.array([1.0]), t[:51], ramp, 1e-8, 1e-10)
+    assert len(calls) == before

@@ -1718,11 +1718,11 @@ def test_a_grid_that_steps_over_a_mode_crossing_where_an_order_peaks_says_so_wit
     assert text in capsys.readouterr().out
 
 
-def test_plot_before_run_makes_its_folder(brutti, tmp_path):
+def test_plot_before_run_makes_its_folder(brutti, tmp_path, fmu_dir):
     """A script's sweep.plot() before sweep.run() (a fresh-eyes trial's) had blamed a full disk for the folder the
     run would make: it makes the folder and draws what it has (the model's natural frequencies, no point)."""
     from ujfmu.sweep import Axis
     settings = SweepSettings.from_scenario(brutti, running_speed="motor.omega", settle_time=0.1)
-    sweep = Sweep(brutti, [Axis.of("load.c1", [0.0, 0.001])], settings, out_dir=tmp_path / "fresh")
+    sweep = Sweep(brutti, [Axis.of("load.c1", [0.0, 0.001])], settings, out_dir=tmp_path / "fresh", fmu_dir=fmu_dir)
     paths = sweep.plot()
     assert paths and all(Path(p).is_file() and Path(p).parent == tmp_path / "fresh" for p in paths)

@@ -70,6 +70,8 @@ def _note_subfolders(folder: Path, named) -> list:
 #: off a terminal (a CI log), sweeps say their progress in a line at each tenth of their points and at the end of a
 #: point PLAIN_PROGRESS_EVERY s or more after the last line
 PLAIN_PROGRESS_EVERY = 60.0
+#: a reference's solve off a terminal says its progress so only from this many seconds on (most take a few)
+PLAIN_PROGRESS_AFTER = 10.0
 #: computed points (at least; three rounds of the workers) after which a sweep off a terminal says the time to go
 #: once, where it is a minute or more (on a terminal the bar shows it), at the pace of the points after the first
 #: round (which also pays the workers' start and first imports)
@@ -78,9 +80,10 @@ PACE_AFTER_POINTS = 4
 
 @contextlib.contextmanager
 def _progress(args, desc, unit, clock=time.perf_counter):
-    """A progress callback(done, total) drawing a tqdm bar on stderr; off a terminal (CI logs), for sweep points, a
-    plain line now and then instead (``PLAIN_PROGRESS_EVERY``), for anything else nothing; None with --quiet."""
-    if args.quiet or (not sys.stderr.isatty() and unit != "point"):
+    """A progress callback(done, total) drawing a tqdm bar on stderr; off a terminal (CI logs), for sweep points and a
+    reference's solve (ms of simulated time), a plain line now and then instead (``PLAIN_PROGRESS_EVERY``; for
+    points with the pace), for anything else nothing; None with --quiet."""
+    if args.quiet or (not sys.stderr.isatty() and unit not in ("point", "ms")):
         yield None
         return
     if not sys.stderr.isatty():
@@ -93,14 +96,16 @@ def _progress(args, desc, unit, clock=time.perf_counter):
             now, tenth = clock(), (10 * done) // max(total, 1)
             if said["first"] is None:   # the points reused from a journal are done at once
                 said["first"] = done
-            if done and (tenth > said["tenth"] or now - said["at"] >= PLAIN_PROGRESS_EVERY):
+            if (done and (tenth > said["tenth"] or now - said["at"] >= PLAIN_PROGRESS_EVERY)
+                    and (unit == "point" or now - started >= PLAIN_PROGRESS_AFTER)):
                 said.update(tenth=tenth, at=now)
-                print(f"  {desc}: {done} of {total} {unit}s done ({now - started:.0f} s)", file=sys.stderr,
-                      flush=True)
+                print(f"  {desc}: {done} of {total} {unit if unit == 'ms' else unit + 's'} done "
+                      f"({now - started:.0f} s)", file=sys.stderr, flush=True)
             computed = done - said["first"]
             if said["round"] is None and computed >= parallel:   # the first round's end: (points, time)
                 said["round"] = computed, now
-            if not said["paced"] and computed >= pace_after and done < total and computed > said["round"][0]:
+            if (unit == "point" and not said["paced"] and computed >= pace_after and done < total
+                    and computed > said["round"][0]):
                 said["paced"] = True
                 pace = (now - said["round"][1]) / (computed - said["round"][0])
                 if pace * (total - done) >= PLAIN_PROGRESS_EVERY:
@@ -540,7 +545,7 @@ def cmd_references(args):
     for module in ("scipy", "sympy"):
         require(module, "references", "ujfmu references")
     from .references import generate, provenance_of, scenario_of, write_reference
-    from .references.common import ReferenceCheckError, ReferenceStallError, WiringError
+    from .references.common import ReferenceCheckError, ReferenceStallError, WiringError, solve_progress
     from .scenario import Scenario, ScenarioError
     wrote = 0
     for path in _scenarios(args.scenarios):
@@ -556,7 +561,9 @@ def cmd_references(args):
             raise ScenarioError(f"{foreign}; or delete {target} if {owner} is gone")
         _say(args, f"{scenario.path}: solving the reference ({scenario.stop_time - scenario.start_time:g} s)")
         try:
-            table, provenance = generate(scenario)
+            with _progress(args, f"{scenario.name}: reference solve (simulated time)", "ms") as progress, \
+                    solve_progress(progress):
+                table, provenance = generate(scenario)
         except (WiringError, ReferenceStallError) as exc:   # named once: a wiring error starts with the path
             text = str(exc)
             raise ScenarioError(text if text.startswith(f"{scenario.path}:") else f"{scenario.path}: {text}") from None

@@ -154,6 +154,26 @@ class SolverOverride:
     solves = 0
 
 
+#: the solve's progress is reported (``solve_progress``) every this many evaluations of the right-hand side
+PROGRESS_EVALUATIONS = 2000
+
+
+class SolveProgress:
+    """callback(done, total) in milliseconds of simulated time of the solve under way, or None (``solve_progress``)."""
+    callback = None
+
+
+@contextmanager
+def solve_progress(callback):
+    """Within the block each solve_piecewise reports how far its solve has come: callback(done, total) in
+    milliseconds of simulated time, every ``PROGRESS_EVALUATIONS`` evaluations of its right-hand side."""
+    SolveProgress.callback = callback
+    try:
+        yield
+    finally:
+        SolveProgress.callback = None
+
+
 @contextmanager
 def solver_override(rtol, atol):
     """Within the block every solve_piecewise uses rtol/atol; yields SolverOverride with the time it took."""
@@ -173,16 +193,21 @@ class ReferenceStallError(RuntimeError):
 STALL_EVALUATIONS, STALL_SHARE = 20_000, 1e-5
 
 
-def _watched(rhs, lo, hi, motor_params):
+def _watched(rhs, lo, hi, motor_params, span=None):
     """rhs on the piece [lo, hi), raising ReferenceStallError when the solve stalls. At hi itself (a Runge-Kutta
     step's last stage, its dense output's) rhs is taken one float before it: the piece's left limit, where a load
     step or a speed step at hi has not happened yet (evaluated there, the step leaks into the whole last step of
-    the piece: 2.8e-3 of a 2 N.m load step's integral at rtol 1e-3)."""
+    the piece: 2.8e-3 of a 2 N.m load step's integral at rtol 1e-3). span: the whole solve's (start, end), whose
+    progress goes to ``SolveProgress.callback``."""
     seen = {"count": 0, "at": lo}
     left = float(np.nextafter(hi, lo))
+    report = SolveProgress.callback
+    start, end = span or (lo, hi)
 
     def f(time_, y):
         seen["count"] += 1
+        if report is not None and seen["count"] % PROGRESS_EVALUATIONS == 0:
+            report(round(1000.0 * (min(time_, hi) - start)), round(1000.0 * (end - start)))
         if seen["count"] % STALL_EVALUATIONS == 0:
             if time_ - seen["at"] < STALL_SHARE * (hi - lo):
                 pi = "Kp" in motor_params and not motor_params.get("ideal_speed_source", False)
@@ -216,8 +241,8 @@ def solve_piecewise(rhs, y0, t, motor_params, rtol, atol, loads=()):
     cuts = corners(motor_params, t[0], t[-1], loads)
     for lo, hi in zip(cuts[:-1], cuts[1:]):
         sel = (t >= lo) & (t <= hi) if hi == cuts[-1] else (t >= lo) & (t < hi)
-        sol = solve_ivp(_watched(rhs, lo, hi, motor_params), (lo, hi), y, method="DOP853", rtol=rtol, atol=atol,
-                        t_eval=t[sel], dense_output=True)
+        sol = solve_ivp(_watched(rhs, lo, hi, motor_params, (cuts[0], cuts[-1])), (lo, hi), y, method="DOP853",
+                        rtol=rtol, atol=atol, t_eval=t[sel], dense_output=True)
         if not sol.success:
             raise RuntimeError(f"reference solve failed: {sol.message}")
         pieces.append(sol.y)
