@@ -1571,3 +1571,12 @@ def test_a_reference_solves_progress_is_said_off_a_terminal_once_it_takes_a_whil
             say(done, 8000)
     lines = capsys.readouterr().err.splitlines()
     assert lines == [f"  s: reference solve (simulated time): 3000 of 8000 ms done ({PLAIN_PROGRESS_AFTER + 2:.0f} s)"]
+
+
+def test_run_names_its_files_by_absolute_paths(fmu_dir, tmp_path, capsys, monkeypatch):
+    """`ujfmu run --out out` names the files it wrote by their absolute paths (a relative one, as given, is read
+    against whatever directory the log's reader is in)."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", str(SCENARIOS / "cardan_constant_speed.toml"), "--fmu-dir", str(fmu_dir), "--out", "out",
+                 "--no-plot"]) == 0
+    assert f"  results: {tmp_path / 'out' / 'cardan_constant_speed.csv'}\n" in capsys.readouterr().out

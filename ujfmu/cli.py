@@ -391,9 +391,10 @@ def cmd_run(args):
     if not math.isclose(scenario.step_size, scenario.declared_step, rel_tol=1e-9):   # beside the file's results
         scenario.name = f"{scenario.name}_step{scenario.step_size:g}"
     result = _run_one(args, args.scenario, scenario)
-    _say(args, f"  results: {result.csv}" + (f"\n  plot:    {result.plot}" if result.plot else ""))
+    _say(args, f"  results: {Path(result.csv).absolute()}"
+         + (f"\n  plot:    {Path(result.plot).absolute()}" if result.plot else ""))
     for extra in result.extra_plots:
-        _say(args, f"  plot:    {extra}")
+        _say(args, f"  plot:    {Path(extra).absolute()}")
     _plots_missing(args)
     _band_missing([result])
     step_ok = True
