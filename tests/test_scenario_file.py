@@ -884,3 +884,7 @@ def test_the_speed_driven_wiring_on_a_torque_driven_fmu_names_the_wiring_it_need
         Scenario(path)
     assert ("is an output, not an input (DoubleCardanDriveline is driven by speed: omega_in is its input and tau_in "
             "its output; DoubleCardanDrivelineTorqueDriven takes tau_in)") in str(err.value)
+    # the PI Motor's rotor inertia looked for on the MotorController: where it lives in this wiring
+    with pytest.raises(ScenarioError, match=r"MotorController has no parameter 'J_rotor' \(the motor's rotor inertia "
+                       r"is the driven machine's: set J_drive of the torque-driven FMU it drives;"):
+        Scenario(SCENARIOS / "double_cardan_stiff_torque_driven.toml").with_parameters({"motor.J_rotor": 0.5})

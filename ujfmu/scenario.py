@@ -73,6 +73,9 @@ MAX_REL_RANGE = 0.5
 _OTHER_CAUSALITY = {"input": "an input: connect it, or set it under inputs",
                     "parameter": "a parameter: set it under parameters",
                     "output": "an output, which the FMU computes"}
+#: where a parameter a user looks for on one FMU lives in this wiring: (FMU, name) -> where
+_MISPLACED = {("MotorController", "J_rotor"): "the motor's rotor inertia is the driven machine's: set J_drive of the "
+              "torque-driven FMU it drives; the MotorController is the speed loop alone"}
 
 
 def plain_number(value):
@@ -667,6 +670,7 @@ class Scenario:
             raise ScenarioError(f"{self.path}: {field}: {fmu} has no {causality} '{pname}'"
                                 + (f" (it is {_OTHER_CAUSALITY.get(other, 'an ' + str(other))})" if other else "")
                                 + (f" (did you mean {' or '.join(close)}?)" if close else "")
+                                + (f" ({_MISPLACED[fmu, pname]})" if (fmu, pname) in _MISPLACED else "")
                                 + f" (it has {', '.join(declared) or 'none'})")
         var = declared[pname]
         kinds = (bool,) if var.type is bool else (int,) if var.type is int else (int, float)
