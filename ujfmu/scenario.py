@@ -51,7 +51,7 @@ from typing import IO
 import numpy as np
 
 from .build import DEFAULT_FMU_DIR, FMUS, PACKAGE_DIR, REPO_DIR, build_hint, fmu_class, source_hash
-from .fmu.base import model_stem
+from .fmu.base import HUMAN_UNITS, model_stem
 from .master import COUPLINGS, DEFAULT_COUPLING, MAX_STEPS, Component, Connection
 
 
@@ -85,6 +85,17 @@ def plain_number(value):
     if callable(item) and getattr(value, "shape", None) == ():
         return item()
     return value
+
+
+def _converted(var, value) -> str:
+    """': "8deg" is 0.139626' for a string of a number and the human unit of var's SI unit (deg for rad, rpm for
+    rad/s), the number to give; else ''."""
+    human = HUMAN_UNITS.get(var.unit)
+    match = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\w+)\s*", value) \
+        if isinstance(value, str) else None
+    if human is None or match is None or match[2] != human[0]:
+        return ""
+    return f": {value!r} is {float(match[1]) * human[1]:.6g} {var.unit}"
 
 
 def _expected(var):
@@ -675,7 +686,7 @@ class Scenario:
         var = declared[pname]
         kinds = (bool,) if var.type is bool else (int,) if var.type is int else (int, float)
         if not isinstance(value, kinds) or (var.type is not bool and isinstance(value, bool)):
-            raise ScenarioError(f"{self.path}: {field} = {value!r} must be {_expected(var)}")
+            raise ScenarioError(f"{self.path}: {field} = {value!r} must be {_expected(var)}{_converted(var, value)}")
         problem = var.check(var.type(value))
         if problem:
             raise ScenarioError(f"{self.path}: {field}: {problem}")
