@@ -416,6 +416,10 @@ class Scenario:
         self.file_reference = self.reference_file
         self.file_step_size, self.file_coupling = self.step_size, self.coupling
 
+    def __repr__(self) -> str:
+        parts = ", ".join(f"{c} ({fmu})" for c, (fmu, _) in self.components.items())
+        return f"<Scenario {self.name} from {self.path}: {parts}>"
+
     def _read_header(self, data):
         """The top-level fields: only known ones; title and description strings."""
         unknown = set(data) - TOP_LEVEL_KEYS

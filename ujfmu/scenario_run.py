@@ -879,6 +879,10 @@ class ScenarioResult:
         rows = 0 if self.table is None else len(self.table)
         return f"<ScenarioResult {self.scenario.name}: {self.verdict}, {rows} rows, csv={self.csv}>"
 
+    def unit(self, column: str) -> str:
+        """The unit of a column of ``table`` ("s" for time): the scenario's declared one (``Scenario.unit``)."""
+        return self.scenario.unit(column)
+
     @property
     def checked(self) -> bool:
         """True when at least one signal was compared with a reference."""
