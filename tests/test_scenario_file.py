@@ -896,7 +896,8 @@ def test_the_speed_driven_wiring_on_a_torque_driven_fmu_names_the_wiring_it_need
 
 def test_a_scenario_and_its_result_say_what_they_are_in_a_notebook(fmu_dir):
     """A notebook's repr of a Scenario names it, its file and components (it had been the default object repr); a
-    result gives each column's unit; an axis of one bare number is refused with the list to give."""
+    result gives each column's unit, and its table, which its figures read, is read-only (a copy is not); an axis of
+    one bare number is refused with the list to give."""
     import ujfmu
     from ujfmu.sweep import Axis
     scenario = Scenario(SCENARIOS / "cardan_constant_speed.toml")
@@ -905,5 +906,9 @@ def test_a_scenario_and_its_result_say_what_they_are_in_a_notebook(fmu_dir):
     result = ujfmu.run_scenario(scenario.with_stop_time(0.01), fmu_dir=fmu_dir, out_dir=None, plot=False)
     assert [result.unit(c) for c in ("time", "joint.omega_out", "joint.tau_in", "joint.phi_out")] == [
         "s", "rad/s", "N.m", "rad"]
+    with pytest.raises(ValueError, match="read-only"):   # a script's rpm conversion in place had changed its figures
+        result.table["joint.omega_out"] *= 30.0 / math.pi
+    rpm = result.table.copy()
+    rpm["joint.omega_out"] *= 30.0 / math.pi
     with pytest.raises(ValueError, match=r"takes a sequence of values, not 5: give \[5\] for one point"):
         Axis.of("load.c1", 5)

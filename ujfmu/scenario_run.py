@@ -1564,6 +1564,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
             if scenario.spectra:
                 result.extra_plots.append(plot_spectra(result, out_dir / f"{scenario.name}_spectra.png"))
     result.total_time = time.perf_counter() - begun
+    result.table.flags.writeable = False   # its checks, figures and steady_orders() read it: copy it to change it
     return result
 
 
