@@ -492,3 +492,11 @@ def test_steps_taken_at_their_best_iterate_are_said(fmu_dir, monkeypatch):
         worst = float(lines[0].split("up to ")[1].split("x its tolerance")[0])
         assert 1.0 < worst <= master.STALL_FACTOR
     assert result.extrapolated_checks   # the file's run: its step-halving rerun ran
+
+
+def test_a_step_estimate_without_its_fmus_names_the_remedy(tmp_path):
+    """stepsize.estimate from a script in another directory, its FMUs not there, had returned a failed estimate
+    whose text gave no remedy: it raises the ScenarioError a run gives, naming the folder and the build."""
+    from ujfmu.scenario import ScenarioError
+    with pytest.raises(ScenarioError, match=r"Motor.fmu not found \(run `ujfmu build --fmu-dir .*none` first\)"):
+        stepsize.estimate(Scenario(LIGHT), fmu_dir=tmp_path / "none")

@@ -123,6 +123,7 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     sampling = []
     try:
         if coarse is None:
+            scenario.check_fmus(fmu_dir)   # missing FMUs: a ScenarioError naming the remedy, not a failed estimate
             speeds = [f"{name}.omega_in" for name, _ in sampled_components(run)
                       if f"{name}.omega_in" not in run.record]
             coarse = cosimulate(run.master_components(fmu_dir), run.connections, run.stop_time, run.step_size,
