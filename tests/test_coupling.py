@@ -475,7 +475,8 @@ def test_steps_taken_at_their_best_iterate_are_said(fmu_dir, monkeypatch):
     not the run's stated accuracy, and it had been counted and reported nowhere. With the quasi-Newton budget cut
     to one iteration and no rebuild, cardan_startup's ramp takes such a step: the run's warnings name how many, of
     how many, and how far over, also where its [reference.extrapolated] bands rerun it at half the step (a review
-    found the line dropped there); with the scheme's own budget none is taken and none said."""
+    found the line dropped there), and in the error of a run that stops after taking some; with the scheme's own
+    budget none is taken and none said."""
     import ujfmu.master as master
     from ujfmu.scenario_run import run_scenario
     said = "steps at its best iterate, their coupling residual up to"
@@ -492,6 +493,15 @@ def test_steps_taken_at_their_best_iterate_are_said(fmu_dir, monkeypatch):
         worst = float(lines[0].split("up to ")[1].split("x its tolerance")[0])
         assert 1.0 < worst <= master.STALL_FACTOR
     assert result.extrapolated_checks   # the file's run: its step-halving rerun ran
+    # a run that stops after such steps says them in its error (its warnings are never returned): at 3 s of 6
+    from ujfmu.master import CosimulationError
+    with monkeypatch.context() as budget, pytest.raises(CosimulationError) as stopped:
+        budget.setattr(master, "MAX_ITERATIONS", 1)
+        budget.setattr(master, "MAX_REBUILDS", 0)
+        run_scenario(Scenario(SCENARIOS / "cardan_startup.toml"), fmu_dir, out_dir=None, plot=False,
+                     progress=lambda done, total: done < 3000)
+    note = [line for line in str(stopped.value).splitlines() if said in line]
+    assert len(note) == 1 and note[0].startswith("note: the implicit coupling took ") and " of 30" in note[0], note
 
 
 def test_a_step_estimate_without_its_fmus_names_the_remedy(tmp_path):

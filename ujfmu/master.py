@@ -1882,8 +1882,9 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
     progress: optional callable(steps_done, steps_total) called now and then. diagnostics: optional dict, filled
     (also when the run fails) with "bonds" (``BondEnergy`` per power bond), "held_inputs" (``HeldInput`` per
     input no connection feeds) and "fmu_warnings" (the FMUs' warnings as logged, each once, as they are also
-    warned: ``FmuWarning``), and after a run with "iterates" (``Cosimulation.iterates``) and "stalled" (the implicit
-    scheme's steps taken at their best iterate, the largest residual among them in tolerances, the steps in all).
+    warned: ``FmuWarning``), "stalled" (the implicit scheme's steps taken at their best iterate, the largest
+    residual among them in tolerances, the steps taken in all; also when the run fails) and after a run
+    "iterates" (``Cosimulation.iterates``).
     """
     if not (isinstance(step_size, numbers.Real) and step_size > 0.0 and math.isfinite(step_size)):
         raise CosimulationError(f"communication step size {step_size!r} must be finite and > 0")
@@ -1903,10 +1904,13 @@ def cosimulate(components, connections, stop_time, step_size, record, start_time
     with Cosimulation(components, connections, step_size, record, start_time, coupling) as cosim:
         if diagnostics is not None:
             diagnostics.update(bonds=cosim.bond_energies, held_inputs=cosim.held_inputs, fmu_warnings=cosim.warned)
-        table = cosim.run(n_steps, progress, output_interval)
+        try:
+            table = cosim.run(n_steps, progress, output_interval)
+        finally:   # a failed run's stalled steps too: they may be why it failed
+            if diagnostics is not None:
+                diagnostics["stalled"] = (cosim.stalled_steps, cosim.stalled_worst, cosim.steps_done)
         if diagnostics is not None:
             diagnostics["iterates"] = cosim.iterates
-            diagnostics["stalled"] = (cosim.stalled_steps, cosim.stalled_worst, n_steps)
     if cosim.interrupted_while_closing:   # the run is complete: stopped with it
         stopped = Interrupted(f"stopped at t = {stop_time:.10g} s, the run's end, while its FMUs were freed")
         stopped.partial = table

@@ -1475,6 +1475,8 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
             held = "\n".join(f"hint: {h.text()}: a periodic torque the step can hardly carry makes the coupling "
                              "chatter or grow on its own; take the smaller step first" for h in coarse)
             hint = "\n".join(h for h in (driving_load_hint(scenario), held, oscillating, stalled, hint) if h)
+        took = "\n".join(f"note: {line}" for line in stalled_lines(diagnostics.get("stalled")))
+        hint = "\n".join(h for h in (took, hint) if h)   # steps taken outside the tolerance before it failed
         if hint:
             exc.args = (f"{exc.args[0]}\n{hint}",) + exc.args[1:]
         _keep_partial(scenario, exc, extra, out_dir, plot, model_exchange)
