@@ -1299,10 +1299,20 @@ def compare(table, reference, tolerances, units: dict | None = None, measured: b
 TAIL_SHARE, TAIL_STEADY = 0.25, 0.01
 
 
+def _swing(t: np.ndarray, x: np.ndarray) -> float:
+    """Half the peak-to-peak of x about its least-squares quadratic in t: a vibration's, without the trend of a
+    signal still settling (which is no vibration a band could miss)."""
+    if len(x) < 4:
+        return 0.5 * float(np.ptp(x))
+    span = float(t[-1] - t[0]) or 1.0
+    s = (np.asarray(t, dtype=float) - float(t[0])) / span
+    return 0.5 * float(np.ptp(x - np.polyval(np.polyfit(s, x, 2), s)))
+
+
 def mark_vibration_blind(scenario: Scenario, table: np.ndarray, reference: np.ndarray, checks: list) -> None:
     """Mark as checking the level only (``SignalCheck.level_only``, its note saying why) each check whose band is at
-    least half the signal's peak-to-peak over the steady window (``output.steady_from`` on), in the run or in the
-    reference, where that vibration is at least ``VISIBLE_VIBRATION`` of the reference's range and its orders are
+    least half the signal's peak-to-peak (about its trend, :func:`_swing`) over the steady window
+    (``output.steady_from`` on), in the run or in the reference, where that vibration is at least ``VISIBLE_VIBRATION`` of the reference's range and its orders are
     not compared ([reference.orders]): a flat line through the window's middle, a signal or a reference without
     the vibration, passes such a band. Signals that grow (running angles, energy integrals: ``steady.grows``) have
     no steady vibration and are left out, as the steady window's figures leave them out. A scenario without a
@@ -1334,8 +1344,9 @@ def mark_vibration_blind(scenario: Scenario, table: np.ndarray, reference: np.nd
     for check in checks:
         if check.level_only or check.name in scenario.order_tolerances or check.name not in steady_signals:
             continue
-        swings = [(0.5 * float(np.ptp(x)), what)
-                  for x, what in ((window[check.name], "the run"), (theirs[check.name], "the reference")) if len(x)]
+        swings = [(_swing(t, x), what) for t, x, what in ((window["time"], window[check.name], "the run"),
+                                                           (theirs["time"], theirs[check.name], "the reference"))
+                  if len(x)]
         swing, where = max(swings)
         size = max((float(np.max(np.abs(x))) for x in (window[check.name], theirs[check.name]) if len(x)), default=0.0)
         if not (swing >= VISIBLE_VIBRATION * check.reference_range and check.allowed >= swing > 0.0
