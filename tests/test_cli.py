@@ -181,7 +181,7 @@ def test_a_scenario_without_reference_is_not_checked_never_passed(fmu_dir, tmp_p
     assert main(["check", str(SCENARIOS / "cardan_constant_speed.toml"), str(unchecked), "--strict", "--junit",
                  str(junit)] + common) == 1
     captured = capsys.readouterr()   # counted as failed, as its JUnit case and the exit status have it
-    assert "--strict: 1 scenario(s) not checked: unchecked" in captured.err
+    assert "--strict: 1 scenario(s) compare nothing: unchecked" in captured.err
     assert "1 passed, 1 failed (--strict: 1 compares nothing), 0 not checked" in captured.out
     suite = ET.parse(junit).getroot()   # its report fails that case too, and only that one
     cases = {c.get("name"): c for c in suite.iter("testcase")}
@@ -1552,13 +1552,14 @@ def test_an_out_dir_that_is_a_file_is_refused_before_the_run(fmu_dir, tmp_path):
     from ujfmu.scenario import ScenarioError
     taken = tmp_path / "results"
     taken.write_text("not a folder")
-    with pytest.raises(ScenarioError, match=r"out_dir .*results is a file: give the folder the results go to"):
-        ujfmu.run_scenario(SCENARIOS / "cardan_constant_speed.toml", fmu_dir=fmu_dir, out_dir=taken, plot=False)
+    for out in (taken, taken / "sub"):   # a folder under a file too (a review's: an internal error after the run)
+        with pytest.raises(ScenarioError, match=r"out_dir .*: .*results is a file: give a folder for the results"):
+            ujfmu.run_scenario(SCENARIOS / "cardan_constant_speed.toml", fmu_dir=fmu_dir, out_dir=out, plot=False)
 
 
 def test_a_reference_solves_progress_is_said_off_a_terminal_once_it_takes_a_while(capsys):
     """Off a terminal (a CI log), a reference's solve says how far it has come at each tenth once it has run 10 s
-    (most take a few, and say nothing more), in ms of simulated time."""
+    (most take a few, and say nothing more), in ms of simulated time; a second solve (a second rotor's) counts anew."""
     from types import SimpleNamespace
 
     from ujfmu.cli import PLAIN_PROGRESS_AFTER, _progress
@@ -1566,11 +1567,13 @@ def test_a_reference_solves_progress_is_said_off_a_terminal_once_it_takes_a_whil
     with _progress(SimpleNamespace(quiet=False), "s: reference solve (simulated time)", "ms",
                    clock=lambda: now[0]) as say:
         for at, done in ((1.0, 1000), (PLAIN_PROGRESS_AFTER - 1.0, 2000), (PLAIN_PROGRESS_AFTER + 2.0, 3000),
-                         (PLAIN_PROGRESS_AFTER + 3.0, 3100)):
-            now[0] = at
+                         (PLAIN_PROGRESS_AFTER + 3.0, 3100), (PLAIN_PROGRESS_AFTER + 4.0, 7900),
+                         (PLAIN_PROGRESS_AFTER + 5.0, 300), (PLAIN_PROGRESS_AFTER + 6.0, 1200)):
+            now[0] = at   # the last two: a second solve (a second rotor's), counted from 0 again
             say(done, 8000)
     lines = capsys.readouterr().err.splitlines()
-    assert lines == [f"  s: reference solve (simulated time): 3000 of 8000 ms done ({PLAIN_PROGRESS_AFTER + 2:.0f} s)"]
+    assert [line.split(": ")[-1] for line in lines] == [
+        f"{done} of 8000 ms done ({PLAIN_PROGRESS_AFTER + at:.0f} s)" for at, done in ((2, 3000), (4, 7900), (6, 1200))]
 
 
 def test_run_names_its_files_by_absolute_paths(fmu_dir, tmp_path, capsys, monkeypatch):

@@ -910,5 +910,6 @@ def test_a_scenario_and_its_result_say_what_they_are_in_a_notebook(fmu_dir):
         result.table["joint.omega_out"] *= 30.0 / math.pi
     rpm = result.table.copy()
     rpm["joint.omega_out"] *= 30.0 / math.pi
-    with pytest.raises(ValueError, match=r"takes a sequence of values, not 5: give \[5\] for one point"):
-        Axis.of("load.c1", 5)
+    for one in (5, np.array(5)):   # a 0-d array too
+        with pytest.raises(ValueError, match=r"takes a sequence of numbers, not .*5.*: give \[5\] for one point"):
+            Axis.of("load.c1", one)

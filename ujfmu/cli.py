@@ -94,6 +94,8 @@ def _progress(args, desc, unit, clock=time.perf_counter):
 
         def say(done, total):
             now, tenth = clock(), (10 * done) // max(total, 1)
+            if tenth < said["tenth"]:   # a count that starts again (a reference's next solve): its tenths anew
+                said["tenth"] = 0
             if said["first"] is None:   # the points reused from a journal are done at once
                 said["first"] = done
             if (done and (tenth > said["tenth"] or now - said["at"] >= PLAIN_PROGRESS_EVERY)
@@ -510,7 +512,7 @@ def _check(args, kind: str) -> int:
               file=sys.stderr)   # counted as failed above where that fails the gate, else as not checked
     strict_fail = False
     if unchecked and args.strict and len(unchecked) < len(results):
-        print(f"ujfmu: error: --strict: {len(unchecked)} scenario(s) not checked: "
+        print(f"ujfmu: error: --strict: {len(unchecked)} scenario(s) compare nothing: "
               f"{', '.join(r.scenario.name for r in unchecked)}", file=sys.stderr)
         strict_fail = True
     if blind:

@@ -1442,8 +1442,11 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     scenario.check_experiment()
     scenario.check_setup()   # what a caller changed after reading: refused before anything runs, as a file's
     scenario.check_fmus(fmu_dir)
-    if out_dir is not None and Path(out_dir).exists() and not Path(out_dir).is_dir():
-        raise ScenarioError(f"out_dir {Path(out_dir).absolute()} is a file: give the folder the results go to")
+    if out_dir is not None:   # the folder, or the nearest of its parents that exists, must be a folder
+        existing = next(p for p in (Path(out_dir).absolute(), *Path(out_dir).absolute().parents) if p.exists())
+        if not existing.is_dir():
+            raise ScenarioError(f"out_dir {Path(out_dir).absolute()}: {existing} is a file: give a folder for the "
+                                "results (the command line's --out)")
     reference, provenance = None, ""
     if scenario.reference_file is not None:   # a missing reference file is an error before anything runs
         reference, provenance = scenario.reference()

@@ -104,9 +104,10 @@ class Axis:
         if unit not in UNITS:
             raise ValueError(f"unknown unit {unit!r}: use 'rpm' or 'rad/s' (rad/s parameters), 'deg' or 'rad' (rad "
                              "parameters) or '' (SI)")
-        if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
-            raise ValueError(f"the axis of {', '.join(names)} takes a sequence of values, not {values!r}: give "
-                             f"[{values!r}] for one point")
+        if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__") or getattr(values, "ndim", 1) == 0:
+            raise ValueError(f"the axis of {', '.join(names)} takes a sequence of numbers, not {values!r}"
+                             + ("" if isinstance(values, (str, bytes)) else f": give [{plain_number(values)!r}] for "
+                                "one point"))
         values = [plain_number(v) for v in values]   # numpy numbers and bools as the Python ones they hold
         if not values:
             raise ValueError(f"the axis of {', '.join(names)} has no values: give at least one")
