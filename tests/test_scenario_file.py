@@ -121,7 +121,8 @@ def test_good_file_loads(tmp_path):
     # a value typed with a human unit is refused with the SI number it stands for
     ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { bend_angle = "8deg" }',
      "bend_angle = '8deg' must be a number in rad (scenario values"),
-    ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { bend_angle = " 8.5 deg" }', "' 8.5 deg' is 0.148353 rad"),
+    ('fmu = "CardanJoint"', 'fmu = "CardanJoint"\nparameters = { bend_angle = " 8.5 deg" }',
+     "' 8.5 deg' is 0.148353 rad"),
     # a misspelt signal gets the recorded one it is close to; a band that allows nothing is refused
     ('record = ["j.tau_in"]', 'record = ["j.tau_in"]' + REF + '\n[reference.extrapolated]\n"j.tau_inn" = { abs = 1 }',
      "reference.extrapolated.j.tau_inn: not a recorded signal (did you mean 'j.tau_in'?)"),
