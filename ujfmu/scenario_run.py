@@ -1312,14 +1312,14 @@ def _swing(t: np.ndarray, x: np.ndarray) -> float:
 def mark_vibration_blind(scenario: Scenario, table: np.ndarray, reference: np.ndarray, checks: list) -> None:
     """Mark as checking the level only (``SignalCheck.level_only``, its note saying why) each check whose band is at
     least half the signal's peak-to-peak (about its trend, :func:`_swing`) over the steady window
-    (``output.steady_from`` on), in the run or in the reference, where that vibration is at least
-    ``VISIBLE_VIBRATION`` of the reference's range and its orders are not compared ([reference.orders]): a flat line
-    through the window's middle, a signal or a reference without the vibration, passes such a band. Signals that grow (running angles, energy integrals: ``steady.grows``) have
-    no steady vibration and are left out, as the steady window's figures leave them out. A scenario without a
-    steady window is looked at over the last ``TAIL_SHARE`` of its run instead where its running speed (else its
-    Motor's or a driven input shaft's) holds within ``TAIL_STEADY`` of itself there (a copy of a scenario without
-    steady_from, at a constant speed, had passed with bands wider than its torque's whole 2x ripple); a run still
-    ramping or settling there is not looked at (its trend is no vibration)."""
+    (``output.steady_from`` on), in the run or in the reference, where that vibration is at least ``VISIBLE_VIBRATION``
+    of the reference's range and its orders are not compared ([reference.orders]): a flat line through the window's
+    middle, a signal or a reference without the vibration, passes such a band. Signals that grow (running angles, energy
+    integrals: ``steady.grows``) have no steady vibration and are left out, as the steady window's figures leave them
+    out. A scenario without a steady window is looked at over the last ``TAIL_SHARE`` of its run instead where its
+    running speed (else its Motor's or a driven input shaft's) holds within ``TAIL_STEADY`` of itself there (a copy of a
+    scenario without steady_from, at a constant speed, had passed with bands wider than its torque's whole 2x ripple); a
+    run still ramping or settling there is not looked at (its trend is no vibration)."""
     from .steady import grows
     steady = _steady_window(scenario, table)
     if steady is not None:
