@@ -1358,7 +1358,8 @@ def mark_vibration_blind(scenario: Scenario, table: np.ndarray, reference: np.nd
         order = f"; the run's largest order there {largest[1]}x, {largest[0]:.3g}{unit}" if largest else ""
         check.level_only = True
         blind = (f"{LEVEL_ONLY} over {over} from t = {since:g} s: the band, {check.allowed:.3g}"
-                 f"{unit}, is at least half the signal's peak-to-peak there ({swing:.3g}{unit} in {where}{order}), so "
+                 f"{unit}, is at least half the signal's peak-to-peak about its trend there ({swing:.3g}{unit} in "
+                 f"{where}{order}), so "
                  "a flat line through its middle, a signal without that vibration, would pass; compare its orders "
                  f"([reference.orders] \"{check.name}\" = {{ rel = 0.05 }}) or tighten the band below it")
         check.note = f"{check.note}; {blind}" if check.note else blind   # a failure's likely cause stays first
