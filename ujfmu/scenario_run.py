@@ -369,15 +369,19 @@ class OrderCheck:
                 f"allowed {100 * self.rel:.3g}%)")
 
 
-def machine_orders(scenario) -> set:
-    """The running-speed orders the scenario's machines carry at their parameters (``analysis.carried_orders``: a
-    Cardan joint's 2x, an unbalance's 1x) and its Loads' periodic torques (``analysis.load_orders``); none for an
-    object without components."""
+def machine_orders(scenario) -> dict:
+    """{machine component: the running-speed orders it carries at its parameters (``analysis.carried_orders``: a
+    Cardan joint's 2x, an unbalance's 1x) and those of the Loads' periodic torques on it (``analysis.load_orders``),
+    a Load's own under its name}; {} for an object without components."""
     from .analysis import DRIVES_AND_LOADS, carried_orders, load_orders
     components = getattr(scenario, "components", {})
-    orders = {k for name, (fmu, _) in components.items() if fmu not in DRIVES_AND_LOADS
-              for k in carried_orders(fmu_class(fmu).PHYSICS, scenario.model_parameters(name))}
-    return orders | ({k for loads in load_orders(scenario).values() for _, k in loads} if components else set())
+    orders = {name: set(carried_orders(fmu_class(fmu).PHYSICS, scenario.model_parameters(name)))
+              for name, (fmu, _) in components.items() if fmu not in DRIVES_AND_LOADS}
+    for machine, loads in (load_orders(scenario) if components else {}).items():
+        for load, k in loads:
+            orders.setdefault(machine, set()).add(k)
+            orders.setdefault(load, set()).add(k)
+    return orders
 
 
 def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -> list:
@@ -419,9 +423,11 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
                             f"fitted over the window from output.steady_from = {scenario.steady_from:g} s: {exc} "
                             "(a window of whole revolutions at a running speed: move steady_from earlier or "
                             "lengthen stop_time)") from None
-    checks, carried = [], machine_orders(scenario)
+    checks, orders = [], machine_orders(scenario)
     for name in names:
         rel, runs, refs = scenario.order_tolerances[name], mine[name].figures[1:], ref[name].figures[1:]
+        # the orders the signal's machine carries; a drive's signal (or another's) carries every machine's
+        carried = orders.get(name.partition(".")[0], set().union(*orders.values()))
         size = max(mine[name].size, ref[name].size)
         resolved = [max(a, b) for a, b in zip(runs, refs) if not (math.isnan(a) or math.isnan(b))]
         largest = max(resolved, default=0.0)
