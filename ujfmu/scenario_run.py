@@ -442,12 +442,14 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
                 "finely, or leave the signal out of [reference.orders]")))
         if not resolved and theirs_blind:
             continue
-        vibrates = max(float(np.ptp(window[name])), float(np.ptp(theirs[name]))) > 2.0 * NEGLIGIBLE_ORDER * size
-        if not resolved:   # failed where the machines carry a checked order: its vibration goes unchecked
+        # the signal's vibration, half its peak-to-peak about its trend, in the run or the reference (:func:`_swing`)
+        swing = max(_swing(t, window[name]), _swing(their_t, theirs[name]))
+        vibrates = swing > NEGLIGIBLE_ORDER * size
+        if not resolved:   # failed where its machine carries a checked order: its vibration goes unchecked
             missed = [k for k in CHECKED_ORDERS if k in carried] if vibrates else []
             checks.append(OrderCheck(name, 0, math.nan, math.nan, rel, refused=bool(missed), note=(
                 "no order is resolved at this step (too few samples a revolution): nothing compared" + (
-                    f"; the {' and '.join(f'{k}x' for k in missed)} the machines carry cannot be checked: take a "
+                    f"; the {' and '.join(f'{k}x' for k in missed)} its machine carries cannot be checked: take a "
                     "smaller step (the sampling note says which)" if missed else ""))))
             continue
         if not largest > NEGLIGIBLE_ORDER * size:
@@ -455,11 +457,11 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
                 f"no order above round-off (the largest {largest:.3g}, of a signal of size {size:.3g}): nothing "
                 "compared")))
             continue
-        # where an order is not resolved, the resolved ones are judged against the signal's whole vibration (half its
-        # peak-to-peak): the unresolved one may carry it, and a run's spurious 1e-5 of it is no order to compare
+        # where an order is not resolved, the resolved ones are judged against the signal's whole vibration: the
+        # unresolved one may carry it, and a run's spurious 1e-5 of it is no order to compare
         unresolved = [k for k, a, a_ref in zip(CHECKED_ORDERS, runs, refs)
                       if k not in theirs_blind and (math.isnan(a) or math.isnan(a_ref))]
-        vibration = max(0.5 * float(np.ptp(window[name])), 0.5 * float(np.ptp(theirs[name]))) if unresolved else 0.0
+        vibration = swing if unresolved else 0.0
         for k, a, a_ref in zip(CHECKED_ORDERS, runs, refs):
             if k in theirs_blind:
                 continue
@@ -467,9 +469,9 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
                 missed = k in carried and vibrates
                 checks.append(OrderCheck(name, k, a, a_ref, rel, refused=missed, note=(
                     f"its {k}x order is not resolved at this step (too few samples a revolution): not compared" + (
-                        f"; the scenario's machines carry it (its share of the signal's vibration, {vibration:.3g} "
-                        "half its peak-to-peak, cannot be checked): take a smaller step (the sampling note says "
-                        "which)" if missed else ""))))
+                        f"; its machine carries it (its share of the signal's vibration, {vibration:.3g} half its "
+                        "peak-to-peak about its trend, cannot be checked): take a smaller step (the sampling note "
+                        "says which)" if missed else ""))))
             elif max(a, a_ref) >= SIGNIFICANT_ORDER * max(largest, vibration):   # in the run or in the reference
                 checks.append(OrderCheck(name, k, a, a_ref, rel))
     return checks
