@@ -33,6 +33,7 @@ def test_scenario_passes_against_reference(results, path):
     assert result.checks, "a scenario must compare at least one signal"
     assert result.passed, result.summary()
     assert result.fmpy_outlier_fraction == 0.0, result.summary()
+    assert result.level_only_bands == [], result.summary()   # every band below its signal's steady vibration
     assert result.csv.is_file() and result.plot.is_file()
     assert len(result.extra_plots) == bool(result.scenario.orbits) + bool(result.scenario.spectra)
     assert all(p.is_file() for p in result.extra_plots)
