@@ -933,6 +933,8 @@ class PrescribedInputSlave(ModelSlave):
 
     #: before the first step: the outputs at model_inputs() (``output_inputs``)
     _input_set, _alpha_step = True, 0.0
+    #: the model's ``speed_jump`` (None: it has none)
+    _speed_jump = None
     STATE = {**ModelSlave.STATE, "_phi_in": "float", "_phi_in_carry": "float", "_omega_prev": "float|None",
              "_h_prev": "float", "_omega_prev2": "float|None", "_h_prev2": "float", "_accel_peak": "float",
              "_alpha_step": "float", "_input_set": "bool"}
@@ -988,6 +990,8 @@ class PrescribedInputSlave(ModelSlave):
         model = cls.__dict__.get("MODEL")
         if model is not None:
             cls._drive_derivatives = staticmethod(drive_derivatives(model))
+            jump = getattr(model, "speed_jump", None)
+            cls._speed_jump = None if jump is None else staticmethod(jump)
         declared = {v.name for v in cls.__dict__.get("VARIABLES", ()) if v.causality == "output"}
         missing = [name for name in cls.INPUT_SHAFT_OUTPUTS if declared and name not in declared]
         if missing:
@@ -1031,11 +1035,25 @@ class PrescribedInputSlave(ModelSlave):
         return max(abs(u.omega), abs(u.omega + u.alpha * h))
 
     def compute_outputs(self):
-        """ModelSlave's (at ``output_inputs``), and the input shaft's phi_in and alpha_in."""
+        """ModelSlave's (at ``output_inputs``; at the state with the model's ``speed_jump`` to the omega_in set since
+        the last step, :meth:`jumped`), and the input shaft's phi_in and alpha_in."""
         u = self.output_inputs()
-        vars(self).update(self._outputs(self._p, self._time, self._y if self._started else self.current_state(u), u))
+        if self._started:
+            y = self._y if self._speed_jump is None or not self._input_set else self.jumped(self._y, u[1])
+        else:
+            y = self.current_state(u)
+        vars(self).update(self._outputs(self._p, self._time, y, u))
         self.phi_in, self.alpha_in = u[0], u[2]
         return u
+
+    def jumped(self, y, omega):
+        """y after the model's ``speed_jump`` from the speed the last step extrapolated the input to (omega_in + alpha
+        h of that step) to omega; y itself before the first step or where the two are equal."""
+        prev = self._omega_prev
+        if prev is None:
+            return y
+        end = prev + self._alpha_step * self._h_prev
+        return y if omega == end else tuple(self._speed_jump(self._p, y, end, omega))
 
     def advance(self, t, h):
         """ModelSlave's step (:meth:`step_state` at ``model_inputs()``, or held while kinematic), then the input
@@ -1044,6 +1062,8 @@ class PrescribedInputSlave(ModelSlave):
         if self._kinematic:
             u = ModelSlave.advance(self, t, h)
         else:
+            if self._speed_jump is not None and self._started:
+                self._y = self.jumped(self._y, omega)
             u = _new_inputs(Drive, (self._phi_in, omega, alpha, self.tau_load))
             self.step_state(t, h, u)
         if h * abs(omega) >= self._aliasing_reach and not self._aliasing_said:

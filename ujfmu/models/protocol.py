@@ -67,7 +67,10 @@ an iterating master holds its torn inputs at their start values over a step that
 would take the jump into that step; default none), ``changes_by(p, t) -> bool`` (the outputs at time t differ
 from those at 0 at the same state and inputs, e.g. a speed profile that moved: the FMI 3.0 FMUs cannot see a start
 time other than 0 before their first step, so a Co-Simulation run from a start where this holds is refused;
-default False), and ``LATERAL_STATES`` (names of ``State`` fields of bending
+default False), for a model whose inputs are a :class:`Drive`, ``speed_jump(p, y, w_from, w_to) -> tuple`` (the
+state after the host sets the input shaft from w_from, the speed the last step extrapolated it to, to its new
+omega_in w_to: an energy audit's input work takes the impulse's work on the input inertia there, which no torque
+output carries; default the state unchanged), and ``LATERAL_STATES`` (names of ``State`` fields of bending
 motion, e.g. a disc's displacements and velocities: `ujfmu modes` calls a mode lateral, torsional or
 lateral-torsional by its participation in them; default none).
 

@@ -98,28 +98,6 @@ class TwinJeffcottRotor(PrescribedInputSlave):
     )
     DEFAULT_EXPERIMENT = (0.0, 4.0, 1.0e-3)
 
-    def compute_outputs(self):
-        """PrescribedInputSlave's, with the flange's jump in input_work: J_gb (omega^2 - w_end^2) / 2, the work the
-        driver does at a communication point setting the flange from w_end, the speed the last step extrapolated
-        to, to the host's omega_in (a kink of omega_in: about J_gb omega delta-alpha h), an impulse that tau_in
-        does not carry."""
-        u = PrescribedInputSlave.compute_outputs(self)
-        prev = self._omega_prev
-        if self._input_set and prev is not None:   # else at the motion the step ended with, or the first step's
-            end, omega = prev + self._alpha_step * self._h_prev, u[1]
-            self.input_work += 0.5 * self._p.J_gb * (omega - end) * (omega + end)
-        return u
-
-    def advance(self, t, h):
-        """PrescribedInputSlave's step, from the state with the flange's jump (:meth:`compute_outputs`) in its
-        input work."""
-        prev = self._omega_prev
-        if prev is not None and self._started:
-            end, omega, y = prev + self._alpha_step * self._h_prev, self.omega_in, self._y
-            if omega != end:
-                self._y = (*y[:13], y[13] + 0.5 * self._p.J_gb * (omega - end) * (omega + end))
-        return PrescribedInputSlave.advance(self, t, h)
-
 
 class TwinJeffcottRotorTorqueDriven(TorqueDrivenSlave):
     """Torque-driven TwinJeffcottRotor: driving torque tau_in in, input (gearbox flange) speed omega_in out.

@@ -916,6 +916,14 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
             "secondary_shaft_torque": t2}
 
 
+def speed_jump(p: Parameters, y: State, w_from: float, w_to: float) -> tuple:
+    """y with J_gb (w_to^2 - w_from^2) / 2 in its input work: the work the driver does setting the flange from the
+    speed the last step extrapolated it to to the host's new omega_in (at a kink of omega_in about J_gb omega
+    delta-alpha h), an impulse that tau_in does not carry; the flange's kinetic energy in ``stored_energy`` jumps by
+    as much."""
+    return (*y[:13], y[13] + 0.5 * p.J_gb * (w_to - w_from) * (w_to + w_from))
+
+
 def free_output_inertia(p: Parameters) -> float:
     """Disc 2's effective polar inertia J_M2 + m_u2 e^2 - (m_u2 e)^2 / (M2 + m_u2) (``Parameters.j_eff2``, its
     lateral coupling eliminated) behind the secondary shaft's torsional stiffness K2T: what a load on disc 2
