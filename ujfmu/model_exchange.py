@@ -131,6 +131,9 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
             time event it announces."""
             while True:
                 result = inst.slave.updateDiscreteStates()
+                if result[1]:
+                    raise ModelExchangeError(f"{name} ended the simulation (fmi3UpdateDiscreteStates: "
+                                             f"terminateSimulation) at t = {getattr(inst, 'time', start_time)!r}")
                 if not result[0]:
                     break
             time_events.pop(name, None)
@@ -240,7 +243,7 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
                     state_event, roots, t_reached = solver.step(t, t_stop)
                 except RuntimeError as exc:
                     raise ModelExchangeError(f"CVode failed between t = {t!r} and {t_stop!r}: "
-                                             + _failures(failure or [str(exc)])) from None
+                                             + _failures(failure or [str(exc)]) + _switch_hint(instances)) from None
                 if failure:
                     raise ModelExchangeError(f"between t = {t!r} and {t_stop!r}: " + _failures(failure))
                 timed = [] if state_event else [name for name, at in time_events.items()
@@ -282,6 +285,33 @@ def simulate_me(components, connections, stop_time: float, output_interval: floa
         stopped.partial = table(n_out + 1)
         raise stopped
     return table(n_out + 1)
+
+
+#: an event indicator this close to zero where the solver failed is at its switch (:func:`_switch_hint`)
+AT_SWITCH = 1e-6
+
+
+def _switch_hint(instances: dict) -> str:
+    """Where the solver failed with an FMU's event indicator at its switch (within ``AT_SWITCH``): the sentence
+    that the equations may switch back and forth there, with the model's ``CHATTER_ADVICE`` (the MotorController's
+    PI law sliding along its torque limit); '' otherwise."""
+    from .master import _ujfmu_class
+    nearest = None
+    for name, inst in instances.items():
+        if not inst.nz:
+            continue
+        with contextlib.suppress(Exception):
+            inst.slave.getEventIndicators(inst.z_buffer, inst.nz)
+            for u, z in zip(inst.md.eventIndicators, inst.z_buffer[:inst.nz]):
+                if math.isfinite(z) and (nearest is None or abs(z) < abs(nearest[2])):
+                    nearest = (name, inst, z, u.variable.name)
+    if nearest is None or abs(nearest[2]) > AT_SWITCH:
+        return ""
+    name, inst, z, indicator = nearest
+    advice = getattr(getattr(_ujfmu_class(inst.md), "MODEL", None), "CHATTER_ADVICE", "")
+    return (f"\n{name}.{indicator} = {z:.3g} there, at its switch: the equations may switch back and forth at it "
+            "faster than the solver can step, a motion along the switch that Model Exchange cannot follow (it needs "
+            "the inputs' derivatives, which it does not pass). " + advice)
 
 
 def _log_text(log):

@@ -73,6 +73,9 @@ class ContinuousStates:
 
 #: refusals of the derivatives logged in full for each reason (``get_continuous_state_derivatives``)
 REFUSALS_LOGGED = 3
+#: events in a row each at most ZENO_SPACING max(1, |t|) s after the one before: the right-hand side switches back
+#: and forth at one instant (a chattering switch), which a solver would locate for ever; the FMU ends the run there
+ZENO_EVENTS, ZENO_SPACING = 50, 1e-7
 #: nominal magnitude of a continuous state by unit (1 for the others): a disc-centre displacement of a Jeffcott
 #: rotor is of the order of 1e-4 m and its velocity of 1e-2 m/s (fmi3GetNominalsOfContinuousStates, and the
 #: states' ``nominal`` in the modelDescription)
@@ -495,6 +498,9 @@ class ModelExchangeFmu(Fmi3Model, ModelExchange):
         (``MODEL.next_time_event(p, t)``: the MotorController's profile corner), so a host's solver stops there
         instead of stepping across a jump of the right-hand side."""
         result = Fmi3UpdateDiscreteStatesResult()
+        if self._chattering():
+            result.terminateSimulation = True
+            return result
         self._handled = self.time   # the events at this time are taken: the outputs are their right limits now
         self._states.set_time(self._core, self.time)
         self._core._stale, self._core._partial = True, False
@@ -504,6 +510,29 @@ class ModelExchangeFmu(Fmi3Model, ModelExchange):
             if at is not None:
                 result.nextEventTimeDefined, result.nextEventTime = True, float(at)
         return result
+
+
+    def _chattering(self) -> bool:
+        """True (the reason logged at error level) where this event is the ``ZENO_EVENTS``-th in a row each within
+        ``ZENO_SPACING`` of the one before: the model's right-hand side switches back and forth at the event
+        indicator nearest zero (the MotorController's PI law sliding along its torque limit), which Model Exchange
+        cannot follow, as the sliding motion needs the inputs' derivatives, which it does not pass."""
+        t, last, count = self.time, self.__dict__.get("_last_event"), self.__dict__.get("_close_events", 0)
+        count = count + 1 if last is not None and abs(t - last) <= ZENO_SPACING * max(1.0, abs(t)) else 0
+        if count == 0:
+            self._close_from = t
+        self._last_event, self._close_events = t, count
+        if count < ZENO_EVENTS:
+            return False
+        declared = getattr(self.MODEL.MODEL, "EVENT_INDICATORS", ())
+        values = self._continuous(self._states.indicators)
+        name, meaning = min(zip(declared, values), key=lambda pair: abs(pair[1]))[0] if declared else ("?", "")
+        self.log(f"{self._core.modelName} '{self.instance_name}': {count + 1} events within "
+                 f"{t - self._close_from:.3g} s up to t = {t!r}: the equations switch back and forth "
+                 f"at z.{name} ({meaning}) without time advancing, which Model Exchange cannot follow (the motion "
+                 "along the switch needs the inputs' derivatives, which it does not pass); the simulation ends here. "
+                 + getattr(self.MODEL.MODEL, "CHATTER_ADVICE", ""), Fmi3Status.error)
+        return True
 
 
 def fmi3_class(model) -> type:
