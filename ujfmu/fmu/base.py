@@ -447,7 +447,8 @@ class UjfmuSlave(Fmi2Slave):
             return decode_state(cls, bytes(data))
         except Exception as exc:    # StateError; anything else is a bug, but must not reach pythonfmu unpinned
             reason = exc if isinstance(exc, StateError) else repr(exc)
-            message = f"{cls.__name__}: FMU state rejected, the instance is unchanged: {reason}"
+            message = (f"{cls.__name__}: FMU state rejected, the instance is unchanged: {reason} (said by every live "
+                       "instance of this FMU: the wrapper deserializes a state without naming the instance)")
         callers = [inst for inst in list(_LIVE) if type(inst) is cls]
         for inst in callers:
             _PINNED_AFTER_EXCEPTION.extend((inst, inst, cls, inst.log_queue))
@@ -588,16 +589,17 @@ class UjfmuSlave(Fmi2Slave):
     _time, _clock_said = None, True
 
     def _say_time_jump(self, current_time, step_size):
-        """Log once, as a warning, a step that does not start where the last ended (:meth:`do_step` calls it beyond
-        the rounding of a host's time arithmetic, 1e-9 of the time): a step back or a jump without restoring a saved
-        FMU state. The FMI standard leaves the time axis to the host, so the step is taken (from the state at the
-        last step's end, over step_size, the host's time from then on), but the run is not what the host's time
-        axis says it is."""
+        """Log once, as a warning, a step that does not start at the time of the FMU's state (:meth:`do_step` calls
+        it beyond the rounding of a host's time arithmetic, 1e-9 of the time): a step back or a jump without
+        restoring a saved FMU state, or after restoring one saved at another time. The FMI standard leaves the time
+        axis to the host, so the step is taken (from the state where it is, over step_size, the host's time from
+        then on), but the run is not what the host's time axis says it is."""
         last, self._clock_said = self._time, True
         kind = "back" if current_time < last else "forward"
         self.log(f"{self.modelName} '{self.instance_name}': a step starts at t = {current_time:.10g} s, {kind} from "
-                 f"where the last one ended ({last:.10g} s), and no saved FMU state was restored: the FMU steps its "
-                 f"state at {last:g} s over {step_size:g} s and takes the host's time from there (time-dependent "
+                 f"the time of the FMU's state ({last:.10g} s: where the last step ended, or a restored FMU state was "
+                 f"saved): the FMU steps its state at {last:g} s over {step_size:g} s and takes the host's time from "
+                 f"there (time-dependent "
                  f"inputs, such as a Motor's profile, follow it), so the run skips or repeats "
                  f"{abs(current_time - last):.6g} s of this model's motion. Check the host's time axis: each step "
                  "starts where the last ended, or after restoring the FMU state saved there. (Said once per "

@@ -376,7 +376,8 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
             return fmu_base.decode_state(cls.MODEL, bytes(data))
         except Exception as exc:
             reason = exc if isinstance(exc, fmu_base.StateError) else repr(exc)
-            message = f"{cls.MODEL.__name__}: FMU state rejected, the instance is unchanged: {reason}"
+            message = (f"{cls.MODEL.__name__}: FMU state rejected, the instance is unchanged: {reason} (said by every live "
+                       "instance of this FMU: the wrapper deserializes a state without naming the instance)")
         for inst in [i for i in list(_LIVE) if type(i) is cls]:
             inst._pin()
             inst.log(message, Fmi3Status.error)
