@@ -76,6 +76,8 @@ REFUSALS_LOGGED = 3
 #: events in a row each at most ZENO_SPACING max(1, |t|) s after the one before: the right-hand side switches back
 #: and forth at one instant (a chattering switch), which a solver would locate for ever; the FMU ends the run there
 ZENO_EVENTS, ZENO_SPACING = 50, 1e-7
+#: an event indicator within this of zero at an event is the one the event is at (``_chattering``)
+ZENO_NEAR = 1e-6
 #: nominal magnitude of a continuous state by unit (1 for the others): a disc-centre displacement of a Jeffcott
 #: rotor is of the order of 1e-4 m and its velocity of 1e-2 m/s (fmi3GetNominalsOfContinuousStates, and the
 #: states' ``nominal`` in the modelDescription)
@@ -376,8 +378,8 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
             return fmu_base.decode_state(cls.MODEL, bytes(data))
         except Exception as exc:
             reason = exc if isinstance(exc, fmu_base.StateError) else repr(exc)
-            message = (f"{cls.MODEL.__name__}: FMU state rejected, the instance is unchanged: {reason} (said by every live "
-                       "instance of this FMU: the wrapper deserializes a state without naming the instance)")
+            message = (f"{cls.MODEL.__name__}: FMU state rejected, the instance is unchanged: {reason} (said by every "
+                       "live instance of this FMU: the wrapper deserializes a state without naming the instance)")
         for inst in [i for i in list(_LIVE) if type(i) is cls]:
             inst._pin()
             inst.log(message, Fmi3Status.error)
@@ -512,12 +514,19 @@ class ModelExchangeFmu(Fmi3Model, ModelExchange):
                 result.nextEventTimeDefined, result.nextEventTime = True, float(at)
         return result
 
-
     def _chattering(self) -> bool:
-        """True (the reason logged at error level) where this event is the ``ZENO_EVENTS``-th in a row each within
-        ``ZENO_SPACING`` of the one before: the model's right-hand side switches back and forth at the event
-        indicator nearest zero (the MotorController's PI law sliding along its torque limit), which Model Exchange
-        cannot follow, as the sliding motion needs the inputs' derivatives, which it does not pass."""
+        """True (the reason logged at error level) where this event, at one of the model's event indicators (within
+        ``ZENO_NEAR`` of zero: a host takes every FMU through Event Mode at another's event too), is the
+        ``ZENO_EVENTS``-th such in a row, each within ``ZENO_SPACING`` of the one before: the model's right-hand side
+        switches back and forth there (the MotorController's PI law sliding along its torque limit), which Model
+        Exchange cannot follow, as the sliding motion needs the inputs' derivatives, which it does not pass."""
+        declared = getattr(self.MODEL.MODEL, "EVENT_INDICATORS", ())
+        if not declared:
+            return False
+        values = self._continuous(self._states.indicators)
+        (name, meaning), z = min(zip(declared, values), key=lambda pair: abs(pair[1]))
+        if not abs(z) <= ZENO_NEAR:
+            return False
         t, last, count = self.time, self.__dict__.get("_last_event"), self.__dict__.get("_close_events", 0)
         count = count + 1 if last is not None and abs(t - last) <= ZENO_SPACING * max(1.0, abs(t)) else 0
         if count == 0:
@@ -525,9 +534,6 @@ class ModelExchangeFmu(Fmi3Model, ModelExchange):
         self._last_event, self._close_events = t, count
         if count < ZENO_EVENTS:
             return False
-        declared = getattr(self.MODEL.MODEL, "EVENT_INDICATORS", ())
-        values = self._continuous(self._states.indicators)
-        name, meaning = min(zip(declared, values), key=lambda pair: abs(pair[1]))[0] if declared else ("?", "")
         self.log(f"{self._core.modelName} '{self.instance_name}': {count + 1} events within "
                  f"{t - self._close_from:.3g} s up to t = {t!r}: the equations switch back and forth "
                  f"at z.{name} ({meaning}) without time advancing, which Model Exchange cannot follow (the motion "
