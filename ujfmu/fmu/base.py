@@ -1048,7 +1048,7 @@ class PrescribedInputSlave(ModelSlave):
         self.phi_in, self.alpha_in = u[0], u[2]
         return u
 
-    def jumped(self, y, omega):
+    def jumped(self, y: tuple, omega: float) -> tuple:
         """y after the model's ``speed_jump`` from the speed the last step extrapolated the input to (omega_in + alpha
         h of that step) to omega; y itself before the first step or where the two are equal."""
         prev = self._omega_prev

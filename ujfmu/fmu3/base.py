@@ -75,7 +75,7 @@ class ContinuousStates:
 REFUSALS_LOGGED = 3
 #: events in a row each at most ZENO_SPACING max(1, |t|) s after the one before: the right-hand side switches back
 #: and forth at one instant (a chattering switch), which a solver would locate for ever; the FMU ends the run there
-ZENO_EVENTS, ZENO_SPACING = 50, 1e-7
+ZENO_EVENTS, ZENO_SPACING = 50, 1e-6
 #: an event indicator within this of zero at an event is the one the event is at (``_chattering``)
 ZENO_NEAR = 1e-6
 #: nominal magnitude of a continuous state by unit (1 for the others): a disc-centre displacement of a Jeffcott
@@ -362,6 +362,7 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
 
     def _set_fmu_state(self, state):
         self._guarded(self._core._set_fmu_state)(state)
+        self._last_event = None   # a restored state's events are counted anew (``_chattering``)
         # a state saved before the first step is restored as one: the next step still sets the start time
         self._stepped = bool(getattr(self._core, "_started", True))
         self.time = getattr(self._core, "_time", self.time)   # the independent variable the state was saved at
@@ -517,9 +518,10 @@ class ModelExchangeFmu(Fmi3Model, ModelExchange):
     def _chattering(self) -> bool:
         """True (the reason logged at error level) where this event, at one of the model's event indicators (within
         ``ZENO_NEAR`` of zero: a host takes every FMU through Event Mode at another's event too), is the
-        ``ZENO_EVENTS``-th such in a row, each within ``ZENO_SPACING`` of the one before: the model's right-hand side
-        switches back and forth there (the MotorController's PI law sliding along its torque limit), which Model
-        Exchange cannot follow, as the sliding motion needs the inputs' derivatives, which it does not pass."""
+        ``ZENO_EVENTS``-th such in a row, each within ``ZENO_SPACING`` max(1, |t|) after the one before (a call at
+        the same instant, a host's event iteration, is not another event): the model's right-hand side switches
+        back and forth there (the MotorController's PI law sliding along its torque limit), which Model Exchange
+        cannot follow, as the sliding motion needs the inputs' derivatives, which it does not pass."""
         declared = getattr(self.MODEL.MODEL, "EVENT_INDICATORS", ())
         if not declared:
             return False
@@ -528,13 +530,15 @@ class ModelExchangeFmu(Fmi3Model, ModelExchange):
         if not abs(z) <= ZENO_NEAR:
             return False
         t, last, count = self.time, self.__dict__.get("_last_event"), self.__dict__.get("_close_events", 0)
-        count = count + 1 if last is not None and abs(t - last) <= ZENO_SPACING * max(1.0, abs(t)) else 0
-        if count == 0:
+        if t == last:
+            return False
+        count = count + 1 if last is not None and t - last <= ZENO_SPACING * max(1.0, abs(t)) else 1
+        if count == 1:
             self._close_from = t
         self._last_event, self._close_events = t, count
         if count < ZENO_EVENTS:
             return False
-        self.log(f"{self._core.modelName} '{self.instance_name}': {count + 1} events within "
+        self.log(f"{self._core.modelName} '{self.instance_name}': {count} events within "
                  f"{t - self._close_from:.3g} s up to t = {t!r}: the equations switch back and forth "
                  f"at z.{name} ({meaning}) without time advancing, which Model Exchange cannot follow (the motion "
                  "along the switch needs the inputs' derivatives, which it does not pass); the simulation ends here. "

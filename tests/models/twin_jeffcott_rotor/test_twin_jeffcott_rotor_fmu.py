@@ -104,7 +104,7 @@ def test_energy_balance_holds_where_the_input_speed_kinks_or_jumps(open_fmu, dri
     omega_in linearly, so at the next communication point the host sets the flange to another speed (by about
     delta-alpha h at the kink, 20 rad/s at the step), a jump of the flange's kinetic energy J_gb omega delta-omega
     (0.018 J at the kink, 1 J at the step) that the driver supplies as an impulse: counted in input_work, the
-    balance holds to the integrator's accuracy there as on a smooth run."""
+    balance holds to the integrator's accuracy where, as here, the jump restarts the Adams history."""
     h, n, tau = 1e-3, 400, 2.0
     r = drive(open_fmu("TwinJeffcottRotor"), speed, tau, h, n, OUT, dict(beta=10 * DEG))
     load_work = tau * (r.phi_out - r.phi_out[0])

@@ -477,12 +477,12 @@ class Controller:
 
     advice = staticmethod(advice)
 
-    #: names of the event indicators (FMI 3.0 Model Exchange): where the right-hand side switches
     #: what the Model Exchange FMU says where its event indicators chatter (``ujfmu.fmu3.base``)
     CHATTER_ADVICE = ("The PI law slides along its torque limit where it comes back to it with Ki |e| > Kp |de/dt| "
                       "(a speed step at the limit on a rigid shaft of inertia J with Ki J > Kp^2: a speed loop damped "
                       "below 0.5): the torque stays at the limit while the integral follows it. Run the Co-Simulation "
                       "FMUs there (they follow it), or tune the loop to Kp^2 >= Ki J.")
+    #: names of the event indicators (FMI 3.0 Model Exchange): where the right-hand side switches
     EVENT_INDICATORS = (("upper_limit", "Kp e + Ki I - tau_max: > 0 while the torque limit +tau_max holds"),
                         ("lower_limit", "Kp e + Ki I + tau_max: < 0 while the torque limit -tau_max holds"),
                         ("speed_error", "e = omega_ref - omega while a torque limit holds, where its sign switches "
