@@ -599,8 +599,7 @@ class UjfmuSlave(Fmi2Slave):
         self.log(f"{self.modelName} '{self.instance_name}': a step starts at t = {current_time:.10g} s, {kind} from "
                  f"the time of the FMU's state ({last:.10g} s: where the last step ended, or a restored FMU state was "
                  f"saved): the FMU steps its state at {last:g} s over {step_size:g} s and takes the host's time from "
-                 f"there (time-dependent "
-                 f"inputs, such as a Motor's profile, follow it), so the run skips or repeats "
+                 f"there (time-dependent inputs, such as a Motor's profile, follow it), so the run skips or repeats "
                  f"{abs(current_time - last):.6g} s of this model's motion. Check the host's time axis: each step "
                  "starts where the last ended, or after restoring the FMU state saved there. (Said once per "
                  "instance.)", Fmi2Status.warning)
