@@ -707,3 +707,20 @@ def test_event_iteration_at_one_instant_and_ordinary_limit_events_do_not_stop_a_
     events = []
     simulate_me(components, connections, 2.5, 0.01, ["motor.tau_motor"], events=events)
     assert [name for _, name in events] == ["motor.z.upper_limit"]
+
+
+def test_a_model_exchange_run_ends_where_an_fmu_asks_to_terminate(fmu3_dir, monkeypatch):
+    """An FMU's terminateSimulation at an event (here forced at the torque limit's end, 1.95 s) ends our runner's
+    run with an error naming the component and the time, not a run that steps on."""
+    from fmpy.fmi3 import FMU3Model
+    update = FMU3Model.updateDiscreteStates
+
+    def terminating(self):   # the motor's first update (initialization) as it is, every later one terminating
+        result = update(self)
+        first, self._updated = not getattr(self, "_updated", False), True
+        return result if first or self.instanceName != "motor" else (result[0], True, *result[2:])
+    monkeypatch.setattr(FMU3Model, "updateDiscreteStates", terminating)
+    components, connections = _saturating_drive(fmu3_dir)
+    with pytest.raises(ModelExchangeError, match=r"motor ended the simulation \(fmi3UpdateDiscreteStates: "
+                                                 r"terminateSimulation\) at t = 1\.95"):
+        simulate_me(components, connections, 2.5, 0.01, ["motor.tau_motor"])
