@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 from fmpy.util import write_csv
 
-from .analysis import DRIVES_AND_LOADS
+from .analysis import DRIVES_AND_LOADS, carried_orders, load_orders
 from .build import DEFAULT_FMU_DIR, fmu_class
 from .build3 import DEFAULT_FMU3_DIR
 from .extras import available, preload
@@ -373,7 +373,6 @@ def machine_orders(scenario) -> dict:
     """{machine component: the running-speed orders it carries at its parameters (``analysis.carried_orders``: a
     Cardan joint's 2x, an unbalance's 1x) and those of the Loads' periodic torques on it (``analysis.load_orders``),
     a Load's own under its name}; {} for an object without components."""
-    from .analysis import DRIVES_AND_LOADS, carried_orders, load_orders
     components = getattr(scenario, "components", {})
     orders = {name: set(carried_orders(fmu_class(fmu).PHYSICS, scenario.model_parameters(name)))
               for name, (fmu, _) in components.items() if fmu not in DRIVES_AND_LOADS}
@@ -692,7 +691,7 @@ def load_order_holds(scenario: Scenario, table: np.ndarray | None = None) -> lis
     """A :class:`LoadOrderHold` per Load with a periodic torque whose hold over the scenario's step lags by more than
     ``HOLD_LAG``, at the largest speed of the shaft it acts on in table (its machine's omega_out; before a run, table
     None: the drives' set speeds)."""
-    from .analysis import drive_speeds, load_orders
+    from .analysis import drive_speeds
     holds = []
     for machine, loads in load_orders(scenario).items():
         speed = f"{machine}.omega_out"
@@ -1481,7 +1480,7 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
     # and the speeds a Load that may chatter near rest acts on, to tell whether a failure came near rest
     chatter = [c for c in scenario.load_chatter() if c.ratio > 1.0]
     extra += [f"{c.driven}.omega_out" for c in chatter if f"{c.driven}.omega_out" not in scenario.record + extra]
-    from .analysis import load_orders   # and the speeds a Load's periodic torque turns with
+    # and the speeds a Load's periodic torque turns with
     extra += [f"{m}.omega_out" for m in load_orders(scenario) if f"{m}.omega_out" not in scenario.record + extra]
     try:
         if model_exchange:
