@@ -166,6 +166,27 @@ def test_state_outputs_are_the_outputs_without_feedthrough_at_any_inputs(name, r
         assert model.state_outputs(p, 0.4, y) == {k: full[k] for k in names}
 
 
+@pytest.mark.parametrize("name", [n for n in MODEL_FMUS if hasattr(fmu_class(n).MODEL, "light_outputs")])
+def test_light_outputs_are_the_outputs_they_name_at_any_inputs(name):
+    """light_outputs gives exactly the outputs' values for its LIGHT_OUTPUTS (the FMU computes only these on a read
+    of only these), at two sets of inputs, and leaves out the outputs that need the joint (each model that has
+    them: the twin rotors)."""
+    model, p, u, y = model_at_a_state(name, "rigid_intermediate_shaft", False)
+    names = model.LIGHT_OUTPUTS
+    declared = {v.name for v in fmu_class(name).VARIABLES if v.causality == "output"}
+    assert set(names) < declared and len(set(names)) == len(names)
+    assert not {"secondary_shaft_torque", "stored_energy"} & set(names)
+    for inputs in (u, u._replace(**{field: getattr(u, field) + 7.0 for field in u._fields})):
+        full = model.outputs(p, 0.4, y, inputs)
+        assert model.light_outputs(p, 0.4, y, inputs) == {k: full[k] for k in names}
+
+
+def test_the_twin_rotors_have_light_outputs():
+    """Both twin rotor FMUs declare light outputs (the test above would pass over a model that lost them)."""
+    assert all(hasattr(fmu_class(n).MODEL, "light_outputs")
+               for n in ("TwinJeffcottRotor", "TwinJeffcottRotorTorqueDriven"))
+
+
 @pytest.mark.parametrize("name, angle", [("CardanJoint", "bend_angle"), ("CardanJointTorqueDriven", "bend_angle"),
                                          ("DoubleCardanDriveline", "beta1"), ("DoubleCardanDriveline", "beta2"),
                                          ("TwinJeffcottRotor", "beta"), ("TwinJeffcottRotorTorqueDriven", "beta")])

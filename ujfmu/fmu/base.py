@@ -284,6 +284,9 @@ class UjfmuSlave(Fmi2Slave):
         # computed at by ``read_state_outputs`` (None: not since the last restore)
         self._state_vrs = frozenset(vr for vr, var in reals.items() if var.name in self._state_output_names)
         self._state_outputs_of = None
+        # a read of only the light outputs (``_light_output_names``), inputs and parameters computes only those
+        light = frozenset(vr for vr, var in reals.items() if var.name in self._light_output_names)
+        self._light_vrs = light | (reals.keys() - self._real_outputs) if light else light
         big = sys.float_info.max
         self._input_bounds = tuple((v.name, -big if v.min is None else v.min, big if v.max is None else v.max, v)
                                    for v in self._inputs)
@@ -328,6 +331,8 @@ class UjfmuSlave(Fmi2Slave):
                                     and self._load_reads.isdisjoint(vrs)):
                 if self._state_vrs and vrs and self._state_vrs.issuperset(vrs):
                     self.read_state_outputs(vrs)
+                elif self._light_vrs and vrs and self._light_vrs.issuperset(vrs):
+                    self.read_light_outputs(vrs)
                 else:
                     outputs = self._real_outputs
                     for vr in vrs:
@@ -503,6 +508,20 @@ class UjfmuSlave(Fmi2Slave):
         does)."""
         self._real_getters[vrs[0]]()
 
+    #: names of outputs that cost a fraction of the others (a rotor's motion without its joint's kinematics): a read
+    #: of only these, inputs and parameters while the outputs are stale computes only them (``read_light_outputs``),
+    #: at every such read, the others staying stale
+    _light_output_names = ()
+
+    def read_light_outputs(self, vrs):
+        """Make the outputs among vrs (all in ``_light_output_names``, or not outputs) valid (default: all
+        outputs)."""
+        outputs = self._real_outputs
+        for vr in vrs:
+            if vr in outputs:
+                self._real_getters[vr]()
+                break
+
     #: model attributes that evolve and are saved with the FMU state: name -> kind ("float", "float|None", "int",
     #: "bool", "float[n]"); set by initialize(), changed by advance()
     STATE = {}
@@ -649,7 +668,8 @@ class ModelSlave(UjfmuSlave):
       input outside ``MODEL.output_free_inputs(p)``; where only the ``LOAD_INPUTS`` (tau_load; a torque-driven
       FMU's torques) changed since they were computed and the model has ``load_outputs``, only those (the others
       do not depend on them); a read of only the model's ``STATE_OUTPUTS`` computes only those
-      (``MODEL.state_outputs``, once per state).
+      (``MODEL.state_outputs``, once per state), and a read of only its ``LIGHT_OUTPUTS`` only those
+      (``MODEL.light_outputs``, at every such read).
 
     Subclasses provide ``model_inputs()`` (the model's inputs now) and may replace ``rk4_step`` (the RK4 substeps
     of one step, inputs held) or ``integrate`` (the whole step) and extend ``initialize``/``advance`` for what their
@@ -675,9 +695,9 @@ class ModelSlave(UjfmuSlave):
     #: the model's ``state_advice(p, h, y, u)`` where it has one (the protocol's option: warnings on a state reached
     #: by a step of h under the inputs u that is valid but likely not meant; said once per instance)
     _state_advice = None
-    #: the model's ``outputs(p, t, y, u)``, and its ``state_outputs(p, t, y)`` where it has them (the protocol's
-    #: option: the outputs it names in ``STATE_OUTPUTS``)
-    _outputs = _state_outputs = None
+    #: the model's ``outputs(p, t, y, u)``, its ``state_outputs(p, t, y)`` and ``light_outputs(p, t, y, u)`` where it
+    #: has them (the protocol's options: the outputs it names in ``STATE_OUTPUTS`` and ``LIGHT_OUTPUTS``)
+    _outputs = _state_outputs = _light_outputs = None
     DERIVED = ("_p", "_output_free", "_kinematic", "_load_inputs", "_load_reads", "_excitation_order",
                "_aliasing_reach")
     #: the inputs ``MODEL.load_outputs`` covers (the outputs that depend on them are all in it)
@@ -701,6 +721,9 @@ class ModelSlave(UjfmuSlave):
             if hasattr(model, "state_outputs"):
                 cls._state_outputs = staticmethod(model.state_outputs)
                 cls._state_output_names = tuple(model.STATE_OUTPUTS)
+            if hasattr(model, "light_outputs"):
+                cls._light_outputs = staticmethod(model.light_outputs)
+                cls._light_output_names = tuple(model.LIGHT_OUTPUTS)
             if hasattr(model, "integrate_with_history"):   # a multistep integrator: its history is FMU state
                 cls._history_step = staticmethod(model.integrate_with_history)
                 cls.STATE = {**cls.STATE, "_history": f"float[{len(model.NO_HISTORY)}]"}
@@ -755,11 +778,12 @@ class ModelSlave(UjfmuSlave):
         """The model's inputs the outputs are computed at (default: ``model_inputs()``)."""
         return self.model_inputs()
 
-    def compute_outputs(self):
-        """The output variables from ``MODEL.outputs`` at the current time, state and inputs (``output_inputs``);
-        returns the inputs."""
+    def compute_outputs(self, outputs=None):
+        """The output variables from ``MODEL.outputs`` (or the function outputs given, of the same arguments) at the
+        current time, state and inputs (``output_inputs``); returns the inputs."""
         u = self.output_inputs()
-        vars(self).update(self._outputs(self._p, self._time, self._y if self._started else self.current_state(u), u))
+        vars(self).update((outputs or self._outputs)(self._p, self._time,
+                                                     self._y if self._started else self.current_state(u), u))
         return u
 
     def read_state_outputs(self, vrs):
@@ -775,6 +799,19 @@ class ModelSlave(UjfmuSlave):
                 self._raise_to_host(f"{self.modelName} '{self.instance_name}': cannot compute "
                                     f"{self._real_names[vrs[0]]}: {exc}")
             self._state_outputs_of = y
+
+    def read_light_outputs(self, vrs):
+        """``MODEL.light_outputs`` at the current time, state and inputs (``compute_outputs``; the other outputs
+        stay stale); before the first step, every output."""
+        if not (self._running and self._started):
+            UjfmuSlave.read_light_outputs(self, vrs)
+            return
+        try:
+            self.compute_outputs(self._light_outputs)
+        except (Exception, KeyboardInterrupt) as exc:   # as an output's getter
+            name = next(self._real_names[vr] for vr in vrs if vr in self._real_outputs)
+            self._raise_to_host(f"{self.modelName} '{self.instance_name}': cannot compute {name}: "
+                                f"{INTERRUPTED_IN_FMU if isinstance(exc, KeyboardInterrupt) else exc}")
 
     def compute_load_outputs(self):
         """``MODEL.load_outputs``: the outputs that depend on the ``LOAD_INPUTS``, at the current time, state and
@@ -993,6 +1030,8 @@ class PrescribedInputSlave(ModelSlave):
             cls._drive_derivatives = staticmethod(drive_derivatives(model))
             jump = getattr(model, "speed_jump", None)
             cls._speed_jump = None if jump is None else staticmethod(jump)
+            if cls._light_output_names:   # compute_outputs sets the input shaft's outputs with any others
+                cls._light_output_names += tuple(n for n in cls.INPUT_SHAFT_OUTPUTS if n not in cls._light_output_names)
         declared = {v.name for v in cls.__dict__.get("VARIABLES", ()) if v.causality == "output"}
         missing = [name for name in cls.INPUT_SHAFT_OUTPUTS if declared and name not in declared]
         if missing:
@@ -1035,7 +1074,7 @@ class PrescribedInputSlave(ModelSlave):
     def speed_bound(self, h, u):
         return max(abs(u.omega), abs(u.omega + u.alpha * h))
 
-    def compute_outputs(self):
+    def compute_outputs(self, outputs=None):
         """ModelSlave's (at ``output_inputs``; at the state with the model's ``speed_jump`` to the omega_in set since
         the last step, :meth:`jumped`), and the input shaft's phi_in and alpha_in."""
         u = self.output_inputs()
@@ -1043,7 +1082,7 @@ class PrescribedInputSlave(ModelSlave):
             y = self._y if self._speed_jump is None or not self._input_set else self.jumped(self._y, u[1])
         else:
             y = self.current_state(u)
-        vars(self).update(self._outputs(self._p, self._time, y, u))
+        vars(self).update((outputs or self._outputs)(self._p, self._time, y, u))
         self.phi_in, self.alpha_in = u[0], u[2]
         return u
 

@@ -908,12 +908,27 @@ def rate_bound(p: Parameters, y: State, omega_max: float) -> float:
 
 
 def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
-    """The discs' motion from the state, the torques and energy as :func:`torque_outputs` gives them."""
-    t1, t2, g, _ = shaft_torques(p, u.phi, u.omega, y)
+    """The discs' motion from the state, the torques and energy as :func:`torque_outputs` gives them:
+    :func:`light_outputs` and the two that need the joint, the secondary shaft's torque and the stored energy."""
+    out = light_outputs(p, t, y, u)
+    _, out["secondary_shaft_torque"], g, _ = shaft_torques(p, u.phi, u.omega, y)
+    out["stored_energy"] = _stored_energy(p, u.omega, u.phi - y[0], g[0] - y[6], y)
+    return out
+
+
+#: the outputs without the joint's kinematics (:func:`light_outputs`): the FMU computes only these on a read of only
+#: these, a fifth of the cost of all (a host that reads the ports and the discs' motion)
+LIGHT_OUTPUTS = ("phi_disc1", "omega_disc1", "X1", "Y1", "phi_out", "omega_out", "X2", "Y2", "dissipated_energy",
+                 "input_work", "tau_in", "primary_shaft_torque")
+
+
+def light_outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
+    """The ``LIGHT_OUTPUTS`` of :func:`outputs`: the discs' motion and the energy rows from the state, the primary
+    shaft's torque T1 = K1T (phi_in - theta1) + C1T (omega_in - theta1') and tau_in = J_gb alpha_in + T1."""
+    t1 = p.K1T * (u.phi - y[0]) + p.C1T * (u.omega - y[1])
     return {"phi_disc1": y[0], "omega_disc1": y[1], "X1": y[2], "Y1": y[4], "phi_out": y[6], "omega_out": y[7],
             "X2": y[8], "Y2": y[10], "dissipated_energy": y[12], "input_work": y[13], "tau_in": p.J_gb * u.alpha + t1,
-            "stored_energy": _stored_energy(p, u.omega, u.phi - y[0], g[0] - y[6], y), "primary_shaft_torque": t1,
-            "secondary_shaft_torque": t2}
+            "primary_shaft_torque": t1}
 
 
 def speed_jump(p: Parameters, y: State, w_from: float, w_to: float) -> tuple:
@@ -1457,6 +1472,17 @@ class TorqueDriven:
         motion."""
         alpha = input_acceleration(p, y, u.tau_in)
         return torque_driven_outputs(outputs(p, t, State(*y[2:]), Drive(y[0], y[1], alpha, u.tau_load)), y, alpha)
+
+    #: the outputs without the joint's kinematics (:meth:`light_outputs`)
+    LIGHT_OUTPUTS = ("phi_in", "omega_in", "alpha_in", "tau_input_shaft") + tuple(
+        name for name in LIGHT_OUTPUTS if name != "tau_in")
+
+    @staticmethod
+    def light_outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
+        """The ``LIGHT_OUTPUTS`` of :meth:`outputs`: :func:`light_outputs` at the flange's motion."""
+        alpha = input_acceleration(p, y, u.tau_in)
+        return torque_driven_outputs(light_outputs(p, t, State(*y[2:]), Drive(y[0], y[1], alpha, u.tau_load)), y,
+                                     alpha)
 
     @staticmethod
     def load_outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
