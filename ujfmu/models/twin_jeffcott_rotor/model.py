@@ -917,7 +917,7 @@ def outputs(p: Parameters, t: float, y: State, u: Drive) -> dict:
 
 
 #: the outputs without the joint's kinematics (:func:`light_outputs`): the FMU computes only these on a read of only
-#: these, a fifth of the cost of all (a host that reads the ports and the discs' motion)
+#: these, about a seventh of the cost of all (a host that reads the ports and the discs' motion)
 LIGHT_OUTPUTS = ("phi_disc1", "omega_disc1", "X1", "Y1", "phi_out", "omega_out", "X2", "Y2", "dissipated_energy",
                  "input_work", "tau_in", "primary_shaft_torque")
 
