@@ -89,6 +89,8 @@ class ControllerParameters:
     corner_margins: tuple = field(init=False, repr=False, default=())
     #: the last corner (-inf without one): no corner lies inside a step that starts at or after it
     last_corner: float = field(init=False, repr=False, default=-math.inf)
+    #: (t, :func:`reference` at t) of the last time asked, a pure cache (a step starts at the time of the last read)
+    reference_memo: tuple = field(init=False, repr=False, compare=False, default=(math.nan, None))
 
     def __post_init__(self):
         self.corners = profile_corners(self)
@@ -123,8 +125,14 @@ class Inputs(NamedTuple):
 
 
 def reference(p: Parameters, t: float) -> tuple:
-    """(omega_ref, alpha_ref, phi_ref) of the profile at time t (:func:`speed_reference`)."""
-    return speed_reference(t, p.profile, p.omega_set, p.accel, p.t_step, p.omega_initial)
+    """(omega_ref, alpha_ref, phi_ref) of the profile at time t (:func:`speed_reference`), kept on p for the last t
+    (``reference_memo``)."""
+    memo = p.reference_memo
+    if memo[0] == t:
+        return memo[1]
+    value = speed_reference(t, p.profile, p.omega_set, p.accel, p.t_step, p.omega_initial)
+    p.reference_memo = t, value
+    return value
 
 
 def kinematic(p: Parameters) -> bool:
@@ -199,7 +207,12 @@ def corners_inside(p: ControllerParameters, t: float, h: float) -> list:
 def corner_inside(p: ControllerParameters, t: float, h: float) -> bool:
     """True if a corner of the profile lies inside (t, t + h) (:func:`corners_inside`; none once t is past the
     last, which every step of a run's steady part is)."""
-    return t < p.last_corner and bool(corners_inside(p, t, h))
+    if t >= p.last_corner:
+        return False
+    for corner, margin in p.corner_margins:
+        if t + margin < corner < t + h - margin:
+            return True
+    return False
 
 
 def split_at_corners(step, p: ControllerParameters, t: float, h: float, y: tuple, u: tuple) -> tuple:
