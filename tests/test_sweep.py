@@ -491,6 +491,27 @@ def test_cli_sweep_quiet_lists_no_files_and_step_sets_the_communication_step(fmu
     assert "--step 0: the communication step must be a number of seconds > 0" in capsys.readouterr().err
 
 
+def test_cli_sweep_coupling_runs_every_point_in_that_scheme_beside_the_files_own(fmu_dir, tmp_path, capsys):
+    """--coupling explicit runs the points in that scheme (the table's coupling column says it), as
+    <scenario>_explicit_sweep beside the scenario's own (implicit) sweep, whose points it does not reuse; the two
+    schemes agree on an ideal source's driveline to the implicit coupling's resolution."""
+    import csv
+    args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_brutti_rigid.toml"),
+            "--param", "motor.omega_set=1000rpm", "--output", "driveline.tau_in", "--running-speed", "motor.omega",
+            "--settle", "0.01", "--revolutions", "1", "--steady-tol", "0", "--workers", "0", "--out", str(tmp_path)]
+    assert main(["-q"] + args) == 0
+    assert main(["-q"] + args + ["--coupling", "explicit"]) == 0
+    assert "reused" not in capsys.readouterr().out
+    rows = {}
+    for name in ("double_cardan_brutti_rigid_sweep", "double_cardan_brutti_rigid_explicit_sweep"):
+        with open(tmp_path / f"{name}.csv", newline="") as f:
+            rows[name] = [r for r in csv.DictReader(f) if not r[next(iter(r))].startswith("#")]
+    own, explicit = rows["double_cardan_brutti_rigid_sweep"], rows["double_cardan_brutti_rigid_explicit_sweep"]
+    assert [r["coupling"] for r in own] == ["implicit"] and [r["coupling"] for r in explicit] == ["explicit"]
+    assert float(explicit[0]["driveline.tau_in.max"]) == pytest.approx(float(own[0]["driveline.tau_in.max"]),
+                                                                        rel=1e-6)
+
+
 def test_another_grid_under_the_same_name_is_refused_and_a_rerun_says_what_it_reused(fmu_dir, tmp_path, capsys):
     args = ["--fmu-dir", str(fmu_dir), "sweep", str(SCENARIOS / "double_cardan_brutti_rigid.toml"),
             "--output", "driveline.tau_in", "--running-speed", "motor.omega", "--settle", "0.01",
