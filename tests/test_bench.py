@@ -25,6 +25,10 @@ def test_bench_measures_floor_and_monolithic_ratios(fmu_dir):
     assert constant["monolithic_s"] is None and "closed form" in constant["note"]
     table = render(result)
     assert "cardan_startup" in table and "x floor" in table
+    # when and where it ran, the machine's pace and the scheme, before the table
+    facts = result["machine"]
+    assert facts["pace_us"] > 0 and facts["cores"] >= 1 and facts["utc"].endswith("UTC")
+    assert table.startswith(f"Run of {facts['utc']}: Python ") and "coupled explicitly" in table.split("|")[0]
     # each FMU of the scenarios costed at a fixed and at a varying step, in the same run
     varying = {r["fmu"]: r for r in result["varying_steps"]}
     assert set(varying) == {"Motor", "CardanJoint", "Load"}

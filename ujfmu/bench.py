@@ -316,6 +316,18 @@ def bench_varying_steps(names, fmu_dir=DEFAULT_FMU_DIR, steps: int = 300, repeat
     return rows
 
 
+def machine_facts() -> dict:
+    """When and where a bench runs: the UTC time, Python, platform, cores, the load average at the start, and the
+    machine's pace in pure Python (``pace_us``: the fastest of five timings of ``sum(range(1000))`` [us]). Absolute
+    times scale with the pace; ratios within one run hardly do."""
+    import platform
+    import timeit
+    pace = min(timeit.repeat("sum(range(1000))", number=2000, repeat=5)) / 2000 * 1e6
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
+    return dict(utc=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), python=platform.python_version(),
+                platform=platform.platform(terse=True), cores=os.cpu_count(), load_average=load, pace_us=pace)
+
+
 def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, battery=(), schemes=True,
               engines=ENGINES, cpus=None, fmu3_dir=None):
     """All figures of one run: {'scenarios': [rows], 'engines': {...}, 'schemes': {...}, 'battery': {...},
@@ -323,6 +335,7 @@ def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, ba
     schemes: cost each scheme on the scenarios too; engines: those to run side by side on the scenarios' SSP
     packages (() for none), pinned to cpus (see ``bench_engines``); fmu3_dir: the FMI 3.0 FMUs (``ujfmu build
     --fmi 3``), whose cost per step is compared with the FMI 2.0 FMUs' on each scenario (None: not measured)."""
+    facts = machine_facts()
     with tempfile.TemporaryDirectory(prefix="ujfmu_floor_") as floor_dir:
         names = sorted({fmu for p in scenarios for fmu, _ in Scenario(p).components.values()})
         for name in names:
@@ -331,7 +344,7 @@ def run_bench(scenarios, fmu_dir=DEFAULT_FMU_DIR, sweep=True, progress=print, ba
         for path in scenarios:
             progress(f"bench {Path(path).stem}")
             rows.append(bench_scenario(path, fmu_dir, floor_dir))
-    result = {"step_size": STEP, "scenarios": rows, "targets": TARGETS}
+    result = {"step_size": STEP, "scenarios": rows, "targets": TARGETS, "machine": facts}
     progress("bench varying steps")
     result["varying_steps"] = bench_varying_steps(names, fmu_dir)
     if engines:
@@ -365,7 +378,15 @@ def _f(value, fmt):
 def render(result):
     """Markdown tables of a bench result, with each target met or not."""
     t = result["targets"]
-    lines = ["| scenario | sim. s | wall s / sim. s | us / step | floor us / step | x floor | "
+    lines = []
+    m = result.get("machine")
+    if m:
+        load = "" if m["load_average"] is None else f", load average {m['load_average']:.2f} at the start"
+        lines += [f"Run of {m['utc']}: Python {m['python']}, {m['platform']}, {m['cores']} cores{load}; pace "
+                  f"{m['pace_us']:.1f} us for sum(range(1000)) in pure Python (absolute times scale with it, the "
+                  "ratios within one run hardly). The scenarios coupled explicitly, 1 ms (the implicit scheme: "
+                  "the coupling schemes' table):", ""]
+    lines += ["| scenario | sim. s | wall s / sim. s | us / step | floor us / step | x floor | "
              "monolithic s | co-sim / monolithic | within tolerance | targets 1 / 2 / 3 |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in result["scenarios"]:
