@@ -1473,17 +1473,6 @@ class TorqueDriven:
         alpha = input_acceleration(p, y, u.tau_in)
         return torque_driven_outputs(outputs(p, t, State(*y[2:]), Drive(y[0], y[1], alpha, u.tau_load)), y, alpha)
 
-    #: the outputs without the joint's kinematics (:meth:`light_outputs`)
-    LIGHT_OUTPUTS = ("phi_in", "omega_in", "alpha_in", "tau_input_shaft") + tuple(
-        name for name in LIGHT_OUTPUTS if name != "tau_in")
-
-    @staticmethod
-    def light_outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
-        """The ``LIGHT_OUTPUTS`` of :meth:`outputs`: :func:`light_outputs` at the flange's motion."""
-        alpha = input_acceleration(p, y, u.tau_in)
-        return torque_driven_outputs(light_outputs(p, t, State(*y[2:]), Drive(y[0], y[1], alpha, u.tau_load)), y,
-                                     alpha)
-
     @staticmethod
     def load_outputs(p: TorqueDrivenParameters, t: float, y: tuple, u: Torques) -> dict:
         """The outputs that move with the inputs (the FMU recomputes only these when only tau_in changed since the
