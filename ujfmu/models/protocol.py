@@ -59,10 +59,11 @@ no input, e.g. a torque-driven variant's speeds, which its host reads before it 
 the same numbers as ``outputs`` gives for them: a read of only these computes only them; default all of
 ``outputs``), ``LIGHT_OUTPUTS`` with ``light_outputs(p, t, y, u) -> dict`` (names of outputs that cost a fraction of
 the others, e.g. a rotor's motion and input torque without its joint's kinematics, and their values, the same numbers
-as ``outputs`` gives for them: a read of only these, at every such read, computes only them, the others staying
-stale; default all of ``outputs``), and ``EXCITATION_ORDER`` (a module constant: the highest order of the input
-speed the outputs carry at full size, e.g. a joint's 2x; a run whose record samples it at most twice a period fails,
-``ujfmu.scenario_run``, and the FMU warns a host whose step does so, ``ujfmu.fmu.base``) with, optionally,
+as ``outputs`` gives for them: a read of only these, at every such read, computes only them, the others staying stale;
+default all of ``outputs``; not with ``load_outputs``, whose host reads before it sets the load inputs: a light read
+there leaves every output to compute after them), and ``EXCITATION_ORDER`` (a module constant: the highest order of the
+input speed the outputs carry at full size, e.g. a joint's 2x; a run whose record samples it at most twice a period
+fails, ``ujfmu.scenario_run``, and the FMU warns a host whose step does so, ``ujfmu.fmu.base``) with, optionally,
 ``excitation_order(p) -> int`` (that order at these parameters, 0 for none: straight joints carry no 2x) and
 ``excited_orders(p) -> tuple`` (the orders themselves, e.g. a joint's 2x without a 1x; default 1 to that order: `ujfmu
 modes` lists their crossings), ``output_jumps(p) -> tuple`` (the times [s] at which the outputs jump, e.g. a speed
