@@ -252,6 +252,7 @@ class UjfmuSlave(Fmi2Slave):
         self.default_experiment = DefaultExperiment(start_time=start, stop_time=stop, step_size=step)
         self._stale = True
         self._partial = False      # stale only in the outputs of load_outputs (see _input_setter); plumbing
+        self._light_valid = False  # the light outputs computed since the outputs became stale (read_light_outputs)
         self._initialized = False  # initialize() has run with the current parameters
         self._running = False      # past fmi2ExitInitializationMode
         self._terminated = False   # past fmi2Terminate: no more steps
@@ -332,7 +333,8 @@ class UjfmuSlave(Fmi2Slave):
                 if self._state_vrs and vrs and self._state_vrs.issuperset(vrs):
                     self.read_state_outputs(vrs)
                 elif self._light_vrs and vrs and self._light_vrs.issuperset(vrs):
-                    self.read_light_outputs(vrs)
+                    if not self._light_valid and not self._real_outputs.isdisjoint(vrs):
+                        self.read_light_outputs(vrs)
                 else:
                     outputs = self._real_outputs
                     for vr in vrs:
@@ -424,7 +426,7 @@ class UjfmuSlave(Fmi2Slave):
         else:
             for key, value in state.fields.items():
                 setattr(self, key, value)
-        self._partial = False
+        self._partial = self._light_valid = False
         self._state_outputs_of = None
         self._restored = was_running
         if self._terminated:   # a restored state is read, not stepped, after fmi2Terminate (FMI's state machine)
@@ -479,7 +481,7 @@ class UjfmuSlave(Fmi2Slave):
             setattr(self, name, value)
             if name not in self._output_free:
                 self._partial = name in self._load_inputs and self._running and (self._partial or not self._stale)
-                self._stale = True
+                self._stale, self._light_valid = True, False
             if not self._running:
                 self._initialized = False
         return set_
@@ -510,7 +512,7 @@ class UjfmuSlave(Fmi2Slave):
 
     #: names of outputs that cost a fraction of the others (a rotor's motion without its joint's kinematics): a read
     #: of only these, inputs and parameters while the outputs are stale computes only them (``read_light_outputs``),
-    #: at every such read, the others staying stale
+    #: once until the outputs become stale again (``_light_valid``), the others staying stale
     _light_output_names = ()
 
     def read_light_outputs(self, vrs):
@@ -586,7 +588,7 @@ class UjfmuSlave(Fmi2Slave):
             self._raise_to_host(f"{self.modelName} '{self.instance_name}': {invalid}")
         self._start()
         self._initialized = self._running = self._stale = True
-        self._partial = False
+        self._partial = self._light_valid = False
         for message in self.parameter_advice():
             self.log(f"{self.modelName} '{self.instance_name}': {message}", Fmi2Status.warning)
 
@@ -642,7 +644,7 @@ class UjfmuSlave(Fmi2Slave):
             if not self._clock_said and t0 != current_time and abs(current_time - t0) > 1e-9 * (abs(t0) + step_size):
                 self._say_time_jump(current_time, step_size)
             self.advance(current_time, step_size)
-            self._stale, self._partial = True, False
+            self._stale, self._partial, self._light_valid = True, False, False
             return True
         except KeyboardInterrupt:   # a Ctrl-C in its code: the host stops (fatal), what pythonfmu frees twice pinned
             self._raise_to_host(f"{self.modelName} '{self.instance_name}': step at t = {current_time!r} "
@@ -669,7 +671,7 @@ class ModelSlave(UjfmuSlave):
       FMU's torques) changed since they were computed and the model has ``load_outputs``, only those (the others
       do not depend on them); a read of only the model's ``STATE_OUTPUTS`` computes only those
       (``MODEL.state_outputs``, once per state), and a read of only its ``LIGHT_OUTPUTS`` only those
-      (``MODEL.light_outputs``, at every such read).
+      (``MODEL.light_outputs``, once until a step, an input or a restored state makes them stale).
 
     Subclasses provide ``model_inputs()`` (the model's inputs now) and may replace ``rk4_step`` (the RK4 substeps
     of one step, inputs held) or ``integrate`` (the whole step) and extend ``initialize``/``advance`` for what their
@@ -809,9 +811,10 @@ class ModelSlave(UjfmuSlave):
         try:
             self.compute_outputs(self._light_outputs)
         except (Exception, KeyboardInterrupt) as exc:   # as an output's getter
-            name = next(self._real_names[vr] for vr in vrs if vr in self._real_outputs)
+            name = next((self._real_names[vr] for vr in vrs if vr in self._real_outputs), "the outputs")
             self._raise_to_host(f"{self.modelName} '{self.instance_name}': cannot compute {name}: "
                                 f"{INTERRUPTED_IN_FMU if isinstance(exc, KeyboardInterrupt) else exc}")
+        self._light_valid = True
 
     def compute_load_outputs(self):
         """``MODEL.load_outputs``: the outputs that depend on the ``LOAD_INPUTS``, at the current time, state and
@@ -1061,7 +1064,7 @@ class PrescribedInputSlave(ModelSlave):
 
         def set_(value):
             if not self._input_set:
-                self._input_set, self._stale, self._partial = True, True, False
+                self._input_set, self._stale, self._partial, self._light_valid = True, True, False, False
             set_value(value)
         return set_
 

@@ -56,27 +56,26 @@ all of ``outputs``) with, optionally, ``load_output_names(p) -> tuple`` (their n
 none of them then computes nothing, as the others are still valid), and ``STATE_OUTPUTS`` with
 ``state_outputs(p, t, y) -> dict`` (names of outputs that depend on
 no input, e.g. a torque-driven variant's speeds, which its host reads before it sets the torques, and their values,
-the same numbers as ``outputs`` gives for them: a read of only these computes only them; default all of
-``outputs``), ``LIGHT_OUTPUTS`` with ``light_outputs(p, t, y, u) -> dict`` (names of outputs that cost a fraction of
-the others, e.g. a rotor's motion and input torque without its joint's kinematics, and their values, the same numbers
-as ``outputs`` gives for them: a read of only these, at every such read, computes only them, the others staying stale;
-default all of ``outputs``; not with ``load_outputs``, whose host reads before it sets the load inputs: a light read
-there leaves every output to compute after them), and ``EXCITATION_ORDER`` (a module constant: the highest order of the
-input speed the outputs carry at full size, e.g. a joint's 2x; a run whose record samples it at most twice a period
-fails, ``ujfmu.scenario_run``, and the FMU warns a host whose step does so, ``ujfmu.fmu.base``) with, optionally,
-``excitation_order(p) -> int`` (that order at these parameters, 0 for none: straight joints carry no 2x) and
-``excited_orders(p) -> tuple`` (the orders themselves, e.g. a joint's 2x without a 1x; default 1 to that order: `ujfmu
-modes` lists their crossings), ``output_jumps(p) -> tuple`` (the times [s] at which the outputs jump, e.g. a speed
-profile's step or a load step: an iterating master holds its torn inputs at their start values over a step that ends at
-one, where its blend would take the jump into that step; default none), ``changes_by(p, t) -> bool`` (the outputs at
-time t differ from those at 0 at the same state and inputs, e.g. a speed profile that moved: the FMI 3.0 FMUs cannot see
-a start time other than 0 before their first step, so a Co-Simulation run from a start where this holds is refused;
-default False), for a model whose inputs are a :class:`Drive`, ``speed_jump(p, y, w_from, w_to) -> tuple`` (the state
-after the host sets the input shaft from w_from, the speed the last step extrapolated it to, to its new omega_in w_to:
-an energy audit's input work takes the impulse's work on the input inertia there, which no torque output carries;
-default the state unchanged), and ``LATERAL_STATES`` (names of ``State`` fields of bending motion, e.g. a disc's
-displacements and velocities: `ujfmu modes` calls a mode lateral, torsional or lateral-torsional by its participation in
-them; default none).
+the same numbers as ``outputs`` gives for them: a read of only these computes only them; default all of ``outputs``),
+``LIGHT_OUTPUTS`` with ``light_outputs(p, t, y, u) -> dict`` (names of outputs that cost a fraction of the others, e.g.
+a rotor's motion and input torque without its joint's kinematics, and their values, the same numbers as ``outputs``
+gives for them: a read of only these computes only them, the others staying stale; default all of ``outputs``; not with
+``load_outputs``, whose host reads before it sets the load inputs: a light read there leaves every output to compute
+after them), and ``EXCITATION_ORDER`` (a module constant: the highest order of the input speed the outputs carry at full
+size, e.g. a joint's 2x; a run whose record samples it at most twice a period fails, ``ujfmu.scenario_run``, and the FMU
+warns a host whose step does so, ``ujfmu.fmu.base``) with, optionally, ``excitation_order(p) -> int`` (that order at
+these parameters, 0 for none: straight joints carry no 2x) and ``excited_orders(p) -> tuple`` (the orders themselves,
+e.g. a joint's 2x without a 1x; default 1 to that order: `ujfmu modes` lists their crossings), ``output_jumps(p) ->
+tuple`` (the times [s] at which the outputs jump, e.g. a speed profile's step or a load step: an iterating master holds
+its torn inputs at their start values over a step that ends at one, where its blend would take the jump into that step;
+default none), ``changes_by(p, t) -> bool`` (the outputs at time t differ from those at 0 at the same state and inputs,
+e.g. a speed profile that moved: the FMI 3.0 FMUs cannot see a start time other than 0 before their first step, so a
+Co-Simulation run from a start where this holds is refused; default False), for a model whose inputs are a
+:class:`Drive`, ``speed_jump(p, y, w_from, w_to) -> tuple`` (the state after the host sets the input shaft from w_from,
+the speed the last step extrapolated it to, to its new omega_in w_to: an energy audit's input work takes the impulse's
+work on the input inertia there, which no torque output carries; default the state unchanged), and ``LATERAL_STATES``
+(names of ``State`` fields of bending motion, e.g. a disc's displacements and velocities: `ujfmu modes` calls a mode
+lateral, torsional or lateral-torsional by its participation in them; default none).
 
 The inputs ``u`` are the model's own NamedTuple ``Inputs``; a model whose input shaft follows a prescribed speed
 (``omega_in``) uses :class:`Drive`, which the base extrapolates over a step (angle quadratic, speed linear in time:
