@@ -252,7 +252,6 @@ class UjfmuSlave(Fmi2Slave):
         self.default_experiment = DefaultExperiment(start_time=start, stop_time=stop, step_size=step)
         self._stale = True
         self._partial = False      # stale only in the outputs of load_outputs (see _input_setter); plumbing
-        self._light_valid = False  # the light outputs computed since the outputs became stale (read_light_outputs)
         self._initialized = False  # initialize() has run with the current parameters
         self._running = False      # past fmi2ExitInitializationMode
         self._terminated = False   # past fmi2Terminate: no more steps
@@ -281,13 +280,16 @@ class UjfmuSlave(Fmi2Slave):
                               if var.setter is not None and var.causality != Fmi2Causality.output}
         self._real_names = {vr: var.name for vr, var in reals.items()}
         self._real_outputs = frozenset(vr for vr, var in reals.items() if var.causality == Fmi2Causality.output)
-        # the outputs that are functions of the state alone (``_state_output_names``), and the state they were last
-        # computed at by ``read_state_outputs`` (None: not since the last restore)
-        self._state_vrs = frozenset(vr for vr, var in reals.items() if var.name in self._state_output_names)
+        # the outputs a read of only which computes only those (``_read_subset``): the model's outputs that are
+        # functions of the state alone (``_state_output_names``), or its light outputs (``_light_output_names``),
+        # with the inputs and parameters; the state the first were last computed at (None: not since the last
+        # restore), and the (state, time, inputs) the second were (``read_light_outputs``)
+        subset = self._state_output_names or self._light_output_names
+        self._subset_vrs = frozenset(vr for vr, var in reals.items() if var.name in subset)
         self._state_outputs_of = None
-        # a read of only the light outputs (``_light_output_names``), inputs and parameters computes only those
-        light = frozenset(vr for vr, var in reals.items() if var.name in self._light_output_names)
-        self._light_vrs = light | (reals.keys() - self._real_outputs) if light else light
+        if self._light_output_names:
+            self._subset_vrs |= reals.keys() - self._real_outputs
+            self._light_of = None
         big = sys.float_info.max
         self._input_bounds = tuple((v.name, -big if v.min is None else v.min, big if v.max is None else v.max, v)
                                    for v in self._inputs)
@@ -330,11 +332,8 @@ class UjfmuSlave(Fmi2Slave):
         try:
             if self._stale and not (self._partial and self._load_reads is not None
                                     and self._load_reads.isdisjoint(vrs)):
-                if self._state_vrs and vrs and self._state_vrs.issuperset(vrs):
-                    self.read_state_outputs(vrs)
-                elif self._light_vrs and vrs and self._light_vrs.issuperset(vrs):
-                    if not self._light_valid and not self._real_outputs.isdisjoint(vrs):
-                        self.read_light_outputs(vrs)
+                if self._subset_vrs and vrs and self._subset_vrs.issuperset(vrs):
+                    self._read_subset(vrs)
                 else:
                     outputs = self._real_outputs
                     for vr in vrs:
@@ -426,7 +425,7 @@ class UjfmuSlave(Fmi2Slave):
         else:
             for key, value in state.fields.items():
                 setattr(self, key, value)
-        self._partial = self._light_valid = False
+        self._partial = False
         self._state_outputs_of = None
         self._restored = was_running
         if self._terminated:   # a restored state is read, not stepped, after fmi2Terminate (FMI's state machine)
@@ -481,7 +480,7 @@ class UjfmuSlave(Fmi2Slave):
             setattr(self, name, value)
             if name not in self._output_free:
                 self._partial = name in self._load_inputs and self._running and (self._partial or not self._stale)
-                self._stale, self._light_valid = True, False
+                self._stale = True
             if not self._running:
                 self._initialized = False
         return set_
@@ -502,22 +501,16 @@ class UjfmuSlave(Fmi2Slave):
 
     # --- hooks for the models ---
     #: names of outputs that are functions of the model state alone (no input): a read of only these while the
-    #: outputs are stale computes only them (``read_state_outputs``); a host reads them first in a step
+    #: outputs are stale computes only them (``_read_subset``); a host reads them first in a step
     _state_output_names = ()
-
-    def read_state_outputs(self, vrs):
-        """Make the outputs of vrs (all in ``_state_output_names``) valid (default: all outputs, as any read
-        does)."""
-        self._real_getters[vrs[0]]()
 
     #: names of outputs that cost a fraction of the others (a rotor's motion without its joint's kinematics): a read
     #: of only these, inputs and parameters while the outputs are stale computes only them (``read_light_outputs``),
-    #: once until the outputs become stale again (``_light_valid``), the others staying stale
+    #: the others staying stale; a model has these or ``_state_output_names``, not both
     _light_output_names = ()
 
-    def read_light_outputs(self, vrs):
-        """Make the outputs among vrs (all in ``_light_output_names``, or not outputs) valid (default: all
-        outputs)."""
+    def _read_subset(self, vrs):
+        """Make the outputs among vrs (all in ``_subset_vrs``) valid (default: all outputs, as any read does)."""
         outputs = self._real_outputs
         for vr in vrs:
             if vr in outputs:
@@ -588,7 +581,7 @@ class UjfmuSlave(Fmi2Slave):
             self._raise_to_host(f"{self.modelName} '{self.instance_name}': {invalid}")
         self._start()
         self._initialized = self._running = self._stale = True
-        self._partial = self._light_valid = False
+        self._partial = False
         for message in self.parameter_advice():
             self.log(f"{self.modelName} '{self.instance_name}': {message}", Fmi2Status.warning)
 
@@ -644,7 +637,7 @@ class UjfmuSlave(Fmi2Slave):
             if not self._clock_said and t0 != current_time and abs(current_time - t0) > 1e-9 * (abs(t0) + step_size):
                 self._say_time_jump(current_time, step_size)
             self.advance(current_time, step_size)
-            self._stale, self._partial, self._light_valid = True, False, False
+            self._stale, self._partial = True, False
             return True
         except KeyboardInterrupt:   # a Ctrl-C in its code: the host stops (fatal), what pythonfmu frees twice pinned
             self._raise_to_host(f"{self.modelName} '{self.instance_name}': step at t = {current_time!r} "
@@ -671,7 +664,7 @@ class ModelSlave(UjfmuSlave):
       FMU's torques) changed since they were computed and the model has ``load_outputs``, only those (the others
       do not depend on them); a read of only the model's ``STATE_OUTPUTS`` computes only those
       (``MODEL.state_outputs``, once per state), and a read of only its ``LIGHT_OUTPUTS`` only those
-      (``MODEL.light_outputs``, once until a step, an input or a restored state makes them stale).
+      (``MODEL.light_outputs``, again only where the state, time or inputs changed).
 
     Subclasses provide ``model_inputs()`` (the model's inputs now) and may replace ``rk4_step`` (the RK4 substeps
     of one step, inputs held) or ``integrate`` (the whole step) and extend ``initialize``/``advance`` for what their
@@ -724,6 +717,8 @@ class ModelSlave(UjfmuSlave):
                 cls._state_outputs = staticmethod(model.state_outputs)
                 cls._state_output_names = tuple(model.STATE_OUTPUTS)
             if hasattr(model, "light_outputs"):
+                if hasattr(model, "state_outputs"):
+                    raise TypeError(f"{cls.__name__}: a model declares STATE_OUTPUTS or LIGHT_OUTPUTS, not both")
                 cls._light_outputs = staticmethod(model.light_outputs)
                 cls._light_output_names = tuple(model.LIGHT_OUTPUTS)
             if hasattr(model, "integrate_with_history"):   # a multistep integrator: its history is FMU state
@@ -780,17 +775,23 @@ class ModelSlave(UjfmuSlave):
         """The model's inputs the outputs are computed at (default: ``model_inputs()``)."""
         return self.model_inputs()
 
-    def compute_outputs(self, outputs=None):
+    def compute_outputs(self, outputs=None, u=None):
         """The output variables from ``MODEL.outputs`` (or the function outputs given, of the same arguments) at the
-        current time, state and inputs (``output_inputs``); returns the inputs."""
-        u = self.output_inputs()
+        current time, state and inputs (u, else ``output_inputs``); returns the inputs."""
+        if u is None:
+            u = self.output_inputs()
         vars(self).update((outputs or self._outputs)(self._p, self._time,
                                                      self._y if self._started else self.current_state(u), u))
         return u
 
-    def read_state_outputs(self, vrs):
-        """``MODEL.state_outputs`` at the current state, once per state (the other outputs stay stale); before the
-        first step, every output (the state then follows the inputs: the warm start)."""
+    def _read_subset(self, vrs):
+        """The outputs of a read of only ``_subset_vrs``: the light outputs where the model has them
+        (:meth:`read_light_outputs`), else ``MODEL.state_outputs`` at the current state, once per state (the other
+        outputs stay stale); before the first step, every output (the state then follows the inputs: the warm
+        start)."""
+        if self._light_outputs is not None:
+            self.read_light_outputs(vrs)
+            return
         y = self._y if self._running and self._started else None
         if y is None:
             self._real_getters[vrs[0]]()
@@ -804,17 +805,24 @@ class ModelSlave(UjfmuSlave):
 
     def read_light_outputs(self, vrs):
         """``MODEL.light_outputs`` at the current time, state and inputs (``compute_outputs``; the other outputs
-        stay stale); before the first step, every output."""
+        stay stale), again only where one of the three changed since (``_light_of``); nothing for a read of inputs
+        and parameters alone; before the first step, every output."""
+        if self._real_outputs.isdisjoint(vrs):
+            return
         if not (self._running and self._started):
-            UjfmuSlave.read_light_outputs(self, vrs)
+            UjfmuSlave._read_subset(self, vrs)
             return
         try:
-            self.compute_outputs(self._light_outputs)
+            u = self.output_inputs()
+            seen = self._light_of
+            if seen is not None and seen[0] is self._y and seen[1] == self._time and seen[2] == u:
+                return
+            self.compute_outputs(self._light_outputs, u)
         except (Exception, KeyboardInterrupt) as exc:   # as an output's getter
-            name = next((self._real_names[vr] for vr in vrs if vr in self._real_outputs), "the outputs")
+            name = next(self._real_names[vr] for vr in vrs if vr in self._real_outputs)
             self._raise_to_host(f"{self.modelName} '{self.instance_name}': cannot compute {name}: "
                                 f"{INTERRUPTED_IN_FMU if isinstance(exc, KeyboardInterrupt) else exc}")
-        self._light_valid = True
+        self._light_of = self._y, self._time, u
 
     def compute_load_outputs(self):
         """``MODEL.load_outputs``: the outputs that depend on the ``LOAD_INPUTS``, at the current time, state and
@@ -1064,7 +1072,7 @@ class PrescribedInputSlave(ModelSlave):
 
         def set_(value):
             if not self._input_set:
-                self._input_set, self._stale, self._partial, self._light_valid = True, True, False, False
+                self._input_set, self._stale, self._partial = True, True, False
             set_value(value)
         return set_
 
@@ -1077,10 +1085,11 @@ class PrescribedInputSlave(ModelSlave):
     def speed_bound(self, h, u):
         return max(abs(u.omega), abs(u.omega + u.alpha * h))
 
-    def compute_outputs(self, outputs=None):
+    def compute_outputs(self, outputs=None, u=None):
         """ModelSlave's (at ``output_inputs``; at the state with the model's ``speed_jump`` to the omega_in set since
         the last step, :meth:`jumped`), and the input shaft's phi_in and alpha_in."""
-        u = self.output_inputs()
+        if u is None:
+            u = self.output_inputs()
         if self._started:
             y = self._y if self._speed_jump is None or not self._input_set else self.jumped(self._y, u[1])
         else:

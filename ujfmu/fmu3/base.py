@@ -215,8 +215,8 @@ class Fmi3Model(Fmi3SlaveBase, CoSimulation):
         core.instance_name, core.modelName, core.log_queue = self.instance_name, model.__name__, self.log_queue
         core.log = self._log_from_core
         core._stale, core._initialized, core._running, core._start_time = True, False, False, 0.0
-        core._partial = core._light_valid = False
-        core._state_vrs, core._state_outputs_of = frozenset(), None   # UjfmuSlave.get_real's, which this FMU bypasses
+        core._partial = False
+        core._subset_vrs, core._state_outputs_of = frozenset(), None   # UjfmuSlave.get_real's, which this FMU bypasses
         core._derivation, core._terminated, core._restored = None, False, False
         core._inputs = tuple(v for v in model.VARIABLES if v.causality == "input")
         for var in model.VARIABLES:
