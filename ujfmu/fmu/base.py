@@ -427,6 +427,8 @@ class UjfmuSlave(Fmi2Slave):
                 setattr(self, key, value)
         self._partial = False
         self._state_outputs_of = None
+        if "_light_of" in self.__dict__:   # a restored state's outputs are those it was saved with, whatever the memo
+            self._light_of = None
         self._restored = was_running
         if self._terminated:   # a restored state is read, not stepped, after fmi2Terminate (FMI's state machine)
             self._running = False
