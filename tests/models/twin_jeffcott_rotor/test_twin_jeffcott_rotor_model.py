@@ -169,6 +169,23 @@ def test_disc_accelerations_solve_the_mass_matrix():
 
 
 
+def test_light_outputs_are_the_state_and_the_shaft_torques_of_torque_outputs():
+    """light_outputs (which outputs builds on) against an independent path: the discs' motion and energy rows are
+    the state's fields, tau_in and the primary shaft's torque those of torque_outputs (shaft_torques); the two left
+    out are torque_outputs' secondary torque and stored energy."""
+    p = rotor(beta=20 * DEG)
+    y = (0.31, 101.0, 2e-5, -1e-4, -3e-5, 2e-4, 0.27, 99.0, 4e-5, 3e-4, 1e-5, -2e-4, 0.7, 3.1)
+    u = tj.Drive(0.35, 100.0, 12.0, 2.0)
+    light = tj.light_outputs(p, 0.0, y, u)
+    torques = tj.torque_outputs(p, u.phi, u.omega, u.alpha, y)
+    assert light == {"phi_disc1": y[0], "omega_disc1": y[1], "X1": y[2], "Y1": y[4], "phi_out": y[6],
+                     "omega_out": y[7], "X2": y[8], "Y2": y[10], "dissipated_energy": y[12], "input_work": y[13],
+                     "tau_in": torques["tau_in"], "primary_shaft_torque": torques["primary_shaft_torque"]}
+    full = tj.outputs(p, 0.0, y, u)
+    assert (full["secondary_shaft_torque"], full["stored_energy"]) == (torques["secondary_shaft_torque"],
+                                                                       torques["stored_energy"])
+
+
 def test_straight_line_rates_are_the_composed_equations():
     """joint_gradient (straight-line) is joint, and rates (straight-line code, the integrator's inner loop) is
     Lagrange's equations assembled from joint (its derivatives tested against finite differences, its tilts against
