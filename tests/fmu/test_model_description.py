@@ -76,3 +76,55 @@ def test_fmu_ships_documentation_and_only_standard_library_code(fmu_dir, name):
     assert ours
     for path, text in ours.items():
         assert not re.search(r"^\s*(import|from)\s+(numpy|scipy|matplotlib|fmpy|sympy)\b", text, re.M), path
+
+
+def _messages(fmu_dir, name, categories, parameters):
+    """(category, status, message) of every message the FMU passes to a host that turned logging on with these
+    categories (fmi2SetDebugLogging), over initialization with the parameters given and one step."""
+    from fmpy import extract
+    from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+    path = fmu_dir / f"{name}.fmu"
+    md = read_model_description(str(path))
+    got = []
+
+    def logger(env, instance, status, category, message):
+        got.append((category.decode() if category else "", status, message.decode()))
+
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path)), modelIdentifier=md.coSimulation.modelIdentifier,
+                      instanceName="categories")
+    slave.instantiate(callbacks=callbacks, loggingOn=True)
+    try:
+        slave.setDebugLogging(True, categories)
+        slave.setupExperiment(startTime=0.0)
+        slave.enterInitializationMode()
+        refs = {v.name: v.valueReference for v in md.modelVariables}
+        slave.setReal([refs[n] for n in parameters], list(parameters.values()))
+        try:
+            slave.exitInitializationMode()
+            slave.doStep(0.0, 1e-3)
+        except Exception:
+            pass   # the refusal's message is what is looked at
+    finally:
+        slave.freeInstance()
+    return got
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_every_declared_log_category_is_one_the_fmu_logs_under(fmu_dir, name):
+    """pythonfmu's C layer passes a message to the host only where its category is one the host enabled by name
+    (or none is named): a declared category that no message carries (its own ``logAll``) passes nothing."""
+    md = read_model_description(str(fmu_dir / f"{name}.fmu"))
+    assert [c.name for c in md.logCategories] == [f"logStatus{s}" for s in ("Warning", "Discard", "Error", "Fatal")]
+
+
+@pytest.mark.parametrize("enabled", [[], ["logStatusWarning", "logStatusDiscard", "logStatusError", "logStatusFatal"]])
+def test_a_host_enabling_the_declared_categories_gets_warnings_and_errors(fmu_dir, enabled):
+    """None named (all) or every declared category named: the warning that the default error angles change a
+    small bend's swing, and a refused parameter's error, each under its status's category."""
+    warned = _messages(fmu_dir, "CardanJoint", enabled, {"bend_angle": 0.192})
+    assert any(c == "logStatusWarning" and "error_angle_beta" in m for c, s, m in warned), warned
+    refused = _messages(fmu_dir, "CardanJoint", enabled, {"bend_angle": 20.0})
+    assert any(c == "logStatusError" and "bend_angle" in m for c, s, m in refused), refused
+    assert {c for c, s, m in warned + refused} <= {"logStatusWarning", "logStatusError", "logStatusFatal"} | {""}

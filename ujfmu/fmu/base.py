@@ -239,6 +239,11 @@ class UjfmuSlave(Fmi2Slave):
         if len(parts) >= 3 and parts[-3] == "models":   # models/<stem>/fmu.py (not the base classes, the pass-through)
             build_digest(model_stem(cls.__module__))
 
+    #: the log categories declared in the modelDescription: every message carries one of them (all are warnings,
+    #: errors or fatal). Not pythonfmu's ``logAll``: its C layer passes only messages of a category the host enabled
+    #: by name, and none carries "logAll", so a host enabling it alone would see nothing
+    log_categories = {f"logStatus{s}": f"Log messages with fmi2{s} status."
+                      for s in ("Warning", "Discard", "Error", "Fatal")}
     PHYSICS = None  # the model's equations module, ujfmu.models.<stem>.model (documentation)
     VARIABLES = ()
     DEFAULT_EXPERIMENT = (0.0, 1.0, 1e-3)  # start, stop, step
