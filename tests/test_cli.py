@@ -1452,6 +1452,31 @@ def test_run_set_changes_a_parameter_for_that_run_only(fmu_dir, tmp_path, capsys
     assert Scenario(scenario).with_parameters({"motor.profile": 0.0}).start_values("motor")["profile"] == 0
 
 
+def test_run_name_keeps_variants_apart_and_their_columns_say_the_values_set(fmu_dir, tmp_path, capsys):
+    """`ujfmu run --set ... --name`: two joint angles run side by side keep their own files (without --name both
+    were <scenario>_changed, the second over the first), each table's columns file names the scenario file and the
+    values set, and each table holds its own angle's physics: the output-to-input speed ratio swings between
+    cos b and 1 / cos b (an ideal joint). A name that is a path is refused."""
+    scenario = SCENARIOS / "cardan_constant_speed.toml"
+    base = ["--fmu-dir", str(fmu_dir), "run", str(scenario), "--no-plot", "--no-check-step", "--out", str(tmp_path),
+            "--set", "joint.error_angle_beta=0", "--set", "joint.error_angle_gamma=0"]
+    for deg in (10, 30):
+        assert main(base + ["--set", f"joint.bend_angle={deg}deg", "--name", f"bend{deg}"]) == 0
+    capsys.readouterr()
+    for deg in (10, 30):
+        table = np.genfromtxt(tmp_path / f"bend{deg}.csv", delimiter=",", names=True)
+        ratio = table["jointomega_out"][50:] / table["motoromega"][50:]
+        b = math.radians(deg)
+        assert (ratio.min(), ratio.max()) == pytest.approx((math.cos(b), 1.0 / math.cos(b)), rel=1e-4)
+        with open(tmp_path / f"bend{deg}.columns.csv") as f:
+            time_row = next(line for line in f if line.startswith("time,"))
+        assert "scenario file cardan_constant_speed.toml" in time_row and f"joint.bend_angle = " in time_row
+        assert f"({deg} deg)" in time_row and "joint.error_angle_beta = 0 rad" in time_row, time_row
+    assert not (tmp_path / "cardan_constant_speed_changed.csv").exists()
+    assert main(base + ["--name", "../elsewhere"]) == 2
+    assert "--name '../elsewhere': a plain file name" in capsys.readouterr().err
+
+
 def test_run_stop_time_runs_a_changed_copy_and_says_why_it_is_not_compared(fmu_dir, tmp_path, capsys):
     """`ujfmu run --stop-time 0.5` runs the scenario to 0.5 s as a changed copy (it had taken Python or a copied
     file): its results end there, its title says so, and the summary says the file's reference, made for the file's

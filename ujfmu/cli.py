@@ -389,6 +389,8 @@ def cmd_run(args):
         print(f"--step auto: step_size = {scenario.step_size:g} s")
     if not math.isclose(scenario.step_size, scenario.declared_step, rel_tol=1e-9):   # beside the file's results
         scenario.name = f"{scenario.name}_step{scenario.step_size:g}"
+    if args.name is not None:
+        scenario.name = _run_name(args.name)
     result = _run_one(args, args.scenario, scenario)
     _say(args, f"  results: {Path(result.csv).absolute()}"
          + (f"\n  plot:    {Path(result.plot).absolute()}" if result.plot else ""))
@@ -741,6 +743,14 @@ def _status_summary(counts, total, steady_checked=True):
     return f"{total} point{'' if total == 1 else 's'}: " + ", ".join(parts)
 
 
+def _run_name(name: str) -> str:
+    """--name NAME: a plain file name (it names the files the run writes), else UsageError."""
+    if not name or name.startswith(".") or any(c in name for c in "/\\\0"):
+        raise UsageError(f"--name {name!r}: a plain file name (no path separators, not starting with '.'): it names "
+                         "the files the run writes (<name>.csv, <name>.columns.csv, <name>.png)")
+    return name
+
+
 def _with_set(scenario, texts):
     """The scenario with the --set values COMP.PAR=VALUE[rpm|deg] (``Scenario.with_parameters``: a copy named
     <scenario>_changed, without the reference), or itself without any."""
@@ -1058,6 +1068,10 @@ def _main(raw: list):
                            help="record this signal too (several --record for several), e.g. "
                                 "driveline.stored_energy: written and summarised, not compared (the run stays "
                                 "checked against the file's reference)")
+            p.add_argument("--name", metavar="NAME",
+                           help="name of the run and of the files it writes (NAME.csv, NAME.columns.csv, NAME.png) "
+                                "instead of <scenario>, <scenario>_changed (--set, --stop-time), _<scheme> or "
+                                "_step<h>: variants run side by side keep their own files")
             p.add_argument("--stop-time", type=float, metavar="SECONDS",
                            help="run until this time instead of the scenario's stop_time (a whole number of steps "
                                 "after its start): a changed copy, as --set makes, not compared with the file's "

@@ -1868,9 +1868,10 @@ def write_table(path: Path, table: np.ndarray) -> Path:
 
 def write_columns(scenario: Scenario, csv_path: Path, names, model_exchange: bool = False,
                   stopped: str = "") -> Path:
-    """``<name>.columns.csv`` beside a run's CSV: column, unit, meaning (the FMU's description of the variable, the
-    time's communication step and coupling, or the Model Exchange solve's), so a spreadsheet or a script reads the
-    units with the numbers; stopped: what a failed or stopped run's results are (said in the time's meaning)."""
+    """``<name>.columns.csv`` beside a run's CSV: column, unit, meaning (the FMU's description of the variable; the
+    time's: the communication step and coupling, or the Model Exchange solve's, the scenario file and the
+    parameters set instead of its own), so a spreadsheet or a script reads the units and the setup with the
+    numbers; stopped: what a failed or stopped run's results are (said in the time's meaning)."""
     import csv
     from .build import fmu_class
     path = Path(csv_path).with_suffix(".columns.csv")
@@ -1880,7 +1881,11 @@ def write_columns(scenario: Scenario, csv_path: Path, names, model_exchange: boo
         if name == "time":
             how = ("Model Exchange FMUs under CVode" if model_exchange else
                    f"communication step {scenario.step_size:g} s, {scenario.coupling} coupling")
-            rows.append(["time", "s", f"simulation time, a row every {every:g} s ({how})"
+            setup = f"scenario file {scenario.path.name}, until {scenario.stop_time:g} s" + (
+                "; parameters set instead of the file's: "
+                + ", ".join(scenario.change_text(k, v) for k, v in scenario.changes.items()) if scenario.changes
+                else "")
+            rows.append(["time", "s", f"simulation time, a row every {every:g} s ({how}; {setup})"
                          + (f"; {stopped}" if stopped else "")])
             continue
         comp, _, var = name.partition(".")
