@@ -178,6 +178,24 @@ def test_bend_plane_angle_alone_is_a_tilt_about_y():
     assert r.max() == pytest.approx(1 / math.cos(delta), rel=1e-9)
 
 
+def test_a_bend_plane_angle_is_said_to_be_a_second_bend_with_the_shaft_angle_it_makes():
+    """bend_plane_angle reads like the bend plane's azimuth, but it is a second bend about y: a user's 20 deg joint
+    with the plane at 30 deg ran as a 35.5 deg joint, unsaid. The warning gives the shaft angle, acos(cos 20 deg
+    cos 30 deg) = 35.53 deg, at which an ideal joint's velocity ratio swings between cos and 1/cos of it; none at
+    bend_plane_angle = 0."""
+    p = cardan.Parameters(bend_angle=math.radians(20), bend_plane_angle=math.radians(30), error_angle_beta=0.0,
+                          error_angle_gamma=0.0, J1=2e-7, J2=0.0)
+    total = math.acos(math.cos(math.radians(20)) * math.cos(math.radians(30)))
+    said = [a for a in cardan.advice(p) if a.startswith("bend_plane_angle")]
+    assert len(said) == 1 and f"= {math.degrees(total):.4g} deg" in said[0] and "35.53 deg" in said[0], said
+    assert "set bend_plane_angle = 0" in said[0]
+    r = np.array([cardan.velocity_ratio(p.frame, t) for t in np.linspace(0.0, 2.0 * math.pi, 20001)])
+    assert (r.min(), r.max()) == pytest.approx((math.cos(total), 1 / math.cos(total)), rel=1e-6)   # the grid's
+    flat = cardan.Parameters(bend_angle=math.radians(20), bend_plane_angle=0.0, error_angle_beta=0.0,
+                             error_angle_gamma=0.0, J1=2e-7, J2=0.0)
+    assert not [a for a in cardan.advice(flat) if "bend_plane_angle" in a]
+
+
 def test_symmetry_mirror_bend():
     """Bending by -phi mirrors the joint: the same torsional moment M_z."""
     _, _, mz_pos = moments(frame(PHI), 0.3)

@@ -250,8 +250,18 @@ def advice(p: Parameters) -> list:
     """Warnings: a bend past ``protocol.LARGE_JOINT_ANGLE`` (degrees meant?); the error angles left at the
     laboratory joint's (``LAB_ERROR_ANGLE``) where they change the joint's 2x velocity-ratio swing by more than
     ``ERROR_ANGLE_EFFECT`` from the ideal joint's at the same bend (at a bend of a few degrees, a vehicle's, by a
-    quarter or a third, with the bend's sign); an error angle past ``LARGE_ERROR_ANGLE`` (degrees meant?)."""
+    quarter or a third, with the bend's sign); an error angle past ``LARGE_ERROR_ANGLE`` (degrees meant?); a
+    bend_plane_angle other than 0, a second bend about y (Eq. 1), which its name may be read as the bend plane's
+    azimuth: the shaft angle then is acos(cos(bend_angle) cos(bend_plane_angle)) (:func:`shaft_angle`)."""
     angles = joint_angle_advice("bend_angle", p.bend_angle)
+    if p.bend_plane_angle != 0.0:
+        ideal = shaft_angle(joint_frame(p.bend_angle, p.bend_plane_angle, 0.0, 0.0))
+        angles.append(f"bend_plane_angle = {p.bend_plane_angle:.6g} rad ({math.degrees(p.bend_plane_angle):.4g} deg) "
+                      "is a second bend, about y (Feng et al.'s Eq. 1, C_delta = R_y(delta)), not the azimuth of the "
+                      f"plane the shafts bend in: with bend_angle = {p.bend_angle:.6g} rad the shafts meet at "
+                      f"acos(cos(bend_angle) cos(bend_plane_angle)) = {math.degrees(ideal):.4g} deg (error angles "
+                      "aside), and the velocity ratio swings as at that angle; for a joint bent by bend_angle alone, "
+                      "set bend_plane_angle = 0")
     for name in ("error_angle_beta", "error_angle_gamma"):
         value = getattr(p, name)
         if abs(value) > LARGE_ERROR_ANGLE:
