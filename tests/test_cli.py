@@ -1508,6 +1508,10 @@ def test_run_stop_time_runs_a_changed_copy_and_says_why_it_is_not_compared(fmu_d
         changed.with_stop_time(0.5004)
     assert (changed.stop_time, changed.name) == (17.0, "twin_jeffcott_steady_changed") and "0.5004" not in changed.title
     assert changed.with_stop_time(0.5).name == "twin_jeffcott_steady_changed" and changed.stop_time == 17.0
+    for before in (0.0, -1.0):   # the option named, not the file's experiment
+        with pytest.raises(ScenarioError, match=r"\(ujfmu run --stop-time\): the stop time must be after the file's "
+                                                r"start_time = 0.0 s"):
+            changed.with_stop_time(before)
     copy = Scenario(SCENARIOS / "twin_jeffcott_steady.toml").with_stop_time(0.5)   # as --stop-time, from Python
     assert (copy.stop_time, copy.steady_from, copy.name, copy.reference_file) == (0.5, 0.0,
                                                                                    "twin_jeffcott_steady_changed", None)

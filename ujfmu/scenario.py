@@ -816,6 +816,10 @@ class Scenario:
         stop_time = float(stop_time)
         if stop_time == self.stop_time:
             return self
+        if not stop_time > self.start_time:
+            raise ScenarioError(f"{self.path}: with_stop_time({stop_time!r}) (ujfmu run --stop-time): the stop time "
+                                f"must be after the file's start_time = {self.start_time!r} s (the run's end, a whole "
+                                f"number of its steps of {self.step_size!r} s after the start)")
         out = self.with_parameters({}, name=None if self.name == self.path.stem else self.name)
         out.stop_time = stop_time
         out.title = f"{out.title} (stop_time = {stop_time:g} s)"
