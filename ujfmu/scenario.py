@@ -210,7 +210,9 @@ class LoadChatter:
                 f"{law} = {reach:.3g} rad/s, "
                 f"{self.ratio:.3g}x omega_smooth: near rest (a start, a stall) the load's torque reverses at every "
                 f"step, and the run stops as a coupling instability or chatter. Widen omega_smooth to at least "
-                f"{reach:.3g} rad/s, or take a step of at most {step:.3g} s")
+                f"{reach:.3g} rad/s, or take a step of at most {step:.3g} s (one step then moves it by at most "
+                f"omega_smooth: no chatter even where the shaft stays at rest; a start that only passes rest runs "
+                f"at up to about {LOAD_CHATTER_ADVICE:g}x, above which a run is warned before it starts)")
 
 
 class ScenarioError(ValueError):
