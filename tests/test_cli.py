@@ -1612,3 +1612,24 @@ def test_run_names_its_files_by_absolute_paths(fmu_dir, tmp_path, capsys, monkey
     assert main(["run", str(SCENARIOS / "cardan_constant_speed.toml"), "--fmu-dir", str(fmu_dir), "--out", "out",
                  "--no-plot"]) == 0
     assert f"  results: {tmp_path / 'out' / 'cardan_constant_speed.csv'}\n" in capsys.readouterr().out
+
+
+def test_variables_lists_an_fmus_declared_variables_with_units_defaults_and_ranges(capsys):
+    """`ujfmu variables FMU`: every parameter, input and output of the declaration (the twin rotor's names had been
+    only in each FMU's documentation/index.html), a parameter with its default, unit, range and meaning (an angle's
+    default in degrees too), an output with its unit; --causality keeps one kind; an unknown FMU exit status 2."""
+    from ujfmu.build import fmu_class
+    assert main(["variables", "TwinJeffcottRotor"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    for v in fmu_class("TwinJeffcottRotor").VARIABLES:
+        line = next(x for x in lines if x.startswith(f"  {v.name} "))
+        if v.causality == "output":
+            assert line == f"  {v.name} [{v.unit}]: {v.description}"
+        else:
+            assert line.startswith(f"  {v.name} = {v.start:g} {v.unit}") and f"range {v.range_text()}: " in line
+    assert any(x.startswith("  beta = 0.0872665 rad (5 deg), range [-1.553343034, 1.553343034] rad: ") for x in lines)
+    assert main(["variables", "Load", "--causality", "input"]) == 0
+    out = capsys.readouterr().out
+    assert "inputs:" in out and "parameters:" not in out and "outputs:" not in out and "  omega = 0 rad/s" in out
+    assert main(["variables", "Cardan"]) == 2
+    assert "no FMU named 'Cardan'" in capsys.readouterr().err

@@ -1,5 +1,5 @@
-"""Command line: ujfmu build | run | check | references | sweep | modes | export-ssp | bench | battery | report |
-mutate.
+"""Command line: ujfmu build | run | check | references | sweep | modes | variables | export-ssp | bench | battery |
+report | mutate.
 
 The folders fmus/, scenarios/ and results/ are those of the current directory. The common options (--fmu-dir,
 --out, --quiet) go before or after the command. The library reports progress through callbacks; this module
@@ -8,6 +8,7 @@ alone draws progress bars (tqdm, on a terminal; sweeps off a terminal print plai
 import argparse
 import atexit
 import contextlib
+import difflib
 import math
 import os
 import signal
@@ -780,6 +781,31 @@ def _set_changes(scenario, texts) -> dict:
     return changes
 
 
+def cmd_variables(args):
+    from .build import fmu_class
+    from .fmu.base import HUMAN_UNITS
+    if args.fmu not in FMUS:
+        close = difflib.get_close_matches(args.fmu, FMUS, n=1)
+        raise UsageError(f"no FMU named {args.fmu!r}" + (f" (did you mean {close[0]!r}?)" if close else "")
+                         + f": the FMUs are {', '.join(FMUS)}")
+    cls = fmu_class(args.fmu)
+    kinds = [args.causality] if args.causality else ["parameter", "input", "output"]
+    print(f"{args.fmu}: {cls.__doc__.strip().splitlines()[0].rstrip('.')} (SI units; a scenario sets a parameter as "
+          f"<component>.<name>, `--set` takes rpm or deg after the number)")
+    for kind in kinds:
+        print(f"\n{kind}s:")
+        for v in (v for v in cls.VARIABLES if v.causality == kind):
+            unit = "" if v.unit in (None, "1") or v.type is not float else f" {v.unit}"
+            if kind == "output":
+                print(f"  {v.name} [{unit.strip() or '-'}]: {v.description}")
+                continue
+            start = v.start if v.type is not float else f"{v.start:g}"
+            human = HUMAN_UNITS.get(v.unit) if v.type is float else None
+            shown = f" ({v.start / human[1]:.6g} {human[0]})" if human and v.start else ""
+            print(f"  {v.name} = {start}{unit}{shown}, range {v.range_text()}: {v.description}")
+    return 0
+
+
 def cmd_modes(args):
     from .analysis import (NEAR_CRITICAL, PURE_MODE, drive_speeds, driven_components, excitations, held_input_modes,
                            load_orders, nearest_crossings, scenario_modes)
@@ -1140,6 +1166,10 @@ def _main(raw: list):
     p.add_argument("scenario", type=Path)
     p.add_argument("--set", action="append", metavar="COMP.PAR=VALUE[rpm|deg]",
                    help="a parameter instead of the scenario's (several --set for several), e.g. rotor.beta=10deg")
+    p = command("variables", cmd_variables, "an FMU's parameters, inputs and outputs: names, units, defaults, "
+                                             "ranges, meanings")
+    p.add_argument("fmu", metavar="FMU", help=f"one of {', '.join(FMUS)}")
+    p.add_argument("--causality", choices=("parameter", "input", "output"), help="only these")
     p = command("export-ssp", cmd_export_ssp, "write scenarios as SSP packages (SystemStructure.ssd + FMUs)")
     p.add_argument("scenarios", nargs="*", type=Path, help="default: scenarios/*.toml")
     _out(p, "results/", "writes <scenario>.ssp here (results/fmi3/ with --fmi 3)")
