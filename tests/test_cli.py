@@ -1050,6 +1050,17 @@ def test_the_gate_does_not_pass_on_what_it_did_not_check(fmu_dir, tmp_path, caps
     capsys.readouterr()
     assert main(["--fmu-dir", str(fmu_dir), "check", str(selfref), "--no-plot", "--out", str(out)]) == 2
     assert "equals this run to the last digit in every compared signal" in capsys.readouterr().out
+    # the same copy under the committed reference's provenance line (the setup it names is this one's): a trial's
+    # gate had passed it, every signal at 0.000 of its band; no closed form or solve repeats a joint's outputs so
+    provenance = (SCENARIOS / "references" / "cardan_constant_speed.csv").read_text().splitlines()[0]
+    (tmp_path / "references" / "selfprov.csv").write_text(
+        provenance + "\n" + (out / "cardan_constant_speed.csv").read_text())
+    selfprov = tmp_path / "selfprov.toml"
+    selfprov.write_text((SCENARIOS / "cardan_constant_speed.toml").read_text().replace(
+        "references/cardan_constant_speed.csv", "references/selfprov.csv"))
+    assert main(["--fmu-dir", str(fmu_dir), "check", str(selfprov), "--no-plot", "--out", str(out)]) == 2
+    said = capsys.readouterr().out
+    assert "equals this run to the last digit in every compared signal and its machines' outputs included" in said
 
 
 def test_a_check_refused_after_its_command_line_says_why_in_its_report(fmu_dir, tmp_path):

@@ -1,8 +1,9 @@
 """Scenario files: errors name the file and the field."""
 
 import copy
-import shutil
 import math
+import shutil
+import xml.etree.ElementTree as ET
 from pathlib import Path
 import numpy as np
 
@@ -740,7 +741,7 @@ def test_a_misspelt_recorded_signal_is_named_with_the_one_meant(tmp_path, field,
         Scenario(write(tmp_path, text.replace("j.tua_in", "j.M_x")))
 
 
-def test_a_run_shorter_than_its_generated_reference_says_how_much_of_it_was_compared(tmp_path, fmu_dir):
+def test_a_run_shorter_than_its_generated_reference_says_how_much_of_it_was_compared(tmp_path, fmu_dir, capsys):
     """A CI trial's scenario with stop_time edited from 6 s to 0.003 s (3 steps) passed against its generated
     reference without a word: the verdict line says the share of the reference's run that was compared, for a file
     cut short (or a smoke test of the first second) and for a caller's shorter run of a read Scenario alike; a run
@@ -755,10 +756,27 @@ def test_a_run_shorter_than_its_generated_reference_says_how_much_of_it_was_comp
         "(compared to t = 0.003 s of the 6 s its reference was made for: 0.05% of it)")
     part = Scenario(SCENARIOS / "cardan_startup.toml")
     part.stop_time = 0.6
-    assert "(compared to t = 0.6 s of the 6 s its reference was made for: 10% of it)" in run_scenario(
-        part, fmu_dir=fmu_dir, out_dir=None, plot=False).summary()
+    passed = run_scenario(part, fmu_dir=fmu_dir, out_dir=None, plot=False)
+    assert passed.passed and passed.summary().splitlines()[0].endswith(
+        "(check --strict fails it: only a part of its reference's run: compared to t = 0.6 s of the 6 s its "
+        "reference was made for: 10% of it)")
     whole = Scenario(SCENARIOS / "cardan_constant_speed.toml")
     assert "its reference was made for" not in run_scenario(whole, fmu_dir=fmu_dir, out_dir=None, plot=False).summary()
+    # a gate under --strict checks each scenario over its course: a trial's copy cut to 3% of its reference passed
+    from ujfmu.cli import main
+    (tmp_path / "cardan_startup.toml").write_text(text.replace("stop_time = 0.003", "stop_time = 0.6"))
+    junit = tmp_path / "report.xml"
+    assert main(["--fmu-dir", str(fmu_dir), "check", str(tmp_path / "cardan_startup.toml"), "--no-plot", "--out",
+                 str(tmp_path / "out"), "--strict", "--junit", str(junit)]) == 1
+    said = capsys.readouterr()
+    assert "0 passed, 1 failed (--strict: 1 by comparing only a part of its reference's run)" in said.out
+    assert ("--strict: 1 scenario(s) compare only a part of the run their reference was made for: cardan_startup: "
+            "compared to t = 0.6 s") in said.err
+    failure = ET.parse(junit).getroot().find("testcase").find("failure")
+    assert failure.get("message") == ("compared to t = 0.6 s of the 6 s its reference was made for: 10% of it, "
+                                      "not its whole course (--strict)")
+    assert main(["--fmu-dir", str(fmu_dir), "check", str(tmp_path / "cardan_startup.toml"), "--no-plot", "--out",
+                 str(tmp_path / "out")]) == 0   # without --strict: a smoke test, said on its verdict line
 
 
 def test_a_load_behind_a_joint_whose_output_follows_its_input_chatters_on_the_drivers_inertia(fmu_dir):

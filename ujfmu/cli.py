@@ -494,11 +494,14 @@ def _check(args, kind: str) -> int:
         _say(args, f"JUnit report: {report}")
     strict_failed = loose if args.strict else []   # passed their bands, failed by --strict (JUnit cases too)
     strict_unchecked = unchecked if args.strict or len(unchecked) == len(results) else []   # failed cases too
-    level, blind = ([r for r in strict_failed if test(r)] for test in (lambda r: r.level_only_bands,
-                                                                       lambda r: not r.level_only_bands))
+    level, blind, part = ([r for r in strict_failed if test(r)] for test in (
+        lambda r: r.level_only_bands, lambda r: not r.level_only_bands and r.machines_unchecked,
+        lambda r: not r.level_only_bands and not r.machines_unchecked))
     why = ([f"{len(level)} by bands that check the level only"] if level else []) + (
         [f"{len(blind)} by comparing no output of {'its' if len(blind) == 1 else 'their'} machines"]
         if blind else []) + (
+        [f"{len(part)} by comparing only a part of {'its' if len(part) == 1 else 'their'} reference's run"]
+        if part else []) + (
         [f"{len(strict_unchecked)} compare{'s' if len(strict_unchecked) == 1 else ''} nothing"]
         if strict_unchecked else [])
     print(f"{len(results) - len(failed) - len(unchecked) - len(strict_failed)} passed, "
@@ -528,6 +531,12 @@ def _check(args, kind: str) -> int:
               + " (a band of at least half the reference's range passes a flat line through its middle, one of at "
               "least half the steady peak-to-peak a signal without that vibration: tighten it below that, at the "
               "accuracy the study needs, or compare the vibration's orders, [reference.orders])", file=sys.stderr)
+        strict_fail = True
+    if part:
+        print(f"ujfmu: error: --strict: {len(part)} scenario(s) compare only a part of the run their reference was "
+              "made for: " + "; ".join(f"{r.scenario.name}: {r.part_compared}" for r in part)
+              + " (run each to its reference's end, or make the reference for the span the gate runs: "
+              "`ujfmu references`)", file=sys.stderr)
         strict_fail = True
     if errors:
         print(f"ujfmu: error: {len(errors)} scenario(s) could not run ({', '.join(errors)}): each ERROR line above "

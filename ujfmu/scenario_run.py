@@ -931,13 +931,26 @@ class ScenarioResult:
         return [] if compared & set(machines) else machines
 
     @property
+    def part_compared(self) -> str:
+        """'compared to t = ... of the ... s its reference was made for: ...% of it' where the run ends before its
+        generated reference (a stop time cut short), else ''."""
+        if not (self.checks and self.scenario.reference_generator
+                and self.reference_end > self.scenario.stop_time + 0.5 * self.scenario.step_size):
+            return ""
+        span = self.scenario.stop_time - self.scenario.start_time
+        return (f"compared to t = {self.scenario.stop_time:g} s of the {self.reference_end:g} s its reference was "
+                f"made for: {100 * span / (self.reference_end - self.scenario.start_time):.3g}% of it")
+
+    @property
     def strict_problems(self) -> list:
         """Why ``ujfmu check --strict`` fails this run though its checks pass: bands that check the level only
-        (:attr:`level_only_bands`), no output of its machines compared (:attr:`machines_unchecked`)."""
+        (:attr:`level_only_bands`), no output of its machines compared (:attr:`machines_unchecked`), only a part of
+        its reference's run compared (:attr:`part_compared`)."""
         return ([f"band(s) that check the level only: {', '.join(self.level_only_bands)}"]
                 if self.level_only_bands else []) + (
             [f"no output of its machines ({', '.join(self.machines_unchecked)}) compared, only its drive's and "
-             "load's"] if self.machines_unchecked else [])
+             "load's"] if self.machines_unchecked else []) + (
+            [f"only a part of its reference's run: {self.part_compared}"] if self.part_compared else [])
 
     @property
     def uncompared(self) -> list:
@@ -1110,11 +1123,9 @@ class ScenarioResult:
                 f"{span:g} s simulated)")
         if self.passed and self.strict_problems:   # the verdict line is what a log is scanned for
             head += f" (check --strict fails it: {'; '.join(self.strict_problems)})"
-        if (self.checks and self.scenario.reference_generator
-                and self.reference_end > self.scenario.stop_time + 0.5 * self.scenario.step_size):
+        if self.part_compared and not self.passed:   # a passing run says it among --strict's reasons above
             # a part of the run the reference was made for (a stop_time cut short, a smoke test): said, not hidden
-            head += (f" (compared to t = {self.scenario.stop_time:g} s of the {self.reference_end:g} s its reference "
-                     f"was made for: {100 * span / (self.reference_end - self.scenario.start_time):.3g}% of it)")
+            head += f" ({self.part_compared})"
         lines = [head]
         if self.checks:
             lines.append(f"  against {shown_path(self.scenario.reference_file)}"
@@ -1545,10 +1556,15 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
             if not check.passed:
                 check.note = slip + (f"; {check.note}" if check.note else "")
         from .references import method_of, setup_of
-        if setup_of(provenance) is None and len(table) > 2 and all(c.max_error == 0.0 for c in result.checks):
+        if len(table) > 2 and all(c.max_error == 0.0 for c in result.checks) and (
+                setup_of(provenance) is None or _machine_output_varies(scenario, result.checks)):
+            made = ("does not say how it was made (no '#' provenance line with the setup it was made for)"
+                    if setup_of(provenance) is None else
+                    "its machines' outputs included, which no independent computation repeats to the last digit "
+                    "(a closed form or a monolithic solve differs from a co-simulation by rounding at least; its "
+                    "provenance line names a setup, but a line can be copied)")
             raise ScenarioError(f"{scenario.path}: [reference] file {scenario.reference_file} equals this run to the "
-                                "last digit in every compared signal and does not say how it was made (no '#' "
-                                "provenance line with the setup it was made for): it is a copy of a co-simulation's "
+                                f"last digit in every compared signal and {made}: it is a copy of a co-simulation's "
                                 "output, and comparing a run with itself checks nothing. A reference comes from an "
                                 "independent computation: a closed form or a monolithic solve (README, \"Scenario "
                                 "format\")")
@@ -1860,6 +1876,13 @@ def _replace_written(path: Path, write: Callable[[Path], None]) -> None:
         temporary.unlink(missing_ok=True)
 
 
+def _machine_output_varies(scenario: Scenario, checks: list) -> bool:
+    """Whether a compared signal is an output of a machine (a component not in ``DRIVES_AND_LOADS``) that varies
+    over its reference (a drive's prescribed speed or a constant may be repeated exactly by a closed form)."""
+    machines = {name for name, (fmu, _) in scenario.components.items() if fmu not in DRIVES_AND_LOADS}
+    return any(c.name.partition(".")[0] in machines and c.reference_range > 0.0 for c in checks)
+
+
 def write_table(path: Path, table: np.ndarray) -> Path:
     """A run's table as CSV (fmpy's ``write_csv``), written whole (:func:`_replace_written`)."""
     _replace_written(path, lambda temporary: write_csv(temporary, table))
@@ -1968,6 +1991,9 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
         elif level_only_fail and r.machines_unchecked:
             ET.SubElement(case, "failure", message="compares no output of its machines, "
                           f"{', '.join(r.machines_unchecked)}, only its drive's and load's (--strict)"
+                          ).text = r.summary()
+        elif level_only_fail and r.part_compared:
+            ET.SubElement(case, "failure", message=f"{r.part_compared}, not its whole course (--strict)"
                           ).text = r.summary()
         elif not r.checked and unchecked_fail:
             ET.SubElement(case, "failure", message=f"not checked: {r.not_checked_reason()} (a gate that compares "
