@@ -354,6 +354,8 @@ class OrderCheck:
     #: the note says why it cannot be compared where it should be (the reference's samples do not resolve an order
     #: the run carries): a failure
     refused: bool = False
+    #: what the amplitude is compared with, as the line says it
+    against: str = "the reference's"
 
     @property
     def passed(self) -> bool:
@@ -365,7 +367,7 @@ class OrderCheck:
             return f"{'FAIL' if self.refused else '--  '} {self.name}: {self.note}"
         off = (self.amplitude - self.reference_amplitude) / self.reference_amplitude
         return (f"{'ok  ' if self.passed else 'FAIL'} {self.name} {self.order}x order amplitude "
-                f"{self.amplitude:.4g} against the reference's {self.reference_amplitude:.4g} ({100 * off:+.3g}%, "
+                f"{self.amplitude:.4g} against {self.against} {self.reference_amplitude:.4g} ({100 * off:+.3g}%, "
                 f"allowed {100 * self.rel:.3g}%)")
 
 

@@ -62,6 +62,9 @@ class StepEstimate:
     at: dict = field(default_factory=dict)       # signal -> the time of its largest estimated error [s]
     skipped: float = math.nan                    # the estimate starts there (``START_STEPS``) [s]
     units: dict = field(default_factory=dict)    # signal -> its unit, for the figures shown in absolute terms
+    #: scenario_run.OrderCheck per [reference.orders] signal and order: the run's amplitude over the steady window
+    #: against the step-halving extrapolation's (the bands, shares of a signal's whole range, cannot see a vibration's)
+    orders: list = field(default_factory=list)
 
     @property
     def passed(self) -> bool:
@@ -69,7 +72,8 @@ class StepEstimate:
         halving compares at the coarse instants, where an aliased record agrees with itself), and the
         extrapolation within the scenario's [reference.extrapolated] bands where it has them."""
         return (not self.failure and all(self.within(n) for n in self.errors)
-                and all(c.passed for c in self.sampling + self.extrapolated))
+                and all(c.passed for c in self.sampling + self.extrapolated)
+                and all(c.passed or c.note for c in self.orders))
 
     def within(self, name: str) -> bool:
         """The signal's estimate within its allowance (in absolute terms for a signal in ``absolute``), and over its
@@ -99,7 +103,8 @@ class StepEstimate:
             + (f" at t = {self.at[n]:.4g} s" if n in self.at else "")
             + (f"; {100 * self.steady[n]:.3g}% of its range from t = {self.steady_from:g} s" if n in self.steady
                else "")
-            for n in self.errors] + [f"  {c}" for c in self.sampling if not c.passed] + (
+            for n in self.errors] + [f"  {'ok  ' if c.passed else 'HIGH'} {str(c)[5:]}" for c in self.orders
+                                     if not c.note] + [f"  {c}" for c in self.sampling if not c.passed] + (
             [f"  step-halving extrapolation 2 y(h/2) - y(h) against the reference, outside its "
              f"[reference.extrapolated] band:"] + [f"    {c}" for c in self.extrapolated if not c.passed]
             if not all(c.passed for c in self.extrapolated) else [])
@@ -109,13 +114,16 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     """Estimated coupling error of the scenario at ``step`` (default its own), by a rerun at step/2: the
     distance of y(h) from the step-halving extrapolation 2 y(h/2) - y(h) (scenario_run.extrapolate_step).
 
-    Signals: the toleranced ones with their allowance rel_range (+ abs as a fraction of the range), else every
+    Signals: the toleranced ones with their allowance rel_range (+ abs as a fraction of the range), and their
+    [reference.orders] amplitudes over the steady window within their rel (``scenario_run.check_orders``), else every
     recorded signal but those the scenario does not compare (its ``not_compared``, ``--record``'s) with
     DEFAULT_REL_RANGE. coarse: the result at ``step`` if already computed (its sampling is
     the run's own check); else the run records the drivetrain components' input speeds too, for
     ``scenario_run.check_sampling``. With a reference file and [reference.extrapolated] bands, at most the
     scenario's declared step (the bands hold the remainder there), the extrapolation compared within them."""
-    from .scenario_run import check_sampling, compare, extrapolate_step, sampled_components, window_from
+    from .scenario import ScenarioError
+    from .scenario_run import (check_orders, check_sampling, compare, extrapolate_step, sampled_components,
+                               window_from)
     run = copy.copy(scenario)
     run.step_size = scenario.step_size if step is None else step
     names = (list(scenario.tolerances) or [n for n in scenario.record if n not in scenario.not_compared]
@@ -166,7 +174,16 @@ def estimate(scenario, step: float | None = None, fmu_dir=DEFAULT_FMU_DIR, coars
     if (scenario.extrapolated_tolerances and scenario.reference_file is not None and scenario.reference_file.is_file()
             and scenario.bands_hold_at(run.step_size)):
         banded = compare(extrapolated, scenario.reference()[0], scenario.extrapolated_tolerances)
+    orders = []
+    if scenario.order_tolerances:
+        try:
+            orders = check_orders(run, coarse, extrapolated)
+        except ScenarioError:   # a window that cannot be fitted: the run's own order check says so
+            orders = []
+        for check in orders:
+            check.against = "the step-halving extrapolation's"
     return StepEstimate(run.step_size, errors, allowed, absolute=absolute, sampling=sampling, extrapolated=banded,
+                        orders=orders,
                         steady=steady, steady_from=float(time[window][0]) if window.any() else math.nan, at=at,
                         skipped=float(time[later][0]) if not later.all() else math.nan,
                         units={name: _unit(scenario, name) for name in absolute})
