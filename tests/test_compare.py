@@ -599,7 +599,8 @@ def test_orders_at_a_step_that_hides_the_vibration_fail_naming_the_step_not_a_sp
     period of the 2x, a fresh-eyes trial's coarse step): the 2x is not resolved, and the run's spurious 1x of 8.5e-5
     rad/s (4e-5 of the swing) against the reference's 2.4e-9 had been the FAIL's stated cause (+3.6e6%). Now the 1x
     is not compared (below 1% of the vibration, half the peak-to-peak), and the 2x, which the joint carries (its 4x
-    it does not: a note), fails naming the step; at 8 ms, where no order is resolved, the same. At 1 ms the 2x is
+    it does not: a note), fails naming the step (the record's interval where a 1 ms run records every fourth step,
+    a CI trial's case: the step was fine); at 8 ms, where no order is resolved, the same. At 1 ms the 2x is
     resolved and compared, and the 1x is still no order to compare. A run equal to its reference with a 3x and a
     drift beside the resolved 2x passes (a review's case: only an order a machine carries fails unresolved)."""
     from ujfmu.scenario import Scenario
@@ -621,6 +622,11 @@ def test_orders_at_a_step_that_hides_the_vibration_fail_naming_the_step_not_a_sp
         "trend" in str(coarse[0]) and "take a smaller step" in str(coarse[0])
     (none,) = check_orders(scenario, table(8e-3, 8.5e-5), table(8e-3, 2.4e-9))
     assert not none.passed and "no order is resolved at this step" in none.note and "the 2x its machine carries" in none.note
+    scenario.output_interval = 4   # a 1 ms step recorded every 4 ms: the record's interval named, not the step
+    sparse = check_orders(scenario, table(4e-3, 8.5e-5), table(4e-3, 2.4e-9))
+    assert str(sparse[0]).startswith("FAIL joint.omega_out: its 2x order is not resolved at this record's interval")
+    assert "record more often (output_interval = 4 steps now" in str(sparse[0]) and "smaller step" not in str(sparse[0])
+    scenario.output_interval = None
     fine = check_orders(scenario, table(1e-3, 8.5e-5), table(1e-3, 2.4e-9))
     assert [(c.order, c.passed) for c in fine] == [(2, True)], [str(c) for c in fine]
     same = check_orders(scenario, table(2.5e-3, 0.0, 1.5), table(2.5e-3, 0.0, 1.5))   # 2x resolved, 4x not

@@ -425,6 +425,11 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
                             "(a window of whole revolutions at a running speed: move steady_from earlier or "
                             "lengthen stop_time)") from None
     checks, orders = [], machine_orders(scenario)
+    every_n = getattr(scenario, "output_interval", None) or 1
+    # what leaves an order unresolved, and its remedy: the step, or a record of every n-th step
+    at, remedy = (("at this record's interval", f"record more often (output_interval = {every_n} steps now; the "
+                   "sampling note says at most how far apart)") if every_n > 1 else
+                  ("at this step", "take a smaller step (the sampling note says which)"))
     for name in names:
         rel, runs, refs = scenario.order_tolerances[name], mine[name].figures[1:], ref[name].figures[1:]
         # the orders the signal's machine carries; a drive's signal (or another's) carries every machine's
@@ -449,9 +454,9 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
         if not resolved:   # failed where its machine carries a checked order: its vibration goes unchecked
             missed = [k for k in CHECKED_ORDERS if k in carried] if vibrates else []
             checks.append(OrderCheck(name, 0, math.nan, math.nan, rel, refused=bool(missed), note=(
-                "no order is resolved at this step (too few samples a revolution): nothing compared" + (
-                    f"; the {' and '.join(f'{k}x' for k in missed)} its machine carries cannot be checked: take a "
-                    "smaller step (the sampling note says which)" if missed else ""))))
+                f"no order is resolved {at} (too few samples a revolution): nothing compared" + (
+                    f"; the {' and '.join(f'{k}x' for k in missed)} its machine carries cannot be checked: {remedy}"
+                    if missed else ""))))
             continue
         if not largest > NEGLIGIBLE_ORDER * size:
             checks.append(OrderCheck(name, 0, math.nan, math.nan, rel, note=(
@@ -469,10 +474,9 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
             if k in unresolved:   # failed where a machine carries it: the vibration the check is for goes unchecked
                 missed = k in carried and vibrates
                 checks.append(OrderCheck(name, k, a, a_ref, rel, refused=missed, note=(
-                    f"its {k}x order is not resolved at this step (too few samples a revolution): not compared" + (
+                    f"its {k}x order is not resolved {at} (too few samples a revolution): not compared" + (
                         f"; its machine carries it (its share of the signal's vibration, {vibration:.3g} half its "
-                        "peak-to-peak about its trend, cannot be checked): take a smaller step (the sampling note "
-                        "says which)" if missed else ""))))
+                        f"peak-to-peak about its trend, cannot be checked): {remedy}" if missed else ""))))
             elif max(a, a_ref) >= SIGNIFICANT_ORDER * max(largest, vibration):   # in the run or in the reference
                 checks.append(OrderCheck(name, k, a, a_ref, rel))
     return checks
