@@ -505,6 +505,22 @@ def test_references_says_when_a_scenario_has_nothing_to_regenerate(tmp_path, cap
     assert "unchecked.toml: skipped: no [reference]" in captured.err and "no reference was regenerated" in captured.err
 
 
+def test_references_says_how_each_reference_was_made_and_how_well_it_keeps_its_laws(tmp_path, capsys):
+    """`ujfmu references` had said only "wrote": a CI trial could not tell how good its reference was. It gives the
+    method (the provenance line's) and each self-check the generator passed on the written grid, its deviation
+    within its allowance, as shares of the law's scale: for Omar's driveline, the energy balance."""
+    (tmp_path / "references").mkdir()
+    mine = tmp_path / "my_torsional.toml"
+    mine.write_text((SCENARIOS / "double_cardan_omar_torsional.toml").read_text().replace(
+        "references/double_cardan_omar_torsional.csv", "references/my_torsional.csv"))
+    assert main(["references", str(mine), "-q"]) == 0
+    line = capsys.readouterr().out.rstrip().splitlines()[-1]
+    assert line.startswith("  my_torsional: how the reference was made: monolithic ODE of ideal speed source + "
+                           "driveline + load") and "scipy DOP853 rtol=1e-10" in line, line
+    laws = re.findall(r"(stored energy against the work of [^;]*?) (\S+) \(allowed (\S+)\)", line)
+    assert laws and all(0.0 <= float(d) <= float(a) < 1e-5 for _, d, a in laws), line
+
+
 def test_references_refuses_to_overwrite_another_scenarios_reference(fmu_dir, tmp_path, capsys):
     """A copy of a scenario that still names its original's reference file: `ujfmu references` on the copy refuses
     before any work, names the owner (from the file's provenance line) and the fix, and leaves the file as it

@@ -556,8 +556,9 @@ def _check(args, kind: str) -> int:
 def cmd_references(args):
     for module in ("scipy", "sympy"):
         require(module, "references", "ujfmu references")
-    from .references import generate, provenance_of, scenario_of, write_reference
-    from .references.common import ReferenceCheckError, ReferenceStallError, WiringError, solve_progress
+    from .references import generate, method_of, provenance_of, scenario_of, write_reference
+    from .references.common import (ReferenceCheckError, ReferenceStallError, WiringError, collect_checks,
+                                    solve_progress)
     from .scenario import Scenario, ScenarioError
     wrote = 0
     for path in _scenarios(args.scenarios):
@@ -574,7 +575,7 @@ def cmd_references(args):
         _say(args, f"{scenario.path}: solving the reference ({scenario.stop_time - scenario.start_time:g} s)")
         try:
             with _progress(args, f"{scenario.name}: reference solve (simulated time)", "ms") as progress, \
-                    solve_progress(progress):
+                    solve_progress(progress), collect_checks() as checks:
                 table, provenance = generate(scenario)
         except (WiringError, ReferenceStallError) as exc:   # named once: a wiring error starts with the path
             text = str(exc)
@@ -586,6 +587,10 @@ def cmd_references(args):
                                 "fails there too, the generator is at fault (please report it)") from None
         write_reference(target, table, provenance)
         _say(args, f"wrote {scenario.reference_file}")
+        print(f"  {scenario.name}: how the reference was made: {method_of(provenance) or provenance}; its "
+              + (f"self-checks on the written grid, each deviation and its allowance as shares of the law's scale: "
+                 + "; ".join(f"{what} {deviation:.2g} (allowed {allowed:.2g})" for what, deviation, allowed in checks)
+                 if checks else "generator has no self-check of a conservation law for this wiring"))
         wrote += 1
     if not wrote:
         print("ujfmu: error: no reference was regenerated", file=sys.stderr)

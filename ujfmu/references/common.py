@@ -146,6 +146,22 @@ def dry_run():
         DryRun.active = False
 
 
+class SelfChecks:
+    """While ``made`` is a list, each self-check of a reference (``check_close`` and the laws built on it) adds
+    (law, its deviation, its allowance), both relative to the law's scale (:func:`collect_checks`)."""
+    made = None
+
+
+@contextmanager
+def collect_checks():
+    """Within the block, the self-checks the generators pass, as a list of (law, deviation, allowance)."""
+    SelfChecks.made = made = []
+    try:
+        yield made
+    finally:
+        SelfChecks.made = None
+
+
 class SolverOverride:
     """Tolerances that replace the generators' own (``ujfmu bench`` solves at rtol 1e-8), and the seconds spent
     in DOP853 since it was set (the equations' symbolic derivation excluded)."""
@@ -426,6 +442,8 @@ def check_close(scenario, what: str, actual, expected, scale: float, rtol: float
     if not deviation <= rtol * scale:
         raise ReferenceCheckError(f"{scenario.path}: reference self-check failed: {what}: max deviation "
                                   f"{deviation:.3g} > {rtol:g} x {scale:.3g}")
+    if SelfChecks.made is not None:
+        SelfChecks.made.append((what, deviation / scale, rtol))
     return deviation / scale
 
 
