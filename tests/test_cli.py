@@ -518,7 +518,8 @@ def test_references_says_how_each_reference_was_made_and_how_well_it_keeps_its_l
     assert line.startswith("  my_torsional: how the reference was made: monolithic ODE of ideal speed source + "
                            "driveline + load") and "scipy DOP853 rtol=1e-10" in line, line
     laws = re.findall(r"(stored energy against the work of [^;]*?) (\S+) \(allowed (\S+)\)", line)
-    assert laws and all(0.0 <= float(d) <= float(a) < 1e-5 for _, d, a in laws), line
+    # a solve sampled on a grid keeps no law to the last digit: a deviation of 0 would not be the one measured
+    assert laws and all(0.0 < float(d) <= float(a) < 1e-5 for _, d, a in laws), line
 
 
 def test_references_refuses_to_overwrite_another_scenarios_reference(fmu_dir, tmp_path, capsys):
