@@ -1657,6 +1657,8 @@ def test_variables_lists_an_fmus_declared_variables_with_units_defaults_and_rang
         else:
             assert line.startswith(f"  {v.name} = {v.start:g} {v.unit}") and f"range {v.range_text()}: " in line
     assert any(x.startswith("  beta = 0.0872665 rad (5 deg), range [-1.553343034, 1.553343034] rad: ") for x in lines)
+    assert main(["variables", "Motor", "--causality", "parameter"]) == 0   # a Boolean as a scenario writes it
+    assert "  ideal_speed_source = false: " in capsys.readouterr().out
     assert main(["variables", "Load", "--causality", "input"]) == 0
     out = capsys.readouterr().out
     assert "inputs:" in out and "parameters:" not in out and "outputs:" not in out and "  omega = 0 rad/s" in out

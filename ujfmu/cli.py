@@ -813,10 +813,11 @@ def cmd_variables(args):
             if kind == "output":
                 print(f"  {v.name} [{unit.strip() or '-'}]: {v.description}")
                 continue
-            start = v.start if v.type is not float else f"{v.start:g}"
+            start = (str(v.start).lower() if v.type is bool else v.start) if v.type is not float else f"{v.start:g}"
             human = HUMAN_UNITS.get(v.unit) if v.type is float else None
             shown = f" ({v.start / human[1]:.6g} {human[0]})" if human and v.start else ""
-            print(f"  {v.name} = {start}{unit}{shown}, range {v.range_text()}: {v.description}")
+            print(f"  {v.name} = {start}{unit}{shown}" + (f", range {v.range_text()}" if v.type is not bool else "")
+                  + f": {v.description}")
     return 0
 
 
