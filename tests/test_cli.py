@@ -1076,9 +1076,17 @@ def test_the_gate_does_not_pass_on_what_it_did_not_check(fmu_dir, tmp_path, caps
     selfprov = tmp_path / "selfprov.toml"
     selfprov.write_text((SCENARIOS / "cardan_constant_speed.toml").read_text().replace(
         "references/cardan_constant_speed.csv", "references/selfprov.csv"))
-    assert main(["--fmu-dir", str(fmu_dir), "check", str(selfprov), "--no-plot", "--out", str(out)]) == 2
-    said = capsys.readouterr().out
-    assert "equals this run to the last digit in every compared signal and its machines' outputs included" in said
+    assert main(["--fmu-dir", str(fmu_dir), "check", str(selfprov), "--no-plot", "--out", str(out)]) == 0
+    said = capsys.readouterr().out   # a closed form can repeat some signals exactly: said, and --strict fails it
+    assert "(check --strict fails it: every compared signal equals the reference to the last digit" in said
+    junit = tmp_path / "strict.xml"
+    assert main(["--fmu-dir", str(fmu_dir), "check", str(selfprov), "--no-plot", "--out", str(out), "--strict",
+                 "--junit", str(junit)]) == 1
+    said = capsys.readouterr()
+    assert "0 passed, 1 failed (--strict: 1 by a reference equal to the run to the last digit)" in said.out
+    assert "--strict: 1 scenario(s) equal their reference to the last digit in every compared signal" in said.err
+    assert ET.parse(junit).getroot().find("testcase").find("failure").get("message").startswith(
+        "every compared signal equals the reference to the last digit")
 
 
 def test_a_check_refused_after_its_command_line_says_why_in_its_report(fmu_dir, tmp_path):
@@ -1502,8 +1510,9 @@ def test_run_name_keeps_variants_apart_and_their_columns_say_the_values_set(fmu_
         assert "scenario file cardan_constant_speed.toml" in time_row and f"joint.bend_angle = " in time_row
         assert f"({deg} deg)" in time_row and "joint.error_angle_beta = 0 rad" in time_row, time_row
     assert not (tmp_path / "cardan_constant_speed_changed.csv").exists()
-    assert main(base + ["--name", "../elsewhere"]) == 2
-    assert "--name '../elsewhere': a plain file name" in capsys.readouterr().err
+    for name in ("../elsewhere", "a:b", "x.", " "):   # a path, or a name some systems cannot store
+        assert main(base + ["--name", name]) == 2
+        assert f"--name {name!r}: a plain file name" in capsys.readouterr().err
 
 
 def test_run_stop_time_runs_a_changed_copy_and_says_why_it_is_not_compared(fmu_dir, tmp_path, capsys):
@@ -1541,6 +1550,8 @@ def test_run_stop_time_runs_a_changed_copy_and_says_why_it_is_not_compared(fmu_d
         with pytest.raises(ScenarioError, match=r"\(ujfmu run --stop-time\): the stop time must be after the file's "
                                                 r"start_time = 0.0 s"):
             changed.with_stop_time(before)
+    with pytest.raises(ScenarioError, match=r"with_stop_time\(0.5004\) \(ujfmu run --stop-time\): \[experiment\]"):
+        changed.with_stop_time(0.5004)
     copy = Scenario(SCENARIOS / "twin_jeffcott_steady.toml").with_stop_time(0.5)   # as --stop-time, from Python
     assert (copy.stop_time, copy.steady_from, copy.name, copy.reference_file) == (0.5, 0.0,
                                                                                    "twin_jeffcott_steady_changed", None)
@@ -1664,3 +1675,6 @@ def test_variables_lists_an_fmus_declared_variables_with_units_defaults_and_rang
     assert "inputs:" in out and "parameters:" not in out and "outputs:" not in out and "  omega = 0 rad/s" in out
     assert main(["variables", "Cardan"]) == 2
     assert "no FMU named 'Cardan'" in capsys.readouterr().err
+    assert main(["variables", "TwinJeffcottRotor", "--causality", "output"]) == 0   # its docstring's first sentence
+    assert capsys.readouterr().out.startswith("TwinJeffcottRotor: Two unbalanced Jeffcott rotors coupled through a "
+                                              "Hooke joint, Tchomeni, Alugongo, Masu Eqs. (1)-(11) (SI units;")

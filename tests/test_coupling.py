@@ -546,3 +546,19 @@ def test_the_step_check_estimates_the_orders_it_gates_on(fmu_dir, tmp_path):
         shown = [line for line in est.lines() if "4x order amplitude" in line]
         assert shown and shown[0].startswith("  HIGH" if rel == 1e-7 else "  ok  ")
         assert "against the step-halving extrapolation's" in shown[0]
+
+
+def test_an_order_the_step_leaves_unresolved_fails_the_step_estimate():
+    """An order its machine carries that the step does not resolve is refused by the order check (a note, and a
+    failure): the step estimate had counted every noted check as passed, so --step auto kept a step at which the run
+    then failed its own order check. It fails the estimate and is shown; an order merely not compared (a note, not
+    refused) does not."""
+    from ujfmu.scenario_run import OrderCheck
+    refused = OrderCheck("joint.omega_out", 2, math.nan, math.nan, 0.02, note="its 2x order is not resolved",
+                         refused=True)
+    idle = OrderCheck("joint.omega_out", 4, math.nan, math.nan, 0.02, note="not compared")
+    assert not stepsize.StepEstimate(1e-3, {}, {}, orders=[refused, idle]).passed
+    assert stepsize.StepEstimate(1e-3, {}, {}, orders=[idle]).passed
+    lines = stepsize.StepEstimate(1e-3, {}, {}, orders=[refused, idle]).lines()
+    assert any(line.startswith("  HIGH joint.omega_out: its 2x order is not resolved") for line in lines), lines
+    assert not any("not compared" in line for line in lines)

@@ -11,6 +11,7 @@ import contextlib
 import difflib
 import math
 import os
+import re
 import signal
 import sys
 import time
@@ -416,6 +417,10 @@ def cmd_run(args):
             print(f"ujfmu: the estimated coupling error at {scenario.step_size:g} s is above the allowance (HIGH "
                   "above): the results are not that accurate; take a smaller step (--step, or --step auto to "
                   f"find one){wiring}", file=sys.stderr)
+        elif any(not c.passed for c in estimate.orders):
+            print(f"ujfmu: the estimated coupling error of an order amplitude at {scenario.step_size:g} s is above "
+                  "its [reference.orders] rel, or the step does not resolve an order its machine carries (HIGH "
+                  "above): take a smaller step (--step, or --step auto to find one)", file=sys.stderr)
         elif not step_ok:
             print("ujfmu: the step check failed: the lines above say where (a record that aliases a model's order, "
                   "or the step-halving extrapolation outside its [reference.extrapolated] band)", file=sys.stderr)
@@ -494,14 +499,16 @@ def _check(args, kind: str) -> int:
         _say(args, f"JUnit report: {report}")
     strict_failed = loose if args.strict else []   # passed their bands, failed by --strict (JUnit cases too)
     strict_unchecked = unchecked if args.strict or len(unchecked) == len(results) else []   # failed cases too
-    level, blind, part = ([r for r in strict_failed if test(r)] for test in (
+    level, blind, part, same = ([r for r in strict_failed if test(r)] for test in (
         lambda r: r.level_only_bands, lambda r: not r.level_only_bands and r.machines_unchecked,
-        lambda r: not r.level_only_bands and not r.machines_unchecked))
+        lambda r: not r.level_only_bands and not r.machines_unchecked and r.part_compared,
+        lambda r: not r.level_only_bands and not r.machines_unchecked and not r.part_compared))
     why = ([f"{len(level)} by bands that check the level only"] if level else []) + (
         [f"{len(blind)} by comparing no output of {'its' if len(blind) == 1 else 'their'} machines"]
         if blind else []) + (
         [f"{len(part)} by comparing only a part of {'its' if len(part) == 1 else 'their'} reference's run"]
         if part else []) + (
+        [f"{len(same)} by a reference equal to the run to the last digit"] if same else []) + (
         [f"{len(strict_unchecked)} compare{'s' if len(strict_unchecked) == 1 else ''} nothing"]
         if strict_unchecked else [])
     print(f"{len(results) - len(failed) - len(unchecked) - len(strict_failed)} passed, "
@@ -537,6 +544,11 @@ def _check(args, kind: str) -> int:
               "made for: " + "; ".join(f"{r.scenario.name}: {r.part_compared}" for r in part)
               + " (run each to its reference's end, or make the reference for the span the gate runs: "
               "`ujfmu references`)", file=sys.stderr)
+        strict_fail = True
+    if same:
+        print(f"ujfmu: error: --strict: {len(same)} scenario(s) equal their reference to the last digit in every "
+              f"compared signal: {', '.join(r.scenario.name for r in same)} (a copy of a run's output compares "
+              "nothing; compare a signal the reference computes on its own, a torque or a twist)", file=sys.stderr)
         strict_fail = True
     if errors:
         print(f"ujfmu: error: {len(errors)} scenario(s) could not run ({', '.join(errors)}): each ERROR line above "
@@ -760,9 +772,10 @@ def _status_summary(counts, total, steady_checked=True):
 
 def _run_name(name: str) -> str:
     """--name NAME: a plain file name (it names the files the run writes), else UsageError."""
-    if not name or name.startswith(".") or any(c in name for c in "/\\\0"):
-        raise UsageError(f"--name {name!r}: a plain file name (no path separators, not starting with '.'): it names "
-                         "the files the run writes (<name>.csv, <name>.columns.csv, <name>.png)")
+    if not re.fullmatch(r"[\w+=,@-][\w.+=,@-]*", name) or name.endswith("."):
+        raise UsageError(f"--name {name!r}: a plain file name of letters, digits and _ . + = , @ - (not starting or "
+                         "ending with '.'): it names the files the run writes (<name>.csv, <name>.columns.csv, "
+                         "<name>.png) on any system")
     return name
 
 
@@ -804,7 +817,8 @@ def cmd_variables(args):
                          + f": the FMUs are {', '.join(FMUS)}")
     cls = fmu_class(args.fmu)
     kinds = [args.causality] if args.causality else ["parameter", "input", "output"]
-    print(f"{args.fmu}: {cls.__doc__.strip().splitlines()[0].rstrip('.')} (SI units; a scenario sets a parameter as "
+    what = re.split(r"\.\s+(?=[A-Z])", " ".join(cls.__doc__.split()))[0].rstrip(".")   # its first sentence
+    print(f"{args.fmu}: {what} (SI units; a scenario sets a parameter as "
           f"<component>.<name>, `--set` takes rpm or deg after the number)")
     for kind in kinds:
         print(f"\n{kind}s:")
@@ -1092,7 +1106,8 @@ def _main(raw: list):
                            help="communication step instead of the scenario's; auto: halve it until the coupling "
                                 "error estimated by step halving is within the tolerances")
             p.add_argument("--check-step", action="store_true",
-                           help="rerun at half the step and report the estimated coupling error per signal "
+                           help="rerun at half the step and report the estimated coupling error per signal (and "
+                                "per [reference.orders] amplitude) "
                                 "(exit status 1 if above the tolerance); the default for a run that compares "
                                 "nothing (no [reference], or a changed copy)")
             p.add_argument("--no-check-step", action="store_true",
@@ -1122,9 +1137,11 @@ def _main(raw: list):
             p.add_argument("--junit", type=Path, help="write a JUnit XML report here")
             p.add_argument("--strict", action="store_true",
                            help="exit with status 1 when any scenario is not checked (no [reference] with "
-                                "tolerances), not only when none is, or passes through a band that checks the "
+                                "tolerances), not only when none is, passes through a band that checks the "
                                 "level only (at least half its reference's range, or of the signal's steady "
-                                "peak-to-peak)")
+                                "peak-to-peak), compares no output of its machines (only its drive's and load's), "
+                                "compares only a part of its reference's run, or equals its reference to the last "
+                                "digit in every compared signal")
         _out(p, "results/", "output folder; results/fmi3/ with --fmi 3, results/model_exchange/ with "
                              "--model-exchange, so that runs of different FMU kinds do not overwrite each other")
         p.add_argument("--no-plot", action="store_true", help="write no figures (about half the time)")

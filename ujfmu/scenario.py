@@ -828,7 +828,11 @@ class Scenario:
         if out.steady_from is not None and out.steady_from >= stop_time:
             out.title += f" (no steady window: the file's steady_from = {out.steady_from:g} s is after it)"
             out.steady_from = 0.0
-        out.check_experiment()
+        try:
+            out.check_experiment()
+        except ScenarioError as exc:   # the stop time given, not the file's experiment
+            text = str(exc).removeprefix(f"{self.path}: ")
+            raise ScenarioError(f"{self.path}: with_stop_time({stop_time!r}) (ujfmu run --stop-time): {text}") from None
         return out
 
     def change_text(self, key: str, value) -> str:

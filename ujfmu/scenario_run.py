@@ -427,8 +427,9 @@ def check_orders(scenario: Scenario, table: np.ndarray, reference: np.ndarray) -
     checks, orders = [], machine_orders(scenario)
     every_n = getattr(scenario, "output_interval", None) or 1
     # what leaves an order unresolved, and its remedy: the step, or a record of every n-th step
-    at, remedy = (("at this record's interval", f"record more often (output_interval = {every_n} steps now; the "
-                   "sampling note says at most how far apart)") if every_n > 1 else
+    at, remedy = (("at this record's interval", f"record more often (output_interval = {every_n} steps now), and "
+                   "take a smaller step where one step is too long already (the sampling note says at most how far "
+                   "apart the samples may be)") if every_n > 1 else
                   ("at this step", "take a smaller step (the sampling note says which)"))
     for name in names:
         rel, runs, refs = scenario.order_tolerances[name], mine[name].figures[1:], ref[name].figures[1:]
@@ -895,6 +896,9 @@ class ScenarioResult:
     fmu_dir: Path = None   # where the run's FMUs came from (named in a suggested command when not the default)
     reference_method: str | None = None   # how the reference compared against was made (its provenance line)
     reference_end: float = math.nan   # the compared reference's last time [s]
+    #: every compared signal equals the reference to the last digit, a machine's varying output among them: a copy
+    #: of a run under a provenance line, or signals a closed form repeats exactly (angles at a binary-exact step)
+    identical: bool = False
     #: what the run warned of ('component: text'): the models' advice on their parameters and a load's order held
     #: too coarsely (said before it runs: ``Scenario.model_advice``, ``load_order_holds``), then the FMUs' warnings
     #: (each also warned as a ``master.FmuWarning``); a JUnit case carries them
@@ -951,12 +955,17 @@ class ScenarioResult:
     def strict_problems(self) -> list:
         """Why ``ujfmu check --strict`` fails this run though its checks pass: bands that check the level only
         (:attr:`level_only_bands`), no output of its machines compared (:attr:`machines_unchecked`), only a part of
-        its reference's run compared (:attr:`part_compared`)."""
+        its reference's run compared (:attr:`part_compared`), every compared signal equal to the reference to the
+        last digit (:attr:`identical`)."""
         return ([f"band(s) that check the level only: {', '.join(self.level_only_bands)}"]
                 if self.level_only_bands else []) + (
             [f"no output of its machines ({', '.join(self.machines_unchecked)}) compared, only its drive's and "
              "load's"] if self.machines_unchecked else []) + (
-            [f"only a part of its reference's run: {self.part_compared}"] if self.part_compared else [])
+            [f"only a part of its reference's run: {self.part_compared}"] if self.part_compared else []) + (
+            ["every compared signal equals the reference to the last digit, its machines' included: a copy of a "
+             "run's output (a provenance line can be copied too), or only signals a closed form repeats exactly "
+             "(an angle at a binary-exact step); compare one the reference computes on its own (a torque, a "
+             "twist)"] if self.identical else [])
 
     @property
     def uncompared(self) -> list:
@@ -1562,18 +1571,15 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
             if not check.passed:
                 check.note = slip + (f"; {check.note}" if check.note else "")
         from .references import method_of, setup_of
-        if len(table) > 2 and all(c.max_error == 0.0 for c in result.checks) and (
-                setup_of(provenance) is None or _machine_output_varies(scenario, result.checks)):
-            made = ("does not say how it was made (no '#' provenance line with the setup it was made for)"
-                    if setup_of(provenance) is None else
-                    "its machines' outputs included, which no independent computation repeats to the last digit "
-                    "(a closed form or a monolithic solve differs from a co-simulation by rounding at least; its "
-                    "provenance line names a setup, but a line can be copied)")
+        identical = len(table) > 2 and all(c.max_error == 0.0 for c in result.checks)
+        if identical and setup_of(provenance) is None:
             raise ScenarioError(f"{scenario.path}: [reference] file {scenario.reference_file} equals this run to the "
-                                f"last digit in every compared signal and {made}: it is a copy of a co-simulation's "
+                                "last digit in every compared signal and does not say how it was made (no '#' "
+                                "provenance line with the setup it was made for): it is a copy of a co-simulation's "
                                 "output, and comparing a run with itself checks nothing. A reference comes from an "
                                 "independent computation: a closed form or a monolithic solve (README, \"Scenario "
                                 "format\")")
+        result.identical = identical and _machine_output_varies(scenario, result.checks)
         result.reference_method = method_of(provenance)
         result.reference_end = float(reference["time"][-1])
         result.order_checks = check_orders(scenario, table, reference)
@@ -2001,6 +2007,9 @@ def write_junit(results: list, path: str | os.PathLike, errors: dict | None = No
         elif level_only_fail and r.part_compared:
             ET.SubElement(case, "failure", message=f"{r.part_compared}, not its whole course (--strict)"
                           ).text = r.summary()
+        elif level_only_fail and r.identical:
+            ET.SubElement(case, "failure", message="every compared signal equals the reference to the last digit: "
+                          "nothing independent compared (--strict)").text = r.summary()
         elif not r.checked and unchecked_fail:
             ET.SubElement(case, "failure", message=f"not checked: {r.not_checked_reason()} (a gate that compares "
                           "nothing fails it)").text = r.summary()

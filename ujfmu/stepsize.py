@@ -73,7 +73,7 @@ class StepEstimate:
         extrapolation within the scenario's [reference.extrapolated] bands where it has them."""
         return (not self.failure and all(self.within(n) for n in self.errors)
                 and all(c.passed for c in self.sampling + self.extrapolated)
-                and all(c.passed or c.note for c in self.orders))
+                and all(c.passed or (c.note and not c.refused) for c in self.orders))
 
     def within(self, name: str) -> bool:
         """The signal's estimate within its allowance (in absolute terms for a signal in ``absolute``), and over its
@@ -104,7 +104,8 @@ class StepEstimate:
             + (f"; {100 * self.steady[n]:.3g}% of its range from t = {self.steady_from:g} s" if n in self.steady
                else "")
             for n in self.errors] + [f"  {'ok  ' if c.passed else 'HIGH'} {str(c)[5:]}" for c in self.orders
-                                     if not c.note] + [f"  {c}" for c in self.sampling if not c.passed] + (
+                                     if not c.note or c.refused] + [f"  {c}" for c in self.sampling
+                                                                    if not c.passed] + (
             [f"  step-halving extrapolation 2 y(h/2) - y(h) against the reference, outside its "
              f"[reference.extrapolated] band:"] + [f"    {c}" for c in self.extrapolated if not c.passed]
             if not all(c.passed for c in self.extrapolated) else [])

@@ -128,3 +128,18 @@ def test_a_host_enabling_the_declared_categories_gets_warnings_and_errors(fmu_di
     refused = _messages(fmu_dir, "CardanJoint", enabled, {"bend_angle": 20.0})
     assert any(c == "logStatusError" and "bend_angle" in m for c, s, m in refused), refused
     assert {c for c, s, m in warned + refused} <= {"logStatusWarning", "logStatusError", "logStatusFatal"} | {""}
+
+
+def test_a_message_of_status_ok_goes_under_a_declared_category():
+    """pythonfmu files an ok message under its logAll, which the FMUs no longer declare (a host naming
+    the declared categories would drop it): the FMUs' log puts it under logStatusWarning, and every other status
+    under its own."""
+    from pythonfmu.enums import Fmi2Status
+
+    from ujfmu.models.load.fmu import Load
+    inst = Load(instance_name="log")
+    for status, category in ((Fmi2Status.ok, "logStatusWarning"), (Fmi2Status.warning, "logStatusWarning"),
+                             (Fmi2Status.error, "logStatusError")):
+        inst.log("a message", status)
+        assert (inst.log_queue[-1].status, inst.log_queue[-1].category) == (status, category)
+        assert inst.log_queue[-1].category in Load.log_categories

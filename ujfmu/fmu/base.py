@@ -239,9 +239,10 @@ class UjfmuSlave(Fmi2Slave):
         if len(parts) >= 3 and parts[-3] == "models":   # models/<stem>/fmu.py (not the base classes, the pass-through)
             build_digest(model_stem(cls.__module__))
 
-    #: the log categories declared in the modelDescription: every message carries one of them (all are warnings,
-    #: errors or fatal). Not pythonfmu's ``logAll``: its C layer passes only messages of a category the host enabled
-    #: by name, and none carries "logAll", so a host enabling it alone would see nothing
+    #: the log categories declared in the modelDescription, one per status the FMUs log with (warning, discard,
+    #: error, fatal; :meth:`log` files an ok one, which pythonfmu would put under its undeclared
+    #: ``logAll``, under the least severe of them). Not ``logAll`` itself: pythonfmu's C layer passes only messages
+    #: of a category the host enabled by name, and no message of ours carries it: a host enabling it alone saw nothing
     log_categories = {f"logStatus{s}": f"Log messages with fmi2{s} status."
                       for s in ("Warning", "Discard", "Error", "Fatal")}
     PHYSICS = None  # the model's equations module, ujfmu.models.<stem>.model (documentation)
@@ -303,10 +304,13 @@ class UjfmuSlave(Fmi2Slave):
         self._known = frozenset(self.__dict__) | {"_known"} | self.STATE.keys() | set(self.DERIVED)
         _LIVE.add(self)
 
-    def log(self, msg, status=Fmi2Status.ok, category=None, debug=None):
+    def log(self, msg, status=Fmi2Status.warning, category=None, debug=None):
         """pythonfmu's log with every '%' doubled: an FMI 2.0 logger message is a printf format (fmi2CallbackLogger),
         which a host expands (fmpy's simulate_fmu, a C host's vsnprintf), so a literal '%' in a figure or in
-        the host's own instance name would read as a conversion: garbage, or a crash on '%s'."""
+        the host's own instance name would read as a conversion: garbage, or a crash on '%s'. An ok message goes
+        under logStatusWarning (``log_categories``)."""
+        if category is None and status == Fmi2Status.ok:
+            category = "logStatusWarning"
         super().log(msg.replace("%", "%%"), status, category)
 
     def _output_getter(self, name):
