@@ -1089,6 +1089,31 @@ def test_the_gate_does_not_pass_on_what_it_did_not_check(fmu_dir, tmp_path, caps
         "every compared signal equals the reference to the last digit")
 
 
+def test_a_closed_form_that_repeats_the_run_exactly_is_said_not_refused(fmu_dir, tmp_path, capsys):
+    """A closed form can repeat a run to the last digit: the input angle of an ideal speed source at 100 rad/s and a
+    binary-exact step (2^-10 s) is omega t in both. A reference `ujfmu references` has just made for it is run
+    (a review found it refused as a copy): its verdict line says that nothing independent was compared, and
+    --strict fails it."""
+    text = (SCENARIOS / "cardan_constant_speed.toml").read_text()
+    start = text.index("record = [")
+    end = text.index("\n", text.index("]", start))
+    text = (text[:start] + 'record = ["motor.omega", "joint.phi_in"]' + text[end:]).replace(
+        "step_size = 1e-3", "step_size = 0.0009765625").replace("omega_set = 62.83185307179586", "omega_set = 100.0")
+    text = text.replace("references/cardan_constant_speed.csv", "references/exact.csv")
+    kept = ('"motor.omega"', '"joint.phi_in"')
+    text = "\n".join(line for line in text.splitlines()
+                     if not (line.startswith('"') and "=" in line and not line.startswith(kept))) + "\n"
+    (tmp_path / "references").mkdir()
+    path = tmp_path / "exact.toml"
+    path.write_text(text)
+    assert main(["references", str(path), "-q"]) == 0
+    common = ["--fmu-dir", str(fmu_dir), "check", str(path), "--no-plot", "--out", str(tmp_path / "out")]
+    assert main(common) == 0
+    assert "(check --strict fails it: every compared signal equals the reference to the last digit" in \
+        capsys.readouterr().out
+    assert main(common + ["--strict"]) == 1
+
+
 def test_a_check_refused_after_its_command_line_says_why_in_its_report(fmu_dir, tmp_path):
     """Refusals after the command line was read (two scenarios of one name, FMUs not built) had left the JUnit
     placeholder 'did not finish', not the reason: the report quotes the refusal."""
