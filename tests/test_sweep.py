@@ -808,8 +808,8 @@ def test_the_steady_state_change_names_the_order_and_what_it_is_relative_to():
     old = {"x": Periodic([2.0, 1e-8, 0.5], 2.0)}
     change, name, against = steady_change({"x": Periodic([2.0, 3e-8, 0.5], 2.0)}, old, (1, 2))
     assert change == pytest.approx(2e-8 / (FLOOR * 2.0)) and name == "x 1x order amplitude"
-    assert against == (f"its scale 0.02, {FLOOR:g} of the signal's size 2 (its largest figure, or half its "
-                       "peak-to-peak; it is 3e-08 itself; the change 2e-08)")
+    assert against == (f"0.02, {FLOOR:g} of the signal's size 2 (its largest figure, or half its peak-to-peak), as "
+                       "the figure itself is smaller (3e-08; the change 2e-08)")
     change, name, against = steady_change({"x": Periodic([2.0, 1e-8, 0.6], 2.0)}, old, (1, 2))
     assert change == pytest.approx(0.1 / 0.6)
     assert (name, against) == ("x 2x order amplitude", "itself (0.6; the change 0.1)")

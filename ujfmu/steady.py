@@ -237,8 +237,9 @@ def steady_change(new: dict, old: dict, orders=None, noise: float = 0.0) -> tupl
             if not relative <= worst:
                 figure = "mean" if i == 0 else f"{orders[i - 1]}x order amplitude" if orders else "order amplitude"
                 against = (f"itself ({abs(f_new):.3g}; the change {change:.3g})" if abs(f_new) >= FLOOR * scale else
-                           f"its scale {allowance:.3g}, {FLOOR:g} of the signal's size {scale:.3g} (its largest "
-                           f"figure, or half its peak-to-peak; it is {f_new:.3g} itself; the change {change:.3g})")
+                           f"{allowance:.3g}, {FLOOR:g} of the signal's size {scale:.3g} (its largest figure, or "
+                           f"half its peak-to-peak), as the figure itself is smaller ({f_new:.3g}; the change "
+                           f"{change:.3g})")
                 worst, name = relative, f"{signal} {figure}"
     return worst, name, against
 
