@@ -148,7 +148,7 @@ def test_natural_frequencies_of_a_rig_take_the_fmus_other_defaults():
 
 def test_scenario_modes_are_the_jeffcott_frequencies_and_their_order_crossings():
     """The twin rotor scenario's lateral modes: each disc's sqrt(K / (M + m_u)), X and Y merged into one line of 2
-    modes (a round shaft); drives and loads have none of their own. A crossing of the k-th order is at omega_n / k,
+    modes (a round shaft), with damping ratio C / (2 sqrt(K (M + m_u))); drives and loads have none of their own. A crossing of the k-th order is at omega_n / k,
     and the drive's set speed is the motor's omega_set."""
     from ujfmu.analysis import drive_speeds, scenario_modes
     from ujfmu.models.twin_jeffcott_rotor import model as tj
@@ -161,6 +161,9 @@ def test_scenario_modes_are_the_jeffcott_frequencies_and_their_order_crossings()
         jeffcott = math.sqrt(rig[f"K{i}X"] / (rig[f"M{i}"] + rig[f"m_u{i}"]))
         match = [m for m in modes if abs(m.omega / jeffcott - 1.0) < 2e-3]
         assert len(match) == 1 and match[0].count == 2 and match[0].kind == "lateral", (i, jeffcott, modes)
+        # its damping ratio, a viscous Jeffcott disc's C / (2 sqrt(K m))
+        zeta = rig[f"C{i}X"] / (2.0 * math.sqrt(rig[f"K{i}X"] * (rig[f"M{i}"] + rig[f"m_u{i}"])))
+        assert match[0].damping == pytest.approx(zeta, rel=2e-3), (i, zeta, match[0])
         assert match[0].critical_speed(1) == pytest.approx(jeffcott, rel=2e-3)
         assert match[0].critical_speed(2) == pytest.approx(jeffcott / 2, rel=2e-3)
     twist = [m for m in modes if m.count == 1]   # the discs' angles against each other and the flange

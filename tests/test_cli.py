@@ -881,7 +881,7 @@ def test_modes_names_the_nearest_order_crossing_of_the_set_speed(capsys):
     scenarios = Path(__file__).parent.parent / "scenarios"
     assert main(["modes", str(scenarios / "double_cardan_omar_torsional.toml")]) == 0
     out = capsys.readouterr().out
-    assert "143.14 rad/s (22.781 Hz, torsional, 138.26-148.19 over the input angle)" in out   # 143.14 / 2 pi Hz
+    assert "143.14 rad/s (22.781 Hz, torsional, 138.26-148.19 over the input angle, damping ratio" in out   # / 2 pi
     assert "2x at 71.5697 rad/s (683.44 rpm)" in out
     assert "nearest crossing is the 2x order's with driveline's 143.14 rad/s torsional mode, at 71.57 rad/s; the set " \
            "speed is " \

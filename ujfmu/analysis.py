@@ -154,9 +154,10 @@ def _oscillating(lam: np.ndarray) -> np.ndarray:
 
 
 def mode_participation(rhs, y0, step=1e-7) -> tuple:
-    """(``natural_frequencies``, their participation factors): column i holds mode i's |w_ki v_ki| over the states
-    k (v its right eigenvector, w its left one, the rows of V^-1), normalised to sum 1. Participation factors do not
-    depend on the states' units (a state scaled by s scales v_k by s and w_k by 1/s), so they compare an angle with a
+    """(``natural_frequencies``, their participation factors, their damping ratios): column i holds mode i's
+    |w_ki v_ki| over the states k (v its right eigenvector, w its left one, the rows of V^-1), normalised to sum 1;
+    the damping ratio of an eigenvalue lambda is -Re(lambda) / |lambda|. Participation factors do not depend on the
+    states' units (a state scaled by s scales v_k by s and w_k by 1/s), so they compare an angle with a
     displacement. A defective Jacobian (no eigenvector basis) takes V's pseudo-inverse."""
     lam, right = np.linalg.eig(jacobian(rhs, y0, step))
     keep = _oscillating(lam)
@@ -165,14 +166,15 @@ def mode_participation(rhs, y0, step=1e-7) -> tuple:
     except np.linalg.LinAlgError:
         left = np.linalg.pinv(right)
     participation = np.abs(right * left.T)[:, keep]
-    return np.abs(lam[keep]), participation / np.maximum(participation.sum(axis=0), 1e-300)
+    return (np.abs(lam[keep]), participation / np.maximum(participation.sum(axis=0), 1e-300),
+            -lam[keep].real / np.abs(lam[keep]))
 
 
 def natural_modes(rhs, y0, selected, step=1e-7) -> tuple:
     """(``natural_frequencies``, the share of each mode in the states whose indices are in selected): its
     participation factors (``mode_participation``) summed over them. A one-degree-of-freedom oscillator in the
     selected states has share 1, one outside them 0."""
-    frequencies, participation = mode_participation(rhs, y0, step)
+    frequencies, participation, _ = mode_participation(rhs, y0, step)
     return frequencies, participation[list(selected)].sum(axis=0)
 
 
@@ -227,14 +229,15 @@ def model_natural_frequency_range(model, parameters: dict) -> tuple:
 def model_modes(model, parameters: dict) -> tuple:
     """``model_natural_frequency_range``'s (mean, lowest, highest) natural frequencies [rad/s], and each mode's
     mean lateral share over the input angle: its participation (``natural_modes``) in the states the model declares
-    lateral (``LATERAL_STATES``: bending displacements and their rates; none, a model of rotations only)."""
+    lateral (``LATERAL_STATES``: bending displacements and their rates; none, a model of rotations only), and its
+    mean damping ratio (``mode_participation``)."""
     import dataclasses
     names = [f.name for f in dataclasses.fields(model.Parameters) if f.init]
     if any(name not in parameters for name in names):
         parameters = {**declared_parameters(model), **parameters}
     p = model.Parameters(**{name: parameters[name] for name in names})
     if not model.State._fields or (hasattr(model, "kinematic") and model.kinematic(p)):
-        return np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)
+        return np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)
     lateral = [i for i, name in enumerate(model.State._fields) if name in getattr(model, "LATERAL_STATES", ())]
     fields = model.Inputs._fields
     period = 2.0 * np.pi / getattr(model, "EXCITATION_ORDER", 1)
@@ -244,17 +247,19 @@ def model_modes(model, parameters: dict) -> tuple:
         u = model.Inputs(*[angle if name == "phi" else 0.0 for name in fields])
         y0 = np.asarray(model.initial_state(p, 0.0, u), float)
         samples.append(mode_participation(lambda y, u=u: model.derivatives(p, 0.0, model.State(*y), u), y0))
-    if len({len(w) for w, _ in samples}) != 1:   # a mode over-damped at some angles only: no pairing, keep 0 deg
+    if len({len(w) for w, _, _ in samples}) != 1:   # a mode over-damped at some angles only: no pairing, keep 0 deg
         samples = [samples[0]]
     tracked = [samples[0]]   # each angle's modes in the order of the first angle's, followed by their shapes
-    for frequencies, participation in samples[1:]:
+    for frequencies, participation, damping in samples[1:]:
         order = _track(tracked[-1][1], frequencies, participation)
-        tracked.append((frequencies[order], participation[:, order]))
-    frequencies = np.array([w for w, _ in tracked])
-    shares = np.array([participation[lateral].sum(axis=0) for _, participation in tracked])
+        tracked.append((frequencies[order], participation[:, order], damping[order]))
+    frequencies = np.array([w for w, _, _ in tracked])
+    shares = np.array([participation[lateral].sum(axis=0) for _, participation, _ in tracked])
+    zeta = np.array([damping for _, _, damping in tracked]).mean(axis=0)
     mean = frequencies.mean(axis=0)
     order = np.argsort(mean, kind="stable")
-    return mean[order], frequencies.min(axis=0)[order], frequencies.max(axis=0)[order], shares.mean(axis=0)[order]
+    return (mean[order], frequencies.min(axis=0)[order], frequencies.max(axis=0)[order], shares.mean(axis=0)[order],
+            zeta[order])
 
 
 #: FMUs whose eigenvalues are not modes of the driveline (the drive's speed loop, a load law)
@@ -279,6 +284,7 @@ class Mode:
     high: float
     orders: tuple
     lateral: float = 0.0
+    damping: float = math.nan   # its damping ratio, mean over the input angle (of the first where modes merged)
 
     @property
     def kind(self) -> str:
@@ -347,8 +353,8 @@ def _modes(scenario, point: dict | None, held: bool) -> list[Mode]:
         orders = carried_orders(cls.PHYSICS, cls.MODEL.Parameters(
             **{f.name: parameters[f.name] for f in dataclasses.fields(cls.MODEL.Parameters) if f.init}))
         merged = []
-        for omega, low, high, lateral in zip(*model_modes(model, parameters)):
-            mode = Mode(name, float(omega), 1, float(low), float(high), orders, float(lateral))
+        for omega, low, high, lateral, zeta in zip(*model_modes(model, parameters)):
+            mode = Mode(name, float(omega), 1, float(low), float(high), orders, float(lateral), float(zeta))
             if (merged and omega <= merged[-1].omega * 1.005
                     and mode.kind.partition(",")[0] == merged[-1].kind.partition(",")[0]):
                 merged[-1].count += 1

@@ -863,7 +863,7 @@ def cmd_modes(args):
                                    for k, by in excitations(m, loads))
                          or "no order of the input speed excites it at these parameters")
             print(f"  {m.component}: {m.omega:.5g} rad/s ({m.omega / (2 * math.pi):.5g} Hz, {m.kind}{merged}"
-                  f"{spread}): {crossings}")
+                  f"{spread}, damping ratio {m.damping:.2g}): {crossings}")
     show(modes)
     held = held_input_modes(scenario)
     if held:
