@@ -168,6 +168,12 @@ def test_scenario_modes_are_the_jeffcott_frequencies_and_their_order_crossings()
         assert match[0].critical_speed(2) == pytest.approx(jeffcott / 2, rel=2e-3)
     twist = [m for m in modes if m.count == 1]   # the discs' angles against each other and the flange
     assert len(twist) == 2 and all(m.kind == "torsional" for m in twist), modes
+    # damped to zeta = 0.5, disc 1's mode keeps omega_n = |lambda| = sqrt(K / m), its damped frequency 0.87 of it
+    c = math.sqrt(rig["K1X"] * (rig["M1"] + rig["m_u1"]))
+    damped = scenario_modes(scenario, {"rotor.C1X": c, "rotor.C1Y": c})
+    jeffcott = math.sqrt(rig["K1X"] / (rig["M1"] + rig["m_u1"]))
+    (disc1,) = [m for m in damped if abs(m.omega / jeffcott - 1.0) < 2e-3]
+    assert disc1.damping == pytest.approx(0.5, rel=2e-3), disc1
     stiffer = scenario_modes(scenario, {"rotor.K2X": 4.0 * rig["K2X"], "rotor.K2Y": 4.0 * rig["K2Y"]})
     disc2 = math.sqrt(rig["K2X"] / (rig["M2"] + rig["m_u2"]))
     assert any(abs(m.omega / (2.0 * disc2) - 1.0) < 2e-3 for m in stiffer)   # sqrt(4 K / m)
