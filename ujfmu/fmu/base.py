@@ -242,7 +242,8 @@ class UjfmuSlave(Fmi2Slave):
     #: the log categories declared in the modelDescription, one per status the FMUs log with (warning, discard,
     #: error, fatal; :meth:`log` files an ok one, which pythonfmu would put under its undeclared
     #: ``logAll``, under the least severe of them). Not ``logAll`` itself: pythonfmu's C layer passes only messages
-    #: of a category the host enabled by name, and no message of ours carries it: a host enabling it alone saw nothing
+    #: of a category the host enabled by name, and no message of ours carries it: a host enabling it alone would see
+    #: nothing
     log_categories = {f"logStatus{s}": f"Log messages with fmi2{s} status."
                       for s in ("Warning", "Discard", "Error", "Fatal")}
     PHYSICS = None  # the model's equations module, ujfmu.models.<stem>.model (documentation)
