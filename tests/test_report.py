@@ -14,9 +14,35 @@ RPM = math.pi / 30.0
 
 @pytest.fixture(scope="module")
 def report(fmu_dir, tmp_path_factory):
-    """The whole report, regenerated from scratch on a local dask cluster (two workers)."""
+    """The whole report, regenerated from scratch, its sweeps run in this process (on a local dask cluster of two
+    workers, as `ujfmu report` runs them, it took a quarter more CPU: the suite's other worker shares the cores;
+    test_the_reports_sweeps_run_on_one_dask_cluster_as_in_process covers that path)."""
     out = tmp_path_factory.mktemp("report")
-    return write_report(out / "validation.md", fmu_dir=fmu_dir, work_dir=out / "work", workers=2, progress=False)
+    return write_report(out / "validation.md", fmu_dir=fmu_dir, work_dir=out / "work", workers=0, progress=False)
+
+
+def test_the_reports_sweeps_run_on_one_dask_cluster_as_in_process(fmu_dir, tmp_path):
+    """`ujfmu report`'s way: the sections' sweeps share one local dask cluster (two workers), made at the first
+    sweep and closed at the end, and give the points the in-process run gives (Brutti's two speeds)."""
+    from ujfmu.report import Report
+    from ujfmu.sweep import Axis
+    tables = {}
+    for workers in (2, 0):
+        rep = Report(fmu_dir, tmp_path / f"work{workers}", workers=workers, progress=False)
+        try:
+            for name in ("a", "b"):
+                pts, sweep = rep.sweep("double_cardan_brutti_rigid", name,
+                                       [Axis.of("motor.omega_set", [2000, 4000], "rpm")],
+                                       outputs=["driveline.tau_in"], running_speed="motor.omega", settle_time=0.02,
+                                       revolutions=2)
+                if workers:
+                    assert rep.client is not None and (name == "a" or rep.client is client)
+                    client = rep.client
+            tables[workers] = [(r["point"], r["driveline.tau_in.mean"]) for r in sweep.table()]
+        finally:
+            rep.close()
+        assert rep.client is None
+    assert tables[2] == tables[0] and len(tables[0]) == 2
 
 
 def test_committed_report_regenerates(report):
