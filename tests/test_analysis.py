@@ -148,8 +148,9 @@ def test_natural_frequencies_of_a_rig_take_the_fmus_other_defaults():
 
 def test_scenario_modes_are_the_jeffcott_frequencies_and_their_order_crossings():
     """The twin rotor scenario's lateral modes: each disc's sqrt(K / (M + m_u)), X and Y merged into one line of 2
-    modes (a round shaft), with damping ratio C / (2 sqrt(K (M + m_u))); drives and loads have none of their own. A crossing of the k-th order is at omega_n / k,
-    and the drive's set speed is the motor's omega_set."""
+    modes (a round shaft), with damping ratio C / (2 sqrt(K (M + m_u))) (at 0.02, and at 0.5 with C raised);
+    drives and loads have none of their own. A crossing of the k-th order is at omega_n / k, and the drive's set
+    speed is the motor's omega_set."""
     from ujfmu.analysis import drive_speeds, scenario_modes
     from ujfmu.models.twin_jeffcott_rotor import model as tj
     from ujfmu.scenario import Scenario
