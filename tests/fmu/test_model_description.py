@@ -81,10 +81,10 @@ def test_fmu_ships_documentation_and_only_standard_library_code(fmu_dir, name):
 def _messages(fmu_dir, name, categories, parameters):
     """(category, status, message) of every message the FMU passes to a host that turned logging on with these
     categories (fmi2SetDebugLogging), over initialization with the parameters given and one step."""
-    from fmpy import extract
     from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
-    path = fmu_dir / f"{name}.fmu"
-    md = read_model_description(str(path))
+
+    from ujfmu.master import extracted
+    unzip_dir, md = extracted(fmu_dir / f"{name}.fmu")   # once per process, removed at its exit
     got = []
 
     def logger(env, instance, status, category, message):
@@ -92,7 +92,7 @@ def _messages(fmu_dir, name, categories, parameters):
 
     callbacks = fmi2CallbackFunctions()
     callbacks.logger = fmi2CallbackLoggerTYPE(logger)
-    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path)), modelIdentifier=md.coSimulation.modelIdentifier,
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=str(unzip_dir), modelIdentifier=md.coSimulation.modelIdentifier,
                       instanceName="categories")
     slave.instantiate(callbacks=callbacks, loggingOn=True)
     try:
