@@ -499,10 +499,11 @@ def _check(args, kind: str) -> int:
         _say(args, f"JUnit report: {report}")
     strict_failed = loose if args.strict else []   # passed their bands, failed by --strict (JUnit cases too)
     strict_unchecked = unchecked if args.strict or len(unchecked) == len(results) else []   # failed cases too
-    level, blind, part, same = ([r for r in strict_failed if test(r)] for test in (
-        lambda r: r.level_only_bands, lambda r: not r.level_only_bands and r.machines_unchecked,
-        lambda r: not r.level_only_bands and not r.machines_unchecked and r.part_compared,
-        lambda r: not r.level_only_bands and not r.machines_unchecked and not r.part_compared))
+    def first_problem(r):   # each failed scenario counted once, by the first of its --strict problems
+        return ("level" if r.level_only_bands else "blind" if r.machines_unchecked else
+                "part" if r.part_compared else "same")
+    level, blind, part, same = ([r for r in strict_failed if first_problem(r) == kind]
+                                for kind in ("level", "blind", "part", "same"))
     why = ([f"{len(level)} by bands that check the level only"] if level else []) + (
         [f"{len(blind)} by comparing no output of {'its' if len(blind) == 1 else 'their'} machines"]
         if blind else []) + (
@@ -771,11 +772,10 @@ def _status_summary(counts, total, steady_checked=True):
 
 
 def _run_name(name: str) -> str:
-    """--name NAME: a plain file name (it names the files the run writes), else UsageError."""
-    if not re.fullmatch(r"[\w+=,@-][\w.+=,@-]*", name) or name.endswith("."):
-        raise UsageError(f"--name {name!r}: a plain file name of letters, digits and _ . + = , @ - (not starting or "
-                         "ending with '.'): it names the files the run writes (<name>.csv, <name>.columns.csv, "
-                         "<name>.png) on any system")
+    """--name NAME where it can name the files the run writes (``scenario.file_name_problem``), else UsageError."""
+    from .scenario import file_name_problem
+    if file_name_problem(name):
+        raise UsageError(f"--name {file_name_problem(name)} (<name>.csv, <name>.columns.csv, <name>.png)")
     return name
 
 

@@ -78,6 +78,19 @@ _MISPLACED = {("MotorController", "J_rotor"): "the motor's rotor inertia is the 
               "torque-driven FMU it drives; the MotorController is the speed loop alone"}
 
 
+#: a name that names the files a run or sweep writes: a plain file name any system stores
+_FILE_NAME = re.compile(r"[\w+=,@-][\w.+=,@-]*")
+
+
+def file_name_problem(name) -> str:
+    """Why name cannot name the files a run or sweep writes ('' where it can): a plain file name of letters,
+    digits and _ . + = , @ -, not starting or ending with '.' (no path, nothing a system refuses in a name)."""
+    if isinstance(name, str) and _FILE_NAME.fullmatch(name) and not name.endswith("."):
+        return ""
+    return (f"{name!r} must be a plain file name of letters, digits and _ . + = , @ - (not starting or ending with "
+            "'.'): it names the files written")
+
+
 def plain_number(value):
     """A numpy scalar or 0-d array as the Python number it holds (np.int64 an int, np.float32 a float, np.bool_ a
     bool: what a numpy or scipy loop hands over); anything else as it is."""
@@ -711,10 +724,8 @@ class Scenario:
         plain file name (it names the files a run writes), every parameter of its type and range, every recorded
         signal a variable of a component, named once. ``run_scenario`` calls it before anything runs."""
         problems = _Problems(self.path)
-        if not isinstance(self.name, str) or not self.name or self.name.startswith(".") or any(
-                c in self.name for c in "/\\\0"):
-            problems.add(f"{self.path}: name = {self.name!r} must be a plain file name (no path separators, not "
-                         "starting with '.'): it names the files a run writes")
+        if file_name_problem(self.name):
+            problems.add(f"{self.path}: name = {file_name_problem(self.name)}")
         for comp, (fmu, params) in self.components.items():
             declared = {v.name: v for v in fmu_class(fmu).VARIABLES if v.causality == "parameter"}
             for par, value in params.items():
@@ -768,10 +779,8 @@ class Scenario:
                                 f"{type(changes).__name__} {changes!r}")
         changes = {key: plain_number(value) for key, value in changes.items()}
         problems = _Problems(self.path)
-        if name is not None and (not isinstance(name, str) or not name or name.startswith(".")
-                                 or any(c in name for c in "/\\\0")):
-            problems.add(f"{self.path}: with_parameters: name = {name!r} must be a plain file name (no path "
-                         "separators, not starting with '.'): it names the files a run writes")
+        if name is not None and file_name_problem(name):
+            problems.add(f"{self.path}: with_parameters: name = {file_name_problem(name)}")
         for key, value in changes.items():
             with problems.kept():
                 comp, _, par = key.partition(".")
@@ -818,10 +827,6 @@ class Scenario:
         stop_time = float(stop_time)
         if stop_time == self.stop_time:
             return self
-        if not stop_time > self.start_time:
-            raise ScenarioError(f"{self.path}: with_stop_time({stop_time!r}) (ujfmu run --stop-time): the stop time "
-                                f"must be after the file's start_time = {self.start_time!r} s (the run's end, a whole "
-                                f"number of its steps of {self.step_size!r} s after the start)")
         out = self.with_parameters({}, name=None if self.name == self.path.stem else self.name)
         out.stop_time = stop_time
         out.title = f"{out.title} (stop_time = {stop_time:g} s)"

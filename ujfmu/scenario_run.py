@@ -362,13 +362,24 @@ class OrderCheck:
         return not self.refused and bool(
             self.note or abs(self.amplitude - self.reference_amplitude) <= self.rel * self.reference_amplitude)
 
-    def __str__(self):
+    @property
+    def text(self) -> str:
+        """What was compared and how far off, or the note: the line without its verdict."""
         if self.note:
-            return f"{'FAIL' if self.refused else '--  '} {self.name}: {self.note}"
+            return f"{self.name}: {self.note}"
         off = (self.amplitude - self.reference_amplitude) / self.reference_amplitude
-        return (f"{'ok  ' if self.passed else 'FAIL'} {self.name} {self.order}x order amplitude "
-                f"{self.amplitude:.4g} against {self.against} {self.reference_amplitude:.4g} ({100 * off:+.3g}%, "
-                f"allowed {100 * self.rel:.3g}%)")
+        return (f"{self.name} {self.order}x order amplitude {self.amplitude:.4g} against {self.against} "
+                f"{self.reference_amplitude:.4g} ({100 * off:+.3g}%, allowed {100 * self.rel:.3g}%)")
+
+    def __str__(self):
+        verdict = ("FAIL" if self.refused else "--  ") if self.note else "ok  " if self.passed else "FAIL"
+        return f"{verdict} {self.text}"
+
+
+def machines(scenario) -> list:
+    """The scenario's machines: its components that are neither a drive nor a load (``DRIVES_AND_LOADS``), the
+    models under test."""
+    return [name for name, (fmu, _) in getattr(scenario, "components", {}).items() if fmu not in DRIVES_AND_LOADS]
 
 
 def machine_orders(scenario) -> dict:
@@ -376,8 +387,8 @@ def machine_orders(scenario) -> dict:
     Cardan joint's 2x, an unbalance's 1x) and those of the Loads' periodic torques on it (``analysis.load_orders``),
     a Load's own under its name}; {} for an object without components."""
     components = getattr(scenario, "components", {})
-    orders = {name: set(carried_orders(fmu_class(fmu).PHYSICS, scenario.model_parameters(name)))
-              for name, (fmu, _) in components.items() if fmu not in DRIVES_AND_LOADS}
+    orders = {name: set(carried_orders(fmu_class(components[name][0]).PHYSICS, scenario.model_parameters(name)))
+              for name in machines(scenario)}
     for machine, loads in (load_orders(scenario) if components else {}).items():
         for load, k in loads:
             orders.setdefault(machine, set()).add(k)
@@ -896,9 +907,6 @@ class ScenarioResult:
     fmu_dir: Path = None   # where the run's FMUs came from (named in a suggested command when not the default)
     reference_method: str | None = None   # how the reference compared against was made (its provenance line)
     reference_end: float = math.nan   # the compared reference's last time [s]
-    #: every compared signal equals the reference to the last digit, a machine's varying output among them: a copy
-    #: of a run under a provenance line, or signals a closed form repeats exactly (angles at a binary-exact step)
-    identical: bool = False
     #: what the run warned of ('component: text'): the models' advice on their parameters and a load's order held
     #: too coarsely (said before it runs: ``Scenario.model_advice``, ``load_order_holds``), then the FMUs' warnings
     #: (each also warned as a ``master.FmuWarning``); a JUnit case carries them
@@ -936,9 +944,19 @@ class ScenarioResult:
         source's own set speed, a constant load) checks no model; [] otherwise."""
         if not self.checks:
             return []
-        machines = [name for name, (fmu, _) in self.scenario.components.items() if fmu not in DRIVES_AND_LOADS]
+        models = machines(self.scenario)
         compared = {c.name.partition(".")[0] for c in self.checks + self.order_checks}
-        return [] if compared & set(machines) else machines
+        return [] if compared & set(models) else models
+
+    @property
+    def identical(self) -> bool:
+        """Every compared signal equals the reference to the last digit, a machine's varying output among them: a
+        copy of a run under a provenance line, or signals a closed form repeats exactly (angles at a binary-exact
+        step)."""
+        models = machines(self.scenario)
+        return (self.table is not None and len(self.table) > 2 and bool(self.checks)
+                and all(c.max_error == 0.0 for c in self.checks)
+                and any(c.name.partition(".")[0] in models and c.reference_range > 0.0 for c in self.checks))
 
     @property
     def part_compared(self) -> str:
@@ -1571,15 +1589,13 @@ def run_scenario(path: str | os.PathLike | Scenario, fmu_dir: str | os.PathLike 
             if not check.passed:
                 check.note = slip + (f"; {check.note}" if check.note else "")
         from .references import method_of, setup_of
-        identical = len(table) > 2 and all(c.max_error == 0.0 for c in result.checks)
-        if identical and setup_of(provenance) is None:
+        if setup_of(provenance) is None and len(table) > 2 and all(c.max_error == 0.0 for c in result.checks):
             raise ScenarioError(f"{scenario.path}: [reference] file {scenario.reference_file} equals this run to the "
                                 "last digit in every compared signal and does not say how it was made (no '#' "
                                 "provenance line with the setup it was made for): it is a copy of a co-simulation's "
                                 "output, and comparing a run with itself checks nothing. A reference comes from an "
                                 "independent computation: a closed form or a monolithic solve (README, \"Scenario "
                                 "format\")")
-        result.identical = identical and _machine_output_varies(scenario, result.checks)
         result.reference_method = method_of(provenance)
         result.reference_end = float(reference["time"][-1])
         result.order_checks = check_orders(scenario, table, reference)
@@ -1886,13 +1902,6 @@ def _replace_written(path: Path, write: Callable[[Path], None]) -> None:
         os.replace(temporary, path)
     finally:
         temporary.unlink(missing_ok=True)
-
-
-def _machine_output_varies(scenario: Scenario, checks: list) -> bool:
-    """Whether a compared signal is an output of a machine (a component not in ``DRIVES_AND_LOADS``) that varies
-    over its reference (a drive's prescribed speed or a constant may be repeated exactly by a closed form)."""
-    machines = {name for name, (fmu, _) in scenario.components.items() if fmu not in DRIVES_AND_LOADS}
-    return any(c.name.partition(".")[0] in machines and c.reference_range > 0.0 for c in checks)
 
 
 def write_table(path: Path, table: np.ndarray) -> Path:

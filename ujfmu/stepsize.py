@@ -104,7 +104,7 @@ class StepEstimate:
             + (f" at t = {self.at[n]:.4g} s" if n in self.at else "")
             + (f"; {100 * self.steady[n]:.3g}% of its range from t = {self.steady_from:g} s" if n in self.steady
                else "")
-            for n in self.errors] + [f"  {'ok  ' if c.passed else 'HIGH'} {str(c)[5:]}" for c in self.orders
+            for n in self.errors] + [f"  {'ok  ' if c.passed else 'HIGH'} {c.text}" for c in self.orders
                                      if not c.note or c.refused] + [f"  {c}" for c in self.sampling
                                                                     if not c.passed] + (
             [f"  step-halving extrapolation 2 y(h/2) - y(h) against the reference, outside its "

@@ -57,7 +57,7 @@ from .build import DEFAULT_FMU_DIR, build_hint, fmu_class
 from .extras import require
 from .master import (Component, Connection, Cosimulation, FmuWarning, RunStopped, made_here, remove_folder,
                      temporary_folder)
-from .scenario import SWEEP_KEYS, Scenario, ScenarioError, plain_number, running_angle_of
+from .scenario import SWEEP_KEYS, Scenario, ScenarioError, file_name_problem, plain_number, running_angle_of
 from .steady import (ERROR, FIGURES, FINAL, OK, PEAK_NOTE, PHASE_FLOOR, STATUSES, coupling_noise, grows,
                      settle_and_measure)
 
@@ -1006,9 +1006,8 @@ class Sweep:
         if problems:
             raise SweepSettingsError(problems)
         self.name = name or f"{self.scenario.name}_sweep"
-        if self.name.startswith(".") or any(c in self.name for c in "/\\\0"):
-            raise ScenarioError(f"sweep name {self.name!r} must be a plain file name (no path separators, not "
-                                f"starting with '.'): it names the files written in {out_dir}")
+        if file_name_problem(self.name):
+            raise ScenarioError(f"sweep name {file_name_problem(self.name)} in {out_dir}")
         self.out_dir = Path(out_dir)
         self.fmu_dir = Path(fmu_dir)
         self.csv = self.out_dir / f"{self.name}.csv"
